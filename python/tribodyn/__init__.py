@@ -1,0 +1,38 @@
+"""tribodyn: the coefficient of friction of a sliding contact from measured
+dynamic forces.
+
+The method (the paper's, made precise) is in METHOD.md; every public function
+cites its section. Kernels run in Rust (``tribodyn._core``); a pure-NumPy
+reference of each is in :mod:`tribodyn.reference`.
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version as _version
+
+from ._core import get_threads, set_threads
+from .correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
+from .filters import HighPass, butter_highpass, highpass
+from .regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit
+
+try:
+    __version__ = _version("tribodyn")
+except PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0+unknown"
+
+__all__ = [
+    "__version__",
+    "xcorr",
+    "XcorrResult",
+    "pearson",
+    "ConstantInputWarning",
+    "HighPass",
+    "highpass",
+    "butter_highpass",
+    "linfit",
+    "LinFit",
+    "LinFitAccumulator",
+    "DegenerateInputWarning",
+    "set_threads",
+    "get_threads",
+]

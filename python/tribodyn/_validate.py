@@ -1,0 +1,86 @@
+"""Input checks shared by every entry point.
+
+Each function converts a user argument to what the kernels need (C-contiguous
+float64) or raises a ``TypeError``/``ValueError`` whose message names the
+argument. Nothing here copies an array that is already contiguous float64.
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any
+
+import numpy as np
+
+__all__ = ["as_signal", "as_channels", "positive", "check_fs", "check_int"]
+
+
+def _as_float_array(x: Any, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(x)
+    except Exception as exc:  # ragged lists and the like
+        raise TypeError(f"{name} must be array-like of numbers: {exc}") from None
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"{name} must hold real numbers, got dtype {a.dtype}")
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _check_finite(a: np.ndarray, name: str) -> None:
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name} contains NaN or inf (pass check_finite=False to allow)")
+
+
+def as_signal(x: Any, name: str, *, min_len: int = 1, check_finite: bool = True) -> np.ndarray:
+    """Returns ``x`` as a 1-D C-contiguous float64 array of at least ``min_len`` samples."""
+    a = _as_float_array(x, name)
+    if a.ndim != 1:
+        raise ValueError(f"{name} must be 1-D, got {a.ndim}-D with shape {a.shape}")
+    if a.size < min_len:
+        raise ValueError(f"{name} needs at least {min_len} samples, got {a.size}")
+    if check_finite:
+        _check_finite(a, name)
+    return a
+
+
+def as_channels(x: Any, name: str, *, check_finite: bool = True) -> np.ndarray:
+    """Returns ``x`` as a 1-D or 2-D (channels, samples) C-contiguous float64 array."""
+    a = _as_float_array(x, name)
+    if a.ndim not in (1, 2):
+        raise ValueError(f"{name} must be 1-D or 2-D (channels, samples), got shape {a.shape}")
+    if check_finite:
+        _check_finite(a, name)
+    return a
+
+
+def same_length(**arrays: np.ndarray) -> int:
+    """Checks that all arrays have equal length; returns it."""
+    lengths = {k: len(v) for k, v in arrays.items()}
+    if len(set(lengths.values())) > 1:
+        listed = ", ".join(f"{k} has {n}" for k, n in lengths.items())
+        raise ValueError(f"inputs must have equal lengths: {listed}")
+    return next(iter(lengths.values()), 0)
+
+
+def positive(value: Any, name: str) -> float:
+    """A finite number > 0."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    return v
+
+
+def check_fs(fs: Any) -> float:
+    """The sampling rate in Hz: finite and > 0."""
+    return positive(fs, "fs")
+
+
+def check_int(value: Any, name: str, *, minimum: int) -> int:
+    """An integer >= ``minimum`` (bools refused)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    v = int(value)
+    if v < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {v}")
+    return v

@@ -1,0 +1,186 @@
+"""Streaming high-pass filter (METHOD.md section 2).
+
+The design is a Butterworth high-pass as second-order sections, identical to
+``scipy.signal.butter(order, cutoff, "highpass", fs=fs, output="sos")``
+(default order 1, like the charge amplifier's RC stage, at 0.1 Hz). The
+filtering is the transposed-direct-form-II recurrence of
+``scipy.signal.sosfilt``, run by the Rust kernel with several channels in
+lockstep. Processing a signal in chunks of any sizes, carrying the state,
+gives bitwise the same output as one call on the whole signal.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Literal, Optional
+
+import numpy as np
+from scipy import signal as _signal
+
+from . import _core
+from ._validate import as_channels, check_fs, check_int, positive
+
+__all__ = ["HighPass", "highpass", "butter_highpass"]
+
+Init = Literal["steady", "zero"]
+
+
+def butter_highpass(fs: float, *, cutoff: float = 0.1, order: int = 1) -> np.ndarray:
+    """Butterworth high-pass as SOS, exactly ``scipy.signal.butter(..., output="sos")``.
+
+    Raises ``ValueError`` for fs <= 0, cutoff outside (0, fs/2) or order < 1.
+    """
+    fs_v = check_fs(fs)
+    fc = positive(cutoff, "cutoff")
+    if not fc < fs_v / 2:
+        raise ValueError(f"cutoff must be in (0, fs/2) = (0, {fs_v / 2:g}) Hz, got {cutoff!r}")
+    n = check_int(order, "order", minimum=1)
+    return np.ascontiguousarray(_signal.butter(n, fc, "highpass", fs=fs_v, output="sos"), dtype=np.float64)
+
+
+def _check_sos(sos: Any) -> np.ndarray:
+    try:
+        s = np.array(sos, dtype=np.float64, order="C", ndmin=2)
+    except (TypeError, ValueError):
+        raise TypeError("sos must be a real (n_sections, 6) array") from None
+    if s.ndim != 2 or s.shape[1] != 6 or s.shape[0] < 1:
+        raise ValueError(f"sos must have shape (n_sections, 6), got {s.shape}")
+    if not np.isfinite(s).all():
+        raise ValueError("sos contains NaN or inf")
+    if not np.all(s[:, 3] == 1.0):
+        raise ValueError("sos must have a0 = 1 in every section (column 3), as scipy.signal.sosfilt requires")
+    return s
+
+
+class HighPass:
+    """A streaming SOS high-pass filter for one or more channels.
+
+    Parameters
+    ----------
+    fs : float
+        Sampling rate in Hz.
+    cutoff : float
+        Cut-off frequency in Hz, in (0, fs/2). Default 0.1 Hz (the paper's
+        charge amplifier).
+    order : int
+        Butterworth order (default 1, an RC stage).
+    sos : array_like (n_sections, 6), optional
+        Any other SOS filter instead of the Butterworth design (a0 = 1).
+    channels : int
+        Number of channels filtered together.
+    init : {"steady", "zero"}
+        "steady" (default) starts each channel in the steady state for a
+        constant input equal to its first sample (``sosfilt_zi(sos) * x[0]``),
+        removing the start-up transient of a DC-coupled signal; "zero" starts
+        at rest.
+
+    Examples
+    --------
+    >>> hp = HighPass(1000.0, channels=3)
+    >>> for chunk in chunks:            # (3, m) arrays
+    ...     out = hp.process(chunk)     # same as one call on the whole signal
+    """
+
+    def __init__(
+        self,
+        fs: float,
+        *,
+        cutoff: float = 0.1,
+        order: int = 1,
+        sos: Optional[Any] = None,
+        channels: int = 1,
+        init: Init = "steady",
+    ) -> None:
+        self.fs = check_fs(fs)
+        self.sos = butter_highpass(self.fs, cutoff=cutoff, order=order) if sos is None else _check_sos(sos)
+        self.channels = check_int(channels, "channels", minimum=1)
+        if init not in ("steady", "zero"):
+            raise ValueError(f"init must be 'steady' or 'zero', got {init!r}")
+        self.init: Init = init
+        self._zi = np.ascontiguousarray(_signal.sosfilt_zi(self.sos), dtype=np.float64)
+        self.reset()
+
+    @property
+    def n_sections(self) -> int:
+        return int(self.sos.shape[0])
+
+    @property
+    def state(self) -> np.ndarray:
+        """Filter state, shape (channels, n_sections, 2) (a copy).
+
+        With ``init="steady"``, before the first non-empty chunk the state is
+        not yet fixed and reads as zeros; setting it fixes it.
+        """
+        return self._state.copy()
+
+    @state.setter
+    def state(self, value: Any) -> None:
+        s = np.array(value, dtype=np.float64, order="C")
+        want = (self.channels, self.n_sections, 2)
+        if s.shape != want:
+            raise ValueError(f"state must have shape {want}, got {s.shape}")
+        if not np.isfinite(s).all():
+            raise ValueError("state contains NaN or inf")
+        self._state = s
+        self._started = True
+
+    def reset(self) -> None:
+        """Back to the initial state (the next chunk starts a new signal)."""
+        self._state = np.zeros((self.channels, self.n_sections, 2))
+        self._started = self.init == "zero"
+
+    def process(self, chunk: Any, *, check_finite: bool = True) -> np.ndarray:
+        """Filters the next chunk and returns it (a new float64 array).
+
+        ``chunk`` is 1-D for a one-channel filter, or (channels, m). Chunks of
+        any length (0 included) may follow each other.
+        """
+        x = as_channels(chunk, "chunk", check_finite=check_finite)
+        one_d = x.ndim == 1
+        if one_d:
+            if self.channels != 1:
+                raise ValueError(f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter, got 1-D")
+            x = x[np.newaxis, :]
+        elif x.shape[0] != self.channels:
+            raise ValueError(f"chunk has {x.shape[0]} channels, the filter {self.channels}")
+        y = np.array(x, dtype=np.float64, order="C", copy=True)
+        if y.shape[1] > 0:
+            if not self._started:
+                self._state = np.ascontiguousarray(self._zi[np.newaxis, :, :] * y[:, 0, np.newaxis, np.newaxis])
+                self._started = True
+            _core.sosfilt_inplace(self.sos, y, self._state)
+        return y[0] if one_d else y
+
+
+def highpass(
+    x: Any,
+    fs: float,
+    *,
+    cutoff: float = 0.1,
+    order: int = 1,
+    axis: int = -1,
+    init: Init = "steady",
+    sos: Optional[Any] = None,
+    check_finite: bool = True,
+) -> np.ndarray:
+    """One-shot high-pass of ``x`` along ``axis`` (METHOD.md 2).
+
+    Every other axis is an independent channel. Same design, recurrence and
+    initial state as :class:`HighPass`; equal to
+    ``scipy.signal.sosfilt(sos, x, axis=axis, zi=...)`` to rounding (in fact
+    bitwise, as the arithmetic is the same).
+    """
+    a = np.asarray(x)
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"x must hold real numbers, got dtype {a.dtype}")
+    if a.ndim < 1:
+        raise ValueError("x must have at least one dimension")
+    try:
+        moved = np.moveaxis(a, axis, -1)
+    except (ValueError, IndexError) as exc:  # numpy's AxisError is both
+        raise ValueError(f"axis {axis} is out of range for x of shape {a.shape}") from exc
+    flat = moved.reshape(-1, moved.shape[-1])
+    hp = HighPass(fs, cutoff=cutoff, order=order, sos=sos, channels=max(flat.shape[0], 1), init=init)
+    if flat.shape[0] == 0:
+        return np.zeros(a.shape)
+    y = hp.process(flat, check_finite=check_finite)
+    return np.moveaxis(y.reshape(moved.shape), -1, axis)

@@ -1,0 +1,22 @@
+//! tribodyn-core: the numeric kernels of tribodyn, free of Python.
+//!
+//! Each kernel lives in its own module and follows `METHOD.md` (shared with
+//! the Python package; the README links every formula):
+//! - [`correlation`]: lagged correlation function, Eq. (1) (METHOD.md 1);
+//! - [`iir`]: streaming second-order-sections filter (METHOD.md 2);
+//! - [`regression`]: mergeable, centred least-squares moments, Eqs. (6)-(8)
+//!   (METHOD.md 3);
+//! - [`windows`]: per-window statistics of a recording (METHOD.md 4-6).
+//!
+//! Every public function validates what a caller controls and returns
+//! [`KernelError`] instead of panicking.
+
+pub mod correlation;
+pub mod error;
+pub mod iir;
+pub mod parallel;
+pub mod regression;
+pub mod sums;
+pub mod windows;
+
+pub use error::KernelError;

@@ -1,0 +1,271 @@
+//! pyo3 bindings of tribodyn-core: the `tribodyn._core` extension module.
+//!
+//! This layer only converts types: it borrows NumPy arrays without copying
+//! (`as_slice` fails with a ValueError on a non-contiguous array; the Python
+//! wrappers make inputs contiguous float64 first), releases the GIL around
+//! every kernel, and maps [`KernelError`] to `ValueError` in one place.
+//! Validation of user-facing options lives in the Python layer; the kernels
+//! re-check everything that could otherwise panic.
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyReadwriteArray3};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use tribodyn_core::correlation::{self, Method};
+use tribodyn_core::iir;
+use tribodyn_core::parallel;
+use tribodyn_core::regression::{self, LinFit, Moments};
+use tribodyn_core::windows::{self, Deadband, WindowOptions};
+use tribodyn_core::KernelError;
+
+/// The one place kernel errors become Python exceptions.
+fn to_py(e: KernelError) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+fn slice_err(name: &str) -> impl Fn(numpy::AsSliceError) -> PyErr + '_ {
+    move |_| PyValueError::new_err(format!("{name} must be a C-contiguous float64 array"))
+}
+
+fn method_of(name: &str) -> PyResult<Method> {
+    match name {
+        "direct" => Ok(Method::Direct),
+        "fft" => Ok(Method::Fft),
+        "auto" => Ok(Method::Auto),
+        other => Err(PyValueError::new_err(format!(
+            "method must be 'direct', 'fft' or 'auto', got {other:?}"
+        ))),
+    }
+}
+
+/// Eq. (1) for lags -max_lag..=max_lag.
+#[pyfunction]
+#[pyo3(signature = (x, y, max_lag, method))]
+fn xcorr<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    y: PyReadonlyArray1<'py, f64>,
+    max_lag: usize,
+    method: &str,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let method = method_of(method)?;
+    let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
+    let c = py.detach(|| parallel::run(|| correlation::xcorr(xs, ys, max_lag, method))).map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, c))
+}
+
+/// The algorithm "auto" picks for (n, max_lag): "direct" or "fft".
+#[pyfunction]
+fn xcorr_auto_method(n: usize, max_lag: usize) -> &'static str {
+    match correlation::auto_method(n, max_lag) {
+        Method::Direct => "direct",
+        _ => "fft",
+    }
+}
+
+/// Pearson's r, C(0) of Eq. (1).
+#[pyfunction]
+fn pearson(py: Python<'_>, x: PyReadonlyArray1<'_, f64>, y: PyReadonlyArray1<'_, f64>) -> PyResult<f64> {
+    let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
+    py.detach(|| correlation::pearson(xs, ys)).map_err(to_py)
+}
+
+fn sections(sos: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<iir::Section>> {
+    let a = sos.as_array();
+    if a.ncols() != 6 {
+        return Err(PyValueError::new_err(format!("sos must have shape (n_sections, 6), got {:?}", a.shape())));
+    }
+    Ok(a.rows().into_iter().map(|r| [r[0], r[1], r[2], r[3], r[4], r[5]]).collect())
+}
+
+/// Filters `data` (channels, n) in place with `sos`, carrying `state`
+/// (channels, n_sections, 2) in place.
+#[pyfunction]
+fn sosfilt_inplace(
+    py: Python<'_>,
+    sos: PyReadonlyArray2<'_, f64>,
+    mut data: PyReadwriteArray2<'_, f64>,
+    mut state: PyReadwriteArray3<'_, f64>,
+) -> PyResult<()> {
+    let secs = sections(&sos)?;
+    let channels = data.as_array().nrows();
+    let st_shape = state.as_array().shape().to_vec();
+    if st_shape != [channels, secs.len(), 2] {
+        return Err(PyValueError::new_err(format!(
+            "state must have shape ({channels}, {}, 2), got {st_shape:?}",
+            secs.len()
+        )));
+    }
+    let d = data.as_slice_mut().map_err(slice_err("data"))?;
+    let s = state.as_slice_mut().map_err(slice_err("state"))?;
+    // (channels * n_sections * 2) floats viewed as pairs.
+    let mut pairs: Vec<[f64; 2]> = s.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    py.detach(|| parallel::run(|| iir::sosfilt_inplace(&secs, d, channels, &mut pairs))).map_err(to_py)?;
+    for (dst, p) in s.chunks_exact_mut(2).zip(&pairs) {
+        dst.copy_from_slice(p);
+    }
+    Ok(())
+}
+
+fn fit_tuple(f: LinFit) -> (f64, f64, f64, f64, f64, f64, u64, bool) {
+    (f.slope, f.intercept, f.r, f.slope_stderr, f.intercept_stderr, f.resid_std, f.n, f.degenerate)
+}
+
+/// Mergeable centred moments of (x, y) (METHOD.md 3).
+#[pyclass(name = "Moments", module = "tribodyn._core", from_py_object)]
+#[derive(Clone, Default)]
+struct PyMoments {
+    inner: Moments,
+}
+
+#[pymethods]
+impl PyMoments {
+    #[new]
+    fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds the samples of one chunk.
+    fn update(&mut self, py: Python<'_>, x: PyReadonlyArray1<'_, f64>, y: PyReadonlyArray1<'_, f64>) -> PyResult<()> {
+        let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
+        let m = py.detach(|| parallel::run(|| Moments::of(xs, ys))).map_err(to_py)?;
+        self.inner = self.inner.merge(&m);
+        Ok(())
+    }
+
+    /// The moments of the union of both sample sets (a new object).
+    fn merge(&self, other: &PyMoments) -> PyMoments {
+        PyMoments { inner: self.inner.merge(&other.inner) }
+    }
+
+    /// (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate).
+    fn fit(&self) -> (f64, f64, f64, f64, f64, f64, u64, bool) {
+        fit_tuple(self.inner.fit())
+    }
+
+    /// (n, mean_x, mean_y, sxx, syy, sxy, sse).
+    fn state(&self) -> (u64, f64, f64, f64, f64, f64, f64) {
+        let m = &self.inner;
+        (m.n, m.mean_x, m.mean_y, m.sxx, m.syy, m.sxy, m.sse)
+    }
+
+    /// Rebuilds moments from `state()` (for pickling and transport).
+    #[staticmethod]
+    #[allow(clippy::too_many_arguments)]
+    fn from_state(n: u64, mean_x: f64, mean_y: f64, sxx: f64, syy: f64, sxy: f64, sse: f64) -> PyMoments {
+        PyMoments { inner: Moments { n, mean_x, mean_y, sxx, syy, sxy, sse } }
+    }
+}
+
+/// One-shot least squares of y on x.
+#[pyfunction]
+fn linfit(
+    py: Python<'_>,
+    x: PyReadonlyArray1<'_, f64>,
+    y: PyReadonlyArray1<'_, f64>,
+) -> PyResult<(f64, f64, f64, f64, f64, f64, u64, bool)> {
+    let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
+    let f = py.detach(|| parallel::run(|| regression::linfit(xs, ys))).map_err(to_py)?;
+    Ok(fit_tuple(f))
+}
+
+fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResult<Option<&'a [f64]>> {
+    a.as_ref().map(|v| v.as_slice().map_err(slice_err(name))).transpose()
+}
+
+/// Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
+/// Returns a dict of arrays, one row per window.
+#[pyfunction]
+#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins))]
+#[allow(clippy::too_many_arguments)]
+fn windows_stats<'py>(
+    py: Python<'py>,
+    fx: Option<PyReadonlyArray1<'py, f64>>,
+    fy: PyReadonlyArray1<'py, f64>,
+    fz: PyReadonlyArray1<'py, f64>,
+    aux: Option<PyReadonlyArray1<'py, f64>>,
+    starts: PyReadonlyArray1<'py, i64>,
+    length: usize,
+    orientation: f64,
+    deadband_kind: &str,
+    deadband: f64,
+    n_bins: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let deadband = match deadband_kind {
+        "force" => Deadband::Force(deadband),
+        "sigma" => Deadband::Sigma(deadband),
+        other => return Err(PyValueError::new_err(format!("deadband_kind must be 'force' or 'sigma', got {other:?}"))),
+    };
+    let starts: Vec<usize> = starts
+        .as_slice()
+        .map_err(slice_err("starts"))?
+        .iter()
+        .map(|&s| usize::try_from(s).map_err(|_| PyValueError::new_err(format!("window start {s} is negative"))))
+        .collect::<PyResult<_>>()?;
+    let (fxs, auxs) = (opt_slice(&fx, "fx")?, opt_slice(&aux, "aux")?);
+    let (fys, fzs) = (fy.as_slice().map_err(slice_err("fy"))?, fz.as_slice().map_err(slice_err("fz"))?);
+    let opt = WindowOptions { len: length, orientation, deadband, n_bins };
+    let stats = py
+        .detach(|| parallel::run(|| windows::windows_stats(fxs, fys, fzs, auxs, &starts, &opt)))
+        .map_err(to_py)?;
+
+    let col = |f: &dyn Fn(&windows::WindowStats) -> f64| -> Vec<f64> { stats.iter().map(f).collect() };
+    let out = PyDict::new(py);
+    let scalars: [(&str, Vec<f64>); 17] = [
+        ("n", col(&|w| w.moments.n as f64)),
+        ("mean_z", col(&|w| w.moments.mean_x)),
+        ("mean_y", col(&|w| w.moments.mean_y)),
+        ("szz", col(&|w| w.moments.sxx)),
+        ("syy", col(&|w| w.moments.syy)),
+        ("syz", col(&|w| w.moments.sxy)),
+        ("c_xy", col(&|w| w.c_xy)),
+        ("c_xz", col(&|w| w.c_xz)),
+        ("c_yz", col(&|w| w.c_yz)),
+        ("deadband", col(&|w| w.deadband)),
+        ("mu_a", col(&|w| w.mu_a)),
+        ("mu_b", col(&|w| w.mu_b)),
+        ("n_a", col(&|w| w.n_a as f64)),
+        ("n_b", col(&|w| w.n_b as f64)),
+        ("fz_min", col(&|w| w.fz_min)),
+        ("fz_max", col(&|w| w.fz_max)),
+        ("aux_mean", col(&|w| w.aux_mean)),
+    ];
+    for (name, v) in scalars {
+        out.set_item(name, PyArray1::from_vec(py, v))?;
+    }
+    let rows = stats.len();
+    let counts: Vec<f64> = stats.iter().flat_map(|w| w.bin_count.iter().map(|&c| c as f64)).collect();
+    let cof: Vec<f64> = stats.iter().flat_map(|w| w.bin_cof.iter().copied()).collect();
+    let shape = |v: Vec<f64>| -> PyResult<Bound<'py, PyArray2<f64>>> {
+        Ok(PyArray1::from_vec(py, v).reshape([rows, n_bins])?)
+    };
+    out.set_item("bin_count", shape(counts)?)?;
+    out.set_item("bin_cof", shape(cof)?)?;
+    Ok(out)
+}
+
+/// Sets the number of threads kernels use (0 = all cores).
+#[pyfunction]
+fn set_threads(n: usize) {
+    parallel::set_threads(n);
+}
+
+/// The number of threads kernels use.
+#[pyfunction]
+fn get_threads() -> usize {
+    parallel::threads()
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(xcorr, m)?)?;
+    m.add_function(wrap_pyfunction!(xcorr_auto_method, m)?)?;
+    m.add_function(wrap_pyfunction!(pearson, m)?)?;
+    m.add_function(wrap_pyfunction!(sosfilt_inplace, m)?)?;
+    m.add_function(wrap_pyfunction!(linfit, m)?)?;
+    m.add_function(wrap_pyfunction!(windows_stats, m)?)?;
+    m.add_function(wrap_pyfunction!(set_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(get_threads, m)?)?;
+    m.add_class::<PyMoments>()?;
+    Ok(())
+}
