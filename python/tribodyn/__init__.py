@@ -14,6 +14,11 @@ from ._core import get_threads, set_threads
 from .correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
 from .filters import HighPass, butter_highpass, highpass
 from .regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit
+from .deadband import Deadband, parse_deadband
+from .results import WINDOW_COLUMNS, BinTable, CofResult, Results
+from .identify import identify
+from .analyze import analyze
+from .ranges import OperatingRange, RangeCurve, operating_range
 
 try:
     __version__ = _version("tribodyn")
@@ -35,4 +40,15 @@ __all__ = [
     "DegenerateInputWarning",
     "set_threads",
     "get_threads",
+    "identify",
+    "CofResult",
+    "BinTable",
+    "analyze",
+    "Results",
+    "WINDOW_COLUMNS",
+    "operating_range",
+    "OperatingRange",
+    "RangeCurve",
+    "Deadband",
+    "parse_deadband",
 ]

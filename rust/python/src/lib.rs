@@ -211,7 +211,16 @@ fn windows_stats<'py>(
 
     let col = |f: &dyn Fn(&windows::WindowStats) -> f64| -> Vec<f64> { stats.iter().map(f).collect() };
     let out = PyDict::new(py);
-    let scalars: [(&str, Vec<f64>); 17] = [
+    let fits: Vec<LinFit> = stats.iter().map(|w| w.moments.fit()).collect();
+    let fcol = |f: &dyn Fn(&LinFit) -> f64| -> Vec<f64> { fits.iter().map(f).collect() };
+    let scalars: [(&str, Vec<f64>); 24] = [
+        ("slope", fcol(&|f| f.slope)),
+        ("intercept", fcol(&|f| f.intercept)),
+        ("r", fcol(&|f| f.r)),
+        ("slope_stderr", fcol(&|f| f.slope_stderr)),
+        ("intercept_stderr", fcol(&|f| f.intercept_stderr)),
+        ("resid_std", fcol(&|f| f.resid_std)),
+        ("sse", col(&|w| w.moments.sse)),
         ("n", col(&|w| w.moments.n as f64)),
         ("mean_z", col(&|w| w.moments.mean_x)),
         ("mean_y", col(&|w| w.moments.mean_y)),

@@ -1,0 +1,424 @@
+"""Long recordings: ``tribodyn.analyze`` (METHOD.md section 6).
+
+Reads a recording chunk by chunk, optionally high-passes raw (DC-coupled)
+channels with the streaming filter, cuts windows of ``window`` s every
+``hop`` s, computes each window's COF statistics in the Rust kernel, joins
+temperature and current, and fixes the orientation once for the recording.
+The per-window table does not depend on the chunk size or thread count, and
+memory does not grow with the recording's length.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterable, Iterator, Mapping
+from typing import Any, Dict, List, Optional, Sequence
+
+import numpy as np
+
+from . import _core
+from ._validate import as_signal, check_fs, check_int, positive
+from .covariates import as_log, branch, constant_or_log, evaluate, interpolate
+from .deadband import DeadbandSpec, parse_deadband
+from .filters import HighPass
+from .identify import Orientation, check_gate, resolve_orientation
+from .results import Results
+from .window_stats import compute, gate_reasons, orient
+from .windowing import Windower
+
+__all__ = ["analyze", "threads_limited"]
+
+FORCE_ROLES = ("fx", "fy", "fz")
+
+
+@contextlib.contextmanager
+def threads_limited(threads: Optional[int]) -> Iterator[None]:
+    """Runs the block with the kernels limited to ``threads`` (None: unchanged)."""
+    if threads is None:
+        yield
+        return
+    n = check_int(threads, "threads", minimum=1)
+    before = _core.get_threads()
+    _core.set_threads(n)
+    try:
+        yield
+    finally:
+        _core.set_threads(before)
+
+
+def _is_recording(source: Any) -> bool:
+    return hasattr(source, "chunks") and hasattr(source, "fs") and not isinstance(source, Mapping)
+
+
+def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.ndarray]:
+    if not isinstance(chunk, Mapping):
+        raise TypeError(f"{where} must be a mapping of role -> array (roles fx, fy, fz, i, u), got {type(chunk).__name__}")
+    missing = [r for r in needed if r not in chunk]
+    if missing:
+        raise ValueError(f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})")
+    out = {str(k): as_signal(v, f"{where}[{k!r}]", min_len=0) for k, v in chunk.items() if k in ("fx", "fy", "fz", "i", "u")}
+    lengths = {k: len(v) for k, v in out.items()}
+    if len(set(lengths.values())) > 1:
+        raise ValueError(f"{where}: channels must have equal lengths, got {lengths}")
+    return out
+
+
+class _Collector:
+    """Receives windows from the Windower and keeps their statistics."""
+
+    def __init__(self, *, length: int, fs: float, deadband: Any, n_bins: int, max_lag: Optional[int],
+                 aux_role: Optional[str], raw: bool) -> None:
+        self.length, self.fs, self.deadband, self.n_bins = length, fs, deadband, n_bins
+        self.max_lag, self.aux_role, self.raw = max_lag, aux_role, raw
+        self.parts: List[Dict[str, np.ndarray]] = []
+
+    def __call__(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> None:
+        aux = ch.get(self.aux_role) if self.aux_role else None
+        st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, self.length, self.deadband, self.n_bins)
+        st["start"] = absolute.astype(np.int64)
+        st["acquisition"] = np.zeros(len(rel), dtype=np.int64)
+        if self.raw:
+            st["mu_classic"] = _classical_cof(ch["fy_raw"], ch["fz_raw"], rel, self.length)
+        if self.max_lag is not None:
+            st["skew"] = _skews(ch["fy"], ch["fz"], rel, self.length, self.max_lag)
+        self.parts.append(st)
+
+
+def _classical_cof(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
+    """mean(|fy| / |fz|) of the raw forces per window (paper Sec. 5), |fz| = 0 skipped."""
+    out = np.empty(len(rel))
+    for k, s in enumerate(rel):
+        a, b = np.abs(fy[s : s + length]), np.abs(fz[s : s + length])
+        keep = b > 0
+        out[k] = np.mean(a[keep] / b[keep]) if keep.any() else np.nan
+    return out
+
+
+def _skews(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int, max_lag: int) -> np.ndarray:
+    out = np.full(len(rel), np.nan)
+    lag = min(max_lag, length - 1)
+    for k, s in enumerate(rel):
+        c = _core.xcorr(np.ascontiguousarray(fy[s : s + length]), np.ascontiguousarray(fz[s : s + length]), lag, "auto")
+        if np.isfinite(c).any():
+            out[k] = int(np.nanargmax(np.abs(c))) - lag
+    return out
+
+
+def _sign_of_total_slope(st: Dict[str, np.ndarray]) -> float:
+    """Sign-bearing S_xy of all windows merged (within + between parts)."""
+    n = st["n"]
+    if n.sum() == 0:
+        return float("nan")
+    w = n / n.sum()
+    mz, my = np.sum(w * st["mean_z"]), np.sum(w * st["mean_y"])
+    return float(np.sum(st["syz"]) + np.sum(n * (st["mean_z"] - mz) * (st["mean_y"] - my)))
+
+
+def _chunks_of(source: Any, fs_chunk: int) -> Iterable[Any]:
+    if isinstance(source, Mapping):
+        n = len(next(iter(source.values()))) if source else 0
+        if fs_chunk <= 0 or n <= fs_chunk:
+            return [source]
+        return ({k: v[s : s + fs_chunk] for k, v in source.items()} for s in range(0, n, fs_chunk))
+    return source
+
+
+def analyze(
+    source: Any,
+    *,
+    fs: Optional[float] = None,
+    window: float = 2.0,
+    hop: float = 10.0,
+    highpass: Optional[float] = None,
+    orientation: Orientation = "auto",
+    temperature: Any = None,
+    current: Any = None,
+    voltage: Any = None,
+    shunt_ohm: Optional[float] = None,
+    area_mm2: Optional[float] = None,
+    chunk: Optional[float] = None,
+    progress: bool = False,
+    deadband: DeadbandSpec = 0.35,
+    n_bins: int = 16,
+    gate: float = 0.85,
+    max_lag: Optional[int] = None,
+    rpm: Optional[float] = None,
+    n_lamellas: Optional[int] = None,
+    threads: Optional[int] = None,
+) -> Results:
+    """COF of every window of a long recording (METHOD.md 6).
+
+    Parameters
+    ----------
+    source : mapping, iterable of mappings, list of acquisitions, or Recording
+        - a mapping role -> 1-D array with ``fy``, ``fz`` (required), ``fx``,
+          and ``i`` (current, A) or ``u`` (shunt voltage, V);
+        - an iterator of such mappings: consecutive chunks of one recording
+          (how a reader streams from disk);
+        - a list (or tuple) of mappings: separate acquisitions, each one
+          window (an optional scalar ``"t0"`` entry gives its start time in
+          s; otherwise acquisitions are taken as back to back);
+        - a recording from :func:`tribodyn.open_recording` (read in chunks).
+    fs : float
+        Sampling rate in Hz (taken from a recording when omitted).
+    window, hop : float
+        Window length and start-to-start spacing in s (paper 2 and 10;
+        ``hop == window`` tiles the recording). Only complete windows count.
+    highpass : float, optional
+        Cut-off in Hz of a first-order Butterworth high-pass applied to raw,
+        DC-coupled force channels first (streaming, state carried, "steady"
+        start). None for dynamic forces as delivered by the paper's charge
+        amplifier. With it, the table also has ``mu_classic``, the classical
+        COF mean(|fy|/|fz|) of the raw forces.
+    orientation : {+1, -1, "auto"}
+        s in mu = s * slope; "auto" fixes it ONCE for the recording, as the
+        sign of the least-squares slope of fy on fz over all windows
+        (METHOD.md 0), never per window.
+    temperature : (t_s, T_degC), optional
+        Intermittent temperature log, interpolated linearly at each window
+        centre (NaN outside the log); ``branch`` is the sign of dT/dt.
+    current : (t_s, i_A) or float, optional
+        Current log or constant, when the source has no ``i`` channel.
+    voltage : (t_s, u_V) or float, optional
+        Shunt voltage log or constant (needs ``shunt_ohm``); a ``u`` channel
+        in the source is used likewise.
+    shunt_ohm : float, optional
+        Shunt resistance R: i = u / R.
+    area_mm2 : float, optional
+        Contact area; J = i / area_mm2 in A/mm^2.
+    chunk : float, optional
+        Seconds per chunk when reading a mapping or a recording (default
+        60 s for a recording; a mapping is taken whole). Never changes a result.
+    progress : bool
+        Show a progress bar on stderr.
+    deadband, n_bins, gate, max_lag, rpm, n_lamellas
+        As for :func:`tribodyn.identify`, per window. ``max_lag`` adds the
+        channel skew per window (costly: one correlation function per window).
+        ``rpm``/``n_lamellas`` are recorded in ``params`` (spectra are per
+        acquisition, in :func:`tribodyn.identify`).
+    threads : int, optional
+        Threads for the kernels (default: all cores, or the TRIBODYN_THREADS
+        environment variable). Results do not depend on it.
+
+    Returns
+    -------
+    Results
+        Per-window table, bins and the parameters used.
+
+    Raises
+    ------
+    ValueError, TypeError
+        fs <= 0, window or hop <= 0, a window longer than the recording, a
+        missing or unequal channel, a bad temperature log, a voltage without
+        ``shunt_ohm``.
+    """
+    rec = source if _is_recording(source) else None
+    if fs is None:
+        if rec is None:
+            raise TypeError("analyze needs fs= (the sampling rate in Hz)")
+        fs = rec.fs
+    fs_v = check_fs(fs)
+    w_s = positive(window, "window")
+    h_s = positive(hop, "hop")
+    length = int(round(w_s * fs_v))
+    step = int(round(h_s * fs_v))
+    if length < 3:
+        raise ValueError(f"window = {window} s is under 3 samples at fs = {fs_v:g} Hz")
+    if step < 1:
+        raise ValueError(f"hop = {hop} s is under one sample at fs = {fs_v:g} Hz")
+    db = parse_deadband(deadband)
+    nb = check_int(n_bins, "n_bins", minimum=1)
+    g = check_gate(gate)
+    if max_lag is not None:
+        check_int(max_lag, "max_lag", minimum=0)
+    if isinstance(orientation, str) and orientation != "auto" or (not isinstance(orientation, str) and orientation not in (1, -1)):
+        raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
+    temp_log = None if temperature is None else as_log(temperature, "temperature")
+    if voltage is not None or shunt_ohm is not None:
+        if shunt_ohm is None:
+            raise ValueError("voltage needs shunt_ohm (i = u / R)")
+        shunt = positive(shunt_ohm, "shunt_ohm")
+    else:
+        shunt = None
+    cur_log = constant_or_log(current, "current")
+    volt_log = constant_or_log(voltage, "voltage")
+    area = None if area_mm2 is None else positive(area_mm2, "area_mm2")
+    hp_fc = None if highpass is None else positive(highpass, "highpass")
+    chunk_n = None if chunk is None else max(1, int(round(positive(chunk, "chunk") * fs_v)))
+
+    params: Dict[str, Any] = dict(
+        fs=fs_v, window=w_s, hop=h_s, window_samples=length, hop_samples=step, highpass=hp_fc,
+        orientation=orientation, deadband=str(db), n_bins=nb, gate=g, max_lag=max_lag, rpm=rpm,
+        n_lamellas=n_lamellas, area_mm2=area, shunt_ohm=shunt, chunk_samples=chunk_n,
+        temperature_log_points=None if temp_log is None else int(temp_log[0].size),
+    )
+
+    with threads_limited(threads if threads is not None else _env_threads()):
+        if isinstance(source, (list, tuple)):
+            st, aux_role = _acquisitions(source, fs_v, db, nb, hp_fc, max_lag, shunt)
+        else:
+            st, aux_role = _stream(source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt)
+
+    if len(st["n"]) == 0:
+        raise ValueError(f"the recording is shorter than one window ({w_s:g} s = {length} samples): no window to analyse")
+    s = resolve_orientation(orientation, _sign_of_total_slope(st))
+    o = orient(st, s)
+    t_start = o["start"] / fs_v
+    if "t0" in o:
+        t_start = o["t0"]
+    n_win = o["n"]
+    centre = t_start + 0.5 * n_win / fs_v
+    reasons = gate_reasons(o, g, o.get("skew"))
+
+    cur = np.full(len(centre), np.nan)
+    if aux_role == "i":
+        cur = o["aux_mean"]
+    elif aux_role == "u":
+        cur = o["aux_mean"] / shunt  # type: ignore[operator]
+    elif cur_log is not None:
+        cur = evaluate(cur_log, centre)
+    elif volt_log is not None:
+        cur = evaluate(volt_log, centre) / shunt  # type: ignore[operator]
+    table: Dict[str, np.ndarray] = {
+        "time": centre,
+        "t_start": t_start,
+        "mu_r": o["mu_r"],
+        "mu_r_stderr": o["mu_r_stderr"],
+        "f_y0": o["f_y0"],
+        "r": o["r"],
+        "mu_a": o["mu_a"],
+        "mu_b": o["mu_b"],
+        "force_dependence": o["force_dependence"],
+        "c_xy": o["c_xy"],
+        "c_xz": o["c_xz"],
+        "c_yz": o["c_yz"],
+        "skew": o.get("skew", np.full(len(centre), np.nan)),
+        "ok": np.array([r == "" for r in reasons], dtype=bool),
+        "reasons": reasons.astype(str),
+        "T": interpolate(temp_log, centre) if temp_log is not None else np.full(len(centre), np.nan),
+        "branch": branch(temp_log, centre) if temp_log is not None else np.zeros(len(centre), dtype=np.int8),
+        "i": cur,
+        "J": cur / area if area is not None else np.full(len(centre), np.nan),
+        "mu_classic": o.get("mu_classic", np.full(len(centre), np.nan)),
+        "deadband": o["deadband"],
+        "n": n_win.astype(np.int64),
+        "acquisition": o["acquisition"],
+    }
+    params["orientation_used"] = s
+    return Results(table=table, bin_counts=o["bin_count"].astype(np.int64), bin_cof=o["bin_cof"],
+                   fz_min=o["fz_min"], fz_max=o["fz_max"], orientation=s, params=params)
+
+
+def _env_threads() -> Optional[int]:
+    v = os.environ.get("TRIBODYN_THREADS")
+    if not v:
+        return None
+    try:
+        return max(1, int(v))
+    except ValueError:
+        raise ValueError(f"TRIBODYN_THREADS must be a whole number, got {v!r}") from None
+
+
+def _concat(parts: List[Dict[str, np.ndarray]]) -> Dict[str, np.ndarray]:
+    if not parts:
+        return {"n": np.zeros(0)}
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _aux_role(chunk: Mapping, shunt: Optional[float]) -> Optional[str]:
+    if "i" in chunk:
+        return "i"
+    if "u" in chunk:
+        if shunt is None:
+            raise ValueError("the source has a voltage channel 'u': give shunt_ohm (i = u / R)")
+        return "u"
+    return None
+
+
+def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, nb: int,
+            hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
+            shunt: Optional[float]):
+    if rec is not None:
+        size = chunk_n or int(60 * fs)
+        chunks: Iterable[Any] = rec.chunks(size)
+        total = getattr(rec, "n_samples", None)
+    elif isinstance(source, Mapping):
+        chunks = _chunks_of(source, chunk_n or 0)
+        total = len(next(iter(source.values()))) if source else 0
+    elif isinstance(source, Iterable) and not isinstance(source, (str, bytes)):
+        chunks = source
+        total = None
+    else:
+        raise TypeError(f"source must be a mapping, an iterable of mappings, a list of acquisitions or a recording, got {type(source).__name__}")
+
+    bar = _progress(progress, total)
+    collector: Optional[_Collector] = None
+    windower: Optional[Windower] = None
+    hp: Optional[HighPass] = None
+    force_roles: List[str] = []
+    for i, raw_chunk in enumerate(chunks):
+        ch = _check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz"))
+        if collector is None:
+            aux = _aux_role(ch, shunt)
+            force_roles = [r for r in FORCE_ROLES if r in ch]
+            collector = _Collector(length=length, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux, raw=hp_fc is not None)
+            windower = Windower(length, step, collector)
+            if hp_fc is not None:
+                hp = HighPass(fs, cutoff=hp_fc, channels=len(force_roles))
+        elif set(force_roles) - set(ch):
+            raise ValueError(f"chunk {i} lacks channel(s) present in the first chunk: {sorted(set(force_roles) - set(ch))}")
+        if hp is not None:
+            filtered = hp.process(np.stack([ch[r] for r in force_roles]))
+            ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
+            for k, r in enumerate(force_roles):
+                ch[r] = filtered[k]
+        assert windower is not None
+        windower.push(ch)
+        if bar is not None:
+            bar.update(len(ch["fz"]))
+    if bar is not None:
+        bar.close()
+    if collector is None:
+        raise ValueError("the source holds no samples")
+    return _concat(collector.parts), collector.aux_role
+
+
+def _progress(on: bool, total: Optional[int]) -> Any:
+    if not on:
+        return None
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is a dependency
+        return None
+    return tqdm(total=total, unit="sample", unit_scale=True, desc="analyse", leave=False)
+
+
+def _acquisitions(source: Sequence[Any], fs: float, db: Any, nb: int, hp_fc: Optional[float],
+                  max_lag: Optional[int], shunt: Optional[float]):
+    parts: List[Dict[str, np.ndarray]] = []
+    t = 0.0
+    aux_role: Optional[str] = None
+    for k, acq in enumerate(source):
+        ch = _check_chunk(acq, f"acquisition {k}", ("fy", "fz"))
+        n = len(ch["fz"])
+        if n < 3:
+            raise ValueError(f"acquisition {k} has {n} samples; at least 3 are needed")
+        aux_role = _aux_role(ch, shunt) if k == 0 else aux_role
+        if hp_fc is not None:
+            roles = [r for r in FORCE_ROLES if r in ch]
+            filtered = HighPass(fs, cutoff=hp_fc, channels=len(roles)).process(np.stack([ch[r] for r in roles]))
+            ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
+            for j, r in enumerate(roles):
+                ch[r] = filtered[j]
+        col = _Collector(length=n, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux_role, raw=hp_fc is not None)
+        col(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
+        st = col.parts[0]
+        t0 = acq.get("t0") if isinstance(acq, Mapping) else None
+        st["t0"] = np.array([float(t0) if t0 is not None else t])
+        st["acquisition"] = np.array([k], dtype=np.int64)
+        t += n / fs
+        parts.append(st)
+    if not parts:
+        raise ValueError("the list of acquisitions is empty")
+    return _concat(parts), aux_role

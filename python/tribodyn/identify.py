@@ -1,0 +1,158 @@
+"""COF of one acquisition: ``tribodyn.identify`` (METHOD.md sections 3-5)."""
+
+from __future__ import annotations
+
+from typing import Any, Dict, Optional, Union
+
+import numpy as np
+from scipy import signal as _signal
+
+from ._validate import as_signal, check_fs, check_int, same_length
+from .correlation import xcorr
+from .deadband import DeadbandSpec, parse_deadband
+from .results import BinTable, CofResult
+from .window_stats import compute, gate_reasons, orient
+
+__all__ = ["identify", "resolve_orientation", "cross_spectra"]
+
+Orientation = Union[int, str]
+
+
+def resolve_orientation(orientation: Orientation, slope: float) -> int:
+    """s in {+1, -1}: as given, or for "auto" the sign of ``slope`` (METHOD.md 0).
+
+    "auto" with an undefined or zero slope gives +1.
+    """
+    if isinstance(orientation, str):
+        if orientation != "auto":
+            raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
+        return -1 if slope < 0 else 1
+    if orientation in (1, -1) and not isinstance(orientation, bool):
+        return int(orientation)
+    raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
+
+
+def check_gate(gate: Any) -> float:
+    g = float(gate)
+    if not 0 <= g <= 1:
+        raise ValueError(f"gate must be in [0, 1], got {gate!r}")
+    return g
+
+
+def cross_spectra(
+    fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, fs: float, rpm: float, n_lamellas: int
+) -> Dict[str, Dict[str, float]]:
+    """|Welch cross-spectrum| of xy, xz, yz at f0 = rpm/60 and f_l = n_lamellas f0 (METHOD.md 5).
+
+    The segment length is the largest power of two up to fs/0.5 Hz resolution
+    that fits the signal; each value is read at the bin nearest the frequency.
+    """
+    f0 = rpm / 60.0
+    fl = n_lamellas * f0
+    nper = int(min(len(fy), 2 ** int(np.floor(np.log2(max(2 * fs, 8))))))
+    pairs = {"yz": (fy, fz)}
+    if fx is not None:
+        pairs.update({"xy": (fx, fy), "xz": (fx, fz)})
+    out: Dict[str, Dict[str, float]] = {}
+    for name, (a, b) in pairs.items():
+        f, p = _signal.csd(a, b, fs=fs, nperseg=nper)
+        pick = {key: float(np.abs(p[int(np.argmin(np.abs(f - fq)))])) if fq <= fs / 2 else float("nan") for key, fq in (("f0", f0), ("f_l", fl))}
+        out[name] = pick
+    return out
+
+
+def identify(
+    fx: Optional[Any],
+    fy: Any,
+    fz: Any,
+    *,
+    fs: float,
+    orientation: Orientation = "auto",
+    deadband: DeadbandSpec = 0.35,
+    n_bins: int = 16,
+    gate: float = 0.85,
+    max_lag: Optional[int] = None,
+    rpm: Optional[float] = None,
+    n_lamellas: Optional[int] = None,
+) -> CofResult:
+    """COF of one acquisition from its dynamic forces (METHOD.md 3-5).
+
+    Parameters
+    ----------
+    fx, fy, fz : array_like, 1-D, equal length
+        Dynamic axial, tangential (friction) and normal forces in N. ``fx``
+        may be None (then no x correlations).
+    fs : float
+        Sampling rate, Hz.
+    orientation : {+1, -1, "auto"}
+        s in mu = s * slope. "auto" takes the sign of this acquisition's
+        slope (it is the whole recording here; :func:`tribodyn.analyze` fixes
+        it once for a long recording).
+    deadband : float or str
+        |fz| < d excluded from the bins and from mu_a, mu_b: a force in N
+        (paper 0.35) or ``"0.7sigma"`` (k times the std of fz).
+    n_bins : int
+        Equal-width fz bins over [min fz, max fz] (default 16).
+    gate : float
+        Quality gate: |C_yz(0)| >= gate (default 0.85, Sec. 3.1).
+    max_lag : int, optional
+        Also compute C_xy, C_xz, C_yz for lags up to ``max_lag`` and the skew
+        (lag of max |C_yz|); a non-zero skew fails the gate.
+    rpm, n_lamellas : optional
+        Rig data: cross-spectra at f0 and f_l (Welch).
+
+    Returns
+    -------
+    CofResult
+        Degenerate input (constant fz, too few samples) gives NaN fields and
+        ``ok=False`` with its reason, not an exception.
+    """
+    fs_v = check_fs(fs)
+    fy_a = as_signal(fy, "fy", min_len=1)
+    fz_a = as_signal(fz, "fz", min_len=1)
+    fx_a = None if fx is None else as_signal(fx, "fx", min_len=1)
+    same_length(fy=fy_a, fz=fz_a, **({} if fx_a is None else {"fx": fx_a}))
+    n = fz_a.size
+    db = parse_deadband(deadband)
+    nb = check_int(n_bins, "n_bins", minimum=1)
+    g = check_gate(gate)
+    st = compute(fx_a, fy_a, fz_a, None, np.zeros(1, dtype=np.int64), n, db, nb)
+    s = resolve_orientation(orientation, float(st["slope"][0]))
+    o = orient(st, s)
+
+    correlations = skew = None
+    if max_lag is not None:
+        lag = check_int(max_lag, "max_lag", minimum=0)
+        lag = min(lag, n - 1) if n >= 2 else 0
+        correlations = {"yz": xcorr(fy_a, fz_a, max_lag=lag, fs=fs_v, check_finite=False)}
+        if fx_a is not None:
+            correlations["xy"] = xcorr(fx_a, fy_a, max_lag=lag, fs=fs_v, check_finite=False)
+            correlations["xz"] = xcorr(fx_a, fz_a, max_lag=lag, fs=fs_v, check_finite=False)
+        c = correlations["yz"].c
+        skew = int(correlations["yz"].lags[int(np.nanargmax(np.abs(c)))]) if np.isfinite(c).any() else None
+    spectra = None
+    if rpm is not None and n_lamellas is not None and n >= 8:
+        spectra = cross_spectra(fx_a, fy_a, fz_a, fs_v, float(rpm), check_int(n_lamellas, "n_lamellas", minimum=1))
+
+    reasons = gate_reasons(o, g, None if skew is None else np.array([skew], dtype=float))[0]
+    return CofResult(
+        mu_r=float(o["mu_r"][0]),
+        f_y0=float(o["f_y0"][0]),
+        r=float(o["r"][0]),
+        mu_r_stderr=float(o["mu_r_stderr"][0]),
+        mu_a=float(o["mu_a"][0]),
+        mu_b=float(o["mu_b"][0]),
+        force_dependence=float(o["force_dependence"][0]),
+        bins=BinTable.from_range(float(o["fz_min"][0]), float(o["fz_max"][0]), o["bin_count"][0], o["bin_cof"][0]),
+        c_xy=float(o["c_xy"][0]),
+        c_xz=float(o["c_xz"][0]),
+        c_yz=float(o["c_yz"][0]),
+        ok=reasons == "",
+        reasons=tuple(r for r in reasons.split("; ") if r),
+        orientation=s,
+        deadband=float(o["deadband"][0]),
+        n=n,
+        correlations=correlations,
+        skew=skew,
+        spectra=spectra,
+    )

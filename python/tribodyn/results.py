@@ -1,0 +1,216 @@
+"""Typed results of the COF identification (METHOD.md sections 4-7)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict, Mapping, Optional, Tuple
+
+import numpy as np
+
+from .correlation import XcorrResult
+
+__all__ = ["BinTable", "CofResult", "Results", "WINDOW_COLUMNS"]
+
+
+@dataclass(frozen=True)
+class BinTable:
+    """COF against normal force: equal-width fz bins (METHOD.md 4).
+
+    Attributes
+    ----------
+    edges : ndarray (n_bins + 1,)
+        Bin edges spanning [min fz, max fz] of the window (before the deadband).
+    centres : ndarray (n_bins,)
+        Bin centres (the fz,k of Fig. 9).
+    counts : ndarray of int64 (n_bins,)
+        Samples per bin outside the deadband.
+    cof : ndarray (n_bins,)
+        Per-bin COF_k: mean of s * fy_i / fz_i (Eq. 5 per sample); NaN if empty.
+    """
+
+    edges: np.ndarray
+    centres: np.ndarray
+    counts: np.ndarray
+    cof: np.ndarray
+
+    @classmethod
+    def from_range(cls, lo: float, hi: float, counts: np.ndarray, cof: np.ndarray) -> "BinTable":
+        edges = np.linspace(lo, hi, len(counts) + 1)
+        return cls(edges=edges, centres=0.5 * (edges[:-1] + edges[1:]), counts=np.asarray(counts, dtype=np.int64), cof=np.asarray(cof, dtype=float))
+
+
+@dataclass(frozen=True)
+class CofResult:
+    """COF of one acquisition (``tribodyn.identify``; METHOD.md 3-5).
+
+    Attributes
+    ----------
+    mu_r : float
+        COF by regression: orientation * slope of fy on fz (Eqs. 6-8).
+    f_y0 : float
+        Intercept of the regression (N).
+    r : float
+        Pearson's r of fy and fz (= c_yz).
+    mu_r_stderr : float
+        Standard error of mu_r.
+    mu_a, mu_b : float
+        Sample-weighted mean of s*fy/fz over fz <= -d and fz >= +d (Sec. 3.3).
+    force_dependence : float
+        (mu_b - mu_a) / mu_r.
+    bins : BinTable
+        Per-bin COF against fz.
+    c_xy, c_xz, c_yz : float
+        Pearson coefficients at lag 0 (Sec. 3.1); NaN for x when fx is None.
+    correlations : dict of XcorrResult, optional
+        C_xy, C_xz, C_yz for lags up to ``max_lag`` (keys "xy", "xz", "yz").
+    skew : int or None
+        Lag (samples) of max |C_yz(j)|; non-zero means the channels are not
+        sampled simultaneously. None unless ``max_lag`` was given.
+    spectra : dict, optional
+        |cross-spectrum| of "xy", "xz", "yz" at "f0" and "f_l" (N^2/Hz), when
+        rpm and n_lamellas are given.
+    ok : bool
+        Quality gate passed.
+    reasons : tuple of str
+        Why the gate failed (empty when ok).
+    orientation : int
+        s in {+1, -1} used.
+    deadband : float
+        Deadband applied, in newtons.
+    n : int
+        Samples.
+    """
+
+    mu_r: float
+    f_y0: float
+    r: float
+    mu_r_stderr: float
+    mu_a: float
+    mu_b: float
+    force_dependence: float
+    bins: BinTable
+    c_xy: float
+    c_xz: float
+    c_yz: float
+    ok: bool
+    reasons: Tuple[str, ...]
+    orientation: int
+    deadband: float
+    n: int
+    correlations: Optional[Dict[str, XcorrResult]] = None
+    skew: Optional[int] = None
+    spectra: Optional[Dict[str, Dict[str, float]]] = None
+
+
+#: Columns of the per-window table, in order, with their meaning.
+WINDOW_COLUMNS: Dict[str, str] = {
+    "time": "window centre, s from the start of the recording",
+    "t_start": "window start, s",
+    "mu_r": "COF by regression, s * slope of fy on fz (Eqs. 6-8)",
+    "mu_r_stderr": "standard error of mu_r",
+    "f_y0": "regression intercept, N",
+    "r": "Pearson r of fy and fz",
+    "mu_a": "mean s*fy/fz over fz <= -d (Sec. 3.3)",
+    "mu_b": "mean s*fy/fz over fz >= +d",
+    "force_dependence": "(mu_b - mu_a) / mu_r",
+    "c_xy": "Pearson C_xy(0)",
+    "c_xz": "Pearson C_xz(0)",
+    "c_yz": "Pearson C_yz(0)",
+    "skew": "lag (samples) of max |C_yz(j)| (NaN unless max_lag given)",
+    "ok": "quality gate passed",
+    "reasons": "why the gate failed ('' when ok)",
+    "T": "temperature at the window centre, degC (NaN outside the log)",
+    "branch": "+1 heating, -1 cooling, 0 unknown (sign of dT/dt)",
+    "i": "mean current, A",
+    "J": "mean current density, A/mm^2",
+    "mu_classic": "classical COF mean(|fy|/|fz|) of the raw forces (only with highpass)",
+    "deadband": "deadband applied, N",
+    "n": "samples in the window",
+    "acquisition": "index of the acquisition (file) the window comes from",
+}
+
+
+@dataclass(frozen=True)
+class Results:
+    """Per-window results of ``tribodyn.analyze`` (METHOD.md section 6).
+
+    Attributes
+    ----------
+    table : dict of str -> ndarray
+        One entry per column of :data:`WINDOW_COLUMNS`, one row per window.
+    bin_counts, bin_cof : ndarray (n_windows, n_bins)
+        Per-window COF against fz; bin edges span [fz_min, fz_max] per row.
+    fz_min, fz_max : ndarray (n_windows,)
+        Range of fz of each window's bins.
+    orientation : int
+        s in {+1, -1} applied to every window (fixed once per recording).
+    params : dict
+        Every parameter used, for provenance.
+    """
+
+    table: Dict[str, np.ndarray]
+    bin_counts: np.ndarray
+    bin_cof: np.ndarray
+    fz_min: np.ndarray
+    fz_max: np.ndarray
+    orientation: int
+    params: Dict[str, Any] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return int(len(self.table["time"]))
+
+    @property
+    def columns(self) -> Tuple[str, ...]:
+        return tuple(self.table)
+
+    def __getitem__(self, column: str) -> np.ndarray:
+        return self.table[column]
+
+    def bins(self, k: int) -> BinTable:
+        """The bin table of window ``k``."""
+        return BinTable.from_range(float(self.fz_min[k]), float(self.fz_max[k]), self.bin_counts[k], self.bin_cof[k])
+
+    def gated(self) -> np.ndarray:
+        """Boolean mask of the windows that passed the quality gate."""
+        return np.asarray(self.table["ok"], dtype=bool)
+
+    def to_pandas(self) -> Any:
+        """The per-window table as a ``pandas.DataFrame`` (needs pandas)."""
+        try:
+            import pandas as pd
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise ImportError("to_pandas needs pandas: pip install pandas") from exc
+        return pd.DataFrame(dict(self.table))
+
+    def summary(self) -> Dict[str, Any]:
+        """COF statistics of the gated windows (for the JSON summary)."""
+        ok = self.gated()
+        mu = np.asarray(self.table["mu_r"])[ok]
+        mu = mu[np.isfinite(mu)]
+
+        def stats(v: np.ndarray) -> Mapping[str, float]:
+            if v.size == 0:
+                return {"n": 0}
+            q = np.percentile(v, [5, 25, 50, 75, 95])
+            return {"n": int(v.size), "mean": float(v.mean()), "std": float(v.std()), "min": float(v.min()),
+                    "p05": float(q[0]), "p25": float(q[1]), "median": float(q[2]), "p75": float(q[3]),
+                    "p95": float(q[4]), "max": float(v.max())}
+
+        out: Dict[str, Any] = {
+            "windows": len(self),
+            "gated": int(ok.sum()),
+            "gate_pass_fraction": float(ok.mean()) if len(self) else float("nan"),
+            "orientation": self.orientation,
+            "mu_r": stats(mu),
+        }
+        for col in ("mu_a", "mu_b", "force_dependence"):
+            v = np.asarray(self.table[col])[ok]
+            out[col] = stats(v[np.isfinite(v)])
+        reasons = [r for r in self.table["reasons"] if r]
+        counts: Dict[str, int] = {}
+        for r in reasons:
+            for part in str(r).split("; "):
+                key = part.split(":")[0]
+                counts[key] = counts.get(key, 0) + 1
+        out["gate_failures"] = counts
+        return out
