@@ -132,7 +132,7 @@ def operating_range(
     by : {"temperature", "current_density"}
     bin_width : float, optional
         Covariate bin width (default 5 degC or 0.5 A/mm^2). Bins are aligned
-        to multiples of the width.
+        centred on multiples of the width.
     tol : float
         Relative tolerance above the minimum COF that still counts as optimum
         (default 0.15).
@@ -161,11 +161,11 @@ def operating_range(
     if not keep.any():
         what = "a temperature log" if by == "temperature" else "a current and area_mm2"
         raise ValueError(f"no quality-gated window has a {by.replace('_', ' ')} (did analyze get {what}?)")
-    lo = np.floor(cov[keep].min() / width) * width
-    hi = np.ceil(cov[keep].max() / width) * width
-    if hi <= lo:
-        hi = lo + width
-    edges = np.arange(int(round((hi - lo) / width)) + 1) * width + lo
+    # Bin centres on multiples of the width, so set points such as J = 4.5
+    # A/mm^2 fall mid-bin, never on an edge.
+    k_lo = int(np.floor(cov[keep].min() / width + 0.5))
+    k_hi = int(np.floor(cov[keep].max() / width + 0.5))
+    edges = (np.arange(k_lo, k_hi + 2) - 0.5) * width
     curves = {"all": _curve(cov[keep], mu[keep], edges, tol, rise, min_count)}
     if by == "temperature":
         br = np.asarray(results["branch"])[keep]

@@ -1,0 +1,994 @@
+"""Simulated brush/commutator rig with a KNOWN coefficient of friction.
+
+This module reproduces the rig of the seed paper (METHOD.md section 8) closely
+enough to serve as the bundled example and as the source of truth for tests.
+It is written from the physics below, never fitted to the analysis code, and
+it only needs NumPy and SciPy (it imports nothing else from ``tribodyn``).
+
+Rig
+---
+250 rpm (rotation frequency ``f0 = 4.1667 Hz``), 24 lamellas (lamella
+frequency ``f_l = 100 Hz``), sampled at ``fs = 1 kHz`` by a 16-bit converter.
+Time of sample ``n`` is ``n / fs``.
+
+Model (per sample)
+------------------
+* Dynamic normal force ``fz_d``: commutator run-out at ``f0`` and its 2nd and
+  3rd harmonics (random amplitudes and phases drawn from the seed), the
+  lamella excitation at ``f_l`` (amplitude modulated at ``f0``, lamella to
+  lamella variation) and ``2 f_l``, plus broadband brush dynamics (white noise
+  through a 2nd-order Butterworth band-pass 5-250 Hz). The sum is passed
+  through a soft limiter ``A tanh(x / A)`` with ``A = 2.2 N`` so that
+  ``fz_d`` spans about -2..+2 N and the contact force stays positive.
+* Contact (normal) force ``N = N0 + fz_d`` with the static preload
+  ``N0 = 2.5 N``; ``N >= 0.3 N`` always, except in contact-loss episodes
+  (below), where ``N = max(0, N0 (1 - 0.8 c) + (1 + c) fz_d)`` with the
+  contact-loss level ``c`` in [0, 1]: the burned-out brush bounces and the
+  contact force is intermittently zero.
+* Friction (Coulomb): ``F_t = mu(t, N) N`` with
+  ``mu(t, N) = mu0(t) (1 + beta (N - N0) / N0)``, ``beta`` being the
+  ``force_dependence`` option (default 0). With ``beta != 0`` the
+  least-squares slope of fy on fz is about ``mu0 (1 + beta)`` and the
+  per-sample COF grows with the normal force; because the high-pass also
+  removes the mean of the quadratic term, the paper's deadband measure
+  ``(mu_b - mu_a) / mu_r`` (0.35 N) is only about ``0.11 beta``.
+* Measured (DC-coupled) forces, before the amplifier:
+  ``fy = s F_t + e_y`` (``s`` = orientation, default -1 as in the paper's
+  Fig. 5, ``e_y`` white, 0.01 N: micro-slip and sensor noise);
+  ``fz = N + e_z`` (0.005 N); ``fx = 0.2 fz_d + b_x + e_x`` where ``b_x`` is
+  independent band-limited noise (2-150 Hz, 0.4 N) so that ``|C_xz|`` and
+  ``|C_xy|`` stay well below ``|C_yz|``. During contact loss independent brush
+  ringing (band-pass 150-350 Hz, ``0.5 c`` N) is added to all three
+  channels: the forcemeter then measures the brush's inertial forces, which
+  breaks the friction/normal correlation (``|C_yz| << 0.85``).
+* Optional current channel ``i`` (A): the set current times
+  ``(1 + 0.01 sin(2 pi f_l t + phi))`` (commutation ripple) plus 0.01 A
+  white noise. It is never high-pass filtered.
+* Channel skew ``k`` (``skew`` option): ``fz`` is DELAYED by ``k`` samples
+  relative to ``fy``, ``fx`` and ``i`` (``fz[n] = z[n - k]``; a negative ``k``
+  delays ``fy``, ``fx`` and ``i`` by ``-k`` instead). With the lag convention
+  of METHOD.md section 1 (if y is x delayed by d, ``C_xy`` peaks at +d), the
+  lag of max ``|C(fy, fz)(j)|`` is ``j = +k``.
+* Charge amplifier (unless ``raw=True``): 1st-order Butterworth high-pass at
+  0.1 Hz, ``scipy.signal.butter(1, 0.1, "highpass", fs=fs, output="sos")``
+  applied with ``sosfilt``; its state is initialised with
+  ``sosfilt_zi(sos) * static`` where ``static`` is the noise-free static level
+  of the channel at t = 0 (``N0`` for fz, ``s mu0(0) N0`` for fy, 0 for fx),
+  i.e. the amplifier has been on long before the recording: no start-up
+  transient. (Initialising with the first sample instead would leave a
+  decaying offset of ``-fz_d[0]``.)
+* 16-bit quantisation: forces full scale +-10 N (LSB = 20/65536 N), current
+  full scale +-50 A. ``raw=True`` returns the DC-coupled forces (preload
+  included, no high-pass), still quantised.
+
+Determinism and streaming
+-------------------------
+All randomness is drawn per fixed block of 1 s (``round(fs)`` samples) from
+a generator seeded by ``(seed, block index)``; rotor phases come from
+``(seed, 0)``; the temperature log from ``(seed, 2)``. Filters carry their
+state between chunks, so the signal does not depend on how it is cut into
+chunks (see :func:`continuous`). The generator runs a 1 s pre-roll before
+t = 0 so the filters are settled and the skew delay line is filled.
+
+Scenarios
+---------
+:func:`temperature_test`
+    4060 s, commutator temperature 155 -> 175 -> 135 -> 130 -> 135 -> 100 degC
+    (piecewise linear, see ``TEMPERATURE_PATH``), irregular temperature log.
+    COF = 0.1 inside an optimum interval and rising smoothly outside, with a
+    rate-independent hysteresis of the upper edge (play operator, see
+    :func:`cof_vs_temperature`): optimum 135-160 degC while heating and
+    135-155 degC while cooling.
+:func:`current_density_test`
+    1 mm^2 tip, 700 s, J stepped 2 -> 6.5 A/mm^2 by 0.5 A/mm^2 every 70 s,
+    COF minimum 0.1 for 4.25 <= J <= 4.75 A/mm^2 (see
+    :func:`cof_vs_current_density`), 0.25 at 6 A/mm^2, contact loss from
+    632 s to the end.
+:func:`continuous`
+    Stationary run of any length, yielded chunk by chunk.
+
+Ground truth (:class:`Truth`) is tabulated on a 0.1 s grid (``TRUTH_DT``)
+covering ``[0, duration]``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+from scipy import signal
+from scipy.interpolate import PchipInterpolator
+
+__all__ = [
+    "N_LAMELLAS",
+    "PRELOAD_N",
+    "RPM",
+    "TEMPERATURE_PATH",
+    "TRUTH_DT",
+    "Simulation",
+    "Truth",
+    "cof_vs_current_density",
+    "cof_vs_temperature",
+    "continuous",
+    "current_density_test",
+    "scenario",
+    "temperature_test",
+]
+
+# --------------------------------------------------------------------------
+# Rig constants (METHOD.md section 8)
+# --------------------------------------------------------------------------
+RPM: float = 250.0
+N_LAMELLAS: int = 24
+PRELOAD_N: float = 2.5  #: static preload N0 (N)
+TRUTH_DT: float = 0.1  #: spacing of the ground-truth grid (s)
+
+FULL_SCALE_N: float = 10.0  #: +- full scale of the force channels (N)
+FULL_SCALE_A: float = 50.0  #: +- full scale of the current channel (A)
+ADC_BITS: int = 16
+HP_CUTOFF_HZ: float = 0.1
+HP_ORDER: int = 1
+
+_LIMIT_N = 2.2  # soft limit of fz_d (N)
+_BB_STD = 0.25  # broadband brush dynamics in fz_d (N)
+_X_STD = 0.40  # independent axial noise (N)
+_X_COUPLING = 0.2  # fx = 0.2 fz_d + ...
+_RING_STD = 0.50  # brush ringing in contact loss (N, times c)
+_NOISE_Y = 0.010
+_NOISE_Z = 0.005
+_NOISE_X = 0.005
+_NOISE_I = 0.010
+_RIPPLE_I = 0.01
+_LOSS_PRELOAD_DROP = 0.8
+_LOSS_DYN_GAIN = 1.0
+
+# White-noise streams per block, by namespace: forces (always drawn), brush
+# ringing (only with a contact-loss schedule), current (only with a current).
+_NS_FORCE, _NS_RING, _NS_CURRENT = 1, 3, 4
+_S_BB, _S_X, _S_EX, _S_EY, _S_EZ = range(5)
+_N_STREAMS = {_NS_FORCE: 5, _NS_RING: 3, _NS_CURRENT: 1}
+_BLOCK_OFFSET = 2**32  # keeps block indices of the pre-roll non-negative
+
+#: (t_s, T_degC) breakpoints of the temperature test (piecewise linear).
+TEMPERATURE_PATH: tuple[tuple[float, float], ...] = (
+    (0.0, 155.0),
+    (1000.0, 155.0),
+    (2000.0, 175.0),
+    (3550.0, 135.0),
+    (3650.0, 130.0),
+    (3750.0, 135.0),
+    (3950.0, 135.0),
+    (4010.0, 100.0),
+    (4060.0, 100.0),
+)
+
+# COF(T) model: flat bottom MU_MIN on [lo, hi], Huber-shaped walls (quadratic
+# over the first _T_W degC, then linear); the upper wall sees the temperature
+# through a play operator (hysteresis).
+_T_MU_MIN = 0.10
+_T_LO = 135.0
+_T_HI = 157.5
+_T_W = 3.0
+_T_K_LO = 0.0045  # per degC below lo
+_T_K_HI = 0.0042  # per degC above hi
+_T_PLAY = 2.5  # half width of the play (hysteresis), degC
+
+# COF(J) model: monotone cubic (PCHIP) through these knots; flat on 4.25-4.75.
+_J_KNOTS = np.array([2.0, 3.0, 3.5, 4.0, 4.25, 4.75, 5.0, 5.5, 6.0, 6.5])
+_J_MU = np.array([0.17, 0.165, 0.14, 0.112, 0.10, 0.10, 0.104, 0.13, 0.25, 0.30])
+_J_OPT = (4.25, 4.75)
+_J_TAU_S = 2.0  # COF response time to a current step
+_CD_DURATION = 700.0
+_CD_STEP_S = 70.0
+_CD_J0, _CD_J1, _CD_DJ = 2.0, 6.5, 0.5
+_CD_LOSS_START = 632.0
+_CD_LOSS_RAMP = 1.0
+_CD_AREA = 1.0
+
+_ArrayFn = Callable[[np.ndarray], np.ndarray]
+
+
+# --------------------------------------------------------------------------
+# Public result types
+# --------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Truth:
+    """Ground truth of a simulated recording.
+
+    Attributes
+    ----------
+    t : ndarray
+        Time axis of the truth samples (s), a ``TRUTH_DT`` = 0.1 s grid from
+        0 to the duration (same time axis as the channels: sample ``n`` is at
+        ``n / fs``).
+    mu : ndarray
+        True COF ``mu0(t)`` (at the preload, i.e. without the normal-force
+        dependence) on ``t``.
+    temperature : ndarray or None
+        True commutator temperature T(t) (degC) on ``t``.
+    current_density : ndarray or None
+        True current density J(t) (A/mm^2) on ``t``.
+    contact_loss : tuple of (t0, t1)
+        Contact-loss intervals (s); empty when the contact is never lost.
+    optimum : mapping
+        Simulated optimum intervals (lo, hi): ``{"temperature": ...,
+        "temperature_heating": ..., "temperature_cooling": ...}`` or
+        ``{"current_density": ...}``; the COF equals its minimum exactly on
+        these intervals.
+    force_dependence : float
+        ``beta`` of ``mu = mu0 (1 + beta (N - N0) / N0)``.
+    skew : int
+        Samples by which fz is delayed relative to fy/fx (lag of max
+        ``|C(fy, fz)|``).
+    params : mapping
+        Other model parameters (preload, curve parameters, ...).
+    """
+
+    t: np.ndarray
+    mu: np.ndarray
+    temperature: np.ndarray | None
+    current_density: np.ndarray | None
+    contact_loss: tuple[tuple[float, float], ...]
+    optimum: Mapping[str, tuple[float, float]]
+    force_dependence: float
+    skew: int
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def _interp(self, values: np.ndarray | None, times: Any) -> np.ndarray:
+        times = np.asarray(times, dtype=np.float64)
+        if values is None:
+            return np.full(times.shape, np.nan)
+        return np.interp(times, self.t, values, left=np.nan, right=np.nan)
+
+    def mu_at(self, times: Any) -> np.ndarray:
+        """True COF ``mu0`` interpolated linearly at ``times`` (s).
+
+        NaN outside ``[t[0], t[-1]]``. Scalars give 0-d arrays.
+        """
+        return self._interp(self.mu, times)
+
+    def temperature_at(self, times: Any) -> np.ndarray:
+        """True temperature (degC) at ``times``; NaN if not simulated."""
+        return self._interp(self.temperature, times)
+
+    def current_density_at(self, times: Any) -> np.ndarray:
+        """True current density (A/mm^2) at ``times``; NaN if not simulated."""
+        return self._interp(self.current_density, times)
+
+    def in_contact_loss(self, times: Any, half_width: float = 0.0) -> np.ndarray:
+        """Whether ``[t - half_width, t + half_width]`` meets a contact-loss interval.
+
+        Parameters
+        ----------
+        times : array_like
+            Times (s), e.g. window centres.
+        half_width : float
+            Half the window length (s); 0 tests the instants themselves.
+
+        Returns
+        -------
+        ndarray of bool, shaped like ``times``.
+        """
+        times = np.asarray(times, dtype=np.float64)
+        out = np.zeros(times.shape, dtype=bool)
+        for t0, t1 in self.contact_loss:
+            out |= (times + half_width >= t0) & (times - half_width <= t1)
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """A simulated recording.
+
+    Attributes
+    ----------
+    fs : float
+        Sampling rate (Hz).
+    channels : dict
+        Role -> float64 array, all of equal length: ``"fx"``, ``"fy"``,
+        ``"fz"`` (N) and, for the current-density test, ``"i"`` (A).
+    temperature_log : (t_s, T_degC) or None
+        Intermittent temperature readings, sorted by time.
+    area_mm2 : float or None
+        Contact area of the brush tip (mm^2).
+    rpm : float
+        Rotating speed.
+    n_lamellas : int
+        Number of commutator lamellas.
+    orientation : int
+        +1 or -1: sign relating fy to the friction force (fy = s F_t).
+    truth : Truth
+        Ground truth.
+    """
+
+    fs: float
+    channels: dict[str, np.ndarray]
+    temperature_log: tuple[np.ndarray, np.ndarray] | None
+    area_mm2: float | None
+    rpm: float
+    n_lamellas: int
+    orientation: int
+    truth: Truth
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples per channel."""
+        return int(next(iter(self.channels.values())).size)
+
+    @property
+    def duration(self) -> float:
+        """Length of the recording (s): ``n_samples / fs``."""
+        return self.n_samples / self.fs
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times ``n / fs`` (s)."""
+        return np.arange(self.n_samples, dtype=np.float64) / self.fs
+
+
+# --------------------------------------------------------------------------
+# COF curves (ground truth models)
+# --------------------------------------------------------------------------
+def _huber(u: np.ndarray, w: float) -> np.ndarray:
+    """0 for u <= 0, u^2/(2w) for 0 < u < w, u - w/2 beyond (C1-smooth)."""
+    u = np.maximum(u, 0.0)
+    return np.where(u < w, u * u / (2.0 * w), u - 0.5 * w)
+
+
+def _mu_of_temperature(temperature: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    return (
+        _T_MU_MIN
+        + _T_K_LO * _huber(_T_LO - temperature, _T_W)
+        + _T_K_HI * _huber(upper - _T_HI, _T_W)
+    )
+
+
+def cof_vs_temperature(temperature: Any, branch: str = "heating") -> np.ndarray:
+    """COF of the temperature test against the commutator temperature.
+
+    The COF is 0.1 inside the optimum and rises outside with C1-smooth walls
+    (quadratic over the first 3 degC, then 0.0045/degC below 135 degC and
+    0.0042/degC above the upper edge). The upper edge has a hysteresis (the
+    contact zone needs time to recover after overheating, paper Sec. 4.1):
+    the upper wall sees the temperature through a play (backlash) operator of
+    half width 2.5 degC, ``T_up = T - 2.5`` while heating, ``T + 2.5`` while
+    cooling, constant for 5 degC after a reversal. The hysteresis is rate
+    independent and the COF stays continuous in time.
+
+    Parameters
+    ----------
+    temperature : array_like
+        Commutator temperature (degC).
+    branch : {"heating", "cooling", "quasistatic"}
+        Monotone heating or cooling branch; "quasistatic" is the curve
+        without play (the middle of the loop).
+
+    Returns
+    -------
+    ndarray
+        COF. Optimum (COF = 0.1 exactly): 135-160 degC heating, 135-155 degC
+        cooling, 135-157.5 degC quasistatic.
+    """
+    t = np.asarray(temperature, dtype=np.float64)
+    shift = {"heating": -_T_PLAY, "cooling": _T_PLAY, "quasistatic": 0.0}
+    if branch not in shift:
+        raise ValueError(f"branch must be 'heating', 'cooling' or 'quasistatic', got {branch!r}")
+    return _mu_of_temperature(t, t + shift[branch])
+
+
+_J_CURVE = PchipInterpolator(_J_KNOTS, _J_MU, extrapolate=False)
+
+
+def cof_vs_current_density(j: Any) -> np.ndarray:
+    """Steady-state COF of the current-density test against J (A/mm^2).
+
+    Monotone cubic (PCHIP) through the knots J = 2, 3, 3.5, 4, 4.25, 4.75,
+    5, 5.5, 6, 6.5 with COF 0.17, 0.165, 0.14, 0.112, 0.10, 0.10, 0.104, 0.13,
+    0.25, 0.30: little effect below ~3 A/mm^2, a fast decrease to the minimum
+    0.1 (exactly flat on 4.25-4.75 A/mm^2), then a steep rise to 0.25 at
+    6 A/mm^2. Clamped to the end values outside 2-6.5 A/mm^2.
+    """
+    j = np.clip(np.asarray(j, dtype=np.float64), _J_KNOTS[0], _J_KNOTS[-1])
+    return np.asarray(_J_CURVE(j), dtype=np.float64)
+
+
+# --------------------------------------------------------------------------
+# The rig (physics, DC-coupled) and the acquisition chain
+# --------------------------------------------------------------------------
+def _band_sos(lo: float, hi: float, fs: float) -> tuple[np.ndarray, float]:
+    """2nd-order Butterworth band-pass and its output std for unit white input."""
+    hi = min(hi, 0.4 * fs)
+    lo = min(lo, 0.5 * hi)
+    sos = signal.butter(2, [lo, hi], btype="bandpass", fs=fs, output="sos")
+    n = max(8192, int(20.0 * fs / lo))
+    imp = np.zeros(n)
+    imp[0] = 1.0
+    h = signal.sosfilt(sos, imp)
+    return sos, float(np.sqrt(np.sum(h * h)))
+
+
+class _Rig:
+    """Generates the DC-coupled forces (and current) chunk by chunk."""
+
+    def __init__(
+        self,
+        *,
+        fs: float,
+        seed: int,
+        orientation: int,
+        beta: float,
+        mu0_fn: _ArrayFn,
+        n0: float = PRELOAD_N,
+        loss_fn: _ArrayFn | None = None,
+        current_fn: _ArrayFn | None = None,
+        start_index: int = 0,
+    ) -> None:
+        self.fs = float(fs)
+        self.seed = int(seed)
+        self.s = float(orientation)
+        self.beta = float(beta)
+        self.mu0_fn = mu0_fn
+        self.n0 = float(n0)
+        self.loss_fn = loss_fn
+        self.current_fn = current_fn
+        self.block = max(1, round(self.fs))
+        self.m = int(start_index)
+        self._cache: dict[int, tuple[tuple[int, int], np.ndarray]] = {}
+
+        rng = np.random.default_rng(np.random.SeedSequence([self.seed, 0]))
+        f0 = RPM / 60.0
+        fl = N_LAMELLAS * f0
+        # (frequency, amplitude, phase, modulation depth at f0, modulation phase)
+        comps = [
+            (f0, rng.uniform(0.40, 0.60)),
+            (2 * f0, rng.uniform(0.12, 0.25)),
+            (3 * f0, rng.uniform(0.04, 0.12)),
+            (fl, rng.uniform(0.40, 0.55)),
+            (2 * fl, rng.uniform(0.06, 0.18)),
+        ]
+        phases = rng.uniform(0.0, 2 * np.pi, size=len(comps))
+        mod_depth = rng.uniform(0.15, 0.35)
+        mod_phase = rng.uniform(0.0, 2 * np.pi)
+        self.i_phase = rng.uniform(0.0, 2 * np.pi)
+        self.harmonics = [
+            (2 * np.pi * f, a, p, mod_depth if f == fl else 0.0)
+            for (f, a), p in zip(comps, phases)
+            if f < 0.45 * self.fs
+        ]
+        self.w0 = 2 * np.pi * f0
+        self.wl = 2 * np.pi * fl
+        self.mod_phase = mod_phase
+        # Everything deterministic is periodic in the rotation: when a
+        # revolution is a whole number of samples (240 at 1 kHz), tabulate it.
+        period = self.fs * 60.0 / RPM
+        self._table: tuple[np.ndarray, np.ndarray] | None = None
+        if abs(period - round(period)) < 1e-9 * period and round(period) <= 10_000_000:
+            self._table = self._rotor_direct(np.arange(round(period)) / self.fs)
+
+        self.sos_bb, g = _band_sos(5.0, 250.0, self.fs)
+        self.g_bb = _BB_STD / g
+        self.sos_x, g = _band_sos(2.0, 150.0, self.fs)
+        self.g_x = _X_STD / g
+        self.sos_r, g = _band_sos(min(150.0, 0.25 * self.fs), 350.0, self.fs)
+        self.g_r = _RING_STD / g
+        z = lambda sos: np.zeros((sos.shape[0], 2))
+        self.z_bb, self.z_x = z(self.sos_bb), z(self.sos_x)
+        self.z_r = [z(self.sos_r) for _ in range(3)]
+
+    # -- noise, one generator per fixed block ------------------------------
+    def _block_noise(self, ns: int, b: int) -> np.ndarray:
+        key = (ns, b)
+        arr = self._cache.get(ns)
+        if arr is None or arr[0] != key:
+            ss = np.random.SeedSequence([self.seed, ns, b + _BLOCK_OFFSET])
+            arr = (key, np.random.default_rng(ss).standard_normal((_N_STREAMS[ns], self.block)))
+            self._cache[ns] = arr
+        return arr[1]
+
+    def _noise(self, ns: int, m0: int, n: int) -> np.ndarray:
+        out = np.empty((_N_STREAMS[ns], n))
+        pos, m, B = 0, m0, self.block
+        while pos < n:
+            b = m // B
+            off = m - b * B
+            take = min(B - off, n - pos)
+            out[:, pos : pos + take] = self._block_noise(ns, b)[:, off : off + take]
+            pos += take
+            m += take
+        return out
+
+    # -- deterministic rotor excitation --------------------------------------
+    def _rotor(self, idx: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Periodic part of fz_d and the current ripple factor at samples idx."""
+        if self._table is not None:
+            k = idx % self._table[0].size
+            return self._table[0][k], self._table[1][k]
+        return self._rotor_direct(t)
+
+    def _rotor_direct(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        g = np.zeros(t.shape)
+        for omega, a, p, depth in self.harmonics:
+            comp = a * np.sin(omega * t + p)
+            if depth:
+                comp *= 1.0 + depth * np.sin(self.w0 * t + self.mod_phase)
+            g += comp
+        ripple = 1.0 + _RIPPLE_I * np.sin(self.wl * t + self.i_phase)
+        return g, ripple
+
+    def channel_names(self) -> tuple[str, ...]:
+        return ("fx", "fy", "fz", "i") if self.current_fn is not None else ("fx", "fy", "fz")
+
+    def static(self, t: float) -> dict[str, float]:
+        """Noise-free static (DC) level of each force channel at time t."""
+        ta = np.array([t])
+        c = float(self.loss_fn(ta)[0]) if self.loss_fn is not None else 0.0
+        nz = self.n0 * (1.0 - _LOSS_PRELOAD_DROP * c)
+        mu = float(self.mu0_fn(ta)[0])
+        return {"fx": 0.0, "fy": self.s * mu * nz, "fz": nz}
+
+    def next(self, n: int) -> dict[str, np.ndarray]:
+        """The next ``n`` DC-coupled samples of every channel."""
+        m0 = self.m
+        self.m += n
+        idx = np.arange(m0, m0 + n, dtype=np.int64)
+        t = idx / self.fs
+        w = self._noise(_NS_FORCE, m0, n)
+
+        fz_d, ripple = self._rotor(idx, t)
+        bb, self.z_bb = signal.sosfilt(self.sos_bb, w[_S_BB], zi=self.z_bb)
+        fz_d = fz_d + self.g_bb * bb
+        fz_d = _LIMIT_N * np.tanh(fz_d / _LIMIT_N)
+
+        xb, self.z_x = signal.sosfilt(self.sos_x, w[_S_X], zi=self.z_x)
+        fx = _X_COUPLING * fz_d + self.g_x * xb + _NOISE_X * w[_S_EX]
+
+        if self.loss_fn is not None:
+            c = self.loss_fn(t)
+            normal = np.maximum(
+                self.n0 * (1.0 - _LOSS_PRELOAD_DROP * c) + (1.0 + _LOSS_DYN_GAIN * c) * fz_d, 0.0
+            )
+            wr = self._noise(_NS_RING, m0, n)
+            ring = []
+            for k in range(3):
+                r, self.z_r[k] = signal.sosfilt(self.sos_r, wr[k], zi=self.z_r[k])
+                ring.append(self.g_r * c * r)
+        else:
+            normal = self.n0 + fz_d
+            ring = None
+
+        mu = self.mu0_fn(t)
+        if self.beta != 0.0:
+            mu = np.maximum(mu * (1.0 + self.beta * (normal - self.n0) / self.n0), 0.0)
+        fy = self.s * (mu * normal) + _NOISE_Y * w[_S_EY]
+        fz = normal + _NOISE_Z * w[_S_EZ]
+        if ring is not None:
+            fx += ring[0]
+            fy += ring[1]
+            fz += ring[2]
+        out = {"fx": fx, "fy": fy, "fz": fz}
+        if self.current_fn is not None:
+            cur = self.current_fn(t)
+            out["i"] = cur * ripple + _NOISE_I * self._noise(_NS_CURRENT, m0, n)[0]
+        return out
+
+
+def _quantise(x: np.ndarray, full_scale: float) -> np.ndarray:
+    lsb = 2.0 * full_scale / 2**ADC_BITS
+    return np.clip(np.round(x / lsb) * lsb, -full_scale, full_scale - lsb)
+
+
+class _Acquisition:
+    """Skew delay lines, charge-amplifier high-pass and 16-bit converter."""
+
+    def __init__(self, rig: _Rig, *, skew: int, raw: bool) -> None:
+        pre = rig.block  # pre-roll length (samples), rig must start at -pre
+        if abs(skew) > pre:
+            raise ValueError(f"|skew| must be <= {pre} samples, got {skew}")
+        self.rig = rig
+        self.raw = raw
+        self.names = rig.channel_names()
+        delay = {c: max(0, -skew) for c in self.names}
+        delay["fz"] = max(0, skew)
+        first = rig.next(pre)  # engine samples -pre..-1: settle filters, fill delay lines
+        self.buf = {c: first[c][pre - delay[c] :].copy() for c in self.names}
+        self.sos = signal.butter(HP_ORDER, HP_CUTOFF_HZ, "highpass", fs=rig.fs, output="sos")
+        zi = signal.sosfilt_zi(self.sos)
+        static = rig.static(0.0)
+        self.hp = {c: zi * static[c] for c in ("fx", "fy", "fz")}
+
+    def next(self, n: int) -> dict[str, np.ndarray]:
+        new = self.rig.next(n)
+        out: dict[str, np.ndarray] = {}
+        for c in self.names:
+            b = self.buf[c]
+            if b.size:
+                full = np.concatenate((b, new[c]))
+                x, self.buf[c] = full[:n], full[n:]
+            else:
+                x = new[c]
+            if c == "i":
+                out[c] = _quantise(x, FULL_SCALE_A)
+                continue
+            if not self.raw:
+                x, self.hp[c] = signal.sosfilt(self.sos, x, zi=self.hp[c])
+            out[c] = _quantise(x, FULL_SCALE_N)
+        return out
+
+
+# --------------------------------------------------------------------------
+# Helpers
+# --------------------------------------------------------------------------
+def _check_common(
+    seed: int, fs: float, orientation: int, force_dependence: float, skew: int
+) -> float:
+    """Validate the common options; return fs as a Python float."""
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    if not (fs > 0 and math.isfinite(fs)):
+        raise ValueError(f"fs must be positive, got {fs!r}")
+    if orientation not in (1, -1):
+        raise ValueError(f"orientation must be +1 or -1, got {orientation!r}")
+    if not math.isfinite(force_dependence) or force_dependence <= -1.0:
+        raise ValueError(f"force_dependence must be > -1, got {force_dependence!r}")
+    if not isinstance(skew, (int, np.integer)):
+        raise TypeError(f"skew must be an integer number of samples, got {skew!r}")
+    return float(fs)
+
+
+def _record(rig: _Rig, n_total: int, *, skew: int, raw: bool, chunk: int) -> dict[str, np.ndarray]:
+    acq = _Acquisition(rig, skew=skew, raw=raw)
+    out = {c: np.empty(n_total) for c in acq.names}
+    pos = 0
+    while pos < n_total:
+        k = min(chunk, n_total - pos)
+        part = acq.next(k)
+        for c in acq.names:
+            out[c][pos : pos + k] = part[c]
+        pos += k
+    return out
+
+
+def _truth_grid(duration: float) -> np.ndarray:
+    return np.arange(math.floor(duration / TRUTH_DT + 1e-9) + 1) * TRUTH_DT
+
+
+def _play(temperature: np.ndarray, half_width: float) -> np.ndarray:
+    """Play (backlash) operator, starting on the heating branch."""
+    out = np.empty_like(temperature)
+    te = float(temperature[0]) - half_width
+    for k, tk in enumerate(temperature.tolist()):
+        te = min(max(te, tk - half_width), tk + half_width)
+        out[k] = te
+    return out
+
+
+# --------------------------------------------------------------------------
+# Scenarios
+# --------------------------------------------------------------------------
+def temperature_test(
+    *,
+    seed: int = 0,
+    fs: float = 1000.0,
+    orientation: int = -1,
+    force_dependence: float = 0.0,
+    skew: int = 0,
+    raw: bool = False,
+) -> Simulation:
+    """The paper's temperature test (Sec. 4.1, Fig. 10-11): 4060 s.
+
+    The commutator temperature follows ``TEMPERATURE_PATH`` (155 degC for
+    1000 s, up to 175 at 2000 s, down to 135 at 3550 s, 130 at 3650 s, 135 at
+    3750 s, heating off at 3950 s and 100 degC at 4010 s). The COF ``mu0(t)``
+    follows :func:`cof_vs_temperature` with the play operator run along the
+    path (hysteresis of the upper edge): optimum 135-160 degC on heating,
+    135-155 degC on cooling, about 0.157 at 175 degC, 0.116 at 130 degC and
+    about 0.25 at 100 degC. The temperature log is read every
+    100-200 s (uniformly random intervals) plus at the end, with 0.3 degC
+    reading noise, rounded to 0.1 degC (the rotor stops are not simulated).
+
+    Parameters
+    ----------
+    seed : int
+        Seed of all random parts.
+    fs : float
+        Sampling rate (Hz).
+    orientation : {-1, +1}
+        Sign of fy relative to the friction force.
+    force_dependence : float
+        ``beta`` in ``mu = mu0 (1 + beta (N - N0) / N0)``.
+    skew : int
+        fz delayed by ``skew`` samples relative to fy/fx (``|skew| <= fs``).
+    raw : bool
+        Return DC-coupled forces (no high-pass), still quantised.
+
+    Returns
+    -------
+    Simulation
+        Channels fx, fy, fz; ``truth.optimum`` has ``"temperature"``
+        (quasistatic, middle of the loop), ``"temperature_heating"`` and
+        ``"temperature_cooling"``.
+    """
+    fs = _check_common(seed, fs, orientation, force_dependence, skew)
+    duration = TEMPERATURE_PATH[-1][0]
+    bt = np.array([p[0] for p in TEMPERATURE_PATH])
+    bT = np.array([p[1] for p in TEMPERATURE_PATH])
+    tg = _truth_grid(duration)
+    temp = np.interp(tg, bt, bT)
+    t_up = _play(temp, _T_PLAY)
+    mu = _mu_of_temperature(temp, t_up)
+
+    def mu0_fn(t: np.ndarray) -> np.ndarray:
+        return np.interp(t, tg, mu)
+
+    rig = _Rig(
+        fs=fs,
+        seed=int(seed),
+        orientation=orientation,
+        beta=force_dependence,
+        mu0_fn=mu0_fn,
+        start_index=-max(1, round(fs)),
+    )
+    n_total = round(duration * fs)
+    channels = _record(rig, n_total, skew=int(skew), raw=raw, chunk=max(1, round(60.0 * fs)))
+
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2]))
+    times = [0.0]
+    while True:
+        nxt = times[-1] + rng.uniform(100.0, 200.0)
+        if nxt >= duration:
+            break
+        times.append(nxt)
+    times.append(duration)
+    log_t = np.round(np.array(times), 1)
+    log_T = np.round(np.interp(log_t, bt, bT) + rng.normal(0.0, 0.3, size=log_t.size), 1)
+
+    truth = Truth(
+        t=tg,
+        mu=mu,
+        temperature=temp,
+        current_density=None,
+        contact_loss=(),
+        optimum={
+            "temperature": (_T_LO, _T_HI),
+            "temperature_heating": (_T_LO, _T_HI + _T_PLAY),
+            "temperature_cooling": (_T_LO, _T_HI - _T_PLAY),
+        },
+        force_dependence=float(force_dependence),
+        skew=int(skew),
+        params={
+            "scenario": "temperature",
+            "preload_N": PRELOAD_N,
+            "mu_min": _T_MU_MIN,
+            "temperature_path": TEMPERATURE_PATH,
+            "hysteresis_play_degC": _T_PLAY,
+            "upper_edge_temperature": t_up,
+        },
+    )
+    return Simulation(
+        fs=float(fs),
+        channels=channels,
+        temperature_log=(log_t, log_T),
+        area_mm2=4.0,
+        rpm=RPM,
+        n_lamellas=N_LAMELLAS,
+        orientation=int(orientation),
+        truth=truth,
+    )
+
+
+def current_density_test(
+    *,
+    seed: int = 0,
+    fs: float = 1000.0,
+    orientation: int = -1,
+    force_dependence: float = 0.0,
+    skew: int = 0,
+    raw: bool = False,
+) -> Simulation:
+    """The paper's current-density test (Sec. 4.2, Fig. 12): 700 s, 1 mm^2 tip.
+
+    J is stepped 2.0, 2.5, ..., 6.5 A/mm^2, each step lasting 70 s; the current
+    channel ``i`` = J x 1 mm^2 (A) with 1 % commutation ripple at f_l and
+    0.01 A noise. The COF follows ``cof_vs_current_density(J)`` through a
+    first-order lag of 2 s: minimum 0.1 on 4.25-4.75 A/mm^2 (reached in the
+    4.5 A/mm^2 step), 0.25 at 6 A/mm^2, 0.30 at 6.5 A/mm^2. From 632 s to the
+    end (2 s into the 6.5 A/mm^2 step, 1 s ramp) the contact is lost
+    intermittently: the preload collapses, the contact force is often 0 and
+    brush ringing dominates, so ``|C_yz| < 0.85`` there. The commutator
+    temperature rises linearly from 100 to 135 degC (logged at start and end
+    only, as in the paper); it does not enter the COF model.
+
+    Parameters
+    ----------
+    seed, fs, orientation, force_dependence, skew, raw
+        As in :func:`temperature_test`.
+
+    Returns
+    -------
+    Simulation
+        Channels fx, fy, fz, i; ``truth.optimum = {"current_density": (4.25,
+        4.75)}``; ``truth.contact_loss = ((632.0, 700.0),)``.
+    """
+    fs = _check_common(seed, fs, orientation, force_dependence, skew)
+    duration = _CD_DURATION
+    area = _CD_AREA
+    n_steps = round((_CD_J1 - _CD_J0) / _CD_DJ)
+
+    def j_fn(t: np.ndarray) -> np.ndarray:
+        k = np.clip(np.floor(np.asarray(t) / _CD_STEP_S + 1e-9), 0, n_steps)
+        return _CD_J0 + _CD_DJ * k
+
+    tg = _truth_grid(duration)
+    jg = j_fn(tg)
+    target = cof_vs_current_density(jg)
+    a = math.exp(-TRUTH_DT / _J_TAU_S)
+    mu, _ = signal.lfilter([1.0 - a], [1.0, -a], target, zi=[a * target[0]])
+
+    def mu0_fn(t: np.ndarray) -> np.ndarray:
+        return np.interp(t, tg, mu)
+
+    def loss_fn(t: np.ndarray) -> np.ndarray:
+        return np.clip((t - _CD_LOSS_START) / _CD_LOSS_RAMP, 0.0, 1.0)
+
+    def current_fn(t: np.ndarray) -> np.ndarray:
+        return j_fn(t) * area
+
+    rig = _Rig(
+        fs=fs,
+        seed=int(seed),
+        orientation=orientation,
+        beta=force_dependence,
+        mu0_fn=mu0_fn,
+        loss_fn=loss_fn,
+        current_fn=current_fn,
+        start_index=-max(1, round(fs)),
+    )
+    n_total = round(duration * fs)
+    channels = _record(rig, n_total, skew=int(skew), raw=raw, chunk=max(1, round(60.0 * fs)))
+
+    temp = 100.0 + 35.0 * tg / duration
+    truth = Truth(
+        t=tg,
+        mu=mu,
+        temperature=temp,
+        current_density=jg,
+        contact_loss=((_CD_LOSS_START, duration),),
+        optimum={"current_density": _J_OPT},
+        force_dependence=float(force_dependence),
+        skew=int(skew),
+        params={
+            "scenario": "current_density",
+            "preload_N": PRELOAD_N,
+            "mu_min": float(_J_MU.min()),
+            "j_steps": tuple(_CD_J0 + _CD_DJ * k for k in range(n_steps + 1)),
+            "step_s": _CD_STEP_S,
+            "cof_time_constant_s": _J_TAU_S,
+        },
+    )
+    return Simulation(
+        fs=float(fs),
+        channels=channels,
+        temperature_log=(np.array([0.0, duration]), np.array([100.0, 135.0])),
+        area_mm2=area,
+        rpm=RPM,
+        n_lamellas=N_LAMELLAS,
+        orientation=int(orientation),
+        truth=truth,
+    )
+
+
+def continuous(
+    duration_s: float,
+    *,
+    chunk_s: float = 60.0,
+    mu: float = 0.12,
+    current: float | None = None,
+    seed: int = 0,
+    fs: float = 1000.0,
+    orientation: int = -1,
+    force_dependence: float = 0.0,
+    skew: int = 0,
+    raw: bool = False,
+) -> Iterator[dict[str, np.ndarray]]:
+    """A long stationary recording, generated and yielded chunk by chunk.
+
+    Memory is bounded by the chunk. The data do not depend on ``chunk_s``:
+    concatenating the chunks of two calls with different ``chunk_s`` (same
+    other arguments) gives identical arrays.
+
+    Parameters
+    ----------
+    duration_s : float
+        Length of the recording (s); ``round(duration_s * fs)`` samples.
+    chunk_s : float
+        Length of each yielded chunk (s), ``round(chunk_s * fs)`` samples;
+        the last chunk may be shorter.
+    mu : float
+        Constant true COF ``mu0``.
+    current : float or None
+        Constant current (A) for an ``"i"`` channel; None for no channel.
+    seed, fs, orientation, force_dependence, skew, raw
+        As in :func:`temperature_test`.
+
+    Yields
+    ------
+    dict
+        Role -> float64 array: ``"fx"``, ``"fy"``, ``"fz"`` (and ``"i"``).
+    """
+    fs = _check_common(seed, fs, orientation, force_dependence, skew)
+    if not duration_s >= 0:
+        raise ValueError(f"duration_s must be >= 0, got {duration_s!r}")
+    chunk = round(float(chunk_s) * fs)
+    if chunk < 1:
+        raise ValueError(f"chunk_s * fs must be >= 1 sample, got {chunk_s!r}")
+    mu_c = float(mu)
+
+    def mu0_fn(t: np.ndarray) -> np.ndarray:
+        return np.full(np.shape(t), mu_c)
+
+    current_fn: _ArrayFn | None = None
+    if current is not None:
+        cur_c = float(current)
+
+        def constant_current(t: np.ndarray) -> np.ndarray:
+            return np.full(np.shape(t), cur_c)
+
+        current_fn = constant_current
+
+    rig = _Rig(
+        fs=fs,
+        seed=int(seed),
+        orientation=orientation,
+        beta=force_dependence,
+        mu0_fn=mu0_fn,
+        current_fn=current_fn,
+        start_index=-max(1, round(fs)),
+    )
+    n_total = round(float(duration_s) * fs)
+
+    def gen() -> Iterator[dict[str, np.ndarray]]:
+        acq = _Acquisition(rig, skew=int(skew), raw=raw)
+        pos = 0
+        while pos < n_total:
+            k = min(chunk, n_total - pos)
+            yield acq.next(k)
+            pos += k
+
+    return gen()
+
+
+_SCENARIOS: dict[str, Callable[..., Simulation]] = {
+    "temperature": temperature_test,
+    "temperature_test": temperature_test,
+    "current_density": current_density_test,
+    "current-density": current_density_test,
+    "current_density_test": current_density_test,
+    "current": current_density_test,
+}
+
+
+def scenario(name: str, **kw: Any) -> Simulation:
+    """Run a named scenario: ``"temperature"`` or ``"current_density"``.
+
+    Parameters
+    ----------
+    name : str
+        ``"temperature"`` or ``"current_density"`` (also ``"current-density"``).
+    **kw
+        Keyword options of the scenario (seed, fs, orientation,
+        force_dependence, skew, raw).
+
+    Returns
+    -------
+    Simulation
+    """
+    try:
+        fn = _SCENARIOS[name.strip().lower()]
+    except KeyError:
+        raise ValueError(
+            f"unknown scenario {name!r}; choose 'temperature' or 'current_density'"
+        ) from None
+    return fn(**kw)
