@@ -57,7 +57,8 @@ def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.
     missing = [r for r in needed if r not in chunk]
     if missing:
         raise ValueError(f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})")
-    out = {str(k): as_signal(v, f"{where}[{k!r}]", min_len=0) for k, v in chunk.items() if k in ("fx", "fy", "fz", "i", "u")}
+    out = {str(k): as_signal(v, f"{where}[{k!r}]", min_len=0, check_finite=k != "cof")
+           for k, v in chunk.items() if k in ("fx", "fy", "fz", "i", "u", "cof")}
     lengths = {k: len(v) for k, v in out.items()}
     if len(set(lengths.values())) > 1:
         raise ValueError(f"{where}: channels must have equal lengths, got {lengths}")
@@ -80,6 +81,8 @@ class _Collector:
         st["acquisition"] = np.zeros(len(rel), dtype=np.int64)
         if self.raw:
             st["mu_classic"] = _classical_cof(ch["fy_raw"], ch["fz_raw"], rel, self.length)
+        if "cof" in ch:
+            st["mu_instrument"] = _window_means(ch["cof"], rel, self.length)
         if self.max_lag is not None:
             st["skew"] = _skews(ch["fy"], ch["fz"], rel, self.length, self.max_lag)
         self.parts.append(st)
@@ -92,6 +95,17 @@ def _classical_cof(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int)
         a, b = np.abs(fy[s : s + length]), np.abs(fz[s : s + length])
         keep = b > 0
         out[k] = np.mean(a[keep] / b[keep]) if keep.any() else np.nan
+    return out
+
+
+def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
+    """Mean of |x| per window, NaN samples skipped (an instrument's COF column)."""
+    out = np.full(len(rel), np.nan)
+    for k, s in enumerate(rel):
+        v = np.abs(x[s : s + length])
+        v = v[np.isfinite(v)]
+        if v.size:
+            out[k] = v.mean()
     return out
 
 
@@ -153,7 +167,9 @@ def analyze(
     ----------
     source : mapping, iterable of mappings, list of acquisitions, or Recording
         - a mapping role -> 1-D array with ``fy``, ``fz`` (required), ``fx``,
-          and ``i`` (current, A) or ``u`` (shunt voltage, V);
+          ``i`` (current, A) or ``u`` (shunt voltage, V), and ``cof`` (an
+          instrument's own COF column, averaged per window as
+          ``mu_instrument`` for comparison);
         - an iterator of such mappings: consecutive chunks of one recording
           (how a reader streams from disk);
         - a list (or tuple) of mappings: separate acquisitions, each one
@@ -301,6 +317,7 @@ def analyze(
         "i": cur,
         "J": cur / area if area is not None else np.full(len(centre), np.nan),
         "mu_classic": o.get("mu_classic", np.full(len(centre), np.nan)),
+        "mu_instrument": o.get("mu_instrument", np.full(len(centre), np.nan)),
         "deadband": o["deadband"],
         "n": n_win.astype(np.int64),
         "acquisition": o["acquisition"],

@@ -124,6 +124,7 @@ WINDOW_COLUMNS: Dict[str, str] = {
     "i": "mean current, A",
     "J": "mean current density, A/mm^2",
     "mu_classic": "classical COF mean(|fy|/|fz|) of the raw forces (only with highpass)",
+    "mu_instrument": "mean of the instrument's own COF column ('cof' channel), if any",
     "deadband": "deadband applied, N",
     "n": "samples in the window",
     "acquisition": "index of the acquisition (file) the window comes from",
