@@ -19,6 +19,7 @@ from .results import WINDOW_COLUMNS, BinTable, CofResult, Results
 from .identify import identify
 from .analyze import analyze
 from .ranges import OperatingRange, RangeCurve, operating_range
+from .io import Recording, RecordingError, open_recording
 
 try:
     __version__ = _version("tribodyn")
@@ -51,4 +52,7 @@ __all__ = [
     "RangeCurve",
     "Deadband",
     "parse_deadband",
+    "open_recording",
+    "Recording",
+    "RecordingError",
 ]

@@ -1,0 +1,705 @@
+"""Format-independent core of :mod:`tribodyn.io`.
+
+:class:`Recording` is what :func:`tribodyn.io.open_recording` returns: a handle
+on one recording file that knows its channels, their units, the sampling rate
+and how the file's channels map to the physical *roles* the analysis needs
+
+=========  =====================================================
+``fy``     friction (tangential) force
+``fz``     normal force
+``fx``     axial force (third axis)
+``i``      current
+``u``      voltage (e.g. a shunt)
+``cof``    a coefficient-of-friction column computed by the instrument
+=========  =====================================================
+
+(any other role name may be used too). Each file format subclasses
+:class:`Recording` and supplies either random access to a range of samples
+(``_read_range``) or a sequential block reader (``_iter_blocks``); this module
+turns either into :meth:`Recording.chunks` (fixed-size chunks, bounded memory)
+and :meth:`Recording.read` (whole arrays), scaling every channel to SI.
+
+Errors a user can cause or meet in a file (missing file, unknown format,
+unmapped channel, truncated or corrupt file, no sampling rate, unequal channel
+lengths) are raised as :class:`RecordingError` with a one-line message.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import os
+from collections import deque
+from dataclasses import dataclass
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .units import si_conversion
+
+__all__ = [
+    "KNOWN_ROLES",
+    "ChannelInfo",
+    "Recording",
+    "RecordingError",
+    "resolve_name",
+    "roles_by_name",
+]
+
+#: Roles the analysis knows; other role names are accepted as well.
+KNOWN_ROLES: Tuple[str, ...] = ("fx", "fy", "fz", "i", "u", "cof")
+
+#: Rows a backend reads at once when the requested chunk is smaller: bounds
+#: the per-call overhead of tiny chunks while keeping memory O(block).
+DEFAULT_BLOCK_ROWS = 65536
+
+# Channel-name aliases used to map roles by name when a format has no
+# vendor-specific default (exact, case-insensitive, unit suffix stripped).
+_ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {
+    "fx": ("fx",),
+    "fy": ("fy", "friction force", "friction_force", "ff"),
+    "fz": ("fz", "normal force", "normal_force", "load", "fn"),
+    "i": ("i", "current"),
+    "u": ("u", "voltage"),
+    "cof": ("cof", "mu", "friction coefficient", "coefficient of friction"),
+}
+
+
+class RecordingError(ValueError):
+    """A recording cannot be opened or read; the message says why in one line."""
+
+
+@dataclass(frozen=True)
+class ChannelInfo:
+    """One channel of a recording.
+
+    Attributes
+    ----------
+    name : str
+        The channel's name in the file (TDMS: ``channel`` or ``group/channel``;
+        HDF5: the dataset path; NumPy: ``ch0``... or the npz key).
+    unit : str or None
+        Unit of the values :meth:`Recording.chunks` returns (after scaling),
+        None when unknown.
+    role : str or None
+        The role mapped to this channel (first one, if several), or None.
+    raw_unit : str or None
+        Unit as written in the file, None when the file has none.
+    scale : float
+        Factor applied to the file's values (1.0 when none).
+    note : str
+        How unit and scale were decided (e.g. automatic gram-force -> N).
+    """
+
+    name: str
+    unit: Optional[str]
+    role: Optional[str] = None
+    raw_unit: Optional[str] = None
+    scale: float = 1.0
+    note: str = ""
+
+
+def fs_from_times(times: Sequence[np.ndarray], factor: float = 1.0) -> Optional[float]:
+    """Sampling rate from time columns: 1 / median positive time step.
+
+    Parameters
+    ----------
+    times : sequence of ndarray
+        Time values of one or more contiguous acquisitions (steps are only
+        taken within each array, never across two).
+    factor : float
+        Multiplies the time values to give seconds.
+
+    Returns
+    -------
+    float or None
+        The rate in Hz, rounded to 9 significant digits (so 25599.9999948
+        reads 25600), or None when there is no positive step.
+    """
+    steps = [np.diff(np.asarray(t, dtype=np.float64)) for t in times if len(t) > 1]
+    if not steps:
+        return None
+    d = np.concatenate(steps) * factor
+    d = d[np.isfinite(d) & (d > 0)]
+    if d.size == 0:
+        return None
+    fs = 1.0 / float(np.median(d))
+    return float(f"{fs:.9g}")
+
+
+def rate_from_step(step: float) -> float:
+    """``1 / step`` rounded to 12 significant digits (2e-5 s -> 50000.0, not 50000.00000000001)."""
+    return float(f"{1.0 / step:.12g}")
+
+
+def _base_name(name: str) -> str:
+    """Lower-case name without a group/dataset path and without a unit suffix."""
+    s = name.rsplit("/", 1)[-1].strip().lower()
+    for o, c in (("[", "]"), ("(", ")")):
+        if s.endswith(c) and o in s:
+            s = s[: s.rindex(o)].strip()
+    return s
+
+
+def roles_by_name(names: Sequence[str]) -> Dict[str, str]:
+    """Default role map from channel names alone (used where no vendor map applies).
+
+    A role is mapped only when exactly one channel's base name (see
+    :func:`_base_name`) matches one of the role's aliases, so nothing is
+    guessed when the names are ambiguous.
+    """
+    out: Dict[str, str] = {}
+    bases = [_base_name(n) for n in names]
+    for role, aliases in _ROLE_ALIASES.items():
+        hits = [n for n, b in zip(names, bases) if b in aliases]
+        if len(hits) == 1:
+            out[role] = hits[0]
+    return out
+
+
+def resolve_name(
+    path: str,
+    names: Sequence[str],
+    name: str,
+    what: str = "channel",
+    aliases: Optional[Mapping[str, str]] = None,
+) -> str:
+    """Finds channel ``name`` among ``names``.
+
+    Tries an exact match, then ``aliases`` (other spellings -> name, e.g.
+    TDMS ``group/channel``), then the name without leading/trailing ``/``,
+    then a unique match of the last path component (``channel`` for
+    ``group/channel``), then a unique case-insensitive match.
+
+    Raises
+    ------
+    RecordingError
+        No match; the message lists the available channels.
+    """
+    if name in names:
+        return name
+    stripped = name.strip("/")
+    for cand in (name, stripped):
+        if aliases and cand in aliases and aliases[cand] in names:
+            return aliases[cand]
+    if stripped in names:
+        return stripped
+    suffix = [n for n in names if n.rsplit("/", 1)[-1] == stripped]
+    if len(suffix) == 1:
+        return suffix[0]
+    folded = [n for n in names if n.lower() == stripped.lower()]
+    if len(folded) == 1:
+        return folded[0]
+    avail = ", ".join(repr(n) for n in names)
+    raise RecordingError(f"{path}: no channel {name!r} ({what}); available channels: {avail}")
+
+
+def _as_str_list(x: Union[str, Sequence[str]]) -> List[str]:
+    if isinstance(x, str):
+        return [x]
+    return [str(v) for v in x]
+
+
+class Recording:
+    """A recording file opened for reading; use :func:`tribodyn.io.open_recording`.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    format : str
+        ``tdms``, ``lvm``, ``hdf5``, ``npy``, ``npz``, ``delimited``, ``cetr`` or
+        ``compend``.
+    fs : float
+        Sampling rate in Hz.
+    n_samples : int
+        Samples per channel.
+    duration : float
+        ``n_samples / fs`` in seconds.
+    channels : list of ChannelInfo
+        All channels, in file order.
+    roles : dict
+        Role -> channel name.
+    segments : list of (int, int)
+        ``(start, stop)`` sample ranges of the separate acquisitions the file
+        holds (CETR steps, LVM segments); one range covering everything for
+        single-acquisition files.
+    metadata : dict
+        Header information of the file (format dependent, for display).
+    warnings : list of str
+        Oddities found while opening (e.g. an LVM segment holding more rows
+        than its header announced).
+
+    Notes
+    -----
+    The object is a context manager; :meth:`close` releases the file.
+    Chunks are float64 arrays, scaled to SI, keyed by role (or by the raw
+    channel name when a requested key is not a role).
+    """
+
+    format: str = "?"
+    #: Whether :meth:`chunks` reads the file incrementally (False for formats
+    #: where the library must hold a whole member).
+    streaming: bool = True
+
+    def __init__(self, path: Union[str, "os.PathLike[str]"]) -> None:
+        self.path: str = os.fspath(path)
+        self._closed = False
+        self._names: List[str] = []
+        self._raw_units: Dict[str, Optional[str]] = {}
+        self._auto: Dict[str, Tuple[float, Optional[str], str]] = {}
+        self._n = 0
+        self._file_fs: Optional[float] = None
+        self._fs_source = ""
+        self._segments: List[Tuple[int, int]] = []
+        self._default_roles: Dict[str, str] = {}
+        self.metadata: Dict[str, Any] = {}
+        self.warnings: List[str] = []
+        self._block_rows = DEFAULT_BLOCK_ROWS
+        self._aliases: Dict[str, str] = {}
+
+    # ------------------------------------------------------------------ setup
+    def _setup(
+        self,
+        channels: Optional[Mapping[str, Optional[str]]],
+        fs: Optional[float],
+        scale: Optional[Mapping[str, float]],
+        units: Optional[Mapping[str, str]] = None,
+    ) -> None:
+        """Finishes opening once the backend has filled the raw description.
+
+        Resolves the role map (defaults overridden by ``channels``), the
+        sampling rate (``fs`` overrides the file's) and per-channel scaling
+        (``scale`` overrides automatic unit conversion).
+        """
+        if not self._names:
+            raise RecordingError(f"{self.path}: no readable channel in this {self.format} file")
+        # roles
+        roles: Dict[str, str] = dict(self._default_roles)
+        if channels is not None:
+            if not isinstance(channels, Mapping):
+                raise RecordingError("channels must be a mapping role -> channel name")
+            for role, name in channels.items():
+                if name is None:
+                    roles.pop(role, None)
+                else:
+                    roles[str(role)] = self._resolve(str(name), what=f"channel for role {role!r}")
+        self.roles: Dict[str, str] = roles
+        # sampling rate
+        if fs is not None:
+            try:
+                fs_v = float(fs)
+            except (TypeError, ValueError):
+                raise RecordingError(f"fs must be a number, got {fs!r}") from None
+            if not (math.isfinite(fs_v) and fs_v > 0):
+                raise RecordingError(f"fs must be finite and > 0, got {fs!r}")
+            if self._file_fs is not None and abs(fs_v - self._file_fs) > 1e-9 * self._file_fs:
+                self.warnings.append(
+                    f"fs={fs_v:g} Hz given overrides the file's {self._file_fs:g} Hz "
+                    f"({self._fs_source})"
+                )
+            self.fs: float = fs_v
+            self._fs_source = "given by the caller"
+        elif self._file_fs is not None:
+            if not (math.isfinite(self._file_fs) and self._file_fs > 0):
+                raise RecordingError(
+                    f"{self.path}: the file's sampling rate is invalid ({self._file_fs!r}); pass fs="
+                )
+            self.fs = float(self._file_fs)
+        else:
+            raise RecordingError(
+                f"{self.path}: sampling rate unknown (this {self.format} file does not carry it); "
+                "pass fs=... (Hz)"
+            )
+        # scaling and units
+        user_scale: Dict[str, float] = {}
+        for key, f in (scale or {}).items():
+            name = self._key_to_name(key, f"scale key {key!r}")
+            try:
+                fv = float(f)
+            except (TypeError, ValueError):
+                raise RecordingError(f"scale[{key!r}] must be a number, got {f!r}") from None
+            if not (math.isfinite(fv) and fv != 0):
+                raise RecordingError(f"scale[{key!r}] must be finite and non-zero, got {f!r}")
+            user_scale[name] = fv
+        user_units: Dict[str, str] = {}
+        for key, u in (units or {}).items():
+            name = self._key_to_name(key, f"units key {key!r}")
+            user_units[name] = str(u)
+        role_of: Dict[str, str] = {}
+        for role, name in self.roles.items():
+            role_of.setdefault(name, role)
+        infos: List[ChannelInfo] = []
+        self._scale: Dict[str, float] = {}
+        for name in self._names:
+            raw = self._raw_units.get(name)
+            if name in user_scale:
+                f = user_scale[name]
+                unit = user_units.get(name)
+                note = f"scaled by the caller (x{f:g})"
+            elif name in self._auto:
+                f, unit, note = self._auto[name]
+            else:
+                f, unit, note = si_conversion(raw)
+            if name in user_units:
+                unit = user_units[name]
+                note = (note + "; " if note else "") + "unit given by the caller"
+            self._scale[name] = f
+            infos.append(ChannelInfo(name, unit, role_of.get(name), raw, f, note))
+        self.channels: List[ChannelInfo] = infos
+        if not self._segments:
+            self._segments = [(0, self._n)]
+
+    def _fs_from_time_channel(self, time_channel: str) -> None:
+        """Sets the file's fs from the median step of a time channel (in seconds).
+
+        Only the first 100 001 samples are read.
+        """
+        name = self._resolve(time_channel, "time_channel")
+        m = min(self._n, 100_001)
+        gen = self._iter_blocks([name], m)
+        try:
+            t = np.asarray(next(gen)[name][:m], dtype=np.float64)
+        finally:
+            gen.close()
+        f = fs_from_times([t])
+        if f is None:
+            raise RecordingError(f"{self.path}: time channel {name!r} has no increasing steps")
+        self._file_fs = f
+        self._fs_source = f"median step of time channel {name!r}"
+
+    def _resolve(self, name: str, what: str = "channel") -> str:
+        """File channel name for ``name`` (see :func:`resolve_name`)."""
+        return resolve_name(self.path, self._names, name, what, self._aliases)
+
+    # ------------------------------------------------------------- properties
+    @property
+    def n_samples(self) -> int:
+        """Samples per channel."""
+        return self._n
+
+    @property
+    def duration(self) -> float:
+        """Length of the recording in seconds (``n_samples / fs``)."""
+        return self._n / self.fs
+
+    @property
+    def segments(self) -> List[Tuple[int, int]]:
+        """``(start, stop)`` sample ranges of the file's separate acquisitions."""
+        return list(self._segments)
+
+    @property
+    def closed(self) -> bool:
+        """True once :meth:`close` was called."""
+        return self._closed
+
+    @property
+    def channel_names(self) -> List[str]:
+        """Names of all channels, in file order."""
+        return list(self._names)
+
+    def info(self) -> Dict[str, Any]:
+        """Summary for display (``tribodyn info FILE``).
+
+        Returns
+        -------
+        dict
+            ``path``, ``format``, ``size_bytes``, ``fs``, ``fs_source``,
+            ``n_samples``, ``duration``, ``segments``, ``roles``,
+            ``channels`` (list of dicts: name, unit, role, raw_unit, scale,
+            note), ``streaming``, ``metadata``, ``warnings``.
+        """
+        try:
+            size = os.path.getsize(self.path)
+        except OSError:
+            size = None
+        return {
+            "path": self.path,
+            "format": self.format,
+            "size_bytes": size,
+            "fs": self.fs,
+            "fs_source": self._fs_source,
+            "n_samples": self._n,
+            "duration": self.duration,
+            "segments": self.segments,
+            "roles": dict(self.roles),
+            "channels": [
+                {
+                    "name": c.name,
+                    "unit": c.unit,
+                    "role": c.role,
+                    "raw_unit": c.raw_unit,
+                    "scale": c.scale,
+                    "note": c.note,
+                }
+                for c in self.channels
+            ],
+            "streaming": self.streaming,
+            "metadata": dict(self.metadata),
+            "warnings": list(self.warnings),
+        }
+
+    # ---------------------------------------------------------------- reading
+    def _keys(self, roles: Union[None, str, Sequence[str]]) -> List[Tuple[str, str]]:
+        """(output key, file channel name) pairs for a roles argument."""
+        if roles is None:
+            if self.roles:
+                return list(self.roles.items())
+            return [(n, n) for n in self._names]
+        out: List[Tuple[str, str]] = []
+        seen = set()
+        for key in _as_str_list(roles):
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append((key, self._key_to_name(key)))
+        if not out:
+            raise RecordingError("roles is empty: name at least one role or channel")
+        return out
+
+    def _key_to_name(self, key: str, what: str = "") -> str:
+        """File channel of a role or channel name given by the caller.
+
+        A mapped role wins; an unmapped known role (``fx``...) only matches a
+        channel of exactly that name, never a look-alike such as ``Fx``.
+        """
+        if key in self.roles:
+            return self.roles[key]
+        try:
+            if key in KNOWN_ROLES and key not in self._names:
+                raise RecordingError(key)
+            return self._resolve(key)
+        except RecordingError:
+            mapped = ", ".join(f"{r}={n!r}" for r, n in self.roles.items()) or "none"
+            avail = ", ".join(repr(n) for n in self._names)
+            where = f" ({what})" if what else ""
+            raise RecordingError(
+                f"{self.path}: {key!r}{where} is neither a mapped role (mapped: {mapped}) "
+                f"nor a channel; available channels: {avail}"
+            ) from None
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise RecordingError(f"{self.path}: recording is closed")
+
+    def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        """Raw (unscaled) samples ``start:stop`` of the named channels (random-access formats)."""
+        raise NotImplementedError  # pragma: no cover - every backend overrides one reader
+
+    def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
+        """Raw (unscaled) consecutive blocks of about ``block`` rows covering the recording.
+
+        The default reads ranges with :meth:`_read_range`; sequential formats
+        override this instead.
+        """
+        for start in range(0, self._n, block):
+            yield self._read_range(names, start, min(start + block, self._n))
+
+    def _scaled(
+        self, key_names: Sequence[Tuple[str, str]], raw: Dict[str, np.ndarray]
+    ) -> Dict[str, np.ndarray]:
+        out: Dict[str, np.ndarray] = {}
+        for key, name in key_names:
+            a = np.array(raw[name], dtype=np.float64)  # always a fresh, owned copy
+            f = self._scale[name]
+            if f != 1.0:
+                a *= f
+            out[key] = a
+        return out
+
+    def chunks(
+        self, size: int, roles: Union[None, str, Sequence[str]] = None
+    ) -> Iterator[Dict[str, np.ndarray]]:
+        """Consecutive chunks of ``size`` samples (the last one may be shorter).
+
+        Parameters
+        ----------
+        size : int
+            Samples per chunk, >= 1.
+        roles : sequence of str, optional
+            Roles and/or channel names to read. None: every mapped role, or
+            every channel (keyed by name) when no role is mapped.
+
+        Yields
+        ------
+        dict of str to ndarray
+            float64 arrays of equal length, scaled to SI, keyed by the names
+            asked for.
+
+        Raises
+        ------
+        RecordingError
+            Unknown role/channel (raised at the call), or a corrupt or
+            truncated file (raised when the bad part is reached).
+
+        Notes
+        -----
+        The file is read incrementally: peak memory is of the order of
+        ``max(size, 65536)`` samples per channel, whatever the file's length
+        (npz members written compressed are decompressed incrementally too).
+        """
+        try:
+            size = operator.index(size)
+        except TypeError:
+            raise RecordingError(f"chunk size must be an integer, got {size!r}") from None
+        if size < 1:
+            raise RecordingError(f"chunk size must be >= 1, got {size}")
+        self._check_open()
+        keys = self._keys(roles)
+        names = list(dict.fromkeys(n for _, n in keys))
+        return self._chunk_gen(size, keys, names, max(size, self._block_rows))
+
+    def _chunk_gen(
+        self, size: int, keys: List[Tuple[str, str]], names: List[str], block: int
+    ) -> Iterator[Dict[str, np.ndarray]]:
+        pending: deque = deque()
+        offset = 0  # rows of pending[0] already handed out
+        buffered = 0
+        total = 0
+
+        def take(k: int) -> Dict[str, np.ndarray]:
+            nonlocal offset, buffered
+            parts: Dict[str, List[np.ndarray]] = {n: [] for n in names}
+            need = k
+            while need:
+                blk, m = pending[0]
+                t = min(m - offset, need)
+                for n in names:
+                    parts[n].append(blk[n][offset : offset + t])
+                need -= t
+                if offset + t == m:
+                    pending.popleft()
+                    offset = 0
+                else:
+                    offset += t
+            buffered -= k
+            raw = {n: (p[0] if len(p) == 1 else np.concatenate(p)) for n, p in parts.items()}
+            return self._scaled(keys, raw)
+
+        for blk in self._iter_blocks(names, block):
+            self._check_open()
+            m = len(blk[names[0]])
+            if any(len(blk[n]) != m for n in names):
+                raise RecordingError(f"{self.path}: unequal channel lengths in a block")
+            if m == 0:
+                continue
+            total += m
+            pending.append((blk, m))
+            buffered += m
+            while buffered >= size:
+                yield take(size)
+        if buffered:
+            yield take(buffered)
+        if total != self._n:
+            raise RecordingError(
+                f"{self.path}: read {total} samples but the file announced {self._n} "
+                "(file changed or truncated since it was opened?)"
+            )
+
+    def read(self, roles: Union[None, str, Sequence[str]] = None) -> Dict[str, np.ndarray]:
+        """Whole channels as float64 arrays scaled to SI.
+
+        Parameters
+        ----------
+        roles : sequence of str, optional
+            As for :meth:`chunks`.
+
+        Returns
+        -------
+        dict of str to ndarray
+        """
+        self._check_open()
+        keys = self._keys(roles)
+        names = list(dict.fromkeys(n for _, n in keys))
+        out = {k: np.empty(self._n, dtype=np.float64) for k, _ in keys}
+        pos = 0
+        for blk in self._iter_blocks(names, self._block_rows):
+            m = len(blk[names[0]])
+            if pos + m > self._n:
+                raise RecordingError(f"{self.path}: more samples than announced (file changed?)")
+            for k, n in keys:
+                if len(blk[n]) != m:
+                    raise RecordingError(f"{self.path}: unequal channel lengths in a block")
+                dst = out[k][pos : pos + m]
+                dst[...] = blk[n]
+                f = self._scale[n]
+                if f != 1.0:
+                    dst *= f
+            pos += m
+        if pos != self._n:
+            raise RecordingError(
+                f"{self.path}: read {pos} samples but the file announced {self._n} "
+                "(file changed or truncated since it was opened?)"
+            )
+        return out
+
+    # -------------------------------------------------------------- lifetime
+    def _close(self) -> None:
+        """Backend hook: release handles."""
+
+    def close(self) -> None:
+        """Releases the file; further reads raise :class:`RecordingError`."""
+        if not self._closed:
+            self._closed = True
+            self._close()
+
+    def __enter__(self) -> "Recording":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:  # pragma: no cover - best effort
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001, S110 - never raise from a finalizer
+            pass
+
+    def __repr__(self) -> str:
+        state = "closed" if self._closed else f"{len(self._names)} channels"
+        fs = getattr(self, "fs", None)
+        return (
+            f"<Recording {self.format} {os.path.basename(self.path)!r}: {state}, "
+            f"{self._n} samples, fs={fs!r} Hz, roles={getattr(self, 'roles', {})}>"
+        )
+
+
+def equal_length_selection(
+    path: str, lengths: Mapping[str, int], wanted: Sequence[str]
+) -> Tuple[List[str], int, List[str]]:
+    """Chooses the channels of a file whose members may differ in length.
+
+    Parameters
+    ----------
+    path : str
+        For messages.
+    lengths : mapping
+        Channel name -> number of samples (file order).
+    wanted : sequence of str
+        Names the caller mapped explicitly (may be empty).
+
+    Returns
+    -------
+    names, n, skipped
+        The channels of the common length (those of the wanted channels, or
+        of all channels when none is wanted), that length, and the others.
+
+    Raises
+    ------
+    RecordingError
+        When the wanted channels (or, with none wanted, all channels) do not
+        share one length.
+    """
+    if not lengths:
+        raise RecordingError(f"{path}: no channel found")
+    pool = [n for n in wanted if n in lengths] or list(lengths)
+    ls = {lengths[n] for n in pool}
+    if len(ls) != 1:
+        detail = ", ".join(f"{n!r}={lengths[n]}" for n in pool)
+        raise RecordingError(
+            f"{path}: unequal channel lengths ({detail}); map channels of one length with channels="
+        )
+    n = ls.pop()
+    names = [k for k, v in lengths.items() if v == n]
+    skipped = [k for k, v in lengths.items() if v != n]
+    return names, n, skipped

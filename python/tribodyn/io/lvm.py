@@ -1,0 +1,397 @@
+"""LabVIEW Measurement files (``.lvm``), read by a streaming parser of our own.
+
+Layout (NI's LVM specification): a file header (``LabVIEW Measurement`` ...
+``***End_of_Header***``) with ``Separator``, ``Decimal_Separator``,
+``X_Columns`` (No / One / Multi) and ``Multi_Headings``; then data segments,
+each optionally preceded by a segment header (``Channels``, ``Samples``,
+``Y_Unit_Label``, ``Delta_X``... ``***End_of_Header***``) and a column row
+(``X_Value  name1  name2 ... Comment``). Values in header lines sit in the
+same column as the data they describe.
+
+How this reader behaves:
+
+* One scan pass at open reads the file line by line (nothing is kept but
+  offsets and counts) to find the segments and count their data rows. The
+  row count of the data is trusted over the ``Samples`` announced in the
+  header (a warning is recorded when they differ). A blank line or a new
+  segment header starts a new segment; with ``Multi_Headings No`` a segment
+  holding an exact multiple k of its announced ``Samples`` is taken as k
+  consecutive headerless segments (each call of LabVIEW's writer appends one).
+* ``chunks`` then seeks to each segment's first data row and parses blocks of
+  lines (:func:`numpy.loadtxt` on the block, decimal comma handled).
+* fs = 1 / ``Delta_X`` (all channels must agree). Units are the
+  ``Y_Unit_Label`` values; only unambiguous ones are converted (``g`` is
+  left alone: in LVM files it is as often an acceleration as a force).
+* Channels whose announced ``Samples`` is 0 in every segment (LabVIEW's empty
+  "Untitled" columns) are skipped and listed in ``metadata['skipped']``.
+* Header values are parsed as numbers or kept as text, never evaluated; no
+  cache file is written anywhere.
+* A last line without end-of-line is reported as a truncated file (LabVIEW
+  ends every row with one).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ._text import TEXT_BLOCK_ROWS, decode_header, iter_data_lines, parse_rows, to_float
+from .base import Recording, RecordingError, rate_from_step, roles_by_name
+
+__all__ = ["LvmRecording"]
+
+_END = b"***End_of_Header***"
+
+
+class _Segment:
+    __slots__ = ("announced", "header", "lineno", "n", "offset")
+
+    def __init__(self, offset: int, lineno: int, header: Dict[str, List[str]]) -> None:
+        self.offset = offset
+        self.lineno = lineno
+        self.n = 0
+        self.header = header
+        self.announced: Optional[int] = None
+
+
+class LvmRecording(Recording):
+    """A LabVIEW Measurement file; see the module docstring."""
+
+    format = "lvm"
+
+    def __init__(
+        self,
+        path: str,
+        *,
+        channels: Optional[Mapping[str, Optional[str]]] = None,
+        fs: Optional[float] = None,
+        scale: Optional[Mapping[str, float]] = None,
+        units: Optional[Mapping[str, str]] = None,
+        encoding: str = "utf-8",
+    ) -> None:
+        super().__init__(path)
+        self._block_rows = TEXT_BLOCK_ROWS
+        self._encoding = encoding
+        self._scan()
+        self._default_roles = roles_by_name(self._names)
+        self._setup(channels, fs, scale, units)
+
+    # ------------------------------------------------------------------ scan
+    def _scan(self) -> None:
+        path = self.path
+        self._stat = os.stat(path)
+        with open(path, "rb") as fh:
+            first = fh.readline()
+            if not first.lstrip(b"\xef\xbb\xbf").startswith(b"LabVIEW Measurement"):
+                raise RecordingError(
+                    f"{path}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)"
+                )
+            offset = len(first)
+            lineno = 1
+            # ---- file header
+            file_header: Dict[str, str] = {}
+            header_lines: List[bytes] = []
+            while True:
+                raw = fh.readline()
+                if not raw:
+                    raise RecordingError(f"{path}: truncated LVM file: no end of the file header")
+                offset += len(raw)
+                lineno += 1
+                s = raw.rstrip(b"\r\n")
+                if s.split(b"\t", 1)[0].split(b",", 1)[0].strip() == _END:
+                    break
+                header_lines.append(s)
+            sep = b"\t"
+            for s in header_lines:
+                if s.startswith(b"Separator"):
+                    val = s[len(b"Separator") + 1 :].strip().lower()
+                    if val.startswith(b"comma"):
+                        sep = b","
+                    break
+            for s in header_lines:
+                parts = s.split(sep)
+                key = decode_header(parts[0], self._encoding).strip()
+                if key:
+                    val = parts[1] if len(parts) > 1 else b""
+                    file_header[key] = decode_header(val, self._encoding).strip()
+            decimal = file_header.get("Decimal_Separator", ".") or "."
+            if decimal not in (".", ","):
+                raise RecordingError(f"{path}: unsupported Decimal_Separator {decimal!r}")
+            if decimal == "," and sep == b",":
+                raise RecordingError(f"{path}: comma used both as separator and decimal separator")
+            x_columns = file_header.get("X_Columns", "One")
+            multi_headings = file_header.get("Multi_Headings", "Yes")
+            self._sep = sep.decode()
+            self._decimal = decimal
+
+            # ---- segments
+            segments: List[_Segment] = []
+            colnames: Optional[List[str]] = None  # column row of the layout in force
+            cur_header: Dict[str, List[str]] = {}
+            state = "between"  # between | header | after_header | data
+            last_raw = b""
+            last_lineno = 0
+            seg: Optional[_Segment] = None
+            while True:
+                raw = fh.readline()
+                if not raw:
+                    break
+                line_off = offset
+                offset += len(raw)
+                lineno += 1
+                s = raw.rstrip(b"\r\n")
+                first_field = s.split(sep, 1)[0].strip()
+                blank = not s.replace(sep, b"").strip()
+                if state == "data":
+                    if blank:
+                        state = "between"
+                        continue
+                    if first_field and _is_key(first_field):
+                        state = "between"  # fall through: a new header starts here
+                    else:
+                        assert seg is not None
+                        seg.n += 1
+                        last_raw, last_lineno = raw, lineno
+                        continue
+                if state == "between":
+                    if blank:
+                        continue
+                    if first_field == b"X_Value":
+                        colnames = self._column_row(s, sep)
+                        cur_header = cur_header or {}
+                        state = "after_header"
+                        continue
+                    if first_field and _is_key(first_field):
+                        cur_header = {}
+                        state = "header"
+                    else:
+                        # data resuming without a new header: same layout
+                        if colnames is None and not segments:
+                            raise RecordingError(
+                                f"{path}: line {lineno}: data before any segment header (corrupt LVM file?)"
+                            )
+                        seg = _Segment(
+                            line_off, lineno, segments[-1].header if segments else cur_header
+                        )
+                        seg.n = 1
+                        segments.append(seg)
+                        last_raw, last_lineno = raw, lineno
+                        state = "data"
+                        continue
+                if state == "header":
+                    if first_field == _END:
+                        state = "after_header"
+                        continue
+                    parts = [decode_header(p, self._encoding).strip() for p in s.split(sep)]
+                    if parts[0]:
+                        cur_header[parts[0]] = parts
+                    continue
+                if state == "after_header":
+                    if blank:
+                        continue
+                    if first_field == b"X_Value":
+                        colnames = self._column_row(s, sep)
+                        continue
+                    seg = _Segment(line_off, lineno, cur_header)
+                    seg.n = 1
+                    segments.append(seg)
+                    last_raw, last_lineno = raw, lineno
+                    state = "data"
+                    if colnames is None:
+                        colnames = self._implicit_columns(cur_header, x_columns)
+                    seg.header = dict(cur_header)
+                    seg.header["__columns__"] = list(colnames)
+                    continue
+            if state in ("header",):
+                raise RecordingError(f"{path}: truncated LVM file: a segment header has no end")
+        if not segments:
+            raise RecordingError(f"{path}: LVM file without data rows")
+        for sg in segments:
+            sg.header.setdefault("__columns__", list(colnames or []))
+        if last_raw and not last_raw.endswith((b"\n", b"\r")):
+            raise RecordingError(
+                f"{path}: line {last_lineno} is incomplete (no end-of-line): file truncated?"
+            )
+        self._layout(segments, x_columns, multi_headings, file_header)
+        # the last row must have every field (a cut inside the line would not)
+        tail = last_raw.decode("latin-1").rstrip("\r\n").split(self._sep)
+        if len(tail) < max(self._usecols) + 1:
+            raise RecordingError(
+                f"{path}: line {last_lineno} has {len(tail)} fields, expected "
+                f"{max(self._usecols) + 1} (truncated file?)"
+            )
+
+    def _column_row(self, s: bytes, sep: bytes) -> List[str]:
+        return [decode_header(p, self._encoding).strip() for p in s.split(sep)]
+
+    @staticmethod
+    def _implicit_columns(header: Dict[str, List[str]], x_columns: str) -> List[str]:
+        """Column row when the file has none: X column(s) plus ``Untitled`` channels."""
+        try:
+            nch = int(header.get("Channels", ["", "0"])[1])
+        except ValueError:
+            nch = 0
+        if x_columns == "Multi":
+            cols = []
+            for k in range(nch):
+                cols += ["X_Value", f"Untitled {k}" if k else "Untitled"]
+            return cols
+        return ["X_Value"] + [f"Untitled {k}" if k else "Untitled" for k in range(nch)]
+
+    def _layout(
+        self,
+        segments: List[_Segment],
+        x_columns: str,
+        multi_headings: str,
+        file_header: Dict[str, str],
+    ) -> None:
+        path = self.path
+        cols0 = segments[0].header["__columns__"]
+        for k, sg in enumerate(segments[1:], 2):
+            if sg.header["__columns__"] != cols0:
+                raise RecordingError(
+                    f"{path}: segment {k} has other channels than segment 1 "
+                    f"({sg.header['__columns__']} vs {cols0}); not supported"
+                )
+        # channel columns: not X_Value, not the trailing Comment column
+        idx = [
+            i
+            for i, n in enumerate(cols0)
+            if n != "X_Value" and not (n == "Comment" and i == len(cols0) - 1)
+        ]
+        if not idx:
+            raise RecordingError(f"{path}: LVM file without data channels")
+
+        def hval(sg: _Segment, key: str, i: int) -> str:
+            v = sg.header.get(key)
+            return v[i] if v is not None and i < len(v) else ""
+
+        def hnum(sg: _Segment, key: str, i: int) -> Optional[float]:
+            s = hval(sg, key, i)
+            if not s:
+                return None
+            try:
+                return to_float(s, self._decimal)
+            except ValueError:
+                return None
+
+        # skip channels announced empty in every segment
+        keep = []
+        skipped = []
+        for i in idx:
+            ann = [hnum(sg, "Samples", i) for sg in segments]
+            if all(a == 0 for a in ann):
+                skipped.append(cols0[i])
+            else:
+                keep.append(i)
+        if not keep:
+            raise RecordingError(f"{path}: every LVM channel is announced empty (Samples 0)")
+        for k, sg in enumerate(segments, 1):
+            ann = {cols0[i]: hnum(sg, "Samples", i) for i in keep}
+            known = {v for v in ann.values() if v is not None}
+            if len(known) > 1:
+                detail = ", ".join(f"{n!r}={v:g}" for n, v in ann.items() if v is not None)
+                raise RecordingError(f"{path}: unequal channel lengths in segment {k} ({detail})")
+        names = _dedupe([cols0[i] for i in keep])
+        self._usecols = keep
+        self._names = names
+        first = segments[0]
+        self._raw_units = {n: (hval(first, "Y_Unit_Label", i) or None) for n, i in zip(names, keep)}
+        # sampling interval
+        dxs = {}
+        for n, i in zip(names, keep):
+            dx = hnum(first, "Delta_X", i)
+            if dx is not None:
+                dxs[n] = dx
+        if dxs:
+            vals = list(dxs.values())
+            if max(vals) - min(vals) > 1e-9 * max(abs(v) for v in vals):
+                detail = ", ".join(f"{n!r}: {v:g}" for n, v in dxs.items())
+                raise RecordingError(f"{path}: channels have different Delta_X ({detail})")
+            if vals[0] > 0:
+                self._file_fs = rate_from_step(vals[0])
+                self._fs_source = f"1/Delta_X ({vals[0]:g} s)"
+        for k, sg in enumerate(segments[1:], 2):
+            dx = hnum(sg, "Delta_X", keep[0])
+            if dx is not None and dxs and abs(dx - vals[0]) > 1e-9 * abs(vals[0]):
+                self.warnings.append(f"segment {k} has Delta_X {dx:g}, segment 1 {vals[0]:g}")
+        # segments: trust the data rows
+        ranges: List[Tuple[int, int]] = []
+        blocks: List[Tuple[int, int, int]] = []
+        pos = 0
+        for k, sg in enumerate(segments, 1):
+            ann = hnum(sg, "Samples", keep[0])
+            ann_i = int(ann) if ann is not None and ann >= 0 and ann == int(ann) else None
+            if ann_i is not None and ann_i != sg.n:
+                self.warnings.append(
+                    f"segment {k} announces {ann_i} samples but holds {sg.n} data rows "
+                    "(the data rows are used)"
+                )
+            blocks.append((sg.offset, sg.lineno, sg.n))
+            if multi_headings.lower() == "no" and ann_i and sg.n > ann_i and sg.n % ann_i == 0:
+                for j in range(sg.n // ann_i):
+                    ranges.append((pos + j * ann_i, pos + (j + 1) * ann_i))
+            else:
+                ranges.append((pos, pos + sg.n))
+            pos += sg.n
+        self._blocks = blocks
+        self._n = pos
+        self._segments = ranges
+        self.metadata = {
+            "header": dict(file_header),
+            "segments_in_file": len(segments),
+            "samples_announced": [hnum(sg, "Samples", keep[0]) for sg in segments],
+        }
+        if skipped:
+            self.metadata["skipped"] = skipped
+
+    # ---------------------------------------------------------------- reading
+    def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
+        st = os.stat(self.path)
+        if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
+            raise RecordingError(f"{self.path}: file changed since it was opened")
+        pos = {n: k for k, n in enumerate(self._names)}
+        sel = [pos[n] for n in names]
+        usecols = [self._usecols[k] for k in sel]
+        with open(self.path, "rb") as fh:
+            for offset, lineno, n in self._blocks:
+                for lines, nos in iter_data_lines(fh, offset, lineno, n, block, self.path):
+                    a = parse_rows(
+                        lines, nos, self._sep, self._decimal, usecols, list(names), self.path
+                    )
+                    yield {nm: a[:, c] for c, nm in enumerate(names)}
+
+
+def _is_key(field: bytes) -> bool:
+    """True when a line's first field is a header tag rather than a number."""
+    if field in (b"X_Value", _END):
+        return True
+    c = field[:1]
+    if not c.isalpha():
+        return False
+    try:
+        float(field.replace(b",", b"."))
+        return False  # nan, inf
+    except ValueError:
+        return True
+
+
+def _dedupe(names: List[str]) -> List[str]:
+    seen: Dict[str, int] = {}
+    out = []
+    for n in names:
+        n = n or "Untitled"
+        if n in seen:
+            seen[n] += 1
+            m = f"{n}.{seen[n]}"
+            while m in seen:
+                seen[n] += 1
+                m = f"{n}.{seen[n]}"
+            seen[m] = 0
+            out.append(m)
+        else:
+            seen[n] = 0
+            out.append(n)
+    return out

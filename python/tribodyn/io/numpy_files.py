@@ -1,0 +1,295 @@
+"""NumPy ``.npy`` and ``.npz`` files.
+
+``.npy``
+    Memory-mapped (``np.load(mmap_mode='r')``); chunks are slices of the map.
+    A 1-D array is one channel; a 2-D array of shape ``(a, b)`` is read as
+    ``(channels, samples)`` unless ``a >= 10 * b``, in which case it is
+    ``(samples, channels)`` (e.g. ``(25600, 3)``: 3 channels). Pass
+    ``layout='channels_first'`` or ``'samples_first'`` to decide yourself.
+    Channels are named ``ch0``, ``ch1``... (or ``names=[...]``). A ``.npy``
+    carries no sampling rate: pass ``fs=`` or ``time_channel='ch0'`` (fs from
+    the median step of that channel).
+``.npz``
+    Each 1-D numeric member is a channel named by its key. Scalar members
+    ``fs`` (Hz) or ``dt`` (s) give the sampling rate, a 0-d text member
+    ``units`` a JSON object channel -> unit (as written by
+    :func:`tribodyn.io.writers.save_npz`). A zip member cannot be
+    memory-mapped, so each channel's member is *streamed*: its ``.npy`` header
+    is parsed and then ``chunk`` samples at a time are read from the member
+    (decompressing incrementally for ``savez_compressed`` files), so memory
+    stays O(chunk) here too; only random access is missing (a re-read starts
+    again from the member's beginning).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .base import (
+    Recording,
+    RecordingError,
+    equal_length_selection,
+    rate_from_step,
+    resolve_name,
+    roles_by_name,
+)
+
+__all__ = ["NpyRecording", "NpzRecording"]
+
+
+def _read_npy_header(fh: IO[bytes], where: str) -> Tuple[Tuple[int, ...], bool, np.dtype]:
+    """(shape, fortran_order, dtype) from an open ``.npy`` stream positioned at its start."""
+    fmt = np.lib.format
+    try:
+        version = fmt.read_magic(fh)
+        if version == (1, 0):
+            shape, fortran, dtype = fmt.read_array_header_1_0(fh)
+        elif version == (2, 0):
+            shape, fortran, dtype = fmt.read_array_header_2_0(fh)
+        else:
+            # numpy >= 1.17 writes (3, 0) only for utf-8 field names
+            shape, fortran, dtype = fmt._read_array_header(fh, version)  # type: ignore[attr-defined]
+    except (ValueError, EOFError, OSError, SyntaxError) as exc:
+        raise RecordingError(f"{where}: not a valid .npy header ({exc})") from None
+    return tuple(int(s) for s in shape), bool(fortran), np.dtype(dtype)
+
+
+class NpyRecording(Recording):
+    """A memory-mapped ``.npy`` file; see the module docstring."""
+
+    format = "npy"
+
+    def __init__(
+        self,
+        path: str,
+        *,
+        channels: Optional[Mapping[str, Optional[str]]] = None,
+        fs: Optional[float] = None,
+        scale: Optional[Mapping[str, float]] = None,
+        units: Optional[Mapping[str, str]] = None,
+        layout: Optional[str] = None,
+        names: Optional[Sequence[str]] = None,
+        time_channel: Optional[str] = None,
+    ) -> None:
+        super().__init__(path)
+        self._arr: Any = None
+        with open(self.path, "rb") as fh:
+            shape, _fortran, dtype = _read_npy_header(fh, self.path)
+            data_offset = fh.tell()
+        if dtype.hasobject or dtype.kind not in "biuf":
+            raise RecordingError(f"{self.path}: .npy of dtype {dtype} is not numeric signal data")
+        expected = data_offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+        size = os.path.getsize(self.path)
+        if size < expected:
+            raise RecordingError(
+                f"{self.path}: truncated .npy file ({size} bytes, its header needs {expected})"
+            )
+        try:
+            arr = np.load(self.path, mmap_mode="r", allow_pickle=False)
+        except (ValueError, OSError) as exc:
+            raise RecordingError(f"{self.path}: cannot map .npy file: {exc}") from None
+        if arr.ndim == 1:
+            arr = arr.reshape(1, -1)
+            self._rows_are_channels = True
+        elif arr.ndim == 2:
+            if layout is None:
+                self._rows_are_channels = not (arr.shape[0] >= 10 * arr.shape[1])
+            elif layout in ("channels_first", "samples_first"):
+                self._rows_are_channels = layout == "channels_first"
+            else:
+                raise RecordingError(
+                    f"layout must be 'channels_first' or 'samples_first', got {layout!r}"
+                )
+        else:
+            raise RecordingError(f"{self.path}: .npy array of shape {arr.shape}: need 1-D or 2-D")
+        self._arr = arr
+        nch, n = arr.shape if self._rows_are_channels else arr.shape[::-1]
+        if names is not None:
+            names = [str(x) for x in names]
+            if len(names) != nch or len(set(names)) != nch:
+                raise RecordingError(f"names must be {nch} distinct names, got {names!r}")
+            self._names = names
+        else:
+            self._names = [f"ch{k}" for k in range(nch)]
+        self._n = int(n)
+        self._raw_units = {nm: None for nm in self._names}
+        self.metadata = {
+            "shape": list(np.shape(self._arr)),
+            "dtype": str(arr.dtype),
+            "layout": "channels_first" if self._rows_are_channels else "samples_first",
+        }
+        if self._n == 0:
+            raise RecordingError(f"{self.path}: .npy array holds no samples")
+        if time_channel is not None:
+            self._fs_from_time_channel(time_channel)
+        self._default_roles = roles_by_name(self._names)
+        self._setup(channels, fs, scale, units)
+
+    def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        idx = {nm: k for k, nm in enumerate(self._names)}
+        if self._rows_are_channels:
+            return {nm: self._arr[idx[nm], start:stop] for nm in names}
+        return {nm: self._arr[start:stop, idx[nm]] for nm in names}
+
+    def _close(self) -> None:
+        arr, self._arr = getattr(self, "_arr", None), None
+        mm = getattr(arr, "_mmap", None)
+        del arr
+        if mm is not None:
+            try:
+                mm.close()
+            except (BufferError, ValueError):  # views still alive elsewhere
+                pass
+
+
+class NpzRecording(Recording):
+    """A ``.npz`` archive; members are streamed (see the module docstring)."""
+
+    format = "npz"
+
+    def __init__(
+        self,
+        path: str,
+        *,
+        channels: Optional[Mapping[str, Optional[str]]] = None,
+        fs: Optional[float] = None,
+        scale: Optional[Mapping[str, float]] = None,
+        units: Optional[Mapping[str, str]] = None,
+        time_channel: Optional[str] = None,
+    ) -> None:
+        super().__init__(path)
+        self._zip: Optional[zipfile.ZipFile] = None
+        try:
+            self._zip = zipfile.ZipFile(self.path, "r")
+        except (zipfile.BadZipFile, OSError, EOFError) as exc:
+            raise RecordingError(
+                f"{self.path}: not a readable .npz (truncated or corrupt?): {exc}"
+            ) from None
+        try:
+            self._open(channels, fs, scale, units, time_channel)
+        except BaseException:
+            self._close()
+            raise
+
+    def _member_header(self, member: str) -> Tuple[Tuple[int, ...], bool, np.dtype, int]:
+        assert self._zip is not None
+        try:
+            with self._zip.open(member) as fh:
+                shape, fortran, dtype = _read_npy_header(fh, f"{self.path}[{member}]")
+                offset = fh.tell()
+        except (zipfile.BadZipFile, OSError, EOFError) as exc:
+            raise RecordingError(f"{self.path}: corrupt member {member!r}: {exc}") from None
+        return shape, fortran, dtype, offset
+
+    def _load_small(self, member: str) -> np.ndarray:
+        assert self._zip is not None
+        try:
+            with self._zip.open(member) as fh:
+                return np.lib.format.read_array(fh, allow_pickle=False)
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+            raise RecordingError(f"{self.path}: corrupt member {member!r}: {exc}") from None
+
+    def _open(
+        self,
+        channels: Optional[Mapping[str, Optional[str]]],
+        fs: Optional[float],
+        scale: Optional[Mapping[str, float]],
+        units: Optional[Mapping[str, str]],
+        time_channel: Optional[str],
+    ) -> None:
+        assert self._zip is not None
+        members: Dict[str, Tuple[str, np.dtype, int, int]] = {}
+        lengths: Dict[str, int] = {}
+        skipped: List[str] = []
+        file_units: Dict[str, str] = {}
+        meta_fs: Optional[Tuple[float, str]] = None
+        try:
+            infos = self._zip.infolist()
+        except (zipfile.BadZipFile, OSError) as exc:  # pragma: no cover
+            raise RecordingError(f"{self.path}: corrupt .npz: {exc}") from None
+        for zi in infos:
+            if not zi.filename.endswith(".npy"):
+                continue
+            key = zi.filename[:-4]
+            shape, _fortran, dtype, offset = self._member_header(zi.filename)
+            if len(shape) == 0:
+                if key in ("fs", "sampling_rate", "dt") and dtype.kind in "biuf":
+                    v = float(self._load_small(zi.filename))
+                    if v > 0 and np.isfinite(v):
+                        meta_fs = (
+                            (v, f"member {key!r}")
+                            if key != "dt"
+                            else (rate_from_step(v), "1/member 'dt'")
+                        )
+                elif key == "units" and dtype.kind == "U":
+                    try:
+                        u = json.loads(str(self._load_small(zi.filename)))
+                        if isinstance(u, dict):
+                            file_units = {str(k): str(v) for k, v in u.items()}
+                    except ValueError:
+                        self.warnings.append("member 'units' is not JSON; ignored")
+                continue
+            if len(shape) == 1 and dtype.kind in "biuf" and not dtype.hasobject and shape[0] > 0:
+                members[key] = (zi.filename, dtype, offset, shape[0])
+                lengths[key] = shape[0]
+            else:
+                skipped.append(key)
+        if not members:
+            raise RecordingError(f"{self.path}: no 1-D numeric member in this .npz")
+        wanted = [
+            resolve_name(self.path, list(members), v, f"channel for role {k!r}")
+            for k, v in (channels or {}).items()
+            if v is not None
+        ]
+        names, n, other = equal_length_selection(self.path, lengths, wanted)
+        skipped += other
+        self._members = {k: members[k] for k in names}
+        self._names = names
+        self._n = n
+        self._raw_units = {k: file_units.get(k) for k in names}
+        if meta_fs is not None:
+            self._file_fs, self._fs_source = meta_fs
+        elif time_channel is not None:
+            self._fs_from_time_channel(time_channel)
+        self.metadata = {"members": [zi.filename for zi in infos]}
+        if skipped:
+            self.metadata["skipped"] = skipped
+        self._default_roles = roles_by_name(self._names)
+        self._setup(channels, fs, scale, units)
+
+    def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
+        if self._zip is None:
+            raise RecordingError(f"{self.path}: recording is closed")
+        streams: Dict[str, Any] = {}
+        try:
+            for nm in names:
+                member, dtype, offset, _ = self._members[nm]
+                fh = self._zip.open(member)
+                streams[nm] = fh
+                fh.read(offset)  # skip the .npy header
+            for start in range(0, self._n, block):
+                m = min(block, self._n - start)
+                out = {}
+                for nm in names:
+                    dtype = self._members[nm][1]
+                    try:
+                        buf = streams[nm].read(m * dtype.itemsize)
+                    except (zipfile.BadZipFile, OSError, EOFError) as exc:
+                        raise RecordingError(f"{self.path}: corrupt member {nm!r}: {exc}") from None
+                    if len(buf) != m * dtype.itemsize:
+                        raise RecordingError(f"{self.path}: member {nm!r} is truncated")
+                    out[nm] = np.frombuffer(buf, dtype=dtype)
+                yield out
+        finally:
+            for fh in streams.values():
+                fh.close()
+
+    def _close(self) -> None:
+        z, self._zip = getattr(self, "_zip", None), None
+        if z is not None:
+            z.close()

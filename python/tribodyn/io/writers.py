@@ -1,0 +1,299 @@
+"""Writing files safely: atomic replacement, checksums and recording writers.
+
+:func:`atomic_write` writes through a temporary file in the target's
+directory and renames it over the target (``os.replace``), so a reader never
+sees a partial file and a failed write leaves nothing behind.
+:func:`save_npz`, :func:`save_hdf5`, :func:`save_tdms` and :func:`save_npy`
+write recordings (``tribodyn simulate --out FILE``) that
+:func:`tribodyn.io.open_recording` reads back with the same channel names,
+units and sampling rate (``.npy`` keeps neither names nor fs: see
+:func:`save_npy`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tempfile
+from typing import Callable, Dict, List, Mapping, Optional, Union
+
+import numpy as np
+
+__all__ = [
+    "atomic_write",
+    "save_hdf5",
+    "save_npy",
+    "save_npz",
+    "save_recording",
+    "save_tdms",
+    "sha256_file",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+_RESERVED_NPZ = ("fs", "units", "dt", "sampling_rate")
+
+
+def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
+    """Creates or replaces ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        Target file.
+    write_fn : callable
+        Called with the path (str) of a fresh empty temporary file in the
+        same directory; it must write the complete content there (opening it
+        itself, e.g. ``open(tmp, 'wb')``, ``h5py.File(tmp, 'w')``).
+
+    Notes
+    -----
+    The temporary file is flushed to disk and renamed over ``path``; its
+    permissions follow the umask like a normally created file. If
+    ``write_fn`` (or anything after it) raises, the temporary file is removed
+    and the exception propagates: ``path`` is then either untouched or absent,
+    never partial.
+    """
+    target = os.path.abspath(os.fspath(path))
+    directory = os.path.dirname(target)
+    if os.path.isdir(target):
+        raise IsADirectoryError(f"{target} is a directory")
+    base = os.path.basename(target)
+    _, ext = os.path.splitext(base)
+    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=directory)
+    try:
+        os.close(fd)
+        write_fn(tmp)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
+        os.replace(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def sha256_file(path: PathLike, chunk_size: int = 1 << 20) -> str:
+    """Hex SHA-256 digest of a file, read in chunks of ``chunk_size`` bytes."""
+    h = hashlib.sha256()
+    with open(os.fspath(path), "rb") as fh:
+        while True:
+            b = fh.read(chunk_size)
+            if not b:
+                break
+            h.update(b)
+    return h.hexdigest()
+
+
+def _checked(channels: Mapping[str, np.ndarray], fs: Optional[float]) -> Dict[str, np.ndarray]:
+    """Channels as 1-D numeric arrays of one length; fs finite and > 0."""
+    if fs is not None and not (
+        isinstance(fs, (int, float, np.number)) and math.isfinite(float(fs)) and float(fs) > 0
+    ):
+        raise ValueError(f"fs must be a finite number > 0, got {fs!r}")
+    if not channels:
+        raise ValueError("channels is empty")
+    out: Dict[str, np.ndarray] = {}
+    n = None
+    for name, a in channels.items():
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"channel names must be non-empty strings, got {name!r}")
+        arr = np.asarray(a)
+        if arr.ndim != 1 or arr.dtype.kind not in "biuf":
+            raise ValueError(
+                f"channel {name!r} must be a 1-D numeric array, got {arr.dtype} {arr.shape}"
+            )
+        if n is None:
+            n = arr.shape[0]
+        elif arr.shape[0] != n:
+            raise ValueError(f"channel {name!r} has {arr.shape[0]} samples, the first one {n}")
+        out[name] = arr
+    if not n:
+        raise ValueError("channels hold no samples")
+    return out
+
+
+def _units_for(units: Optional[Mapping[str, str]], names: List[str]) -> Dict[str, str]:
+    if not units:
+        return {}
+    extra = set(units) - set(names)
+    if extra:
+        raise ValueError(f"units names unknown channels: {sorted(extra)}")
+    return {k: str(v) for k, v in units.items() if v is not None}
+
+
+def save_npz(
+    path: PathLike,
+    channels: Mapping[str, np.ndarray],
+    fs: float,
+    units: Optional[Mapping[str, str]] = None,
+    *,
+    compress: bool = False,
+) -> None:
+    """Writes a recording as ``.npz``: one member per channel, plus ``fs`` and ``units``.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        Target (``.npz`` is *not* appended).
+    channels : mapping of str to array
+        1-D arrays of one length; names ``fs``, ``units``, ``dt`` and
+        ``sampling_rate`` are reserved.
+    fs : float
+        Sampling rate in Hz (stored as the scalar member ``fs``).
+    units : mapping of str to str, optional
+        Channel -> unit, stored as a JSON text member ``units``.
+    compress : bool
+        Use ``np.savez_compressed``.
+    """
+    ch = _checked(channels, fs)
+    bad = [k for k in ch if k in _RESERVED_NPZ or "/" in k]
+    if bad:
+        raise ValueError(f"channel names {bad} are reserved or contain '/' (not allowed in .npz)")
+    members: Dict[str, np.ndarray] = dict(ch)
+    members["fs"] = np.array(float(fs))
+    u = _units_for(units, list(ch))
+    if u:
+        members["units"] = np.array(json.dumps(u))
+    saver = np.savez_compressed if compress else np.savez
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
+            saver(fh, **members)
+
+    atomic_write(path, write)
+
+
+def save_hdf5(
+    path: PathLike,
+    channels: Mapping[str, np.ndarray],
+    fs: float,
+    units: Optional[Mapping[str, str]] = None,
+) -> None:
+    """Writes a recording as HDF5: one dataset per channel, attribute ``fs`` on the file.
+
+    Channel names may contain ``/`` (groups are created). Each dataset gets
+    an attribute ``unit`` when ``units`` names it.
+    """
+    import h5py
+
+    ch = _checked(channels, fs)
+    u = _units_for(units, list(ch))
+
+    def write(tmp: str) -> None:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["fs"] = float(fs)
+            f.attrs["creator"] = "tribodyn"
+            for name, a in ch.items():
+                d = f.create_dataset(name, data=a)
+                if name in u:
+                    d.attrs["unit"] = u[name]
+
+    atomic_write(path, write)
+
+
+def save_tdms(
+    path: PathLike,
+    channels: Mapping[str, np.ndarray],
+    fs: float,
+    units: Optional[Mapping[str, str]] = None,
+    *,
+    group: str = "tribodyn",
+    segment_samples: int = 65536,
+) -> None:
+    """Writes a recording as TDMS (npTDMS ``TdmsWriter``), one group of channels.
+
+    Each channel carries ``wf_increment = 1/fs``, ``wf_start_offset = 0`` and
+    ``wf_samples``, plus ``unit_string`` when ``units`` names it. Data are
+    written in segments of ``segment_samples`` samples, as a DAQ logger
+    would: npTDMS reads a whole raw-data chunk at a time, so this keeps the
+    reader's memory bounded.
+    """
+    if segment_samples < 1:
+        raise ValueError(f"segment_samples must be >= 1, got {segment_samples}")
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+    ch = _checked(channels, fs)
+    u = _units_for(units, list(ch))
+    if any("/" in k for k in ch):
+        raise ValueError("TDMS channel names must not contain '/'")
+
+    def write(tmp: str) -> None:
+        n = next(iter(ch.values())).shape[0]
+        with TdmsWriter(tmp) as w:
+            for start in range(0, n, segment_samples):
+                stop = min(start + segment_samples, n)
+                objs: list = []
+                if start == 0:
+                    objs = [RootObject(properties={"creator": "tribodyn"}), GroupObject(group)]
+                for name, a in ch.items():
+                    props = {}
+                    if start == 0:
+                        props = {
+                            "wf_increment": 1.0 / float(fs),
+                            "wf_start_offset": 0.0,
+                            "wf_samples": int(n),
+                        }
+                        if name in u:
+                            props["unit_string"] = u[name]
+                    block = np.ascontiguousarray(a[start:stop])
+                    objs.append(ChannelObject(group, name, block, properties=props))
+                w.write_segment(objs)
+
+    atomic_write(path, write)
+
+
+def save_npy(path: PathLike, channels: Mapping[str, np.ndarray]) -> List[str]:
+    """Writes channels as one ``(n_channels, n_samples)`` float64 ``.npy`` array.
+
+    A ``.npy`` holds no names and no sampling rate: read it back with
+    ``open_recording(path, fs=...)``; channel ``ch{k}`` is the k-th entry of
+    the returned list. The reader takes a 2-D array as channels x samples
+    unless ``n_channels >= 10 * n_samples``; such (odd) input is refused here
+    so the round trip is exact.
+
+    Returns
+    -------
+    list of str
+        The channel names in row order.
+    """
+    ch = _checked(channels, None)
+    names = list(ch)
+    arr = np.stack([np.asarray(a, dtype=np.float64) for a in ch.values()])
+    if arr.shape[0] >= 10 * arr.shape[1]:
+        raise ValueError(
+            "more channels than 1/10 of the samples: the reader would take the array as "
+            "samples x channels"
+        )
+
+    def write(tmp: str) -> None:
+        with open(tmp, "wb") as fh:
+            np.save(fh, arr)
+
+    atomic_write(path, write)
+    return names
+
+
+def save_recording(
+    path: PathLike,
+    channels: Mapping[str, np.ndarray],
+    fs: float,
+    units: Optional[Mapping[str, str]] = None,
+) -> None:
+    """Writes a recording in the format given by the extension (.npz, .h5/.hdf5, .tdms)."""
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext == ".npz":
+        save_npz(path, channels, fs, units)
+    elif ext in (".h5", ".hdf5", ".hdf"):
+        save_hdf5(path, channels, fs, units)
+    elif ext == ".tdms":
+        save_tdms(path, channels, fs, units)
+    else:
+        raise ValueError(f"cannot write recordings as {ext!r}: use .npz, .h5/.hdf5 or .tdms")
