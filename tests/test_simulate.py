@@ -70,7 +70,11 @@ def test_temperature_test_structure(temp_sim: simulate.Simulation) -> None:
     t_log, temp_log = s.temperature_log
     assert t_log.shape == temp_log.shape and np.all(np.diff(t_log) > 0)
     assert t_log[0] == 0.0 and t_log[-1] == pytest.approx(4060.0)
-    gaps = np.diff(t_log)[:-1]  # the last reading closes the test
+    # Readings every 100-200 s, plus one at each breakpoint of the path.
+    breaks = [t for t, _ in simulate.TEMPERATURE_PATH if 0 < t < 4060]
+    assert set(breaks) <= set(t_log.tolist())
+    regular = np.array(sorted(set(t_log.tolist()) - set(breaks)))
+    gaps = np.diff(regular)[:-1]  # the last reading closes the test
     assert np.all((gaps >= 99.9) & (gaps <= 200.1))
     assert np.all(np.abs(temp_log - s.truth.temperature_at(t_log)) < 1.5)
     tr = s.truth

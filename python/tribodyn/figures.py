@@ -1,0 +1,816 @@
+"""Figures of the seed paper, from tribodyn's results (METHOD.md sections 1-7).
+
+One function per figure, each returning a :class:`matplotlib.figure.Figure`:
+
+=======================================  ==============================================
+function                                 paper figure
+=======================================  ==============================================
+:func:`forces_vs_time`                   Fig. 2, dynamic forces vs time
+:func:`correlation_functions`            Figs. 3-5, C_xy, C_xz, C_yz vs tau
+:func:`phase_plots`                      Figs. 6-8, force phase plots + regression
+:func:`cof_vs_normal_force`              Fig. 9, per-bin COF vs F_z,d
+:func:`cof_vs_time`                      COF vs time (no covariate)
+:func:`cof_and_temperature_vs_time`      Fig. 10, COF and temperature vs time
+:func:`cof_vs_temperature`               Fig. 11, COF vs temperature (hysteresis)
+:func:`cof_and_current_density_vs_time`  Fig. 12, COF and current density vs time
+:func:`cof_vs_current_density`           Sec. 4.2, COF vs J, optimum, instability onset
+:func:`save_figure`                      atomic PNG
+=======================================  ==============================================
+
+The figures are plain ``Figure`` objects with an Agg canvas attached: nothing
+goes through ``pyplot``, so no global state (backend, current figure,
+rcParams) changes and a user's interactive session is left alone. Show one in
+a notebook by evaluating it, or save it with :func:`save_figure` (atomic).
+
+Missing data (NaN, no gated window, no covariate) never raises: the affected
+axes carry a "no data" note instead.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import warnings
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+__all__ = [
+    "forces_vs_time",
+    "correlation_functions",
+    "phase_plots",
+    "cof_vs_normal_force",
+    "cof_vs_time",
+    "cof_and_temperature_vs_time",
+    "cof_vs_temperature",
+    "cof_and_current_density_vs_time",
+    "cof_vs_current_density",
+    "save_figure",
+]
+
+#: Default resolution of :func:`save_figure`, dots per inch.
+DPI = 150
+#: Line plots with more samples are reduced to a min/max envelope of this many points.
+MAX_LINE_POINTS = 20_000
+#: Scatter plots with more samples are thinned (evenly spaced) to this many points.
+MAX_SCATTER_POINTS = 20_000
+
+_FORCE_LABEL = {"x": r"$F_{x,d}$ (N)", "y": r"$F_{y,d}$ (N)", "z": r"$F_{z,d}$ (N)"}
+_FORCE_COLOUR = {"x": "tab:green", "y": "tab:red", "z": "tab:blue"}
+_MU_STYLE = {
+    "mu_r": dict(color="black", marker="o", label=r"$\mu_r$ (regression)"),
+    "mu_a": dict(color="tab:blue", marker="v", label=r"$\mu_a$ ($F_{z,d} \leq -d$)"),
+    "mu_b": dict(color="tab:orange", marker="^", label=r"$\mu_b$ ($F_{z,d} \geq +d$)"),
+}
+_FAILED = dict(color="0.6", marker="x", linestyle="none", markersize=4, alpha=0.8)
+_OPTIMUM_COLOUR = "tab:green"
+_ONSET_COLOUR = "tab:red"
+_BRANCH_STYLE = {
+    "heating": dict(color="tab:red", marker="^", label="heating windows"),
+    "cooling": dict(color="tab:blue", marker="v", label="cooling windows"),
+    "unknown": dict(color="0.45", marker="o", label="windows, dT/dt unknown"),
+}
+
+
+# --------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------
+def _figure(nrows: int = 1, ncols: int = 1, *, figsize: Tuple[float, float], **subplot_kw: Any) -> Tuple[Figure, Any]:
+    """A constrained-layout Figure with its own Agg canvas, and its axes."""
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(nrows, ncols, squeeze=False, **subplot_kw)
+    return fig, axes
+
+
+def _no_data(ax: Axes, message: str = "no data") -> None:
+    """Marks an empty axes with a centred note."""
+    ax.text(0.5, 0.5, message, transform=ax.transAxes, ha="center", va="center", fontsize=11,
+            color="0.4", style="italic")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def _signal(x: Any) -> Optional[np.ndarray]:
+    """1-D float array, or None for None / empty."""
+    if x is None:
+        return None
+    a = np.asarray(x, dtype=float).ravel()
+    return a if a.size else None
+
+
+def _envelope(t: np.ndarray, y: np.ndarray, max_points: int = MAX_LINE_POINTS) -> Tuple[np.ndarray, np.ndarray]:
+    """Min/max envelope of a long trace (keeps the peaks a plain stride would drop)."""
+    n = y.size
+    if n <= max_points:
+        return t, y
+    k = int(np.ceil(n / (max_points // 2)))
+    m = (n // k) * k
+    blocks = y[:m].reshape(-1, k)
+    lo = np.where(np.isnan(blocks), np.inf, blocks).argmin(axis=1)
+    hi = np.where(np.isnan(blocks), -np.inf, blocks).argmax(axis=1)
+    base = np.arange(blocks.shape[0]) * k
+    idx = np.sort(np.concatenate([base + lo, base + hi]))
+    idx = np.concatenate([idx, np.arange(m, n)])
+    return t[idx], y[idx]
+
+
+def _thin(n: int, max_points: int = MAX_SCATTER_POINTS) -> np.ndarray:
+    """Evenly spaced indices, at most ``max_points`` of ``n``."""
+    if n <= max_points:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, max_points).round().astype(np.int64))
+
+
+def _finite(*arrays: np.ndarray) -> np.ndarray:
+    keep = np.ones(arrays[0].shape, dtype=bool)
+    for a in arrays:
+        keep &= np.isfinite(a)
+    return keep
+
+
+def _pearson(x: np.ndarray, y: np.ndarray) -> float:
+    keep = _finite(x, y)
+    if keep.sum() < 2:
+        return float("nan")
+    a, b = x[keep] - x[keep].mean(), y[keep] - y[keep].mean()
+    den = np.sqrt(np.dot(a, a) * np.dot(b, b))
+    return float(np.dot(a, b) / den) if den > 0 else float("nan")
+
+
+def _column(results: Any, name: str, n: int, fill: float = np.nan) -> np.ndarray:
+    table = getattr(results, "table", results)
+    if name in table:
+        return np.asarray(table[name], dtype=float)
+    return np.full(n, fill)
+
+
+def _gated(results: Any, n: int) -> np.ndarray:
+    table = getattr(results, "table", results)
+    if "ok" in table:
+        return np.asarray(table["ok"], dtype=bool)
+    return np.ones(n, dtype=bool)
+
+
+def _cof_limits(values: Sequence[np.ndarray]) -> Optional[Tuple[float, float]]:
+    """COF axis: from 0 (or the lowest value if negative) to a robust top."""
+    v = np.concatenate([np.asarray(a, dtype=float).ravel() for a in values]) if values else np.empty(0)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return None
+    lo = min(0.0, float(np.percentile(v, 0.5)))
+    hi = float(np.percentile(v, 99.5)) if v.size > 200 else float(v.max())
+    hi = max(hi, float(np.median(v)) * 1.5, lo + 1e-3)
+    return lo - 0.02 * (hi - lo) if lo < 0 else lo, hi + 0.1 * (hi - lo)
+
+
+def _legend_above(ax: Axes, handles: Optional[list] = None, ncol: int = 3) -> None:
+    """Legend in a frameless block just above the axes (the title goes in the suptitle)."""
+    kw: Dict[str, Any] = {} if handles is None else {"handles": handles}
+    hs = handles if handles is not None else ax.get_legend_handles_labels()[0]
+    if not hs:
+        return
+    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=max(1, min(ncol, len(hs))), fontsize=8,
+              frameon=False, borderaxespad=0.0, columnspacing=1.5, handletextpad=0.5, **kw)
+
+
+def _fmt(v: Optional[float], spec: str = ".3g") -> str:
+    if v is None or not np.isfinite(v):
+        return "n/a"
+    return format(float(v), spec)
+
+
+# --------------------------------------------------------------------------
+# Fig. 2: forces vs time
+# --------------------------------------------------------------------------
+def forces_vs_time(fx: Any, fy: Any, fz: Any, fs: float, *, t0: float = 0.0, title: Optional[str] = None) -> Figure:
+    """Dynamic forces against time (paper Fig. 2; METHOD.md 0).
+
+    Parameters
+    ----------
+    fx, fy, fz : array_like, 1-D
+        Dynamic axial, tangential (friction) and normal forces in N. ``fx``
+        may be None (its panel then says so). Traces longer than
+        :data:`MAX_LINE_POINTS` are drawn as their min/max envelope.
+    fs : float
+        Sampling rate, Hz.
+    t0 : float
+        Time of the first sample, s.
+    title : str, optional
+        Figure title (default "Dynamic forces (cf. Fig. 2)").
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three stacked axes sharing the time axis (F_x,d, F_y,d, F_z,d).
+    """
+    fs_v = float(fs)
+    if not (np.isfinite(fs_v) and fs_v > 0):
+        raise ValueError(f"fs must be a positive number, got {fs!r}")
+    fig, axes = _figure(3, 1, figsize=(9.0, 6.0), sharex=True)
+    any_data = False
+    for ax, name, sig in zip(axes[:, 0], "xyz", (fx, fy, fz)):
+        y = _signal(sig)
+        ax.set_ylabel(_FORCE_LABEL[name])
+        if y is None or not np.isfinite(y).any():
+            ax.text(0.5, 0.5, "not measured" if sig is None else "no data", transform=ax.transAxes,
+                    ha="center", va="center", color="0.4", style="italic")
+            continue
+        any_data = True
+        t = float(t0) + np.arange(y.size) / fs_v
+        tt, yy = _envelope(t, y)
+        ax.plot(tt, yy, color=_FORCE_COLOUR[name], linewidth=0.6)
+        ax.axhline(0.0, color="0.5", linewidth=0.5, zorder=0)
+        ax.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel("Time $t$ (s)")
+    if not any_data:
+        for ax in axes[:, 0]:
+            ax.set_yticks([])
+    fig.suptitle(title or "Dynamic forces (cf. paper Fig. 2)")
+    return fig
+
+
+# --------------------------------------------------------------------------
+# Figs. 3-5: correlation functions
+# --------------------------------------------------------------------------
+_PAIRS = (
+    ("xy", r"$C_{x,y}(\tau)$", "Fig. 3"),
+    ("xz", r"$C_{x,z}(\tau)$", "Fig. 4"),
+    ("yz", r"$C_{y,z}(\tau)$", "Fig. 5"),
+)
+
+
+def correlation_functions(source: Any, *, title: Optional[str] = None) -> Figure:
+    """Correlation functions C_xy, C_xz, C_yz against the time shift (paper Figs. 3-5; METHOD.md 1).
+
+    Parameters
+    ----------
+    source : CofResult or dict of XcorrResult
+        A :class:`~tribodyn.CofResult` from ``identify(..., max_lag=L)``
+        (its ``correlations``), or a dict with keys "xy", "xz", "yz" of
+        :class:`~tribodyn.XcorrResult` (missing keys give an empty panel).
+        The abscissa is tau in ms when the results carry ``tau`` (``fs``
+        given), otherwise the lag in samples.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three stacked axes sharing the abscissa; C(0) (Pearson's r) is
+        marked and printed in each.
+    """
+    corr = getattr(source, "correlations", source)
+    if corr is not None and not isinstance(corr, Mapping):
+        raise TypeError("correlation_functions takes a CofResult or a dict of XcorrResult, "
+                        f"got {type(source).__name__}")
+    corr = dict(corr or {})
+    fig, axes = _figure(3, 1, figsize=(8.0, 6.5), sharex=True)
+    in_ms = True
+    for ax, (key, label, paper) in zip(axes[:, 0], _PAIRS):
+        ax.set_ylabel(label)
+        res = corr.get(key)
+        c = None if res is None else np.asarray(res.c, dtype=float)
+        if c is None or c.size == 0 or not np.isfinite(c).any():
+            ax.text(0.5, 0.5, "no data" if res is not None else f"not computed ({paper})", transform=ax.transAxes,
+                    ha="center", va="center", color="0.4", style="italic")
+            ax.set_ylim(-1.05, 1.05)
+            continue
+        lags = np.asarray(res.lags)
+        if res.tau is not None:
+            x = np.asarray(res.tau, dtype=float) * 1e3
+        else:
+            x = lags.astype(float)
+            in_ms = False
+        ax.plot(x, c, color="tab:blue", linewidth=0.9)
+        ax.axhline(0.0, color="0.5", linewidth=0.5)
+        ax.axvline(0.0, color="0.5", linewidth=0.5, linestyle=":")
+        zero = np.flatnonzero(lags == 0)
+        if zero.size and np.isfinite(c[zero[0]]):
+            c0 = float(c[zero[0]])
+            ax.plot([0.0], [c0], "o", color="tab:red", markersize=4)
+            ax.text(0.99, 0.95, f"$C(0)$ = {c0:+.3f}  ({paper})", transform=ax.transAxes, ha="right", va="top",
+                    fontsize=9, bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
+        ax.set_ylim(-1.05, 1.05)
+        ax.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel(r"Time shift $\tau$ (ms)" if in_ms else "Lag $j$ (samples)")
+    fig.suptitle(title or "Correlation functions of the dynamic forces, Eq. (1) (cf. paper Figs. 3-5)")
+    return fig
+
+
+# --------------------------------------------------------------------------
+# Figs. 6-8: phase plots
+# --------------------------------------------------------------------------
+def _line_of(fit: Any, fz: np.ndarray, fy: np.ndarray) -> Tuple[float, float, str]:
+    """(slope, intercept, label) of the fy-on-fz regression line."""
+    if fit is None:
+        from .regression import DegenerateInputWarning, linfit
+
+        keep = _finite(fz, fy)
+        if keep.sum() < 3:
+            return float("nan"), float("nan"), ""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DegenerateInputWarning)
+            fit = linfit(fz[keep], fy[keep])
+    if hasattr(fit, "mu_r") and hasattr(fit, "orientation"):  # CofResult
+        s = int(fit.orientation)
+        slope, icpt = s * float(fit.mu_r), float(fit.f_y0)
+        return slope, icpt, rf"$\mu_r$ = {_fmt(fit.mu_r, '.4f')} (s = {s:+d}), $F_{{y,0}}$ = {_fmt(icpt, '.3f')} N"
+    if hasattr(fit, "slope") and hasattr(fit, "intercept"):  # LinFit
+        slope, icpt = float(fit.slope), float(fit.intercept)
+        return slope, icpt, rf"slope = {_fmt(slope, '.4f')}, $F_{{y,0}}$ = {_fmt(icpt, '.3f')} N"
+    if isinstance(fit, (tuple, list)) and len(fit) == 2:
+        slope, icpt = float(fit[0]), float(fit[1])
+        return slope, icpt, f"slope = {_fmt(slope, '.4f')}"
+    raise TypeError("fit must be None, a CofResult, a LinFit or a (slope, intercept) pair, "
+                    f"got {type(fit).__name__}")
+
+
+def phase_plots(fx: Any, fy: Any, fz: Any, *, fit: Any = None, title: Optional[str] = None) -> Figure:
+    """Force phase plots F_x-F_y, F_x-F_z and F_z-F_y with the regression line (paper Figs. 6-8; METHOD.md 3).
+
+    Parameters
+    ----------
+    fx, fy, fz : array_like, 1-D, equal length
+        Dynamic forces in N; ``fx`` may be None (its two panels are empty).
+        More than :data:`MAX_SCATTER_POINTS` samples are thinned evenly.
+    fit : CofResult, LinFit, (slope, intercept) or None
+        The regression of F_y,d on F_z,d drawn on the third panel (Eqs. 6-8).
+        A CofResult draws ``slope = s * mu_r`` and ``F_y0``; None fits the
+        data given here with :func:`tribodyn.linfit`.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Three axes: (F_x,d, F_y,d), (F_x,d, F_z,d), (F_z,d, F_y,d), each
+        with Pearson's r printed; the last carries the regression line.
+    """
+    x, y, z = _signal(fx), _signal(fy), _signal(fz)
+    sizes = {len(a) for a in (x, y, z) if a is not None}
+    if len(sizes) > 1:
+        raise ValueError(f"fx, fy, fz must have equal lengths, got {sorted(sizes)}")
+    fig, axes = _figure(1, 3, figsize=(13.0, 4.4))
+    panels = ((x, y, "x", "y", "Fig. 6"), (x, z, "x", "z", "Fig. 7"), (z, y, "z", "y", "Fig. 8"))
+    for ax, (a, b, na, nb, paper) in zip(axes[0], panels):
+        ax.set_xlabel(_FORCE_LABEL[na])
+        ax.set_ylabel(_FORCE_LABEL[nb])
+        ax.set_title(f"{_FORCE_LABEL[nb].split(' ')[0]} vs {_FORCE_LABEL[na].split(' ')[0]} ({paper})", fontsize=10)
+        if a is None or b is None:
+            _no_data(ax, "not measured" if (fx is None and "x" in (na, nb)) else "no data")
+            continue
+        keep = _finite(a, b)
+        if not keep.any():
+            _no_data(ax)
+            continue
+        aa, bb = a[keep], b[keep]
+        idx = _thin(aa.size)
+        ax.scatter(aa[idx], bb[idx], s=2, alpha=0.25, color="tab:blue", linewidths=0, rasterized=True)
+        ax.axhline(0.0, color="0.5", linewidth=0.5)
+        ax.axvline(0.0, color="0.5", linewidth=0.5)
+        ax.grid(True, alpha=0.3)
+        r = _pearson(aa, bb)
+        note = f"r = {_fmt(r, '+.3f')}" + (f"  ({idx.size} of {aa.size} points)" if idx.size < aa.size else "")
+        ax.text(0.02, 0.98, note, transform=ax.transAxes, ha="left", va="top", fontsize=9,
+                bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
+        if (na, nb) == ("z", "y"):
+            slope, icpt, label = _line_of(fit, aa, bb)
+            if np.isfinite(slope) and np.isfinite(icpt):
+                xs = np.array([aa.min(), aa.max()])
+                ax.plot(xs, slope * xs + icpt, color="tab:red", linewidth=1.8, label=label)
+                ax.legend(loc="upper right" if slope < 0 else "lower right", fontsize=8, framealpha=0.9)
+    fig.suptitle(title or "Phase plots of the dynamic forces (cf. paper Figs. 6-8)")
+    return fig
+
+
+# --------------------------------------------------------------------------
+# Fig. 9: COF against normal force
+# --------------------------------------------------------------------------
+def cof_vs_normal_force(cof_result: Any, *, title: Optional[str] = None) -> Figure:
+    """Per-bin COF against the dynamic normal force (paper Fig. 9; METHOD.md 4).
+
+    Parameters
+    ----------
+    cof_result : CofResult
+        From :func:`tribodyn.identify`: its ``bins`` (fz centres, COF_k,
+        counts), ``mu_r``, ``mu_a``, ``mu_b`` and ``deadband``.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axes: COF_k against the bin centres (empty bins skipped), the
+        regression mu_r as a dashed line across, mu_a over the negative
+        range and mu_b over the positive range, the deadband |F_z,d| < d
+        shaded.
+    """
+    bins = cof_result.bins
+    centres = np.asarray(bins.centres, dtype=float)
+    cof = np.asarray(bins.cof, dtype=float)
+    counts = np.asarray(bins.counts)
+    edges = np.asarray(bins.edges, dtype=float)
+    d = float(getattr(cof_result, "deadband", np.nan))
+    fig, axes = _figure(1, 1, figsize=(7.5, 4.8))
+    ax = axes[0, 0]
+    ax.set_xlabel(r"Dynamic normal force $F_{z,d}$ (N)")
+    ax.set_ylabel("COF")
+    fig.suptitle(title or "COF against the normal force (cf. paper Fig. 9)")
+    keep = np.isfinite(cof) & np.isfinite(centres)
+    if not keep.any():
+        _no_data(ax, "no data (every bin empty)")
+        return fig
+    lo_x, hi_x = (float(edges[0]), float(edges[-1])) if edges.size and np.isfinite(edges).all() else (
+        float(centres[keep].min()), float(centres[keep].max()))
+    if np.isfinite(d) and d > 0:
+        ax.axvspan(-d, d, color="0.85", alpha=0.7, zorder=0, label=rf"deadband $|F_{{z,d}}| < {d:.3g}$ N")
+    # NaN (empty) bins break the line: no segment is drawn across the deadband.
+    ax.plot(centres, np.where(keep, cof, np.nan), "o-", color="tab:purple", markersize=5, linewidth=1.0,
+            label=rf"COF$_k$ per bin ({int(keep.sum())} of {cof.size} bins, Eq. 5)")
+    mu_r, mu_a, mu_b = (float(getattr(cof_result, k, np.nan)) for k in ("mu_r", "mu_a", "mu_b"))
+    if np.isfinite(mu_r):
+        ax.axhline(mu_r, color="black", linestyle="--", linewidth=1.3,
+                   label=rf"$\mu_r$ = {mu_r:.4f} (regression, Eq. 8)")
+    neg_hi = -d if np.isfinite(d) else 0.0
+    if np.isfinite(mu_a):
+        ax.hlines(mu_a, lo_x, min(neg_hi, 0.0), color="tab:blue", linestyle=":", linewidth=2.0,
+                  label=rf"$\mu_a$ = {mu_a:.4f} ($F_{{z,d}} \leq -d$)")
+    if np.isfinite(mu_b):
+        ax.hlines(mu_b, max(-neg_hi, 0.0), hi_x, color="tab:orange", linestyle="-.", linewidth=2.0,
+                  label=rf"$\mu_b$ = {mu_b:.4f} ($F_{{z,d}} \geq +d$)")
+    # Zoom on the data (the paper's point is the spread across bins, < 15 %),
+    # at least +-25 % around the centre so noise does not look like a trend.
+    vals = np.concatenate([cof[keep], [v for v in (mu_r, mu_a, mu_b) if np.isfinite(v)]])
+    centre = mu_r if np.isfinite(mu_r) else float(np.median(vals))
+    half = max(0.25 * abs(centre), 1.15 * float(np.max(np.abs(vals - centre))), 1e-3)
+    ax.set_ylim(centre - half, centre + half)
+    pad = 0.03 * (hi_x - lo_x) if hi_x > lo_x else 0.5
+    ax.set_xlim(lo_x - pad, hi_x + pad)
+    fd = float(getattr(cof_result, "force_dependence", np.nan))
+    if np.isfinite(fd):
+        note = (rf"$(\mu_b - \mu_a)/\mu_r$ = {100 * fd:+.1f} %   "
+                f"n = {int(counts.sum())} samples outside the deadband")
+        ax.text(0.99, 0.02, note,
+                transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="0.3")
+    ax.grid(True, alpha=0.3)
+    _legend_above(ax, ncol=3)
+    return fig
+
+
+# --------------------------------------------------------------------------
+# Figs. 10 and 12: COF and a covariate against time
+# --------------------------------------------------------------------------
+_COVARIATE = {
+    "T": dict(label=r"Temperature $T$ (°C)", colour="tab:red", name="temperature", unit="°C"),
+    "J": dict(label=r"Current density $J$ (A/mm$^2$)", colour="tab:green", name="current density", unit="A/mm²"),
+}
+
+
+def _cof_time_axes(ax: Axes, results: Any) -> Tuple[list, list]:
+    """Draws mu_r, mu_a, mu_b of the gated windows and the failed ones in grey; returns legend handles."""
+    t = np.asarray(getattr(results, "table", results)["time"], dtype=float)
+    n = t.size
+    ok = _gated(results, n)
+    handles: list = []
+    tops = []
+    for col in ("mu_r", "mu_a", "mu_b"):
+        v = _column(results, col, n)
+        sel = ok & np.isfinite(v) & np.isfinite(t)
+        if not sel.any():
+            continue
+        st = _MU_STYLE[col]
+        small = col != "mu_r"
+        (h,) = ax.plot(t[sel], v[sel], linestyle="-" if not small else "none", linewidth=0.6,
+                       marker=st["marker"], markersize=2.5 if small else 3, color=st["color"],
+                       alpha=0.6 if small else 0.9, label=st["label"], zorder=2 if small else 3)
+        handles.append(h)
+        tops.append(v[sel])
+    lim = _cof_limits(tops)
+    if lim is None:
+        lim = (0.0, 0.3)
+    ax.set_ylim(*lim)
+    mu = _column(results, "mu_r", n)
+    bad = ~ok & np.isfinite(t)
+    if bad.any():
+        # Failed windows: their mu_r, clipped into view (NaN drawn at the bottom).
+        y = np.where(np.isfinite(mu), mu, lim[0])
+        y = np.clip(y, lim[0] + 0.01 * (lim[1] - lim[0]), lim[1] - 0.01 * (lim[1] - lim[0]))
+        (h,) = ax.plot(t[bad], y[bad], label=f"gate failed ({int(bad.sum())} windows)", **_FAILED)
+        handles.append(h)
+    ax.set_xlabel("Time $t$ (s)")
+    ax.set_ylabel("COF")
+    ax.grid(True, alpha=0.3)
+    return handles, tops
+
+
+def _cof_and_covariate_vs_time(results: Any, column: str, *, title: str,
+                               extra: Optional[Tuple[np.ndarray, np.ndarray]] = None) -> Figure:
+    spec = _COVARIATE[column]
+    fig, axes = _figure(1, 1, figsize=(10.0, 5.0))
+    ax = axes[0, 0]
+    fig.suptitle(title)
+    table = getattr(results, "table", results)
+    t = np.asarray(table["time"], dtype=float) if "time" in table else np.empty(0)
+    if t.size == 0 or not np.isfinite(t).any():
+        _no_data(ax, "no windows")
+        return fig
+    handles, tops = _cof_time_axes(ax, results)
+    if not tops:
+        ax.text(0.5, 0.5, "no window passed the quality gate", transform=ax.transAxes, ha="center", va="center",
+                color="0.4", style="italic")
+    cov = _column(results, column, t.size)
+    keep = np.isfinite(cov) & np.isfinite(t)
+    if keep.any() or extra is not None:
+        ax2 = ax.twinx()
+        if keep.any():
+            order = np.argsort(t[keep])
+            (h,) = ax2.plot(t[keep][order], cov[keep][order], color=spec["colour"], linewidth=1.4,
+                            drawstyle="steps-mid" if column == "J" else "default",
+                            label=f"{spec['name']} at the window centres")
+            handles.append(h)
+        if extra is not None:
+            lt, lv = extra
+            (h,) = ax2.plot(lt, lv, linestyle="none", marker="^", markersize=6, markerfacecolor="none",
+                            color=spec["colour"], label=f"{spec['name']} readings")
+            handles.append(h)
+        ax2.set_ylabel(spec["label"], color=spec["colour"])
+        ax2.tick_params(axis="y", colors=spec["colour"])
+        vals = np.concatenate([cov[keep]] + ([np.asarray(extra[1], float)] if extra is not None else []))
+        vals = vals[np.isfinite(vals)]
+        if vals.size:
+            lo, hi = float(vals.min()), float(vals.max())
+            pad = max(0.08 * (hi - lo), 0.5 if column == "T" else 0.05)
+            ax2.set_ylim(lo - pad, hi + pad)
+        ax.set_zorder(ax2.get_zorder() + 1)  # COF markers above the covariate line
+        ax.patch.set_visible(False)
+    else:
+        ax.text(0.99, 0.02, f"no {spec['name']} data", transform=ax.transAxes, ha="right", va="bottom",
+                color="0.4", style="italic", fontsize=9)
+    _legend_above(ax, handles, ncol=3)
+    return fig
+
+
+def cof_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
+    """COF of every window against time (paper Figs. 10, 12 without a covariate; METHOD.md 6).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze`. Gated windows show mu_r, mu_a and
+        mu_b; windows that failed the quality gate are grey crosses (their
+        mu_r clipped into view; NaN at the bottom).
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, axes = _figure(1, 1, figsize=(10.0, 4.6))
+    ax = axes[0, 0]
+    fig.suptitle(title or "COF against time")
+    table = getattr(results, "table", results)
+    t = np.asarray(table["time"], dtype=float) if "time" in table else np.empty(0)
+    if t.size == 0 or not np.isfinite(t).any():
+        _no_data(ax, "no windows")
+        return fig
+    handles, tops = _cof_time_axes(ax, results)
+    if not tops:
+        ax.text(0.5, 0.5, "no window passed the quality gate", transform=ax.transAxes, ha="center", va="center",
+                color="0.4", style="italic")
+    _legend_above(ax, handles, ncol=4)
+    return fig
+
+
+def cof_and_temperature_vs_time(results: Any, *, temperature_log: Any = None, title: Optional[str] = None) -> Figure:
+    """COF (mu_r, mu_a, mu_b) and temperature against time (paper Fig. 10; METHOD.md 6).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze` with a temperature log (column ``T``).
+        Gated windows show mu_r, mu_a, mu_b; failed windows are grey crosses.
+    temperature_log : (t_s, T_degC), optional
+        The intermittent readings themselves, drawn as open triangles (the
+        paper's symbol); the line is ``T`` interpolated at window centres.
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        COF on the left axis, temperature (°C) on a second y-axis.
+    """
+    extra = None
+    if temperature_log is not None:
+        lt, lv = (np.asarray(a, dtype=float).ravel() for a in temperature_log)
+        if lt.size and lt.size == lv.size:
+            extra = (lt, lv)
+    title = title or "COF and temperature against time (cf. paper Fig. 10)"
+    return _cof_and_covariate_vs_time(results, "T", title=title,
+                                      extra=extra)
+
+
+def cof_and_current_density_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
+    """COF (mu_r, mu_a, mu_b) and current density against time (paper Fig. 12; METHOD.md 6).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze` with a current and ``area_mm2``
+        (column ``J``, A/mm^2). Failed windows are grey crosses.
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        COF on the left axis, J (A/mm^2) on a second y-axis.
+    """
+    title = title or "COF and current density against time (cf. paper Fig. 12)"
+    return _cof_and_covariate_vs_time(results, "J", title=title)
+
+
+# --------------------------------------------------------------------------
+# Fig. 11 and COF vs J: COF against a covariate, with the operating range
+# --------------------------------------------------------------------------
+def _opr_of(results: Any, opr: Any, by: str) -> Any:
+    if opr is not None:
+        return opr
+    try:
+        from .ranges import operating_range
+
+        return operating_range(results, by=by)  # type: ignore[arg-type]
+    except (ValueError, KeyError, TypeError):
+        return None
+
+
+def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: str, branches: bool) -> Figure:
+    spec = _COVARIATE[column]
+    fig, axes = _figure(1, 1, figsize=(8.5, 6.0))
+    ax = axes[0, 0]
+    fig.suptitle(title)
+    ax.set_xlabel(spec["label"])
+    ax.set_ylabel(r"COF $\mu_r$")
+    table = getattr(results, "table", results)
+    n = len(np.asarray(table["mu_r"])) if "mu_r" in table else 0
+    cov = _column(results, column, n)
+    mu = _column(results, "mu_r", n)
+    ok = _gated(results, n)
+    good = ok & np.isfinite(cov) & np.isfinite(mu)
+    bad = ~ok & np.isfinite(cov)
+    if not good.any() and not bad.any():
+        _no_data(ax, f"no {spec['name']} data")
+        return fig
+    opr = _opr_of(results, opr, by)
+    lim = _cof_limits([mu[good]]) if good.any() else (0.0, 0.3)
+    if opr is not None and opr.optimum is not None:
+        lo, hi = opr.optimum
+        ax.axvspan(lo, hi, color=_OPTIMUM_COLOUR, alpha=0.15, zorder=0,
+                   label=f"optimum {lo:.4g}–{hi:.4g} {spec['unit']} (min COF {_fmt(opr.mu_min, '.3f')})")
+    if branches:
+        br = _column(results, "branch", n, fill=0.0)
+        groups = (("heating", br > 0), ("cooling", br < 0), ("unknown", br == 0))
+    else:
+        groups = (("all", np.ones(n, dtype=bool)),)
+    for name, sel in groups:
+        sel = sel & good
+        if not sel.any():
+            continue
+        st = _BRANCH_STYLE.get(name, dict(color="tab:blue", marker="o", label="gated windows"))
+        ax.plot(cov[sel], mu[sel], linestyle="none", marker=st["marker"], markersize=3.5, color=st["color"],
+                alpha=0.35, label=f"{st['label']} ({int(sel.sum())})")
+    if bad.any():
+        y = np.where(np.isfinite(mu), mu, lim[0])
+        y = np.clip(y, lim[0] + 0.01 * (lim[1] - lim[0]), lim[1] - 0.01 * (lim[1] - lim[0]))
+        ax.plot(cov[bad], y[bad], label=f"gate failed ({int(bad.sum())} windows)", **_FAILED)
+    if opr is not None:
+        names = ("heating", "cooling") if branches and ("heating" in opr.curves or "cooling" in opr.curves) else ()
+        for name in names:
+            c = opr.curves.get(name)
+            if c is None:
+                continue
+            if np.isfinite(c.median).any():  # NaN (empty) bins break the line
+                st = _BRANCH_STYLE[name]
+                ax.plot(c.centres, c.median, "-", marker=st["marker"], color=st["color"], markersize=7,
+                        markeredgecolor="black", markeredgewidth=0.6, linewidth=1.8, label=f"{name}: binned median")
+        c = opr.curves.get("all")
+        if c is not None and np.isfinite(c.median).any():
+            ax.plot(c.centres, c.median, "--" if names else "-", marker="s" if not names else None,
+                    color="black", markersize=5, linewidth=1.2 if names else 1.8,
+                    label=f"all: binned median ({_fmt(opr.bin_width, '.3g')} {spec['unit']} bins)")
+        if opr.onset is not None and np.isfinite(opr.onset):
+            what = "instability onset" if column == "J" else "onset of the COF rise"
+            ax.axvline(opr.onset, color=_ONSET_COLOUR, linestyle="--", linewidth=1.4,
+                       label=f"{what} {opr.onset:.3g} {spec['unit']} (COF ≥ {1 + opr.rise:g} × min)")
+    ax.set_ylim(*lim)
+    ax.grid(True, alpha=0.3)
+    _legend_above(ax, ncol=2)
+    return fig
+
+
+def cof_vs_temperature(results: Any, opr: Any = None, *, title: Optional[str] = None) -> Figure:
+    """COF against temperature, heating and cooling branches apart (paper Fig. 11; METHOD.md 7).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze` with a temperature log. Gated windows
+        are drawn per branch (heating: red up-triangles, cooling: blue
+        down-triangles, unknown dT/dt: grey); failed windows are grey crosses.
+    opr : OperatingRange, optional
+        ``operating_range(results, by="temperature")``: its binned medians
+        per branch, the optimum interval (shaded) and the instability onset.
+        Computed with the defaults when omitted (skipped if impossible).
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    return _cof_vs_covariate(results, opr, "T", "temperature", branches=True,
+                             title=title or "COF against temperature (cf. paper Fig. 11)")
+
+
+def cof_vs_current_density(results: Any, opr: Any = None, *, title: Optional[str] = None) -> Figure:
+    """COF against current density, with the optimum and the instability onset (paper Sec. 4.2; METHOD.md 7).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze` with a current and ``area_mm2``.
+        Gated windows are blue dots; failed windows (e.g. contact loss at
+        high J) are grey crosses.
+    opr : OperatingRange, optional
+        ``operating_range(results, by="current_density")``: binned medians,
+        optimum (shaded) and instability onset (dashed red line). Computed
+        with the defaults when omitted (skipped if impossible).
+    title : str, optional
+        Axes title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    return _cof_vs_covariate(results, opr, "J", "current_density", branches=False,
+                             title=title or "COF against current density (cf. paper Sec. 4.2, Fig. 12)")
+
+
+# --------------------------------------------------------------------------
+# saving
+# --------------------------------------------------------------------------
+def _publish(tmp: str, target: str) -> None:
+    """Gives ``tmp`` (mkstemp makes it 0600) the target's mode or 0644, then renames it over ``target``."""
+    try:
+        mode = os.stat(target).st_mode & 0o777
+    except OSError:
+        mode = 0o644
+    try:
+        os.chmod(tmp, mode)
+    except OSError:  # pragma: no cover - e.g. a filesystem without modes
+        pass
+    os.replace(tmp, target)
+
+
+def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:
+    """Saves ``fig`` as PNG atomically: a temporary file in the same directory, then ``os.replace``.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : str or path-like
+        Target file; its directory must exist. An existing file is replaced
+        only once the new one is complete.
+    dpi : int
+        Resolution (default :data:`DPI`).
+
+    Returns
+    -------
+    str
+        The path written.
+
+    Raises
+    ------
+    Exception
+        Whatever rendering or writing raised; the target is then untouched
+        and no temporary file is left behind.
+    """
+    target = os.fspath(path)
+    directory = os.path.dirname(os.path.abspath(target))
+    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(target) + ".", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fig.savefig(fh, format="png", dpi=dpi)
+        _publish(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return target

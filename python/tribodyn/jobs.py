@@ -1,0 +1,248 @@
+"""The jobs behind the command line: the demo and the analysis of files.
+
+Each job analyses, then writes its outputs all-or-nothing (see
+:mod:`tribodyn.outputs`): per-window tables (CSV, Parquet), ``summary.json``
+(COF statistics, optimum ranges, gate statistics, every parameter, the
+tribodyn version, input names and SHA-256), figures (PNG) and a
+self-contained ``report.html``.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .analyze import analyze
+from .identify import identify
+from .outputs import OutputSet, input_provenance, write_json, write_table_csv, write_table_parquet
+from .ranges import OperatingRange, operating_range
+from .results import Results
+
+__all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
+
+PathLike = "str | os.PathLike[str]"
+
+
+def read_log(path: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """Reads a two-column log (time in s, value) from a CSV/TSV/whitespace file.
+
+    Lines that do not start with a number (headers, comments) are skipped; a
+    decimal comma is accepted when the delimiter is not a comma.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"log file not found: {p}")
+    t: List[float] = []
+    v: List[float] = []
+    with open(p, encoding="utf-8", errors="replace") as f:
+        for line_no, line in enumerate(f, 1):
+            s = line.strip()
+            if not s or s[0] in "#%;":
+                continue
+            for delim in ("\t", ";", ",", None):
+                parts = s.split(delim) if delim else s.split()
+                if len(parts) >= 2:
+                    break
+            if len(parts) < 2:
+                continue
+            if delim != ",":
+                parts = [x.replace(",", ".") for x in parts]
+            try:
+                a, b = float(parts[0]), float(parts[1])
+            except ValueError:
+                if t:  # a non-numeric row after data is an error, before it a header
+                    raise ValueError(f"{p.name}, line {line_no}: not two numbers: {s!r}") from None
+                continue
+            t.append(a)
+            v.append(b)
+    if not t:
+        raise ValueError(f"{p.name}: no (time, value) rows found")
+    return np.asarray(t), np.asarray(v)
+
+
+def range_summary(opr: Optional[OperatingRange]) -> Optional[Dict[str, Any]]:
+    """The JSON-ready essentials of an operating range."""
+    if opr is None:
+        return None
+    out: Dict[str, Any] = {"by": opr.by, "unit": opr.unit, "optimum": opr.optimum, "mu_min": opr.mu_min,
+                           "onset": opr.onset, "bin_width": opr.bin_width, "tol": opr.tol}
+    for name, c in opr.curves.items():
+        if name != "all":
+            out[f"optimum_{name}"] = c.optimum
+    return out
+
+
+def _try_range(res: Results, by: str) -> Optional[OperatingRange]:
+    try:
+        return operating_range(res, by)  # type: ignore[arg-type]
+    except ValueError:
+        return None
+
+
+def _example_window(channels: Mapping[str, np.ndarray], fs: float, start: int, n: int) -> Dict[str, Any]:
+    ch = {k: np.asarray(v[start : start + n]) for k, v in channels.items() if k in ("fx", "fy", "fz")}
+    res = identify(ch.get("fx"), ch["fy"], ch["fz"], fs=fs, max_lag=min(200, n - 1), rpm=250, n_lamellas=24)
+    return {**ch, "fs": fs, "t0": start / fs, "result": res}
+
+
+def _write_set(out: OutputSet, prefix: str, res: Results, extra: Optional[Dict[str, Any]] = None) -> List[str]:
+    names = [f"{prefix}windows.csv"]
+    write_table_csv(res, out.path(names[0]), extra=extra)
+    if write_table_parquet(res, out.path(f"{prefix}windows.parquet"), extra=extra):
+        names.append(f"{prefix}windows.parquet")
+    return names
+
+
+def _figures(res: Results, *, opr_t: Optional[OperatingRange], opr_j: Optional[OperatingRange], example: Optional[Dict[str, Any]]):
+    from .report import build_report_figures
+
+    return build_report_figures(res, opr_temperature=opr_t, opr_current=opr_j, example=example)
+
+
+def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, Any]], prefix: str) -> List[str]:
+    from .figures import save_figure
+
+    names = []
+    for k, (caption, fig) in enumerate(figs, 1):
+        name = f"figures/{prefix}fig{k:02d}.png"
+        save_figure(fig, out.path(name))
+        names.append(name)
+    return names
+
+
+def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False) -> Dict[str, Any]:
+    """Simulates the paper's two tests, analyses them and writes every output.
+
+    Returns the summary (also written to ``summary.json``).
+    """
+    from . import __version__, simulate
+    from .report import write_report
+
+    sim_t = simulate.temperature_test(seed=seed)
+    sim_j = simulate.current_density_test(seed=seed)
+    res_t = analyze(sim_t.channels, fs=sim_t.fs, window=2.0, hop=10.0, temperature=sim_t.temperature_log,
+                    rpm=sim_t.rpm, n_lamellas=sim_t.n_lamellas, progress=progress)
+    res_j = analyze(sim_j.channels, fs=sim_j.fs, window=2.0, hop=10.0, area_mm2=sim_j.area_mm2,
+                    rpm=sim_j.rpm, n_lamellas=sim_j.n_lamellas, progress=progress)
+    opr_t = operating_range(res_t, "temperature")
+    opr_j = operating_range(res_j, "current_density")
+    example = _example_window(sim_t.channels, sim_t.fs, start=1_500_000, n=2000)
+    summary = {
+        "tribodyn_version": __version__,
+        "job": "demo: simulated temperature and current-density tests of the paper's rig (METHOD.md 8)",
+        "seed": seed,
+        "temperature_test": {**res_t.summary(), "operating_range": range_summary(opr_t),
+                              "simulated_optimum": dict(sim_t.truth.optimum), "params": res_t.params},
+        "current_density_test": {**res_j.summary(), "operating_range": range_summary(opr_j),
+                                 "simulated_optimum": dict(sim_j.truth.optimum), "params": res_j.params},
+    }
+    with OutputSet(out_dir) as out:
+        files = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
+        figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, example=example)
+        figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, example=None)
+        files += _save_figures(out, figs_t, "temperature_") + _save_figures(out, figs_j, "current_density_")
+        summary["files"] = files + ["summary.json", "report.html"]
+        write_json(summary, out.path("summary.json"))
+        write_report(out.path("report.html"), title="tribodyn demo: the paper's rig, simulated",
+                     summary=_flat_summary(summary), params={"temperature test": res_t.params, "current-density test": res_j.params},
+                     figures=list(figs_t) + list(figs_j), quality={"temperature test": res_t.summary()["gate_failures"],
+                                                                  "current-density test": res_j.summary()["gate_failures"]})
+    return summary
+
+
+def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
+    """A short, readable summary for the report's first table."""
+    out: Dict[str, Any] = {}
+    for key, val in summary.items():
+        if isinstance(val, Mapping) and "mu_r" in val:
+            mu = val["mu_r"]
+            out[f"{key}: windows (gated)"] = f"{val['windows']} ({val['gated']})"
+            if mu.get("n"):
+                out[f"{key}: mu_r median [p05, p95]"] = f"{mu['median']:.4f} [{mu['p05']:.4f}, {mu['p95']:.4f}]"
+            for rng in (val[k] for k in val if k.startswith("operating_range")):
+                if not rng or not rng.get("optimum"):
+                    continue
+                lo, hi = rng["optimum"]
+                by = rng["by"].replace("_", " ")
+                out[f"{key}: optimum {by}"] = f"{lo:g} to {hi:g} {rng['unit']} (mu_min {rng['mu_min']:.4f})"
+                if rng.get("onset") is not None:
+                    out[f"{key}: instability onset ({by})"] = f"{rng['onset']:.3g} {rng['unit']}"
+        elif not isinstance(val, (Mapping, list)):
+            out[key] = val
+    return out
+
+
+def run_analysis(
+    paths: Sequence[Any],
+    out_dir: Any,
+    *,
+    open_options: Optional[Dict[str, Any]] = None,
+    analyze_options: Optional[Dict[str, Any]] = None,
+    progress: bool = False,
+) -> Dict[str, Any]:
+    """Analyses recording files and writes the outputs into ``out_dir``.
+
+    One file: its tables, figures and report at the top of ``out_dir``.
+    Several: one sub-folder per recording plus a combined table (with a
+    ``recording`` column), summary and report at the top.
+    """
+    from . import __version__
+    from .io import open_recording
+    from .report import write_report
+
+    open_options = dict(open_options or {})
+    opts = dict(analyze_options or {})
+    if not paths:
+        raise ValueError("no input file given")
+    runs: List[Tuple[Path, Results]] = []
+    for p in paths:
+        p = Path(p)
+        with open_recording(p, **open_options) as rec:
+            res = analyze(rec, progress=progress, **opts)
+        runs.append((p, res))
+
+    summary: Dict[str, Any] = {"tribodyn_version": __version__, "inputs": input_provenance([p for p, _ in runs]),
+                               "open_options": open_options, "recordings": {}}
+    single = len(runs) == 1
+    with OutputSet(out_dir) as out:
+        all_figs = []
+        for p, res in runs:
+            prefix = "" if single else f"{p.stem}/"
+            opr_t = _try_range(res, "temperature")
+            opr_j = _try_range(res, "current_density")
+            files = _write_set(out, prefix, res)
+            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, example=None)
+            files += _save_figures(out, figs, prefix)
+            rec_sum = {**res.summary(), "operating_range_temperature": range_summary(opr_t),
+                       "operating_range_current_density": range_summary(opr_j), "params": res.params, "files": files}
+            summary["recordings"][p.name] = rec_sum
+            if not single:
+                write_json(rec_sum, out.path(f"{prefix}summary.json"))
+                write_report(out.path(f"{prefix}report.html"), title=f"tribodyn: {p.name}", summary=_flat_summary({p.name: rec_sum}),
+                             params=res.params, figures=figs, quality=rec_sum["gate_failures"])
+            all_figs += [(f"{p.name}: {c}", f) for c, f in figs]
+        if not single:
+            combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
+            write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
+            write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
+        write_json(summary, out.path("summary.json"))
+        write_report(out.path("report.html"), title="tribodyn: " + ", ".join(p.name for p, _ in runs),
+                     summary=_flat_summary(summary["recordings"]), params={p.name: r.params for p, r in runs},
+                     figures=all_figs, quality={p.name: r.summary()["gate_failures"] for p, r in runs})
+    return summary
+
+
+def _combine(results: Sequence[Results], names: Sequence[str]) -> Tuple[Results, np.ndarray]:
+    table = {k: np.concatenate([r.table[k] for r in results]) for k in results[0].table}
+    rec = np.concatenate([np.full(len(r), n, dtype=object) for r, n in zip(results, names)])
+    nb = max(r.bin_counts.shape[1] for r in results)
+    if any(r.bin_counts.shape[1] != nb for r in results):
+        raise ValueError("recordings analysed with different n_bins cannot be combined")
+    merged = Results(table=table, bin_counts=np.concatenate([r.bin_counts for r in results]),
+                     bin_cof=np.concatenate([r.bin_cof for r in results]), fz_min=np.concatenate([r.fz_min for r in results]),
+                     fz_max=np.concatenate([r.fz_max for r in results]), orientation=results[0].orientation,
+                     params={"recordings": list(names)})
+    return merged, rec.astype(str)

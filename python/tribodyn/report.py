@@ -1,0 +1,600 @@
+"""A self-contained HTML report of an analysis (METHOD.md sections 4-7).
+
+:func:`write_report` writes ONE ``report.html``: inline CSS, every figure
+embedded as a base64 PNG, no script and no network reference, so the file
+can be mailed or archived on its own. It holds the summary (COF statistics,
+optimum ranges), the measurement quality (gate pass fraction, failure
+reasons), the parameters, every figure with its caption and optional tables.
+The write is atomic: the figures are rendered in memory first, the page goes
+to a temporary file in the target's directory and is renamed over the target
+(``os.replace``) only when complete; on any error nothing is left behind.
+
+:func:`build_report_figures` makes the paper's figures for a
+:class:`~tribodyn.Results` (plus an optional one-window example for Figs.
+2-9), :func:`build_report_summary` and :func:`quality_from_results` the
+summary and quality dicts, and :func:`write_results_report` chains them.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import io
+import math
+import numbers
+import os
+import tempfile
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from . import figures as _figs
+
+__all__ = [
+    "write_report",
+    "build_report_figures",
+    "build_report_summary",
+    "quality_from_results",
+    "write_results_report",
+]
+
+FigureList = Union[Mapping[str, Figure], Sequence[Tuple[str, Figure]]]
+
+#: Resolution of the embedded PNGs (dots per inch).
+REPORT_DPI = 110
+#: Rows of a table shown in the report (the rest is summarised in a note).
+MAX_TABLE_ROWS = 1000
+
+#: Keys of ``Results.summary()`` that belong to the quality section.
+_QUALITY_KEYS = ("windows", "gated", "gate_pass_fraction", "gate_failures", "orientation")
+
+_CSS = """
+body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif; margin: 2em auto;
+       max-width: 1100px; padding: 0 1em; color: #222; line-height: 1.45; }
+h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
+h2 { margin-top: 2em; border-bottom: 1px solid #bbb; padding-bottom: .15em; }
+h3 { margin-bottom: .3em; }
+.meta { color: #666; font-size: .9em; }
+table { border-collapse: collapse; margin: .5em 0 1em; font-size: .9em; }
+th, td { border: 1px solid #ccc; padding: .25em .6em; text-align: right; vertical-align: top; }
+th { background: #f0f0f0; }
+td.key, th.key { text-align: left; font-family: monospace; }
+td.text { text-align: left; }
+.scroll { max-height: 32em; overflow: auto; border: 1px solid #ddd; margin-bottom: 1em; }
+.scroll table { margin: 0; }
+figure { margin: 1.5em 0; text-align: center; }
+figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
+figcaption { font-size: .92em; color: #333; margin-top: .4em; text-align: left; }
+.note { color: #666; font-style: italic; }
+.bad { color: #a00; }
+"""
+
+
+# --------------------------------------------------------------------------
+# formatting
+# --------------------------------------------------------------------------
+def _fmt(v: Any) -> str:
+    """A value as text: floats to 4 significant digits (6 from 10^4 up), NaN as 'NaN'."""
+    if v is None:
+        return "–"
+    if isinstance(v, (bool, np.bool_)):
+        return "yes" if v else "no"
+    if isinstance(v, numbers.Integral):
+        return str(int(v))
+    if isinstance(v, numbers.Real):
+        f = float(v)
+        if math.isnan(f):
+            return "NaN"
+        if math.isinf(f):
+            return "inf" if f > 0 else "-inf"
+        return format(f, ".4g") if abs(f) < 1e4 else format(f, ".6g")
+    if isinstance(v, (list, tuple, np.ndarray)):
+        items = list(np.asarray(v).ravel()) if isinstance(v, np.ndarray) else list(v)
+        if len(items) > 12:
+            return "[" + ", ".join(_fmt(x) for x in items[:12]) + f", … ({len(items)} items)]"
+        return "[" + ", ".join(_fmt(x) for x in items) + "]"
+    return str(v)
+
+
+def _esc(v: Any) -> str:
+    return html.escape(_fmt(v), quote=True)
+
+
+def _is_scalar(v: Any) -> bool:
+    return v is None or isinstance(v, (str, bytes, numbers.Number, np.generic))
+
+
+def _is_stats(v: Any) -> bool:
+    """A statistics dict like ``Results.summary()["mu_r"]`` (n, mean, median, ...)."""
+    return (isinstance(v, Mapping) and bool(v) and ("n" in v or "mean" in v or "median" in v)
+            and all(_is_scalar(x) for x in v.values()))
+
+
+def _cell(v: Any) -> str:
+    cls = "" if isinstance(v, (numbers.Number, np.generic)) and not isinstance(v, (bool, np.bool_)) else ' class="text"'
+    return f"<td{cls}>{_esc(v)}</td>"
+
+
+def _kv_table(d: Mapping[str, Any]) -> str:
+    rows = []
+    for k, v in d.items():
+        if isinstance(v, Mapping):
+            inner = _render_value(v)
+            rows.append(f'<tr><td class="key">{html.escape(str(k))}</td><td class="text">{inner}</td></tr>')
+        else:
+            rows.append(f'<tr><td class="key">{html.escape(str(k))}</td>{_cell(v)}</tr>')
+    return "<table>\n" + "\n".join(rows) + "\n</table>"
+
+
+def _matrix_table(d: Mapping[str, Mapping[str, Any]]) -> str:
+    """Rows = keys of ``d``, columns = union of the inner keys (in first-seen order)."""
+    cols: List[str] = []
+    for inner in d.values():
+        for c in inner:
+            if c not in cols:
+                cols.append(c)
+    head = '<tr><th class="key"></th>' + "".join(f"<th>{html.escape(str(c))}</th>" for c in cols) + "</tr>"
+    rows = []
+    for k, inner in d.items():
+        cells = "".join(_cell(inner.get(c)) if c in inner else "<td></td>" for c in cols)
+        rows.append(f'<tr><td class="key">{html.escape(str(k))}</td>{cells}</tr>')
+    return "<table>\n" + head + "\n" + "\n".join(rows) + "\n</table>"
+
+
+def _render_value(v: Any) -> str:
+    """Nested dicts: a dict of scalar-valued dicts is a matrix, otherwise key/value rows."""
+    if isinstance(v, Mapping):
+        if not v:
+            return '<span class="note">none</span>'
+        if all(isinstance(x, Mapping) and x and all(_is_scalar(y) or isinstance(y, (list, tuple)) for y in x.values())
+               for x in v.values()):
+            return _matrix_table(v)
+        return _kv_table(v)
+    return _esc(v)
+
+
+def _columns_table(table: Any, max_rows: int) -> str:
+    """A column dict (like ``Results.table``), a list of row dicts, or anything with ``.table``."""
+    table = getattr(table, "table", table)
+    if isinstance(table, Mapping):
+        cols = list(table)
+        arrays = [np.asarray(table[c]) for c in cols]
+        n = max((a.shape[0] if a.ndim else 1) for a in arrays) if arrays else 0
+        rows = ([a[i] if a.ndim else a for a in arrays] for i in range(min(n, max_rows)))
+    else:
+        records = list(table)
+        cols = []
+        for rec in records:
+            for c in rec:
+                if c not in cols:
+                    cols.append(c)
+        n = len(records)
+        rows = ([rec.get(c) for c in cols] for rec in records[:max_rows])
+    head = "<tr>" + "".join(f"<th>{html.escape(str(c))}</th>" for c in cols) + "</tr>"
+    body = "\n".join("<tr>" + "".join(_cell(x.item() if isinstance(x, np.generic) else x) for x in row) + "</tr>"
+                     for row in rows)
+    note = f'<p class="note">First {max_rows} of {n} rows.</p>' if n > max_rows else ""
+    return f'<div class="scroll"><table>\n{head}\n{body}\n</table></div>{note}'
+
+
+def _png_base64(fig: Figure, dpi: int) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Figure]]:
+    if figures is None:
+        return []
+    items = list(figures.items()) if isinstance(figures, Mapping) else list(figures)
+    out = []
+    for item in items:
+        if not (isinstance(item, (tuple, list)) and len(item) == 2):
+            raise TypeError("figures must be a dict caption -> Figure or a list of (caption, Figure) pairs")
+        caption, fig = item
+        if not hasattr(fig, "savefig"):
+            raise TypeError(f"figure {caption!r} is not a matplotlib Figure (got {type(fig).__name__})")
+        out.append((str(caption), fig))
+    return out
+
+
+def _quality_section(quality: Mapping[str, Any]) -> str:
+    q = dict(quality)
+    parts = []
+    frac = q.pop("gate_pass_fraction", None)
+    head: Dict[str, Any] = {}
+    for k in ("windows", "gated"):
+        if k in q:
+            head[k] = q.pop(k)
+    if frac is not None:
+        head["gate_pass_fraction"] = frac
+    failures = q.pop("gate_failures", None)
+    head.update({k: v for k, v in q.items() if not isinstance(v, Mapping)})
+    nested = {k: v for k, v in q.items() if isinstance(v, Mapping)}
+    if head:
+        parts.append(_kv_table(head))
+        if frac is not None and isinstance(frac, numbers.Real) and not math.isnan(float(frac)):
+            cls = ' class="bad"' if float(frac) < 0.5 else ""
+            parts.append(f"<p{cls}>{100 * float(frac):.1f} % of the windows passed the quality gate.</p>")
+    if failures is not None:
+        parts.append("<h3>Gate failures by reason</h3>")
+        if failures:
+            rows = "".join(f'<tr><td class="key">{html.escape(str(k))}</td>{_cell(v)}</tr>'
+                           for k, v in failures.items())
+            parts.append(f'<table><tr><th class="key">reason</th><th>windows</th></tr>{rows}</table>')
+        else:
+            parts.append('<p class="note">No window failed the gate.</p>')
+    for k, v in nested.items():
+        parts.append(f"<h3>{html.escape(str(k))}</h3>" + _render_value(v))
+    return "\n".join(parts) if parts else '<p class="note">No quality statistics.</p>'
+
+
+# --------------------------------------------------------------------------
+# the report
+# --------------------------------------------------------------------------
+def write_report(
+    path: Union[str, "os.PathLike[str]"],
+    *,
+    title: str,
+    summary: Mapping[str, Any],
+    params: Mapping[str, Any],
+    figures: Optional[FigureList] = None,
+    tables: Optional[Mapping[str, Any]] = None,
+    quality: Optional[Mapping[str, Any]] = None,
+    dpi: int = REPORT_DPI,
+    max_table_rows: int = MAX_TABLE_ROWS,
+) -> str:
+    """Writes one self-contained HTML report, atomically (METHOD.md 4-7).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Target file (e.g. ``out/report.html``); its directory must exist.
+    title : str
+        Page title.
+    summary : dict
+        E.g. ``Results.summary()`` or :func:`build_report_summary`: scalars
+        become key/value rows, a dict of statistics dicts (``mu_r``,
+        ``mu_a``, ...) a matrix, ``operating_ranges`` its own table.
+    params : dict
+        Every parameter of the analysis (``Results.params``).
+    figures : dict caption -> Figure, or list of (caption, Figure)
+        Embedded in order as base64 PNG, each with its caption.
+    tables : dict name -> table, optional
+        Extra tables: a dict of columns (e.g. ``Results.table``), a list of
+        row dicts, or an object with ``.table``; at most ``max_table_rows``
+        rows each are shown.
+    quality : dict, optional
+        Quality statistics (see :func:`quality_from_results`). When omitted
+        the quality keys of ``summary`` (windows, gated, gate_pass_fraction,
+        gate_failures, orientation) are shown as the quality section.
+    dpi : int
+        Resolution of the embedded figures.
+    max_table_rows : int
+        Rows shown per table.
+
+    Returns
+    -------
+    str
+        The path written.
+
+    Raises
+    ------
+    Exception
+        Whatever a figure's rendering or the write raised. Figures are
+        rendered before anything is written, and the page goes through a
+        temporary file renamed over the target, so on error the target is
+        unchanged (absent if it did not exist) and no temporary file remains.
+    """
+    target = os.fspath(path)
+    figs = _figure_list(figures)
+    # Render everything first: a failing figure must not leave a file behind.
+    images = [(caption, _png_base64(fig, dpi)) for caption, fig in figs]
+
+    summary = dict(summary)
+    if quality is None:
+        quality = {k: summary.pop(k) for k in _QUALITY_KEYS if k in summary}
+    try:
+        from . import __version__ as version
+    except ImportError:  # pragma: no cover
+        version = "unknown"
+    stamp = _dt.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M:%S %Z")
+
+    out: List[str] = [
+        "<!DOCTYPE html>",
+        '<html lang="en">',
+        "<head>",
+        '<meta charset="utf-8">',
+        f"<title>{html.escape(title)}</title>",
+        f"<style>{_CSS}</style>",
+        "</head>",
+        "<body>",
+        f"<h1>{html.escape(title)}</h1>",
+        (f'<p class="meta">tribodyn {html.escape(str(version))} &middot; {html.escape(stamp)} &middot; '
+         f"{len(images)} figure{'s' if len(images) != 1 else ''}</p>"),
+        '<h2 id="summary">Summary</h2>',
+    ]
+    scalars = {k: v for k, v in summary.items() if not isinstance(v, Mapping)}
+    nested = {k: v for k, v in summary.items() if isinstance(v, Mapping)}
+    stats = {k: v for k, v in nested.items() if _is_stats(v)}
+    if scalars:
+        out.append(_kv_table(scalars))
+    if stats:
+        out.append("<h3>COF statistics of the gated windows</h3>")
+        out.append(_matrix_table(stats))
+    for k, v in nested.items():
+        if k in stats:
+            continue
+        heading = "Operating ranges" if k == "operating_ranges" else str(k)
+        out.append(f"<h3>{html.escape(heading)}</h3>")
+        out.append(_render_value(v))
+    if not summary:
+        out.append('<p class="note">No summary.</p>')
+
+    out.append('<h2 id="quality">Measurement quality</h2>')
+    out.append(_quality_section(quality))
+
+    out.append('<h2 id="figures">Figures</h2>')
+    if not images:
+        out.append('<p class="note">No figures.</p>')
+    for k, (caption, b64) in enumerate(images, 1):
+        cap = html.escape(caption)
+        out.append(f'<figure id="fig{k}"><img src="data:image/png;base64,{b64}" alt="{cap}">'
+                   f"<figcaption><b>Figure {k}.</b> {cap}</figcaption></figure>")
+
+    out.append('<h2 id="parameters">Parameters</h2>')
+    out.append(_kv_table(params) if params else '<p class="note">No parameters.</p>')
+
+    for name, table in (tables or {}).items():
+        out.append(f"<h2>{html.escape(str(name))}</h2>")
+        out.append(_columns_table(table, max_table_rows))
+
+    out += ["</body>", "</html>", ""]
+    _atomic_write_text(target, "\n".join(out))
+    return target
+
+
+def _atomic_write_text(target: str, text: str) -> None:
+    directory = os.path.dirname(os.path.abspath(target))
+    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(target) + ".", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+            fh.write(text)
+        _figs._publish(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+# --------------------------------------------------------------------------
+# from a Results object
+# --------------------------------------------------------------------------
+def _finite_any(results: Any, column: str) -> bool:
+    table = getattr(results, "table", results)
+    return column in table and bool(np.isfinite(np.asarray(table[column], dtype=float)).any())
+
+
+def _range_or_none(results: Any, opr: Any, by: str) -> Any:
+    if opr is not None:
+        return opr
+    column = "T" if by == "temperature" else "J"
+    if not _finite_any(results, column):
+        return None
+    try:
+        from .ranges import operating_range
+
+        return operating_range(results, by=by)  # type: ignore[arg-type]
+    except ValueError:
+        return None
+
+
+def _opr_caption(opr: Any) -> str:
+    if opr is None:
+        return "No operating range (no quality-gated window with this covariate)."
+    unit = "°C" if opr.by == "temperature" else "A/mm²"
+    parts = []
+    if opr.optimum is not None:
+        parts.append(f"Optimum (shaded): {_fmt(opr.optimum[0])}–{_fmt(opr.optimum[1])} {unit}, binned COF within "
+                     f"{100 * opr.tol:g} % of its minimum {_fmt(opr.mu_min)}")
+    if opr.onset is not None:
+        parts.append(f"COF reaches {1 + opr.rise:g} × the minimum at {_fmt(opr.onset)} {unit} (dashed red line)")
+    return ("; ".join(parts) + ".") if parts else "No optimum found."
+
+
+def build_report_figures(
+    results: Any,
+    *,
+    opr_temperature: Any = None,
+    opr_current: Any = None,
+    example: Optional[Mapping[str, Any]] = None,
+    temperature_log: Any = None,
+) -> List[Tuple[str, Figure]]:
+    """The paper's figures for an analysis, as (caption, Figure) pairs (Figs. 2-12).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze`.
+    opr_temperature, opr_current : OperatingRange, optional
+        From :func:`tribodyn.operating_range`; computed with the defaults
+        when omitted and the covariate is present.
+    example : dict, optional
+        One window for Figs. 2-9: ``fx`` (may be None), ``fy``, ``fz``
+        (arrays, N), ``fs`` (Hz), optional ``result`` (alias ``cof``: its
+        :class:`~tribodyn.CofResult`, computed with
+        ``identify(..., max_lag=fs/2)`` when absent; the correlation
+        functions are computed if it has none) and optional ``t0`` (s).
+    temperature_log : (t_s, T_degC), optional
+        The readings, drawn as triangles on the Fig. 10 analogue.
+
+    Returns
+    -------
+    list of (str, Figure)
+        Figs. 2-9 for the example, then COF and temperature vs time and COF
+        vs temperature (Figs. 10-11) when ``T`` has data, COF and current
+        density vs time and COF vs J (Fig. 12) when ``J`` has data, or COF
+        vs time alone when neither has.
+    """
+    out: List[Tuple[str, Figure]] = []
+    if example is not None:
+        out += _example_figures(example)
+    has_t, has_j = _finite_any(results, "T"), _finite_any(results, "J")
+    n = len(getattr(results, "table", results)["time"])
+    ok = int(np.sum(np.asarray(getattr(results, "table", results).get("ok", np.ones(n)), dtype=bool)))
+    what = f"{n} windows, {ok} passed the quality gate; failed windows as grey crosses"
+    if has_t:
+        cap = ("COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator "
+               f"temperature against time ({what}); cf. paper Fig. 10.")
+        out.append((cap, _figs.cof_and_temperature_vs_time(results, temperature_log=temperature_log)))
+        opr = _range_or_none(results, opr_temperature, "temperature")
+        cap = ("COF against temperature, heating and cooling branches apart (hysteresis) with binned "
+               f"medians. {_opr_caption(opr)} Cf. paper Fig. 11.")
+        out.append((cap, _figs.cof_vs_temperature(results, opr)))
+    if has_j:
+        cap = f"COF and current density J against time ({what}); cf. paper Fig. 12."
+        out.append((cap, _figs.cof_and_current_density_vs_time(results)))
+        opr = _range_or_none(results, opr_current, "current_density")
+        cap = f"COF against current density with binned medians. {_opr_caption(opr)} Cf. paper Sec. 4.2."
+        out.append((cap, _figs.cof_vs_current_density(results, opr)))
+    if not (has_t or has_j):
+        out.append((f"COF against time ({what}); no temperature or current density was given.",
+                    _figs.cof_vs_time(results)))
+    return out
+
+
+def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, Figure]]:
+    from .correlation import xcorr
+    from .identify import identify
+
+    fx, fy, fz = example.get("fx"), example["fy"], example["fz"]
+    fs = float(example["fs"])
+    t0 = float(example.get("t0", 0.0) or 0.0)
+    res = example.get("result", example.get("cof"))
+    n = len(np.asarray(fz))
+    lag = max(0, min(n - 1, round(0.5 * fs)))
+    if res is None:
+        res = identify(fx, fy, fz, fs=fs, max_lag=lag)
+    corr = res.correlations
+    if corr is None and n >= 2:
+        corr = {"yz": xcorr(fy, fz, max_lag=lag, fs=fs, check_finite=False)}
+        if fx is not None:
+            corr["xy"] = xcorr(fx, fy, max_lag=lag, fs=fs, check_finite=False)
+            corr["xz"] = xcorr(fx, fz, max_lag=lag, fs=fs, check_finite=False)
+    span = f"{n / fs:g} s at {fs:g} Hz from t = {t0:g} s"
+    gate = "passed" if res.ok else "failed (" + "; ".join(res.reasons) + ")"
+    caps = (
+        f"Dynamic forces of the example window ({span}); cf. paper Fig. 2.",
+        ("Correlation functions C_xy, C_xz, C_yz of the example window against the time shift, "
+         f"Eq. (1); C_yz(0) = {_fmt(res.c_yz)}, quality gate {gate}; cf. paper Figs. 3-5."),
+        ("Force phase plots of the example window with the regression of F_y,d on F_z,d "
+         f"(mu_r = {_fmt(res.mu_r)}, orientation s = {res.orientation:+d}); cf. paper Figs. 6-8."),
+        (f"COF per F_z,d bin of the example window, deadband {_fmt(res.deadband)} N shaded; "
+         f"mu_r = {_fmt(res.mu_r)}, mu_a = {_fmt(res.mu_a)}, mu_b = {_fmt(res.mu_b)}; cf. paper Fig. 9."),
+    )
+    figs = (
+        _figs.forces_vs_time(fx, fy, fz, fs, t0=t0),
+        _figs.correlation_functions(corr or {}),
+        _figs.phase_plots(fx, fy, fz, fit=res),
+        _figs.cof_vs_normal_force(res),
+    )
+    return list(zip(caps, figs))
+
+
+def _range_dict(opr: Any) -> Dict[str, Any]:
+    d: Dict[str, Any] = {
+        "unit": opr.unit,
+        "optimum": None if opr.optimum is None else list(opr.optimum),
+        "mu_min": opr.mu_min,
+        "onset": opr.onset,
+        "bin_width": opr.bin_width,
+        "tol": opr.tol,
+        "rise": opr.rise,
+    }
+    for name in ("heating", "cooling"):
+        c = opr.curves.get(name)
+        if c is not None:
+            d[f"optimum_{name}"] = None if c.optimum is None else list(c.optimum)
+    return d
+
+
+def build_report_summary(results: Any, *, opr_temperature: Any = None, opr_current: Any = None) -> Dict[str, Any]:
+    """``results.summary()`` plus the optimum ranges, for :func:`write_report` (METHOD.md 7).
+
+    The operating ranges are computed with the defaults when not given and
+    the covariate has data; they go under ``"operating_ranges"`` keyed by
+    "temperature" / "current_density" (unit, optimum, mu_min, onset, ...).
+    """
+    summary = dict(results.summary())
+    ranges: Dict[str, Any] = {}
+    for by, opr in (("temperature", opr_temperature), ("current_density", opr_current)):
+        o = _range_or_none(results, opr, by)
+        if o is not None:
+            ranges[by] = _range_dict(o)
+    if ranges:
+        summary["operating_ranges"] = ranges
+    return summary
+
+
+def quality_from_results(results: Any) -> Dict[str, Any]:
+    """Quality statistics of an analysis (METHOD.md 5): gate pass fraction, failure reasons, correlations.
+
+    Returns windows, gated, gate_pass_fraction, the gate threshold,
+    orientation, gate_failures (reason -> windows) and, over all windows,
+    the median and 5th percentile of |C_yz(0)|, the medians of |C_xy(0)| and
+    |C_xz(0)|, and the number of windows with a non-zero channel skew.
+    """
+    s = results.summary()
+    q: Dict[str, Any] = {k: s[k] for k in ("windows", "gated", "gate_pass_fraction") if k in s}
+    params = getattr(results, "params", {}) or {}
+    if "gate" in params:
+        q["gate (min |C_yz(0)|)"] = params["gate"]
+    q["orientation"] = s.get("orientation")
+    table = results.table
+    for col, stats in (("c_yz", ("median", "p05")), ("c_xy", ("median",)), ("c_xz", ("median",))):
+        v = np.abs(np.asarray(table.get(col, []), dtype=float))
+        v = v[np.isfinite(v)]
+        for st in stats:
+            key = f"{st} |C_{col[2:]}(0)|"
+            q[key] = float("nan") if v.size == 0 else float(np.median(v) if st == "median" else np.percentile(v, 5))
+    skew = np.asarray(table.get("skew", []), dtype=float)
+    if np.isfinite(skew).any():
+        q["windows with channel skew"] = int(np.sum(np.isfinite(skew) & (skew != 0)))
+    q["gate_failures"] = s.get("gate_failures", {})
+    return q
+
+
+def write_results_report(
+    path: Union[str, "os.PathLike[str]"],
+    results: Any,
+    *,
+    title: str = "tribodyn: coefficient of friction",
+    opr_temperature: Any = None,
+    opr_current: Any = None,
+    example: Optional[Mapping[str, Any]] = None,
+    temperature_log: Any = None,
+    include_table: bool = True,
+    dpi: int = REPORT_DPI,
+) -> str:
+    """The full report of an analysis: :func:`build_report_summary`, :func:`quality_from_results`,
+    :func:`build_report_figures` and the per-window table, written by :func:`write_report`."""
+    opr_t = _range_or_none(results, opr_temperature, "temperature")
+    opr_j = _range_or_none(results, opr_current, "current_density")
+    figs = build_report_figures(results, opr_temperature=opr_t, opr_current=opr_j, example=example,
+                                temperature_log=temperature_log)
+    summary = build_report_summary(results, opr_temperature=opr_t, opr_current=opr_j)
+    for k in _QUALITY_KEYS:  # shown in the quality section
+        summary.pop(k, None)
+    tables = None
+    if include_table:
+        # Columns that are NaN in every window (no current, no skew, ...) only add noise.
+        cols = {k: v for k, v in results.table.items()
+                if not (np.asarray(v).dtype.kind == "f" and not np.isfinite(np.asarray(v)).any())}
+        tables = {"Per-window results": cols}
+    return write_report(path, title=title, summary=summary, params=dict(results.params), figures=figs,
+                        tables=tables,
+                        quality=quality_from_results(results), dpi=dpi)

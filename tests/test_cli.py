@@ -1,0 +1,180 @@
+"""The ``tribodyn`` command line end to end: outputs, exit codes, errors,
+and no partial outputs after a failure."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tribodyn import cli
+
+DATA = Path(__file__).parent / "data" / "real"
+
+
+def run(*args: str) -> int:
+    return cli.main([str(a) for a in args])
+
+
+def read_csv(path: Path) -> dict:
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return {k: [r[k] for r in rows] for k in rows[0]} if rows else {}
+
+
+def floats(col) -> np.ndarray:
+    return np.array([float(v) if v != "" else np.nan for v in col])
+
+
+def leftovers(directory: Path) -> list:
+    return [p.name for p in directory.iterdir() if p.name.startswith(".tribodyn-partial-")]
+
+
+@pytest.fixture(scope="module")
+def demo_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    assert run("demo", "--out", out, "--quiet") == 0
+    return out
+
+
+def test_demo_writes_every_output(demo_dir):
+    for name in ("report.html", "summary.json", "temperature_windows.csv", "current_density_windows.csv"):
+        assert (demo_dir / name).is_file(), name
+    figs = sorted((demo_dir / "figures").glob("*.png"))
+    assert len(figs) >= 8
+    summary = json.loads((demo_dir / "summary.json").read_text())
+    rng_t = summary["temperature_test"]["operating_range"]
+    rng_j = summary["current_density_test"]["operating_range"]
+    assert 120 <= rng_t["optimum"][0] < rng_t["optimum"][1] <= 175
+    assert 3.5 <= rng_j["optimum"][0] < rng_j["optimum"][1] <= 5.75
+    assert summary["tribodyn_version"]
+    html = (demo_dir / "report.html").read_text()
+    assert html.count("data:image/png;base64,") >= len(figs)
+    assert "http://" not in html and "https://" not in html
+    assert not leftovers(demo_dir)
+
+
+def test_demo_prints_a_summary(tmp_path, capsys):
+    assert run("demo", "--out", tmp_path / "d") == 0
+    out = capsys.readouterr().out
+    assert "optimum" in out and "degC" in out and "A/mm^2" in out
+
+
+@pytest.mark.parametrize("name", ["cetr_umt2_HT-2n-6-4_2_001.csv", "cetr_umt2_HT-2n-6-4_2_002.csv"])
+def test_cetr_classical_cof_matches_instrument(tmp_path, name):
+    out = tmp_path / "out"
+    assert run("analyze", DATA / name, "--out", out, "--window", "2", "--hop", "2", "--highpass", "0.1", "--quiet") == 0
+    t = read_csv(out / "windows.csv")
+    classic, instrument = floats(t["mu_classic"]), floats(t["mu_instrument"])
+    assert len(classic) == 2 and np.all(np.isfinite(classic))
+    np.testing.assert_allclose(classic, instrument, rtol=0.02)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["inputs"][0]["file"] == name and len(summary["inputs"][0]["sha256"]) == 64
+
+
+@pytest.mark.parametrize("name", ["pod_PPS_60N_1.tsv", "pod_PPS_100N_1.tsv"])
+def test_pin_on_disc_classical_cof_matches_instrument(tmp_path, name):
+    out = tmp_path / "out"
+    assert run("analyze", DATA / name, "--out", out, "--window", "60", "--hop", "60", "--highpass", "0.01", "--quiet") == 0
+    t = read_csv(out / "windows.csv")
+    classic, instrument = floats(t["mu_classic"]), floats(t["mu_instrument"])
+    assert len(classic) == 30
+    # The first samples of the run (|Ff| < 1 N, printed to 0.1 N) are coarse: skip window 0.
+    np.testing.assert_allclose(classic[1:], instrument[1:], rtol=0.02)
+
+
+@pytest.mark.parametrize(
+    "name, options",
+    [
+        ("lvm_read_long_single_header_multi_ch.lvm", ["--map", "fz=F,fy=m_1", "--window", "1", "--hop", "1"]),
+        ("lvm_read_short.lvm", ["--map", "fz=Excitation (Trigger),fy=Response (Trigger)", "--window", "0.0003", "--hop", "0.0003"]),
+        ("nptdms_raw1_daqmx.tdms", ["--map", "fz=First  Channel,fy=Second Chan", "--window", "0.01", "--hop", "0.01"]),
+        ("pyfrf_measurements_1.npy", ["--map", "fz=ch1,fy=ch2", "--fs", "25600", "--window", "0.1", "--hop", "0.1"]),
+    ],
+)
+def test_analyze_reads_every_real_file(tmp_path, name, options):
+    out = tmp_path / "out"
+    assert run("analyze", DATA / name, "--out", out, "--quiet", *options) == 0
+    assert (out / "windows.csv").is_file() and (out / "report.html").is_file()
+    assert len(read_csv(out / "windows.csv")["mu_r"]) >= 1
+
+
+def test_several_files_and_config(tmp_path):
+    cfg = tmp_path / "run.toml"
+    cfg.write_text('window = 2.0\nhop = 2.0\nhighpass = 0.1\n')
+    out = tmp_path / "out"
+    files = [DATA / "cetr_umt2_HT-2n-6-4_2_001.csv", DATA / "cetr_umt2_HT-2n-6-4_2_002.csv"]
+    assert run("analyze", *files, "--out", out, "--config", cfg, "--quiet") == 0
+    t = read_csv(out / "windows.csv")
+    assert sorted(set(t["recording"])) == sorted(f.name for f in files)
+    for f in files:
+        assert (out / f.stem / "report.html").is_file()
+
+
+def test_simulate_then_info_and_analyze(tmp_path, capsys):
+    path = tmp_path / "sim.h5"
+    assert run("simulate", "current_density", "--out", path, "--quiet") == 0
+    assert run("info", path) == 0
+    assert "fs" in capsys.readouterr().out
+    out = tmp_path / "out"
+    assert run("analyze", path, "--out", out, "--area", "1", "--quiet") == 0
+    s = json.loads((out / "summary.json").read_text())
+    rec = next(iter(s["recordings"].values()))
+    assert rec["operating_range_current_density"]["optimum"] is not None
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["analyze", "nope.tdms", "--out", "{out}"], "no such file"),
+        (["analyze", "{data}/lvm_read_short.lvm", "--out", "{out}", "--map", "fz=Nope,fy=Response (Trigger)"], "Nope"),
+        (["analyze", "{data}/pod_PPS_60N_1.tsv", "--out", "{out}", "--window", "-1"], "window"),
+        (["analyze", "{data}/pyfrf_measurements_1.npy", "--out", "{out}", "--map", "fz=ch1,fy=ch2"], "fs"),
+        (["analyze", "{data}/pod_PPS_60N_1.tsv", "--out", "{out}", "--format", "bogus"], "format"),
+        (["analyze", "{data}/pod_PPS_60N_1.tsv", "--out", "{out}", "--config", "missing.toml"], "config"),
+        (["info", "{bad}"], "tdms"),
+    ],
+)
+def test_user_errors_one_line_exit_2(tmp_path, capsys, args, message):
+    bad = tmp_path / "cut.tdms"
+    raw = (DATA / "nptdms_raw1_daqmx.tdms").read_bytes()
+    bad.write_bytes(raw[: len(raw) // 2])
+    out = tmp_path / "out"
+    argv = [a.format(out=out, data=DATA, bad=bad) for a in args]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("tribodyn: error:") and "\n" not in err and "Traceback" not in err
+    assert message.lower() in err.lower()
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    with pytest.raises(Exception):
+        cli.main(["analyze", "nope.tdms", "--out", str(tmp_path / "o"), "--debug"])
+
+
+def test_no_partial_outputs_after_a_forced_failure(tmp_path, monkeypatch):
+    from tribodyn import report
+
+    def boom(*a, **k):
+        raise ValueError("forced failure while writing the report")
+
+    monkeypatch.setattr(report, "write_report", boom)
+    out = tmp_path / "out"
+    assert run("analyze", DATA / "pod_PPS_60N_1.tsv", "--out", out, "--window", "60", "--hop", "60", "--quiet") == 2
+    assert list(out.iterdir()) == []
+
+
+def test_console_script_is_installed():
+    exe = shutil.which("tribodyn")
+    assert exe is not None
+    r = subprocess.run([exe, "--version"], capture_output=True, text=True, check=False)
+    assert r.returncode == 0 and r.stdout.startswith("tribodyn ")
+    r = subprocess.run([sys.executable, "-m", "tribodyn.cli", "analyze", "nope.tdms", "--out", "x"], capture_output=True, text=True)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
