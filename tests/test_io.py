@@ -745,3 +745,20 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path):
     atomic_write(target, good)
     assert target.read_bytes() == b"new content" and os.listdir(tmp_path) == ["out.bin"]
     assert sha256_file(target) == hashlib.sha256(b"new content").hexdigest()
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in (Path(__file__).parent / "data" / "real").iterdir()))
+def test_chunks_of_a_sample_range_equal_the_slice(name):
+    """chunks(start=, stop=) reads only part of a recording (used to split long recordings)."""
+    import tribodyn
+
+    path = Path(__file__).parent / "data" / "real" / name
+    kw = {"fs": 25600.0} if name.endswith(".npy") else {}
+    with tribodyn.open_recording(path, **kw) as rec:
+        full = rec.read()
+        a, b = rec.n_samples // 3, rec.n_samples - rec.n_samples // 4
+        parts = list(rec.chunks(7, start=a, stop=b))
+        for key, whole in full.items():
+            np.testing.assert_array_equal(np.concatenate([p[key] for p in parts]), whole[a:b])
+        with pytest.raises(tribodyn.RecordingError, match="start/stop"):
+            rec.chunks(7, start=b, stop=a)

@@ -508,9 +508,18 @@ class Recording:
         return out
 
     def chunks(
-        self, size: int, roles: Union[None, str, Sequence[str]] = None
+        self,
+        size: int,
+        roles: Union[None, str, Sequence[str]] = None,
+        *,
+        start: int = 0,
+        stop: Optional[int] = None,
     ) -> Iterator[Dict[str, np.ndarray]]:
         """Consecutive chunks of ``size`` samples (the last one may be shorter).
+
+        ``start`` and ``stop`` (sample indices, like a slice) restrict the
+        chunks to part of the recording: random-access formats (TDMS, HDF5,
+        npy) read only that part; sequential ones (text, npz) skip ahead.
 
         Parameters
         ----------
@@ -545,12 +554,34 @@ class Recording:
         if size < 1:
             raise RecordingError(f"chunk size must be >= 1, got {size}")
         self._check_open()
+        stop = self._n if stop is None else stop
+        if not (isinstance(start, int) and isinstance(stop, int) and 0 <= start <= stop <= self._n):
+            raise RecordingError(f"start/stop must satisfy 0 <= start <= stop <= {self._n}, got {start}, {stop}")
         keys = self._keys(roles)
         names = list(dict.fromkeys(n for _, n in keys))
-        return self._chunk_gen(size, keys, names, max(size, self._block_rows))
+        block = max(size, self._block_rows)
+        if start == 0 and stop == self._n:
+            return self._chunk_gen(size, keys, names, self._iter_blocks(names, block), self._n)
+        return self._chunk_gen(size, keys, names, self._range_blocks(names, block, start, stop), stop - start)
+
+    def _range_blocks(self, names: Sequence[str], block: int, start: int, stop: int) -> Iterator[Dict[str, np.ndarray]]:
+        """Raw blocks covering samples ``start:stop`` only."""
+        if type(self)._read_range is not Recording._read_range:
+            for a in range(start, stop, block):
+                yield self._read_range(names, a, min(a + block, stop))
+            return
+        pos = 0
+        for blk in self._iter_blocks(names, block):
+            m = len(blk[names[0]])
+            lo, hi = max(start - pos, 0), min(stop - pos, m)
+            pos += m
+            if lo < hi:
+                yield {n: blk[n][lo:hi] for n in names}
+            if pos >= stop:
+                return
 
     def _chunk_gen(
-        self, size: int, keys: List[Tuple[str, str]], names: List[str], block: int
+        self, size: int, keys: List[Tuple[str, str]], names: List[str], blocks: Iterator[Dict[str, np.ndarray]], expected: int
     ) -> Iterator[Dict[str, np.ndarray]]:
         pending: deque = deque()
         offset = 0  # rows of pending[0] already handed out
@@ -576,7 +607,7 @@ class Recording:
             raw = {n: (p[0] if len(p) == 1 else np.concatenate(p)) for n, p in parts.items()}
             return self._scaled(keys, raw)
 
-        for blk in self._iter_blocks(names, block):
+        for blk in blocks:
             self._check_open()
             m = len(blk[names[0]])
             if any(len(blk[n]) != m for n in names):
@@ -590,9 +621,9 @@ class Recording:
                 yield take(size)
         if buffered:
             yield take(buffered)
-        if total != self._n:
+        if total != expected:
             raise RecordingError(
-                f"{self.path}: read {total} samples but the file announced {self._n} "
+                f"{self.path}: read {total} samples but expected {expected} of the {self._n} announced "
                 "(file changed or truncated since it was opened?)"
             )
 
