@@ -119,8 +119,11 @@ def _skews(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int, max_lag
     return out
 
 
-def _sign_of_total_slope(st: Dict[str, np.ndarray]) -> float:
-    """Sign-bearing S_xy of all windows merged (within + between parts)."""
+def sign_of_total_slope(st: Dict[str, np.ndarray]) -> float:
+    """S_xy of fy on fz of all windows merged (within + between parts): its sign is the slope's.
+
+    ``st`` holds per-window ``n``, ``mean_z``, ``mean_y`` and ``syz``.
+    """
     n = st["n"]
     if n.sum() == 0:
         return float("nan")
@@ -160,6 +163,7 @@ def analyze(
     rpm: Optional[float] = None,
     n_lamellas: Optional[int] = None,
     threads: Optional[int] = None,
+    start: int = 0,
 ) -> Results:
     """COF of every window of a long recording (METHOD.md 6).
 
@@ -216,6 +220,13 @@ def analyze(
     threads : int, optional
         Threads for the kernels (default: all cores, or the TRIBODYN_THREADS
         environment variable). Results do not depend on it.
+    start : int
+        Sample index, within the whole recording, of the source's first
+        sample (default 0). Windows stay on the recording's grid (starting
+        at multiples of ``hop``), so consecutive ranges of a long recording
+        analysed separately give exactly the windows of one pass (see
+        :func:`tribodyn.analyze_many`). A recording source is read from
+        ``start`` on.
 
     Returns
     -------
@@ -262,6 +273,7 @@ def analyze(
     area = None if area_mm2 is None else positive(area_mm2, "area_mm2")
     hp_fc = None if highpass is None else positive(highpass, "highpass")
     chunk_n = None if chunk is None else max(1, int(round(positive(chunk, "chunk") * fs_v)))
+    origin = check_int(start, "start", minimum=0)
 
     params: Dict[str, Any] = dict(
         fs=fs_v, window=w_s, hop=h_s, window_samples=length, hop_samples=step, highpass=hp_fc,
@@ -274,11 +286,11 @@ def analyze(
         if isinstance(source, (list, tuple)):
             st, aux_role = _acquisitions(source, fs_v, db, nb, hp_fc, max_lag, shunt)
         else:
-            st, aux_role = _stream(source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt)
+            st, aux_role = _stream(source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt, origin)
 
     if len(st["n"]) == 0:
         raise ValueError(f"the recording is shorter than one window ({w_s:g} s = {length} samples): no window to analyse")
-    s = resolve_orientation(orientation, _sign_of_total_slope(st))
+    s = resolve_orientation(orientation, sign_of_total_slope(st))
     o = orient(st, s)
     t_start = o["start"] / fs_v
     if "t0" in o:
@@ -323,8 +335,10 @@ def analyze(
         "acquisition": o["acquisition"],
     }
     params["orientation_used"] = s
+    params["start"] = origin
+    moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
     return Results(table=table, bin_counts=o["bin_count"].astype(np.int64), bin_cof=o["bin_cof"],
-                   fz_min=o["fz_min"], fz_max=o["fz_max"], orientation=s, params=params)
+                   fz_min=o["fz_min"], fz_max=o["fz_max"], orientation=s, params=params, moments=moments)
 
 
 def _env_threads() -> Optional[int]:
@@ -355,10 +369,10 @@ def _aux_role(chunk: Mapping, shunt: Optional[float]) -> Optional[str]:
 
 def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, nb: int,
             hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
-            shunt: Optional[float]):
+            shunt: Optional[float], origin: int = 0):
     if rec is not None:
         size = chunk_n or int(60 * fs)
-        chunks: Iterable[Any] = rec.chunks(size)
+        chunks: Iterable[Any] = rec.chunks(size, start=origin)
         total = getattr(rec, "n_samples", None)
     elif isinstance(source, Mapping):
         chunks = _chunks_of(source, chunk_n or 0)
@@ -380,7 +394,7 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
             aux = _aux_role(ch, shunt)
             force_roles = [r for r in FORCE_ROLES if r in ch]
             collector = _Collector(length=length, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux, raw=hp_fc is not None)
-            windower = Windower(length, step, collector)
+            windower = Windower(length, step, collector, origin=origin)
             if hp_fc is not None:
                 hp = HighPass(fs, cutoff=hp_fc, channels=len(force_roles))
         elif set(force_roles) - set(ch):

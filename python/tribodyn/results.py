@@ -147,6 +147,8 @@ class Results:
         s in {+1, -1} applied to every window (fixed once per recording).
     params : dict
         Every parameter used, for provenance.
+    moments : dict
+        Per-window centred moments (n, mean_z, mean_y, syz) for merging.
     """
 
     table: Dict[str, np.ndarray]
@@ -156,6 +158,22 @@ class Results:
     fz_max: np.ndarray
     orientation: int
     params: Dict[str, Any] = field(default_factory=dict)
+    #: Per-window n, mean_z, mean_y, syz (centred moments of fz, fy): lets
+    #: separately analysed parts fix one orientation (METHOD.md 0).
+    moments: Dict[str, np.ndarray] = field(default_factory=dict)
+
+    def with_orientation(self, s: int) -> "Results":
+        """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""
+        if s not in (1, -1):
+            raise ValueError(f"orientation must be +1 or -1, got {s!r}")
+        if s == self.orientation:
+            return self
+        table = dict(self.table)
+        for col in ("mu_r", "mu_a", "mu_b"):
+            table[col] = -table[col]
+        params = {**self.params, "orientation_used": s}
+        return Results(table=table, bin_counts=self.bin_counts, bin_cof=-self.bin_cof, fz_min=self.fz_min,
+                       fz_max=self.fz_max, orientation=s, params=params, moments=self.moments)
 
     def __len__(self) -> int:
         return int(len(self.table["time"]))

@@ -27,16 +27,20 @@ Callback = Callable[[Chunk, np.ndarray, np.ndarray], None]
 class Windower:
     """Cuts a chunked stream into windows ``[k * hop, k * hop + length)``."""
 
-    def __init__(self, length: int, hop: int, callback: Callback) -> None:
+    def __init__(self, length: int, hop: int, callback: Callback, *, origin: int = 0) -> None:
         if length < 1 or hop < 1:
             raise ValueError("window length and hop must be at least one sample")
+        if origin < 0:
+            raise ValueError("origin must be >= 0")
         self.length = length
         self.hop = hop
         self.callback = callback
-        self.seen = 0  # samples received so far (absolute index of the next chunk)
-        self.next_k = 0  # index of the next window to emit
+        # The stream may begin at sample `origin` of the recording (a range
+        # of a long recording); windows stay on the recording's grid.
+        self.seen = origin  # absolute index of the next chunk's first sample
+        self.next_k = -(-origin // hop)  # first window starting at or after origin
         self.tail: Chunk = {}
-        self.tail_off = 0  # absolute index of tail[...][0]
+        self.tail_off = self.next_k * hop  # absolute index of tail[...][0]
 
     def _start(self, k: int) -> int:
         return k * self.hop
