@@ -20,6 +20,7 @@ from .identify import identify
 from .analyze import analyze
 from .ranges import OperatingRange, RangeCurve, operating_range
 from .io import Recording, RecordingError, open_recording
+from .distributed import ManyResults, analyze_many
 
 try:
     __version__ = _version("tribodyn")
@@ -55,4 +56,6 @@ __all__ = [
     "open_recording",
     "Recording",
     "RecordingError",
+    "analyze_many",
+    "ManyResults",
 ]

@@ -4,7 +4,9 @@ Sub-commands: ``demo`` (simulate the paper's tests, analyse, report),
 ``analyze`` (your recordings), ``info`` (what a file holds) and ``simulate``
 (write a simulated recording). User errors print one line and exit with
 status 2 (no traceback unless ``--debug``); a bug exits with status 1 and a
-traceback.
+traceback. When several recordings are analysed and some fail, the others
+are written, the failures are listed in ``summary.json`` and on stderr, and
+the status is 3.
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from typing import Any, Dict, List, Optional, Sequence
 __all__ = ["main"]
 
 EXIT_USER_ERROR = 2
+#: Some recordings of a multi-file analysis failed (the others were written).
+EXIT_SOME_FAILED = 3
 
 
 class UserError(Exception):
@@ -66,7 +70,8 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0, help="simulation seed")
 
     a = sub.add_parser("analyze", aliases=["analyse"], parents=[common], help="analyse recording files")
-    a.add_argument("files", nargs="+", metavar="FILE", help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV)")
+    a.add_argument("files", nargs="+", metavar="FILE",
+                   help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV), directories or glob patterns")
     a.add_argument("--out", required=True, help="output directory")
     a.add_argument("--config", help="TOML file with any of these options (command-line options win)")
     a.add_argument("--format", help="file format (default: from the extension and content)")
@@ -88,6 +93,9 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--max-lag", type=int, help="per-window channel-skew check up to this lag (samples)")
     a.add_argument("--chunk", type=float, help="seconds read per chunk (memory bound; default 60)")
     a.add_argument("--threads", type=int, help="kernel threads (default: all cores or TRIBODYN_THREADS)")
+    a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
+    a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
+    a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
 
     i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of a file")
     i.add_argument("file", metavar="FILE")
@@ -208,10 +216,32 @@ def _run(ns: argparse.Namespace) -> int:
         from .jobs import run_analysis
 
         open_opts, opts = _analysis_options(ns)
-        summary = run_analysis(ns.files, ns.out, open_options=open_opts, analyze_options=opts, progress=_progress_wanted(ns))
+        client = None
+        if ns.scheduler:
+            from .distributed import connect
+
+            if ns.workers < 1:
+                raise UserError("--workers must be at least 1")
+            try:
+                client = connect(ns.scheduler, ns.workers)
+            except ImportError as exc:
+                raise UserError(str(exc)) from None
+            except OSError as exc:
+                raise UserError(f"cannot reach the Dask scheduler {ns.scheduler}: {exc}") from None
+        try:
+            summary = run_analysis(ns.files, ns.out, open_options=open_opts, analyze_options=opts,
+                                   progress=_progress_wanted(ns), client=client, split=ns.split)
+        finally:
+            if client is not None:
+                cluster = getattr(client, "cluster", None)
+                client.close()
+                if ns.scheduler == "local" and cluster is not None:
+                    cluster.close()
         if not ns.quiet:
             _print_analysis(summary, ns.out)
-        return 0
+        for name, f in summary.get("failures", {}).items():
+            print(f"tribodyn: warning: {name} failed: {f['error']}", file=sys.stderr)
+        return EXIT_SOME_FAILED if summary.get("failures") else 0
     if ns.command == "info":
         from .io import open_recording
 

@@ -182,35 +182,51 @@ def run_analysis(
     open_options: Optional[Dict[str, Any]] = None,
     analyze_options: Optional[Dict[str, Any]] = None,
     progress: bool = False,
+    client: Any = None,
+    split: Optional[float] = None,
 ) -> Dict[str, Any]:
     """Analyses recording files and writes the outputs into ``out_dir``.
 
-    One file: its tables, figures and report at the top of ``out_dir``.
-    Several: one sub-folder per recording plus a combined table (with a
-    ``recording`` column), summary and report at the top.
+    ``paths`` may hold files, directories and glob patterns. One recording:
+    its tables, figures and report at the top of ``out_dir``. Several: one
+    sub-folder per recording plus a combined table (with a ``recording``
+    column), summary and report at the top. With a Dask ``client`` the
+    recordings (and ranges of ``split`` seconds of long ones) run on the
+    cluster (:func:`tribodyn.analyze_many`). A recording that fails is listed
+    in ``summary["failures"]``; if every one fails, the first error is raised.
     """
     from . import __version__
-    from .io import open_recording
+    from .distributed import analyze_many, expand_paths
     from .report import write_report
 
     open_options = dict(open_options or {})
     opts = dict(analyze_options or {})
     if not paths:
         raise ValueError("no input file given")
-    runs: List[Tuple[Path, Results]] = []
-    for p in paths:
-        p = Path(p)
-        with open_recording(p, **open_options) as rec:
-            res = analyze(rec, progress=progress, **opts)
-        runs.append((p, res))
+    files = expand_paths(paths)
+    if len(files) == 1 and client is None and split is None:
+        # One file, here: read it directly (progress bar over its samples).
+        from .io import open_recording
+
+        with open_recording(files[0], **open_options) as rec:
+            runs = [(Path(files[0]), analyze(rec, progress=progress, **opts))]
+        failures: Dict[str, Any] = {}
+    else:
+        many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
+        if not many.results:
+            first = next(iter(many.failures.values()))
+            raise ValueError(f"{Path(first.path).name}: {first.error}")
+        runs = [(Path(p), r) for p, r in many.results.items()]
+        failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
 
     summary: Dict[str, Any] = {"tribodyn_version": __version__, "inputs": input_provenance([p for p, _ in runs]),
-                               "open_options": open_options, "recordings": {}}
-    single = len(runs) == 1
+                               "open_options": open_options, "recordings": {}, "failures": failures}
+    single = len(runs) == 1 and not failures
+    labels = _labels([p for p, _ in runs])
     with OutputSet(out_dir) as out:
         all_figs = []
-        for p, res in runs:
-            prefix = "" if single else f"{p.stem}/"
+        for (p, res), label in zip(runs, labels):
+            prefix = "" if single else f"{label}/"
             opr_t = _try_range(res, "temperature")
             opr_j = _try_range(res, "current_density")
             files = _write_set(out, prefix, res)
@@ -233,6 +249,12 @@ def run_analysis(
                      summary=_flat_summary(summary["recordings"]), params={p.name: r.params for p, r in runs},
                      figures=all_figs, quality={p.name: r.summary()["gate_failures"] for p, r in runs})
     return summary
+
+
+def _labels(paths: Sequence[Path]) -> List[str]:
+    """Sub-folder names: file stems, made unique with a counter where they repeat."""
+    stems = [p.stem for p in paths]
+    return [s if stems.count(s) == 1 else f"{s}-{k + 1}" for k, s in enumerate(stems)]
 
 
 def _combine(results: Sequence[Results], names: Sequence[str]) -> Tuple[Results, np.ndarray]:

@@ -1,0 +1,322 @@
+"""Many recordings, and very long ones, on a Dask cluster: ``analyze_many``.
+
+Scaling out rests on two properties of :func:`tribodyn.analyze`: a window's
+result depends only on its own samples, and ranges of a recording analysed
+separately give exactly the windows of one pass when they are cut on the
+window grid (``analyze(start=...)``). So the work is split into pure tasks,
+one per recording or per range of a long recording, that take a *path*
+(workers read the files themselves; no arrays cross the network) and return
+the per-window results. The orientation of each recording is then fixed once
+from the merged moments of all its windows (METHOD.md 0), exactly as one
+serial pass would.
+
+Tasks are pure (same input, same output, no side effects), so a task lost
+with a worker is simply recomputed: nothing is lost or counted twice. A
+recording that fails (corrupt file, missing channel) is reported with its
+error and does not stop the others.
+
+Dask is optional (``pip install "tribodyn[dask]"``); with ``client=None`` the
+same tasks run serially in this process.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Dict, Iterable, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from .analyze import analyze, sign_of_total_slope
+from .identify import resolve_orientation
+from .results import Results
+
+__all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
+
+DASK_HINT = 'this needs Dask: pip install "tribodyn[dask]"'
+
+
+@dataclass(frozen=True)
+class RecordingFailure:
+    """A recording that could not be analysed: its error, as text."""
+
+    path: str
+    error: str
+    kind: str
+
+
+@dataclass(frozen=True)
+class ManyResults:
+    """Results of :func:`analyze_many`.
+
+    Attributes
+    ----------
+    results : dict of str -> Results
+        Per recording (keyed by the path as given), in input order.
+    failures : dict of str -> RecordingFailure
+        Recordings that failed, with their error.
+    tasks : int
+        Tasks run (recordings x ranges).
+    """
+
+    results: Dict[str, Results]
+    failures: Dict[str, RecordingFailure] = field(default_factory=dict)
+    tasks: int = 0
+
+    @property
+    def table(self) -> Dict[str, np.ndarray]:
+        """All windows of all recordings in one table, with a ``recording`` column first."""
+        if not self.results:
+            return {"recording": np.zeros(0, dtype=str)}
+        names = list(self.results)
+        first = self.results[names[0]]
+        out: Dict[str, np.ndarray] = {"recording": np.concatenate([np.full(len(self.results[n]), n) for n in names])}
+        for col in first.table:
+            out[col] = np.concatenate([self.results[n].table[col] for n in names])
+        return out
+
+    def to_pandas(self) -> Any:
+        """The combined table as a ``pandas.DataFrame``."""
+        import pandas as pd
+
+        return pd.DataFrame(self.table)
+
+    def summary(self) -> Dict[str, Any]:
+        """Per-recording summaries and the failures."""
+        return {
+            "recordings": {name: r.summary() for name, r in self.results.items()},
+            "failures": {name: {"error": f.error, "kind": f.kind} for name, f in self.failures.items()},
+            "tasks": self.tasks,
+        }
+
+
+def expand_paths(inputs: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]]) -> List[str]:
+    """Files from paths, directories (their files, sorted) and glob patterns, in order, without repeats."""
+    items = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+    out: List[str] = []
+    for item in items:
+        s = str(item)
+        p = Path(s)
+        if p.is_dir():
+            found = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
+        elif any(c in s for c in "*?["):
+            found = sorted(q for q in glob.glob(s) if Path(q).is_file())
+            if not found:
+                raise FileNotFoundError(f"no file matches {s!r}")
+        else:
+            found = [s]
+        out.extend(q for q in found if q not in out)
+    if not out:
+        raise FileNotFoundError(f"no input files in {inputs!r}")
+    return out
+
+
+# -- tasks (module-level and pure, so Dask can ship and retry them) -----------
+
+
+def _failure(path: str, exc: BaseException) -> RecordingFailure:
+    return RecordingFailure(path=path, error=f"{type(exc).__name__}: {exc}", kind=type(exc).__name__)
+
+
+def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float], RecordingFailure]:
+    """(n_samples, fs) of a recording, read from its header, or its failure."""
+    from .io import open_recording
+
+    try:
+        with open_recording(path, **open_options) as rec:
+            return int(rec.n_samples), float(rec.fs)
+    except Exception as exc:  # a task reports, never raises: one bad file must not stop the rest
+        return _failure(path, exc)
+
+
+def range_task(path: str, open_options: Dict[str, Any], options: Dict[str, Any],
+               start: int, stop: Optional[int], chunk: int) -> Union[Results, RecordingFailure]:
+    """Windows of samples ``start:stop`` of one recording (the whole one when ``stop`` is None)."""
+    from .io import open_recording
+
+    try:
+        with open_recording(path, **open_options) as rec:
+            fs = options.get("fs") or rec.fs
+            opts = {k: v for k, v in options.items() if k != "fs"}
+            if start == 0 and stop is None:
+                return analyze(rec, fs=fs, **opts)
+            chunks = rec.chunks(chunk, start=start, stop=stop)
+            return analyze(chunks, fs=fs, start=start, **opts)
+    except Exception as exc:  # reported per recording, see plan_task
+        return _failure(path, exc)
+
+
+def _ranges(n: int, fs: float, options: Dict[str, Any], split_s: Optional[float]) -> List[Tuple[int, Optional[int]]]:
+    """Sample ranges on the window grid, each holding whole windows: none lost, none twice."""
+    if split_s is None:
+        return [(0, None)]
+    window = float(options.get("window", 2.0))
+    hop = float(options.get("hop", 10.0))
+    length, step = int(round(window * fs)), int(round(hop * fs))
+    n_windows = 0 if n < length else (n - length) // step + 1
+    per = max(1, int(split_s // hop))  # windows per range
+    out = []
+    for k0 in range(0, n_windows, per):
+        k1 = min(k0 + per, n_windows)
+        out.append((k0 * step, (k1 - 1) * step + length))
+    return out or [(0, None)]
+
+
+def _combine(parts: List[Results], orientation: Any) -> Results:
+    """One recording's ranges joined in order, with ONE orientation (METHOD.md 0)."""
+    if len(parts) == 1:
+        return parts[0]  # one task: analyze already fixed the orientation
+    moments = {k: np.concatenate([p.moments[k] for p in parts]) for k in parts[0].moments}
+    s = resolve_orientation(orientation, sign_of_total_slope(moments))
+    parts = [p.with_orientation(s) for p in parts]
+    table = {c: np.concatenate([p.table[c] for p in parts]) for c in parts[0].table}
+    return Results(
+        table=table,
+        bin_counts=np.concatenate([p.bin_counts for p in parts]),
+        bin_cof=np.concatenate([p.bin_cof for p in parts]),
+        fz_min=np.concatenate([p.fz_min for p in parts]),
+        fz_max=np.concatenate([p.fz_max for p in parts]),
+        orientation=s,
+        params={**parts[0].params, "start": 0, "ranges": len(parts), "orientation_used": s},
+        moments=moments,
+    )
+
+
+def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], List[Any]]:
+    if client is None:
+        def serial(fn: Callable, args: List[tuple]) -> List[Any]:
+            if not progress:
+                return [fn(*a) for a in args]
+            from tqdm import tqdm
+
+            return [fn(*a) for a in tqdm(args, desc=fn.__name__.replace("_task", ""), unit="task", leave=False)]
+
+        return serial
+
+    def run(fn: Callable, args: List[tuple]) -> List[Any]:
+        # Pure tasks with retries: a task lost with its worker is recomputed.
+        futures = [client.submit(fn, *a, pure=True, retries=3) for a in args]
+        if progress:
+            from dask.distributed import progress as show
+
+            show(futures)
+        return client.gather(futures)
+
+    return run
+
+
+def analyze_many(
+    paths: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]],
+    *,
+    client: Any = None,
+    open_options: Optional[Dict[str, Any]] = None,
+    split: Optional[float] = None,
+    chunk: float = 60.0,
+    progress: bool = False,
+    **analyze_options: Any,
+) -> ManyResults:
+    """Analyses many recordings, and long ones in ranges, serially or on Dask.
+
+    Parameters
+    ----------
+    paths : path, directory, glob pattern, or a sequence of them
+        Recording files (see :func:`tribodyn.open_recording`).
+    client : dask.distributed.Client, optional
+        Run the tasks on this cluster (workers must reach the files at the
+        same paths). None: run them here, one after the other.
+    open_options : dict, optional
+        Passed to ``open_recording`` (channels, scale, fs, format, ...).
+    split : float, optional
+        Cut each recording into ranges of about this many seconds (aligned
+        to the window grid), one task each, so a very long recording uses
+        several workers. None: one task per recording.
+    chunk : float
+        Seconds read per chunk inside a task.
+    progress : bool
+        Show the tasks' progress (Dask's progress bar on a cluster).
+    **analyze_options
+        Options of :func:`tribodyn.analyze` (window, hop, highpass,
+        orientation, temperature, area_mm2, ...). A temperature log applies
+        to every recording.
+
+    Returns
+    -------
+    ManyResults
+        Per-recording results identical to ``analyze`` run on each file
+        serially, and the failures with their errors.
+    """
+    files = expand_paths(paths)
+    open_options = dict(open_options or {})
+    options = dict(analyze_options)
+    options.pop("start", None)
+    orientation = options.get("orientation", "auto")
+    if split is not None and not split > 0:
+        raise ValueError(f"split must be > 0 seconds, got {split!r}")
+    run = _runner(client, progress)
+
+    if split is None:
+        plans: List[Any] = [None] * len(files)
+    else:
+        plans = run(plan_task, [(f, open_options) for f in files])
+    jobs: List[Tuple[int, tuple]] = []
+    failures: Dict[str, RecordingFailure] = {}
+    for i, (f, plan) in enumerate(zip(files, plans)):
+        if isinstance(plan, RecordingFailure):
+            failures[f] = plan
+            continue
+        if plan is None:
+            ranges: List[Tuple[int, Optional[int]]] = [(0, None)]
+            fs = None
+        else:
+            n, fs = plan
+            fs = options.get("fs") or fs
+            ranges = _ranges(n, fs, options, split)
+        opts = dict(options)
+        if len(ranges) > 1:
+            opts["orientation"] = 1 if orientation == "auto" else orientation
+        chunk_n = max(1, int(round(chunk * (fs or 1000.0))))
+        for a, b in ranges:
+            jobs.append((i, (f, open_options, opts, a, b, chunk_n)))
+    outputs = run(range_task, [args for _, args in jobs])
+
+    by_file: Dict[int, List[Any]] = {}
+    for (i, _), out in zip(jobs, outputs):
+        by_file.setdefault(i, []).append(out)
+    results: Dict[str, Results] = {}
+    for i, f in enumerate(files):
+        if f in failures or i not in by_file:
+            continue
+        parts = by_file[i]
+        bad = next((p for p in parts if isinstance(p, RecordingFailure)), None)
+        if bad is not None:
+            failures[f] = bad
+            continue
+        results[f] = _combine(parts, orientation)
+    ordered_failures = {f: failures[f] for f in files if f in failures}
+    return ManyResults(results=results, failures=ordered_failures, tasks=len(jobs))
+
+
+def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
+    """A ``dask.distributed.Client`` on a LocalCluster of worker processes."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:
+        raise ImportError(DASK_HINT) from exc
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=True,
+                           dashboard_address=":0")
+    return Client(cluster)
+
+
+def connect(address: str, workers: int = 2) -> Any:
+    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes)."""
+    if address == "local":
+        return local_client(workers)
+    try:
+        from dask.distributed import Client
+    except ImportError as exc:
+        raise ImportError(DASK_HINT) from exc
+    return Client(address)
+
+
