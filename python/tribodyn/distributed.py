@@ -196,8 +196,11 @@ def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], Li
         return serial
 
     def run(fn: Callable, args: List[tuple]) -> List[Any]:
-        # Pure tasks with retries: a task lost with its worker is recomputed.
-        futures = [client.submit(fn, *a, pure=True, retries=3) for a in args]
+        # The tasks are pure functions of their arguments, so a task lost with
+        # its worker is simply recomputed (retries). Keys are unique per call
+        # (pure=False) so each call computes afresh rather than reusing a
+        # result the cluster still holds from an earlier call.
+        futures = [client.submit(fn, *a, pure=False, retries=3) for a in args]
         if progress:
             from dask.distributed import progress as show
 
