@@ -9,7 +9,6 @@ self-contained ``report.html``.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
@@ -23,7 +22,6 @@ from .results import Results
 
 __all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
 
-PathLike = "str | os.PathLike[str]"
 
 
 def read_log(path: Any) -> Tuple[np.ndarray, np.ndarray]:
