@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from ._core import get_threads, set_threads
+from .threads import get_threads, set_threads
 from .correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
 from .filters import HighPass, butter_highpass, highpass
 from .regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit

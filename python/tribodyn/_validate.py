@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from . import _core
+
 __all__ = ["as_signal", "as_channels", "positive", "check_fs", "check_int"]
 
 
@@ -22,12 +24,23 @@ def _as_float_array(x: Any, name: str) -> np.ndarray:
         raise TypeError(f"{name} must be array-like of numbers: {exc}") from None
     if a.dtype.kind not in "biuf":
         raise TypeError(f"{name} must hold real numbers, got dtype {a.dtype}")
-    return np.ascontiguousarray(a, dtype=np.float64)
+    # Not np.ascontiguousarray: it turns a scalar into shape (1,), which would
+    # slip past the callers' ndim checks.
+    return np.asarray(a, dtype=np.float64, order="C")
 
 
 def _check_finite(a: np.ndarray, name: str) -> None:
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name} contains NaN or inf (pass check_finite=False to allow)")
+    # The Rust check reads the array once, in parallel when long, instead of
+    # building the boolean mask of np.isfinite (which costs as much as a
+    # kernel for a multi-hour record).
+    ok = _core.all_finite(a) if a.dtype == np.float64 and a.flags.c_contiguous else np.isfinite(a).all()
+    if not ok:
+        raise ValueError(finite_error(name))
+
+
+def finite_error(name: str) -> str:
+    """The message of the ValueError for a NaN or inf in argument ``name``."""
+    return f"{name} contains NaN or inf (pass check_finite=False to allow)"
 
 
 def as_signal(x: Any, name: str, *, min_len: int = 1, check_finite: bool = True) -> np.ndarray:

@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+from collections import deque
 from collections.abc import Iterable, Iterator, Mapping
-from typing import Any, Dict, List, Optional, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, Deque, Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -30,6 +32,11 @@ from .windowing import Windower
 __all__ = ["analyze", "threads_limited"]
 
 FORCE_ROLES = ("fx", "fy", "fz")
+#: Samples per chunk read from a recording by default: large enough that the
+#: per-chunk Python work is small beside the kernel's, small enough to stay
+#: in cache between reading and analysing (and a multiple of the readers'
+#: 65536-row blocks, so no chunk is pieced together).
+DEFAULT_CHUNK = 1 << 17
 
 
 @contextlib.contextmanager
@@ -57,7 +64,10 @@ def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.
     missing = [r for r in needed if r not in chunk]
     if missing:
         raise ValueError(f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})")
-    out = {str(k): as_signal(v, f"{where}[{k!r}]", min_len=0, check_finite=k != "cof")
+    # No NaN/inf scan here: the kernel refuses a non-finite sample in any
+    # window as it sums it, and the high-pass filter checks every sample it
+    # filters; samples outside every window change no result.
+    out = {str(k): as_signal(v, f"{where}[{k!r}]", min_len=0, check_finite=False)
            for k, v in chunk.items() if k in ("fx", "fy", "fz", "i", "u", "cof")}
     lengths = {k: len(v) for k, v in out.items()}
     if len(set(lengths.values())) > 1:
@@ -66,36 +76,81 @@ def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.
 
 
 class _Collector:
-    """Receives windows from the Windower and keeps their statistics."""
+    """Receives windows from the Windower and keeps their statistics, in order.
+
+    With ``pipelined``, each batch of windows runs on a worker thread (the
+    kernel releases the GIL and runs on its own thread pool) while the
+    caller reads, checks and filters the next chunk; at most ``depth``
+    batches are in flight, so memory stays bounded. A batch's result depends
+    only on its samples, so pipelining never changes a number.
+    """
 
     def __init__(self, *, length: int, fs: float, deadband: Any, n_bins: int, max_lag: Optional[int],
-                 aux_role: Optional[str], raw: bool) -> None:
+                 aux_role: Optional[str], raw: bool, pipelined: bool = False, depth: int = 2) -> None:
         self.length, self.fs, self.deadband, self.n_bins = length, fs, deadband, n_bins
         self.max_lag, self.aux_role, self.raw = max_lag, aux_role, raw
         self.parts: List[Dict[str, np.ndarray]] = []
+        self._pool: Optional[ThreadPoolExecutor] = ThreadPoolExecutor(1, thread_name_prefix="tribodyn") if pipelined else None
+        self._pending: Deque[Future] = deque()
+        self._depth = depth
 
     def __call__(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> None:
+        if self._pool is None:
+            self.parts.append(self._batch(ch, rel, absolute))
+            return
+        while len(self._pending) >= self._depth:
+            self.parts.append(self._pending.popleft().result())
+        self._pending.append(self._pool.submit(self._batch, ch, rel, absolute))
+
+    def finish(self) -> List[Dict[str, np.ndarray]]:
+        """Waits for the batches in flight; the statistics of every window, in order."""
+        try:
+            while self._pending:
+                self.parts.append(self._pending.popleft().result())
+        finally:
+            self.close()
+        return self.parts
+
+    def close(self) -> None:
+        """Stops the worker (after an error: batches in flight are dropped)."""
+        for f in self._pending:
+            f.cancel()
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def _batch(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> Dict[str, np.ndarray]:
         aux = ch.get(self.aux_role) if self.aux_role else None
-        st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, self.length, self.deadband, self.n_bins)
+        raw = (ch["fy_raw"], ch["fz_raw"]) if self.raw else None
+        try:
+            st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, self.length, self.deadband, self.n_bins, raw=raw)
+        except ValueError:
+            _raise_non_finite(ch, rel, absolute, self.length, self.fs)
+            raise
+        for key in _UNUSED:
+            del st[key]
         st["start"] = absolute.astype(np.int64)
-        st["acquisition"] = np.zeros(len(rel), dtype=np.int64)
-        if self.raw:
-            st["mu_classic"] = _classical_cof(ch["fy_raw"], ch["fz_raw"], rel, self.length)
+        if not self.raw:
+            del st["mu_classic"]
         if "cof" in ch:
             st["mu_instrument"] = _window_means(ch["cof"], rel, self.length)
         if self.max_lag is not None:
             st["skew"] = _skews(ch["fy"], ch["fz"], rel, self.length, self.max_lag)
-        self.parts.append(st)
+        return st
 
 
-def _classical_cof(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
-    """mean(|fy| / |fz|) of the raw forces per window (paper Sec. 5), |fz| = 0 skipped."""
-    out = np.empty(len(rel))
-    for k, s in enumerate(rel):
-        a, b = np.abs(fy[s : s + length]), np.abs(fz[s : s + length])
-        keep = b > 0
-        out[k] = np.mean(a[keep] / b[keep]) if keep.any() else np.nan
-    return out
+#: Kernel outputs the table does not use (dropped per batch: a long
+#: recording's table is then about 60 doubles per window, held once).
+_UNUSED = ("intercept_stderr", "resid_std", "sse", "szz", "syy")
+
+
+def _raise_non_finite(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray, length: int, fs: float) -> None:
+    """Names the first window holding NaN or inf (the kernel's error speaks of chunk offsets)."""
+    for s, a in zip(rel, absolute):
+        for role in ("fz", "fy", "fx", "i", "u", "fz_raw", "fy_raw"):
+            if role in ch and not np.isfinite(ch[role][s : s + length]).all():
+                raise ValueError(f"{role.removesuffix('_raw')} contains NaN or inf in the window starting at sample {a} "
+                                 f"(t = {a / fs:g} s)")
 
 
 def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
@@ -209,7 +264,8 @@ def analyze(
         Contact area; J = i / area_mm2 in A/mm^2.
     chunk : float, optional
         Seconds per chunk when reading a mapping or a recording (default
-        60 s for a recording; a mapping is taken whole). Never changes a result.
+        131072 samples, about 2 min at 1 kHz, for a recording; a mapping is
+        taken whole). Never changes a result.
     progress : bool
         Show a progress bar on stderr.
     deadband, n_bins, gate, max_lag, rpm, n_lamellas
@@ -291,7 +347,11 @@ def analyze(
     if len(st["n"]) == 0:
         raise ValueError(f"the recording is shorter than one window ({w_s:g} s = {length} samples): no window to analyse")
     s = resolve_orientation(orientation, sign_of_total_slope(st))
-    o = orient(st, s)
+    moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
+    if "acquisition" not in st:
+        st["acquisition"] = np.zeros(len(st["n"]), dtype=np.int64)
+    o = orient(st, s, inplace=True)
+    del st
     t_start = o["start"] / fs_v
     if "t0" in o:
         t_start = o["t0"]
@@ -322,7 +382,7 @@ def analyze(
         "c_xz": o["c_xz"],
         "c_yz": o["c_yz"],
         "skew": o.get("skew", np.full(len(centre), np.nan)),
-        "ok": np.array([r == "" for r in reasons], dtype=bool),
+        "ok": np.asarray(reasons == "", dtype=bool),
         "reasons": reasons.astype(str),
         "T": interpolate(temp_log, centre) if temp_log is not None else np.full(len(centre), np.nan),
         "branch": branch(temp_log, centre) if temp_log is not None else np.zeros(len(centre), dtype=np.int8),
@@ -331,13 +391,12 @@ def analyze(
         "mu_classic": o.get("mu_classic", np.full(len(centre), np.nan)),
         "mu_instrument": o.get("mu_instrument", np.full(len(centre), np.nan)),
         "deadband": o["deadband"],
-        "n": n_win.astype(np.int64),
+        "n": np.asarray(n_win, dtype=np.int64),
         "acquisition": o["acquisition"],
     }
     params["orientation_used"] = s
     params["start"] = origin
-    moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
-    return Results(table=table, bin_counts=o["bin_count"].astype(np.int64), bin_cof=o["bin_cof"],
+    return Results(table=table, bin_counts=np.asarray(o["bin_count"], dtype=np.int64), bin_cof=o["bin_cof"],
                    fz_min=o["fz_min"], fz_max=o["fz_max"], orientation=s, params=params, moments=moments)
 
 
@@ -352,9 +411,14 @@ def _env_threads() -> Optional[int]:
 
 
 def _concat(parts: List[Dict[str, np.ndarray]]) -> Dict[str, np.ndarray]:
+    """Joins the batches column by column, freeing each column's pieces as it goes."""
     if not parts:
-        return {"n": np.zeros(0)}
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        return {"n": np.zeros(0, dtype=np.int64)}
+    out = {}
+    for k in list(parts[0]):
+        out[k] = np.concatenate([p.pop(k) for p in parts]) if len(parts) > 1 else parts[0].pop(k)
+    parts.clear()
+    return out
 
 
 def _aux_role(chunk: Mapping, shunt: Optional[float]) -> Optional[str]:
@@ -371,7 +435,7 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
             hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
             shunt: Optional[float], origin: int = 0):
     if rec is not None:
-        size = chunk_n or int(60 * fs)
+        size = chunk_n or DEFAULT_CHUNK
         chunks: Iterable[Any] = rec.chunks(size, start=origin)
         total = getattr(rec, "n_samples", None)
     elif isinstance(source, Mapping):
@@ -388,31 +452,47 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
     windower: Optional[Windower] = None
     hp: Optional[HighPass] = None
     force_roles: List[str] = []
-    for i, raw_chunk in enumerate(chunks):
-        ch = _check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz"))
+    # Overlap reading with the kernel only when two threads may run: with
+    # one, the whole pipeline stays on one core.
+    pipelined = _core.get_threads() >= 2
+    try:
+        for i, raw_chunk in enumerate(chunks):
+            ch = _check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz"))
+            if collector is None:
+                aux = _aux_role(ch, shunt)
+                force_roles = [r for r in FORCE_ROLES if r in ch]
+                collector = _Collector(length=length, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux,
+                                       raw=hp_fc is not None, pipelined=pipelined)
+                windower = Windower(length, step, collector, origin=origin)
+                if hp_fc is not None:
+                    hp = HighPass(fs, cutoff=hp_fc, channels=len(force_roles))
+            elif set(force_roles) - set(ch):
+                raise ValueError(f"chunk {i} lacks channel(s) present in the first chunk: {sorted(set(force_roles) - set(ch))}")
+            if hp is not None:
+                # The filter refuses NaN/inf as it reads every sample.
+                try:
+                    filtered = hp.process(np.stack([ch[r] for r in force_roles]))
+                except ValueError:
+                    bad = [r for r in force_roles if not np.isfinite(ch[r]).all()]
+                    if not bad:
+                        raise
+                    raise ValueError(f"{bad[0]} contains NaN or inf in chunk {i} (the high-pass filter needs every sample)") from None
+                ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
+                for k, r in enumerate(force_roles):
+                    ch[r] = filtered[k]
+            assert windower is not None
+            windower.push(ch)
+            if bar is not None:
+                bar.update(len(ch["fz"]))
         if collector is None:
-            aux = _aux_role(ch, shunt)
-            force_roles = [r for r in FORCE_ROLES if r in ch]
-            collector = _Collector(length=length, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux, raw=hp_fc is not None)
-            windower = Windower(length, step, collector, origin=origin)
-            if hp_fc is not None:
-                hp = HighPass(fs, cutoff=hp_fc, channels=len(force_roles))
-        elif set(force_roles) - set(ch):
-            raise ValueError(f"chunk {i} lacks channel(s) present in the first chunk: {sorted(set(force_roles) - set(ch))}")
-        if hp is not None:
-            filtered = hp.process(np.stack([ch[r] for r in force_roles]))
-            ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
-            for k, r in enumerate(force_roles):
-                ch[r] = filtered[k]
-        assert windower is not None
-        windower.push(ch)
+            raise ValueError("the source holds no samples")
+        parts = collector.finish()
+    finally:
+        if collector is not None:
+            collector.close()
         if bar is not None:
-            bar.update(len(ch["fz"]))
-    if bar is not None:
-        bar.close()
-    if collector is None:
-        raise ValueError("the source holds no samples")
-    return _concat(collector.parts), collector.aux_role
+            bar.close()
+    return _concat(parts), collector.aux_role
 
 
 def _progress(on: bool, total: Optional[int]) -> Any:
@@ -443,8 +523,7 @@ def _acquisitions(source: Sequence[Any], fs: float, db: Any, nb: int, hp_fc: Opt
             for j, r in enumerate(roles):
                 ch[r] = filtered[j]
         col = _Collector(length=n, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux_role, raw=hp_fc is not None)
-        col(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
-        st = col.parts[0]
+        st = col._batch(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
         t0 = acq.get("t0") if isinstance(acq, Mapping) else None
         st["t0"] = np.array([float(t0) if t0 is not None else t])
         st["acquisition"] = np.array([k], dtype=np.int64)

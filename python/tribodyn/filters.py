@@ -17,7 +17,7 @@ import numpy as np
 from scipy import signal as _signal
 
 from . import _core
-from ._validate import as_channels, check_fs, check_int, positive
+from ._validate import as_channels, check_fs, check_int, finite_error, positive
 
 __all__ = ["HighPass", "highpass", "butter_highpass"]
 
@@ -38,6 +38,9 @@ def butter_highpass(fs: float, *, cutoff: float = 0.1, order: int = 1) -> np.nda
 
 
 def _check_sos(sos: Any) -> np.ndarray:
+    # A complex array would otherwise lose its imaginary part with only a warning.
+    if np.asarray(sos).dtype.kind == "c":
+        raise TypeError("sos must be a real (n_sections, 6) array, got complex")
     try:
         s = np.array(sos, dtype=np.float64, order="C", ndmin=2)
     except (TypeError, ValueError):
@@ -49,6 +52,12 @@ def _check_sos(sos: Any) -> np.ndarray:
     if not np.all(s[:, 3] == 1.0):
         raise ValueError("sos must have a0 = 1 in every section (column 3), as scipy.signal.sosfilt requires")
     return s
+
+
+def _precheck(x: np.ndarray, check_finite: bool) -> None:
+    """Reports a NaN/inf before a shape error, as the other entry points do."""
+    if check_finite:
+        as_channels(x, "chunk", check_finite=True)
 
 
 class HighPass:
@@ -96,7 +105,13 @@ class HighPass:
         if init not in ("steady", "zero"):
             raise ValueError(f"init must be 'steady' or 'zero', got {init!r}")
         self.init: Init = init
-        self._zi = np.ascontiguousarray(_signal.sosfilt_zi(self.sos), dtype=np.float64)
+        # The steady state only exists without a pole at z = 1; "zero" needs none.
+        self._zi = np.zeros((self.n_sections, 2))
+        if init == "steady":
+            try:
+                self._zi = np.ascontiguousarray(_signal.sosfilt_zi(self.sos), dtype=np.float64)
+            except np.linalg.LinAlgError:
+                raise ValueError("sos has a pole at z = 1: no steady state exists (use init='zero')") from None
         self.reset()
 
     @property
@@ -134,20 +149,32 @@ class HighPass:
         ``chunk`` is 1-D for a one-channel filter, or (channels, m). Chunks of
         any length (0 included) may follow each other.
         """
-        x = as_channels(chunk, "chunk", check_finite=check_finite)
+        # The kernel checks finiteness while it copies the input (no extra
+        # pass over a long record); shape errors still see the check first.
+        x = as_channels(chunk, "chunk", check_finite=False)
         one_d = x.ndim == 1
         if one_d:
             if self.channels != 1:
+                _precheck(x, check_finite)
                 raise ValueError(f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter, got 1-D")
             x = x[np.newaxis, :]
         elif x.shape[0] != self.channels:
+            _precheck(x, check_finite)
             raise ValueError(f"chunk has {x.shape[0]} channels, the filter {self.channels}")
-        y = np.array(x, dtype=np.float64, order="C", copy=True)
-        if y.shape[1] > 0:
-            if not self._started:
-                self._state = np.ascontiguousarray(self._zi[np.newaxis, :, :] * y[:, 0, np.newaxis, np.newaxis])
-                self._started = True
-            _core.sosfilt_inplace(self.sos, y, self._state)
+        if x.shape[1] == 0:
+            y = x.copy()
+        else:
+            # A new state, committed only if the chunk is accepted.
+            if self._started:
+                state = self._state.copy()
+            else:
+                state = np.ascontiguousarray(self._zi[np.newaxis, :, :] * x[:, 0, np.newaxis, np.newaxis])
+            y = np.empty_like(x)
+            finite = _core.sosfilt_into(self.sos, x, y, state)
+            if check_finite and not finite:
+                raise ValueError(finite_error("chunk"))
+            self._state = state
+            self._started = True
         return y[0] if one_d else y
 
 
@@ -178,7 +205,8 @@ def highpass(
         moved = np.moveaxis(a, axis, -1)
     except (ValueError, IndexError) as exc:  # numpy's AxisError is both
         raise ValueError(f"axis {axis} is out of range for x of shape {a.shape}") from exc
-    flat = moved.reshape(-1, moved.shape[-1])
+    # Not reshape(-1, m): with m = 0 the -1 would be ambiguous.
+    flat = moved.reshape(int(np.prod(moved.shape[:-1])), moved.shape[-1])
     hp = HighPass(fs, cutoff=cutoff, order=order, sos=sos, channels=max(flat.shape[0], 1), init=init)
     if flat.shape[0] == 0:
         return np.zeros(a.shape)

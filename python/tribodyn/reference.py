@@ -93,6 +93,9 @@ class HighPass:
 
     def process(self, chunk: Any, *, check_finite: bool = True) -> np.ndarray:
         x = np.atleast_2d(as_channels(chunk, "chunk", check_finite=check_finite))
+        if x.shape[0] != self.channels:  # same refusals as the fast path
+            got = "1-D" if np.ndim(chunk) == 1 else f"{x.shape[0]} channels"
+            raise ValueError(f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter (channels), got {got}")
         if x.shape[1] == 0:
             return np.asarray(chunk, dtype=float).copy()
         if not self._started:
@@ -117,7 +120,8 @@ def highpass(
 ) -> np.ndarray:
     """One-shot ``scipy.signal.sosfilt`` along ``axis``, other axes as channels."""
     moved = np.moveaxis(np.asarray(x, dtype=float), axis, -1)
-    flat = moved.reshape(-1, moved.shape[-1])
+    # Not reshape(-1, m): with m = 0 the -1 would be ambiguous.
+    flat = moved.reshape(int(np.prod(moved.shape[:-1])), moved.shape[-1])
     hp = HighPass(fs, cutoff=cutoff, order=order, sos=sos, channels=flat.shape[0], init=init)
     return np.moveaxis(hp.process(flat, check_finite=check_finite).reshape(moved.shape), -1, axis)
 
@@ -197,3 +201,174 @@ class LinFitAccumulator:
 
     def result(self) -> LinFit:
         return _result(_fit(*self.m))
+
+
+# -- The long-recording pipeline, tiled windows (METHOD.md 3-6) -------------------
+
+__all__ += ["analyze_tiled"]
+
+
+def _row_mean(a: np.ndarray) -> np.ndarray:
+    """Two-pass mean of every row (exact for a constant row)."""
+    m0 = a.sum(axis=1) / a.shape[1]
+    return m0 + (a - m0[:, None]).sum(axis=1) / a.shape[1]
+
+
+def _rows_pearson(sab: np.ndarray, saa: np.ndarray, sbb: np.ndarray) -> np.ndarray:
+    den = np.sqrt(saa * sbb)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, np.clip(sab / den, -1.0, 1.0), np.nan)
+
+
+def _tile_stats(fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, aux: Optional[np.ndarray],
+                raw: Optional[tuple], dead: tuple, nb: int) -> dict:
+    """Statistics of the rows of (windows, W) arrays, orientation +1."""
+    n_w, w = fz.shape
+    mz, my = _row_mean(fz), _row_mean(fy)
+    dz, dy = fz - mz[:, None], fy - my[:, None]
+    szz, syy, syz = (dz * dz).sum(axis=1), (dy * dy).sum(axis=1), (dy * dz).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # Eqs. 6-8; the residual sum of squares from the residuals themselves.
+        b = np.where(szz > 0, syz / szz, 0.0)
+        e = dy - b[:, None] * dz
+        sse = np.where(szz > 0, np.maximum((e * e).sum(axis=1) - e.sum(axis=1) ** 2 / w, 0.0), syy)
+        ok = (w >= 3) & (szz > 0)
+        slope = np.where(ok, syz / szz, np.nan)
+        se = np.where(ok, np.sqrt(sse / (w - 2) / szz), np.nan)
+    out = {"slope": slope, "intercept": my - slope * mz, "slope_stderr": se, "c_yz": _rows_pearson(syz, szz, syy),
+           "n": np.full(n_w, w, dtype=np.int64), "mean_z": mz, "mean_y": my, "syz": syz}
+    out["r"] = np.where(ok, out["c_yz"], np.nan)
+    if fx is not None and w >= 2:
+        dx = fx - _row_mean(fx)[:, None]
+        sxx = (dx * dx).sum(axis=1)
+        out["c_xy"] = _rows_pearson((dx * dy).sum(axis=1), sxx, syy)
+        out["c_xz"] = _rows_pearson((dx * dz).sum(axis=1), sxx, szz)
+    else:
+        out["c_xy"] = out["c_xz"] = np.full(n_w, np.nan)
+    # Deadband and bins (METHOD.md 4): bin floor((fz - lo) * n_bins / span),
+    # the top edge in the last bin.
+    kind, value = dead
+    d = np.full(n_w, value) if kind == "force" else value * np.sqrt(szz / (w - 1)) if w >= 2 else np.full(n_w, np.nan)
+    lo, hi = fz.min(axis=1), fz.max(axis=1)
+    span = hi - lo
+    with np.errstate(invalid="ignore", divide="ignore"):
+        scale = np.where(span > 0, nb / span, 0.0)
+        mu = fy / fz
+    keep = (np.abs(fz) >= d[:, None]) & (fz != 0)
+    k = np.minimum((fz - lo[:, None]) * scale[:, None], nb - 1).astype(np.int64)
+    slot = (k + nb * np.arange(n_w)[:, None])[keep]
+    counts = np.bincount(slot, minlength=n_w * nb).reshape(n_w, nb)
+    sums = np.bincount(slot, weights=mu[keep], minlength=n_w * nb).reshape(n_w, nb)
+    neg, pos = keep & (fz < 0), keep & (fz > 0)
+    out["n_a"], out["n_b"] = neg.sum(axis=1), pos.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out["bin_cof"] = np.where(counts > 0, sums / counts, np.nan)
+        out["mu_a"] = np.where(neg, mu, 0.0).sum(axis=1) / out["n_a"]
+        out["mu_b"] = np.where(pos, mu, 0.0).sum(axis=1) / out["n_b"]
+    out.update(bin_count=counts, deadband=d, fz_min=lo, fz_max=hi)
+    out["aux_mean"] = aux.mean(axis=1) if aux is not None else np.full(n_w, np.nan)
+    if raw is not None:
+        ay, az = np.abs(raw[0]), np.abs(raw[1])
+        nz = az > 0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out["mu_classic"] = np.where(nz, ay / np.where(nz, az, 1.0), 0.0).sum(axis=1) / nz.sum(axis=1)
+    else:
+        out["mu_classic"] = np.full(n_w, np.nan)
+    return out
+
+
+def analyze_tiled(
+    channels: Any,
+    *,
+    fs: float,
+    window: float = 2.0,
+    deadband: Any = 0.35,
+    n_bins: int = 16,
+    highpass: Optional[float] = None,
+    area_mm2: Optional[float] = None,
+    orientation: Any = "auto",
+    block: int = 256,
+) -> dict:
+    """``tribodyn.analyze`` with hop == window, vectorised over windows.
+
+    Each block of ``block`` consecutive windows is a (windows, W) view of
+    the channels; every per-window quantity is a centred sum along rows, the
+    bins one ``np.bincount`` over (window, bin) slots. With ``highpass`` the
+    forces are filtered first by ``scipy.signal.sosfilt`` (first-order
+    Butterworth, "steady" start, state carried from block to block).
+
+    Parameters
+    ----------
+    channels : mapping
+        Role -> 1-D array: ``fy``, ``fz``, optionally ``fx`` and ``i``
+        (current, A). Memory-mapped arrays are read a block at a time.
+    fs, window, deadband, n_bins, highpass, area_mm2, orientation
+        As for :func:`tribodyn.analyze` (``deadband`` a force in N or
+        ``"0.7sigma"``).
+    block : int
+        Windows per vectorised step (memory is O(block * W)).
+
+    Returns
+    -------
+    dict of str -> ndarray
+        The columns of ``analyze``'s table it covers: ``time``, ``mu_r``,
+        ``f_y0``, ``r``, ``mu_r_stderr``, ``mu_a``, ``mu_b``,
+        ``force_dependence``, ``c_xy``, ``c_xz``, ``c_yz``, ``i``, ``J``,
+        ``n``, ``deadband``, ``mu_classic``; and per window ``bin_count``
+        (int64) and ``bin_cof`` (windows, n_bins), ``fz_min``, ``fz_max``;
+        ``orientation`` (0-d int).
+    """
+    from .deadband import parse_deadband
+
+    fs_v = check_fs(fs)
+    w = int(round(float(window) * fs_v))
+    db = parse_deadband(deadband)
+    nb = int(n_bins)
+    if w < 3 or nb < 1:
+        raise ValueError("a window needs at least 3 samples and n_bins >= 1")
+    roles = [r for r in ("fx", "fy", "fz") if r in channels]
+    n = len(channels["fz"])
+    n_win = n // w
+    if n_win == 0:
+        raise ValueError("the recording is shorter than one window")
+    hp = HighPass(fs_v, cutoff=highpass, channels=len(roles)) if highpass is not None else None
+    parts = []
+    for k0 in range(0, n_win, block):
+        k1 = min(n_win, k0 + block)
+        a, b = k0 * w, k1 * w
+        ch = {r: np.asarray(channels[r][a:b], dtype=float) for r in roles}
+        raw = None
+        if hp is not None:
+            # The filter also runs over the samples between blocks: none here
+            # (tiling), except the tail after the last window, never used.
+            filtered = hp.process(np.stack([ch[r] for r in roles]))
+            raw = (ch["fy"].reshape(-1, w), ch["fz"].reshape(-1, w))
+            ch = {r: filtered[j] for j, r in enumerate(roles)}
+        aux = np.asarray(channels["i"][a:b], dtype=float).reshape(-1, w) if "i" in channels else None
+        rows = {r: v.reshape(-1, w) for r, v in ch.items()}
+        parts.append(_tile_stats(rows.get("fx"), rows["fy"], rows["fz"], aux, raw, (db.kind, db.value), nb))
+    st = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    if orientation == "auto":
+        # METHOD.md 0: the sign of the whole-recording slope, from the
+        # windows' moments merged (within + between windows).
+        nw = st["n"].astype(float)
+        mz, my = np.average(st["mean_z"], weights=nw), np.average(st["mean_y"], weights=nw)
+        total = st["syz"].sum() + (nw * (st["mean_z"] - mz) * (st["mean_y"] - my)).sum()
+        s = -1 if total < 0 else 1
+    else:
+        s = int(orientation)
+    time = np.arange(n_win) * w / fs_v + 0.5 * w / fs_v
+    mu_r = s * st["slope"]
+    mu_a, mu_b = s * st["mu_a"], s * st["mu_b"]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        force_dependence = (mu_b - mu_a) / mu_r
+    i = st["aux_mean"]
+    return {
+        "time": time, "mu_r": mu_r, "f_y0": st["intercept"], "r": st["r"], "mu_r_stderr": st["slope_stderr"],
+        "mu_a": mu_a, "mu_b": mu_b, "force_dependence": force_dependence, "c_xy": st["c_xy"],
+        "c_xz": st["c_xz"], "c_yz": st["c_yz"], "i": i,
+        "J": i / area_mm2 if area_mm2 is not None else np.full(n_win, np.nan), "n": st["n"],
+        "deadband": st["deadband"], "mu_classic": st["mu_classic"], "bin_count": st["bin_count"],
+        "bin_cof": s * st["bin_cof"], "fz_min": st["fz_min"], "fz_max": st["fz_max"],
+        "orientation": np.array(s),
+    }

@@ -16,6 +16,7 @@ the COF is mu_r = s * slope (see :func:`tribodyn.identify`).
 
 from __future__ import annotations
 
+import math
 import warnings
 from typing import Any, NamedTuple
 
@@ -107,8 +108,27 @@ def linfit(x: Any, y: Any, *, check_finite: bool = True) -> LinFit:
     TypeError
         Non-numeric input.
     """
-    xa, ya = _pair(x, y, check_finite, 1)
-    return _result(_core.linfit(xa, ya))
+    try:
+        xa, ya = _pair(x, y, False, 1)
+    except (TypeError, ValueError):
+        _pair(x, y, check_finite, 1)  # the same error, found in the same order as elsewhere
+        raise
+    t = _core.linfit(xa, ya)
+    if check_finite and not _proves_finite(t):
+        as_signal(xa, "x", check_finite=True)
+        as_signal(ya, "y", check_finite=True)
+    return _result(t)
+
+
+def _proves_finite(t: tuple) -> bool:
+    """Whether a fit shows that its inputs were finite, sparing the check a pass.
+
+    A NaN or inf anywhere in x or y makes that block's mean NaN, and NaN
+    survives every merge, so a non-degenerate fit with finite fields (the
+    intercept uses both means) comes from finite inputs. Otherwise (also on
+    overflow) the inputs are checked as usual.
+    """
+    return not t[7] and all(math.isfinite(v) for v in t[:6])
 
 
 class LinFitAccumulator:

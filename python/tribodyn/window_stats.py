@@ -11,7 +11,7 @@ orientation can be fixed once per recording after all windows are seen.
 
 from __future__ import annotations
 
-from typing import Dict, Optional
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
@@ -33,24 +33,43 @@ def compute(
     length: int,
     deadband: Deadband,
     n_bins: int,
+    *,
+    raw: Optional[Tuple[np.ndarray, np.ndarray]] = None,
 ) -> Dict[str, np.ndarray]:
-    """Kernel statistics of windows ``[s, s + length)`` for ``s`` in ``starts`` (orientation +1)."""
+    """Kernel statistics of windows ``[s, s + length)`` for ``s`` in ``starts`` (orientation +1).
+
+    ``raw`` (fy, fz before the high-pass) adds ``mu_classic``, the classical
+    COF mean(|fy|/|fz|) per window (NaN without it). A NaN or inf sample in a
+    window raises ``ValueError``.
+    """
+    fy_raw, fz_raw = raw if raw is not None else (None, None)
     return _core.windows_stats(
-        fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), int(length), 1.0, deadband.kind, float(deadband.value), int(n_bins)
+        fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), int(length), 1.0, deadband.kind,
+        float(deadband.value), int(n_bins), fy_raw, fz_raw,
     )
 
 
-def orient(stats: Dict[str, np.ndarray], s: int) -> Dict[str, np.ndarray]:
+def orient(stats: Dict[str, np.ndarray], s: int, *, inplace: bool = False) -> Dict[str, np.ndarray]:
     """Applies orientation ``s`` (METHOD.md 0): mu = s * slope, and so on.
 
     Returns a new dict with ``mu_r``, ``mu_r_stderr``, ``f_y0`` and
     ``force_dependence`` added. F_y0 is the intercept in the measured fy
-    frame (not flipped), as in the paper's Eq. (7).
+    frame (not flipped), as in the paper's Eq. (7). With ``inplace`` the
+    COF arrays of ``stats`` are flipped in place (no copies of a long
+    table), and ``slope`` becomes ``mu_r``.
     """
     out = dict(stats)
     for key in ("mu_a", "mu_b", "bin_cof"):
-        out[key] = s * stats[key]
-    out["mu_r"] = s * stats["slope"]
+        if not inplace:
+            out[key] = s * stats[key]
+        elif s != 1:
+            np.negative(stats[key], out=stats[key])
+    if inplace:
+        if s != 1:
+            np.negative(stats["slope"], out=stats["slope"])
+        out["mu_r"] = out.pop("slope")
+    else:
+        out["mu_r"] = s * stats["slope"]
     out["mu_r_stderr"] = stats["slope_stderr"]
     out["f_y0"] = stats["intercept"]
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -63,20 +82,29 @@ def gate_reasons(stats: Dict[str, np.ndarray], gate: float, skew: Optional[np.nd
 
     Reasons: the fit is degenerate (fewer than 3 samples, constant fz);
     |C_yz(0)| below ``gate``; the deadband excludes every sample; a channel
-    skew (max |C_yz(j)| away from lag 0).
+    skew (max |C_yz(j)| away from lag 0). Returns an object array of str.
     """
-    n = len(stats["c_yz"])
-    reasons = np.empty(n, dtype=object)
-    for k in range(n):
+    c = np.abs(np.asarray(stats["c_yz"], dtype=float))
+    degenerate = ~np.isfinite(stats["mu_r"] if "mu_r" in stats else stats["slope"])
+    with np.errstate(invalid="ignore"):
+        low = ~degenerate & ~(c >= gate)
+    empty = (stats["n_a"] + stats["n_b"]) == 0
+    skewed = np.zeros(len(c), dtype=bool)
+    if skew is not None:
+        sk = np.asarray(skew, dtype=float)
+        with np.errstate(invalid="ignore"):
+            skewed = np.isfinite(sk) & (sk != 0)
+    reasons = np.full(len(c), "", dtype=object)
+    # Strings only for the windows that fail (few, in a good recording).
+    for k in np.flatnonzero(degenerate | low | empty | skewed):
         why = []
-        c = stats["c_yz"][k]
-        if not np.isfinite(stats["slope"][k]):
+        if degenerate[k]:
             why.append("degenerate: fewer than 3 samples or constant fz")
-        elif not (abs(c) >= gate):
-            why.append(f"low correlation: |C_yz(0)| = {abs(c):.3f} < {gate:g}")
-        if stats["n_a"][k] + stats["n_b"][k] == 0:
+        elif low[k]:
+            why.append(f"low correlation: |C_yz(0)| = {c[k]:.3f} < {gate:g}")
+        if empty[k]:
             why.append(f"deadband: {stats['deadband'][k]:.4g} N excludes every sample")
-        if skew is not None and np.isfinite(skew[k]) and skew[k] != 0:
-            why.append(f"skew: max |C_yz| at lag {int(skew[k])}, not 0")
+        if skewed[k]:
+            why.append(f"skew: max |C_yz| at lag {int(skew[k])}, not 0")  # type: ignore[index]
         reasons[k] = "; ".join(why)
     return reasons

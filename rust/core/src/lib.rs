@@ -14,6 +14,7 @@
 pub mod correlation;
 pub mod error;
 pub mod iir;
+mod lanes;
 pub mod parallel;
 pub mod regression;
 pub mod sums;

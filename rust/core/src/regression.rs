@@ -21,7 +21,8 @@
 //! and blocks are merged in order, whatever the thread count.
 
 use crate::error::{same_len, KernelError};
-use crate::sums::{mean, sum};
+use crate::lanes::F4;
+use crate::sums::mean;
 use rayon::prelude::*;
 
 /// Samples reduced by one two-pass step (fits in L1 with both inputs).
@@ -59,32 +60,44 @@ pub struct LinFit {
 
 impl Moments {
     /// Moments of one block by two passes: exact means of the block first.
-    fn of_block(x: &[f64], y: &[f64]) -> Moments {
-        let n = x.len();
+    /// Sums run in four lanes of `V` (see [`crate::lanes`]).
+    #[inline(always)]
+    fn of_block<V: F4>(x: &[f64], y: &[f64]) -> Moments {
+        let n = x.len().min(y.len());
         if n == 0 {
             return Moments::default();
         }
+        let (x, y) = (&x[..n], &y[..n]);
         let nf = n as f64;
-        let (mx, my) = (sum(x) / nf, sum(y) / nf);
-        let mut a = [[0.0f64; 4]; 5]; // sdx, sdy, sxx, syy, sxy per lane
-        let xc = x.chunks_exact(4);
-        let yc = y.chunks_exact(4);
-        let (xr, yr) = (xc.remainder(), yc.remainder());
-        for (u, v) in xc.zip(yc) {
-            for k in 0..4 {
-                let dx = u[k] - mx;
-                let dy = v[k] - my;
-                a[0][k] += dx;
-                a[1][k] += dy;
-                a[2][k] += dx * dx;
-                a[3][k] += dy * dy;
-                a[4][k] += dx * dy;
-            }
+        let split = n - n % 4;
+        let (xh, xr) = x.split_at(split);
+        let (yh, yr) = y.split_at(split);
+        // Pass 1: the two lane-split sums of `sums::sum`, in one loop.
+        let (mut ax, mut ay) = (V::zero(), V::zero());
+        for (u, v) in xh.chunks_exact(4).zip(yh.chunks_exact(4)) {
+            ax = ax.add(V::load(u));
+            ay = ay.add(V::load(v));
         }
-        let mut t = [0.0f64; 5];
-        for (q, lanes) in t.iter_mut().zip(&a) {
-            *q = (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+        let (mut sx, mut sy) = (ax.fold(), ay.fold());
+        for (u, v) in xr.iter().zip(yr) {
+            sx += u;
+            sy += v;
         }
+        let (mx, my) = (sx / nf, sy / nf);
+        // Pass 2: deviation sums and centred second moments.
+        let (vmx, vmy) = (V::splat(mx), V::splat(my));
+        let (mut sdx, mut sdy) = (V::zero(), V::zero());
+        let (mut sxx, mut syy, mut sxy) = (V::zero(), V::zero(), V::zero());
+        for (u, v) in xh.chunks_exact(4).zip(yh.chunks_exact(4)) {
+            let dx = V::load(u).sub(vmx);
+            let dy = V::load(v).sub(vmy);
+            sdx = sdx.add(dx);
+            sdy = sdy.add(dy);
+            sxx = sxx.add(dx.mul(dx));
+            syy = syy.add(dy.mul(dy));
+            sxy = sxy.add(dx.mul(dy));
+        }
+        let mut t = [sdx.fold(), sdy.fold(), sxx.fold(), syy.fold(), sxy.fold()];
         for (u, v) in xr.iter().zip(yr) {
             let dx = u - mx;
             let dy = v - my;
@@ -105,19 +118,15 @@ impl Moments {
         // own line, with the same mean correction.
         let sse = if sxx > 0.0 {
             let b = sxy / sxx;
-            let (mut r, mut r2) = ([0.0f64; 4], [0.0f64; 4]);
-            let xc = x.chunks_exact(4);
-            let yc = y.chunks_exact(4);
-            let (xr, yr) = (xc.remainder(), yc.remainder());
-            for (u, v) in xc.zip(yc) {
-                for k in 0..4 {
-                    let e = (v[k] - my) - b * (u[k] - mx);
-                    r[k] += e;
-                    r2[k] += e * e;
-                }
+            let vb = V::splat(b);
+            let (mut r, mut r2) = (V::zero(), V::zero());
+            for (u, v) in xh.chunks_exact(4).zip(yh.chunks_exact(4)) {
+                let e = V::load(v).sub(vmy).sub(vb.mul(V::load(u).sub(vmx)));
+                r = r.add(e);
+                r2 = r2.add(e.mul(e));
             }
-            let mut sr = (r[0] + r[1]) + (r[2] + r[3]);
-            let mut sr2 = (r2[0] + r2[1]) + (r2[2] + r2[3]);
+            let mut sr = r.fold();
+            let mut sr2 = r2.fold();
             for (u, v) in xr.iter().zip(yr) {
                 let e = (v - my) - b * (u - mx);
                 sr += e;
@@ -144,10 +153,40 @@ impl Moments {
         Ok(parts.iter().fold(Moments::default(), |acc, m| acc.merge(m)))
     }
 
+    /// One task's blocks, merged in order, in the widest vectors the CPU
+    /// has (the same bits on every CPU, see [`crate::lanes`]).
     fn of_serial(x: &[f64], y: &[f64]) -> Moments {
-        x.chunks(BLOCK)
-            .zip(y.chunks(BLOCK))
-            .fold(Moments::default(), |acc, (a, b)| acc.merge(&Self::of_block(a, b)))
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                return unsafe { Self::of_serial_avx2(x, y) };
+            }
+            Self::of_serial_generic::<crate::lanes::Sse2>(x, y)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Self::of_serial_generic::<crate::lanes::Scalar>(x, y)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn of_serial_avx2(x: &[f64], y: &[f64]) -> Moments {
+        Self::of_serial_generic::<crate::lanes::Avx>(x, y)
+    }
+
+    /// A plain loop, so that the block kernel is inlined into the caller
+    /// that carries the target features.
+    #[inline(always)]
+    fn of_serial_generic<V: F4>(x: &[f64], y: &[f64]) -> Moments {
+        let n = x.len().min(y.len());
+        let mut acc = Moments::default();
+        let mut start = 0;
+        while start < n {
+            let end = (start + BLOCK).min(n);
+            acc = acc.merge(&Self::of_block::<V>(&x[start..end], &y[start..end]));
+            start = end;
+        }
+        acc
     }
 
     /// Adds a chunk of samples.
@@ -283,6 +322,16 @@ mod tests {
         assert!(close(a.slope, b.slope, 1e-12));
         assert!(close(a.intercept, b.intercept, 1e-12));
         assert!(close(a.resid_std, b.resid_std, 1e-12), "{} {}", a.resid_std, b.resid_std);
+    }
+
+    #[test]
+    fn vector_paths_give_the_same_bits() {
+        let (x, y) = data(10_007);
+        let xs: Vec<f64> = x.iter().map(|v| v * 1e3 + 12.5).collect();
+        let want = Moments::of_serial_generic::<crate::lanes::Scalar>(&xs, &y);
+        assert_eq!(Moments::of_serial(&xs, &y), want);
+        #[cfg(target_arch = "x86_64")]
+        assert_eq!(Moments::of_serial_generic::<crate::lanes::Sse2>(&xs, &y), want);
     }
 
     #[test]

@@ -7,7 +7,10 @@
 //! Validation of user-facing options lives in the Python layer; the kernels
 //! re-check everything that could otherwise panic.
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadwriteArray2, PyReadwriteArray3};
+use numpy::{
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2,
+    PyReadwriteArray3, PyUntypedArrayMethods,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -15,12 +18,23 @@ use tribodyn_core::correlation::{self, Method};
 use tribodyn_core::iir;
 use tribodyn_core::parallel;
 use tribodyn_core::regression::{self, LinFit, Moments};
+use tribodyn_core::sums;
 use tribodyn_core::windows::{self, Deadband, WindowOptions};
 use tribodyn_core::KernelError;
 
 /// The one place kernel errors become Python exceptions.
 fn to_py(e: KernelError) -> PyErr {
     PyValueError::new_err(e.to_string())
+}
+
+/// `as_slice` also accepts Fortran order, which a kernel reading rows of a
+/// (channels, n) array would silently mistake for C order: refuse it.
+fn c_order(c_contiguous: bool, name: &str) -> PyResult<()> {
+    if c_contiguous {
+        Ok(())
+    } else {
+        Err(PyValueError::new_err(format!("{name} must be a C-contiguous float64 array")))
+    }
 }
 
 fn slice_err(name: &str) -> impl Fn(numpy::AsSliceError) -> PyErr + '_ {
@@ -50,7 +64,13 @@ fn xcorr<'py>(
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let method = method_of(method)?;
     let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
-    let c = py.detach(|| parallel::run(|| correlation::xcorr(xs, ys, max_lag, method))).map_err(to_py)?;
+    let c = if correlation::uses_threads(xs.len(), max_lag) {
+        py.detach(|| parallel::run(|| correlation::xcorr(xs, ys, max_lag, method)))
+    } else {
+        // One window: entering the pool would cost more than the work.
+        correlation::xcorr(xs, ys, max_lag, method)
+    }
+    .map_err(to_py)?;
     Ok(PyArray1::from_vec(py, c))
 }
 
@@ -96,15 +116,82 @@ fn sosfilt_inplace(
             secs.len()
         )));
     }
+    c_order(data.is_c_contiguous(), "data")?;
+    c_order(state.is_c_contiguous(), "state")?;
     let d = data.as_slice_mut().map_err(slice_err("data"))?;
     let s = state.as_slice_mut().map_err(slice_err("state"))?;
     // (channels * n_sections * 2) floats viewed as pairs.
     let mut pairs: Vec<[f64; 2]> = s.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
-    py.detach(|| parallel::run(|| iir::sosfilt_inplace(&secs, d, channels, &mut pairs))).map_err(to_py)?;
+    let n = d.len() / channels.max(1);
+    if iir::uses_threads(n, channels) {
+        py.detach(|| parallel::run(|| iir::sosfilt_inplace(&secs, d, channels, &mut pairs)))
+    } else {
+        iir::sosfilt_inplace(&secs, d, channels, &mut pairs)
+    }
+    .map_err(to_py)?;
     for (dst, p) in s.chunks_exact_mut(2).zip(&pairs) {
         dst.copy_from_slice(p);
     }
     Ok(())
+}
+
+/// Filters `x` (channels, n) into `out` (same shape) with `sos`, carrying
+/// `state` (channels, n_sections, 2) in place. Returns whether every sample
+/// of `x` was finite (a NaN or inf leaves the state non-finite; only then
+/// is `x` scanned), so the caller's input check costs no extra pass.
+#[pyfunction]
+fn sosfilt_into(
+    py: Python<'_>,
+    sos: PyReadonlyArray2<'_, f64>,
+    x: PyReadonlyArray2<'_, f64>,
+    mut out: PyReadwriteArray2<'_, f64>,
+    mut state: PyReadwriteArray3<'_, f64>,
+) -> PyResult<bool> {
+    let secs = sections(&sos)?;
+    let channels = x.as_array().nrows();
+    if out.as_array().shape() != x.as_array().shape() {
+        return Err(PyValueError::new_err(format!(
+            "out must have the shape of x {:?}, got {:?}",
+            x.as_array().shape(),
+            out.as_array().shape()
+        )));
+    }
+    let st_shape = state.as_array().shape().to_vec();
+    if st_shape != [channels, secs.len(), 2] {
+        return Err(PyValueError::new_err(format!(
+            "state must have shape ({channels}, {}, 2), got {st_shape:?}",
+            secs.len()
+        )));
+    }
+    c_order(x.is_c_contiguous(), "x")?;
+    c_order(out.is_c_contiguous(), "out")?;
+    c_order(state.is_c_contiguous(), "state")?;
+    let src = x.as_slice().map_err(slice_err("x"))?;
+    let d = out.as_slice_mut().map_err(slice_err("out"))?;
+    let s = state.as_slice_mut().map_err(slice_err("state"))?;
+    let mut pairs: Vec<[f64; 2]> = s.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
+    let n = src.len() / channels.max(1);
+    let finite = if iir::uses_threads(n, channels) {
+        py.detach(|| parallel::run(|| iir::sosfilt_into(&secs, src, d, channels, &mut pairs)))
+    } else {
+        iir::sosfilt_into(&secs, src, d, channels, &mut pairs)
+    }
+    .map_err(to_py)?;
+    for (dst, p) in s.chunks_exact_mut(2).zip(&pairs) {
+        dst.copy_from_slice(p);
+    }
+    Ok(finite)
+}
+
+/// Whether every value of a C-contiguous float64 array is finite (no NaN or
+/// inf), without the temporary mask of `np.isfinite(a).all()`.
+#[pyfunction]
+fn all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f64>) -> PyResult<bool> {
+    let s = a.as_slice().map_err(slice_err("a"))?;
+    if s.len() < (1 << 20) {
+        return Ok(sums::all_finite(s));
+    }
+    Ok(py.detach(|| parallel::run(|| sums::par_all_finite(s))))
 }
 
 fn fit_tuple(f: LinFit) -> (f64, f64, f64, f64, f64, f64, u64, bool) {
@@ -174,9 +261,11 @@ fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResu
 }
 
 /// Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
-/// Returns a dict of arrays, one row per window.
+/// Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
+/// forces before the high-pass) add `mu_classic`; a non-finite sample in a
+/// window raises ValueError.
 #[pyfunction]
-#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins))]
+#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, fy_raw=None, fz_raw=None))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats<'py>(
     py: Python<'py>,
@@ -190,6 +279,8 @@ fn windows_stats<'py>(
     deadband_kind: &str,
     deadband: f64,
     n_bins: usize,
+    fy_raw: Option<PyReadonlyArray1<'py, f64>>,
+    fz_raw: Option<PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let deadband = match deadband_kind {
         "force" => Deadband::Force(deadband),
@@ -204,16 +295,26 @@ fn windows_stats<'py>(
         .collect::<PyResult<_>>()?;
     let (fxs, auxs) = (opt_slice(&fx, "fx")?, opt_slice(&aux, "aux")?);
     let (fys, fzs) = (fy.as_slice().map_err(slice_err("fy"))?, fz.as_slice().map_err(slice_err("fz"))?);
+    let raw = match (opt_slice(&fy_raw, "fy_raw")?, opt_slice(&fz_raw, "fz_raw")?) {
+        (Some(y), Some(z)) => Some((y, z)),
+        (None, None) => None,
+        _ => return Err(PyValueError::new_err("fy_raw and fz_raw go together")),
+    };
+    let ch = windows::Channels { fx: fxs, fy: fys, fz: fzs, aux: auxs, raw };
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
-    let stats = py
-        .detach(|| parallel::run(|| windows::windows_stats(fxs, fys, fzs, auxs, &starts, &opt)))
-        .map_err(to_py)?;
+    // A few windows cost less than entering the pool.
+    let stats = if starts.len() < 8 {
+        py.detach(|| windows::windows_stats_serial(&ch, &starts, &opt))
+    } else {
+        py.detach(|| parallel::run(|| windows::windows_stats(&ch, &starts, &opt)))
+    }
+    .map_err(to_py)?;
 
     let col = |f: &dyn Fn(&windows::WindowStats) -> f64| -> Vec<f64> { stats.iter().map(f).collect() };
     let out = PyDict::new(py);
     let fits: Vec<LinFit> = stats.iter().map(|w| w.moments.fit()).collect();
     let fcol = |f: &dyn Fn(&LinFit) -> f64| -> Vec<f64> { fits.iter().map(f).collect() };
-    let scalars: [(&str, Vec<f64>); 24] = [
+    let scalars: [(&str, Vec<f64>); 22] = [
         ("slope", fcol(&|f| f.slope)),
         ("intercept", fcol(&|f| f.intercept)),
         ("r", fcol(&|f| f.r)),
@@ -221,7 +322,7 @@ fn windows_stats<'py>(
         ("intercept_stderr", fcol(&|f| f.intercept_stderr)),
         ("resid_std", fcol(&|f| f.resid_std)),
         ("sse", col(&|w| w.moments.sse)),
-        ("n", col(&|w| w.moments.n as f64)),
+
         ("mean_z", col(&|w| w.moments.mean_x)),
         ("mean_y", col(&|w| w.moments.mean_y)),
         ("szz", col(&|w| w.moments.sxx)),
@@ -233,23 +334,25 @@ fn windows_stats<'py>(
         ("deadband", col(&|w| w.deadband)),
         ("mu_a", col(&|w| w.mu_a)),
         ("mu_b", col(&|w| w.mu_b)),
-        ("n_a", col(&|w| w.n_a as f64)),
-        ("n_b", col(&|w| w.n_b as f64)),
+
         ("fz_min", col(&|w| w.fz_min)),
         ("fz_max", col(&|w| w.fz_max)),
         ("aux_mean", col(&|w| w.aux_mean)),
+        ("mu_classic", col(&|w| w.mu_classic)),
     ];
     for (name, v) in scalars {
         out.set_item(name, PyArray1::from_vec(py, v))?;
     }
+    // Counts as int64 (a window holds far fewer than 2^63 samples).
+    let icol = |f: &dyn Fn(&windows::WindowStats) -> u64| -> Vec<i64> { stats.iter().map(|w| f(w) as i64).collect() };
+    for (name, v) in [("n", icol(&|w| w.moments.n)), ("n_a", icol(&|w| w.n_a)), ("n_b", icol(&|w| w.n_b))] {
+        out.set_item(name, PyArray1::from_vec(py, v))?;
+    }
     let rows = stats.len();
-    let counts: Vec<f64> = stats.iter().flat_map(|w| w.bin_count.iter().map(|&c| c as f64)).collect();
+    let counts: Vec<i64> = stats.iter().flat_map(|w| w.bin_count.iter().map(|&c| c as i64)).collect();
     let cof: Vec<f64> = stats.iter().flat_map(|w| w.bin_cof.iter().copied()).collect();
-    let shape = |v: Vec<f64>| -> PyResult<Bound<'py, PyArray2<f64>>> {
-        Ok(PyArray1::from_vec(py, v).reshape([rows, n_bins])?)
-    };
-    out.set_item("bin_count", shape(counts)?)?;
-    out.set_item("bin_cof", shape(cof)?)?;
+    out.set_item("bin_count", PyArray1::from_vec(py, counts).reshape([rows, n_bins])?)?;
+    out.set_item("bin_cof", PyArray1::from_vec(py, cof).reshape([rows, n_bins])?)?;
     Ok(out)
 }
 
@@ -271,6 +374,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(xcorr_auto_method, m)?)?;
     m.add_function(wrap_pyfunction!(pearson, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_inplace, m)?)?;
+    m.add_function(wrap_pyfunction!(sosfilt_into, m)?)?;
+    m.add_function(wrap_pyfunction!(all_finite, m)?)?;
     m.add_function(wrap_pyfunction!(linfit, m)?)?;
     m.add_function(wrap_pyfunction!(windows_stats, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;

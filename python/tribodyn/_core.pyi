@@ -1,0 +1,125 @@
+"""Typed stub of ``tribodyn._core``, the pyo3 extension built from
+``rust/python/src/lib.rs``; docstrings mirror its ``///`` comments.
+
+The binding only converts types: array arguments must already be
+C-contiguous float64 (the Python wrappers ensure it; anything else raises
+``ValueError``, a wrong dtype ``TypeError``), kernel errors become
+``ValueError``, and the GIL is released around the kernels. Check for drift
+with ``python -m mypy.stubtest tribodyn._core``.
+"""
+
+from typing import final
+
+import numpy as np
+from numpy.typing import NDArray
+from typing_extensions import TypeAlias
+
+__all__ = [
+    "Moments",
+    "all_finite",
+    "get_threads",
+    "linfit",
+    "pearson",
+    "set_threads",
+    "sosfilt_inplace",
+    "sosfilt_into",
+    "windows_stats",
+    "xcorr",
+    "xcorr_auto_method",
+]
+
+_F64: TypeAlias = NDArray[np.float64]
+
+# (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
+_FitTuple: TypeAlias = tuple[float, float, float, float, float, float, int, bool]
+# (n, mean_x, mean_y, sxx, syy, sxy, sse)
+_StateTuple: TypeAlias = tuple[int, float, float, float, float, float, float]
+
+def xcorr(x: _F64, y: _F64, max_lag: int, method: str) -> _F64:
+    """Eq. (1) for lags -max_lag..=max_lag.
+
+    ``method`` is "direct", "fft" or "auto". Returns C(j) in lag order.
+    """
+
+def xcorr_auto_method(n: int, max_lag: int) -> str:
+    """The algorithm "auto" picks for (n, max_lag): "direct" or "fft"."""
+
+def pearson(x: _F64, y: _F64) -> float:
+    """Pearson's r, C(0) of Eq. (1)."""
+
+def sosfilt_inplace(sos: _F64, data: _F64, state: _F64) -> None:
+    """Filters `data` (channels, n) in place with `sos`, carrying `state`
+    (channels, n_sections, 2) in place."""
+
+def sosfilt_into(sos: _F64, x: _F64, out: _F64, state: _F64) -> bool:
+    """Filters `x` (channels, n) into `out` (same shape) with `sos`, carrying
+    `state` (channels, n_sections, 2) in place. Returns whether every sample
+    of `x` was finite (a NaN or inf leaves the state non-finite; only then
+    is `x` scanned), so the caller's input check costs no extra pass."""
+
+def all_finite(a: _F64) -> bool:
+    """Whether every value of a C-contiguous float64 array is finite (no NaN or
+    inf), without the temporary mask of `np.isfinite(a).all()`."""
+
+def linfit(x: _F64, y: _F64) -> _FitTuple:
+    """One-shot least squares of y on x.
+
+    Returns (slope, intercept, r, slope_stderr, intercept_stderr, resid_std,
+    n, degenerate).
+    """
+
+def windows_stats(
+    fx: _F64 | None,
+    fy: _F64,
+    fz: _F64,
+    aux: _F64 | None,
+    starts: NDArray[np.int64],
+    length: int,
+    orientation: float,
+    deadband_kind: str,
+    deadband: float,
+    n_bins: int,
+    fy_raw: _F64 | None = None,
+    fz_raw: _F64 | None = None,
+) -> dict[str, _F64]:
+    """Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
+    Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
+    forces before the high-pass) add `mu_classic`; a non-finite sample in a
+    window raises ValueError.
+
+    ``deadband_kind`` is "force" (``deadband`` in N) or "sigma" (a multiple
+    of the window's standard deviation of fz). Keys: slope, intercept, r,
+    slope_stderr, intercept_stderr, resid_std, sse, n, mean_z, mean_y, szz,
+    syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, n_a, n_b, fz_min,
+    fz_max, aux_mean, mu_classic (each of shape (windows,)), bin_count and
+    bin_cof (shape (windows, n_bins)).
+    """
+
+def set_threads(n: int) -> None:
+    """Sets the number of threads kernels use (0 = all cores)."""
+
+def get_threads() -> int:
+    """The number of threads kernels use."""
+
+@final  # a pyo3 class: not subclassable at runtime
+class Moments:
+    """Mergeable centred moments of (x, y) (METHOD.md 3)."""
+
+    def __new__(cls) -> Moments: ...
+    def update(self, x: _F64, y: _F64) -> None:
+        """Adds the samples of one chunk."""
+
+    def merge(self, other: Moments) -> Moments:
+        """The moments of the union of both sample sets (a new object)."""
+
+    def fit(self) -> _FitTuple:
+        """(slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)."""
+
+    def state(self) -> _StateTuple:
+        """(n, mean_x, mean_y, sxx, syy, sxy, sse)."""
+
+    @staticmethod
+    def from_state(
+        n: int, mean_x: float, mean_y: float, sxx: float, syy: float, sxy: float, sse: float
+    ) -> Moments:
+        """Rebuilds moments from `state()` (for pickling and transport)."""
