@@ -259,23 +259,18 @@ def test_norris_shifted_accumulated_within_mean_rounding():
                 assert err[k] <= 1e-12 + per_merge * len(splits), (splits, err)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="METHOD.md 3: any split of Norris (also + 1e6) to 1e-12. The (n, mean, S) "
-    "state rounds the means at every merge: Norris B0 gets 1.13e-12 (cancellation "
-    "x1600), and + 1e6 resid SD / std errors up to 6.6e-11. Needs a compensated "
-    "(double-double) mean in Moments and the reference accumulator.",
-)
 @pytest.mark.parametrize(
     "cls, case",
-    # Not the reference on plain Norris: NumPy's sums depend on the memory
-    # alignment of each chunk, so whether it misses 1e-12 there varies.
+    # METHOD.md 3: any split of Norris (also + 1e6) to 1e-12. Met because the
+    # accumulators keep their means as double-doubles, so merges never round
+    # them (Norris B0 is a difference of numbers 1600 times larger).
     [
         (td.LinFitAccumulator, "norris"),
+        (ref.LinFitAccumulator, "norris"),
         (td.LinFitAccumulator, "norris+1e6"),
         (ref.LinFitAccumulator, "norris+1e6"),
     ],
-    ids=["rust-norris", "rust-norris+1e6", "reference-norris+1e6"],
+    ids=["rust-norris", "reference-norris", "rust-norris+1e6", "reference-norris+1e6"],
 )
 def test_norris_accumulated_contract(cls, case):
     if case == "norris":

@@ -33,7 +33,7 @@ _F64: TypeAlias = NDArray[np.float64]
 # (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
 _FitTuple: TypeAlias = tuple[float, float, float, float, float, float, int, bool]
 # (n, mean_x, mean_y, sxx, syy, sxy, sse)
-_StateTuple: TypeAlias = tuple[int, float, float, float, float, float, float]
+_StateTuple: TypeAlias = tuple[int, float, float, float, float, float, float, float, float]
 
 def xcorr(x: _F64, y: _F64, max_lag: int, method: str) -> _F64:
     """Eq. (1) for lags -max_lag..=max_lag.
@@ -116,10 +116,18 @@ class Moments:
         """(slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)."""
 
     def state(self) -> _StateTuple:
-        """(n, mean_x, mean_y, sxx, syy, sxy, sse)."""
+        """(n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo)."""
 
     @staticmethod
     def from_state(
-        n: int, mean_x: float, mean_y: float, sxx: float, syy: float, sxy: float, sse: float
+        n: int,
+        mean_x: float,
+        mean_y: float,
+        sxx: float,
+        syy: float,
+        sxy: float,
+        sse: float,
+        mean_x_lo: float = 0.0,
+        mean_y_lo: float = 0.0,
     ) -> Moments:
         """Rebuilds moments from `state()` (for pickling and transport)."""

@@ -10,6 +10,7 @@ cannot be expressed in NumPy, so it uses ``scipy.signal.sosfilt``.
 
 from __future__ import annotations
 
+from fractions import Fraction
 from typing import Any, Optional
 
 import numpy as np
@@ -129,7 +130,21 @@ def highpass(
 # -- Eqs. (6)-(8) ---------------------------------------------------------------
 
 
-def _fit(n: int, mx: float, my: float, sxx: float, syy: float, sxy: float, sse: float) -> tuple:
+def _two_sum(a: float, b: float) -> tuple:
+    """a + b = s + e exactly (Knuth)."""
+    s = a + b
+    bb = s - a
+    return s, (a - (s - bb)) + (b - bb)
+
+
+def _mean_pair(x: np.ndarray) -> tuple:
+    """The two-pass mean as a double-double (hi, lo)."""
+    m0 = float(x.sum() / x.size)
+    return _two_sum(m0, float((x - m0).sum() / x.size))
+
+
+def _fit(n: int, mx: float, my: float, sxx: float, syy: float, sxy: float, sse: float,
+         mx_lo: float = 0.0, my_lo: float = 0.0) -> tuple:
     if n < 3 or not sxx > 0:
         nan = float("nan")
         return (nan, nan, nan, nan, nan, nan, n, True)
@@ -138,15 +153,18 @@ def _fit(n: int, mx: float, my: float, sxx: float, syy: float, sxy: float, sse: 
     r = float(np.clip(sxy / den, -1, 1)) if den > 0 else float("nan")
     var = sse / (n - 2)
     se = np.sqrt(var / sxx)
-    return (slope, my - slope * mx, r, se, se * np.sqrt(sxx / n + mx * mx), np.sqrt(var), n, False)
+    # mean_y - slope * mean_x exactly, then rounded once: the intercept is a
+    # small difference of large numbers when the means are far from zero.
+    intercept = float(Fraction(my) + Fraction(my_lo) - Fraction(slope) * (Fraction(mx) + Fraction(mx_lo)))
+    return (slope, intercept, r, se, se * np.sqrt(sxx / n + mx * mx), np.sqrt(var), n, False)
 
 
 def _moments(x: np.ndarray, y: np.ndarray) -> tuple:
-    """(n, mean_x, mean_y, S_xx, S_yy, S_xy, SSE) by centred passes."""
+    """(n, mean_x, mean_y, S_xx, S_yy, S_xy, SSE, mean_x_lo, mean_y_lo) by centred passes."""
     n = x.size
     if n == 0:
-        return (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    mx, my = mean(x), mean(y)
+        return (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    (mx, mx_lo), (my, my_lo) = _mean_pair(x), _mean_pair(y)
     dx, dy = x - mx, y - my
     sxx, syy, sxy = dx @ dx, dy @ dy, dx @ dy
     if sxx > 0:
@@ -154,7 +172,7 @@ def _moments(x: np.ndarray, y: np.ndarray) -> tuple:
         sse = max(e @ e - e.sum() ** 2 / n, 0.0)
     else:
         sse = syy
-    return (n, mx, my, sxx, syy, sxy, sse)
+    return (n, mx, my, sxx, syy, sxy, sse, mx_lo, my_lo)
 
 
 def linfit(x: Any, y: Any, *, check_finite: bool = True) -> LinFit:
@@ -164,21 +182,28 @@ def linfit(x: Any, y: Any, *, check_finite: bool = True) -> LinFit:
 
 
 class LinFitAccumulator:
-    """Chan et al. pairwise merge of centred moments, in plain Python."""
+    """Chan et al. pairwise merge of centred moments, in plain Python.
+
+    The means are kept as double-doubles (hi, lo), so merging never rounds
+    them (METHOD.md 3: any split gives the one-shot result).
+    """
 
     def __init__(self) -> None:
-        self.m: tuple = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        self.m: tuple = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     @staticmethod
     def _merge(a: tuple, b: tuple) -> tuple:
-        na, mxa, mya, sxxa, syya, sxya, ssea = a
-        nb, mxb, myb, sxxb, syyb, sxyb, sseb = b
+        na, mxa, mya, sxxa, syya, sxya, ssea, mxa_lo, mya_lo = a
+        nb, mxb, myb, sxxb, syyb, sxyb, sseb, mxb_lo, myb_lo = b
         if nb == 0:
             return a
         if na == 0:
             return b
         n = na + nb
-        dx, dy, w = mxb - mxa, myb - mya, na * nb / n
+        w = na * nb / n
+        hx, ex = _two_sum(mxb, -mxa)
+        hy, ey = _two_sum(myb, -mya)
+        dx, dy = hx + (ex + (mxb_lo - mxa_lo)), hy + (ey + (myb_lo - mya_lo))
         sxx = sxxa + sxxb + dx * dx * w
         ba = sxya / sxxa if sxxa > 0 else 0.0
         bb = sxyb / sxxb if sxxb > 0 else 0.0
@@ -187,7 +212,11 @@ class LinFitAccumulator:
             between = (sxxa * sxxb * (ba - bb) ** 2 + sxxa * w * (ba * dx - dy) ** 2 + sxxb * w * (bb * dx - dy) ** 2) / sxx
         else:
             between = dy * dy * w
-        return (n, mxa + dx * nb / n, mya + dy * nb / n, sxx, syya + syyb + dy * dy * w, sxya + sxyb + dx * dy * w, ssea + sseb + between)
+        mx, ex = _two_sum(mxa, dx * (nb / n))
+        mx, mx_lo = _two_sum(mx, ex + mxa_lo)
+        my, ey = _two_sum(mya, dy * (nb / n))
+        my, my_lo = _two_sum(my, ey + mya_lo)
+        return (n, mx, my, sxx, syya + syyb + dy * dy * w, sxya + sxyb + dx * dy * w, ssea + sseb + between, mx_lo, my_lo)
 
     def update(self, x: Any, y: Any, *, check_finite: bool = True) -> "LinFitAccumulator":
         xa, ya = _pair(x, y, check_finite, 0)

@@ -42,6 +42,40 @@ pub struct Moments {
     /// Residual sum of squares of the least-squares line (S_yy when
     /// S_xx = 0).
     pub sse: f64,
+    /// Low-order parts of the means (the means are `mean + mean_lo` in
+    /// double-double): merges then do not round the means, so the
+    /// intercept, a small difference of large numbers when the means are
+    /// far from 0, keeps its digits through any number of merges.
+    pub mean_x_lo: f64,
+    pub mean_y_lo: f64,
+}
+
+/// Error-free sum: a + b = s + e exactly (Knuth's TwoSum).
+#[inline]
+pub(crate) fn two_sum(a: f64, b: f64) -> (f64, f64) {
+    let s = a + b;
+    let bb = s - a;
+    (s, (a - (s - bb)) + (b - bb))
+}
+
+/// A mean `m0 + c` (a rough mean and its correction) as a double-double.
+#[inline]
+pub(crate) fn dd_mean(m0: f64, c: f64) -> (f64, f64) {
+    two_sum(m0, c)
+}
+
+/// Difference of two double-double numbers, rounded to one f64.
+#[inline]
+fn dd_diff(a: f64, a_lo: f64, b: f64, b_lo: f64) -> f64 {
+    let (s, e) = two_sum(a, -b);
+    s + (e + (a_lo - b_lo))
+}
+
+/// a + step as a double-double, a given as (a, a_lo).
+#[inline]
+fn dd_add(a: f64, a_lo: f64, step: f64) -> (f64, f64) {
+    let (s, e) = two_sum(a, step);
+    two_sum(s, e + a_lo)
 }
 
 /// Result of the fit. Degenerate input (n < 3 or S_xx = 0) has NaN fields
@@ -136,7 +170,9 @@ impl Moments {
         } else {
             syy
         };
-        Moments { n: n as u64, mean_x: mx + cx, mean_y: my + cy, sxx, syy, sxy, sse }
+        let (mean_x, mean_x_lo) = dd_mean(mx, cx);
+        let (mean_y, mean_y_lo) = dd_mean(my, cy);
+        Moments { n: n as u64, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo }
     }
 
     /// Moments of a whole slice pair (no chunk state), in fixed blocks.
@@ -206,8 +242,8 @@ impl Moments {
         }
         let (na, nb) = (self.n as f64, o.n as f64);
         let n = na + nb;
-        let dx = o.mean_x - self.mean_x;
-        let dy = o.mean_y - self.mean_y;
+        let dx = dd_diff(o.mean_x, o.mean_x_lo, self.mean_x, self.mean_x_lo);
+        let dy = dd_diff(o.mean_y, o.mean_y_lo, self.mean_y, self.mean_y_lo);
         let w = na * nb / n;
         let (sa, sb) = (self.sxx, o.sxx);
         let sxx = sa + sb + dx * dx * w;
@@ -218,10 +254,14 @@ impl Moments {
         } else {
             dy * dy * w
         };
+        let (mean_x, mean_x_lo) = dd_add(self.mean_x, self.mean_x_lo, dx * (nb / n));
+        let (mean_y, mean_y_lo) = dd_add(self.mean_y, self.mean_y_lo, dy * (nb / n));
         Moments {
             n: self.n + o.n,
-            mean_x: self.mean_x + dx * (nb / n),
-            mean_y: self.mean_y + dy * (nb / n),
+            mean_x,
+            mean_y,
+            mean_x_lo,
+            mean_y_lo,
             sxx,
             syy: self.syy + o.syy + dy * dy * w,
             sxy: self.sxy + o.sxy + dx * dy * w,
@@ -246,7 +286,11 @@ impl Moments {
         }
         let nf = self.n as f64;
         let slope = self.sxy / self.sxx;
-        let intercept = self.mean_y - slope * self.mean_x;
+        // intercept = mean_y - slope * mean_x with the product's rounding
+        // error recovered exactly (FMA) and the low parts of the means.
+        let p = slope * self.mean_x;
+        let p_err = slope.mul_add(self.mean_x, -p);
+        let intercept = (self.mean_y - p) + ((self.mean_y_lo - p_err) - slope * self.mean_x_lo);
         let den = (self.sxx * self.syy).sqrt();
         let r = if den > 0.0 { (self.sxy / den).clamp(-1.0, 1.0) } else { f64::NAN };
         let resid_var = self.sse / (nf - 2.0);

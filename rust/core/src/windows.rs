@@ -603,7 +603,11 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStats, Ke
     let mean_or_nan = |s: f64, c: u64| if c > 0 { s / c as f64 } else { f64::NAN };
     let bin_cof = p.acc.iter().zip(&p.cnt).map(|(&a, &c)| mean_or_nan(a, c)).collect();
     Ok(WindowStats {
-        moments: Moments { n: n as u64, mean_x: mz0 + cz, mean_y: my0 + cy, sxx: szz, syy, sxy: syz, sse },
+        moments: {
+            let (mean_x, mean_x_lo) = crate::regression::dd_mean(mz0, cz);
+            let (mean_y, mean_y_lo) = crate::regression::dd_mean(my0, cy);
+            Moments { n: n as u64, mean_x, mean_y, sxx: szz, syy, sxy: syz, sse, mean_x_lo, mean_y_lo }
+        },
         c_xy,
         c_xz,
         c_yz,

@@ -230,17 +230,28 @@ impl PyMoments {
         fit_tuple(self.inner.fit())
     }
 
-    /// (n, mean_x, mean_y, sxx, syy, sxy, sse).
-    fn state(&self) -> (u64, f64, f64, f64, f64, f64, f64) {
+    /// (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo).
+    fn state(&self) -> (u64, f64, f64, f64, f64, f64, f64, f64, f64) {
         let m = &self.inner;
-        (m.n, m.mean_x, m.mean_y, m.sxx, m.syy, m.sxy, m.sse)
+        (m.n, m.mean_x, m.mean_y, m.sxx, m.syy, m.sxy, m.sse, m.mean_x_lo, m.mean_y_lo)
     }
 
     /// Rebuilds moments from `state()` (for pickling and transport).
     #[staticmethod]
+    #[pyo3(signature = (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo=0.0, mean_y_lo=0.0))]
     #[allow(clippy::too_many_arguments)]
-    fn from_state(n: u64, mean_x: f64, mean_y: f64, sxx: f64, syy: f64, sxy: f64, sse: f64) -> PyMoments {
-        PyMoments { inner: Moments { n, mean_x, mean_y, sxx, syy, sxy, sse } }
+    fn from_state(
+        n: u64,
+        mean_x: f64,
+        mean_y: f64,
+        sxx: f64,
+        syy: f64,
+        sxy: f64,
+        sse: f64,
+        mean_x_lo: f64,
+        mean_y_lo: f64,
+    ) -> PyMoments {
+        PyMoments { inner: Moments { n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo } }
     }
 }
 
