@@ -24,6 +24,7 @@ import gc
 import json
 import os
 import platform
+import re
 import resource
 import statistics
 import subprocess
@@ -422,16 +423,32 @@ def report_info(info: dict[str, str], args, elapsed: float) -> dict[str, str]:
 def report(rows: list[Row], info: dict[str, str], args, elapsed: float, final: dict[str, str]) -> str:
     info = final
     tgt = targets(rows)
-    out = ["# Kernel benchmarks", "", "Written by `benches/bench_kernels.py` (see `benches/README.md`). Times are", "medians over interleaved repeats; \"median / tribodyn\" > 1 means tribodyn is faster.", ""]
-    out += ["## Machine", "", "| | |", "| --- | --- |"]
+    out = [f"## {SECTION}", "", "Written by `benches/bench_kernels.py` (see `benches/README.md`). Times are", "medians over interleaved repeats; \"median / tribodyn\" > 1 means tribodyn is faster.", ""]
+    out += ["### Machine", "", "| | |", "| --- | --- |"]
     out += [f"| {k} | {v} |" for k, v in info.items()]
-    out += ["", "## Targets", "", "| target | measured | met |", "| --- | --- | --- |"]
+    out += ["", "### Targets", "", "| target | measured | met |", "| --- | --- | --- |"]
     out += [f"| {t} | {m} | {'met' if ok else '**missed**'} |" for t, m, _, ok in tgt]
-    out += ["", "## All measurements", "", table(rows), ""]
+    out += ["", "### All measurements", "", table(rows), ""]
     notes = HERE / "NOTES.md"
     if notes.exists():
         out += [notes.read_text().rstrip(), ""]
     return "\n".join(out)
+
+
+SECTION = "Kernels: tribodyn vs reference vs scipy"
+HEADER = "# Benchmark results\n\nMeasured on this project's machines; each section says how it was run.\n"
+
+
+def write_section(path: Path, block: str) -> None:
+    """Replaces (or appends) this script's ``## section`` of ``path``; other
+    benchmark scripts keep their own sections of the same file."""
+    text = path.read_text() if path.exists() else HEADER
+    pattern = re.compile(rf"^## {re.escape(SECTION)}\n.*?(?=^## |\Z)", re.S | re.M)
+    if pattern.search(text):
+        text = pattern.sub(lambda _: block.rstrip("\n") + "\n\n", text)
+    else:
+        text = text.rstrip("\n") + "\n\n" + block
+    path.write_text(text.rstrip("\n") + "\n")
 
 
 def save(path: Path, rows: list[Row], info: dict[str, str], elapsed: float, argv: list[str]) -> None:
@@ -446,8 +463,8 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="2 000 and 3.6e6 samples only, fewer repeats")
     ap.add_argument("--repeats", type=int, default=None, help="timed repeats per measurement (default 5, quick 3)")
     ap.add_argument("--only", choices=["linfit", "highpass", "xcorr"], action="append", help="run only these kernels")
-    ap.add_argument("--out", type=Path, default=HERE / "RESULTS.md", help="where to write the table")
-    ap.add_argument("--raw", type=Path, default=HERE / "results.json", help="where to keep the raw times")
+    ap.add_argument("--out", type=Path, default=HERE / "RESULTS.md", help="file whose kernel section is (re)written")
+    ap.add_argument("--raw", type=Path, default=HERE / "bench_kernels.json", help="where to keep the raw times")
     ap.add_argument("--render", action="store_true", help="rewrite --out from --raw and NOTES.md, measuring nothing")
     args = ap.parse_args()
     if args.render:
@@ -455,7 +472,7 @@ def main() -> None:
         rows = [Row(**r) for r in data["rows"]]
         args.repeats = max((len(r.times) for r in rows), default=0)
         sys.argv = [sys.argv[0]] + data["argv"]
-        args.out.write_text(report(rows, data["info"], args, data["elapsed"], final=data["info"]))
+        write_section(args.out, report(rows, data["info"], args, data["elapsed"], final=data["info"]))
         return
     args.repeats = args.repeats or (3 if args.quick else 5)
     sizes = {k: v for k, v in SIZES.items() if not (args.quick and v > 10_000_000)}
@@ -480,7 +497,7 @@ def main() -> None:
     info = report_info(info, args, elapsed)
     save(args.raw, rows, info, elapsed, sys.argv[1:])
     text = report(rows, info, args, elapsed, final=info)
-    args.out.write_text(text)
+    write_section(args.out, text)
     print(text)
 
 

@@ -90,6 +90,30 @@ def test_sigma_deadband_and_explicit_orientation_match_reference(files):
         _assert_same(bench.table_of(res), ref)
 
 
+def test_concurrent_spans_give_the_single_stream_table(files, monkeypatch):
+    """With two threads a random-access recording is read as concurrent spans (dynamic input)."""
+    mod = importlib.import_module("tribodyn.analyze")
+    one = {h: bench.table_of(bench.run_pipeline(files["dyn"][h], raw=False, threads=1)) for h in ("npy", "h5")}
+    monkeypatch.setattr(mod, "_MIN_SPAN_WINDOWS", 4)
+    with bench.open_source(files["dyn"]["npy"]) as rec:
+        spans = mod._spans(rec, 0, 2000, 2000, 2)
+        assert spans == [(0, 60_000), (60_000, 120_000)]
+        assert mod._spans(rec, 0, 2000, 3000, 3) == [(0, 38_000), (39_000, 77_000), (78_000, 119_000)]
+        assert mod._spans(rec, 5000, 2000, 2000, 2) == [(6000, 62_000), (62_000, 120_000)]
+    for h in ("npy", "h5"):
+        for kw in (dict(threads=2), dict(threads=2, chunk=3.3)):
+            two = bench.table_of(bench.run_pipeline(files["dyn"][h], raw=False, **kw))
+            for col, v in one[h].items():
+                np.testing.assert_array_equal(two[col], v, err_msg=f"{h} {col} {kw}")
+    # Overlapping windows and a start inside the recording.
+    with bench.open_source(files["dyn"]["h5"]) as rec:
+        a = td.analyze(rec, window=2.0, hop=1.3, start=777, threads=1)
+        b = td.analyze(rec, window=2.0, hop=1.3, start=777, threads=2)
+    assert len(a) == len(b) > 80
+    for col in a.columns:
+        np.testing.assert_array_equal(a[col], b[col], err_msg=col)
+
+
 def test_threads_and_chunks_never_change_a_bit(files):
     base = bench.table_of(bench.run_pipeline(files["raw"]["npy"], raw=True))
     for kw in (dict(threads=1), dict(threads=2, chunk=7.3), dict(threads=1, chunk=0.9)):

@@ -60,10 +60,12 @@ def _is_recording(source: Any) -> bool:
 
 def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.ndarray]:
     if not isinstance(chunk, Mapping):
-        raise TypeError(f"{where} must be a mapping of role -> array (roles fx, fy, fz, i, u), got {type(chunk).__name__}")
+        raise TypeError(f"{where} must be a mapping of role -> array (roles fx, fy, fz, i, u), "
+                        f"got {type(chunk).__name__}")
     missing = [r for r in needed if r not in chunk]
     if missing:
-        raise ValueError(f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})")
+        raise ValueError(f"{where} lacks the required channel(s) {', '.join(missing)} "
+                         f"(has {', '.join(map(str, chunk)) or 'none'})")
     # No NaN/inf scan here: the kernel refuses a non-finite sample in any
     # window as it sums it, and the high-pass filter checks every sample it
     # filters; samples outside every window change no result.
@@ -76,48 +78,20 @@ def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.
 
 
 class _Collector:
-    """Receives windows from the Windower and keeps their statistics, in order.
-
-    With ``pipelined``, each batch of windows runs on a worker thread (the
-    kernel releases the GIL and runs on its own thread pool) while the
-    caller reads, checks and filters the next chunk; at most ``depth``
-    batches are in flight, so memory stays bounded. A batch's result depends
-    only on its samples, so pipelining never changes a number.
-    """
+    """Receives windows from the Windower and keeps their statistics, in order."""
 
     def __init__(self, *, length: int, fs: float, deadband: Any, n_bins: int, max_lag: Optional[int],
-                 aux_role: Optional[str], raw: bool, pipelined: bool = False, depth: int = 2) -> None:
+                 aux_role: Optional[str], raw: bool) -> None:
         self.length, self.fs, self.deadband, self.n_bins = length, fs, deadband, n_bins
         self.max_lag, self.aux_role, self.raw = max_lag, aux_role, raw
         self.parts: List[Dict[str, np.ndarray]] = []
-        self._pool: Optional[ThreadPoolExecutor] = ThreadPoolExecutor(1, thread_name_prefix="tribodyn") if pipelined else None
-        self._pending: Deque[Future] = deque()
-        self._depth = depth
 
     def __call__(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> None:
-        if self._pool is None:
-            self.parts.append(self._batch(ch, rel, absolute))
-            return
-        while len(self._pending) >= self._depth:
-            self.parts.append(self._pending.popleft().result())
-        self._pending.append(self._pool.submit(self._batch, ch, rel, absolute))
+        self.parts.append(self._batch(ch, rel, absolute))
 
     def finish(self) -> List[Dict[str, np.ndarray]]:
-        """Waits for the batches in flight; the statistics of every window, in order."""
-        try:
-            while self._pending:
-                self.parts.append(self._pending.popleft().result())
-        finally:
-            self.close()
+        """The statistics of every window so far, in order (one dict per batch)."""
         return self.parts
-
-    def close(self) -> None:
-        """Stops the worker (after an error: batches in flight are dropped)."""
-        for f in self._pending:
-            f.cancel()
-        if self._pool is not None:
-            self._pool.shutdown(wait=True)
-            self._pool = None
 
     def _batch(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> Dict[str, np.ndarray]:
         aux = ch.get(self.aux_role) if self.aux_role else None
@@ -149,8 +123,8 @@ def _raise_non_finite(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.n
     for s, a in zip(rel, absolute):
         for role in ("fz", "fy", "fx", "i", "u", "fz_raw", "fy_raw"):
             if role in ch and not np.isfinite(ch[role][s : s + length]).all():
-                raise ValueError(f"{role.removesuffix('_raw')} contains NaN or inf in the window starting at sample {a} "
-                                 f"(t = {a / fs:g} s)")
+                raise ValueError(f"{role.removesuffix('_raw')} contains NaN or inf in the window starting at "
+                                 f"sample {a} (t = {a / fs:g} s)")
 
 
 def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
@@ -315,7 +289,8 @@ def analyze(
     g = check_gate(gate)
     if max_lag is not None:
         check_int(max_lag, "max_lag", minimum=0)
-    if isinstance(orientation, str) and orientation != "auto" or (not isinstance(orientation, str) and orientation not in (1, -1)):
+    if (isinstance(orientation, str) and orientation != "auto"
+            or (not isinstance(orientation, str) and orientation not in (1, -1))):
         raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
     temp_log = None if temperature is None else as_log(temperature, "temperature")
     if voltage is not None or shunt_ohm is not None:
@@ -342,10 +317,12 @@ def analyze(
         if isinstance(source, (list, tuple)):
             st, aux_role = _acquisitions(source, fs_v, db, nb, hp_fc, max_lag, shunt)
         else:
-            st, aux_role = _stream(source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt, origin)
+            st, aux_role = _stream(source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt,
+                                   origin)
 
     if len(st["n"]) == 0:
-        raise ValueError(f"the recording is shorter than one window ({w_s:g} s = {length} samples): no window to analyse")
+        raise ValueError(f"the recording is shorter than one window ({w_s:g} s = {length} samples): "
+                         "no window to analyse")
     s = resolve_orientation(orientation, sign_of_total_slope(st))
     moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
     if "acquisition" not in st:
@@ -434,65 +411,161 @@ def _aux_role(chunk: Mapping, shunt: Optional[float]) -> Optional[str]:
 def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, nb: int,
             hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
             shunt: Optional[float], origin: int = 0):
+    threads = _core.get_threads()
     if rec is not None:
         size = chunk_n or DEFAULT_CHUNK
-        chunks: Iterable[Any] = rec.chunks(size, start=origin)
         total = getattr(rec, "n_samples", None)
+        spans = _spans(rec, origin, length, step, threads) if hp_fc is None else None
+        if spans:
+            return _stream_spans(rec, spans, size, fs, length, step, db, nb, max_lag, progress, shunt)
+        chunks: Iterable[Any] = rec.chunks(size, start=origin)
     elif isinstance(source, Mapping):
-        chunks = _chunks_of(source, chunk_n or 0)
+        chunks = _chunks_of(source, chunk_n or DEFAULT_CHUNK)
         total = len(next(iter(source.values()))) if source else 0
     elif isinstance(source, Iterable) and not isinstance(source, (str, bytes)):
         chunks = source
         total = None
     else:
-        raise TypeError(f"source must be a mapping, an iterable of mappings, a list of acquisitions or a recording, got {type(source).__name__}")
-
+        raise TypeError("source must be a mapping, an iterable of mappings, a list of acquisitions or a recording, "
+                        f"got {type(source).__name__}")
     bar = _progress(progress, total)
-    collector: Optional[_Collector] = None
-    windower: Optional[Windower] = None
-    hp: Optional[HighPass] = None
-    force_roles: List[str] = []
-    # Overlap reading with the kernel only when two threads may run: with
-    # one, the whole pipeline stays on one core.
-    pipelined = _core.get_threads() >= 2
     try:
-        for i, raw_chunk in enumerate(chunks):
-            ch = _check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz"))
-            if collector is None:
-                aux = _aux_role(ch, shunt)
-                force_roles = [r for r in FORCE_ROLES if r in ch]
-                collector = _Collector(length=length, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux,
-                                       raw=hp_fc is not None, pipelined=pipelined)
-                windower = Windower(length, step, collector, origin=origin)
-                if hp_fc is not None:
-                    hp = HighPass(fs, cutoff=hp_fc, channels=len(force_roles))
-            elif set(force_roles) - set(ch):
-                raise ValueError(f"chunk {i} lacks channel(s) present in the first chunk: {sorted(set(force_roles) - set(ch))}")
-            if hp is not None:
-                # The filter refuses NaN/inf as it reads every sample.
-                try:
-                    filtered = hp.process(np.stack([ch[r] for r in force_roles]))
-                except ValueError:
-                    bad = [r for r in force_roles if not np.isfinite(ch[r]).all()]
-                    if not bad:
-                        raise
-                    raise ValueError(f"{bad[0]} contains NaN or inf in chunk {i} (the high-pass filter needs every sample)") from None
-                ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
-                for k, r in enumerate(force_roles):
-                    ch[r] = filtered[k]
-            assert windower is not None
-            windower.push(ch)
-            if bar is not None:
-                bar.update(len(ch["fz"]))
-        if collector is None:
-            raise ValueError("the source holds no samples")
-        parts = collector.finish()
+        # Overlap reading with the kernel only when two threads may run: with
+        # one, the whole pipeline stays on one core.
+        parts, aux_role = _run_chunks(chunks, origin, fs, length, step, db, nb, hp_fc, max_lag, shunt, bar,
+                                      pipelined=threads >= 2)
     finally:
-        if collector is not None:
-            collector.close()
         if bar is not None:
             bar.close()
-    return _concat(parts), collector.aux_role
+    return _concat(parts), aux_role
+
+
+#: Formats whose readers read any range of samples directly.
+_RANDOM_ACCESS = ("npy", "hdf5", "tdms")
+#: Fewest windows per concurrently read span.
+_MIN_SPAN_WINDOWS = 64
+
+
+def _spans(rec: Any, origin: int, length: int, step: int, threads: int) -> Optional[List[tuple]]:
+    """Sample ranges of a recording, one per thread, on the window grid; None to read it in one stream.
+
+    Span j reads [k_j * step, (k_{j+1} - 1) * step + length) and holds exactly
+    the windows k_j .. k_{j+1} - 1, so the spans' windows are the recording's,
+    each once, with the same samples.
+    """
+    n = getattr(rec, "n_samples", None)
+    if threads < 2 or getattr(rec, "format", None) not in _RANDOM_ACCESS or not isinstance(n, int):
+        return None
+    k0 = -(-origin // step)
+    k1 = (n - length) // step + 1 if n >= length else 0  # one past the last window
+    count = k1 - k0
+    parts = min(threads, count // _MIN_SPAN_WINDOWS)
+    if parts < 2:
+        return None
+    ks = [k0 + (count * j) // parts for j in range(parts + 1)]
+    return [(ks[j] * step, (ks[j + 1] - 1) * step + length) for j in range(parts)]
+
+
+def _stream_spans(rec: Any, spans: List[tuple], size: int, fs: float, length: int, step: int, db: Any, nb: int,
+                  max_lag: Optional[int], progress: bool, shunt: Optional[float]):
+    """Reads and analyses the spans concurrently, one thread each (dynamic input only: no filter state).
+
+    The reader's copies and the kernel release the GIL, so the spans run in
+    parallel; the batches are joined in span order, so the table is the one
+    of a single stream.
+    """
+    bar = _progress(progress, sum(b - a for a, b in spans))
+    try:
+        with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
+            futures = [ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b), a, fs, length, step, db, nb, None,
+                                 max_lag, shunt, bar, pipelined=False) for a, b in spans]
+            results = [f.result() for f in futures]
+    finally:
+        if bar is not None:
+            bar.close()
+    return _concat([st for parts, _ in results for st in parts]), results[0][1]
+
+
+def _run_chunks(chunks: Iterable[Any], origin: int, fs: float, length: int, step: int, db: Any, nb: int,
+                hp_fc: Optional[float], max_lag: Optional[int], shunt: Optional[float], bar: Any, *,
+                pipelined: bool, depth: int = 2):
+    """Checks, filters and windows a stream of chunks; the batches of window statistics, in order.
+
+    With ``pipelined``, the caller's thread only reads (the reader's copies
+    release the GIL) while one worker thread filters, windows and runs the
+    kernel (which releases the GIL and uses the kernel threads), chunk after
+    chunk in order, at most ``depth`` chunks ahead: the filter state and the
+    windower's tail are only ever touched by that worker.
+    """
+    stage = _Stage(origin, fs, length, step, db, nb, hp_fc, max_lag, shunt)
+    if not pipelined:
+        for i, raw_chunk in enumerate(chunks):
+            stage.push(_check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz")), i)
+            if bar is not None:
+                bar.update(len(raw_chunk["fz"]))
+        return stage.finish()
+    pending: Deque[Future] = deque()
+    with ThreadPoolExecutor(1, thread_name_prefix="tribodyn") as ex:
+        try:
+            for i, raw_chunk in enumerate(chunks):
+                ch = _check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz"))
+                while len(pending) >= depth:
+                    pending.popleft().result()
+                pending.append(ex.submit(stage.push, ch, i))
+                if bar is not None:
+                    bar.update(len(ch["fz"]))
+            while pending:
+                pending.popleft().result()
+        finally:
+            for f in pending:
+                f.cancel()
+    return stage.finish()
+
+
+class _Stage:
+    """Filter, windower and kernel for one stream of chunks (used by one thread at a time)."""
+
+    def __init__(self, origin: int, fs: float, length: int, step: int, db: Any, nb: int, hp_fc: Optional[float],
+                 max_lag: Optional[int], shunt: Optional[float]) -> None:
+        self.origin, self.fs, self.length, self.step, self.db, self.nb = origin, fs, length, step, db, nb
+        self.hp_fc, self.max_lag, self.shunt = hp_fc, max_lag, shunt
+        self.collector: Optional[_Collector] = None
+        self.windower: Optional[Windower] = None
+        self.hp: Optional[HighPass] = None
+        self.force_roles: List[str] = []
+
+    def push(self, ch: Dict[str, np.ndarray], i: int) -> None:
+        if self.collector is None:
+            aux = _aux_role(ch, self.shunt)
+            self.force_roles = [r for r in FORCE_ROLES if r in ch]
+            self.collector = _Collector(length=self.length, fs=self.fs, deadband=self.db, n_bins=self.nb,
+                                        max_lag=self.max_lag, aux_role=aux, raw=self.hp_fc is not None)
+            self.windower = Windower(self.length, self.step, self.collector, origin=self.origin)
+            if self.hp_fc is not None:
+                self.hp = HighPass(self.fs, cutoff=self.hp_fc, channels=len(self.force_roles))
+        elif set(self.force_roles) - set(ch):
+            missing = sorted(set(self.force_roles) - set(ch))
+            raise ValueError(f"chunk {i} lacks channel(s) present in the first chunk: {missing}")
+        if self.hp is not None:
+            # The filter refuses NaN/inf as it reads every sample.
+            try:
+                filtered = self.hp.process(np.stack([ch[r] for r in self.force_roles]))
+            except ValueError:
+                bad = [r for r in self.force_roles if not np.isfinite(ch[r]).all()]
+                if not bad:
+                    raise
+                raise ValueError(f"{bad[0]} contains NaN or inf in chunk {i} "
+                                 "(the high-pass filter needs every sample)") from None
+            ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
+            for k, r in enumerate(self.force_roles):
+                ch[r] = filtered[k]
+        assert self.windower is not None
+        self.windower.push(ch)
+
+    def finish(self) -> tuple:
+        if self.collector is None:
+            raise ValueError("the source holds no samples")
+        return self.collector.finish(), self.collector.aux_role
 
 
 def _progress(on: bool, total: Optional[int]) -> Any:
@@ -522,7 +595,8 @@ def _acquisitions(source: Sequence[Any], fs: float, db: Any, nb: int, hp_fc: Opt
             ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
             for j, r in enumerate(roles):
                 ch[r] = filtered[j]
-        col = _Collector(length=n, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux_role, raw=hp_fc is not None)
+        col = _Collector(length=n, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux_role,
+                         raw=hp_fc is not None)
         st = col._batch(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
         t0 = acq.get("t0") if isinstance(acq, Mapping) else None
         st["t0"] = np.array([float(t0) if t0 is not None else t])
