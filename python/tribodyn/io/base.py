@@ -482,6 +482,10 @@ class Recording:
         if self._closed:
             raise RecordingError(f"{self.path}: recording is closed")
 
+    #: True when every array the backend returns is newly allocated for the
+    #: call and kept nowhere else, so chunks may hand it out without a copy.
+    _owned_reads: bool = False
+
     def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         """Raw (unscaled) samples ``start:stop`` of the named channels (random-access formats)."""
         raise NotImplementedError  # pragma: no cover - every backend overrides one reader
@@ -500,7 +504,12 @@ class Recording:
     ) -> Dict[str, np.ndarray]:
         out: Dict[str, np.ndarray] = {}
         for key, name in key_names:
-            a = np.array(raw[name], dtype=np.float64)  # always a fresh, owned copy
+            r = raw[name]
+            # Hand out a fresh, owned array: reuse one the backend just made
+            # (it owns its data, nothing else refers to it), copy anything else.
+            fresh = (self._owned_reads and r.dtype == np.float64 and r.flags.owndata
+                     and r.flags.writeable and r.base is None)
+            a = r if fresh else np.array(r, dtype=np.float64)
             f = self._scale[name]
             if f != 1.0:
                 a *= f

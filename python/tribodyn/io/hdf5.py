@@ -189,6 +189,8 @@ class Hdf5Recording(Recording):
         self._default_roles = roles_by_name(self._names)
         self._setup(channels, fs, scale, units)
 
+    _owned_reads = True  # h5py returns a new array for every slice
+
     def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         out = {}
         for nm in names:

@@ -133,10 +133,43 @@ class NpyRecording(Recording):
     def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         idx = {nm: k for k, nm in enumerate(self._names)}
         if self._rows_are_channels:
+            if self._direct_read_ok():
+                return {nm: self._pread_row(idx[nm], start, stop) for nm in names}
             return {nm: self._arr[idx[nm], start:stop] for nm in names}
         return {nm: self._arr[start:stop, idx[nm]] for nm in names}
 
+    def _direct_read_ok(self) -> bool:
+        a = self._arr
+        return isinstance(a, np.memmap) and a.ndim == 2 and a.flags.c_contiguous and hasattr(os, "pread")
+
+    def _pread_row(self, row: int, start: int, stop: int) -> np.ndarray:
+        """Samples start:stop of one channel row, read straight into a new array.
+
+        Reading with ``pread`` instead of copying out of the memory map spares
+        a page fault per 4 KiB and keeps the resident set flat: the file's
+        pages stay in the page cache, not in this process.
+        """
+        a = self._arr
+        out = np.empty(stop - start, dtype=a.dtype)
+        offset = a.offset + (row * a.shape[1] + start) * a.itemsize
+        if self._fd is None:
+            self._fd = os.open(self.path, os.O_RDONLY)
+        view = memoryview(out).cast("B")
+        done = 0
+        while done < view.nbytes:
+            got = os.preadv(self._fd, [view[done:]], offset + done) if hasattr(os, "preadv") else 0
+            if got <= 0:
+                raise RecordingError(f"{self.path}: file ends early (truncated since it was opened?)")
+            done += got
+        return out
+
+    _fd: Optional[int] = None
+    _owned_reads = True  # pread fills new arrays; memmap views are copied (not owned)
+
     def _close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
         arr, self._arr = getattr(self, "_arr", None), None
         mm = getattr(arr, "_mmap", None)
         del arr
