@@ -81,7 +81,7 @@ def windows_stats(
     n_bins: int,
     fy_raw: _F64 | None = None,
     fz_raw: _F64 | None = None,
-) -> dict[str, _F64]:
+) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
     Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
     forces before the high-pass) add `mu_classic`; a non-finite sample in a
@@ -92,7 +92,8 @@ def windows_stats(
     slope_stderr, intercept_stderr, resid_std, sse, n, mean_z, mean_y, szz,
     syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, n_a, n_b, fz_min,
     fz_max, aux_mean, mu_classic (each of shape (windows,)), bin_count and
-    bin_cof (shape (windows, n_bins)).
+    bin_cof (shape (windows, n_bins)). n, n_a, n_b and bin_count are int64,
+    the others float64.
     """
 
 def set_threads(n: int) -> None:
