@@ -393,9 +393,12 @@ def test_write_report_is_atomic(tmp_path, monkeypatch, window):
     assert os.listdir(tmp_path) == []
     # the write itself failing: nothing partial, an old report untouched
     target.write_text("old")
-    monkeypatch.setattr(R._figs, "_publish", boom)
-    with pytest.raises(RuntimeError):
-        R.write_report(target, title="t", summary={}, params={}, figures=figs[:1], dpi=40)
+    from tribodyn.io import writers
+
+    with monkeypatch.context() as m:
+        m.setattr(writers.os, "replace", boom)  # the final rename fails
+        with pytest.raises(RuntimeError):
+            R.write_report(target, title="t", summary={}, params={}, figures=figs[:1], dpi=40)
     assert os.listdir(tmp_path) == ["report.html"] and target.read_text() == "old"
 
 

@@ -29,7 +29,6 @@ axes carry a "no data" note instead.
 from __future__ import annotations
 
 import os
-import tempfile
 import warnings
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
 
@@ -764,19 +763,6 @@ def cof_vs_current_density(results: Any, opr: Any = None, *, title: Optional[str
 # --------------------------------------------------------------------------
 # saving
 # --------------------------------------------------------------------------
-def _publish(tmp: str, target: str) -> None:
-    """Gives ``tmp`` (mkstemp makes it 0600) the target's mode or 0644, then renames it over ``target``."""
-    try:
-        mode = os.stat(target).st_mode & 0o777
-    except OSError:
-        mode = 0o644
-    try:
-        os.chmod(tmp, mode)
-    except OSError:  # pragma: no cover - e.g. a filesystem without modes
-        pass
-    os.replace(tmp, target)
-
-
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:
     """Saves ``fig`` as PNG atomically: a temporary file in the same directory, then ``os.replace``.
 
@@ -800,17 +786,8 @@ def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int =
         Whatever rendering or writing raised; the target is then untouched
         and no temporary file is left behind.
     """
+    from .io.writers import atomic_write
+
     target = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(target))
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(target) + ".", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fig.savefig(fh, format="png", dpi=dpi)
-        _publish(tmp, target)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    atomic_write(target, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi))
     return target
