@@ -30,6 +30,12 @@ const BLOCK: usize = 1024;
 /// Samples per parallel task; a multiple of [`BLOCK`].
 const TASK: usize = 1 << 18;
 
+/// Whether [`Moments::of`] on `n` samples uses the thread pool; when not,
+/// callers need not enter it (which costs more than one window's work).
+pub fn uses_threads(n: usize) -> bool {
+    n > TASK
+}
+
 /// Centred first and second moments of (x, y): a mergeable accumulator.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Moments {

@@ -215,7 +215,12 @@ impl PyMoments {
     /// Adds the samples of one chunk.
     fn update(&mut self, py: Python<'_>, x: PyReadonlyArray1<'_, f64>, y: PyReadonlyArray1<'_, f64>) -> PyResult<()> {
         let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
-        let m = py.detach(|| parallel::run(|| Moments::of(xs, ys))).map_err(to_py)?;
+        let m = if regression::uses_threads(xs.len()) {
+            py.detach(|| parallel::run(|| Moments::of(xs, ys)))
+        } else {
+            Moments::of(xs, ys)
+        }
+        .map_err(to_py)?;
         self.inner = self.inner.merge(&m);
         Ok(())
     }
@@ -263,7 +268,13 @@ fn linfit(
     y: PyReadonlyArray1<'_, f64>,
 ) -> PyResult<(f64, f64, f64, f64, f64, f64, u64, bool)> {
     let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
-    let f = py.detach(|| parallel::run(|| regression::linfit(xs, ys))).map_err(to_py)?;
+    let f = if regression::uses_threads(xs.len()) {
+        py.detach(|| parallel::run(|| regression::linfit(xs, ys)))
+    } else {
+        // One window: entering the pool would cost more than the work.
+        regression::linfit(xs, ys)
+    }
+    .map_err(to_py)?;
     Ok(fit_tuple(f))
 }
 
