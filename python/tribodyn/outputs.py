@@ -11,7 +11,6 @@ partial or half-written output is ever left behind. Each move is an atomic
 from __future__ import annotations
 
 import csv
-import hashlib
 import json
 import math
 import os
@@ -23,6 +22,7 @@ from typing import Any, Dict, Iterable, List, Optional, Type, Union
 
 import numpy as np
 
+from .io.writers import sha256_file
 from .results import Results
 
 __all__ = ["OutputSet", "write_table_csv", "write_table_parquet", "write_json", "sha256_file", "jsonable"]
@@ -144,15 +144,6 @@ def write_table_parquet(results: Results, path: PathLike, *, extra: Optional[Dic
     table = pa.table({k: (v.astype(str) if v.dtype == object else v) for k, v in cols.items()})
     pq.write_table(table, str(path))
     return True
-
-
-def sha256_file(path: PathLike, *, block: int = 1 << 20) -> str:
-    """SHA-256 of a file, read in blocks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for piece in iter(lambda: f.read(block), b""):
-            h.update(piece)
-    return h.hexdigest()
 
 
 def input_provenance(paths: Iterable[PathLike]) -> List[Dict[str, Any]]:

@@ -80,12 +80,6 @@ const MIN_BLOCK_FFT: usize = 1024;
 const MAX_FFT_TASKS: usize = 64;
 const MIN_TASK_BLOCKS: usize = 4;
 
-/// Centres `x` on its own (two-pass) mean.
-pub fn centred(x: &[f64]) -> Vec<f64> {
-    let m = mean(x);
-    x.iter().map(|v| v - m).collect()
-}
-
 /// Pearson's r = C(0): the correlation at lag zero.
 pub fn pearson(x: &[f64], y: &[f64]) -> Result<f64, KernelError> {
     same_len("x", x, "y", y)?;

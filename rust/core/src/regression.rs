@@ -22,7 +22,6 @@
 
 use crate::error::{same_len, KernelError};
 use crate::lanes::F4;
-use crate::sums::mean;
 use rayon::prelude::*;
 
 /// Samples reduced by one two-pass step (fits in L1 with both inputs).
@@ -318,11 +317,6 @@ impl Moments {
 /// One-shot fit of y on x.
 pub fn linfit(x: &[f64], y: &[f64]) -> Result<LinFit, KernelError> {
     Ok(Moments::of(x, y)?.fit())
-}
-
-/// Mean of x (two-pass), exposed for callers that need it beside a fit.
-pub fn mean_of(x: &[f64]) -> f64 {
-    mean(x)
 }
 
 #[cfg(test)]
