@@ -24,6 +24,7 @@ __all__ = [
     "sosfilt_inplace",
     "sosfilt_into",
     "windows_stats",
+    "windows_stats_file",
     "xcorr",
     "xcorr_auto_method",
 ]
@@ -81,11 +82,13 @@ def windows_stats(
     n_bins: int,
     fy_raw: _F64 | None = None,
     fz_raw: _F64 | None = None,
+    parallel: bool = True,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
     Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
     forces before the high-pass) add `mu_classic`; a non-finite sample in a
-    window raises ValueError.
+    window raises ValueError. `parallel=False` keeps the work on the calling
+    thread (for callers that already run one stream per core).
 
     ``deadband_kind`` is "force" (``deadband`` in N) or "sigma" (a multiple
     of the window's standard deviation of fz). Keys: slope, intercept, r,
@@ -132,3 +135,26 @@ class Moments:
         mean_y_lo: float = 0.0,
     ) -> Moments:
         """Rebuilds moments from `state()` (for pickling and transport)."""
+
+
+def windows_stats_file(
+    path: str,
+    offsets: tuple[int | None, int, int, int | None],
+    n: int,
+    k0: int,
+    k1: int,
+    step: int,
+    length: int,
+    orientation: float,
+    deadband_kind: str,
+    deadband: float,
+    n_bins: int,
+    block: int = 512,
+) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
+    """Per-window statistics of windows k0..k1 (window k = samples
+    [k * step, k * step + length)) of channels stored in the file at `path`
+    as contiguous little-endian f64 runs starting at the byte offsets
+    `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The file's
+    pages are read through memory maps, `block` windows per task, in
+    parallel; same dict and same results as `windows_stats` on those
+    samples. The file must not shrink meanwhile."""

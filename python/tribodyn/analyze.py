@@ -37,6 +37,11 @@ FORCE_ROLES = ("fx", "fy", "fz")
 #: in cache between reading and analysing (and a multiple of the readers'
 #: 65536-row blocks, so no chunk is pieced together).
 DEFAULT_CHUNK = 1 << 17
+#: Samples per chunk when spans of a random-access recording are read
+#: concurrently (one thread each, the kernel on that thread): larger, since
+#: each chunk is one call of the kernel and, for a ``.npy``, one mapping of
+#: the file (8 MiB per channel; two spans of four channels map 64 MiB).
+SPAN_CHUNK = 1 << 20
 
 
 @contextlib.contextmanager
@@ -81,9 +86,9 @@ class _Collector:
     """Receives windows from the Windower and keeps their statistics, in order."""
 
     def __init__(self, *, length: int, fs: float, deadband: Any, n_bins: int, max_lag: Optional[int],
-                 aux_role: Optional[str], raw: bool) -> None:
+                 aux_role: Optional[str], raw: bool, parallel: bool = True) -> None:
         self.length, self.fs, self.deadband, self.n_bins = length, fs, deadband, n_bins
-        self.max_lag, self.aux_role, self.raw = max_lag, aux_role, raw
+        self.max_lag, self.aux_role, self.raw, self.parallel = max_lag, aux_role, raw, parallel
         self.parts: List[Dict[str, np.ndarray]] = []
 
     def __call__(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> None:
@@ -97,7 +102,8 @@ class _Collector:
         aux = ch.get(self.aux_role) if self.aux_role else None
         raw = (ch["fy_raw"], ch["fz_raw"]) if self.raw else None
         try:
-            st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, self.length, self.deadband, self.n_bins, raw=raw)
+            st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, self.length, self.deadband, self.n_bins, raw=raw,
+                         parallel=self.parallel)
         except ValueError:
             _raise_non_finite(ch, rel, absolute, self.length, self.fs)
             raise
@@ -412,13 +418,19 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
             hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
             shunt: Optional[float], origin: int = 0):
     threads = _core.get_threads()
+    if rec is not None and hp_fc is None and max_lag is None and not progress:
+        mapped = _stream_file(rec, origin, length, step, db, nb, chunk_n, shunt, threads)
+        if mapped is not None:
+            return mapped
     if rec is not None:
         size = chunk_n or DEFAULT_CHUNK
         total = getattr(rec, "n_samples", None)
         spans = _spans(rec, origin, length, step, threads) if hp_fc is None else None
         if spans:
-            return _stream_spans(rec, spans, size, fs, length, step, db, nb, max_lag, progress, shunt)
-        chunks: Iterable[Any] = rec.chunks(size, start=origin)
+            return _stream_spans(rec, spans, chunk_n or SPAN_CHUNK, fs, length, step, db, nb, max_lag, progress,
+                                 shunt)
+        # Views where the format has them: nothing here writes into a chunk.
+        chunks: Iterable[Any] = rec.chunks(size, start=origin, copy=False)
     elif isinstance(source, Mapping):
         chunks = _chunks_of(source, chunk_n or DEFAULT_CHUNK)
         total = len(next(iter(source.values()))) if source else 0
@@ -440,6 +452,46 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
     return _concat(parts), aux_role
 
 
+def _stream_file(rec: Any, origin: int, length: int, step: int, db: Any, nb: int, chunk_n: Optional[int],
+                 shunt: Optional[float], threads: int):
+    """Dynamic input whose channels the kernel can read from the file's own pages (a float64 ``.npy``).
+
+    One call of ``_core.windows_stats_file``: the file is memory-mapped a
+    block of windows at a time per thread, with no copy and no Python per
+    chunk. None when the recording does not allow it (another format,
+    scaled channels, an instrument ``cof`` column) or the call fails (a NaN,
+    say): the streaming path then runs and words any error.
+    """
+    roles = getattr(rec, "roles", None)
+    layout_of = getattr(rec, "file_layout", None)
+    if not isinstance(roles, Mapping) or layout_of is None or "cof" in roles or not {"fy", "fz"} <= set(roles):
+        return None
+    aux = _aux_role(roles, shunt)
+    wanted = [r for r in FORCE_ROLES if r in roles] + ([aux] if aux else [])
+    layout = layout_of(wanted)
+    n = getattr(rec, "n_samples", None)
+    if layout is None or not isinstance(n, int):
+        return None
+    k0 = -(-origin // step)
+    k1 = (n - length) // step + 1 if n >= length else 0
+    if k1 <= k0:
+        return None
+    # Windows per task: at most SPAN_CHUNK samples (or the chunk asked
+    # for), and at least four tasks per thread where there are enough.
+    cap = max(1, (chunk_n or SPAN_CHUNK) // step)
+    block = max(1, min(cap, -(-(k1 - k0) // (4 * threads))))
+    offsets = (layout.get("fx"), layout["fy"], layout["fz"], layout[aux] if aux else None)
+    try:
+        st = _core.windows_stats_file(str(rec.path), offsets, n, k0, k1, step, length, 1.0, db.kind, float(db.value),
+                                      nb, block)
+    except (ValueError, OSError):
+        return None
+    for key in _UNUSED + ("mu_classic",):
+        del st[key]
+    st["start"] = np.arange(k0, k1, dtype=np.int64) * step
+    return st, aux
+
+
 #: Formats whose readers read any range of samples directly.
 _RANDOM_ACCESS = ("npy", "hdf5", "tdms")
 #: Fewest windows per concurrently read span.
@@ -447,20 +499,24 @@ _MIN_SPAN_WINDOWS = 64
 
 
 def _spans(rec: Any, origin: int, length: int, step: int, threads: int) -> Optional[List[tuple]]:
-    """Sample ranges of a recording, one per thread, on the window grid; None to read it in one stream.
+    """Sample ranges of a recording, one per thread, on the window grid; None to read it as one stream.
+
+    With one thread the whole recording is one span (read the same way:
+    large chunks, views where the format has them, the kernel on the
+    reading thread).
 
     Span j reads [k_j * step, (k_{j+1} - 1) * step + length) and holds exactly
     the windows k_j .. k_{j+1} - 1, so the spans' windows are the recording's,
     each once, with the same samples.
     """
     n = getattr(rec, "n_samples", None)
-    if threads < 2 or getattr(rec, "format", None) not in _RANDOM_ACCESS or not isinstance(n, int):
+    if getattr(rec, "format", None) not in _RANDOM_ACCESS or not isinstance(n, int):
         return None
     k0 = -(-origin // step)
     k1 = (n - length) // step + 1 if n >= length else 0  # one past the last window
     count = k1 - k0
     parts = min(threads, count // _MIN_SPAN_WINDOWS)
-    if parts < 2:
+    if parts < 1:
         return None
     ks = [k0 + (count * j) // parts for j in range(parts + 1)]
     return [(ks[j] * step, (ks[j + 1] - 1) * step + length) for j in range(parts)]
@@ -477,8 +533,8 @@ def _stream_spans(rec: Any, spans: List[tuple], size: int, fs: float, length: in
     bar = _progress(progress, sum(b - a for a, b in spans))
     try:
         with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
-            futures = [ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b), a, fs, length, step, db, nb, None,
-                                 max_lag, shunt, bar, pipelined=False) for a, b in spans]
+            futures = [ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b, copy=False), a, fs, length, step, db,
+                                 nb, None, max_lag, shunt, bar, pipelined=False, parallel=False) for a, b in spans]
             results = [f.result() for f in futures]
     finally:
         if bar is not None:
@@ -488,7 +544,7 @@ def _stream_spans(rec: Any, spans: List[tuple], size: int, fs: float, length: in
 
 def _run_chunks(chunks: Iterable[Any], origin: int, fs: float, length: int, step: int, db: Any, nb: int,
                 hp_fc: Optional[float], max_lag: Optional[int], shunt: Optional[float], bar: Any, *,
-                pipelined: bool, depth: int = 2):
+                pipelined: bool, depth: int = 2, parallel: bool = True):
     """Checks, filters and windows a stream of chunks; the batches of window statistics, in order.
 
     With ``pipelined``, the caller's thread only reads (the reader's copies
@@ -497,7 +553,7 @@ def _run_chunks(chunks: Iterable[Any], origin: int, fs: float, length: int, step
     chunk in order, at most ``depth`` chunks ahead: the filter state and the
     windower's tail are only ever touched by that worker.
     """
-    stage = _Stage(origin, fs, length, step, db, nb, hp_fc, max_lag, shunt)
+    stage = _Stage(origin, fs, length, step, db, nb, hp_fc, max_lag, shunt, parallel)
     if not pipelined:
         for i, raw_chunk in enumerate(chunks):
             stage.push(_check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz")), i)
@@ -526,8 +582,9 @@ class _Stage:
     """Filter, windower and kernel for one stream of chunks (used by one thread at a time)."""
 
     def __init__(self, origin: int, fs: float, length: int, step: int, db: Any, nb: int, hp_fc: Optional[float],
-                 max_lag: Optional[int], shunt: Optional[float]) -> None:
+                 max_lag: Optional[int], shunt: Optional[float], parallel: bool = True) -> None:
         self.origin, self.fs, self.length, self.step, self.db, self.nb = origin, fs, length, step, db, nb
+        self.parallel = parallel
         self.hp_fc, self.max_lag, self.shunt = hp_fc, max_lag, shunt
         self.collector: Optional[_Collector] = None
         self.windower: Optional[Windower] = None
@@ -539,7 +596,8 @@ class _Stage:
             aux = _aux_role(ch, self.shunt)
             self.force_roles = [r for r in FORCE_ROLES if r in ch]
             self.collector = _Collector(length=self.length, fs=self.fs, deadband=self.db, n_bins=self.nb,
-                                        max_lag=self.max_lag, aux_role=aux, raw=self.hp_fc is not None)
+                                        max_lag=self.max_lag, aux_role=aux, raw=self.hp_fc is not None,
+                                        parallel=self.parallel)
             self.windower = Windower(self.length, self.step, self.collector, origin=self.origin)
             if self.hp_fc is not None:
                 self.hp = HighPass(self.fs, cutoff=self.hp_fc, channels=len(self.force_roles))

@@ -35,17 +35,19 @@ def compute(
     n_bins: int,
     *,
     raw: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+    parallel: bool = True,
 ) -> Dict[str, np.ndarray]:
     """Kernel statistics of windows ``[s, s + length)`` for ``s`` in ``starts`` (orientation +1).
 
     ``raw`` (fy, fz before the high-pass) adds ``mu_classic``, the classical
     COF mean(|fy|/|fz|) per window (NaN without it). A NaN or inf sample in a
-    window raises ``ValueError``.
+    window raises ``ValueError``. ``parallel=False`` runs the windows on the
+    calling thread (the results are the same).
     """
     fy_raw, fz_raw = raw if raw is not None else (None, None)
     return _core.windows_stats(
         fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), int(length), 1.0, deadband.kind,
-        float(deadband.value), int(n_bins), fy_raw, fz_raw,
+        float(deadband.value), int(n_bins), fy_raw, fz_raw, parallel,
     )
 
 

@@ -499,18 +499,43 @@ class Recording:
         for start in range(0, self._n, block):
             yield self._read_range(names, start, min(start + block, self._n))
 
+    def file_layout(self, roles: Sequence[str]) -> Optional[Dict[str, int]]:
+        """Byte offset in the file of sample 0 of each role's channel, or None.
+
+        Not None only when every channel asked for is stored as one
+        contiguous run of little-endian float64 samples needing no scaling
+        (a channels-first float64 ``.npy``): then a kernel can read the
+        file's pages directly (``tribodyn._core.windows_stats_file``).
+        """
+        return None
+
+    def _can_view(self) -> bool:
+        """True when :meth:`_view_range` hands out views (backends that can override both)."""
+        return False
+
+    def _view_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        """Read-only views of raw samples ``start:stop`` without a copy (when :meth:`_can_view`).
+
+        Backends that can hand out the file's own pages (npy) override this;
+        :meth:`chunks` uses it with ``copy=False``.
+        """
+        raise NotImplementedError  # pragma: no cover
+
     def _scaled(
-        self, key_names: Sequence[Tuple[str, str]], raw: Dict[str, np.ndarray]
+        self, key_names: Sequence[Tuple[str, str]], raw: Dict[str, np.ndarray], copy: bool = True
     ) -> Dict[str, np.ndarray]:
         out: Dict[str, np.ndarray] = {}
         for key, name in key_names:
             r = raw[name]
+            f = self._scale[name]
+            if not copy and r.dtype == np.float64 and f == 1.0:
+                out[key] = r  # may be a read-only view (copy=False)
+                continue
             # Hand out a fresh, owned array: reuse one the backend just made
             # (it owns its data, nothing else refers to it), copy anything else.
             fresh = (self._owned_reads and r.dtype == np.float64 and r.flags.owndata
                      and r.flags.writeable and r.base is None)
             a = r if fresh else np.array(r, dtype=np.float64)
-            f = self._scale[name]
             if f != 1.0:
                 a *= f
             out[key] = a
@@ -523,12 +548,22 @@ class Recording:
         *,
         start: int = 0,
         stop: Optional[int] = None,
+        copy: bool = True,
     ) -> Iterator[Dict[str, np.ndarray]]:
         """Consecutive chunks of ``size`` samples (the last one may be shorter).
 
         ``start`` and ``stop`` (sample indices, like a slice) restrict the
         chunks to part of the recording: random-access formats (TDMS, HDF5,
         npy) read only that part; sequential ones (text, npz) skip ahead.
+
+        With ``copy=False`` a chunk's arrays may be read-only views without
+        a copy: for a channels-first float64 ``.npy``, views of the file's
+        pages, mapped for that chunk alone (the mapping goes when the last
+        array of the chunk does, so memory stays flat) and valid as long as
+        they are referenced. The file must not be truncated while such
+        views are alive (reading a page past its end then kills the
+        process, as with any memory map). Other formats return what they
+        would with ``copy=True``, minus the copy where one is not needed.
 
         Parameters
         ----------
@@ -568,10 +603,21 @@ class Recording:
             raise RecordingError(f"start/stop must satisfy 0 <= start <= stop <= {self._n}, got {start}, {stop}")
         keys = self._keys(roles)
         names = list(dict.fromkeys(n for _, n in keys))
+        copy = bool(copy)
+        if not copy and self._can_view():
+            # Views: one mapping per chunk, so a chunk never straddles two.
+            return self._chunk_gen(size, keys, names, self._view_blocks(names, size, start, stop), stop - start,
+                                   copy=False)
         block = max(size, self._block_rows)
         if start == 0 and stop == self._n:
-            return self._chunk_gen(size, keys, names, self._iter_blocks(names, block), self._n)
-        return self._chunk_gen(size, keys, names, self._range_blocks(names, block, start, stop), stop - start)
+            return self._chunk_gen(size, keys, names, self._iter_blocks(names, block), self._n, copy=copy)
+        return self._chunk_gen(size, keys, names, self._range_blocks(names, block, start, stop), stop - start,
+                               copy=copy)
+
+    def _view_blocks(self, names: Sequence[str], size: int, start: int, stop: int) -> Iterator[Dict[str, np.ndarray]]:
+        for a in range(start, stop, size):
+            self._check_open()
+            yield self._view_range(names, a, min(a + size, stop))
 
     def _range_blocks(self, names: Sequence[str], block: int, start: int, stop: int) -> Iterator[Dict[str, np.ndarray]]:
         """Raw blocks covering samples ``start:stop`` only."""
@@ -590,7 +636,8 @@ class Recording:
                 return
 
     def _chunk_gen(
-        self, size: int, keys: List[Tuple[str, str]], names: List[str], blocks: Iterator[Dict[str, np.ndarray]], expected: int
+        self, size: int, keys: List[Tuple[str, str]], names: List[str], blocks: Iterator[Dict[str, np.ndarray]],
+        expected: int, copy: bool = True,
     ) -> Iterator[Dict[str, np.ndarray]]:
         pending: deque = deque()
         offset = 0  # rows of pending[0] already handed out
@@ -614,7 +661,7 @@ class Recording:
                     offset += t
             buffered -= k
             raw = {n: (p[0] if len(p) == 1 else np.concatenate(p)) for n, p in parts.items()}
-            return self._scaled(keys, raw)
+            return self._scaled(keys, raw, copy)
 
         for blk in blocks:
             self._check_open()

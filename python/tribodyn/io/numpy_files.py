@@ -24,6 +24,7 @@
 from __future__ import annotations
 
 import json
+import mmap
 import os
 import zipfile
 from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
@@ -137,6 +138,52 @@ class NpyRecording(Recording):
                 return {nm: self._pread_row(idx[nm], start, stop) for nm in names}
             return {nm: self._arr[idx[nm], start:stop] for nm in names}
         return {nm: self._arr[start:stop, idx[nm]] for nm in names}
+
+    def file_layout(self, roles: Sequence[str]) -> Optional[Dict[str, int]]:
+        a = self._arr
+        if (self._closed or not self._rows_are_channels or not self._direct_read_ok()
+                or a.dtype != np.dtype("<f8")):
+            return None
+        idx = {nm: k for k, nm in enumerate(self._names)}
+        out = {}
+        for role in roles:
+            name = self.roles.get(role)
+            if name is None or self._scale[name] != 1.0:
+                return None
+            out[role] = int(a.offset + idx[name] * a.shape[1] * a.itemsize)
+        return out
+
+    def _can_view(self) -> bool:
+        return (self._rows_are_channels and self._direct_read_ok() and self._arr.dtype == np.float64
+                and hasattr(mmap, "MAP_POPULATE"))
+
+    def _view_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        """Samples start:stop of each channel as a read-only view of its own mapping of the file.
+
+        The range is mapped with ``MAP_POPULATE`` (its pages entered in one
+        call, not faulted one by one) and unmapped when the view goes, so the
+        resident set holds only the chunks alive: the kernel reads the page
+        cache directly, with no copy.
+        """
+        a = self._arr
+        idx = {nm: k for k, nm in enumerate(self._names)}
+        if self._fd is None:
+            self._fd = os.open(self.path, os.O_RDONLY)
+        count = stop - start
+        out = {}
+        for nm in names:
+            off = a.offset + (idx[nm] * a.shape[1] + start) * a.itemsize
+            base = off - off % mmap.ALLOCATIONGRANULARITY
+            length = off - base + count * a.itemsize
+            if os.fstat(self._fd).st_size < base + length:
+                raise RecordingError(f"{self.path}: file ends early (truncated since it was opened?)")
+            if count == 0:
+                out[nm] = np.empty(0)
+                continue
+            m = mmap.mmap(self._fd, length, flags=mmap.MAP_SHARED | mmap.MAP_POPULATE, prot=mmap.PROT_READ,
+                          offset=base)
+            out[nm] = np.frombuffer(m, dtype=a.dtype, count=count, offset=off - base)
+        return out
 
     def _direct_read_ok(self) -> bool:
         a = self._arr

@@ -6,7 +6,8 @@
 //! - [`iir`]: streaming second-order-sections filter (METHOD.md 2);
 //! - [`regression`]: mergeable, centred least-squares moments, Eqs. (6)-(8)
 //!   (METHOD.md 3);
-//! - [`windows`]: per-window statistics of a recording (METHOD.md 4-6).
+//! - [`windows`]: per-window statistics of a recording (METHOD.md 4-6);
+//! - [`mapped`]: the same, read straight from a file's pages (memory maps).
 //!
 //! Every public function validates what a caller controls and returns
 //! [`KernelError`] instead of panicking.
@@ -15,6 +16,7 @@ pub mod correlation;
 pub mod error;
 pub mod iir;
 mod lanes;
+pub mod mapped;
 pub mod parallel;
 pub mod regression;
 pub mod sums;

@@ -194,59 +194,63 @@ fn lane_sum_sq(x: &[f64], acc: &mut [f64; LANES], acc2: &mut [f64; LANES]) {
     }
 }
 
-/// Pass 1: (sum fz, min fz, max fz, sum fy, sum fx, sum aux), the last two
-/// 0 when `X`, `A` are false. Min and max by comparisons: a NaN is caught
-/// by the sums.
+/// Lane sum of one channel (sample i into lane i mod LANES), folded.
 #[inline(always)]
-fn pass1<const X: bool, const A: bool>(fx: &[f64], fy: &[f64], fz: &[f64], aux: &[f64]) -> (f64, f64, f64, f64, f64, f64) {
-    let n = fz.len();
-    let full = n - n % LANES;
-    let z0 = [0.0f64; LANES];
-    let (mut sz, mut sy, mut sx, mut sa) = (z0, z0, z0, z0);
-    let mut lo = [f64::INFINITY; LANES];
-    let mut hi = [f64::NEG_INFINITY; LANES];
-    for i in (0..full).step_by(LANES) {
-        let z = lanes(&fz[i..i + LANES]);
-        let y = lanes(&fy[i..i + LANES]);
+fn channel_sum(x: &[f64]) -> f64 {
+    let full = x.len() - x.len() % LANES;
+    let mut acc = [0.0f64; LANES];
+    for v in x[..full].chunks_exact(LANES) {
+        let v = lanes(v);
         for k in 0..LANES {
-            sz[k] += z[k];
-            lo[k] = if z[k] < lo[k] { z[k] } else { lo[k] };
-            hi[k] = if z[k] > hi[k] { z[k] } else { hi[k] };
-            sy[k] += y[k];
-        }
-        if X {
-            let x = lanes(&fx[i..i + LANES]);
-            for k in 0..LANES {
-                sx[k] += x[k];
-            }
-        }
-        if A {
-            let a = lanes(&aux[i..i + LANES]);
-            for k in 0..LANES {
-                sa[k] += a[k];
-            }
+            acc[k] += v[k];
         }
     }
-    let (mut l, mut h) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut t = fold(&acc);
+    for &v in &x[full..] {
+        t += v;
+    }
+    t
+}
+
+/// Lane sum, minimum and maximum of fz. Min and max by comparisons: a NaN
+/// is caught by the sum.
+#[inline(always)]
+fn sum_min_max(z: &[f64]) -> (f64, f64, f64) {
+    let full = z.len() - z.len() % LANES;
+    let mut acc = [0.0f64; LANES];
+    let mut lo = [f64::INFINITY; LANES];
+    let mut hi = [f64::NEG_INFINITY; LANES];
+    for v in z[..full].chunks_exact(LANES) {
+        let v = lanes(v);
+        for k in 0..LANES {
+            acc[k] += v[k];
+            lo[k] = if v[k] < lo[k] { v[k] } else { lo[k] };
+            hi[k] = if v[k] > hi[k] { v[k] } else { hi[k] };
+        }
+    }
+    let (mut t, mut l, mut h) = (fold(&acc), f64::INFINITY, f64::NEG_INFINITY);
     for k in 0..LANES {
         l = if lo[k] < l { lo[k] } else { l };
         h = if hi[k] > h { hi[k] } else { h };
     }
-    let (mut tz, mut ty, mut tx, mut ta) = (fold(&sz), fold(&sy), fold(&sx), fold(&sa));
-    for i in full..n {
-        let z = fz[i];
-        tz += z;
-        l = if z < l { z } else { l };
-        h = if z > h { z } else { h };
-        ty += fy[i];
-        if X {
-            tx += fx[i];
-        }
-        if A {
-            ta += aux[i];
-        }
+    for &v in &z[full..] {
+        t += v;
+        l = if v < l { v } else { l };
+        h = if v > h { v } else { h };
     }
-    (tz, l, h, ty, tx, ta)
+    (t, l, h)
+}
+
+/// Pass 1: (sum fz, min fz, max fz, sum fy, sum fx, sum aux), the last two
+/// 0 without fx, aux. One loop per channel, each with its own vector of
+/// lanes (in one loop LLVM pairs the lanes of different sums and spills).
+#[inline(always)]
+fn pass1(fx: Option<&[f64]>, fy: &[f64], fz: &[f64], aux: Option<&[f64]>) -> (f64, f64, f64, f64, f64, f64) {
+    let (sz, lo, hi) = sum_min_max(fz);
+    let sy = channel_sum(fy);
+    let sx = fx.map_or(0.0, channel_sum);
+    let sa = aux.map_or(0.0, channel_sum);
+    (sz, lo, hi, sy, sx, sa)
 }
 
 /// Fails when `x` holds NaN or inf, given its sum: a finite sum proves
@@ -324,6 +328,51 @@ fn centred<const X: bool>(fx: &[f64], fy: &[f64], fz: &[f64], mx: f64, my: f64, 
     t
 }
 
+/// The next window's samples, fetched into the L2 cache while this window
+/// is computed. A hint only: results do not depend on it, and prefetching
+/// never faults, so ranges past a channel's end are simply skipped.
+#[derive(Clone, Copy)]
+struct Prefetch<'a> {
+    chans: [&'a [f64]; 6],
+    n: usize,
+}
+
+impl<'a> Prefetch<'a> {
+    fn of(next: Option<&Channels<'a>>) -> Self {
+        let mut p = Prefetch { chans: [&[]; 6], n: 0 };
+        if let Some(c) = next {
+            let (ry, rz) = c.raw.map_or((None, None), |(y, z)| (Some(y), Some(z)));
+            for x in [c.fx, Some(c.fy), Some(c.fz), c.aux, ry, rz].into_iter().flatten() {
+                p.chans[p.n] = x;
+                p.n += 1;
+            }
+        }
+        p
+    }
+
+    /// Requests the cache lines of samples [a, b) of every channel.
+    #[inline(always)]
+    fn range(&self, a: usize, b: usize) {
+        #[cfg(target_arch = "x86_64")]
+        for c in &self.chans[..self.n] {
+            let end = b.min(c.len());
+            let mut j = a;
+            while j < end {
+                // SAFETY: a prefetch is a hint that never faults; the
+                // address lies inside the slice (j < len).
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                        c.as_ptr().add(j) as *const i8,
+                    )
+                };
+                j += 8; // 64-byte lines
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (a, b);
+    }
+}
+
 /// What pass 3 accumulates.
 struct Pass3 {
     /// Sum of residuals and of their squares.
@@ -357,7 +406,7 @@ struct Bins {
 /// no accumulation of their own.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn pass3(fy: &[f64], fz: &[f64], my: f64, mz: f64, b: f64, s: f64, d: f64, bins: Bins) -> Pass3 {
+fn pass3(fy: &[f64], fz: &[f64], my: f64, mz: f64, b: f64, s: f64, d: f64, bins: Bins, pf: &Prefetch<'_>) -> Pass3 {
     let nb = bins.n;
     // COPIES interleaved copies of two histograms (fz < 0, fz > 0) of
     // nb + 1 slots, each slot a (sum, count) pair; slot nb collects the
@@ -378,6 +427,9 @@ fn pass3(fy: &[f64], fz: &[f64], my: f64, mz: f64, b: f64, s: f64, d: f64, bins:
     let mut start = 0;
     while start < n {
         let m = BLOCK.min(n - start);
+        // The next window's lines, spread over this pass (the longest), so
+        // that memory works while this one computes.
+        pf.range(start, start + m);
         let (yb, zb) = (&fy[start..start + m], &fz[start..start + m]);
         // Element-wise (vectorised): residual, Eq. 5 per sample, and the
         // histogram slot: copy (i mod COPIES), sign of fz, bin of the
@@ -475,37 +527,44 @@ fn classic(y: &[f64], z: &[f64]) -> (f64, f64, f64) {
 
 /// Statistics of one window (all channels of one length).
 pub fn window_stats(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
+    window_stats_then(ch, None, opt)
+}
+
+/// [`window_stats`] of `ch`, fetching the samples of `next` (the window
+/// computed after it, if known) into cache meanwhile. Same results.
+pub fn window_stats_then(ch: &Channels<'_>, next: Option<&Channels<'_>>, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
     ch.check()?;
+    let pf = Prefetch::of(next);
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU supports AVX-512F, checked just above.
-            return unsafe { window_avx512(ch, opt) };
+            return unsafe { window_avx512(ch, opt, &pf) };
         }
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { window_avx2(ch, opt) };
+            return unsafe { window_avx2(ch, opt, &pf) };
         }
     }
-    window_body(ch, opt)
+    window_body(ch, opt, &pf)
 }
 
 // The same code compiled for wider vectors. Every sum has its fixed lanes
 // and no multiply-add is fused, so each variant gives the same bits.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
-unsafe fn window_avx512(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
-    window_body(ch, opt)
+unsafe fn window_avx512(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Result<WindowStats, KernelError> {
+    window_body(ch, opt, pf)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn window_avx2(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
-    window_body(ch, opt)
+unsafe fn window_avx2(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Result<WindowStats, KernelError> {
+    window_body(ch, opt, pf)
 }
 
 #[inline(always)]
-fn window_body(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
+fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Result<WindowStats, KernelError> {
     let (fy, fz) = (ch.fy, ch.fz);
     let n = fz.len();
     let nb = opt.n_bins;
@@ -514,12 +573,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStats, Ke
     }
     let nf = n as f64;
     // Pass 1: sums (means) and the fz range, all channels streamed together.
-    let (sz, lo, hi, sy, sx, sa) = match (ch.fx, ch.aux) {
-        (Some(x), Some(a)) => pass1::<true, true>(x, fy, fz, a),
-        (Some(x), None) => pass1::<true, false>(x, fy, fz, &[]),
-        (None, Some(a)) => pass1::<false, true>(&[], fy, fz, a),
-        (None, None) => pass1::<false, false>(&[], fy, fz, &[]),
-    };
+    let (sz, lo, hi, sy, sx, sa) = pass1(ch.fx, fy, fz, ch.aux);
     check_finite("fz", fz, sz)?;
     check_finite("fy", fy, sy)?;
     if let Some(x) = ch.fx {
@@ -598,7 +652,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStats, Ke
     let b = if szz > 0.0 { syz / szz } else { 0.0 };
     let span = hi - lo;
     let bins = Bins { lo, scale: if span > 0.0 { nb as f64 / span } else { 0.0 }, n: nb };
-    let p = pass3(fy, fz, my0, mz0, b, opt.orientation, if d.is_finite() { d } else { f64::INFINITY }, bins);
+    let p = pass3(fy, fz, my0, mz0, b, opt.orientation, if d.is_finite() { d } else { f64::INFINITY }, bins, pf);
     let sse = if szz > 0.0 { (p.sr2 - p.sr * (p.sr / nf)).max(0.0) } else { syy };
     let mean_or_nan = |s: f64, c: u64| if c > 0 { s / c as f64 } else { f64::NAN };
     let bin_cof = p.acc.iter().zip(&p.cnt).map(|(&a, &c)| mean_or_nan(a, c)).collect();
@@ -643,8 +697,11 @@ fn check_starts(ch: &Channels<'_>, starts: &[usize], opt: &WindowOptions) -> Res
     Ok(())
 }
 
-fn one(ch: &Channels<'_>, s: usize, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
-    window_stats(&ch.slice(s..s + opt.len), opt)
+/// Window k of `starts`, prefetching window k + 1.
+fn one(ch: &Channels<'_>, starts: &[usize], k: usize, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
+    let s = starts[k];
+    let next = starts.get(k + 1).map(|&t| ch.slice(t..t + opt.len));
+    window_stats_then(&ch.slice(s..s + opt.len), next.as_ref(), opt)
         .map_err(|e| KernelError::Invalid(format!("{e} (window starting at sample {s})")))
 }
 
@@ -654,14 +711,14 @@ pub fn windows_stats(ch: &Channels<'_>, starts: &[usize], opt: &WindowOptions) -
     check_starts(ch, starts, opt)?;
     // A task per few windows: a 2000-sample window is a few microseconds of
     // work, so one task each would spend a noticeable share on scheduling.
-    starts.par_iter().with_min_len(4).map(|&s| one(ch, s, opt)).collect()
+    (0..starts.len()).into_par_iter().with_min_len(4).map(|k| one(ch, starts, k, opt)).collect()
 }
 
 /// [`windows_stats`] on the calling thread (for a handful of windows, where
 /// entering the pool costs more than it saves). Same results.
 pub fn windows_stats_serial(ch: &Channels<'_>, starts: &[usize], opt: &WindowOptions) -> Result<Vec<WindowStats>, KernelError> {
     check_starts(ch, starts, opt)?;
-    starts.iter().map(|&s| one(ch, s, opt)).collect()
+    (0..starts.len()).map(|k| one(ch, starts, k, opt)).collect()
 }
 
 #[cfg(test)]
@@ -812,16 +869,16 @@ mod tests {
             WindowOptions { len: 2037, orientation: -1.0, deadband: Deadband::Force(0.35), n_bins: 16 },
             WindowOptions { len: 2037, orientation: 1.0, deadband: Deadband::Sigma(0.7), n_bins: 7 },
         ] {
-            let base = format!("{:?}", window_body(&ch, &opt).unwrap());
+            let base = format!("{:?}", window_body(&ch, &opt, &Prefetch::of(None)).unwrap());
             #[cfg(target_arch = "x86_64")]
             {
                 if std::arch::is_x86_feature_detected!("avx2") {
                     // SAFETY: AVX2 is available (checked).
-                    assert_eq!(format!("{:?}", unsafe { window_avx2(&ch, &opt) }.unwrap()), base);
+                    assert_eq!(format!("{:?}", unsafe { window_avx2(&ch, &opt, &Prefetch::of(Some(&ch))) }.unwrap()), base);
                 }
                 if std::arch::is_x86_feature_detected!("avx512f") {
                     // SAFETY: AVX-512F is available (checked).
-                    assert_eq!(format!("{:?}", unsafe { window_avx512(&ch, &opt) }.unwrap()), base);
+                    assert_eq!(format!("{:?}", unsafe { window_avx512(&ch, &opt, &Prefetch::of(Some(&ch))) }.unwrap()), base);
                 }
             }
             assert_eq!(format!("{:?}", window_stats(&ch, &opt).unwrap()), base);

@@ -8,7 +8,7 @@
 //! re-check everything that could otherwise panic.
 
 use numpy::{
-    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2,
+    PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2,
     PyReadwriteArray3, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::PyValueError;
@@ -16,6 +16,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tribodyn_core::correlation::{self, Method};
 use tribodyn_core::iir;
+use tribodyn_core::mapped;
 use tribodyn_core::parallel;
 use tribodyn_core::regression::{self, LinFit, Moments};
 use tribodyn_core::sums;
@@ -285,9 +286,10 @@ fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResu
 /// Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
 /// Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
 /// forces before the high-pass) add `mu_classic`; a non-finite sample in a
-/// window raises ValueError.
+/// window raises ValueError. `parallel=False` keeps the work on the calling
+/// thread (for callers that already run one stream per core).
 #[pyfunction]
-#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, fy_raw=None, fz_raw=None))]
+#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, fy_raw=None, fz_raw=None, parallel=true))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats<'py>(
     py: Python<'py>,
@@ -303,12 +305,9 @@ fn windows_stats<'py>(
     n_bins: usize,
     fy_raw: Option<PyReadonlyArray1<'py, f64>>,
     fz_raw: Option<PyReadonlyArray1<'py, f64>>,
+    parallel: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let deadband = match deadband_kind {
-        "force" => Deadband::Force(deadband),
-        "sigma" => Deadband::Sigma(deadband),
-        other => return Err(PyValueError::new_err(format!("deadband_kind must be 'force' or 'sigma', got {other:?}"))),
-    };
+    let deadband = parse_deadband(deadband_kind, deadband)?;
     let starts: Vec<usize> = starts
         .as_slice()
         .map_err(slice_err("starts"))?
@@ -325,13 +324,17 @@ fn windows_stats<'py>(
     let ch = windows::Channels { fx: fxs, fy: fys, fz: fzs, aux: auxs, raw };
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
     // A few windows cost less than entering the pool.
-    let stats = if starts.len() < 8 {
+    let stats = if starts.len() < 8 || !parallel {
         py.detach(|| windows::windows_stats_serial(&ch, &starts, &opt))
     } else {
         py.detach(|| parallel::run(|| windows::windows_stats(&ch, &starts, &opt)))
     }
     .map_err(to_py)?;
+    stats_dict(py, &stats, n_bins)
+}
 
+/// The per-window statistics as a dict of columns (one row per window).
+fn stats_dict<'py>(py: Python<'py>, stats: &[windows::WindowStats], n_bins: usize) -> PyResult<Bound<'py, PyDict>> {
     let col = |f: &dyn Fn(&windows::WindowStats) -> f64| -> Vec<f64> { stats.iter().map(f).collect() };
     let out = PyDict::new(py);
     let fits: Vec<LinFit> = stats.iter().map(|w| w.moments.fit()).collect();
@@ -378,6 +381,49 @@ fn windows_stats<'py>(
     Ok(out)
 }
 
+fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
+    match kind {
+        "force" => Ok(Deadband::Force(value)),
+        "sigma" => Ok(Deadband::Sigma(value)),
+        other => Err(PyValueError::new_err(format!("deadband_kind must be 'force' or 'sigma', got {other:?}"))),
+    }
+}
+
+/// Per-window statistics of windows k0..k1 (window k = samples
+/// [k * step, k * step + length)) of channels stored in the file at `path`
+/// as contiguous little-endian f64 runs starting at the byte offsets
+/// `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The file's
+/// pages are read through memory maps, `block` windows per task, in
+/// parallel; same dict and same results as `windows_stats` on those
+/// samples. The file must not shrink meanwhile.
+#[pyfunction]
+#[pyo3(signature = (path, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, block=512))]
+#[allow(clippy::too_many_arguments)]
+fn windows_stats_file<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+    offsets: (Option<u64>, u64, u64, Option<u64>),
+    n: usize,
+    k0: usize,
+    k1: usize,
+    step: usize,
+    length: usize,
+    orientation: f64,
+    deadband_kind: &str,
+    deadband: f64,
+    n_bins: usize,
+    block: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let deadband = parse_deadband(deadband_kind, deadband)?;
+    let file = std::fs::File::open(&path)
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))?;
+    let layout = mapped::FileLayout { fx: offsets.0, fy: offsets.1, fz: offsets.2, aux: offsets.3, n };
+    let grid = mapped::Grid { k0, k1, step, block };
+    let opt = WindowOptions { len: length, orientation, deadband, n_bins };
+    let stats = py.detach(|| parallel::run(|| mapped::windows_stats_mapped(&file, &layout, &grid, &opt))).map_err(to_py)?;
+    stats_dict(py, &stats, n_bins)
+}
+
 /// Sets the number of threads kernels use (0 = all cores).
 #[pyfunction]
 fn set_threads(n: usize) {
@@ -400,6 +446,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(all_finite, m)?)?;
     m.add_function(wrap_pyfunction!(linfit, m)?)?;
     m.add_function(wrap_pyfunction!(windows_stats, m)?)?;
+    m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     m.add_class::<PyMoments>()?;
