@@ -138,7 +138,7 @@ class Moments:
 
 
 def windows_stats_file(
-    path: str,
+    fd: int,
     offsets: tuple[int | None, int, int, int | None],
     n: int,
     k0: int,
@@ -150,11 +150,21 @@ def windows_stats_file(
     deadband: float,
     n_bins: int,
     block: int = 512,
+    sos: _F64 | None = None,
+    zi: _F64 | None = None,
+    origin: int = 0,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics of windows k0..k1 (window k = samples
-    [k * step, k * step + length)) of channels stored in the file at `path`
-    as contiguous little-endian f64 runs starting at the byte offsets
+    [k * step, k * step + length)) of channels stored in the open file `fd`
+    (a file descriptor, duplicated for the call and left open) as
+    contiguous little-endian f64 runs starting at the byte offsets
     `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The file's
     pages are read through memory maps, `block` windows per task, in
     parallel; same dict and same results as `windows_stats` on those
-    samples. The file must not shrink meanwhile."""
+    samples. The file must not shrink meanwhile.
+
+    With `sos` (and `zi`, its steady state for a unit input, one row per
+    section) the force channels are raw: they are high-passed from sample
+    `origin` on (state carried, each channel started at `zi * x[origin]`)
+    and the classical COF of the raw forces is added (`mu_classic`); the
+    windows must not overlap (step >= length)."""

@@ -418,8 +418,8 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
             hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
             shunt: Optional[float], origin: int = 0):
     threads = _core.get_threads()
-    if rec is not None and hp_fc is None and max_lag is None and not progress:
-        mapped = _stream_file(rec, origin, length, step, db, nb, chunk_n, shunt, threads)
+    if rec is not None and max_lag is None and not progress:
+        mapped = _stream_file(rec, origin, fs, length, step, db, nb, hp_fc, chunk_n, shunt, threads)
         if mapped is not None:
             return mapped
     if rec is not None:
@@ -452,15 +452,18 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
     return _concat(parts), aux_role
 
 
-def _stream_file(rec: Any, origin: int, length: int, step: int, db: Any, nb: int, chunk_n: Optional[int],
-                 shunt: Optional[float], threads: int):
-    """Dynamic input whose channels the kernel can read from the file's own pages (a float64 ``.npy``).
+def _stream_file(rec: Any, origin: int, fs: float, length: int, step: int, db: Any, nb: int, hp_fc: Optional[float],
+                 chunk_n: Optional[int], shunt: Optional[float], threads: int):
+    """A recording whose channels the kernel can read from the file's own pages (a float64 ``.npy``).
 
     One call of ``_core.windows_stats_file``: the file is memory-mapped a
-    block of windows at a time per thread, with no copy and no Python per
-    chunk. None when the recording does not allow it (another format,
-    scaled channels, an instrument ``cof`` column) or the call fails (a NaN,
-    say): the streaming path then runs and words any error.
+    block of windows at a time, with no copy and no Python per chunk. For
+    dynamic input the blocks run in parallel; raw input is high-passed
+    block after block (the same filter, state and bits as ``HighPass``),
+    one block ahead of the windows. None when the recording does not allow
+    it (another format, scaled channels, an instrument ``cof`` column,
+    overlapping windows with ``highpass``) or the call fails (a NaN, say):
+    the streaming path then runs and words any error.
     """
     roles = getattr(rec, "roles", None)
     layout_of = getattr(rec, "file_layout", None)
@@ -468,10 +471,11 @@ def _stream_file(rec: Any, origin: int, length: int, step: int, db: Any, nb: int
         return None
     aux = _aux_role(roles, shunt)
     wanted = [r for r in FORCE_ROLES if r in roles] + ([aux] if aux else [])
-    layout = layout_of(wanted)
+    found = layout_of(wanted)
     n = getattr(rec, "n_samples", None)
-    if layout is None or not isinstance(n, int):
+    if found is None or not isinstance(n, int):
         return None
+    fd, layout = found
     k0 = -(-origin // step)
     k1 = (n - length) // step + 1 if n >= length else 0
     if k1 <= k0:
@@ -481,12 +485,19 @@ def _stream_file(rec: Any, origin: int, length: int, step: int, db: Any, nb: int
     cap = max(1, (chunk_n or SPAN_CHUNK) // step)
     block = max(1, min(cap, -(-(k1 - k0) // (4 * threads))))
     offsets = (layout.get("fx"), layout["fy"], layout["fz"], layout[aux] if aux else None)
+    sos = zi = None
+    if hp_fc is not None:
+        if step < length:
+            return None
+        hp = HighPass(fs, cutoff=hp_fc)
+        sos, zi = hp.sos, hp._zi
+        block = cap
     try:
-        st = _core.windows_stats_file(str(rec.path), offsets, n, k0, k1, step, length, 1.0, db.kind, float(db.value),
-                                      nb, block)
+        st = _core.windows_stats_file(fd, offsets, n, k0, k1, step, length, 1.0, db.kind, float(db.value),
+                                      nb, block, sos, zi, origin)
     except (ValueError, OSError):
         return None
-    for key in _UNUSED + ("mu_classic",):
+    for key in _UNUSED + (() if hp_fc is not None else ("mu_classic",)):
         del st[key]
     st["start"] = np.arange(k0, k1, dtype=np.int64) * step
     return st, aux

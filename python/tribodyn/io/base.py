@@ -499,13 +499,16 @@ class Recording:
         for start in range(0, self._n, block):
             yield self._read_range(names, start, min(start + block, self._n))
 
-    def file_layout(self, roles: Sequence[str]) -> Optional[Dict[str, int]]:
-        """Byte offset in the file of sample 0 of each role's channel, or None.
+    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, int]]]:
+        """(file descriptor, byte offset of sample 0 of each role's channel), or None.
 
         Not None only when every channel asked for is stored as one
-        contiguous run of little-endian float64 samples needing no scaling
-        (a channels-first float64 ``.npy``): then a kernel can read the
-        file's pages directly (``tribodyn._core.windows_stats_file``).
+        contiguous, 8-byte aligned run of little-endian float64 samples
+        needing no scaling (a channels-first float64 ``.npy``): then a kernel
+        can read the file's pages directly
+        (``tribodyn._core.windows_stats_file``). The descriptor is the one
+        the recording opened (the file it was opened on, even if the path
+        now names another) and stays the recording's.
         """
         return None
 

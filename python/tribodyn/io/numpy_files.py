@@ -79,21 +79,46 @@ class NpyRecording(Recording):
     ) -> None:
         super().__init__(path)
         self._arr: Any = None
-        with open(self.path, "rb") as fh:
-            shape, _fortran, dtype = _read_npy_header(fh, self.path)
-            data_offset = fh.tell()
-        if dtype.hasobject or dtype.kind not in "biuf":
-            raise RecordingError(f"{self.path}: .npy of dtype {dtype} is not numeric signal data")
-        expected = data_offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
-        size = os.path.getsize(self.path)
-        if size < expected:
-            raise RecordingError(
-                f"{self.path}: truncated .npy file ({size} bytes, its header needs {expected})"
-            )
+        # One descriptor, opened here, for every read: the recording stays
+        # the file it was opened on even if the path is later replaced.
         try:
-            arr = np.load(self.path, mmap_mode="r", allow_pickle=False)
-        except (ValueError, OSError) as exc:
-            raise RecordingError(f"{self.path}: cannot map .npy file: {exc}") from None
+            self._fd = os.open(self.path, os.O_RDONLY)
+        except OSError as exc:
+            raise RecordingError(f"{self.path}: cannot open: {exc.strerror or exc}") from None
+        try:
+            self._open_npy(channels, fs, scale, units, layout, names, time_channel)
+        except BaseException:
+            self._close()
+            raise
+
+    def _open_npy(
+        self,
+        channels: Optional[Mapping[str, Optional[str]]],
+        fs: Optional[float],
+        scale: Optional[Mapping[str, float]],
+        units: Optional[Mapping[str, str]],
+        layout: Optional[str],
+        names: Optional[Sequence[str]],
+        time_channel: Optional[str],
+    ) -> None:
+        assert self._fd is not None
+        with open(self._fd, "rb", closefd=False) as fh:
+            shape, fortran, dtype = _read_npy_header(fh, self.path)
+            data_offset = fh.tell()
+            if dtype.hasobject or dtype.kind not in "biuf":
+                raise RecordingError(f"{self.path}: .npy of dtype {dtype} is not numeric signal data")
+            expected = data_offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+            size = os.fstat(self._fd).st_size
+            if size < expected:
+                raise RecordingError(
+                    f"{self.path}: truncated .npy file ({size} bytes, its header needs {expected})"
+                )
+            try:
+                # What np.load(mmap_mode="r") does, on this descriptor.
+                arr = np.memmap(fh, dtype=dtype, mode="r", offset=data_offset, shape=shape,
+                                order="F" if fortran else "C")
+            except (ValueError, OSError) as exc:
+                raise RecordingError(f"{self.path}: cannot map .npy file: {exc}") from None
         if arr.ndim == 1:
             arr = arr.reshape(1, -1)
             self._rows_are_channels = True
@@ -139,10 +164,10 @@ class NpyRecording(Recording):
             return {nm: self._arr[idx[nm], start:stop] for nm in names}
         return {nm: self._arr[start:stop, idx[nm]] for nm in names}
 
-    def file_layout(self, roles: Sequence[str]) -> Optional[Dict[str, int]]:
+    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, int]]]:
         a = self._arr
-        if (self._closed or not self._rows_are_channels or not self._direct_read_ok()
-                or a.dtype != np.dtype("<f8")):
+        if (self._closed or self._fd is None or not self._rows_are_channels or not self._direct_read_ok()
+                or a.dtype != np.dtype("<f8") or a.offset % a.itemsize):
             return None
         idx = {nm: k for k, nm in enumerate(self._names)}
         out = {}
@@ -151,11 +176,13 @@ class NpyRecording(Recording):
             if name is None or self._scale[name] != 1.0:
                 return None
             out[role] = int(a.offset + idx[name] * a.shape[1] * a.itemsize)
-        return out
+        return self._fd, out
 
     def _can_view(self) -> bool:
-        return (self._rows_are_channels and self._direct_read_ok() and self._arr.dtype == np.float64
-                and hasattr(mmap, "MAP_POPULATE"))
+        # Aligned samples only: numpy refuses a misaligned view as a kernel input.
+        a = self._arr
+        return (self._rows_are_channels and self._direct_read_ok() and a.dtype == np.float64
+                and a.offset % a.itemsize == 0 and hasattr(mmap, "MAP_POPULATE"))
 
     def _view_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         """Samples start:stop of each channel as a read-only view of its own mapping of the file.
@@ -167,8 +194,7 @@ class NpyRecording(Recording):
         """
         a = self._arr
         idx = {nm: k for k, nm in enumerate(self._names)}
-        if self._fd is None:
-            self._fd = os.open(self.path, os.O_RDONLY)
+        assert self._fd is not None, "open recordings hold their descriptor"
         count = stop - start
         out = {}
         for nm in names:
@@ -199,8 +225,7 @@ class NpyRecording(Recording):
         a = self._arr
         out = np.empty(stop - start, dtype=a.dtype)
         offset = a.offset + (row * a.shape[1] + start) * a.itemsize
-        if self._fd is None:
-            self._fd = os.open(self.path, os.O_RDONLY)
+        assert self._fd is not None, "open recordings hold their descriptor"
         view = memoryview(out).cast("B")
         done = 0
         while done < view.nbytes:

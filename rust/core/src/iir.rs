@@ -180,6 +180,14 @@ fn filter_group(sos: &[Section], src: Option<&[&[f64]]>, rows: &mut [&mut [f64]]
     }
 }
 
+/// Filters up to four channels `src[c]` into `out[c]` on the calling
+/// thread, carrying `state[c]` (its `n_sections` pairs): the same bits as
+/// [`sosfilt_into`]. Returns whether every input sample was finite.
+pub(crate) fn filter_rows(sos: &[Section], src: &[&[f64]], out: &mut [&mut [f64]], state: &mut [&mut [[f64; 2]]]) -> bool {
+    debug_assert!(src.len() == out.len() && out.len() == state.len() && out.len() <= MAX_LOCKSTEP);
+    filter_group(sos, Some(src), out, state)
+}
+
 /// Checks the shapes shared by [`sosfilt_inplace`] and [`sosfilt_into`];
 /// returns the samples per channel.
 fn check_shapes(sos: &[Section], len: usize, channels: usize, state: &[[f64; 2]]) -> Result<usize, KernelError> {

@@ -11,11 +11,18 @@
 //! on the kernel pool and are joined in order, so the results are those of
 //! [`crate::windows::windows_stats`] on the same samples, bit for bit.
 //!
+//! Raw (DC-coupled) forces are high-passed on the way
+//! ([`windows_stats_mapped_highpass`]): the filter runs through the blocks
+//! in order, carrying its state, one block ahead of the windows, so that
+//! filtering block b + 1 and computing the windows of block b run at the
+//! same time on two threads.
+//!
 //! The file must not shrink while it is read: touching a mapped page past
 //! the end of a file kills the process (SIGBUS), as with any memory map.
 //! Its length is checked before each block is mapped.
 
 use crate::error::KernelError;
+use crate::iir::{self, Section};
 use crate::windows::{windows_stats_serial, Channels, WindowOptions, WindowStats};
 use memmap2::{Mmap, MmapOptions};
 use rayon::prelude::*;
@@ -142,6 +149,130 @@ pub fn windows_stats_mapped(file: &File, layout: &FileLayout, grid: &Grid, opt: 
     Ok(parts.into_iter().flatten().collect())
 }
 
+/// How raw forces are high-passed before the windows (see
+/// [`windows_stats_mapped_highpass`]).
+#[derive(Debug, Clone)]
+pub struct HighPass<'a> {
+    pub sos: &'a [Section],
+    /// Initial state per section for a unit input: each force channel
+    /// starts at `zi * x[origin]` (the steady state of its first sample,
+    /// as `tribodyn.HighPass(init="steady")`).
+    pub zi: &'a [[f64; 2]],
+    /// Sample where filtering starts (at or before the first window).
+    pub origin: usize,
+}
+
+/// The force channels of a layout: fx (if any), fy, fz.
+fn force_offsets(layout: &FileLayout) -> Vec<u64> {
+    layout.fx.into_iter().chain([layout.fy, layout.fz]).collect()
+}
+
+/// One block of the high-pass pipeline: its raw maps and filtered forces.
+struct Filtered {
+    /// Samples [from, to) of the recording.
+    from: usize,
+    maps: Vec<Option<Mmap>>,
+    forces: Vec<Vec<f64>>,
+}
+
+/// Maps samples [from, to) and filters the forces, carrying `state`, into
+/// `forces` (buffers of an earlier block, reused: fresh ones would cost a
+/// page fault per 4 KiB on first touch).
+#[allow(clippy::too_many_arguments)]
+fn filter_block(
+    file: &File,
+    layout: &FileLayout,
+    hp: &HighPass<'_>,
+    from: usize,
+    to: usize,
+    state: &mut [Vec<[f64; 2]>],
+    mut forces: Vec<Vec<f64>>,
+) -> Result<Filtered, KernelError> {
+    let maps: Vec<Option<Mmap>> =
+        layout.offsets().iter().map(|o| o.map(|off| map(file, off, from, to)).transpose()).collect::<Result<_, _>>()?;
+    let src: Vec<&[f64]> = maps.iter().take(3).flatten().map(as_f64).collect();
+    forces.resize_with(src.len(), Vec::new);
+    for (buf, s) in forces.iter_mut().zip(&src) {
+        // Every sample is overwritten by the filter; only a length change
+        // (the last block) writes zeros first.
+        buf.resize(s.len(), 0.0);
+    }
+    if from == hp.origin {
+        for (st, x) in state.iter_mut().zip(&src) {
+            for (z, zi) in st.iter_mut().zip(hp.zi) {
+                *z = [zi[0] * x[0], zi[1] * x[0]];
+            }
+        }
+    }
+    let mut outs: Vec<&mut [f64]> = forces.iter_mut().map(|v| v.as_mut_slice()).collect();
+    let mut states: Vec<&mut [[f64; 2]]> = state.iter_mut().map(|v| v.as_mut_slice()).collect();
+    if !iir::filter_rows(hp.sos, &src, &mut outs, &mut states) {
+        return Err(invalid(format!("a force channel contains NaN or inf in samples {from}..{to}")));
+    }
+    drop(src);
+    Ok(Filtered { from, maps, forces })
+}
+
+/// The windows of one filtered block.
+fn filtered_windows(f: &Filtered, layout: &FileLayout, ks: std::ops::Range<usize>, step: usize, opt: &WindowOptions) -> Result<Vec<WindowStats>, KernelError> {
+    let raw = |i: usize| f.maps[i].as_ref().map(as_f64);
+    let x = usize::from(layout.fx.is_some());
+    let ch = Channels {
+        fx: layout.fx.map(|_| f.forces[0].as_slice()),
+        fy: &f.forces[x],
+        fz: &f.forces[x + 1],
+        aux: raw(3),
+        raw: Some((raw(1).unwrap_or(&[]), raw(2).unwrap_or(&[]))),
+    };
+    let starts: Vec<usize> = ks.clone().map(|k| k * step - f.from).collect();
+    windows_stats_serial(&ch, &starts, opt).map_err(|err| invalid(format!("{err} (block from sample {})", f.from)))
+}
+
+/// Statistics of windows `grid.k0 .. grid.k1` of raw forces high-passed
+/// from sample `hp.origin` on (state carried across blocks, bitwise as one
+/// call of the filter), with the classical COF of the raw forces. Needs
+/// `grid.step >= opt.len` (windows that do not overlap), so each block's
+/// windows lie in its own filtered samples.
+pub fn windows_stats_mapped_highpass(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, hp: &HighPass<'_>) -> Result<Vec<WindowStats>, KernelError> {
+    check(file, layout, grid, opt)?;
+    iir::validate_sos(hp.sos)?;
+    if hp.zi.len() != hp.sos.len() {
+        return Err(invalid(format!("zi must hold {} section states, got {}", hp.sos.len(), hp.zi.len())));
+    }
+    if grid.step < opt.len {
+        return Err(invalid("the high-passed file path needs windows that do not overlap (step >= length)".into()));
+    }
+    if grid.k1 <= grid.k0 {
+        return Ok(Vec::new());
+    }
+    if hp.origin > grid.k0 * grid.step {
+        return Err(invalid(format!("filtering starts at sample {} after the first window", hp.origin)));
+    }
+    let blocks = (grid.k1 - grid.k0).div_ceil(grid.block);
+    let ks = |b: usize| (grid.k0 + b * grid.block)..(grid.k0 + (b + 1) * grid.block).min(grid.k1);
+    // Block b filters [F_b, F_{b+1}): F_0 = origin, F_b = start of its first
+    // window, the last ends with the last window.
+    let bound = |b: usize| if b == 0 { hp.origin } else if b == blocks { (grid.k1 - 1) * grid.step + opt.len } else { ks(b).start * grid.step };
+    let mut state: Vec<Vec<[f64; 2]>> = vec![vec![[0.0; 2]; hp.sos.len()]; force_offsets(layout).len()];
+    let mut out = Vec::with_capacity(grid.k1 - grid.k0);
+    let mut cur = filter_block(file, layout, hp, bound(0), bound(1), &mut state, Vec::new())?;
+    let mut spare: Vec<Vec<f64>> = Vec::new();
+    for b in 0..blocks {
+        // Filter the next block while this one's windows are computed.
+        let bufs = std::mem::take(&mut spare);
+        let (next, stats) = rayon::join(
+            || (b + 1 < blocks).then(|| filter_block(file, layout, hp, bound(b + 1), bound(b + 2), &mut state, bufs)).transpose(),
+            || filtered_windows(&cur, layout, ks(b), grid.step, opt),
+        );
+        out.extend(stats?);
+        match next? {
+            Some(n) => spare = std::mem::replace(&mut cur, n).forces,
+            None => break,
+        }
+    }
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -186,6 +317,44 @@ mod tests {
         let odd = FileLayout { fy: 129, ..layout };
         assert!(windows_stats_mapped(&file, &odd, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt).is_err());
         assert!(windows_stats_mapped(&file, &layout, &Grid { k0: 0, k1: k1 + 1, step, block: 4 }, &opt).is_err());
+        std::fs::remove_file(path).unwrap();
+    }
+
+    #[test]
+    fn highpass_path_matches_filter_then_kernel() {
+        let n = 9_001;
+        let fz: Vec<f64> = (0..n).map(|i| 20.0 + (i as f64 * 0.37).sin() + 0.001 * i as f64).collect();
+        let fy: Vec<f64> = fz.iter().enumerate().map(|(i, z)| -0.15 * z + 0.02 * (i as f64 * 3.1).sin()).collect();
+        let aux: Vec<f64> = (0..n).map(|i| 4.0 + (i as f64 * 0.01).sin()).collect();
+        let mut bytes = vec![0u8; 64];
+        for ch in [&fy, &fz, &aux] {
+            bytes.extend(ch.iter().flat_map(|v| v.to_le_bytes()));
+        }
+        let (path, file) = temp_file(&bytes);
+        let row = (n * 8) as u64;
+        let layout = FileLayout { fx: None, fy: 64, fz: 64 + row, aux: Some(64 + 2 * row), n };
+        let sos: Vec<Section> = vec![[0.9997, -0.9997, 0.0, 1.0, -0.9994, 0.0]];
+        let zi = crate::iir::sosfilt_zi(&sos).unwrap();
+        let opt = WindowOptions { len: 400, orientation: 1.0, deadband: Deadband::Force(0.1), n_bins: 8 };
+        let (step, origin) = (450, 7);
+        let k0 = 1;
+        let k1 = (n - opt.len) / step + 1;
+        // By hand: filter [origin, n) in one call, then the kernel.
+        let mut state: Vec<[f64; 2]> = [fy[origin], fz[origin]].iter().flat_map(|&x0| zi.iter().map(move |z| [z[0] * x0, z[1] * x0])).collect();
+        let src: Vec<f64> = fy[origin..].iter().chain(&fz[origin..]).copied().collect();
+        let mut filt = vec![0.0; src.len()];
+        crate::iir::sosfilt_into(&sos, &src, &mut filt, 2, &mut state).unwrap();
+        let m = n - origin;
+        let ch = Channels { fx: None, fy: &filt[..m], fz: &filt[m..], aux: Some(&aux[origin..]), raw: Some((&fy[origin..], &fz[origin..])) };
+        let starts: Vec<usize> = (k0..k1).map(|k| k * step - origin).collect();
+        let want = windows_stats(&ch, &starts, &opt).unwrap();
+        let hp = HighPass { sos: &sos, zi: &zi, origin };
+        for block in [1, 3, 100] {
+            let got = windows_stats_mapped_highpass(&file, &layout, &Grid { k0, k1, step, block }, &opt, &hp).unwrap();
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "block {block}");
+        }
+        let overlap = Grid { k0, k1, step: 100, block: 4 };
+        assert!(windows_stats_mapped_highpass(&file, &layout, &overlap, &opt, &hp).is_err());
         std::fs::remove_file(path).unwrap();
     }
 }

@@ -381,6 +381,27 @@ fn stats_dict<'py>(py: Python<'py>, stats: &[windows::WindowStats], n_bins: usiz
     Ok(out)
 }
 
+/// A new handle on the open file descriptor `fd` (which stays the caller's).
+#[cfg(unix)]
+fn dup_fd(fd: i32) -> PyResult<std::fs::File> {
+    use std::os::fd::BorrowedFd;
+    if fd < 0 {
+        return Err(PyValueError::new_err(format!("fd must be an open file descriptor, got {fd}")));
+    }
+    // SAFETY: the descriptor is only borrowed for the duplication below; an
+    // fd that is not open makes it fail with EBADF.
+    let borrowed = unsafe { BorrowedFd::borrow_raw(fd) };
+    borrowed
+        .try_clone_to_owned()
+        .map(std::fs::File::from)
+        .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("file descriptor {fd}: {e}")))
+}
+
+#[cfg(not(unix))]
+fn dup_fd(_fd: i32) -> PyResult<std::fs::File> {
+    Err(pyo3::exceptions::PyOSError::new_err("reading a file descriptor directly needs a Unix system"))
+}
+
 fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
     match kind {
         "force" => Ok(Deadband::Force(value)),
@@ -390,18 +411,25 @@ fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
 }
 
 /// Per-window statistics of windows k0..k1 (window k = samples
-/// [k * step, k * step + length)) of channels stored in the file at `path`
-/// as contiguous little-endian f64 runs starting at the byte offsets
+/// [k * step, k * step + length)) of channels stored in the open file `fd`
+/// (a file descriptor, duplicated for the call and left open) as
+/// contiguous little-endian f64 runs starting at the byte offsets
 /// `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The file's
 /// pages are read through memory maps, `block` windows per task, in
 /// parallel; same dict and same results as `windows_stats` on those
 /// samples. The file must not shrink meanwhile.
+///
+/// With `sos` (and `zi`, its steady state for a unit input, one row per
+/// section) the force channels are raw: they are high-passed from sample
+/// `origin` on (state carried, each channel started at `zi * x[origin]`)
+/// and the classical COF of the raw forces is added (`mu_classic`); the
+/// windows must not overlap (step >= length).
 #[pyfunction]
-#[pyo3(signature = (path, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, block=512))]
+#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, block=512, sos=None, zi=None, origin=0))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats_file<'py>(
     py: Python<'py>,
-    path: std::path::PathBuf,
+    fd: i32,
     offsets: (Option<u64>, u64, u64, Option<u64>),
     n: usize,
     k0: usize,
@@ -413,14 +441,39 @@ fn windows_stats_file<'py>(
     deadband: f64,
     n_bins: usize,
     block: usize,
+    sos: Option<PyReadonlyArray2<'py, f64>>,
+    zi: Option<PyReadonlyArray2<'py, f64>>,
+    origin: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let deadband = parse_deadband(deadband_kind, deadband)?;
-    let file = std::fs::File::open(&path)
-        .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("{}: {e}", path.display())))?;
+    let highpass = match (&sos, &zi) {
+        (Some(s), Some(z)) => {
+            let secs = sections(s)?;
+            let zs = z.as_array();
+            if zs.shape() != [secs.len(), 2] {
+                return Err(PyValueError::new_err(format!("zi must have shape ({}, 2), got {:?}", secs.len(), zs.shape())));
+            }
+            let zi: Vec<[f64; 2]> = zs.rows().into_iter().map(|r| [r[0], r[1]]).collect();
+            Some((secs, zi))
+        }
+        (None, None) => None,
+        _ => return Err(PyValueError::new_err("sos and zi go together")),
+    };
+    let file = dup_fd(fd)?;
     let layout = mapped::FileLayout { fx: offsets.0, fy: offsets.1, fz: offsets.2, aux: offsets.3, n };
     let grid = mapped::Grid { k0, k1, step, block };
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
-    let stats = py.detach(|| parallel::run(|| mapped::windows_stats_mapped(&file, &layout, &grid, &opt))).map_err(to_py)?;
+    let stats = py
+        .detach(|| {
+            parallel::run(|| match &highpass {
+                None => mapped::windows_stats_mapped(&file, &layout, &grid, &opt),
+                Some((sos, zi)) => {
+                    let hp = mapped::HighPass { sos, zi, origin };
+                    mapped::windows_stats_mapped_highpass(&file, &layout, &grid, &opt, &hp)
+                }
+            })
+        })
+        .map_err(to_py)?;
     stats_dict(py, &stats, n_bins)
 }
 
