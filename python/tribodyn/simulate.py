@@ -652,6 +652,45 @@ def _record(rig: _Rig, n_total: int, *, skew: int, raw: bool, chunk: int) -> dic
     return out
 
 
+def _record_scenario(
+    tg: np.ndarray,
+    mu: np.ndarray,
+    duration: float,
+    seed: int,
+    fs: float,
+    orientation: int,
+    force_dependence: float,
+    skew: int,
+    raw: bool,
+    *,
+    loss_fn: _ArrayFn | None = None,
+    current_fn: _ArrayFn | None = None,
+) -> dict[str, np.ndarray]:
+    """Records a scenario whose true COF is ``mu`` on the truth grid ``tg``.
+
+    ``seed`` ... ``raw`` are the scenario's options (``fs`` as returned by
+    :func:`_check_common`); ``loss_fn`` and ``current_fn`` go to the rig as
+    they are. The rig starts one second before t = 0 and the channels are
+    generated in 60 s chunks (the chunking does not change the data).
+    """
+
+    def mu0_fn(t: np.ndarray) -> np.ndarray:
+        return np.interp(t, tg, mu)
+
+    rig = _Rig(
+        fs=fs,
+        seed=int(seed),
+        orientation=orientation,
+        beta=force_dependence,
+        mu0_fn=mu0_fn,
+        loss_fn=loss_fn,
+        current_fn=current_fn,
+        start_index=-max(1, round(fs)),
+    )
+    n_total = round(duration * fs)
+    return _record(rig, n_total, skew=int(skew), raw=raw, chunk=max(1, round(60.0 * fs)))
+
+
 def _truth_grid(duration: float) -> np.ndarray:
     return np.arange(math.floor(duration / TRUTH_DT + 1e-9) + 1) * TRUTH_DT
 
@@ -720,20 +759,9 @@ def temperature_test(
     temp = np.interp(tg, bt, bT)
     t_up = _play(temp, _T_PLAY)
     mu = _mu_of_temperature(temp, t_up)
-
-    def mu0_fn(t: np.ndarray) -> np.ndarray:
-        return np.interp(t, tg, mu)
-
-    rig = _Rig(
-        fs=fs,
-        seed=int(seed),
-        orientation=orientation,
-        beta=force_dependence,
-        mu0_fn=mu0_fn,
-        start_index=-max(1, round(fs)),
+    channels = _record_scenario(
+        tg, mu, duration, seed, fs, orientation, force_dependence, skew, raw
     )
-    n_total = round(duration * fs)
-    channels = _record(rig, n_total, skew=int(skew), raw=raw, chunk=max(1, round(60.0 * fs)))
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2]))
     times = [0.0]
@@ -833,27 +861,25 @@ def current_density_test(
     a = math.exp(-TRUTH_DT / _J_TAU_S)
     mu, _ = signal.lfilter([1.0 - a], [1.0, -a], target, zi=[a * target[0]])
 
-    def mu0_fn(t: np.ndarray) -> np.ndarray:
-        return np.interp(t, tg, mu)
-
     def loss_fn(t: np.ndarray) -> np.ndarray:
         return np.clip((t - _CD_LOSS_START) / _CD_LOSS_RAMP, 0.0, 1.0)
 
     def current_fn(t: np.ndarray) -> np.ndarray:
         return j_fn(t) * area
 
-    rig = _Rig(
-        fs=fs,
-        seed=int(seed),
-        orientation=orientation,
-        beta=force_dependence,
-        mu0_fn=mu0_fn,
+    channels = _record_scenario(
+        tg,
+        mu,
+        duration,
+        seed,
+        fs,
+        orientation,
+        force_dependence,
+        skew,
+        raw,
         loss_fn=loss_fn,
         current_fn=current_fn,
-        start_index=-max(1, round(fs)),
     )
-    n_total = round(duration * fs)
-    channels = _record(rig, n_total, skew=int(skew), raw=raw, chunk=max(1, round(60.0 * fs)))
 
     temp = 100.0 + 35.0 * tg / duration
     truth = Truth(

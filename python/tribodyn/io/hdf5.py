@@ -21,6 +21,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ._open import closing_on_error, open_or_raise
 from .base import (
     Recording,
     RecordingError,
@@ -93,17 +94,14 @@ class Hdf5Recording(Recording):
         import h5py  # local: keeps `import tribodyn.io` light
 
         self._h5: Any = None
-        try:
-            self._h5 = h5py.File(self.path, "r")
-        except OSError as exc:
-            raise RecordingError(
-                f"{self.path}: cannot open as HDF5 (truncated or corrupt?): {exc}"
-            ) from None
-        try:
+        self._h5 = open_or_raise(
+            lambda: h5py.File(self.path, "r"),
+            self.path,
+            "cannot open as HDF5 (truncated or corrupt?)",
+            OSError,
+        )
+        with closing_on_error(self):
             self._open(h5py, channels, fs, scale, units, group, time_channel)
-        except BaseException:
-            self._close()
-            raise
 
     def _open(
         self,

@@ -24,6 +24,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
+from ._open import closing_on_error, open_or_raise
 from .base import (
     Recording,
     RecordingError,
@@ -109,15 +110,12 @@ class TdmsRecording(Recording):
         from nptdms import TdmsFile  # local: keeps `import tribodyn.io` light
 
         n_segments = check_tdms_segments(self.path)
-        try:
-            self._file = TdmsFile.open(self.path)
-        except Exception as exc:  # noqa: BLE001 - npTDMS raises assorted errors on bad metadata
-            raise RecordingError(f"{self.path}: cannot read TDMS metadata: {exc}") from None
-        try:
+        # npTDMS raises assorted errors on bad metadata, hence Exception
+        self._file = open_or_raise(
+            lambda: TdmsFile.open(self.path), self.path, "cannot read TDMS metadata", Exception
+        )
+        with closing_on_error(self):
             self._open(channels, fs, scale, units, group, n_segments)
-        except BaseException:
-            self._close()
-            raise
 
     def _open(
         self,

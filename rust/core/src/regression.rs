@@ -286,7 +286,8 @@ impl Moments {
             n: self.n,
             degenerate: true,
         };
-        if self.n < 3 || !(self.sxx > 0.0) {
+        // `sxx` must be strictly positive; NaN counts as degenerate too.
+        if self.n < 3 || self.sxx.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
             return nan;
         }
         let nf = self.n as f64;

@@ -261,13 +261,16 @@ impl PyMoments {
     }
 }
 
+/// (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
+type FitTuple = (f64, f64, f64, f64, f64, f64, u64, bool);
+
 /// One-shot least squares of y on x.
 #[pyfunction]
 fn linfit(
     py: Python<'_>,
     x: PyReadonlyArray1<'_, f64>,
     y: PyReadonlyArray1<'_, f64>,
-) -> PyResult<(f64, f64, f64, f64, f64, f64, u64, bool)> {
+) -> PyResult<FitTuple> {
     let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
     let f = if regression::uses_threads(xs.len()) {
         py.detach(|| parallel::run(|| regression::linfit(xs, ys)))
