@@ -270,7 +270,9 @@ def bench_xcorr(sizes: dict[str, int], repeats: int, min_time: float, log) -> li
                 np.dot(x, y)
             predicted = (2 * lag + 1) * ((time.perf_counter() - t0) + 50e-6)
             if predicted > REF_BUDGET_S:
-                skipped["reference.xcorr (direct)"] = f"skipped: one call predicted {predicted:.0f} s (> {REF_BUDGET_S:.0f} s)"
+                skipped["reference.xcorr (direct)"] = (
+                    f"skipped: one call predicted {predicted:.0f} s (> {REF_BUDGET_S:.0f} s)"
+                )
             # The direct O(nL) path on a 10 h record: once is enough to show it.
             if n > 10_000_000:
                 skipped['tribodyn.xcorr (method="direct")'] = "timed once"
@@ -313,7 +315,10 @@ def machine() -> dict[str, str]:
     try:
         mem = Path("/proc/meminfo").read_text().splitlines()
         kb = {ln.split(":")[0]: int(ln.split()[1]) for ln in mem if ln.split()[1].isdigit()}
-        info["RAM"] = f"{kb['MemTotal'] / 2**20:.1f} GiB total, {kb.get('MemAvailable', 0) / 2**20:.1f} GiB available at start"
+        info["RAM"] = (
+            f"{kb['MemTotal'] / 2**20:.1f} GiB total, "
+            f"{kb.get('MemAvailable', 0) / 2**20:.1f} GiB available at start"
+        )
     except (OSError, KeyError):
         pass
     try:
@@ -325,7 +330,9 @@ def machine() -> dict[str, str]:
     info["numpy / scipy"] = f"{np.__version__} / {scipy.__version__}"
     info["tribodyn"] = f"{tb.__version__}, kernels on {_core.get_threads()} threads"
     try:
-        info["rustc"] = subprocess.run(["rustc", "--version"], capture_output=True, text=True, check=True).stdout.strip()
+        info["rustc"] = subprocess.run(
+            ["rustc", "--version"], capture_output=True, text=True, check=True
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         info["rustc"] = "not found"
     if threadpoolctl is not None:
@@ -385,7 +392,9 @@ def targets(rows: list[Row]) -> list[tuple[str, str, float, bool]]:
         out.append((f"xcorr 2 000 samples +-{WINDOW_LAG}: >= 30x faster than the reference", f"{v:.0f}x", v, v >= 30))
     if find(rows, "xcorr", "10 h", "tribodyn.xcorr (auto)"):
         v = ratio(rows, "xcorr", "10 h", "scipy correlate(fft) + Eq. 1 norm.", "tribodyn.xcorr (auto)")
-        out.append((f"xcorr 3.6e7 +-{RECORD_LAG}: >= 3x faster than scipy correlate(fft) + norm.", f"{v:.1f}x", v, v >= 3))
+        out.append(
+            (f"xcorr 3.6e7 +-{RECORD_LAG}: >= 3x faster than scipy correlate(fft) + norm.", f"{v:.1f}x", v, v >= 3)
+        )
     return out
 
 
@@ -416,14 +425,23 @@ def report_info(info: dict[str, str], args, elapsed: float) -> dict[str, str]:
     info = dict(info)
     info["load average at end"] = " ".join(f"{v:.2f}" for v in os.getloadavg())
     info["peak RSS of the run"] = f"{resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20:.2f} GiB"
-    info["run"] = f"`{' '.join(['python', 'benches/bench_kernels.py'] + sys.argv[1:])}`, {args.repeats} repeats, {elapsed / 60:.1f} min"
+    info["run"] = (
+        f"`{' '.join(['python', 'benches/bench_kernels.py'] + sys.argv[1:])}`, "
+        f"{args.repeats} repeats, {elapsed / 60:.1f} min"
+    )
     return info
 
 
 def report(rows: list[Row], info: dict[str, str], args, elapsed: float, final: dict[str, str]) -> str:
     info = final
     tgt = targets(rows)
-    out = [f"## {SECTION}", "", "Written by `benches/bench_kernels.py` (see `benches/README.md`). Times are", "medians over interleaved repeats; \"median / tribodyn\" > 1 means tribodyn is faster.", ""]
+    out = [
+        f"## {SECTION}",
+        "",
+        "Written by `benches/bench_kernels.py` (see `benches/README.md`). Times are",
+        "medians over interleaved repeats; \"median / tribodyn\" > 1 means tribodyn is faster.",
+        "",
+    ]
     out += ["### Machine", "", "| | |", "| --- | --- |"]
     out += [f"| {k} | {v} |" for k, v in info.items()]
     out += ["", "### Targets", "", "| target | measured | met |", "| --- | --- | --- |"]

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import shutil
 import statistics
 import sys
@@ -30,7 +29,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from _results import machine_description, write_section  # noqa: E402
+from _results import write_section  # noqa: E402
 
 
 def make_recordings(directory: Path, n: int, hours: float) -> list:
@@ -115,8 +114,10 @@ def main() -> None:
     med = statistics.median
     ratio = med(ser) / med(dist)
     ratio_all = med(ser_all) / med(dist)
+    mb = size / 1e6  # whole data set, MB
+    rate_mb_s = size / len(paths) / 1e6 / max(t_task, 1e-9)
     body = f"""Run: `python benches/bench_many.py{' --quick' if args.quick else ''}` on {time.strftime('%Y-%m-%d')}.
-{args.recordings} simulated recordings of {args.hours:g} h each (1 kHz, fx, fy, fz; chunked HDF5, {size / 1e6:.0f} MB in all,
+{args.recordings} simulated recordings of {args.hours:g} h each (1 kHz, fx, fy, fz; chunked HDF5, {mb:.0f} MB in all,
 generated in {gen:.0f} s), 2 s windows tiling each recording, {args.repeat} repeats, medians.
 Workers: LocalCluster, 2 processes x 1 thread, one kernel thread each (TRIBODYN_THREADS=1).
 Tables checked identical to the serial run.
@@ -134,7 +135,7 @@ Per task (open, read and analyse one {args.hours:g} h recording): {t_task:.2f} s
 same code at it: `tribodyn analyze DIR --scheduler tcp://HOST:8786 --out OUT`, or
 `analyze_many(paths, client=Client("tcp://HOST:8786"))`), each worker needs the files at the same path
 (shared storage); R recordings on W single-thread workers take about ceil(R / W) x {t_task:.2f} s plus a few ms
-of scheduling per task, so the speed-up stays near W while the storage delivers W x {size / len(paths) / 1e6 / max(t_task, 1e-9):.0f} MB/s;
+of scheduling per task, so the speed-up stays near W while the storage delivers W x {rate_mb_s:.0f} MB/s;
 a very long recording is cut into ranges (`--split S`) so that it, too, spreads over the workers.
 """
     print(body)

@@ -81,7 +81,9 @@ def test_cetr_classical_cof_matches_instrument(tmp_path, name):
 @pytest.mark.parametrize("name", ["pod_PPS_60N_1.tsv", "pod_PPS_100N_1.tsv"])
 def test_pin_on_disc_classical_cof_matches_instrument(tmp_path, name):
     out = tmp_path / "out"
-    assert run("analyze", DATA / name, "--out", out, "--window", "60", "--hop", "60", "--highpass", "0.01", "--quiet") == 0
+    assert (
+        run("analyze", DATA / name, "--out", out, "--window", "60", "--hop", "60", "--highpass", "0.01", "--quiet") == 0
+    )
     t = read_csv(out / "windows.csv")
     classic, instrument = floats(t["mu_classic"]), floats(t["mu_instrument"])
     assert len(classic) == 30
@@ -93,7 +95,10 @@ def test_pin_on_disc_classical_cof_matches_instrument(tmp_path, name):
     "name, options",
     [
         ("lvm_read_long_single_header_multi_ch.lvm", ["--map", "fz=F,fy=m_1", "--window", "1", "--hop", "1"]),
-        ("lvm_read_short.lvm", ["--map", "fz=Excitation (Trigger),fy=Response (Trigger)", "--window", "0.0003", "--hop", "0.0003"]),
+        (
+            "lvm_read_short.lvm",
+            ["--map", "fz=Excitation (Trigger),fy=Response (Trigger)", "--window", "0.0003", "--hop", "0.0003"],
+        ),
         ("nptdms_raw1_daqmx.tdms", ["--map", "fz=First  Channel,fy=Second Chan", "--window", "0.01", "--hop", "0.01"]),
         ("pyfrf_measurements_1.npy", ["--map", "fz=ch1,fy=ch2", "--fs", "25600", "--window", "0.1", "--hop", "0.1"]),
     ],
@@ -176,5 +181,7 @@ def test_console_script_is_installed():
     assert exe is not None
     r = subprocess.run([exe, "--version"], capture_output=True, text=True, check=False)
     assert r.returncode == 0 and r.stdout.startswith("tribodyn ")
-    r = subprocess.run([sys.executable, "-m", "tribodyn.cli", "analyze", "nope.tdms", "--out", "x"], capture_output=True, text=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "tribodyn.cli", "analyze", "nope.tdms", "--out", "x"], capture_output=True, text=True
+    )
     assert r.returncode == 2 and "Traceback" not in r.stderr

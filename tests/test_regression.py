@@ -86,7 +86,10 @@ def exact_fit(xs, ys) -> dict[str, Decimal]:
     var = (syy - sxy * sxy / sxx) / (n - 2)
     with localcontext() as ctx:
         ctx.prec = 40
-        d = lambda f: Decimal(f.numerator) / Decimal(f.denominator)
+
+        def d(f):
+            return Decimal(f.numerator) / Decimal(f.denominator)
+
         return {
             "slope": d(slope),
             "intercept": d(my - slope * mx),

@@ -161,9 +161,9 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
         open_opts["fs"] = float(get("fs"))
     opts: Dict[str, Any] = {}
     for key, name in (("window", "window"), ("hop", "hop"), ("highpass", "highpass"), ("area", "area_mm2"),
-                      ("shunt", "shunt_ohm"), ("rpm", "rpm"), ("lamellas", "n_lamellas"), ("orientation", "orientation"),
-                      ("deadband", "deadband"), ("bins", "n_bins"), ("gate", "gate"), ("max_lag", "max_lag"),
-                      ("chunk", "chunk"), ("threads", "threads")):
+                      ("shunt", "shunt_ohm"), ("rpm", "rpm"), ("lamellas", "n_lamellas"),
+                      ("orientation", "orientation"), ("deadband", "deadband"), ("bins", "n_bins"), ("gate", "gate"),
+                      ("max_lag", "max_lag"), ("chunk", "chunk"), ("threads", "threads")):
         v = get(key)
         if v is not None:
             opts[name] = v
@@ -183,7 +183,10 @@ def _print_demo(summary: Dict[str, Any], out: str) -> None:
         s = summary[key]
         mu = s["mu_r"]
         rng = s["operating_range"] or {}
-        line = f"{label}: {s['gated']}/{s['windows']} windows pass the gate; COF {mu['p05']:.3f}..{mu['p95']:.3f} (median {mu['median']:.3f})"
+        line = (
+            f"{label}: {s['gated']}/{s['windows']} windows pass the gate; "
+            f"COF {mu['p05']:.3f}..{mu['p95']:.3f} (median {mu['median']:.3f})"
+        )
         if rng.get("optimum"):
             lo, hi = rng["optimum"]
             line += f"; optimum {lo:g}..{hi:g} {rng['unit']} (COF {rng['mu_min']:.3f})"
@@ -257,7 +260,9 @@ def _run(ns: argparse.Namespace) -> int:
         from . import simulate
         from .io.writers import save_recording
 
-        sim = simulate.scenario(ns.scenario, seed=ns.seed, raw=ns.raw, skew=ns.skew, force_dependence=ns.force_dependence)
+        sim = simulate.scenario(
+            ns.scenario, seed=ns.seed, raw=ns.raw, skew=ns.skew, force_dependence=ns.force_dependence
+        )
         save_recording(ns.out, sim.channels, sim.fs, units={k: ("A" if k == "i" else "N") for k in sim.channels})
         if not ns.quiet:
             print(f"wrote {ns.out}: {sim.duration:g} s at {sim.fs:g} Hz, channels {', '.join(sim.channels)}")
@@ -280,7 +285,9 @@ def _print_info(info: Dict[str, Any]) -> None:
 
 
 def _user_errors() -> tuple:
-    errs: List[type] = [UserError, ValueError, TypeError, FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError]
+    errs: List[type] = [
+        UserError, ValueError, TypeError, FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError
+    ]
     try:
         from .io import RecordingError
 

@@ -49,4 +49,6 @@ def parse_deadband(spec: DeadbandSpec) -> Deadband:
             return parse_deadband(float(spec.strip().removesuffix("N").strip()))
         except ValueError:
             pass
-    raise ValueError(f"deadband must be a force in N (e.g. 0.35) or a multiple of sigma (e.g. '0.7sigma'), got {spec!r}")
+    raise ValueError(
+        f"deadband must be a force in N (e.g. 0.35) or a multiple of sigma (e.g. '0.7sigma'), got {spec!r}"
+    )

@@ -156,7 +156,9 @@ class HighPass:
         if one_d:
             if self.channels != 1:
                 _precheck(x, check_finite)
-                raise ValueError(f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter, got 1-D")
+                raise ValueError(
+                    f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter, got 1-D"
+                )
             x = x[np.newaxis, :]
         elif x.shape[0] != self.channels:
             _precheck(x, check_finite)

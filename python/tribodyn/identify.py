@@ -56,7 +56,10 @@ def cross_spectra(
     out: Dict[str, Dict[str, float]] = {}
     for name, (a, b) in pairs.items():
         f, p = _signal.csd(a, b, fs=fs, nperseg=nper)
-        pick = {key: float(np.abs(p[int(np.argmin(np.abs(f - fq)))])) if fq <= fs / 2 else float("nan") for key, fq in (("f0", f0), ("f_l", fl))}
+        pick = {
+            key: float(np.abs(p[int(np.argmin(np.abs(f - fq)))])) if fq <= fs / 2 else float("nan")
+            for key, fq in (("f0", f0), ("f_l", fl))
+        }
         out[name] = pick
     return out
 

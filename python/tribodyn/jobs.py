@@ -94,7 +94,13 @@ def _write_set(out: OutputSet, prefix: str, res: Results, extra: Optional[Dict[s
     return names
 
 
-def _figures(res: Results, *, opr_t: Optional[OperatingRange], opr_j: Optional[OperatingRange], example: Optional[Dict[str, Any]]):
+def _figures(
+    res: Results,
+    *,
+    opr_t: Optional[OperatingRange],
+    opr_j: Optional[OperatingRange],
+    example: Optional[Dict[str, Any]],
+):
     from .report import build_report_figures
 
     return build_report_figures(res, opr_temperature=opr_t, opr_current=opr_j, example=example)
@@ -145,9 +151,11 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False) -> Dict[str
         summary["files"] = files + ["summary.json", "report.html"]
         write_json(summary, out.path("summary.json"))
         write_report(out.path("report.html"), title="tribodyn demo: the paper's rig, simulated",
-                     summary=_flat_summary(summary), params={"temperature test": res_t.params, "current-density test": res_j.params},
-                     figures=list(figs_t) + list(figs_j), quality={"temperature test": res_t.summary()["gate_failures"],
-                                                                  "current-density test": res_j.summary()["gate_failures"]})
+                     summary=_flat_summary(summary),
+                     params={"temperature test": res_t.params, "current-density test": res_j.params},
+                     figures=list(figs_t) + list(figs_j),
+                     quality={"temperature test": res_t.summary()["gate_failures"],
+                              "current-density test": res_j.summary()["gate_failures"]})
     return summary
 
 
@@ -235,7 +243,8 @@ def run_analysis(
             summary["recordings"][p.name] = rec_sum
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
-                write_report(out.path(f"{prefix}report.html"), title=f"tribodyn: {p.name}", summary=_flat_summary({p.name: rec_sum}),
+                write_report(out.path(f"{prefix}report.html"), title=f"tribodyn: {p.name}",
+                             summary=_flat_summary({p.name: rec_sum}),
                              params=res.params, figures=figs, quality=rec_sum["gate_failures"])
             all_figs += [(f"{p.name}: {c}", f) for c, f in figs]
         if not single:
@@ -262,7 +271,8 @@ def _combine(results: Sequence[Results], names: Sequence[str]) -> Tuple[Results,
     if any(r.bin_counts.shape[1] != nb for r in results):
         raise ValueError("recordings analysed with different n_bins cannot be combined")
     merged = Results(table=table, bin_counts=np.concatenate([r.bin_counts for r in results]),
-                     bin_cof=np.concatenate([r.bin_cof for r in results]), fz_min=np.concatenate([r.fz_min for r in results]),
+                     bin_cof=np.concatenate([r.bin_cof for r in results]),
+                     fz_min=np.concatenate([r.fz_min for r in results]),
                      fz_max=np.concatenate([r.fz_max for r in results]), orientation=results[0].orientation,
                      params={"recordings": list(names)})
     return merged, rec.astype(str)

@@ -59,7 +59,9 @@ class OutputSet:
         p.parent.mkdir(parents=True, exist_ok=True)
         return p
 
-    def __exit__(self, et: Optional[Type[BaseException]], ev: Optional[BaseException], tb: Optional[TracebackType]) -> None:
+    def __exit__(
+        self, et: Optional[Type[BaseException]], ev: Optional[BaseException], tb: Optional[TracebackType]
+    ) -> None:
         stage, self._stage = self._stage, None
         if stage is None:
             return

@@ -96,7 +96,10 @@ class HighPass:
         x = np.atleast_2d(as_channels(chunk, "chunk", check_finite=check_finite))
         if x.shape[0] != self.channels:  # same refusals as the fast path
             got = "1-D" if np.ndim(chunk) == 1 else f"{x.shape[0]} channels"
-            raise ValueError(f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter (channels), got {got}")
+            raise ValueError(
+                f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter (channels), "
+                f"got {got}"
+            )
         if x.shape[1] == 0:
             return np.asarray(chunk, dtype=float).copy()
         if not self._started:
@@ -209,14 +212,18 @@ class LinFitAccumulator:
         bb = sxyb / sxxb if sxxb > 0 else 0.0
         # SSE of the union = SSE_a + SSE_b + the non-negative "between" term.
         if sxx > 0:
-            between = (sxxa * sxxb * (ba - bb) ** 2 + sxxa * w * (ba * dx - dy) ** 2 + sxxb * w * (bb * dx - dy) ** 2) / sxx
+            between = (
+                sxxa * sxxb * (ba - bb) ** 2 + sxxa * w * (ba * dx - dy) ** 2 + sxxb * w * (bb * dx - dy) ** 2
+            ) / sxx
         else:
             between = dy * dy * w
         mx, ex = _two_sum(mxa, dx * (nb / n))
         mx, mx_lo = _two_sum(mx, ex + mxa_lo)
         my, ey = _two_sum(mya, dy * (nb / n))
         my, my_lo = _two_sum(my, ey + mya_lo)
-        return (n, mx, my, sxx, syya + syyb + dy * dy * w, sxya + sxyb + dx * dy * w, ssea + sseb + between, mx_lo, my_lo)
+        return (
+            n, mx, my, sxx, syya + syyb + dy * dy * w, sxya + sxyb + dx * dy * w, ssea + sseb + between, mx_lo, my_lo
+        )
 
     def update(self, x: Any, y: Any, *, check_finite: bool = True) -> "LinFitAccumulator":
         xa, ya = _pair(x, y, check_finite, 0)

@@ -36,7 +36,12 @@ class BinTable:
     @classmethod
     def from_range(cls, lo: float, hi: float, counts: np.ndarray, cof: np.ndarray) -> "BinTable":
         edges = np.linspace(lo, hi, len(counts) + 1)
-        return cls(edges=edges, centres=0.5 * (edges[:-1] + edges[1:]), counts=np.asarray(counts, dtype=np.int64), cof=np.asarray(cof, dtype=float))
+        return cls(
+            edges=edges,
+            centres=0.5 * (edges[:-1] + edges[1:]),
+            counts=np.asarray(counts, dtype=np.int64),
+            cof=np.asarray(cof, dtype=float),
+        )
 
 
 @dataclass(frozen=True)

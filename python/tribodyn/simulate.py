@@ -475,7 +475,10 @@ class _Rig:
         self.g_x = _X_STD / g
         self.sos_r, g = _band_sos(min(150.0, 0.25 * self.fs), 350.0, self.fs)
         self.g_r = _RING_STD / g
-        z = lambda sos: np.zeros((sos.shape[0], 2))
+
+        def z(sos):
+            return np.zeros((sos.shape[0], 2))
+
         self.z_bb, self.z_x = z(self.sos_bb), z(self.sos_x)
         self.z_r = [z(self.sos_r) for _ in range(3)]
 

@@ -334,7 +334,10 @@ class DelimitedRecording(Recording):
         self._d0 = d0
         # header rows above the data
         above = [(i, ln) for i, ln in enumerate(head[:d0]) if ln.strip()]
-        same = lambda ln: len(split_fields(ln, delim)) == nf
+
+        def same(ln):
+            return len(split_fields(ln, delim)) == nf
+
         name_f: Optional[List[str]] = None
         unit_f: Optional[List[str]] = None
         name_idx = unit_idx = None
