@@ -481,9 +481,14 @@ def _stream_file(rec: Any, origin: int, fs: float, length: int, step: int, db: A
     if k1 <= k0:
         return None
     # Windows per task: at most SPAN_CHUNK samples (or the chunk asked
-    # for), and at least four tasks per thread where there are enough.
+    # for), in equal blocks, a multiple of the threads in number, so that
+    # the threads finish together and the memory mapped at once (a block
+    # per thread) hardly depends on the recording's length.
+    count = k1 - k0
     cap = max(1, (chunk_n or SPAN_CHUNK) // step)
-    block = max(1, min(cap, -(-(k1 - k0) // (4 * threads))))
+    blocks = -(-count // cap)
+    blocks = -(-blocks // threads) * threads
+    block = max(1, -(-count // blocks))
     offsets = (layout.get("fx"), layout["fy"], layout["fz"], layout[aux] if aux else None)
     sos = zi = None
     if hp_fc is not None:
