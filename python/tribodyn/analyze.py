@@ -427,8 +427,11 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
         total = getattr(rec, "n_samples", None)
         spans = _spans(rec, origin, length, step, threads) if hp_fc is None else None
         if spans:
-            return _stream_spans(rec, spans, chunk_n or SPAN_CHUNK, fs, length, step, db, nb, max_lag, progress,
-                                 shunt)
+            # Large chunks where they are views of the file (no copy); the
+            # default where the reader copies, so that copies stay small.
+            views = getattr(rec, "_can_view", lambda: False)()
+            return _stream_spans(rec, spans, chunk_n or (SPAN_CHUNK if views else DEFAULT_CHUNK), fs, length, step,
+                                 db, nb, max_lag, progress, shunt)
         # Views where the format has them: nothing here writes into a chunk.
         chunks: Iterable[Any] = rec.chunks(size, start=origin, copy=False)
     elif isinstance(source, Mapping):

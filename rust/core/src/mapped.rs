@@ -64,7 +64,9 @@ fn invalid(msg: String) -> KernelError {
     KernelError::Invalid(msg)
 }
 
-fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions) -> Result<(), KernelError> {
+/// Checks a layout and a grid against the file (done by every entry point;
+/// public so that callers can check before they allocate for the results).
+pub fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions) -> Result<(), KernelError> {
     if cfg!(target_endian = "big") {
         return Err(invalid("mapped files are read as little-endian f64: not on this machine".into()));
     }
@@ -139,14 +141,33 @@ fn block(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, b: 
 /// in order, computed in parallel on the current pool, a block of
 /// `grid.block` windows per task.
 pub fn windows_stats_mapped(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions) -> Result<Vec<WindowStats>, KernelError> {
+    let parts = std::sync::Mutex::new(Vec::new());
+    windows_stats_mapped_each(file, layout, grid, opt, &|first, stats| {
+        parts.lock().unwrap_or_else(|e| e.into_inner()).push((first, stats));
+    })?;
+    let mut parts = parts.into_inner().unwrap_or_else(|e| e.into_inner());
+    parts.sort_by_key(|p| p.0);
+    Ok(parts.into_iter().flat_map(|p| p.1).collect())
+}
+
+/// [`windows_stats_mapped`] handing each block's windows to `sink` as soon
+/// as they are computed, on the thread that computed them:
+/// `sink(first, stats)` with `first` the index (from 0 at `grid.k0`) of
+/// `stats[0]`. Blocks arrive in any order; the caller places them. Nothing
+/// is kept here, so the memory of a block's results is reused by the next.
+pub fn windows_stats_mapped_each<F>(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, sink: &F) -> Result<(), KernelError>
+where
+    F: Fn(usize, Vec<WindowStats>) + Sync,
+{
     check(file, layout, grid, opt)?;
     if grid.k1 <= grid.k0 {
-        return Ok(Vec::new());
+        return Ok(());
     }
     let blocks = (grid.k1 - grid.k0).div_ceil(grid.block);
-    let parts: Vec<Vec<WindowStats>> =
-        (0..blocks).into_par_iter().map(|b| block(file, layout, grid, opt, b)).collect::<Result<_, _>>()?;
-    Ok(parts.into_iter().flatten().collect())
+    (0..blocks).into_par_iter().try_for_each(|b| {
+        sink(b * grid.block, block(file, layout, grid, opt, b)?);
+        Ok(())
+    })
 }
 
 /// How raw forces are high-passed before the windows (see
@@ -234,6 +255,26 @@ fn filtered_windows(f: &Filtered, layout: &FileLayout, ks: std::ops::Range<usize
 /// `grid.step >= opt.len` (windows that do not overlap), so each block's
 /// windows lie in its own filtered samples.
 pub fn windows_stats_mapped_highpass(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, hp: &HighPass<'_>) -> Result<Vec<WindowStats>, KernelError> {
+    let out = std::sync::Mutex::new(Vec::with_capacity(grid.k1.saturating_sub(grid.k0)));
+    windows_stats_mapped_highpass_each(file, layout, grid, opt, hp, &|_, stats| {
+        out.lock().unwrap_or_else(|e| e.into_inner()).extend(stats);
+    })?;
+    Ok(out.into_inner().unwrap_or_else(|e| e.into_inner()))
+}
+
+/// [`windows_stats_mapped_highpass`] handing each block's windows to `sink`
+/// (as [`windows_stats_mapped_each`]; here the blocks arrive in order).
+pub fn windows_stats_mapped_highpass_each<F>(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    hp: &HighPass<'_>,
+    sink: &F,
+) -> Result<(), KernelError>
+where
+    F: Fn(usize, Vec<WindowStats>) + Sync,
+{
     check(file, layout, grid, opt)?;
     iir::validate_sos(hp.sos)?;
     if hp.zi.len() != hp.sos.len() {
@@ -243,7 +284,7 @@ pub fn windows_stats_mapped_highpass(file: &File, layout: &FileLayout, grid: &Gr
         return Err(invalid("the high-passed file path needs windows that do not overlap (step >= length)".into()));
     }
     if grid.k1 <= grid.k0 {
-        return Ok(Vec::new());
+        return Ok(());
     }
     if hp.origin > grid.k0 * grid.step {
         return Err(invalid(format!("filtering starts at sample {} after the first window", hp.origin)));
@@ -254,7 +295,6 @@ pub fn windows_stats_mapped_highpass(file: &File, layout: &FileLayout, grid: &Gr
     // window, the last ends with the last window.
     let bound = |b: usize| if b == 0 { hp.origin } else if b == blocks { (grid.k1 - 1) * grid.step + opt.len } else { ks(b).start * grid.step };
     let mut state: Vec<Vec<[f64; 2]>> = vec![vec![[0.0; 2]; hp.sos.len()]; force_offsets(layout).len()];
-    let mut out = Vec::with_capacity(grid.k1 - grid.k0);
     let mut cur = filter_block(file, layout, hp, bound(0), bound(1), &mut state, Vec::new())?;
     let mut spare: Vec<Vec<f64>> = Vec::new();
     for b in 0..blocks {
@@ -264,13 +304,13 @@ pub fn windows_stats_mapped_highpass(file: &File, layout: &FileLayout, grid: &Gr
             || (b + 1 < blocks).then(|| filter_block(file, layout, hp, bound(b + 1), bound(b + 2), &mut state, bufs)).transpose(),
             || filtered_windows(&cur, layout, ks(b), grid.step, opt),
         );
-        out.extend(stats?);
+        sink(b * grid.block, stats?);
         match next? {
             Some(n) => spare = std::mem::replace(&mut cur, n).forces,
             None => break,
         }
     }
-    Ok(out)
+    Ok(())
 }
 
 #[cfg(test)]

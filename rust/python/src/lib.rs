@@ -333,55 +333,85 @@ fn windows_stats<'py>(
         py.detach(|| parallel::run(|| windows::windows_stats(&ch, &starts, &opt)))
     }
     .map_err(to_py)?;
-    stats_dict(py, &stats, n_bins)
+    let mut cols = Columns::new(stats.len(), n_bins);
+    cols.set(0, &stats);
+    drop(stats);
+    cols.into_dict(py)
 }
 
-/// The per-window statistics as a dict of columns (one row per window).
-fn stats_dict<'py>(py: Python<'py>, stats: &[windows::WindowStats], n_bins: usize) -> PyResult<Bound<'py, PyDict>> {
-    let col = |f: &dyn Fn(&windows::WindowStats) -> f64| -> Vec<f64> { stats.iter().map(f).collect() };
-    let out = PyDict::new(py);
-    let fits: Vec<LinFit> = stats.iter().map(|w| w.moments.fit()).collect();
-    let fcol = |f: &dyn Fn(&LinFit) -> f64| -> Vec<f64> { fits.iter().map(f).collect() };
-    let scalars: [(&str, Vec<f64>); 22] = [
-        ("slope", fcol(&|f| f.slope)),
-        ("intercept", fcol(&|f| f.intercept)),
-        ("r", fcol(&|f| f.r)),
-        ("slope_stderr", fcol(&|f| f.slope_stderr)),
-        ("intercept_stderr", fcol(&|f| f.intercept_stderr)),
-        ("resid_std", fcol(&|f| f.resid_std)),
-        ("sse", col(&|w| w.moments.sse)),
+/// Names of the float columns of the per-window dict, in [`Columns::set`]'s order.
+const F_COLS: [&str; 22] = [
+    "slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std", "sse",
+    "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz", "deadband", "mu_a", "mu_b",
+    "fz_min", "fz_max", "aux_mean", "mu_classic",
+];
+/// Names of the count columns (int64: a window holds far fewer than 2^63 samples).
+const I_COLS: [&str; 3] = ["n", "n_a", "n_b"];
 
-        ("mean_z", col(&|w| w.moments.mean_x)),
-        ("mean_y", col(&|w| w.moments.mean_y)),
-        ("szz", col(&|w| w.moments.sxx)),
-        ("syy", col(&|w| w.moments.syy)),
-        ("syz", col(&|w| w.moments.sxy)),
-        ("c_xy", col(&|w| w.c_xy)),
-        ("c_xz", col(&|w| w.c_xz)),
-        ("c_yz", col(&|w| w.c_yz)),
-        ("deadband", col(&|w| w.deadband)),
-        ("mu_a", col(&|w| w.mu_a)),
-        ("mu_b", col(&|w| w.mu_b)),
+/// The per-window statistics as columns (one row per window), each
+/// allocated once at its final size: rows are written as the kernel
+/// delivers its windows, so their per-window vectors are freed (and their
+/// memory reused) block after block. Fresh memory is costly on its first
+/// touch, so the peak of it matters.
+struct Columns {
+    rows: usize,
+    n_bins: usize,
+    f: Vec<Vec<f64>>,
+    i: Vec<Vec<i64>>,
+    counts: Vec<i64>,
+    cof: Vec<f64>,
+}
 
-        ("fz_min", col(&|w| w.fz_min)),
-        ("fz_max", col(&|w| w.fz_max)),
-        ("aux_mean", col(&|w| w.aux_mean)),
-        ("mu_classic", col(&|w| w.mu_classic)),
-    ];
-    for (name, v) in scalars {
-        out.set_item(name, PyArray1::from_vec(py, v))?;
+impl Columns {
+    fn new(rows: usize, n_bins: usize) -> Self {
+        Columns {
+            rows,
+            n_bins,
+            f: (0..F_COLS.len()).map(|_| vec![0.0; rows]).collect(),
+            i: (0..I_COLS.len()).map(|_| vec![0; rows]).collect(),
+            counts: vec![0; rows * n_bins],
+            cof: vec![0.0; rows * n_bins],
+        }
     }
-    // Counts as int64 (a window holds far fewer than 2^63 samples).
-    let icol = |f: &dyn Fn(&windows::WindowStats) -> u64| -> Vec<i64> { stats.iter().map(|w| f(w) as i64).collect() };
-    for (name, v) in [("n", icol(&|w| w.moments.n)), ("n_a", icol(&|w| w.n_a)), ("n_b", icol(&|w| w.n_b))] {
-        out.set_item(name, PyArray1::from_vec(py, v))?;
+
+    /// Rows `first..` from consecutive windows.
+    fn set(&mut self, first: usize, stats: &[windows::WindowStats]) {
+        for (k, w) in stats.iter().enumerate() {
+            let row = first + k;
+            let fit: LinFit = w.moments.fit();
+            let m = &w.moments;
+            let vals = [
+                fit.slope, fit.intercept, fit.r, fit.slope_stderr, fit.intercept_stderr, fit.resid_std, m.sse,
+                m.mean_x, m.mean_y, m.sxx, m.syy, m.sxy, w.c_xy, w.c_xz, w.c_yz, w.deadband, w.mu_a, w.mu_b,
+                w.fz_min, w.fz_max, w.aux_mean, w.mu_classic,
+            ];
+            for (col, v) in self.f.iter_mut().zip(vals) {
+                col[row] = v;
+            }
+            for (col, v) in self.i.iter_mut().zip([m.n, w.n_a, w.n_b]) {
+                col[row] = v as i64;
+            }
+            let b = row * self.n_bins;
+            for (dst, &c) in self.counts[b..b + self.n_bins].iter_mut().zip(&w.bin_count) {
+                *dst = c as i64;
+            }
+            self.cof[b..b + self.n_bins].copy_from_slice(&w.bin_cof);
+        }
     }
-    let rows = stats.len();
-    let counts: Vec<i64> = stats.iter().flat_map(|w| w.bin_count.iter().map(|&c| c as i64)).collect();
-    let cof: Vec<f64> = stats.iter().flat_map(|w| w.bin_cof.iter().copied()).collect();
-    out.set_item("bin_count", PyArray1::from_vec(py, counts).reshape([rows, n_bins])?)?;
-    out.set_item("bin_cof", PyArray1::from_vec(py, cof).reshape([rows, n_bins])?)?;
-    Ok(out)
+
+    fn into_dict(self, py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+        let out = PyDict::new(py);
+        for (name, v) in F_COLS.iter().zip(self.f) {
+            out.set_item(*name, PyArray1::from_vec(py, v))?;
+        }
+        for (name, v) in I_COLS.iter().zip(self.i) {
+            out.set_item(*name, PyArray1::from_vec(py, v))?;
+        }
+        let shape = [self.rows, self.n_bins];
+        out.set_item("bin_count", PyArray1::from_vec(py, self.counts).reshape(shape)?)?;
+        out.set_item("bin_cof", PyArray1::from_vec(py, self.cof).reshape(shape)?)?;
+        Ok(out)
+    }
 }
 
 /// A new handle on the open file descriptor `fd` (which stays the caller's).
@@ -466,18 +496,27 @@ fn windows_stats_file<'py>(
     let layout = mapped::FileLayout { fx: offsets.0, fy: offsets.1, fz: offsets.2, aux: offsets.3, n };
     let grid = mapped::Grid { k0, k1, step, block };
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
-    let stats = py
-        .detach(|| {
-            parallel::run(|| match &highpass {
-                None => mapped::windows_stats_mapped(&file, &layout, &grid, &opt),
-                Some((sos, zi)) => {
-                    let hp = mapped::HighPass { sos, zi, origin };
-                    mapped::windows_stats_mapped_highpass(&file, &layout, &grid, &opt, &hp)
-                }
-            })
+    // Checked before the columns are allocated (k1 - k0 rows of them).
+    mapped::check(&file, &layout, &grid, &opt).map_err(to_py)?;
+    if n_bins == 0 || n_bins > windows::MAX_BINS {
+        return Err(PyValueError::new_err(format!("n_bins must be in [1, {}], got {n_bins}", windows::MAX_BINS)));
+    }
+    let cols = std::sync::Mutex::new(Columns::new(k1.saturating_sub(k0), n_bins));
+    // Each block's rows go into the columns as soon as it is done.
+    let sink = |first: usize, stats: Vec<windows::WindowStats>| {
+        cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);
+    };
+    py.detach(|| {
+        parallel::run(|| match &highpass {
+            None => mapped::windows_stats_mapped_each(&file, &layout, &grid, &opt, &sink),
+            Some((sos, zi)) => {
+                let hp = mapped::HighPass { sos, zi, origin };
+                mapped::windows_stats_mapped_highpass_each(&file, &layout, &grid, &opt, &hp, &sink)
+            }
         })
-        .map_err(to_py)?;
-    stats_dict(py, &stats, n_bins)
+    })
+    .map_err(to_py)?;
+    cols.into_inner().unwrap_or_else(|e| e.into_inner()).into_dict(py)
 }
 
 /// Sets the number of threads kernels use (0 = all cores).
