@@ -267,7 +267,7 @@ fn check_finite(name: &str, x: &[f64], sum: f64) -> Result<(), KernelError> {
 /// when `X`, fx: [dz, dy, zz, yy, yz, dx, xx, xy, xz], each a sum of
 /// deviations or of their products.
 #[inline(always)]
-fn centred<const X: bool>(fx: &[f64], fy: &[f64], fz: &[f64], mx: f64, my: f64, mz: f64) -> [f64; 9] {
+fn centred<const X: bool>(fx: &[f64], fy: &[f64], fz: &[f64], mx: f64, my: f64, mz: f64, pf: &Prefetch<'_>) -> [f64; 9] {
     let n = fz.len();
     let full = n - n % LANES;
     // One named array per sum (not a 2-D array) so that each stays in a
@@ -275,38 +275,48 @@ fn centred<const X: bool>(fx: &[f64], fy: &[f64], fz: &[f64], mx: f64, my: f64, 
     let z0 = [0.0f64; LANES];
     let (mut a0, mut a1, mut a2, mut a3, mut a4) = (z0, z0, z0, z0, z0);
     let (mut a5, mut a6, mut a7, mut a8) = (z0, z0, z0, z0);
-    let (zs, ys) = (fz[..full].chunks_exact(LANES), fy[..full].chunks_exact(LANES));
-    if X {
-        for ((z, y), x) in zs.zip(ys).zip(fx[..full].chunks_exact(LANES)) {
-            let (z, y, x) = (lanes(z), lanes(y), lanes(x));
-            for k in 0..LANES {
-                let dz = z[k] - mz;
-                let dy = y[k] - my;
-                let dx = x[k] - mx;
-                a0[k] += dz;
-                a1[k] += dy;
-                a2[k] += dz * dz;
-                a3[k] += dy * dy;
-                a4[k] += dy * dz;
-                a5[k] += dx;
-                a6[k] += dx * dx;
-                a7[k] += dx * dy;
-                a8[k] += dx * dz;
+    // BLOCK samples at a time, each step also fetching the next window's
+    // lines for the first half of its samples (pass 3 fetches the rest):
+    // spread over both passes, the fetches keep pace with memory. The lanes
+    // and the order of every sum are those of one loop over the window.
+    let mut c0 = 0;
+    while c0 < full {
+        let c1 = (c0 + BLOCK).min(full);
+        pf.range(c0 / 2, c1 / 2);
+        let (zs, ys) = (fz[c0..c1].chunks_exact(LANES), fy[c0..c1].chunks_exact(LANES));
+        if X {
+            for ((z, y), x) in zs.zip(ys).zip(fx[c0..c1].chunks_exact(LANES)) {
+                let (z, y, x) = (lanes(z), lanes(y), lanes(x));
+                for k in 0..LANES {
+                    let dz = z[k] - mz;
+                    let dy = y[k] - my;
+                    let dx = x[k] - mx;
+                    a0[k] += dz;
+                    a1[k] += dy;
+                    a2[k] += dz * dz;
+                    a3[k] += dy * dy;
+                    a4[k] += dy * dz;
+                    a5[k] += dx;
+                    a6[k] += dx * dx;
+                    a7[k] += dx * dy;
+                    a8[k] += dx * dz;
+                }
+            }
+        } else {
+            for (z, y) in zs.zip(ys) {
+                let (z, y) = (lanes(z), lanes(y));
+                for k in 0..LANES {
+                    let dz = z[k] - mz;
+                    let dy = y[k] - my;
+                    a0[k] += dz;
+                    a1[k] += dy;
+                    a2[k] += dz * dz;
+                    a3[k] += dy * dy;
+                    a4[k] += dy * dz;
+                }
             }
         }
-    } else {
-        for (z, y) in zs.zip(ys) {
-            let (z, y) = (lanes(z), lanes(y));
-            for k in 0..LANES {
-                let dz = z[k] - mz;
-                let dy = y[k] - my;
-                a0[k] += dz;
-                a1[k] += dy;
-                a2[k] += dz * dz;
-                a3[k] += dy * dy;
-                a4[k] += dy * dz;
-            }
-        }
+        c0 = c1;
     }
     let mut t = [fold(&a0), fold(&a1), fold(&a2), fold(&a3), fold(&a4), fold(&a5), fold(&a6), fold(&a7), fold(&a8)];
     for i in full..n {
@@ -429,7 +439,7 @@ fn pass3(fy: &[f64], fz: &[f64], my: f64, mz: f64, b: f64, s: f64, d: f64, bins:
         let m = BLOCK.min(n - start);
         // The next window's lines, spread over this pass (the longest), so
         // that memory works while this one computes.
-        pf.range(start, start + m);
+        pf.range(n / 2 + start / 2, n / 2 + (start + m) / 2);
         let (yb, zb) = (&fy[start..start + m], &fz[start..start + m]);
         // Element-wise (vectorised): residual, Eq. 5 per sample, and the
         // histogram slot: copy (i mod COPIES), sign of fz, bin of the
@@ -621,8 +631,8 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
     // Pass 2: centred second moments, corrected by the deviation sums
     // (two-pass with correction, Chan et al. 1983).
     let t = match ch.fx {
-        Some(x) => centred::<true>(x, fy, fz, mx0, my0, mz0),
-        None => centred::<false>(&[], fy, fz, mx0, my0, mz0),
+        Some(x) => centred::<true>(x, fy, fz, mx0, my0, mz0, pf),
+        None => centred::<false>(&[], fy, fz, mx0, my0, mz0, pf),
     };
     let (cz, cy, cx) = (t[0] / nf, t[1] / nf, t[5] / nf);
     let szz = t[2] - t[0] * cz;
