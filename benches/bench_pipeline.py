@@ -375,7 +375,7 @@ def run(args: argparse.Namespace) -> Dict[str, Any]:
     # (label, seconds) of the scaling table; the last is "the long recording".
     lengths = [("1 min", 60.0), ("6 min", 360.0)] if quick else [("1 min", 60.0), ("1 h", 3600.0), ("10 h", 36000.0)]
     mid, long_ = lengths[-2], lengths[-1]
-    reps = args.repeats or (2 if quick else 5)
+    reps = args.repeats or (2 if quick else 7)
     ref_reps = 1 if quick else 3
     tmp_root = Path(args.tmp) if args.tmp else Path(tempfile.gettempdir())
     per_s = FS * len(ROLES) * 8
@@ -452,6 +452,9 @@ def run(args: argparse.Namespace) -> Dict[str, Any]:
                 note(f"pipeline raw npy {how} {label}", series(job(p, True, how), reps))
         tables["raw"], tables["raw ref"] = work / "table-raw.npz", work / "table-raw-ref.npz"
         spawn(job(raw_npy, True, "reader", save=str(tables["raw"])))
+        tables["raw t1"], tables["raw mmap"] = work / "table-raw-t1.npz", work / "table-raw-mmap.npz"
+        spawn(job(raw_npy, True, "reader", threads=1, save=str(tables["raw t1"])))
+        spawn(job(raw_npy, True, "mmap", save=str(tables["raw mmap"])))
         spawn(
             {"kind": "reference", "path": str(raw_npy), "raw": True, "save": str(tables["raw ref"])},
             clean_blas_env=True,
@@ -473,6 +476,9 @@ def run(args: argparse.Namespace) -> Dict[str, Any]:
         out["identical"] = {
             k: same(base, load[k]) for k in ("reader t1", "mmap t1", "mmap t2", "reader chunk", "mmap chunk")
         }
+        out["identical"]["raw: reader t1, mmap path vs reader t2"] = (
+            same(load["raw"], load["raw t1"]) and same(load["raw"], load["raw mmap"])
+        )
         out["ref_diff_dyn"] = max_rel_diff(base, load["ref"])
         out["ref_diff_raw"] = max_rel_diff(load["raw"], load["raw ref"])
         out["bins_equal"] = bool(
@@ -510,7 +516,9 @@ def report(o: Dict[str, Any]) -> str:
         return "met" if ok else "**missed**"
 
     rows = []
+    context = []  # the same measures for the mapping path: no target, for comparison
     for how, name in (("reader", "`open_recording` reader"), ("mmap", "`np.load(mmap_mode='r')` mapping")):
+        sink = rows if how == "reader" else context
         t_dyn = r[f"pipeline dyn npy {how} {L}"]["median_s"]
         t_raw = r[f"pipeline raw npy {how} {L}"]["median_s"]
         bw = 3 * 8 * n_long / t_dyn
@@ -518,7 +526,7 @@ def report(o: Dict[str, Any]) -> str:
             r[f"pipeline dyn npy {how} {L} threads=1"]["median_s"],
             r[f"pipeline dyn npy {how} {L} threads=2"]["median_s"],
         )
-        rows += [
+        sink += [
             (
                 f"dynamic input, warm .npy ({name}): speed-up over the NumPy reference",
                 ">= 20x",
@@ -550,7 +558,8 @@ def report(o: Dict[str, Any]) -> str:
         ("npy", "mmap", ".npy, mmap mapping"),
     ):
         a, b = r[f"pipeline dyn {fmt} {how} {M}"], r[f"pipeline dyn {fmt} {how} {L}"]
-        rows.append(
+        sink = context if how == "mmap" else rows
+        sink.append(
             (
                 f"peak RSS, {L} ({name}); change from {M}",
                 "<= 300 MB; within 10 %",
@@ -559,7 +568,7 @@ def report(o: Dict[str, Any]) -> str:
             )
         )
         ratio = b["median_s"] / a["median_s"]
-        rows.append(
+        sink.append(
             (
                 f"time {L} / {M} ({name})",
                 f"{0.8 * len_ratio:g} .. {1.2 * len_ratio:g}",
@@ -571,7 +580,7 @@ def report(o: Dict[str, Any]) -> str:
     rows.append(
         (
             "per-window table vs the 2-thread reader run: 1 thread, mmap path (1 and 2 threads), "
-            "chunks of 7.3 s and 61.7 s",
+            "chunks of 7.3 s and 61.7 s; raw input: 1 vs 2 threads, mmap path vs reader",
             "identical",
             ", ".join(f"{k}: {'identical' if v else 'DIFFERENT'}" for k, v in same.items()),
             all(same.values()),
@@ -610,8 +619,13 @@ def report(o: Dict[str, Any]) -> str:
         "- analysis: 2 s windows tiling the recording (hop = window), 16 bins, deadband 0.35 N, lag-0 "
         "correlations, regression, J (area 1 mm^2); raw input with `highpass=0.1`"
     )
-    lines += ["", "Targets:", "", "| target | wanted | measured | |", "|---|---|---|---|"]
+    lines += ["", "Targets (the product path: `open_recording` then `analyze`, as the CLI runs it):", "",
+              "| target | wanted | measured | |", "|---|---|---|---|"]
     lines += [f"| {a} | {b} | {c} | {flag(d)} |" for a, b, c, d in rows]
+    lines += ["", "For comparison, the same measures when the caller maps the `.npy` with NumPy and passes the rows "
+              "as a mapping (the generic streaming path: chunks, Python per chunk, the map's pages stay resident):",
+              "", "| measure | target elsewhere | measured |", "|---|---|---|"]
+    lines += [f"| {a} | {b} | {c} |" for a, b, c, d in context]
     lines += [
         "",
         "Scaling (dynamic input, default threads = all cores):",
@@ -653,40 +667,9 @@ def report(o: Dict[str, Any]) -> str:
 
 
 #: What bounds the pipeline, from profiles of this code on the benchmark's
-#: machine (perf, cProfile; the numbers are from those runs, not this one).
-NOTES = """\
-Where the time goes (profiles with perf and cProfile on this machine; 1 h = 3.6e6 samples per channel):
-
-- The kernel (`rust/core/src/windows.rs`) runs a 2000-sample window in three passes, vectorised
-  (AVX-512/AVX2 chosen at run time, same bits): 3.4 ns/sample with the data in cache, about 5 ns/sample
-  when the first pass streams it from memory (perf: pass 1, the memory-bound first touch, is a third of
-  the kernel). Before this work it took 17-40 ns/sample (scalar code: 2-D accumulator arrays the compiler
-  kept in memory, a division and a saturating float-to-int conversion per sample, min/max with NaN
-  handling).
-- Reading the `.npy` through `open_recording` costs more than the analysis: reading alone (iterating
-  `rec.chunks`) takes about 40 ms per hour of recording in a warm process, of a 57 ms pipeline on one
-  thread; in a fresh process the reader's `np.array` copies took 57 of 81 ms (cProfile). The reader
-  copies every chunk (`io/base.py`, `_scaled`: "always a fresh, owned copy") out of a memory map whose
-  pages each fault once (perf: `memmove` 20 %, page-fault handling 18-25 % of the read loop) and stay
-  resident: the 10 h `.npy` read this way peaks at 1.2 GB RSS, file-backed pages of the map. HDF5 reads
-  copy twice (h5py into a new array, then `_scaled`), and h5py's global lock serialises concurrent reads,
-  so the HDF5 path gains little from a second thread. A reader that reads each chunk with `readinto` into
-  a reused buffer (or hands out views and drops consumed pages with `madvise(MADV_DONTNEED)`) would remove
-  the copy, the faults and the RSS growth; that is the io package's part.
-- Passing `np.load(path, mmap_mode="r")` rows as a mapping avoids the reader's copy: the kernel reads the
-  mapped pages itself (views, no copy), which is how the dynamic pipeline reaches the bandwidth target;
-  its remaining costs are the page faults of the map (one per 4 KiB page, a few microseconds each in this
-  VM) and the same RSS growth (file pages).
-- Raw input: the first-order IIR high-pass is a serial recurrence per channel (the filter kernel, not part
-  of this work); with two threads it runs on the worker thread beside the reader.
-- Threads: with two, the caller's thread only reads while one worker filters, windows and runs the kernel
-  (GIL released) on both cores; a random-access recording with dynamic input is also read as two spans
-  at once. On this shared two-core machine any other job takes one of the two cores, which caps the
-  1 -> 2 thread ratio near 1 (see the load average).
-- Time against length: a fresh process pays a fixed start (first-touch faults of the heap, thread start,
-  about 30-50 ms), so the 1 h run costs more per sample than the 10 h run and the 10 h / 1 h ratio falls
-  below 8 where the 1 h run is short: the growth is linear with an intercept, not faster than linear.
-"""
+#: machine (perf, cProfile; the numbers are from those runs, not this one):
+#: hand-written in benches/pipeline_notes.md, appended to the section.
+NOTES = (HERE / "pipeline_notes.md").read_text() if (HERE / "pipeline_notes.md").exists() else ""
 
 
 def write_section(text: str, path: Path = RESULTS) -> None:
@@ -714,7 +697,7 @@ def write_section(text: str, path: Path = RESULTS) -> None:
 def main(argv: Optional[Sequence[str]] = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="small recordings (1 and 6 min), fewer runs; prints only")
-    ap.add_argument("--repeats", type=int, default=0, help="runs per measurement (default 5, quick 2)")
+    ap.add_argument("--repeats", type=int, default=0, help="runs per measurement (default 7, quick 2)")
     ap.add_argument("--tmp", help="directory for the temporary data (default: the system's)")
     ap.add_argument("--keep", action="store_true", help="keep the temporary data")
     ap.add_argument("--results", help=f"write the section into this file (default {RESULTS.name} for a full run)")

@@ -6,6 +6,18 @@ channels with the streaming filter, cuts windows of ``window`` s every
 temperature and current, and fixes the orientation once for the recording.
 The per-window table does not depend on the chunk size or thread count, and
 memory does not grow with the recording's length.
+
+Three ways in, one result (bit for bit):
+
+- a recording whose channels lie in the file as contiguous float64 runs (a
+  channels-first ``.npy``): one call of ``_core.windows_stats_file`` reads
+  the file's pages through memory maps, block by block, in parallel (raw
+  input: high-passed one block ahead of the windows), with no Python per
+  chunk (:func:`_stream_file`);
+- another random-access recording (HDF5, TDMS, other ``.npy``) with dynamic
+  input: spans read concurrently, one thread each (:func:`_stream_spans`);
+- anything else (mappings, iterators, sequential formats, raw input): one
+  stream of chunks, reading overlapped with the kernel (:func:`_run_chunks`).
 """
 
 from __future__ import annotations
@@ -245,7 +257,9 @@ def analyze(
     chunk : float, optional
         Seconds per chunk when reading a mapping or a recording (default
         131072 samples, about 2 min at 1 kHz, for a recording; a mapping is
-        taken whole). Never changes a result.
+        taken whole). For a channels-first float64 ``.npy`` the kernel reads
+        the file's pages itself, in blocks of at most this many seconds
+        (default 2^20 samples) per thread. Never changes a result.
     progress : bool
         Show a progress bar on stderr.
     deadband, n_bins, gate, max_lag, rpm, n_lamellas
