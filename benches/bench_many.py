@@ -111,12 +111,16 @@ def main() -> None:
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
+    cmd = " --quick" if args.quick else "".join(
+        f" --{k} {v:g}" for k, v in (("recordings", args.recordings), ("hours", args.hours), ("repeat", args.repeat))
+        if v != ap.get_default(k)
+    )
     med = statistics.median
     ratio = med(ser) / med(dist)
     ratio_all = med(ser_all) / med(dist)
     mb = size / 1e6  # whole data set, MB
     rate_mb_s = size / len(paths) / 1e6 / max(t_task, 1e-9)
-    body = f"""Run: `python benches/bench_many.py{' --quick' if args.quick else ''}` on {time.strftime('%Y-%m-%d')}.
+    body = f"""Run: `python benches/bench_many.py{cmd}` on {time.strftime('%Y-%m-%d')}.
 {args.recordings} simulated recordings of {args.hours:g} h each (1 kHz, fx, fy, fz; chunked HDF5, {mb:.0f} MB in all,
 generated in {gen:.0f} s), 2 s windows tiling each recording, {args.repeat} repeats, medians.
 Workers: LocalCluster, 2 processes x 1 thread, one kernel thread each (TRIBODYN_THREADS=1).
