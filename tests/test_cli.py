@@ -185,3 +185,16 @@ def test_console_script_is_installed():
         [sys.executable, "-m", "tribodyn.cli", "analyze", "nope.tdms", "--out", "x"], capture_output=True, text=True
     )
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def test_npy_without_rate_asks_for_the_cli_option(tmp_path, capsys):
+    """A .npy carries no sampling rate: the error names --fs, and --fs makes info and analyze work."""
+    p = tmp_path / "rec.npy"
+    rng = np.random.default_rng(3)
+    fz = rng.normal(size=(4000,))
+    np.save(p, np.stack([fz * 0.2, fz]))
+    assert cli.main(["info", str(p)]) == cli.EXIT_USER_ERROR
+    err = capsys.readouterr().err
+    assert "sampling rate unknown" in err and "give --fs HZ" in err and "fs=..." not in err
+    assert cli.main(["info", str(p), "--fs", "1000"]) == 0
+    assert "fs: 1000.0" in capsys.readouterr().out

@@ -317,8 +317,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     except _user_errors() as exc:
         if getattr(ns, "debug", False):
             raise
-        print(f"tribodyn: error: {exc}", file=sys.stderr)
+        print(f"tribodyn: error: {_cli_words(str(exc))}", file=sys.stderr)
         return EXIT_USER_ERROR
+
+
+def _cli_words(msg: str) -> str:
+    """A library message in the CLI's terms (its options instead of Python keywords)."""
+    return msg.replace("pass fs=... (Hz)", "give --fs HZ").replace("; pass fs=", "; give --fs HZ")
 
 
 if __name__ == "__main__":  # pragma: no cover
