@@ -8,7 +8,8 @@
 //! are mapped with `MAP_POPULATE` (the pages entered in one call, not
 //! faulted one by one), its windows computed in order on one thread with
 //! the next window prefetched, and the maps dropped. Blocks run in parallel
-//! on the kernel pool and are joined in order, so the results are those of
+//! (the calling thread and scoped helpers, [`crate::parallel::threads`] in
+//! all) and are placed in order, so the results are those of
 //! [`crate::windows::windows_stats`] on the same samples, bit for bit.
 //!
 //! Raw (DC-coupled) forces are high-passed on the way
@@ -25,7 +26,6 @@ use crate::error::KernelError;
 use crate::iir::{self, Section};
 use crate::windows::{windows_stats_serial, Channels, WindowOptions, WindowStats};
 use memmap2::{Mmap, MmapOptions};
-use rayon::prelude::*;
 use std::fs::File;
 
 const F64: u64 = std::mem::size_of::<f64>() as u64;
@@ -164,10 +164,53 @@ where
         return Ok(());
     }
     let blocks = (grid.k1 - grid.k0).div_ceil(grid.block);
-    (0..blocks).into_par_iter().try_for_each(|b| {
+    for_each_block(blocks, crate::parallel::threads(), |b| {
         sink(b * grid.block, block(file, layout, grid, opt, b)?);
         Ok(())
     })
+}
+
+/// Runs `f(0) .. f(blocks - 1)` on `threads` threads: the calling thread
+/// and `threads - 1` scoped helpers, each taking the next block from a
+/// shared counter. The caller starts at once (a pool would first have to
+/// wake a sleeping worker, which on a virtual machine can cost as much as
+/// a short recording's whole analysis), and blocks are handed out one at a
+/// time, so the threads finish together. After an error no new block is
+/// started; the error of the lowest failed block is returned.
+fn for_each_block<F>(blocks: usize, threads: usize, f: F) -> Result<(), KernelError>
+where
+    F: Fn(usize) -> Result<(), KernelError> + Sync,
+{
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let failed: std::sync::Mutex<Option<(usize, KernelError)>> = std::sync::Mutex::new(None);
+    let work = || {
+        while !stop.load(Ordering::Relaxed) {
+            let b = next.fetch_add(1, Ordering::Relaxed);
+            if b >= blocks {
+                break;
+            }
+            if let Err(e) = f(b) {
+                stop.store(true, Ordering::Relaxed);
+                let mut slot = failed.lock().unwrap_or_else(|p| p.into_inner());
+                if slot.as_ref().is_none_or(|(k, _)| b < *k) {
+                    *slot = Some((b, e));
+                }
+            }
+        }
+    };
+    let helpers = threads.clamp(1, blocks.max(1)) - 1;
+    std::thread::scope(|s| {
+        for _ in 0..helpers {
+            s.spawn(work);
+        }
+        work();
+    });
+    match failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        Some((_, e)) => Err(e),
+        None => Ok(()),
+    }
 }
 
 /// How raw forces are high-passed before the windows (see

@@ -506,14 +506,13 @@ fn windows_stats_file<'py>(
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
         cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);
     };
-    py.detach(|| {
-        parallel::run(|| match &highpass {
-            None => mapped::windows_stats_mapped_each(&file, &layout, &grid, &opt, &sink),
-            Some((sos, zi)) => {
-                let hp = mapped::HighPass { sos, zi, origin };
-                mapped::windows_stats_mapped_highpass_each(&file, &layout, &grid, &opt, &hp, &sink)
-            }
-        })
+    py.detach(|| match &highpass {
+        // Its own threads (the caller and scoped helpers), no pool to wake.
+        None => mapped::windows_stats_mapped_each(&file, &layout, &grid, &opt, &sink),
+        Some((sos, zi)) => {
+            let hp = mapped::HighPass { sos, zi, origin };
+            parallel::run(|| mapped::windows_stats_mapped_highpass_each(&file, &layout, &grid, &opt, &hp, &sink))
+        }
     })
     .map_err(to_py)?;
     cols.into_inner().unwrap_or_else(|e| e.into_inner()).into_dict(py)
