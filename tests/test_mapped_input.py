@@ -641,3 +641,50 @@ def test_windows_stats_file_non_finite(data, tmp_path):
     # Windows clear of it are fine (7_777 lies in window 3 only).
     got = _wsf(p, _offsets(lay), 30_000, 4, 15, 2000, 2000, 1.0, "force", 0.35, 16, 4)
     assert got["n"].shape == (11,)
+
+
+# -- 5. analyze(rec, start=, stop=): one range of a recording, straight from the file ---
+
+
+@pytest.mark.parametrize("highpass", [None, 0.1])
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("start, stop, hop", [(0, 40_000, 2.0), (12_345, 99_999, 2.0), (7_001, 120_000, 3.0),
+                                              (0, N, 2.0), (50_000, 52_000, 2.0)])
+def test_range_of_a_recording_equals_the_sliced_mapping(data, npy, file_calls, threads, start, stop, hop, highpass):
+    with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
+        got = td.analyze(rec, hop=hop, threads=threads, start=start, stop=stop, highpass=highpass, **KW)
+    assert _mapped_ok(file_calls)
+    want = td.analyze(_mapping(data[:, :stop], origin=start), fs=FS, hop=hop, threads=threads, start=start,
+                      highpass=highpass, **KW)
+    assert_same(got, want)
+    starts = got.table["t_start"] * FS
+    assert starts.min() >= start and (starts + 2000).max() <= stop
+    assert got.params["stop"] == stop
+
+
+def test_range_too_short_for_a_window_is_refused(npy):
+    with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
+        with pytest.raises(ValueError, match="hold no whole window"):
+            td.analyze(rec, hop=2.0, start=50_000, stop=51_999, **KW)
+
+
+@pytest.mark.parametrize("kind", ["hdf5", "csv"])
+def test_range_of_other_formats(data, tmp_path, kind):
+    path, kw = _other_format(kind, data, tmp_path)
+    with open_recording(path, **kw) as rec:
+        got = td.analyze(rec, hop=2.0, start=3_001, stop=90_000, **KW)
+        raw = td.analyze(rec, hop=2.0, start=3_001, stop=90_000, highpass=0.1, **KW)
+    assert_same(got, td.analyze(_mapping(data[:, :90_000], origin=3_001), fs=FS, hop=2.0, start=3_001, **KW))
+    want_raw = td.analyze(_mapping(data[:, :90_000], origin=3_001), fs=FS, hop=2.0, start=3_001, highpass=0.1, **KW)
+    assert_same(raw, want_raw)
+
+
+def test_stop_errors(data, npy):
+    with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
+        for bad in (N + 1, 10):
+            with pytest.raises(ValueError, match="stop must satisfy"):
+                td.analyze(rec, hop=2.0, start=20, stop=bad, **KW)
+        with pytest.raises(ValueError, match="stop must be"):
+            td.analyze(rec, hop=2.0, stop=-1, **KW)
+    with pytest.raises(ValueError, match="recording source"):
+        td.analyze(_mapping(data), fs=FS, hop=2.0, stop=100, **KW)

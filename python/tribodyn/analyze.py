@@ -211,6 +211,7 @@ def analyze(
     n_lamellas: Optional[int] = None,
     threads: Optional[int] = None,
     start: int = 0,
+    stop: Optional[int] = None,
 ) -> Results:
     """COF of every window of a long recording (METHOD.md 6).
 
@@ -277,6 +278,11 @@ def analyze(
         analysed separately give exactly the windows of one pass (see
         :func:`tribodyn.analyze_many`). A recording source is read from
         ``start`` on.
+    stop : int, optional
+        For a recording source: the sample index (exclusive) where reading
+        ends (default: the end). ``start``/``stop`` analyse one range of a
+        long recording straight from the file, with the windows that lie
+        wholly inside it.
 
     Returns
     -------
@@ -325,6 +331,16 @@ def analyze(
     hp_fc = None if highpass is None else positive(highpass, "highpass")
     chunk_n = None if chunk is None else max(1, int(round(positive(chunk, "chunk") * fs_v)))
     origin = check_int(start, "start", minimum=0)
+    end: Optional[int] = None
+    if stop is not None:
+        if rec is None:
+            raise ValueError("stop= applies to a recording source (a mapping or a stream of chunks ends where it "
+                             "ends; slice it instead)")
+        end = check_int(stop, "stop", minimum=0)
+        n_rec = getattr(rec, "n_samples", None)
+        if end < origin or (isinstance(n_rec, int) and end > n_rec):
+            raise ValueError(f"stop must satisfy start <= stop <= {n_rec} (the recording's samples), "
+                             f"got start={origin}, stop={end}")
 
     params: Dict[str, Any] = dict(
         fs=fs_v, window=w_s, hop=h_s, window_samples=length, hop_samples=step, highpass=hp_fc,
@@ -338,9 +354,12 @@ def analyze(
             st, aux_role = _acquisitions(source, fs_v, db, nb, hp_fc, max_lag, shunt)
         else:
             st, aux_role = _stream(source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt,
-                                   origin)
+                                   origin, end)
 
     if len(st["n"]) == 0:
+        if end is not None:
+            raise ValueError(f"samples {origin}..{end} hold no whole window ({w_s:g} s = {length} samples, starting "
+                             f"every {step} samples from sample 0): no window to analyse")
         raise ValueError(f"the recording is shorter than one window ({w_s:g} s = {length} samples): "
                          "no window to analyse")
     s = resolve_orientation(orientation, sign_of_total_slope(st))
@@ -393,6 +412,7 @@ def analyze(
     }
     params["orientation_used"] = s
     params["start"] = origin
+    params["stop"] = end
     return Results(table=table, bin_counts=np.asarray(o["bin_count"], dtype=np.int64), bin_cof=o["bin_cof"],
                    fz_min=o["fz_min"], fz_max=o["fz_max"], orientation=s, params=params, moments=moments)
 
@@ -430,16 +450,16 @@ def _aux_role(chunk: Mapping, shunt: Optional[float]) -> Optional[str]:
 
 def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, nb: int,
             hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
-            shunt: Optional[float], origin: int = 0):
+            shunt: Optional[float], origin: int = 0, end: Optional[int] = None):
     threads = _core.get_threads()
     if rec is not None and max_lag is None and not progress:
-        mapped = _stream_file(rec, origin, fs, length, step, db, nb, hp_fc, chunk_n, shunt, threads)
+        mapped = _stream_file(rec, origin, fs, length, step, db, nb, hp_fc, chunk_n, shunt, threads, end)
         if mapped is not None:
             return mapped
     if rec is not None:
         size = chunk_n or DEFAULT_CHUNK
-        total = getattr(rec, "n_samples", None)
-        spans = _spans(rec, origin, length, step, threads) if hp_fc is None else None
+        total = end if end is not None else getattr(rec, "n_samples", None)
+        spans = _spans(rec, origin, length, step, threads, end) if hp_fc is None else None
         if spans:
             # Large chunks where they are views of the file (no copy); the
             # default where the reader copies, so that copies stay small.
@@ -447,7 +467,7 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
             return _stream_spans(rec, spans, chunk_n or (SPAN_CHUNK if views else DEFAULT_CHUNK), fs, length, step,
                                  db, nb, max_lag, progress, shunt)
         # Views where the format has them: nothing here writes into a chunk.
-        chunks: Iterable[Any] = rec.chunks(size, start=origin, copy=False)
+        chunks: Iterable[Any] = rec.chunks(size, start=origin, stop=end, copy=False)
     elif isinstance(source, Mapping):
         chunks = _chunks_of(source, chunk_n or DEFAULT_CHUNK)
         total = len(next(iter(source.values()))) if source else 0
@@ -470,7 +490,7 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
 
 
 def _stream_file(rec: Any, origin: int, fs: float, length: int, step: int, db: Any, nb: int, hp_fc: Optional[float],
-                 chunk_n: Optional[int], shunt: Optional[float], threads: int):
+                 chunk_n: Optional[int], shunt: Optional[float], threads: int, end: Optional[int] = None):
     """A recording whose channels the kernel can read from the file's own pages (a float64 ``.npy``).
 
     One call of ``_core.windows_stats_file``: the file is memory-mapped a
@@ -489,9 +509,10 @@ def _stream_file(rec: Any, origin: int, fs: float, length: int, step: int, db: A
     aux = _aux_role(roles, shunt)
     wanted = [r for r in FORCE_ROLES if r in roles] + ([aux] if aux else [])
     found = layout_of(wanted)
-    n = getattr(rec, "n_samples", None)
-    if found is None or not isinstance(n, int):
+    n_rec = getattr(rec, "n_samples", None)
+    if found is None or not isinstance(n_rec, int):
         return None
+    n = n_rec if end is None else end  # windows end by here
     fd, layout = found
     k0 = -(-origin // step)
     k1 = (n - length) // step + 1 if n >= length else 0
@@ -515,7 +536,7 @@ def _stream_file(rec: Any, origin: int, fs: float, length: int, step: int, db: A
         sos, zi = hp.sos, hp._zi
         block = cap
     try:
-        st = _core.windows_stats_file(fd, offsets, n, k0, k1, step, length, 1.0, db.kind, float(db.value),
+        st = _core.windows_stats_file(fd, offsets, n_rec, k0, k1, step, length, 1.0, db.kind, float(db.value),
                                       nb, block, sos, zi, origin)
     except (ValueError, OSError):
         return None
@@ -531,7 +552,8 @@ _RANDOM_ACCESS = ("npy", "hdf5", "tdms")
 _MIN_SPAN_WINDOWS = 64
 
 
-def _spans(rec: Any, origin: int, length: int, step: int, threads: int) -> Optional[List[tuple]]:
+def _spans(rec: Any, origin: int, length: int, step: int, threads: int,
+           end: Optional[int] = None) -> Optional[List[tuple]]:
     """Sample ranges of a recording, one per thread, on the window grid; None to read it as one stream.
 
     With one thread the whole recording is one span (read the same way:
@@ -545,6 +567,7 @@ def _spans(rec: Any, origin: int, length: int, step: int, threads: int) -> Optio
     n = getattr(rec, "n_samples", None)
     if getattr(rec, "format", None) not in _RANDOM_ACCESS or not isinstance(n, int):
         return None
+    n = n if end is None else end
     k0 = -(-origin // step)
     k1 = (n - length) // step + 1 if n >= length else 0  # one past the last window
     count = k1 - k0

@@ -132,7 +132,7 @@ def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float
 
 
 def range_task(path: str, open_options: Dict[str, Any], options: Dict[str, Any],
-               start: int, stop: Optional[int], chunk: int) -> Union[Results, RecordingFailure]:
+               start: int, stop: Optional[int]) -> Union[Results, RecordingFailure]:
     """Windows of samples ``start:stop`` of one recording (the whole one when ``stop`` is None)."""
     from .io import open_recording
 
@@ -140,10 +140,10 @@ def range_task(path: str, open_options: Dict[str, Any], options: Dict[str, Any],
         with open_recording(path, **open_options) as rec:
             fs = options.get("fs") or rec.fs
             opts = {k: v for k, v in options.items() if k != "fs"}
-            if start == 0 and stop is None:
-                return analyze(rec, fs=fs, **opts)
-            chunks = rec.chunks(chunk, start=start, stop=stop)
-            return analyze(chunks, fs=fs, start=start, **opts)
+            # The recording itself, so that analyze reads the range the
+            # fastest way its format allows (a float64 .npy: straight from
+            # the file's pages).
+            return analyze(rec, fs=fs, start=start, stop=stop, **opts)
     except Exception as exc:  # reported per recording, see plan_task
         return _failure(path, exc)
 
@@ -179,7 +179,7 @@ def _combine(parts: List[Results], orientation: Any) -> Results:
         fz_min=np.concatenate([p.fz_min for p in parts]),
         fz_max=np.concatenate([p.fz_max for p in parts]),
         orientation=s,
-        params={**parts[0].params, "start": 0, "ranges": len(parts), "orientation_used": s},
+        params={**parts[0].params, "start": 0, "stop": None, "ranges": len(parts), "orientation_used": s},
         moments=moments,
     )
 
@@ -216,7 +216,7 @@ def analyze_many(
     client: Any = None,
     open_options: Optional[Dict[str, Any]] = None,
     split: Optional[float] = None,
-    chunk: float = 60.0,
+    chunk: Optional[float] = None,
     progress: bool = False,
     **analyze_options: Any,
 ) -> ManyResults:
@@ -235,8 +235,9 @@ def analyze_many(
         Cut each recording into ranges of about this many seconds (aligned
         to the window grid), one task each, so a very long recording uses
         several workers. None: one task per recording.
-    chunk : float
-        Seconds read per chunk inside a task.
+    chunk : float, optional
+        Seconds read per chunk inside a task (``analyze``'s ``chunk``;
+        default: its own). Never changes a result.
     progress : bool
         Show the tasks' progress (Dask's progress bar on a cluster).
     **analyze_options
@@ -279,9 +280,10 @@ def analyze_many(
         opts = dict(options)
         if len(ranges) > 1:
             opts["orientation"] = 1 if orientation == "auto" else orientation
-        chunk_n = max(1, int(round(chunk * (fs or 1000.0))))
+        if chunk is not None:
+            opts["chunk"] = chunk
         for a, b in ranges:
-            jobs.append((i, (f, open_options, opts, a, b, chunk_n)))
+            jobs.append((i, (f, open_options, opts, a, b)))
     outputs = run(range_task, [args for _, args in jobs])
 
     by_file: Dict[int, List[Any]] = {}
