@@ -289,7 +289,8 @@ fn filtered_windows(f: &Filtered, layout: &FileLayout, ks: std::ops::Range<usize
         raw: Some((raw(1).unwrap_or(&[]), raw(2).unwrap_or(&[]))),
     };
     let starts: Vec<usize> = ks.clone().map(|k| k * step - f.from).collect();
-    windows_stats_serial(&ch, &starts, opt).map_err(|err| invalid(format!("{err} (block from sample {})", f.from)))
+    // In parallel: the thread that filters the next block joins in when it is done.
+    crate::windows::windows_stats(&ch, &starts, opt).map_err(|err| invalid(format!("{err} (block from sample {})", f.from)))
 }
 
 /// Statistics of windows `grid.k0 .. grid.k1` of raw forces high-passed
