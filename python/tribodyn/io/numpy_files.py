@@ -164,25 +164,34 @@ class NpyRecording(Recording):
             return {nm: self._arr[idx[nm], start:stop] for nm in names}
         return {nm: self._arr[start:stop, idx[nm]] for nm in names}
 
-    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, int]]]:
+    def _f64_rows(self) -> bool:
+        """Each channel is one contiguous, 8-byte aligned run of native float64 in the file.
+
+        Aligned only: numpy refuses a misaligned view as a kernel input, and
+        the kernel a misaligned offset.
+        """
         a = self._arr
-        if (self._closed or self._fd is None or not self._rows_are_channels or not self._direct_read_ok()
-                or a.dtype != np.dtype("<f8") or a.offset % a.itemsize):
+        return (self._rows_are_channels and self._direct_read_ok() and a.dtype == np.float64
+                and a.offset % a.itemsize == 0)
+
+    def _offset(self, row: int, start: int = 0) -> int:
+        """Byte offset in the file of sample ``start`` of channel row ``row`` (channels-first)."""
+        a = self._arr
+        return int(a.offset + (row * a.shape[1] + start) * a.itemsize)
+
+    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, int]]]:
+        if self._closed or self._fd is None or not self._f64_rows():
             return None
-        idx = {nm: k for k, nm in enumerate(self._names)}
         out = {}
         for role in roles:
             name = self.roles.get(role)
             if name is None or self._scale[name] != 1.0:
                 return None
-            out[role] = int(a.offset + idx[name] * a.shape[1] * a.itemsize)
+            out[role] = self._offset(self._names.index(name))
         return self._fd, out
 
     def _can_view(self) -> bool:
-        # Aligned samples only: numpy refuses a misaligned view as a kernel input.
-        a = self._arr
-        return (self._rows_are_channels and self._direct_read_ok() and a.dtype == np.float64
-                and a.offset % a.itemsize == 0 and hasattr(mmap, "MAP_POPULATE"))
+        return self._f64_rows() and hasattr(mmap, "MAP_POPULATE")
 
     def _view_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         """Samples start:stop of each channel as a read-only view of its own mapping of the file.
@@ -193,15 +202,15 @@ class NpyRecording(Recording):
         cache directly, with no copy.
         """
         a = self._arr
-        idx = {nm: k for k, nm in enumerate(self._names)}
         assert self._fd is not None, "open recordings hold their descriptor"
         count = stop - start
+        size = os.fstat(self._fd).st_size
         out = {}
         for nm in names:
-            off = a.offset + (idx[nm] * a.shape[1] + start) * a.itemsize
+            off = self._offset(self._names.index(nm), start)
             base = off - off % mmap.ALLOCATIONGRANULARITY
             length = off - base + count * a.itemsize
-            if os.fstat(self._fd).st_size < base + length:
+            if size < base + length:
                 raise RecordingError(f"{self.path}: file ends early (truncated since it was opened?)")
             if count == 0:
                 out[nm] = np.empty(0)
@@ -224,7 +233,7 @@ class NpyRecording(Recording):
         """
         a = self._arr
         out = np.empty(stop - start, dtype=a.dtype)
-        offset = a.offset + (row * a.shape[1] + start) * a.itemsize
+        offset = self._offset(row, start)
         assert self._fd is not None, "open recordings hold their descriptor"
         view = memoryview(out).cast("B")
         done = 0

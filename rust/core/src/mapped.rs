@@ -73,6 +73,9 @@ pub fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions)
     if grid.step == 0 || grid.block == 0 || opt.len == 0 {
         return Err(invalid("step, block and window length must be at least 1".into()));
     }
+    if opt.n_bins == 0 || opt.n_bins > crate::windows::MAX_BINS {
+        return Err(invalid(format!("n_bins must be in [1, {}], got {}", crate::windows::MAX_BINS, opt.n_bins)));
+    }
     if grid.k1 > grid.k0 {
         let last_end = (grid.k1 - 1).checked_mul(grid.step).and_then(|s| s.checked_add(opt.len));
         if last_end.is_none_or(|e| e > layout.n) {
@@ -113,6 +116,12 @@ fn map(file: &File, off: u64, a: usize, b: usize) -> Result<Mmap, KernelError> {
         .map_err(|e| invalid(format!("cannot map bytes {start}..{} of the file: {e}", start + len as u64)))
 }
 
+/// Samples [a, b) of every channel of the layout, mapped (None where the
+/// layout has no such channel), in the order fx, fy, fz, aux.
+fn map_channels(file: &File, layout: &FileLayout, a: usize, b: usize) -> Result<Vec<Option<Mmap>>, KernelError> {
+    layout.offsets().iter().map(|o| o.map(|off| map(file, off, a, b)).transpose()).collect()
+}
+
 fn as_f64(m: &Mmap) -> &[f64] {
     let bytes: &[u8] = m;
     // The offset and the page-aligned base make the start 8-byte aligned
@@ -128,8 +137,7 @@ fn block(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, b: 
     let ke = (kb + grid.block).min(grid.k1);
     let a = kb * grid.step;
     let e = (ke - 1) * grid.step + opt.len;
-    let maps: Vec<Option<Mmap>> =
-        layout.offsets().iter().map(|o| o.map(|off| map(file, off, a, e)).transpose()).collect::<Result<_, _>>()?;
+    let maps = map_channels(file, layout, a, e)?;
     let sl = |i: usize| maps[i].as_ref().map(as_f64);
     let (fy, fz) = (sl(1).unwrap_or(&[]), sl(2).unwrap_or(&[]));
     let ch = Channels { fx: sl(0), fy, fz, aux: sl(3), raw: None };
@@ -226,11 +234,6 @@ pub struct HighPass<'a> {
     pub origin: usize,
 }
 
-/// The force channels of a layout: fx (if any), fy, fz.
-fn force_offsets(layout: &FileLayout) -> Vec<u64> {
-    layout.fx.into_iter().chain([layout.fy, layout.fz]).collect()
-}
-
 /// One block of the high-pass pipeline: its raw maps and filtered forces.
 struct Filtered {
     /// Samples [from, to) of the recording.
@@ -252,8 +255,7 @@ fn filter_block(
     state: &mut [Vec<[f64; 2]>],
     mut forces: Vec<Vec<f64>>,
 ) -> Result<Filtered, KernelError> {
-    let maps: Vec<Option<Mmap>> =
-        layout.offsets().iter().map(|o| o.map(|off| map(file, off, from, to)).transpose()).collect::<Result<_, _>>()?;
+    let maps = map_channels(file, layout, from, to)?;
     let src: Vec<&[f64]> = maps.iter().take(3).flatten().map(as_f64).collect();
     forces.resize_with(src.len(), Vec::new);
     for (buf, s) in forces.iter_mut().zip(&src) {
@@ -338,7 +340,8 @@ where
     // Block b filters [F_b, F_{b+1}): F_0 = origin, F_b = start of its first
     // window, the last ends with the last window.
     let bound = |b: usize| if b == 0 { hp.origin } else if b == blocks { (grid.k1 - 1) * grid.step + opt.len } else { ks(b).start * grid.step };
-    let mut state: Vec<Vec<[f64; 2]>> = vec![vec![[0.0; 2]; hp.sos.len()]; force_offsets(layout).len()];
+    let forces = 2 + usize::from(layout.fx.is_some()); // fx (if any), fy, fz
+    let mut state: Vec<Vec<[f64; 2]>> = vec![vec![[0.0; 2]; hp.sos.len()]; forces];
     let mut cur = filter_block(file, layout, hp, bound(0), bound(1), &mut state, Vec::new())?;
     let mut spare: Vec<Vec<f64>> = Vec::new();
     for b in 0..blocks {

@@ -496,11 +496,8 @@ fn windows_stats_file<'py>(
     let layout = mapped::FileLayout { fx: offsets.0, fy: offsets.1, fz: offsets.2, aux: offsets.3, n };
     let grid = mapped::Grid { k0, k1, step, block };
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
-    // Checked before the columns are allocated (k1 - k0 rows of them).
+    // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
     mapped::check(&file, &layout, &grid, &opt).map_err(to_py)?;
-    if n_bins == 0 || n_bins > windows::MAX_BINS {
-        return Err(PyValueError::new_err(format!("n_bins must be in [1, {}], got {n_bins}", windows::MAX_BINS)));
-    }
     let cols = std::sync::Mutex::new(Columns::new(k1.saturating_sub(k0), n_bins));
     // Each block's rows go into the columns as soon as it is done.
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
