@@ -34,8 +34,10 @@ def machine_description() -> str:
         rustc = "rustc unknown"
     import numpy
 
-    return (f"{cpu}, {os.cpu_count()} cores{mem}; {platform.system()} {platform.release()}; "
-            f"Python {platform.python_version()}, NumPy {numpy.__version__}, {rustc}")
+    return (
+        f"{cpu}, {os.cpu_count()} cores{mem}; {platform.system()} {platform.release()}; "
+        f"Python {platform.python_version()}, NumPy {numpy.__version__}, {rustc}"
+    )
 
 
 def write_section(title: str, body: str) -> None:

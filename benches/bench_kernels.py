@@ -316,8 +316,7 @@ def machine() -> dict[str, str]:
         mem = Path("/proc/meminfo").read_text().splitlines()
         kb = {ln.split(":")[0]: int(ln.split()[1]) for ln in mem if ln.split()[1].isdigit()}
         info["RAM"] = (
-            f"{kb['MemTotal'] / 2**20:.1f} GiB total, "
-            f"{kb.get('MemAvailable', 0) / 2**20:.1f} GiB available at start"
+            f"{kb['MemTotal'] / 2**20:.1f} GiB total, {kb.get('MemAvailable', 0) / 2**20:.1f} GiB available at start"
         )
     except (OSError, KeyError):
         pass
@@ -337,10 +336,14 @@ def machine() -> dict[str, str]:
         info["rustc"] = "not found"
     if threadpoolctl is not None:
         blas = [p for p in threadpoolctl.threadpool_info() if p.get("user_api") == "blas"]
-        info["BLAS"] = "; ".join(
-            f"{p.get('internal_api')} {p.get('version')} kernel {p.get('architecture')}, {p.get('num_threads')} threads"
-            for p in blas
-        ) or "none found"
+        info["BLAS"] = (
+            "; ".join(
+                f"{p.get('internal_api')} {p.get('version')} kernel {p.get('architecture')}, "
+                f"{p.get('num_threads')} threads"
+                for p in blas
+            )
+            or "none found"
+        )
         info["x @ y"] = "1 BLAS thread (threadpoolctl.threadpool_limits)"
     else:
         info["BLAS"] = "threadpoolctl missing: OPENBLAS/OMP/MKL_NUM_THREADS=1 set for the whole run"
@@ -439,7 +442,7 @@ def report(rows: list[Row], info: dict[str, str], args, elapsed: float, final: d
         f"## {SECTION}",
         "",
         "Written by `benches/bench_kernels.py` (see `benches/README.md`). Times are",
-        "medians over interleaved repeats; \"median / tribodyn\" > 1 means tribodyn is faster.",
+        'medians over interleaved repeats; "median / tribodyn" > 1 means tribodyn is faster.',
         "",
     ]
     out += ["### Machine", "", "| | |", "| --- | --- |"]

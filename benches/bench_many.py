@@ -111,16 +111,21 @@ def main() -> None:
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 
-    cmd = " --quick" if args.quick else "".join(
-        f" --{k} {v:g}" for k, v in (("recordings", args.recordings), ("hours", args.hours), ("repeat", args.repeat))
-        if v != ap.get_default(k)
+    cmd = (
+        " --quick"
+        if args.quick
+        else "".join(
+            f" --{k} {v:g}"
+            for k, v in (("recordings", args.recordings), ("hours", args.hours), ("repeat", args.repeat))
+            if v != ap.get_default(k)
+        )
     )
     med = statistics.median
     ratio = med(ser) / med(dist)
     ratio_all = med(ser_all) / med(dist)
     mb = size / 1e6  # whole data set, MB
     rate_mb_s = size / len(paths) / 1e6 / max(t_task, 1e-9)
-    body = f"""Run: `python benches/bench_many.py{cmd}` on {time.strftime('%Y-%m-%d')}.
+    body = f"""Run: `python benches/bench_many.py{cmd}` on {time.strftime("%Y-%m-%d")}.
 {args.recordings} simulated recordings of {args.hours:g} h each (1 kHz, fx, fy, fz; chunked HDF5, {mb:.0f} MB in all,
 generated in {gen:.0f} s), 2 s windows tiling each recording, {args.repeat} repeats, medians.
 Workers: LocalCluster, 2 processes x 1 thread, one kernel thread each (TRIBODYN_THREADS=1).
@@ -132,7 +137,7 @@ Tables checked identical to the serial run.
 | serial, all kernel threads ({os.cpu_count()}) | {med(ser_all):.2f} | {ratio_all:.2f}x |
 | LocalCluster, 2 workers | {med(dist):.2f} | 1.00x |
 
-Target: >= 1.7x from serial to 2 workers: **{'met' if ratio >= 1.7 else 'missed'}** ({ratio:.2f}x against the
+Target: >= 1.7x from serial to 2 workers: **{"met" if ratio >= 1.7 else "missed"}** ({ratio:.2f}x against the
 one-thread serial run; {ratio_all:.2f}x against the serial run that already uses both cores in its kernels).
 
 Per task (open, read and analyse one {args.hours:g} h recording): {t_task:.2f} s. On a real cluster (point the

@@ -484,8 +484,8 @@ def run(args: argparse.Namespace) -> Dict[str, Any]:
         out["identical"] = {
             k: same(base, load[k]) for k in ("reader t1", "mmap t1", "mmap t2", "reader chunk", "mmap chunk")
         }
-        out["identical"]["raw: reader t1, mmap path vs reader t2"] = (
-            same(load["raw"], load["raw t1"]) and same(load["raw"], load["raw mmap"])
+        out["identical"]["raw: reader t1, mmap path vs reader t2"] = same(load["raw"], load["raw t1"]) and same(
+            load["raw"], load["raw mmap"]
         )
         out["ref_diff_dyn"] = max_rel_diff(base, load["ref"])
         out["ref_diff_raw"] = max_rel_diff(load["raw"], load["raw ref"])
@@ -587,12 +587,14 @@ def report(o: Dict[str, Any]) -> str:
     wa, wb = r.get(f"pipeline dyn npy reader {M} warm process"), r.get(f"pipeline dyn npy reader {L} warm process")
     if wa and wb:
         ratio = wb["median_s"] / wa["median_s"]
-        context.append((
-            f"time {L} / {M} (.npy, reader) in a warm process (third call of three in one process)",
-            f"{0.8 * len_ratio:g} .. {1.2 * len_ratio:g}",
-            f"{ratio:.2f} ({_fmt_s(wa['median_s'])} -> {_fmt_s(wb['median_s'])})",
-            0.8 * len_ratio <= ratio <= 1.2 * len_ratio,
-        ))
+        context.append(
+            (
+                f"time {L} / {M} (.npy, reader) in a warm process (third call of three in one process)",
+                f"{0.8 * len_ratio:g} .. {1.2 * len_ratio:g}",
+                f"{ratio:.2f} ({_fmt_s(wa['median_s'])} -> {_fmt_s(wb['median_s'])})",
+                0.8 * len_ratio <= ratio <= 1.2 * len_ratio,
+            )
+        )
     same = o["identical"]
     rows.append(
         (
@@ -636,13 +638,23 @@ def report(o: Dict[str, Any]) -> str:
         "- analysis: 2 s windows tiling the recording (hop = window), 16 bins, deadband 0.35 N, lag-0 "
         "correlations, regression, J (area 1 mm^2); raw input with `highpass=0.1`"
     )
-    lines += ["", "Targets (the product path: `open_recording` then `analyze`, as the CLI runs it):", "",
-              "| target | wanted | measured | |", "|---|---|---|---|"]
+    lines += [
+        "",
+        "Targets (the product path: `open_recording` then `analyze`, as the CLI runs it):",
+        "",
+        "| target | wanted | measured | |",
+        "|---|---|---|---|",
+    ]
     lines += [f"| {a} | {b} | {c} | {flag(d)} |" for a, b, c, d in rows]
-    lines += ["", "For comparison: the same measures when the caller maps the `.npy` with NumPy and passes the rows "
-              "as a mapping (the generic streaming path: chunks, Python per chunk, the map's pages stay resident), "
-              "and the growth with length measured in a warm process:",
-              "", "| measure | target elsewhere | measured |", "|---|---|---|"]
+    lines += [
+        "",
+        "For comparison: the same measures when the caller maps the `.npy` with NumPy and passes the rows "
+        "as a mapping (the generic streaming path: chunks, Python per chunk, the map's pages stay resident), "
+        "and the growth with length measured in a warm process:",
+        "",
+        "| measure | target elsewhere | measured |",
+        "|---|---|---|",
+    ]
     lines += [f"| {a} | {b} | {c} |" for a, b, c, d in context]
     lines += [
         "",

@@ -112,7 +112,7 @@ def test_analyze_reads_every_real_file(tmp_path, name, options):
 
 def test_several_files_and_config(tmp_path):
     cfg = tmp_path / "run.toml"
-    cfg.write_text('window = 2.0\nhop = 2.0\nhighpass = 0.1\n')
+    cfg.write_text("window = 2.0\nhop = 2.0\nhighpass = 0.1\n")
     out = tmp_path / "out"
     files = [DATA / "cetr_umt2_HT-2n-6-4_2_001.csv", DATA / "cetr_umt2_HT-2n-6-4_2_002.csv"]
     assert run("analyze", *files, "--out", out, "--config", cfg, "--quiet") == 0

@@ -1,9 +1,9 @@
-"""Lagged correlation function, Eq. (1) (METHOD.md 1): the Rust kernels
+"""Lagged correlation function, Eq. (1) (docs/method.md 1): the Rust kernels
 against the NumPy reference and against their own contract.
 
 Tolerances
 ----------
-* direct vs FFT: 1e-10 absolute, the contract of METHOD.md 1. Both methods
+* direct vs FFT: 1e-10 absolute, the contract of docs/method.md 1. Both methods
   centre the inputs identically and share the denominators, so nothing
   data-dependent is allowed here.
 * Rust vs reference: the two centre on means computed by different
@@ -114,9 +114,7 @@ def test_auto_reports_the_method_it_ran():
         res = td.xcorr(x, y, max_lag=lag)
         assert res.method == _core.xcorr_auto_method(n, lag)
         assert res.method in ("direct", "fft")
-        np.testing.assert_allclose(
-            res.c, td.xcorr(x, y, max_lag=lag, method="direct").c, rtol=0, atol=1e-10
-        )
+        np.testing.assert_allclose(res.c, td.xcorr(x, y, max_lag=lag, method="direct").c, rtol=0, atol=1e-10)
 
 
 # -- Rust == reference ----------------------------------------------------------

@@ -34,7 +34,7 @@ def files(tmp_path_factory):
         _record(d / "long.h5", 400, 3),
     ]
     bad = d / "corrupt.tdms"
-    raw = (os.path.join(os.path.dirname(__file__), "data", "real", "nptdms_raw1_daqmx.tdms"))
+    raw = os.path.join(os.path.dirname(__file__), "data", "real", "nptdms_raw1_daqmx.tdms")
     bad.write_bytes(open(raw, "rb").read()[:5000])
     return [str(p) for p in paths], str(bad)
 
@@ -139,8 +139,26 @@ def test_cli_on_a_local_cluster_with_a_bad_file(files, tmp_path):
 
     good, bad = files
     out = tmp_path / "out"
-    code = cli.main(["analyze", *good, bad, "--out", str(out), "--window", "2", "--hop", "5",
-                     "--scheduler", "local", "--workers", "2", "--split", "100", "--quiet"])
+    code = cli.main(
+        [
+            "analyze",
+            *good,
+            bad,
+            "--out",
+            str(out),
+            "--window",
+            "2",
+            "--hop",
+            "5",
+            "--scheduler",
+            "local",
+            "--workers",
+            "2",
+            "--split",
+            "100",
+            "--quiet",
+        ]
+    )
     assert code == 3  # some recordings failed, the others were written
     import json
 

@@ -38,8 +38,7 @@ def results(cd_sim):
     """Current-density test with J, a rise-and-fall temperature log (heating and cooling
     branches) and the contact-loss windows that fail the gate."""
     log = (np.array([0.0, 350.0, 700.0]), np.array([100.0, 150.0, 110.0]))
-    return tribodyn.analyze(cd_sim.channels, fs=cd_sim.fs, window=2, hop=10, temperature=log,
-                            area_mm2=cd_sim.area_mm2)
+    return tribodyn.analyze(cd_sim.channels, fs=cd_sim.fs, window=2, hop=10, temperature=log, area_mm2=cd_sim.area_mm2)
 
 
 @pytest.fixture(scope="module")
@@ -60,8 +59,15 @@ def nan_results() -> tribodyn.Results:
     table["ok"] = np.zeros(n, dtype=bool)
     table["reasons"] = np.array(["degenerate: fewer than 3 samples or constant fz"] * n)
     table["branch"] = np.zeros(n, dtype=np.int8)
-    return tribodyn.Results(table=table, bin_counts=np.zeros((n, k), dtype=np.int64), bin_cof=np.full((n, k), np.nan),
-                            fz_min=nan.copy(), fz_max=nan.copy(), orientation=1, params={"fs": 1000.0})
+    return tribodyn.Results(
+        table=table,
+        bin_counts=np.zeros((n, k), dtype=np.int64),
+        bin_cof=np.full((n, k), np.nan),
+        fz_min=nan.copy(),
+        fz_max=nan.copy(),
+        orientation=1,
+        params={"fs": 1000.0},
+    )
 
 
 def _texts(fig: Figure) -> str:
@@ -332,16 +338,17 @@ def test_no_pyplot_no_global_state(tmp_path):
 # report
 # --------------------------------------------------------------------------
 def _small_figs(window):
-    return [("Phase plots (Figs. 6-8)", F.phase_plots(window["fx"], window["fy"], window["fz"], fit=window["result"])),
-            ("COF vs F_z,d <Fig. 9> & more", F.cof_vs_normal_force(window["result"]))]
+    return [
+        ("Phase plots (Figs. 6-8)", F.phase_plots(window["fx"], window["fy"], window["fz"], fit=window["result"])),
+        ("COF vs F_z,d <Fig. 9> & more", F.cof_vs_normal_force(window["result"])),
+    ]
 
 
 def test_write_report(tmp_path, results, window):
     figs = _small_figs(window)
     summary = results.summary()
     target = tmp_path / "report.html"
-    out = R.write_report(target, title="Test <report>", summary=summary, params=results.params,
-                         figures=figs, dpi=40)
+    out = R.write_report(target, title="Test <report>", summary=summary, params=results.params, figures=figs, dpi=40)
     assert out == str(target)
     html = target.read_text(encoding="utf-8")
     assert html.count(IMG) == len(figs) == 2
@@ -360,16 +367,24 @@ def test_write_report(tmp_path, results, window):
     assert "window_samples" in html  # parameters
     # the embedded images decode to PNG
     start = html.index(IMG) + len(IMG)
-    assert base64.b64decode(html[start: html.index('"', start)]).startswith(PNG_MAGIC)
+    assert base64.b64decode(html[start : html.index('"', start)]).startswith(PNG_MAGIC)
     assert os.listdir(tmp_path) == ["report.html"]
 
 
 def test_write_report_dict_figures_and_tables(tmp_path, window):
     figs = dict(_small_figs(window))
     table = {"a": np.arange(5), "b": np.linspace(0, 1, 5)}
-    R.write_report(tmp_path / "r.html", title="t", summary={"mu_r": {"n": 1, "median": 0.1234}},
-                   params={"fs": 1000.0}, figures=figs, tables={"My table": table}, dpi=40, max_table_rows=3,
-                   quality={"gate_pass_fraction": 0.5, "gate_failures": {"low correlation": 7}})
+    R.write_report(
+        tmp_path / "r.html",
+        title="t",
+        summary={"mu_r": {"n": 1, "median": 0.1234}},
+        params={"fs": 1000.0},
+        figures=figs,
+        tables={"My table": table},
+        dpi=40,
+        max_table_rows=3,
+        quality={"gate_pass_fraction": 0.5, "gate_failures": {"low correlation": 7}},
+    )
     html = (tmp_path / "r.html").read_text(encoding="utf-8")
     assert html.count(IMG) == 2
     assert "0.1234" in html and "My table" in html and "First 3 of 5 rows" in html
@@ -410,8 +425,9 @@ def test_build_report_figures_and_full_report(tmp_path, results, window):
     for ref in ("Fig. 2", "Figs. 3-5", "Figs. 6-8", "Fig. 9", "Fig. 10", "Fig. 11", "Fig. 12", "Sec. 4.2"):
         assert any(ref in c for c in captions), ref
     # without covariates: COF vs time only
-    plain = tribodyn.analyze({k: v for k, v in window.items() if k in ("fx", "fy", "fz")}, fs=1000.0,
-                             window=0.5, hop=0.5)
+    plain = tribodyn.analyze(
+        {k: v for k, v in window.items() if k in ("fx", "fy", "fz")}, fs=1000.0, window=0.5, hop=0.5
+    )
     only = R.build_report_figures(plain)
     assert len(only) == 1 and "COF against time" in only[0][0]
     # example without a CofResult: computed, with correlations

@@ -1,4 +1,4 @@
-"""Streaming high-pass filter (METHOD.md 2).
+"""Streaming high-pass filter (docs/method.md 2).
 
 The Rust recurrence performs the same floating-point operations in the same
 order as ``scipy.signal.sosfilt`` (transposed direct form II), so:
@@ -95,9 +95,7 @@ def test_bitwise_equal_to_scipy_today(order, init):
     rng = np.random.default_rng(order)
     x = rng.standard_normal((3, 5000)) + 2.5
     sos = td.butter_highpass(1000.0, cutoff=0.1, order=order)
-    np.testing.assert_array_equal(
-        sos, signal.butter(order, 0.1, "highpass", fs=1000.0, output="sos")
-    )
+    np.testing.assert_array_equal(sos, signal.butter(order, 0.1, "highpass", fs=1000.0, output="sos"))
     hp = td.HighPass(1000.0, order=order, channels=3, init=init)
     y = hp.process(x)
     np.testing.assert_array_equal(y, scipy_filter(sos, x, init))
@@ -128,9 +126,7 @@ def test_custom_sos(sos, init):
     assert hp.n_sections == sos.shape[0]
     assert_close_to_scipy(y, scipy_filter(sos, x, init), x)
     np.testing.assert_array_equal(td.highpass(x, 1000.0, sos=sos, init=init), y)
-    np.testing.assert_array_equal(
-        ref.HighPass(1000.0, sos=sos, channels=2, init=init).process(x), y
-    )
+    np.testing.assert_array_equal(ref.HighPass(1000.0, sos=sos, channels=2, init=init).process(x), y)
 
 
 def test_pole_at_one_needs_zero_init():
@@ -173,9 +169,7 @@ def test_any_chunking_equals_one_shot(case, data):
 @given(filter_case())
 def test_multichannel_equals_per_channel(case):
     x, fs, cutoff, order, init = case
-    together = td.HighPass(fs, cutoff=cutoff, order=order, channels=x.shape[0], init=init).process(
-        x
-    )
+    together = td.HighPass(fs, cutoff=cutoff, order=order, channels=x.shape[0], init=init).process(x)
     for c in range(x.shape[0]):
         alone = td.HighPass(fs, cutoff=cutoff, order=order, init=init).process(x[c])
         np.testing.assert_array_equal(together[c], alone)
@@ -244,9 +238,7 @@ def test_state_before_first_chunk():
     y = hp.process([4.0, 4.0, 4.0])
     assert np.max(np.abs(y)) < 1e-6 * 4.0
     # A constant input keeps the steady state (to the rounding of the zi solve).
-    np.testing.assert_allclose(
-        hp.state[0], signal.sosfilt_zi(hp.sos) * 4.0, rtol=1e-9, atol=1e-9 * 4.0
-    )
+    np.testing.assert_allclose(hp.state[0], signal.sosfilt_zi(hp.sos) * 4.0, rtol=1e-9, atol=1e-9 * 4.0)
 
 
 def test_reset_starts_a_new_signal():

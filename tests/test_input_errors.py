@@ -24,9 +24,7 @@ def raises(exc: type, match: str):
     """pytest.raises that also insists on the exact class."""
     with pytest.raises(exc, match=match) as info:
         yield info
-    assert type(info.value) is exc, (
-        f"{type(info.value).__module__}.{type(info.value).__name__}: {info.value}"
-    )
+    assert type(info.value) is exc, f"{type(info.value).__module__}.{type(info.value).__name__}: {info.value}"
 
 
 # (callable, exception, message pattern), for the fast path and the reference.
@@ -409,18 +407,14 @@ def test_fortran_ordered_2d_for_highpass():
     np.testing.assert_array_equal(td.highpass(c.T, 1000.0, order=2, axis=0), want.T)
     # A strided view of channels.
     big = rng.standard_normal((6, 1000))
-    np.testing.assert_array_equal(
-        td.highpass(big[::2, ::2], 10.0), td.highpass(big[::2, ::2].copy(), 10.0)
-    )
+    np.testing.assert_array_equal(td.highpass(big[::2, ::2], 10.0), td.highpass(big[::2, ::2].copy(), 10.0))
 
 
 def test_numpy_scalars_as_options():
     r = td.xcorr(X, Y, max_lag=np.int64(3), fs=np.float64(100.0))
     assert r.lags.size == 7
     np.testing.assert_array_equal(r.tau, r.lags / 100.0)
-    hp = td.HighPass(
-        np.float32(100.0), cutoff=np.float64(1.0), order=np.int32(2), channels=np.int64(1)
-    )
+    hp = td.HighPass(np.float32(100.0), cutoff=np.float64(1.0), order=np.int32(2), channels=np.int64(1))
     assert hp.process(X).shape == (10,)
 
 
@@ -459,17 +453,13 @@ CORE = [
     ),
     (
         "sos-a0",
-        lambda: _core.sosfilt_inplace(
-            np.array([[1.0, 0, 0, 2, 0, 0]]), np.ones((1, 4)), np.zeros((1, 1, 2))
-        ),
+        lambda: _core.sosfilt_inplace(np.array([[1.0, 0, 0, 2, 0, 0]]), np.ones((1, 4)), np.zeros((1, 1, 2))),
         ValueError,
         "a0 = 1",
     ),
     (
         "sos-nan",
-        lambda: _core.sosfilt_inplace(
-            np.array([[np.nan, 0, 0, 1, 0, 0]]), np.ones((1, 4)), np.zeros((1, 1, 2))
-        ),
+        lambda: _core.sosfilt_inplace(np.array([[np.nan, 0, 0, 1, 0, 0]]), np.ones((1, 4)), np.zeros((1, 1, 2))),
         ValueError,
         "non-finite",
     ),
@@ -488,9 +478,7 @@ CORE = [
     # Fortran order passed rust-numpy's as_slice and was read as C order.
     (
         "data-F-order",
-        lambda: _core.sosfilt_inplace(
-            SOS1, np.asfortranarray(np.ones((2, 4))), np.zeros((2, 1, 2))
-        ),
+        lambda: _core.sosfilt_inplace(SOS1, np.asfortranarray(np.ones((2, 4))), np.zeros((2, 1, 2))),
         ValueError,
         "C-contiguous",
     ),
@@ -502,33 +490,25 @@ CORE = [
     ),
     (
         "data-read-only",
-        lambda: _core.sosfilt_inplace(
-            SOS1, np.frombuffer(np.ones(4).tobytes()).reshape(1, 4), np.zeros((1, 1, 2))
-        ),
+        lambda: _core.sosfilt_inplace(SOS1, np.frombuffer(np.ones(4).tobytes()).reshape(1, 4), np.zeros((1, 1, 2))),
         TypeError,
         "not writeable",
     ),
     (
         "state-F-order",
-        lambda: _core.sosfilt_inplace(
-            SOS1, np.ones((2, 4)), np.asfortranarray(np.zeros((2, 1, 2)))
-        ),
+        lambda: _core.sosfilt_inplace(SOS1, np.ones((2, 4)), np.asfortranarray(np.zeros((2, 1, 2)))),
         ValueError,
         "C-contiguous",
     ),
     (
         "into-x-F-order",
-        lambda: _core.sosfilt_into(
-            SOS1, np.asfortranarray(np.ones((2, 4))), np.zeros((2, 4)), np.zeros((2, 1, 2))
-        ),
+        lambda: _core.sosfilt_into(SOS1, np.asfortranarray(np.ones((2, 4))), np.zeros((2, 4)), np.zeros((2, 1, 2))),
         ValueError,
         "C-contiguous",
     ),
     (
         "into-out-F-order",
-        lambda: _core.sosfilt_into(
-            SOS1, np.ones((2, 4)), np.asfortranarray(np.zeros((2, 4))), np.zeros((2, 1, 2))
-        ),
+        lambda: _core.sosfilt_into(SOS1, np.ones((2, 4)), np.asfortranarray(np.zeros((2, 4))), np.zeros((2, 1, 2))),
         ValueError,
         "C-contiguous",
     ),

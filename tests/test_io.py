@@ -579,9 +579,7 @@ def test_csv_generic(tmp_path):
     p = tmp_path / "run.csv"
     p.write_text(
         "# rig 3, pin 2\nTime (ms);Fz [N];Fy [N];note\n"
-        + "".join(
-            f"{k * 0.5:.1f};{-10 - k:.2f};{3 + k / 10:.3f};ok\n".replace(".", ",") for k in range(9)
-        )
+        + "".join(f"{k * 0.5:.1f};{-10 - k:.2f};{3 + k / 10:.3f};ok\n".replace(".", ",") for k in range(9))
     )
     with open_recording(p) as rec:
         assert rec.format == "delimited"
@@ -599,9 +597,7 @@ def test_csv_generic(tmp_path):
 
 def test_csv_units_row_and_blocks(tmp_path):
     p = tmp_path / "blocks.txt"
-    p.write_text(
-        "t,fy,fz\ns,kN,kN\n0,1,2\n0.1,1.5,2.5\n\nrepeat 2\nt,fy,fz\ns,kN,kN\n0,3,4\n0.1,3.5,4.5\n0.2,4,5\n"
-    )
+    p.write_text("t,fy,fz\ns,kN,kN\n0,1,2\n0.1,1.5,2.5\n\nrepeat 2\nt,fy,fz\ns,kN,kN\n0,3,4\n0.1,3.5,4.5\n0.2,4,5\n")
     with open_recording(p) as rec:
         assert rec.segments == [(0, 2), (2, 5)]
         assert rec.fs == 10.0

@@ -112,8 +112,7 @@ def test_mapped_path_equals_mapping(data, npy, file_calls, hop, threads, chunk, 
     with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
         got = td.analyze(rec, hop=hop, threads=threads, chunk=chunk, start=start, **KW)
     assert _mapped_ok(file_calls), file_calls
-    want = td.analyze(_mapping(data, origin=start), fs=FS, hop=hop, threads=threads, chunk=chunk, start=start,
-                      **KW)
+    want = td.analyze(_mapping(data, origin=start), fs=FS, hop=hop, threads=threads, chunk=chunk, start=start, **KW)
     assert_same(got, want)
 
     step, length = int(round(hop * FS)), int(round(KW["window"] * FS))
@@ -136,8 +135,10 @@ def test_mapped_path_equals_mapping(data, npy, file_calls, hop, threads, chunk, 
 
 def test_mapped_path_independent_of_threads_and_chunk(npy, file_calls):
     with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
-        results = [td.analyze(rec, hop=2.0, threads=t, chunk=c, **KW)
-                   for t, c in [(1, None), (2, None), (2, 2.0), (1, 5.0), (2, 149.0)]]
+        results = [
+            td.analyze(rec, hop=2.0, threads=t, chunk=c, **KW)
+            for t, c in [(1, None), (2, None), (2, 2.0), (1, 5.0), (2, 149.0)]
+        ]
     assert len(file_calls) == 5 and all(c["error"] is None for c in file_calls)
     for r in results[1:]:
         assert_same(r, results[0])
@@ -224,8 +225,15 @@ def test_mapped_path_other_settings_use_the_streaming_path(data, npy, file_calls
 )
 def test_mapped_path_equals_mapping_any_grid(data, npy, length, step, start, chunk_n, threads):
     """Any window, hop, start and chunk (in samples): the mapped table is the streaming one."""
-    kw = dict(window=length / FS, hop=step / FS, n_bins=5, area_mm2=1.0, threads=threads, start=start,
-              chunk=None if chunk_n is None else chunk_n / FS)
+    kw = dict(
+        window=length / FS,
+        hop=step / FS,
+        n_bins=5,
+        area_mm2=1.0,
+        threads=threads,
+        start=start,
+        chunk=None if chunk_n is None else chunk_n / FS,
+    )
     with mock.patch.object(_core, "windows_stats_file", wraps=_core.windows_stats_file) as spy:
         with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
             got = td.analyze(rec, **kw)
@@ -240,15 +248,17 @@ def test_mapped_path_equals_mapping_any_grid(data, npy, length, step, start, chu
 
 @pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("hop, first", [(2.0, 50_000), (3.0, 51_000)])
-@pytest.mark.parametrize("row, role, bad", [(1, "fy", np.nan), (2, "fz", np.nan), (0, "fx", np.inf),
-                                            (3, "i", -np.inf)])
-def test_non_finite_in_a_window_names_channel_and_window(data, tmp_path, file_calls, threads, hop, first, row, role,
-                                                          bad):
+@pytest.mark.parametrize("row, role, bad", [(1, "fy", np.nan), (2, "fz", np.nan), (0, "fx", np.inf), (3, "i", -np.inf)])
+def test_non_finite_in_a_window_names_channel_and_window(
+    data, tmp_path, file_calls, threads, hop, first, row, role, bad
+):
     a = data.copy()
     a[row, 51_500] = bad
     p = _write(tmp_path / "nan.npy", a)
-    msg = (rf"^{role} contains NaN or inf in the window starting at sample {first} "
-           rf"\(t = {first / FS:g} s\)$")
+    msg = (
+        rf"^{role} contains NaN or inf in the window starting at sample {first} "
+        rf"\(t = {first / FS:g} s\)$"
+    )
     with open_recording(p, fs=FS, names=list(ROLES)) as rec:
         with pytest.raises(ValueError, match=msg):
             td.analyze(rec, hop=hop, threads=threads, **KW)
@@ -263,8 +273,11 @@ def test_nan_with_start_is_named_by_absolute_sample(data, tmp_path, file_calls):
     a[1, 100_001] = np.nan
     p = _write(tmp_path / "nan.npy", a)
     with open_recording(p, fs=FS, names=list(ROLES)) as rec:
-        with pytest.raises(ValueError, match=r"^fy contains NaN or inf in the window starting at sample 99000 "
-                                             r"\(t = 99 s\)$"):
+        with pytest.raises(
+            ValueError,
+            match=r"^fy contains NaN or inf in the window starting at sample 99000 "
+            r"\(t = 99 s\)$",
+        ):
             td.analyze(rec, hop=3.0, start=4321, threads=2, **KW)
 
 
@@ -315,8 +328,9 @@ def test_fallbacks_equal_mapping(data, tmp_path, file_calls, kind, hop, start, t
             assert rec.file_layout([r for r in ("fx", "fy", "fz", "i") if r in rec.roles]) is None
         got = td.analyze(rec, hop=hop, start=start, threads=threads, **extra, **kwa)
     assert file_calls == []  # nothing the kernel could map
-    want = td.analyze(_mapping(want_arr, names, origin=start), fs=FS, hop=hop, start=start, threads=threads,
-                      **extra, **kwa)
+    want = td.analyze(
+        _mapping(want_arr, names, origin=start), fs=FS, hop=hop, start=start, threads=threads, **extra, **kwa
+    )
     assert_same(got, want)
     if kind == "scale":
         # The scaled result is the unscaled one with fz doubled: mu halves.
@@ -389,8 +403,7 @@ def test_unaligned_npy_header_chunks_and_read(data, tmp_path):
         views = list(rec.chunks(3000, copy=False))
         np.testing.assert_array_equal(np.concatenate([c["fz"] for c in views]), a[2])
     with pytest.raises(ValueError, match="multiple of 8"):
-        _wsf(p, (None, off + 20_000 * 8, off + 2 * 20_000 * 8, None), 20_000, 0, 5,
-                                 2000, 2000, 1.0, "force", 0.35, 16)
+        _wsf(p, (None, off + 20_000 * 8, off + 2 * 20_000 * 8, None), 20_000, 0, 5, 2000, 2000, 1.0, "force", 0.35, 16)
 
 
 def test_mapped_path_reads_the_opened_file_not_a_replacement(data, tmp_path):
@@ -494,8 +507,9 @@ def _other_format(kind, a, tmp_path):
     raise AssertionError(kind)
 
 
-@pytest.mark.parametrize("kind", ["npz", "npz_compressed", "hdf5", "csv", "npy_samples_first", "npy_float32",
-                                  "npy_fortran"])
+@pytest.mark.parametrize(
+    "kind", ["npz", "npz_compressed", "hdf5", "csv", "npy_samples_first", "npy_float32", "npy_fortran"]
+)
 def test_other_formats_copy_false_same_values(data, tmp_path, kind):
     a = data[:, :70_000] if kind != "csv" else data[:, :9_000]
     n = a.shape[1]
@@ -550,11 +564,11 @@ def _offsets(lay, fx=True, aux=True):
 def test_windows_stats_file_equals_windows_stats(data, npy, layout, fx, aux, block):
     step, length, k0 = 1700, 2100, 3
     k1 = (N - length) // step + 1
-    got = _wsf(npy, _offsets(layout, fx, aux), N, k0, k1, step, length, 1.0, "force", 0.35, 16,
-                                   block)
+    got = _wsf(npy, _offsets(layout, fx, aux), N, k0, k1, step, length, 1.0, "force", 0.35, 16, block)
     starts = np.arange(k0, k1, dtype=np.int64) * step
-    want = _core.windows_stats(data[0] if fx else None, data[1], data[2], data[3] if aux else None, starts, length,
-                               1.0, "force", 0.35, 16)
+    want = _core.windows_stats(
+        data[0] if fx else None, data[1], data[2], data[3] if aux else None, starts, length, 1.0, "force", 0.35, 16
+    )
     assert sorted(got) == sorted(want)
     for key in want:
         assert got[key].dtype == want[key].dtype, key
@@ -586,8 +600,11 @@ def test_windows_stats_file_errors(npy, layout, tmp_path):
     with pytest.raises(ValueError, match="runs past the file"):
         call(n=2**62, k1=1)  # n * 8 overflows
     # An offset not a multiple of 8.
-    for bad in [(off[0] + 4, off[1], off[2], off[3]), (None, off[1] + 1, off[2], None),
-                (None, off[1], off[2], off[3] - 2)]:
+    for bad in [
+        (off[0] + 4, off[1], off[2], off[3]),
+        (None, off[1] + 1, off[2], None),
+        (None, off[1], off[2], off[3] - 2),
+    ]:
         with pytest.raises(ValueError, match="multiple of 8"):
             call(offsets=bad)
     # Windows past the end of the channels.
@@ -648,14 +665,17 @@ def test_windows_stats_file_non_finite(data, tmp_path):
 
 @pytest.mark.parametrize("highpass", [None, 0.1])
 @pytest.mark.parametrize("threads", [1, 2])
-@pytest.mark.parametrize("start, stop, hop", [(0, 40_000, 2.0), (12_345, 99_999, 2.0), (7_001, 120_000, 3.0),
-                                              (0, N, 2.0), (50_000, 52_000, 2.0)])
+@pytest.mark.parametrize(
+    "start, stop, hop",
+    [(0, 40_000, 2.0), (12_345, 99_999, 2.0), (7_001, 120_000, 3.0), (0, N, 2.0), (50_000, 52_000, 2.0)],
+)
 def test_range_of_a_recording_equals_the_sliced_mapping(data, npy, file_calls, threads, start, stop, hop, highpass):
     with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
         got = td.analyze(rec, hop=hop, threads=threads, start=start, stop=stop, highpass=highpass, **KW)
     assert _mapped_ok(file_calls)
-    want = td.analyze(_mapping(data[:, :stop], origin=start), fs=FS, hop=hop, threads=threads, start=start,
-                      highpass=highpass, **KW)
+    want = td.analyze(
+        _mapping(data[:, :stop], origin=start), fs=FS, hop=hop, threads=threads, start=start, highpass=highpass, **KW
+    )
     assert_same(got, want)
     starts = got.table["t_start"] * FS
     assert starts.min() >= start and (starts + 2000).max() <= stop

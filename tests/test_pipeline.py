@@ -1,4 +1,4 @@
-"""COF identification on simulated recordings (METHOD.md sections 4-7).
+"""COF identification on simulated recordings (docs/method.md sections 4-7).
 
 The simulator (tribodyn.simulate) knows the true COF; these tests check the
 pipeline against it, its invariance to chunking, and its errors.

@@ -1,4 +1,4 @@
-"""Closed-form, stable, mergeable least squares, Eqs. (6)-(8) (METHOD.md 3).
+"""Closed-form, stable, mergeable least squares, Eqs. (6)-(8) (docs/method.md 3).
 
 Tolerances
 ----------
@@ -129,9 +129,7 @@ def test_norris_file_is_the_nist_original():
     assert CERT["slope"] == Decimal("1.00211681802045")
     # The file's own ANOVA table agrees with the parsed R^2 and resid SD.
     text = NORRIS.read_text()
-    ss_reg, ss_res = map(
-        Decimal, re.search(r"Regression\s+1\s+(\S+).*\nResidual\s+34\s+(\S+)", text).groups()
-    )
+    ss_reg, ss_res = map(Decimal, re.search(r"Regression\s+1\s+(\S+).*\nResidual\s+34\s+(\S+)", text).groups())
     assert abs(ss_reg / (ss_reg + ss_res) - CERT["r2"]) < Decimal("1e-14")
     assert abs((ss_res / 34).sqrt() - CERT["resid_std"]) < Decimal("1e-14")
 
@@ -157,8 +155,7 @@ def test_norris_certified_accumulated(splits):
     # per chunk (see test_norris_accumulated_contract for the strict form).
     n_chunks = len(splits) + 1
     b0_cond = float(
-        (abs(Decimal(float(Y.mean()))) + abs(CERT["slope"] * Decimal(float(X.mean()))))
-        / abs(CERT["intercept"])
+        (abs(Decimal(float(Y.mean()))) + abs(CERT["slope"] * Decimal(float(X.mean())))) / abs(CERT["intercept"])
     )
     b0_tol = 1e-12 + (n_chunks + 2) * EPS * b0_cond
     for fit in (acc.result(), racc.result()):
@@ -200,11 +197,7 @@ def test_norris_shifted_by_1e6():
     delta = np.array([float(Fraction(a) - (b + SHIFT)) for a, b in zip(xs, xf)])
     dnorm = float(np.linalg.norm(delta))
     sxx = float(sum((v - sum(xf) / 36) ** 2 for v in xf))
-    bound = (
-        1e-12
-        + abs(fit.slope) * dnorm / (np.sqrt(34.0) * float(CERT["resid_std"]))
-        + 2 * dnorm / np.sqrt(sxx)
-    )
+    bound = 1e-12 + abs(fit.slope) * dnorm / (np.sqrt(34.0) * float(CERT["resid_std"])) + 2 * dnorm / np.sqrt(sxx)
     assert 0 < dnorm < 36 * 2**-33  # |delta_i| <= ulp(1e6) / 2 = 2^-34
     assert err["resid_std"] <= bound and err["slope_stderr"] <= bound, (err, bound)
     # ... and the exact fit of the rounded data shows the gap is the data's:
@@ -222,18 +215,14 @@ def test_norris_shifted_by_1e6():
         mx = sum(xd) / 36
         sxx_d = sum((v - mx) ** 2 for v in xd)
         se_b0_shifted = CERT["slope_stderr"] * (sxx_d / 36 + (mx + SHIFT) ** 2).sqrt()
-        assert abs(
-            CERT["slope_stderr"] * (sxx_d / 36 + mx**2).sqrt() - CERT["intercept_stderr"]
-        ) < Decimal("1e-15")
+        assert abs(CERT["slope_stderr"] * (sxx_d / 36 + mx**2).sqrt() - CERT["intercept_stderr"]) < Decimal("1e-15")
         assert abs(Decimal(fit.intercept) - b0_shifted) / abs(b0_shifted) <= Decimal("1e-12")
         assert float(abs(Decimal(fit.intercept_stderr) - se_b0_shifted) / se_b0_shifted) <= bound
         # Shifting back recovers B0 only to the slope's accuracy times 1e6
         # (plus the ulps of a number near 1e6): the digits are not in the
         # float64 intercept of the shifted data.
         back = Decimal(fit.intercept) + Decimal(fit.slope) * SHIFT
-        assert abs(back - CERT["intercept"]) <= Decimal(
-            1e-12 * SHIFT * abs(fit.slope) + 4 * np.spacing(1e6)
-        )
+        assert abs(back - CERT["intercept"]) <= Decimal(1e-12 * SHIFT * abs(fit.slope) + 4 * np.spacing(1e6))
 
 
 def norris_acc_shifted(splits, cls=td.LinFitAccumulator):
@@ -264,7 +253,7 @@ def test_norris_shifted_accumulated_within_mean_rounding():
 
 @pytest.mark.parametrize(
     "cls, case",
-    # METHOD.md 3: any split of Norris (also + 1e6) to 1e-12. Met because the
+    # docs/method.md 3: any split of Norris (also + 1e6) to 1e-12. Met because the
     # accumulators keep their means as double-doubles, so merges never round
     # them (Norris B0 is a difference of numbers 1600 times larger).
     [
@@ -313,9 +302,7 @@ def xy(draw, min_n: int = 3, max_n: int = 300):
     # Away from underflow: below ~1e-154 a square is 0 and S_xx with it.
     unit = st.floats(-1.0, 1.0).filter(lambda v: v == 0 or abs(v) > 1e-100)
     sx, sy = (draw(st.floats(-6.0, 6.0).map(lambda e: 10.0**e)) for _ in range(2))
-    ox, oy = (
-        draw(st.one_of(st.just(0.0), st.floats(-1e6, 1e6, allow_subnormal=False))) for _ in range(2)
-    )
+    ox, oy = (draw(st.one_of(st.just(0.0), st.floats(-1e6, 1e6, allow_subnormal=False))) for _ in range(2))
     u = draw(arrays(np.float64, n, elements=unit))
     noise = draw(arrays(np.float64, n, elements=unit))
     kind = draw(st.sampled_from(["noisy", "exact_line", "noise_only", "constant_x", "constant_y"]))
@@ -397,9 +384,7 @@ def test_linfit_matches_reference(case):
 def test_any_split_equals_one_shot(case, data):
     x, y = case
     n = x.size
-    cuts = sorted(
-        data.draw(st.lists(st.one_of(st.integers(0, n), st.sampled_from([0, 1, n])), max_size=10))
-    )
+    cuts = sorted(data.draw(st.lists(st.one_of(st.integers(0, n), st.sampled_from([0, 1, n])), max_size=10)))
     bounds = list(zip([0, *cuts], [*cuts, n]))
     acc, racc = td.LinFitAccumulator(), ref.LinFitAccumulator()
     for lo, hi in bounds:
@@ -416,10 +401,7 @@ def test_any_split_equals_one_shot(case, data):
     # Merging per-chunk accumulators pairwise, as a tree, gives it too.
     parts = [td.LinFitAccumulator().update(x[lo:hi], y[lo:hi]) for lo, hi in bounds]
     while len(parts) > 1:
-        parts = [
-            parts[i].merge(parts[i + 1]) if i + 1 < len(parts) else parts[i]
-            for i in range(0, len(parts), 2)
-        ]
+        parts = [parts[i].merge(parts[i + 1]) if i + 1 < len(parts) else parts[i] for i in range(0, len(parts), 2)]
     assert_fits_close(quiet(parts[0].result), one, x, y)
 
 
@@ -438,9 +420,7 @@ def test_one_million_samples_chunked():
 
 
 @given(
-    x=arrays(
-        np.float64, st.integers(3, 300), elements=st.floats(-100.0, 100.0, allow_subnormal=False)
-    ),
+    x=arrays(np.float64, st.integers(3, 300), elements=st.floats(-100.0, 100.0, allow_subnormal=False)),
     slope=st.floats(-5.0, 5.0),
     sigma=st.floats(0.01, 10.0),
     seed=st.integers(0, 2**32 - 1),

@@ -1,4 +1,4 @@
-"""Tests of the rig simulator (tribodyn.simulate), METHOD.md section 8.
+"""Tests of the rig simulator (tribodyn.simulate), docs/method.md section 8.
 
 Plain NumPy computations only: the simulator is the source of truth for the
 analysis tests, so it is checked here independently of the analysis code.
@@ -43,7 +43,7 @@ def _slope_mu(fy: np.ndarray, fz: np.ndarray, orientation: int) -> float:
 
 
 def _lagged_corr(x: np.ndarray, y: np.ndarray, max_lag: int):
-    """METHOD.md Eq. (1): whole-input means, overlap sums (direct)."""
+    """docs/method.md Eq. (1): whole-input means, overlap sums (direct)."""
     n = x.size
     xc, yc = x - x.mean(), y - y.mean()
     lags = np.arange(-max_lag, max_lag + 1)
@@ -191,9 +191,7 @@ def test_continuous_raw_preload() -> None:
     assert d["fy"].mean() == pytest.approx(0.12 * N0, rel=0.05)
 
 
-@pytest.mark.parametrize(
-    "centre", [101.0, 901.0, 1501.0, 1901.0, 2301.0, 2701.0, 3401.0, 3651.0, 3991.0, 4041.0]
-)
+@pytest.mark.parametrize("centre", [101.0, 901.0, 1501.0, 1901.0, 2301.0, 2701.0, 3401.0, 3651.0, 3991.0, 4041.0])
 def test_slope_recovers_true_cof_temperature(temp_sim: simulate.Simulation, centre: float) -> None:
     w = _window(temp_sim, centre)
     mu = _slope_mu(w["fy"], w["fz"], temp_sim.orientation)
@@ -229,9 +227,7 @@ def test_cof_curves_and_optimum(temp_sim: simulate.Simulation, cd_sim: simulate.
         np.testing.assert_allclose(simulate.cof_vs_temperature(inside, branch), 0.1)
         assert np.all(simulate.cof_vs_temperature([lo - 1.0, hi + 1.0], branch) > 0.1)
     # hysteresis: higher COF on cooling above the cooling optimum
-    assert simulate.cof_vs_temperature(170.0, "cooling") > simulate.cof_vs_temperature(
-        170.0, "heating"
-    )
+    assert simulate.cof_vs_temperature(170.0, "cooling") > simulate.cof_vs_temperature(170.0, "heating")
     # along the run: COF about 0.1 in the optimum, 0.15-0.2+ outside
     tr = temp_sim.truth
     assert tr.mu_at(500.0) == pytest.approx(0.1)

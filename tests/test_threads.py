@@ -56,9 +56,7 @@ def run_job(job: dict) -> dict:
     hp = td.HighPass(1000.0, order=2, channels=job["chunk"].shape[0])
     first = hp.process(job["chunk"][:, :3_333])
     rest = hp.process(job["chunk"][:, 3_333:])
-    acc = (
-        td.LinFitAccumulator().update(fz[:100_001], fy[:100_001]).update(fz[100_001:], fy[100_001:])
-    )
+    acc = td.LinFitAccumulator().update(fz[:100_001], fy[:100_001]).update(fz[100_001:], fy[100_001:])
     return {
         "fft": td.xcorr(x, y, max_lag=2_000, method="fft").c,
         "direct": td.xcorr(x[:3_000], y[:3_000], max_lag=300, method="direct").c,
@@ -99,9 +97,7 @@ def test_shared_filter_objects_stay_separate():
     filters = [td.HighPass(500.0, cutoff=2.0) for _ in signals]
 
     def feed(k: int) -> np.ndarray:
-        return np.concatenate(
-            [filters[k].process(signals[k][i : i + 700]) for i in range(0, 9_000, 700)]
-        )
+        return np.concatenate([filters[k].process(signals[k][i : i + 700]) for i in range(0, 9_000, 700)])
 
     with ThreadPoolExecutor(max_workers=N_THREADS) as pool:
         got = list(pool.map(feed, range(N_THREADS)))

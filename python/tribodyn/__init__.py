@@ -1,7 +1,7 @@
 """tribodyn: the coefficient of friction of a sliding contact from measured
 dynamic forces.
 
-The method (the paper's, made precise) is in METHOD.md; every public function
+The method (the paper's, made precise) is in docs/method.md; every public function
 cites its section. Kernels run in Rust (``tribodyn._core``); a pure-NumPy
 reference of each is in :mod:`tribodyn.reference`.
 """

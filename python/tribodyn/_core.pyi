@@ -84,7 +84,7 @@ def windows_stats(
     fz_raw: _F64 | None = None,
     parallel: bool = True,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
-    """Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
+    """Per-window statistics (docs/method.md 4-6) for windows starting at `starts`.
     Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
     forces before the high-pass) add `mu_classic`; a non-finite sample in a
     window raises ValueError. `parallel=False` keeps the work on the calling
@@ -107,7 +107,7 @@ def get_threads() -> int:
 
 @final  # a pyo3 class: not subclassable at runtime
 class Moments:
-    """Mergeable centred moments of (x, y) (METHOD.md 3)."""
+    """Mergeable centred moments of (x, y) (docs/method.md 3)."""
 
     def __new__(cls) -> Moments: ...
     def update(self, x: _F64, y: _F64) -> None:
@@ -135,7 +135,6 @@ class Moments:
         mean_y_lo: float = 0.0,
     ) -> Moments:
         """Rebuilds moments from `state()` (for pickling and transport)."""
-
 
 def windows_stats_file(
     fd: int,

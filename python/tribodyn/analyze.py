@@ -1,4 +1,4 @@
-"""Long recordings: ``tribodyn.analyze`` (METHOD.md section 6).
+"""Long recordings: ``tribodyn.analyze`` (docs/method.md section 6).
 
 Reads a recording chunk by chunk, optionally high-passes raw (DC-coupled)
 channels with the streaming filter, cuts windows of ``window`` s every
@@ -77,17 +77,22 @@ def _is_recording(source: Any) -> bool:
 
 def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.ndarray]:
     if not isinstance(chunk, Mapping):
-        raise TypeError(f"{where} must be a mapping of role -> array (roles fx, fy, fz, i, u), "
-                        f"got {type(chunk).__name__}")
+        raise TypeError(
+            f"{where} must be a mapping of role -> array (roles fx, fy, fz, i, u), got {type(chunk).__name__}"
+        )
     missing = [r for r in needed if r not in chunk]
     if missing:
-        raise ValueError(f"{where} lacks the required channel(s) {', '.join(missing)} "
-                         f"(has {', '.join(map(str, chunk)) or 'none'})")
+        raise ValueError(
+            f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})"
+        )
     # No NaN/inf scan here: the kernel refuses a non-finite sample in any
     # window as it sums it, and the high-pass filter checks every sample it
     # filters; samples outside every window change no result.
-    out = {str(k): as_signal(v, f"{where}[{k!r}]", min_len=0, check_finite=False)
-           for k, v in chunk.items() if k in ("fx", "fy", "fz", "i", "u", "cof")}
+    out = {
+        str(k): as_signal(v, f"{where}[{k!r}]", min_len=0, check_finite=False)
+        for k, v in chunk.items()
+        if k in ("fx", "fy", "fz", "i", "u", "cof")
+    }
     lengths = {k: len(v) for k, v in out.items()}
     if len(set(lengths.values())) > 1:
         raise ValueError(f"{where}: channels must have equal lengths, got {lengths}")
@@ -97,8 +102,18 @@ def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.
 class _Collector:
     """Receives windows from the Windower and keeps their statistics, in order."""
 
-    def __init__(self, *, length: int, fs: float, deadband: Any, n_bins: int, max_lag: Optional[int],
-                 aux_role: Optional[str], raw: bool, parallel: bool = True) -> None:
+    def __init__(
+        self,
+        *,
+        length: int,
+        fs: float,
+        deadband: Any,
+        n_bins: int,
+        max_lag: Optional[int],
+        aux_role: Optional[str],
+        raw: bool,
+        parallel: bool = True,
+    ) -> None:
         self.length, self.fs, self.deadband, self.n_bins = length, fs, deadband, n_bins
         self.max_lag, self.aux_role, self.raw, self.parallel = max_lag, aux_role, raw, parallel
         self.parts: List[Dict[str, np.ndarray]] = []
@@ -114,8 +129,18 @@ class _Collector:
         aux = ch.get(self.aux_role) if self.aux_role else None
         raw = (ch["fy_raw"], ch["fz_raw"]) if self.raw else None
         try:
-            st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, self.length, self.deadband, self.n_bins, raw=raw,
-                         parallel=self.parallel)
+            st = compute(
+                ch.get("fx"),
+                ch["fy"],
+                ch["fz"],
+                aux,
+                rel,
+                self.length,
+                self.deadband,
+                self.n_bins,
+                raw=raw,
+                parallel=self.parallel,
+            )
         except ValueError:
             _raise_non_finite(ch, rel, absolute, self.length, self.fs)
             raise
@@ -141,8 +166,10 @@ def _raise_non_finite(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.n
     for s, a in zip(rel, absolute):
         for role in ("fz", "fy", "fx", "i", "u", "fz_raw", "fy_raw"):
             if role in ch and not np.isfinite(ch[role][s : s + length]).all():
-                raise ValueError(f"{role.removesuffix('_raw')} contains NaN or inf in the window starting at "
-                                 f"sample {a} (t = {a / fs:g} s)")
+                raise ValueError(
+                    f"{role.removesuffix('_raw')} contains NaN or inf in the window starting at "
+                    f"sample {a} (t = {a / fs:g} s)"
+                )
 
 
 def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
@@ -213,7 +240,7 @@ def analyze(
     start: int = 0,
     stop: Optional[int] = None,
 ) -> Results:
-    """COF of every window of a long recording (METHOD.md 6).
+    """COF of every window of a long recording (docs/method.md 6).
 
     Parameters
     ----------
@@ -242,7 +269,7 @@ def analyze(
     orientation : {+1, -1, "auto"}
         s in mu = s * slope; "auto" fixes it ONCE for the recording, as the
         sign of the least-squares slope of fy on fz over all windows
-        (METHOD.md 0), never per window.
+        (docs/method.md 0), never per window.
     temperature : (t_s, T_degC), optional
         Intermittent temperature log, interpolated linearly at each window
         centre (NaN outside the log); ``branch`` is the sign of dT/dt.
@@ -315,8 +342,11 @@ def analyze(
     g = check_gate(gate)
     if max_lag is not None:
         check_int(max_lag, "max_lag", minimum=0)
-    if (isinstance(orientation, str) and orientation != "auto"
-            or (not isinstance(orientation, str) and orientation not in (1, -1))):
+    if (
+        isinstance(orientation, str)
+        and orientation != "auto"
+        or (not isinstance(orientation, str) and orientation not in (1, -1))
+    ):
         raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
     temp_log = None if temperature is None else as_log(temperature, "temperature")
     if voltage is not None or shunt_ohm is not None:
@@ -334,18 +364,34 @@ def analyze(
     end: Optional[int] = None
     if stop is not None:
         if rec is None:
-            raise ValueError("stop= applies to a recording source (a mapping or a stream of chunks ends where it "
-                             "ends; slice it instead)")
+            raise ValueError(
+                "stop= applies to a recording source (a mapping or a stream of chunks ends where it "
+                "ends; slice it instead)"
+            )
         end = check_int(stop, "stop", minimum=0)
         n_rec = getattr(rec, "n_samples", None)
         if end < origin or (isinstance(n_rec, int) and end > n_rec):
-            raise ValueError(f"stop must satisfy start <= stop <= {n_rec} (the recording's samples), "
-                             f"got start={origin}, stop={end}")
+            raise ValueError(
+                f"stop must satisfy start <= stop <= {n_rec} (the recording's samples), got start={origin}, stop={end}"
+            )
 
     params: Dict[str, Any] = dict(
-        fs=fs_v, window=w_s, hop=h_s, window_samples=length, hop_samples=step, highpass=hp_fc,
-        orientation=orientation, deadband=str(db), n_bins=nb, gate=g, max_lag=max_lag, rpm=rpm,
-        n_lamellas=n_lamellas, area_mm2=area, shunt_ohm=shunt, chunk_samples=chunk_n,
+        fs=fs_v,
+        window=w_s,
+        hop=h_s,
+        window_samples=length,
+        hop_samples=step,
+        highpass=hp_fc,
+        orientation=orientation,
+        deadband=str(db),
+        n_bins=nb,
+        gate=g,
+        max_lag=max_lag,
+        rpm=rpm,
+        n_lamellas=n_lamellas,
+        area_mm2=area,
+        shunt_ohm=shunt,
+        chunk_samples=chunk_n,
         temperature_log_points=None if temp_log is None else int(temp_log[0].size),
     )
 
@@ -353,15 +399,19 @@ def analyze(
         if isinstance(source, (list, tuple)):
             st, aux_role = _acquisitions(source, fs_v, db, nb, hp_fc, max_lag, shunt)
         else:
-            st, aux_role = _stream(source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt,
-                                   origin, end)
+            st, aux_role = _stream(
+                source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt, origin, end
+            )
 
     if len(st["n"]) == 0:
         if end is not None:
-            raise ValueError(f"samples {origin}..{end} hold no whole window ({w_s:g} s = {length} samples, starting "
-                             f"every {step} samples from sample 0): no window to analyse")
-        raise ValueError(f"the recording is shorter than one window ({w_s:g} s = {length} samples): "
-                         "no window to analyse")
+            raise ValueError(
+                f"samples {origin}..{end} hold no whole window ({w_s:g} s = {length} samples, starting "
+                f"every {step} samples from sample 0): no window to analyse"
+            )
+        raise ValueError(
+            f"the recording is shorter than one window ({w_s:g} s = {length} samples): no window to analyse"
+        )
     s = resolve_orientation(orientation, sign_of_total_slope(st))
     moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
     if "acquisition" not in st:
@@ -413,8 +463,16 @@ def analyze(
     params["orientation_used"] = s
     params["start"] = origin
     params["stop"] = end
-    return Results(table=table, bin_counts=np.asarray(o["bin_count"], dtype=np.int64), bin_cof=o["bin_cof"],
-                   fz_min=o["fz_min"], fz_max=o["fz_max"], orientation=s, params=params, moments=moments)
+    return Results(
+        table=table,
+        bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
+        bin_cof=o["bin_cof"],
+        fz_min=o["fz_min"],
+        fz_max=o["fz_max"],
+        orientation=s,
+        params=params,
+        moments=moments,
+    )
 
 
 def _env_threads() -> Optional[int]:
@@ -448,9 +506,22 @@ def _aux_role(chunk: Mapping, shunt: Optional[float]) -> Optional[str]:
     return None
 
 
-def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, nb: int,
-            hp_fc: Optional[float], max_lag: Optional[int], chunk_n: Optional[int], progress: bool,
-            shunt: Optional[float], origin: int = 0, end: Optional[int] = None):
+def _stream(
+    source: Any,
+    rec: Any,
+    fs: float,
+    length: int,
+    step: int,
+    db: Any,
+    nb: int,
+    hp_fc: Optional[float],
+    max_lag: Optional[int],
+    chunk_n: Optional[int],
+    progress: bool,
+    shunt: Optional[float],
+    origin: int = 0,
+    end: Optional[int] = None,
+):
     threads = _core.get_threads()
     if rec is not None and max_lag is None and not progress:
         mapped = _stream_file(rec, origin, fs, length, step, db, nb, hp_fc, chunk_n, shunt, threads, end)
@@ -464,8 +535,19 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
             # Large chunks where they are views of the file (no copy); the
             # default where the reader copies, so that copies stay small.
             views = getattr(rec, "_can_view", lambda: False)()
-            return _stream_spans(rec, spans, chunk_n or (SPAN_CHUNK if views else DEFAULT_CHUNK), fs, length, step,
-                                 db, nb, max_lag, progress, shunt)
+            return _stream_spans(
+                rec,
+                spans,
+                chunk_n or (SPAN_CHUNK if views else DEFAULT_CHUNK),
+                fs,
+                length,
+                step,
+                db,
+                nb,
+                max_lag,
+                progress,
+                shunt,
+            )
         # Views where the format has them: nothing here writes into a chunk.
         chunks: Iterable[Any] = rec.chunks(size, start=origin, stop=end, copy=False)
     elif isinstance(source, Mapping):
@@ -475,22 +557,37 @@ def _stream(source: Any, rec: Any, fs: float, length: int, step: int, db: Any, n
         chunks = source
         total = None
     else:
-        raise TypeError("source must be a mapping, an iterable of mappings, a list of acquisitions or a recording, "
-                        f"got {type(source).__name__}")
+        raise TypeError(
+            "source must be a mapping, an iterable of mappings, a list of acquisitions or a recording, "
+            f"got {type(source).__name__}"
+        )
     bar = _progress(progress, total)
     try:
         # Overlap reading with the kernel only when two threads may run: with
         # one, the whole pipeline stays on one core.
-        parts, aux_role = _run_chunks(chunks, origin, fs, length, step, db, nb, hp_fc, max_lag, shunt, bar,
-                                      pipelined=threads >= 2)
+        parts, aux_role = _run_chunks(
+            chunks, origin, fs, length, step, db, nb, hp_fc, max_lag, shunt, bar, pipelined=threads >= 2
+        )
     finally:
         if bar is not None:
             bar.close()
     return _concat(parts), aux_role
 
 
-def _stream_file(rec: Any, origin: int, fs: float, length: int, step: int, db: Any, nb: int, hp_fc: Optional[float],
-                 chunk_n: Optional[int], shunt: Optional[float], threads: int, end: Optional[int] = None):
+def _stream_file(
+    rec: Any,
+    origin: int,
+    fs: float,
+    length: int,
+    step: int,
+    db: Any,
+    nb: int,
+    hp_fc: Optional[float],
+    chunk_n: Optional[int],
+    shunt: Optional[float],
+    threads: int,
+    end: Optional[int] = None,
+):
     """A recording whose channels the kernel can read from the file's own pages (a float64 ``.npy``).
 
     One call of ``_core.windows_stats_file``: the file is memory-mapped a
@@ -536,8 +633,9 @@ def _stream_file(rec: Any, origin: int, fs: float, length: int, step: int, db: A
         sos, zi = hp.sos, hp._zi
         block = cap
     try:
-        st = _core.windows_stats_file(fd, offsets, n_rec, k0, k1, step, length, 1.0, db.kind, float(db.value),
-                                      nb, block, sos, zi, origin)
+        st = _core.windows_stats_file(
+            fd, offsets, n_rec, k0, k1, step, length, 1.0, db.kind, float(db.value), nb, block, sos, zi, origin
+        )
     except (ValueError, OSError):
         return None
     for key in _UNUSED + (() if hp_fc is not None else ("mu_classic",)):
@@ -552,8 +650,9 @@ _RANDOM_ACCESS = ("npy", "hdf5", "tdms")
 _MIN_SPAN_WINDOWS = 64
 
 
-def _spans(rec: Any, origin: int, length: int, step: int, threads: int,
-           end: Optional[int] = None) -> Optional[List[tuple]]:
+def _spans(
+    rec: Any, origin: int, length: int, step: int, threads: int, end: Optional[int] = None
+) -> Optional[List[tuple]]:
     """Sample ranges of a recording, one per thread, on the window grid; None to read it as one stream.
 
     With one thread the whole recording is one span (read the same way:
@@ -578,8 +677,19 @@ def _spans(rec: Any, origin: int, length: int, step: int, threads: int,
     return [(ks[j] * step, (ks[j + 1] - 1) * step + length) for j in range(parts)]
 
 
-def _stream_spans(rec: Any, spans: List[tuple], size: int, fs: float, length: int, step: int, db: Any, nb: int,
-                  max_lag: Optional[int], progress: bool, shunt: Optional[float]):
+def _stream_spans(
+    rec: Any,
+    spans: List[tuple],
+    size: int,
+    fs: float,
+    length: int,
+    step: int,
+    db: Any,
+    nb: int,
+    max_lag: Optional[int],
+    progress: bool,
+    shunt: Optional[float],
+):
     """Reads and analyses the spans concurrently, one thread each (dynamic input only: no filter state).
 
     The reader's copies and the kernel release the GIL, so the spans run in
@@ -589,8 +699,25 @@ def _stream_spans(rec: Any, spans: List[tuple], size: int, fs: float, length: in
     bar = _progress(progress, sum(b - a for a, b in spans))
     try:
         with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
-            futures = [ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b, copy=False), a, fs, length, step, db,
-                                 nb, None, max_lag, shunt, bar, pipelined=False, parallel=False) for a, b in spans]
+            futures = [
+                ex.submit(
+                    _run_chunks,
+                    rec.chunks(size, start=a, stop=b, copy=False),
+                    a,
+                    fs,
+                    length,
+                    step,
+                    db,
+                    nb,
+                    None,
+                    max_lag,
+                    shunt,
+                    bar,
+                    pipelined=False,
+                    parallel=False,
+                )
+                for a, b in spans
+            ]
             results = [f.result() for f in futures]
     finally:
         if bar is not None:
@@ -598,9 +725,23 @@ def _stream_spans(rec: Any, spans: List[tuple], size: int, fs: float, length: in
     return _concat([st for parts, _ in results for st in parts]), results[0][1]
 
 
-def _run_chunks(chunks: Iterable[Any], origin: int, fs: float, length: int, step: int, db: Any, nb: int,
-                hp_fc: Optional[float], max_lag: Optional[int], shunt: Optional[float], bar: Any, *,
-                pipelined: bool, depth: int = 2, parallel: bool = True):
+def _run_chunks(
+    chunks: Iterable[Any],
+    origin: int,
+    fs: float,
+    length: int,
+    step: int,
+    db: Any,
+    nb: int,
+    hp_fc: Optional[float],
+    max_lag: Optional[int],
+    shunt: Optional[float],
+    bar: Any,
+    *,
+    pipelined: bool,
+    depth: int = 2,
+    parallel: bool = True,
+):
     """Checks, filters and windows a stream of chunks; the batches of window statistics, in order.
 
     With ``pipelined``, the caller's thread only reads (the reader's copies
@@ -637,8 +778,19 @@ def _run_chunks(chunks: Iterable[Any], origin: int, fs: float, length: int, step
 class _Stage:
     """Filter, windower and kernel for one stream of chunks (used by one thread at a time)."""
 
-    def __init__(self, origin: int, fs: float, length: int, step: int, db: Any, nb: int, hp_fc: Optional[float],
-                 max_lag: Optional[int], shunt: Optional[float], parallel: bool = True) -> None:
+    def __init__(
+        self,
+        origin: int,
+        fs: float,
+        length: int,
+        step: int,
+        db: Any,
+        nb: int,
+        hp_fc: Optional[float],
+        max_lag: Optional[int],
+        shunt: Optional[float],
+        parallel: bool = True,
+    ) -> None:
         self.origin, self.fs, self.length, self.step, self.db, self.nb = origin, fs, length, step, db, nb
         self.parallel = parallel
         self.hp_fc, self.max_lag, self.shunt = hp_fc, max_lag, shunt
@@ -651,9 +803,16 @@ class _Stage:
         if self.collector is None:
             aux = _aux_role(ch, self.shunt)
             self.force_roles = [r for r in FORCE_ROLES if r in ch]
-            self.collector = _Collector(length=self.length, fs=self.fs, deadband=self.db, n_bins=self.nb,
-                                        max_lag=self.max_lag, aux_role=aux, raw=self.hp_fc is not None,
-                                        parallel=self.parallel)
+            self.collector = _Collector(
+                length=self.length,
+                fs=self.fs,
+                deadband=self.db,
+                n_bins=self.nb,
+                max_lag=self.max_lag,
+                aux_role=aux,
+                raw=self.hp_fc is not None,
+                parallel=self.parallel,
+            )
             self.windower = Windower(self.length, self.step, self.collector, origin=self.origin)
             if self.hp_fc is not None:
                 self.hp = HighPass(self.fs, cutoff=self.hp_fc, channels=len(self.force_roles))
@@ -668,8 +827,9 @@ class _Stage:
                 bad = [r for r in self.force_roles if not np.isfinite(ch[r]).all()]
                 if not bad:
                     raise
-                raise ValueError(f"{bad[0]} contains NaN or inf in chunk {i} "
-                                 "(the high-pass filter needs every sample)") from None
+                raise ValueError(
+                    f"{bad[0]} contains NaN or inf in chunk {i} (the high-pass filter needs every sample)"
+                ) from None
             ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
             for k, r in enumerate(self.force_roles):
                 ch[r] = filtered[k]
@@ -692,8 +852,15 @@ def _progress(on: bool, total: Optional[int]) -> Any:
     return tqdm(total=total, unit="sample", unit_scale=True, desc="analyse", leave=False)
 
 
-def _acquisitions(source: Sequence[Any], fs: float, db: Any, nb: int, hp_fc: Optional[float],
-                  max_lag: Optional[int], shunt: Optional[float]):
+def _acquisitions(
+    source: Sequence[Any],
+    fs: float,
+    db: Any,
+    nb: int,
+    hp_fc: Optional[float],
+    max_lag: Optional[int],
+    shunt: Optional[float],
+):
     parts: List[Dict[str, np.ndarray]] = []
     t = 0.0
     aux_role: Optional[str] = None
@@ -709,8 +876,9 @@ def _acquisitions(source: Sequence[Any], fs: float, db: Any, nb: int, hp_fc: Opt
             ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
             for j, r in enumerate(roles):
                 ch[r] = filtered[j]
-        col = _Collector(length=n, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux_role,
-                         raw=hp_fc is not None)
+        col = _Collector(
+            length=n, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux_role, raw=hp_fc is not None
+        )
         st = col._batch(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
         t0 = acq.get("t0") if isinstance(acq, Mapping) else None
         st["t0"] = np.array([float(t0) if t0 is not None else t])

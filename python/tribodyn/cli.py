@@ -69,8 +69,12 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0, help="simulation seed")
 
     a = sub.add_parser("analyze", aliases=["analyse"], parents=[common], help="analyse recording files")
-    a.add_argument("files", nargs="+", metavar="FILE",
-                   help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV), directories or glob patterns")
+    a.add_argument(
+        "files",
+        nargs="+",
+        metavar="FILE",
+        help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV), directories or glob patterns",
+    )
     a.add_argument("--out", required=True, help="output directory")
     a.add_argument("--config", help="TOML file with any of these options (command-line options win)")
     a.add_argument("--format", help="file format (default: from the extension and content)")
@@ -112,8 +116,25 @@ def _parser() -> argparse.ArgumentParser:
 
 
 _CONFIG_KEYS = {
-    "format", "map", "scale", "fs", "window", "hop", "highpass", "temperature", "area", "shunt", "rpm",
-    "lamellas", "orientation", "deadband", "bins", "gate", "max_lag", "chunk", "threads",
+    "format",
+    "map",
+    "scale",
+    "fs",
+    "window",
+    "hop",
+    "highpass",
+    "temperature",
+    "area",
+    "shunt",
+    "rpm",
+    "lamellas",
+    "orientation",
+    "deadband",
+    "bins",
+    "gate",
+    "max_lag",
+    "chunk",
+    "threads",
 }
 
 
@@ -160,10 +181,22 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
     if get("fs") is not None:
         open_opts["fs"] = float(get("fs"))
     opts: Dict[str, Any] = {}
-    for key, name in (("window", "window"), ("hop", "hop"), ("highpass", "highpass"), ("area", "area_mm2"),
-                      ("shunt", "shunt_ohm"), ("rpm", "rpm"), ("lamellas", "n_lamellas"),
-                      ("orientation", "orientation"), ("deadband", "deadband"), ("bins", "n_bins"), ("gate", "gate"),
-                      ("max_lag", "max_lag"), ("chunk", "chunk"), ("threads", "threads")):
+    for key, name in (
+        ("window", "window"),
+        ("hop", "hop"),
+        ("highpass", "highpass"),
+        ("area", "area_mm2"),
+        ("shunt", "shunt_ohm"),
+        ("rpm", "rpm"),
+        ("lamellas", "n_lamellas"),
+        ("orientation", "orientation"),
+        ("deadband", "deadband"),
+        ("bins", "n_bins"),
+        ("gate", "gate"),
+        ("max_lag", "max_lag"),
+        ("chunk", "chunk"),
+        ("threads", "threads"),
+    ):
         v = get(key)
         if v is not None:
             opts[name] = v
@@ -231,8 +264,15 @@ def _run(ns: argparse.Namespace) -> int:
             except OSError as exc:
                 raise UserError(f"cannot reach the Dask scheduler {ns.scheduler}: {exc}") from None
         try:
-            summary = run_analysis(ns.files, ns.out, open_options=open_opts, analyze_options=opts,
-                                   progress=_progress_wanted(ns), client=client, split=ns.split)
+            summary = run_analysis(
+                ns.files,
+                ns.out,
+                open_options=open_opts,
+                analyze_options=opts,
+                progress=_progress_wanted(ns),
+                client=client,
+                split=ns.split,
+            )
         finally:
             if client is not None:
                 cluster = getattr(client, "cluster", None)
@@ -286,7 +326,13 @@ def _print_info(info: Dict[str, Any]) -> None:
 
 def _user_errors() -> tuple:
     errs: List[type] = [
-        UserError, ValueError, TypeError, FileNotFoundError, PermissionError, IsADirectoryError, NotADirectoryError
+        UserError,
+        ValueError,
+        TypeError,
+        FileNotFoundError,
+        PermissionError,
+        IsADirectoryError,
+        NotADirectoryError,
     ]
     try:
         from .io import RecordingError

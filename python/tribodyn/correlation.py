@@ -1,4 +1,4 @@
-"""Lagged correlation function, Eq. (1) of the paper (METHOD.md section 1).
+"""Lagged correlation function, Eq. (1) of the paper (docs/method.md section 1).
 
 ``xcorr`` returns C(j) = S_xy(j) / sqrt(S_xx(j) S_yy(j)) for lags
 j = -L..L, the inputs centred on the means of the WHOLE signals and each sum
@@ -80,7 +80,7 @@ def xcorr(
     method: Method = "auto",
     check_finite: bool = True,
 ) -> XcorrResult:
-    """Lagged correlation function of Eq. (1) (METHOD.md 1).
+    """Lagged correlation function of Eq. (1) (docs/method.md 1).
 
     Parameters
     ----------
@@ -125,7 +125,7 @@ def xcorr(
 
 
 def pearson(x: Any, y: Any, *, check_finite: bool = True) -> float:
-    """Pearson's r, C(0) of Eq. (1) (METHOD.md 1).
+    """Pearson's r, C(0) of Eq. (1) (docs/method.md 1).
 
     Returns NaN, with a :class:`ConstantInputWarning`, when x or y is constant.
     Raises ``ValueError``/``TypeError`` on the same inputs as :func:`xcorr`.

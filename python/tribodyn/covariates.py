@@ -1,4 +1,4 @@
-"""Covariates of each window: temperature and current density (METHOD.md 6).
+"""Covariates of each window: temperature and current density (docs/method.md 6).
 
 Temperature comes from an intermittent log (paper: every 100-200 s with the
 rotor stopped), interpolated linearly at the window centre (NaN outside the

@@ -1,4 +1,4 @@
-"""The deadband |fz| < d of Sec. 3.3 (METHOD.md section 4).
+"""The deadband |fz| < d of Sec. 3.3 (docs/method.md section 4).
 
 ``d`` is a force in newtons (paper: 0.35 N) or a multiple k of the window's
 fz standard deviation, written ``"0.7sigma"`` (paper footnote 1).

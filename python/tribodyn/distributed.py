@@ -7,7 +7,7 @@ window grid (``analyze(start=...)``). So the work is split into pure tasks,
 one per recording or per range of a long recording, that take a *path*
 (workers read the files themselves; no arrays cross the network) and return
 the per-window results. The orientation of each recording is then fixed once
-from the merged moments of all its windows (METHOD.md 0), exactly as one
+from the merged moments of all its windows (docs/method.md 0), exactly as one
 serial pass would.
 
 Tasks are pure (same input, same output, no side effects), so a task lost
@@ -131,8 +131,9 @@ def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float
         return _failure(path, exc)
 
 
-def range_task(path: str, open_options: Dict[str, Any], options: Dict[str, Any],
-               start: int, stop: Optional[int]) -> Union[Results, RecordingFailure]:
+def range_task(
+    path: str, open_options: Dict[str, Any], options: Dict[str, Any], start: int, stop: Optional[int]
+) -> Union[Results, RecordingFailure]:
     """Windows of samples ``start:stop`` of one recording (the whole one when ``stop`` is None)."""
     from .io import open_recording
 
@@ -165,7 +166,7 @@ def _ranges(n: int, fs: float, options: Dict[str, Any], split_s: Optional[float]
 
 
 def _combine(parts: List[Results], orientation: Any) -> Results:
-    """One recording's ranges joined in order, with ONE orientation (METHOD.md 0)."""
+    """One recording's ranges joined in order, with ONE orientation (docs/method.md 0)."""
     if len(parts) == 1:
         return parts[0]  # one task: analyze already fixed the orientation
     moments = {k: np.concatenate([p.moments[k] for p in parts]) for k in parts[0].moments}
@@ -186,6 +187,7 @@ def _combine(parts: List[Results], orientation: Any) -> Results:
 
 def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], List[Any]]:
     if client is None:
+
         def serial(fn: Callable, args: List[tuple]) -> List[Any]:
             if not progress:
                 return [fn(*a) for a in args]
@@ -309,8 +311,9 @@ def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=True,
-                           dashboard_address=":0")
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0"
+    )
     return Client(cluster)
 
 
@@ -323,5 +326,3 @@ def connect(address: str, workers: int = 2) -> Any:
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
     return Client(address)
-
-

@@ -1,4 +1,4 @@
-"""Figures of the seed paper, from tribodyn's results (METHOD.md sections 1-7).
+"""Figures of the seed paper, from tribodyn's results (docs/method.md sections 1-7).
 
 One function per figure, each returning a :class:`matplotlib.figure.Figure`:
 
@@ -87,8 +87,9 @@ def _figure(nrows: int = 1, ncols: int = 1, *, figsize: Tuple[float, float], **s
 
 def _no_data(ax: Axes, message: str = "no data") -> None:
     """Marks an empty axes with a centred note."""
-    ax.text(0.5, 0.5, message, transform=ax.transAxes, ha="center", va="center", fontsize=11,
-            color="0.4", style="italic")
+    ax.text(
+        0.5, 0.5, message, transform=ax.transAxes, ha="center", va="center", fontsize=11, color="0.4", style="italic"
+    )
     ax.set_xticks([])
     ax.set_yticks([])
 
@@ -172,8 +173,17 @@ def _legend_above(ax: Axes, handles: Optional[list] = None, ncol: int = 3) -> No
     hs = handles if handles is not None else ax.get_legend_handles_labels()[0]
     if not hs:
         return
-    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.01), ncol=max(1, min(ncol, len(hs))), fontsize=8,
-              frameon=False, borderaxespad=0.0, columnspacing=1.5, handletextpad=0.5, **kw)
+    ax.legend(
+        loc="lower left",
+        bbox_to_anchor=(0.0, 1.01),
+        ncol=max(1, min(ncol, len(hs))),
+        fontsize=8,
+        frameon=False,
+        borderaxespad=0.0,
+        columnspacing=1.5,
+        handletextpad=0.5,
+        **kw,
+    )
 
 
 def _fmt(v: Optional[float], spec: str = ".3g") -> str:
@@ -186,7 +196,7 @@ def _fmt(v: Optional[float], spec: str = ".3g") -> str:
 # Fig. 2: forces vs time
 # --------------------------------------------------------------------------
 def forces_vs_time(fx: Any, fy: Any, fz: Any, fs: float, *, t0: float = 0.0, title: Optional[str] = None) -> Figure:
-    """Dynamic forces against time (paper Fig. 2; METHOD.md 0).
+    """Dynamic forces against time (paper Fig. 2; docs/method.md 0).
 
     Parameters
     ----------
@@ -215,8 +225,16 @@ def forces_vs_time(fx: Any, fy: Any, fz: Any, fs: float, *, t0: float = 0.0, tit
         y = _signal(sig)
         ax.set_ylabel(_FORCE_LABEL[name])
         if y is None or not np.isfinite(y).any():
-            ax.text(0.5, 0.5, "not measured" if sig is None else "no data", transform=ax.transAxes,
-                    ha="center", va="center", color="0.4", style="italic")
+            ax.text(
+                0.5,
+                0.5,
+                "not measured" if sig is None else "no data",
+                transform=ax.transAxes,
+                ha="center",
+                va="center",
+                color="0.4",
+                style="italic",
+            )
             continue
         any_data = True
         t = float(t0) + np.arange(y.size) / fs_v
@@ -243,7 +261,7 @@ _PAIRS = (
 
 
 def correlation_functions(source: Any, *, title: Optional[str] = None) -> Figure:
-    """Correlation functions C_xy, C_xz, C_yz against the time shift (paper Figs. 3-5; METHOD.md 1).
+    """Correlation functions C_xy, C_xz, C_yz against the time shift (paper Figs. 3-5; docs/method.md 1).
 
     Parameters
     ----------
@@ -264,8 +282,9 @@ def correlation_functions(source: Any, *, title: Optional[str] = None) -> Figure
     """
     corr = getattr(source, "correlations", source)
     if corr is not None and not isinstance(corr, Mapping):
-        raise TypeError("correlation_functions takes a CofResult or a dict of XcorrResult, "
-                        f"got {type(source).__name__}")
+        raise TypeError(
+            f"correlation_functions takes a CofResult or a dict of XcorrResult, got {type(source).__name__}"
+        )
     corr = dict(corr or {})
     fig, axes = _figure(3, 1, figsize=(8.0, 6.5), sharex=True)
     in_ms = True
@@ -274,8 +293,16 @@ def correlation_functions(source: Any, *, title: Optional[str] = None) -> Figure
         res = corr.get(key)
         c = None if res is None else np.asarray(res.c, dtype=float)
         if c is None or c.size == 0 or not np.isfinite(c).any():
-            ax.text(0.5, 0.5, "no data" if res is not None else f"not computed ({paper})", transform=ax.transAxes,
-                    ha="center", va="center", color="0.4", style="italic")
+            ax.text(
+                0.5,
+                0.5,
+                "no data" if res is not None else f"not computed ({paper})",
+                transform=ax.transAxes,
+                ha="center",
+                va="center",
+                color="0.4",
+                style="italic",
+            )
             ax.set_ylim(-1.05, 1.05)
             continue
         lags = np.asarray(res.lags)
@@ -291,8 +318,16 @@ def correlation_functions(source: Any, *, title: Optional[str] = None) -> Figure
         if zero.size and np.isfinite(c[zero[0]]):
             c0 = float(c[zero[0]])
             ax.plot([0.0], [c0], "o", color="tab:red", markersize=4)
-            ax.text(0.99, 0.95, f"$C(0)$ = {c0:+.3f}  ({paper})", transform=ax.transAxes, ha="right", va="top",
-                    fontsize=9, bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
+            ax.text(
+                0.99,
+                0.95,
+                f"$C(0)$ = {c0:+.3f}  ({paper})",
+                transform=ax.transAxes,
+                ha="right",
+                va="top",
+                fontsize=9,
+                bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9),
+            )
         ax.set_ylim(-1.05, 1.05)
         ax.grid(True, alpha=0.3)
     axes[-1, 0].set_xlabel(r"Time shift $\tau$ (ms)" if in_ms else "Lag $j$ (samples)")
@@ -324,12 +359,11 @@ def _line_of(fit: Any, fz: np.ndarray, fy: np.ndarray) -> Tuple[float, float, st
     if isinstance(fit, (tuple, list)) and len(fit) == 2:
         slope, icpt = float(fit[0]), float(fit[1])
         return slope, icpt, f"slope = {_fmt(slope, '.4f')}"
-    raise TypeError("fit must be None, a CofResult, a LinFit or a (slope, intercept) pair, "
-                    f"got {type(fit).__name__}")
+    raise TypeError(f"fit must be None, a CofResult, a LinFit or a (slope, intercept) pair, got {type(fit).__name__}")
 
 
 def phase_plots(fx: Any, fy: Any, fz: Any, *, fit: Any = None, title: Optional[str] = None) -> Figure:
-    """Force phase plots F_x-F_y, F_x-F_z and F_z-F_y with the regression line (paper Figs. 6-8; METHOD.md 3).
+    """Force phase plots F_x-F_y, F_x-F_z and F_z-F_y with the regression line (paper Figs. 6-8; docs/method.md 3).
 
     Parameters
     ----------
@@ -374,8 +408,16 @@ def phase_plots(fx: Any, fy: Any, fz: Any, *, fit: Any = None, title: Optional[s
         ax.grid(True, alpha=0.3)
         r = _pearson(aa, bb)
         note = f"r = {_fmt(r, '+.3f')}" + (f"  ({idx.size} of {aa.size} points)" if idx.size < aa.size else "")
-        ax.text(0.02, 0.98, note, transform=ax.transAxes, ha="left", va="top", fontsize=9,
-                bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
+        ax.text(
+            0.02,
+            0.98,
+            note,
+            transform=ax.transAxes,
+            ha="left",
+            va="top",
+            fontsize=9,
+            bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9),
+        )
         if (na, nb) == ("z", "y"):
             slope, icpt, label = _line_of(fit, aa, bb)
             if np.isfinite(slope) and np.isfinite(icpt):
@@ -390,7 +432,7 @@ def phase_plots(fx: Any, fy: Any, fz: Any, *, fit: Any = None, title: Optional[s
 # Fig. 9: COF against normal force
 # --------------------------------------------------------------------------
 def cof_vs_normal_force(cof_result: Any, *, title: Optional[str] = None) -> Figure:
-    """Per-bin COF against the dynamic normal force (paper Fig. 9; METHOD.md 4).
+    """Per-bin COF against the dynamic normal force (paper Fig. 9; docs/method.md 4).
 
     Parameters
     ----------
@@ -423,24 +465,49 @@ def cof_vs_normal_force(cof_result: Any, *, title: Optional[str] = None) -> Figu
     if not keep.any():
         _no_data(ax, "no data (every bin empty)")
         return fig
-    lo_x, hi_x = (float(edges[0]), float(edges[-1])) if edges.size and np.isfinite(edges).all() else (
-        float(centres[keep].min()), float(centres[keep].max()))
+    lo_x, hi_x = (
+        (float(edges[0]), float(edges[-1]))
+        if edges.size and np.isfinite(edges).all()
+        else (float(centres[keep].min()), float(centres[keep].max()))
+    )
     if np.isfinite(d) and d > 0:
         ax.axvspan(-d, d, color="0.85", alpha=0.7, zorder=0, label=rf"deadband $|F_{{z,d}}| < {d:.3g}$ N")
     # NaN (empty) bins break the line: no segment is drawn across the deadband.
-    ax.plot(centres, np.where(keep, cof, np.nan), "o-", color="tab:purple", markersize=5, linewidth=1.0,
-            label=rf"COF$_k$ per bin ({int(keep.sum())} of {cof.size} bins, Eq. 5)")
+    ax.plot(
+        centres,
+        np.where(keep, cof, np.nan),
+        "o-",
+        color="tab:purple",
+        markersize=5,
+        linewidth=1.0,
+        label=rf"COF$_k$ per bin ({int(keep.sum())} of {cof.size} bins, Eq. 5)",
+    )
     mu_r, mu_a, mu_b = (float(getattr(cof_result, k, np.nan)) for k in ("mu_r", "mu_a", "mu_b"))
     if np.isfinite(mu_r):
-        ax.axhline(mu_r, color="black", linestyle="--", linewidth=1.3,
-                   label=rf"$\mu_r$ = {mu_r:.4f} (regression, Eq. 8)")
+        ax.axhline(
+            mu_r, color="black", linestyle="--", linewidth=1.3, label=rf"$\mu_r$ = {mu_r:.4f} (regression, Eq. 8)"
+        )
     neg_hi = -d if np.isfinite(d) else 0.0
     if np.isfinite(mu_a):
-        ax.hlines(mu_a, lo_x, min(neg_hi, 0.0), color="tab:blue", linestyle=":", linewidth=2.0,
-                  label=rf"$\mu_a$ = {mu_a:.4f} ($F_{{z,d}} \leq -d$)")
+        ax.hlines(
+            mu_a,
+            lo_x,
+            min(neg_hi, 0.0),
+            color="tab:blue",
+            linestyle=":",
+            linewidth=2.0,
+            label=rf"$\mu_a$ = {mu_a:.4f} ($F_{{z,d}} \leq -d$)",
+        )
     if np.isfinite(mu_b):
-        ax.hlines(mu_b, max(-neg_hi, 0.0), hi_x, color="tab:orange", linestyle="-.", linewidth=2.0,
-                  label=rf"$\mu_b$ = {mu_b:.4f} ($F_{{z,d}} \geq +d$)")
+        ax.hlines(
+            mu_b,
+            max(-neg_hi, 0.0),
+            hi_x,
+            color="tab:orange",
+            linestyle="-.",
+            linewidth=2.0,
+            label=rf"$\mu_b$ = {mu_b:.4f} ($F_{{z,d}} \geq +d$)",
+        )
     # Zoom on the data (the paper's point is the spread across bins, < 15 %),
     # at least +-25 % around the centre so noise does not look like a trend.
     vals = np.concatenate([cof[keep], [v for v in (mu_r, mu_a, mu_b) if np.isfinite(v)]])
@@ -451,10 +518,11 @@ def cof_vs_normal_force(cof_result: Any, *, title: Optional[str] = None) -> Figu
     ax.set_xlim(lo_x - pad, hi_x + pad)
     fd = float(getattr(cof_result, "force_dependence", np.nan))
     if np.isfinite(fd):
-        note = (rf"$(\mu_b - \mu_a)/\mu_r$ = {100 * fd:+.1f} %   "
-                f"n = {int(counts.sum())} samples outside the deadband")
-        ax.text(0.99, 0.02, note,
-                transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="0.3")
+        note = (
+            rf"$(\mu_b - \mu_a)/\mu_r$ = {100 * fd:+.1f} %   "
+            f"n = {int(counts.sum())} samples outside the deadband"
+        )
+        ax.text(0.99, 0.02, note, transform=ax.transAxes, ha="right", va="bottom", fontsize=8, color="0.3")
     ax.grid(True, alpha=0.3)
     _legend_above(ax, ncol=3)
     return fig
@@ -483,9 +551,18 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[list, list]:
             continue
         st = _MU_STYLE[col]
         small = col != "mu_r"
-        (h,) = ax.plot(t[sel], v[sel], linestyle="-" if not small else "none", linewidth=0.6,
-                       marker=st["marker"], markersize=2.5 if small else 3, color=st["color"],
-                       alpha=0.6 if small else 0.9, label=st["label"], zorder=2 if small else 3)
+        (h,) = ax.plot(
+            t[sel],
+            v[sel],
+            linestyle="-" if not small else "none",
+            linewidth=0.6,
+            marker=st["marker"],
+            markersize=2.5 if small else 3,
+            color=st["color"],
+            alpha=0.6 if small else 0.9,
+            label=st["label"],
+            zorder=2 if small else 3,
+        )
         handles.append(h)
         tops.append(v[sel])
     lim = _cof_limits(tops)
@@ -506,8 +583,9 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[list, list]:
     return handles, tops
 
 
-def _cof_and_covariate_vs_time(results: Any, column: str, *, title: str,
-                               extra: Optional[Tuple[np.ndarray, np.ndarray]] = None) -> Figure:
+def _cof_and_covariate_vs_time(
+    results: Any, column: str, *, title: str, extra: Optional[Tuple[np.ndarray, np.ndarray]] = None
+) -> Figure:
     spec = _COVARIATE[column]
     fig, axes = _figure(1, 1, figsize=(10.0, 5.0))
     ax = axes[0, 0]
@@ -519,22 +597,43 @@ def _cof_and_covariate_vs_time(results: Any, column: str, *, title: str,
         return fig
     handles, tops = _cof_time_axes(ax, results)
     if not tops:
-        ax.text(0.5, 0.5, "no window passed the quality gate", transform=ax.transAxes, ha="center", va="center",
-                color="0.4", style="italic")
+        ax.text(
+            0.5,
+            0.5,
+            "no window passed the quality gate",
+            transform=ax.transAxes,
+            ha="center",
+            va="center",
+            color="0.4",
+            style="italic",
+        )
     cov = _column(results, column, t.size)
     keep = np.isfinite(cov) & np.isfinite(t)
     if keep.any() or extra is not None:
         ax2 = ax.twinx()
         if keep.any():
             order = np.argsort(t[keep])
-            (h,) = ax2.plot(t[keep][order], cov[keep][order], color=spec["colour"], linewidth=1.4,
-                            drawstyle="steps-mid" if column == "J" else "default",
-                            label=f"{spec['name']} at the window centres")
+            (h,) = ax2.plot(
+                t[keep][order],
+                cov[keep][order],
+                color=spec["colour"],
+                linewidth=1.4,
+                drawstyle="steps-mid" if column == "J" else "default",
+                label=f"{spec['name']} at the window centres",
+            )
             handles.append(h)
         if extra is not None:
             lt, lv = extra
-            (h,) = ax2.plot(lt, lv, linestyle="none", marker="^", markersize=6, markerfacecolor="none",
-                            color=spec["colour"], label=f"{spec['name']} readings")
+            (h,) = ax2.plot(
+                lt,
+                lv,
+                linestyle="none",
+                marker="^",
+                markersize=6,
+                markerfacecolor="none",
+                color=spec["colour"],
+                label=f"{spec['name']} readings",
+            )
             handles.append(h)
         ax2.set_ylabel(spec["label"], color=spec["colour"])
         ax2.tick_params(axis="y", colors=spec["colour"])
@@ -547,14 +646,23 @@ def _cof_and_covariate_vs_time(results: Any, column: str, *, title: str,
         ax.set_zorder(ax2.get_zorder() + 1)  # COF markers above the covariate line
         ax.patch.set_visible(False)
     else:
-        ax.text(0.99, 0.02, f"no {spec['name']} data", transform=ax.transAxes, ha="right", va="bottom",
-                color="0.4", style="italic", fontsize=9)
+        ax.text(
+            0.99,
+            0.02,
+            f"no {spec['name']} data",
+            transform=ax.transAxes,
+            ha="right",
+            va="bottom",
+            color="0.4",
+            style="italic",
+            fontsize=9,
+        )
     _legend_above(ax, handles, ncol=3)
     return fig
 
 
 def cof_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
-    """COF of every window against time (paper Figs. 10, 12 without a covariate; METHOD.md 6).
+    """COF of every window against time (paper Figs. 10, 12 without a covariate; docs/method.md 6).
 
     Parameters
     ----------
@@ -579,14 +687,22 @@ def cof_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
         return fig
     handles, tops = _cof_time_axes(ax, results)
     if not tops:
-        ax.text(0.5, 0.5, "no window passed the quality gate", transform=ax.transAxes, ha="center", va="center",
-                color="0.4", style="italic")
+        ax.text(
+            0.5,
+            0.5,
+            "no window passed the quality gate",
+            transform=ax.transAxes,
+            ha="center",
+            va="center",
+            color="0.4",
+            style="italic",
+        )
     _legend_above(ax, handles, ncol=4)
     return fig
 
 
 def cof_and_temperature_vs_time(results: Any, *, temperature_log: Any = None, title: Optional[str] = None) -> Figure:
-    """COF (mu_r, mu_a, mu_b) and temperature against time (paper Fig. 10; METHOD.md 6).
+    """COF (mu_r, mu_a, mu_b) and temperature against time (paper Fig. 10; docs/method.md 6).
 
     Parameters
     ----------
@@ -610,12 +726,11 @@ def cof_and_temperature_vs_time(results: Any, *, temperature_log: Any = None, ti
         if lt.size and lt.size == lv.size:
             extra = (lt, lv)
     title = title or "COF and temperature against time (cf. paper Fig. 10)"
-    return _cof_and_covariate_vs_time(results, "T", title=title,
-                                      extra=extra)
+    return _cof_and_covariate_vs_time(results, "T", title=title, extra=extra)
 
 
 def cof_and_current_density_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
-    """COF (mu_r, mu_a, mu_b) and current density against time (paper Fig. 12; METHOD.md 6).
+    """COF (mu_r, mu_a, mu_b) and current density against time (paper Fig. 12; docs/method.md 6).
 
     Parameters
     ----------
@@ -669,8 +784,14 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
     lim = _cof_limits([mu[good]]) if good.any() else (0.0, 0.3)
     if opr is not None and opr.optimum is not None:
         lo, hi = opr.optimum
-        ax.axvspan(lo, hi, color=_OPTIMUM_COLOUR, alpha=0.15, zorder=0,
-                   label=f"optimum {lo:.4g}–{hi:.4g} {spec['unit']} (min COF {_fmt(opr.mu_min, '.3f')})")
+        ax.axvspan(
+            lo,
+            hi,
+            color=_OPTIMUM_COLOUR,
+            alpha=0.15,
+            zorder=0,
+            label=f"optimum {lo:.4g}–{hi:.4g} {spec['unit']} (min COF {_fmt(opr.mu_min, '.3f')})",
+        )
     if branches:
         br = _column(results, "branch", n, fill=0.0)
         groups = (("heating", br > 0), ("cooling", br < 0), ("unknown", br == 0))
@@ -681,8 +802,16 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
         if not sel.any():
             continue
         st = _BRANCH_STYLE.get(name, dict(color="tab:blue", marker="o", label="gated windows"))
-        ax.plot(cov[sel], mu[sel], linestyle="none", marker=st["marker"], markersize=3.5, color=st["color"],
-                alpha=0.35, label=f"{st['label']} ({int(sel.sum())})")
+        ax.plot(
+            cov[sel],
+            mu[sel],
+            linestyle="none",
+            marker=st["marker"],
+            markersize=3.5,
+            color=st["color"],
+            alpha=0.35,
+            label=f"{st['label']} ({int(sel.sum())})",
+        )
     if bad.any():
         y = np.where(np.isfinite(mu), mu, lim[0])
         y = np.clip(y, lim[0] + 0.01 * (lim[1] - lim[0]), lim[1] - 0.01 * (lim[1] - lim[0]))
@@ -695,17 +824,39 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
                 continue
             if np.isfinite(c.median).any():  # NaN (empty) bins break the line
                 st = _BRANCH_STYLE[name]
-                ax.plot(c.centres, c.median, "-", marker=st["marker"], color=st["color"], markersize=7,
-                        markeredgecolor="black", markeredgewidth=0.6, linewidth=1.8, label=f"{name}: binned median")
+                ax.plot(
+                    c.centres,
+                    c.median,
+                    "-",
+                    marker=st["marker"],
+                    color=st["color"],
+                    markersize=7,
+                    markeredgecolor="black",
+                    markeredgewidth=0.6,
+                    linewidth=1.8,
+                    label=f"{name}: binned median",
+                )
         c = opr.curves.get("all")
         if c is not None and np.isfinite(c.median).any():
-            ax.plot(c.centres, c.median, "--" if names else "-", marker="s" if not names else None,
-                    color="black", markersize=5, linewidth=1.2 if names else 1.8,
-                    label=f"all: binned median ({_fmt(opr.bin_width, '.3g')} {spec['unit']} bins)")
+            ax.plot(
+                c.centres,
+                c.median,
+                "--" if names else "-",
+                marker="s" if not names else None,
+                color="black",
+                markersize=5,
+                linewidth=1.2 if names else 1.8,
+                label=f"all: binned median ({_fmt(opr.bin_width, '.3g')} {spec['unit']} bins)",
+            )
         if opr.onset is not None and np.isfinite(opr.onset):
             what = "instability onset" if column == "J" else "onset of the COF rise"
-            ax.axvline(opr.onset, color=_ONSET_COLOUR, linestyle="--", linewidth=1.4,
-                       label=f"{what} {opr.onset:.3g} {spec['unit']} (COF ≥ {1 + opr.rise:g} × min)")
+            ax.axvline(
+                opr.onset,
+                color=_ONSET_COLOUR,
+                linestyle="--",
+                linewidth=1.4,
+                label=f"{what} {opr.onset:.3g} {spec['unit']} (COF ≥ {1 + opr.rise:g} × min)",
+            )
     ax.set_ylim(*lim)
     ax.grid(True, alpha=0.3)
     _legend_above(ax, ncol=2)
@@ -713,7 +864,7 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
 
 
 def cof_vs_temperature(results: Any, opr: Any = None, *, title: Optional[str] = None) -> Figure:
-    """COF against temperature, heating and cooling branches apart (paper Fig. 11; METHOD.md 7).
+    """COF against temperature, heating and cooling branches apart (paper Fig. 11; docs/method.md 7).
 
     Parameters
     ----------
@@ -732,12 +883,13 @@ def cof_vs_temperature(results: Any, opr: Any = None, *, title: Optional[str] = 
     -------
     matplotlib.figure.Figure
     """
-    return _cof_vs_covariate(results, opr, "T", "temperature", branches=True,
-                             title=title or "COF against temperature (cf. paper Fig. 11)")
+    return _cof_vs_covariate(
+        results, opr, "T", "temperature", branches=True, title=title or "COF against temperature (cf. paper Fig. 11)"
+    )
 
 
 def cof_vs_current_density(results: Any, opr: Any = None, *, title: Optional[str] = None) -> Figure:
-    """COF against current density, with the optimum and the instability onset (paper Sec. 4.2; METHOD.md 7).
+    """COF against current density, with the optimum and the instability onset (paper Sec. 4.2; docs/method.md 7).
 
     Parameters
     ----------
@@ -756,8 +908,14 @@ def cof_vs_current_density(results: Any, opr: Any = None, *, title: Optional[str
     -------
     matplotlib.figure.Figure
     """
-    return _cof_vs_covariate(results, opr, "J", "current_density", branches=False,
-                             title=title or "COF against current density (cf. paper Sec. 4.2, Fig. 12)")
+    return _cof_vs_covariate(
+        results,
+        opr,
+        "J",
+        "current_density",
+        branches=False,
+        title=title or "COF against current density (cf. paper Sec. 4.2, Fig. 12)",
+    )
 
 
 # --------------------------------------------------------------------------

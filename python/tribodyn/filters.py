@@ -1,4 +1,4 @@
-"""Streaming high-pass filter (METHOD.md section 2).
+"""Streaming high-pass filter (docs/method.md section 2).
 
 The design is a Butterworth high-pass as second-order sections, identical to
 ``scipy.signal.butter(order, cutoff, "highpass", fs=fs, output="sos")``
@@ -191,7 +191,7 @@ def highpass(
     sos: Optional[Any] = None,
     check_finite: bool = True,
 ) -> np.ndarray:
-    """One-shot high-pass of ``x`` along ``axis`` (METHOD.md 2).
+    """One-shot high-pass of ``x`` along ``axis`` (docs/method.md 2).
 
     Every other axis is an independent channel. Same design, recurrence and
     initial state as :class:`HighPass`; equal to

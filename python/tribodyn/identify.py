@@ -1,4 +1,4 @@
-"""COF of one acquisition: ``tribodyn.identify`` (METHOD.md sections 3-5)."""
+"""COF of one acquisition: ``tribodyn.identify`` (docs/method.md sections 3-5)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ Orientation = Union[int, str]
 
 
 def resolve_orientation(orientation: Orientation, slope: float) -> int:
-    """s in {+1, -1}: as given, or for "auto" the sign of ``slope`` (METHOD.md 0).
+    """s in {+1, -1}: as given, or for "auto" the sign of ``slope`` (docs/method.md 0).
 
     "auto" with an undefined or zero slope gives +1.
     """
@@ -42,7 +42,7 @@ def check_gate(gate: Any) -> float:
 def cross_spectra(
     fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, fs: float, rpm: float, n_lamellas: int
 ) -> Dict[str, Dict[str, float]]:
-    """|Welch cross-spectrum| of xy, xz, yz at f0 = rpm/60 and f_l = n_lamellas f0 (METHOD.md 5).
+    """|Welch cross-spectrum| of xy, xz, yz at f0 = rpm/60 and f_l = n_lamellas f0 (docs/method.md 5).
 
     The segment length is the largest power of two up to fs/0.5 Hz resolution
     that fits the signal; each value is read at the bin nearest the frequency.
@@ -78,7 +78,7 @@ def identify(
     rpm: Optional[float] = None,
     n_lamellas: Optional[int] = None,
 ) -> CofResult:
-    """COF of one acquisition from its dynamic forces (METHOD.md 3-5).
+    """COF of one acquisition from its dynamic forces (docs/method.md 3-5).
 
     Parameters
     ----------

@@ -23,7 +23,6 @@ from .results import Results
 __all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
 
 
-
 def read_log(path: Any) -> Tuple[np.ndarray, np.ndarray]:
     """Reads a two-column log (time in s, value) from a CSV/TSV/whitespace file.
 
@@ -65,8 +64,15 @@ def range_summary(opr: Optional[OperatingRange]) -> Optional[Dict[str, Any]]:
     """The JSON-ready essentials of an operating range."""
     if opr is None:
         return None
-    out: Dict[str, Any] = {"by": opr.by, "unit": opr.unit, "optimum": opr.optimum, "mu_min": opr.mu_min,
-                           "onset": opr.onset, "bin_width": opr.bin_width, "tol": opr.tol}
+    out: Dict[str, Any] = {
+        "by": opr.by,
+        "unit": opr.unit,
+        "optimum": opr.optimum,
+        "mu_min": opr.mu_min,
+        "onset": opr.onset,
+        "bin_width": opr.bin_width,
+        "tol": opr.tol,
+    }
     for name, c in opr.curves.items():
         if name != "all":
             out[f"optimum_{name}"] = c.optimum
@@ -127,21 +133,45 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False) -> Dict[str
 
     sim_t = simulate.temperature_test(seed=seed)
     sim_j = simulate.current_density_test(seed=seed)
-    res_t = analyze(sim_t.channels, fs=sim_t.fs, window=2.0, hop=10.0, temperature=sim_t.temperature_log,
-                    rpm=sim_t.rpm, n_lamellas=sim_t.n_lamellas, progress=progress)
-    res_j = analyze(sim_j.channels, fs=sim_j.fs, window=2.0, hop=10.0, area_mm2=sim_j.area_mm2,
-                    rpm=sim_j.rpm, n_lamellas=sim_j.n_lamellas, progress=progress)
+    res_t = analyze(
+        sim_t.channels,
+        fs=sim_t.fs,
+        window=2.0,
+        hop=10.0,
+        temperature=sim_t.temperature_log,
+        rpm=sim_t.rpm,
+        n_lamellas=sim_t.n_lamellas,
+        progress=progress,
+    )
+    res_j = analyze(
+        sim_j.channels,
+        fs=sim_j.fs,
+        window=2.0,
+        hop=10.0,
+        area_mm2=sim_j.area_mm2,
+        rpm=sim_j.rpm,
+        n_lamellas=sim_j.n_lamellas,
+        progress=progress,
+    )
     opr_t = operating_range(res_t, "temperature")
     opr_j = operating_range(res_j, "current_density")
     example = _example_window(sim_t.channels, sim_t.fs, start=1_500_000, n=2000)
     summary = {
         "tribodyn_version": __version__,
-        "job": "demo: simulated temperature and current-density tests of the paper's rig (METHOD.md 8)",
+        "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
         "seed": seed,
-        "temperature_test": {**res_t.summary(), "operating_range": range_summary(opr_t),
-                              "simulated_optimum": dict(sim_t.truth.optimum), "params": res_t.params},
-        "current_density_test": {**res_j.summary(), "operating_range": range_summary(opr_j),
-                                 "simulated_optimum": dict(sim_j.truth.optimum), "params": res_j.params},
+        "temperature_test": {
+            **res_t.summary(),
+            "operating_range": range_summary(opr_t),
+            "simulated_optimum": dict(sim_t.truth.optimum),
+            "params": res_t.params,
+        },
+        "current_density_test": {
+            **res_j.summary(),
+            "operating_range": range_summary(opr_j),
+            "simulated_optimum": dict(sim_j.truth.optimum),
+            "params": res_j.params,
+        },
     }
     with OutputSet(out_dir) as out:
         files = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
@@ -150,12 +180,17 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False) -> Dict[str
         files += _save_figures(out, figs_t, "temperature_") + _save_figures(out, figs_j, "current_density_")
         summary["files"] = files + ["summary.json", "report.html"]
         write_json(summary, out.path("summary.json"))
-        write_report(out.path("report.html"), title="tribodyn demo: the paper's rig, simulated",
-                     summary=_flat_summary(summary),
-                     params={"temperature test": res_t.params, "current-density test": res_j.params},
-                     figures=list(figs_t) + list(figs_j),
-                     quality={"temperature test": res_t.summary()["gate_failures"],
-                              "current-density test": res_j.summary()["gate_failures"]})
+        write_report(
+            out.path("report.html"),
+            title="tribodyn demo: the paper's rig, simulated",
+            summary=_flat_summary(summary),
+            params={"temperature test": res_t.params, "current-density test": res_j.params},
+            figures=list(figs_t) + list(figs_j),
+            quality={
+                "temperature test": res_t.summary()["gate_failures"],
+                "current-density test": res_j.summary()["gate_failures"],
+            },
+        )
     return summary
 
 
@@ -225,8 +260,13 @@ def run_analysis(
         runs = [(Path(p), r) for p, r in many.results.items()]
         failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
 
-    summary: Dict[str, Any] = {"tribodyn_version": __version__, "inputs": input_provenance([p for p, _ in runs]),
-                               "open_options": open_options, "recordings": {}, "failures": failures}
+    summary: Dict[str, Any] = {
+        "tribodyn_version": __version__,
+        "inputs": input_provenance([p for p, _ in runs]),
+        "open_options": open_options,
+        "recordings": {},
+        "failures": failures,
+    }
     single = len(runs) == 1 and not failures
     labels = _labels([p for p, _ in runs])
     with OutputSet(out_dir) as out:
@@ -238,23 +278,38 @@ def run_analysis(
             files = _write_set(out, prefix, res)
             figs = _figures(res, opr_t=opr_t, opr_j=opr_j, example=None)
             files += _save_figures(out, figs, prefix)
-            rec_sum = {**res.summary(), "operating_range_temperature": range_summary(opr_t),
-                       "operating_range_current_density": range_summary(opr_j), "params": res.params, "files": files}
+            rec_sum = {
+                **res.summary(),
+                "operating_range_temperature": range_summary(opr_t),
+                "operating_range_current_density": range_summary(opr_j),
+                "params": res.params,
+                "files": files,
+            }
             summary["recordings"][p.name] = rec_sum
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
-                write_report(out.path(f"{prefix}report.html"), title=f"tribodyn: {p.name}",
-                             summary=_flat_summary({p.name: rec_sum}),
-                             params=res.params, figures=figs, quality=rec_sum["gate_failures"])
+                write_report(
+                    out.path(f"{prefix}report.html"),
+                    title=f"tribodyn: {p.name}",
+                    summary=_flat_summary({p.name: rec_sum}),
+                    params=res.params,
+                    figures=figs,
+                    quality=rec_sum["gate_failures"],
+                )
             all_figs += [(f"{p.name}: {c}", f) for c, f in figs]
         if not single:
             combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
             write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
             write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
         write_json(summary, out.path("summary.json"))
-        write_report(out.path("report.html"), title="tribodyn: " + ", ".join(p.name for p, _ in runs),
-                     summary=_flat_summary(summary["recordings"]), params={p.name: r.params for p, r in runs},
-                     figures=all_figs, quality={p.name: r.summary()["gate_failures"] for p, r in runs})
+        write_report(
+            out.path("report.html"),
+            title="tribodyn: " + ", ".join(p.name for p, _ in runs),
+            summary=_flat_summary(summary["recordings"]),
+            params={p.name: r.params for p, r in runs},
+            figures=all_figs,
+            quality={p.name: r.summary()["gate_failures"] for p, r in runs},
+        )
     return summary
 
 
@@ -270,9 +325,13 @@ def _combine(results: Sequence[Results], names: Sequence[str]) -> Tuple[Results,
     nb = max(r.bin_counts.shape[1] for r in results)
     if any(r.bin_counts.shape[1] != nb for r in results):
         raise ValueError("recordings analysed with different n_bins cannot be combined")
-    merged = Results(table=table, bin_counts=np.concatenate([r.bin_counts for r in results]),
-                     bin_cof=np.concatenate([r.bin_cof for r in results]),
-                     fz_min=np.concatenate([r.fz_min for r in results]),
-                     fz_max=np.concatenate([r.fz_max for r in results]), orientation=results[0].orientation,
-                     params={"recordings": list(names)})
+    merged = Results(
+        table=table,
+        bin_counts=np.concatenate([r.bin_counts for r in results]),
+        bin_cof=np.concatenate([r.bin_cof for r in results]),
+        fz_min=np.concatenate([r.fz_min for r in results]),
+        fz_max=np.concatenate([r.fz_max for r in results]),
+        orientation=results[0].orientation,
+        params={"recordings": list(names)},
+    )
     return merged, rec.astype(str)

@@ -1,5 +1,5 @@
 """Operating ranges: COF against temperature or current density
-(METHOD.md section 7, paper Secs. 4.1-4.2).
+(docs/method.md section 7, paper Secs. 4.1-4.2).
 
 From the quality-gated windows, the COF (mu_r) is binned on the covariate
 (median per bin). The optimum is the contiguous run of bins around the
@@ -122,7 +122,7 @@ def operating_range(
     rise: float = 0.5,
     min_count: int = 1,
 ) -> OperatingRange:
-    """Optimum covariate range of the COF (METHOD.md 7).
+    """Optimum covariate range of the COF (docs/method.md 7).
 
     Parameters
     ----------
@@ -174,5 +174,14 @@ def operating_range(
             if sel.any():
                 curves[name] = _curve(cov[keep][sel], mu[keep][sel], edges, tol, rise, min_count)
     a = curves["all"]
-    return OperatingRange(by=by, unit=_UNIT[by], bin_width=width, tol=tol, rise=rise, curves=curves,
-                          optimum=a.optimum, mu_min=a.mu_min, onset=a.onset)
+    return OperatingRange(
+        by=by,
+        unit=_UNIT[by],
+        bin_width=width,
+        tol=tol,
+        rise=rise,
+        curves=curves,
+        optimum=a.optimum,
+        mu_min=a.mu_min,
+        onset=a.onset,
+    )

@@ -25,7 +25,7 @@ __all__ = ["xcorr", "pearson", "HighPass", "highpass", "linfit", "LinFitAccumula
 
 
 def mean(x: np.ndarray) -> float:
-    """Two-pass mean: exact for a constant input (METHOD.md 1, 3)."""
+    """Two-pass mean: exact for a constant input (docs/method.md 1, 3)."""
     m0 = x.sum() / x.size
     return float(m0 + (x - m0).sum() / x.size)
 
@@ -67,7 +67,7 @@ def pearson(x: Any, y: Any, *, check_finite: bool = True) -> float:
     return float(np.clip(np.dot(xc, yc) / den, -1.0, 1.0)) if den > 0 else float("nan")
 
 
-# -- High-pass (METHOD.md 2) ----------------------------------------------------
+# -- High-pass (docs/method.md 2) ----------------------------------------------------
 
 
 class HighPass:
@@ -97,8 +97,7 @@ class HighPass:
         if x.shape[0] != self.channels:  # same refusals as the fast path
             got = "1-D" if np.ndim(chunk) == 1 else f"{x.shape[0]} channels"
             raise ValueError(
-                f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter (channels), "
-                f"got {got}"
+                f"chunk must have shape ({self.channels}, m) for a {self.channels}-channel filter (channels), got {got}"
             )
         if x.shape[1] == 0:
             return np.asarray(chunk, dtype=float).copy()
@@ -146,8 +145,9 @@ def _mean_pair(x: np.ndarray) -> tuple:
     return _two_sum(m0, float((x - m0).sum() / x.size))
 
 
-def _fit(n: int, mx: float, my: float, sxx: float, syy: float, sxy: float, sse: float,
-         mx_lo: float = 0.0, my_lo: float = 0.0) -> tuple:
+def _fit(
+    n: int, mx: float, my: float, sxx: float, syy: float, sxy: float, sse: float, mx_lo: float = 0.0, my_lo: float = 0.0
+) -> tuple:
     if n < 3 or not sxx > 0:
         nan = float("nan")
         return (nan, nan, nan, nan, nan, nan, n, True)
@@ -188,7 +188,7 @@ class LinFitAccumulator:
     """Chan et al. pairwise merge of centred moments, in plain Python.
 
     The means are kept as double-doubles (hi, lo), so merging never rounds
-    them (METHOD.md 3: any split gives the one-shot result).
+    them (docs/method.md 3: any split gives the one-shot result).
     """
 
     def __init__(self) -> None:
@@ -222,7 +222,15 @@ class LinFitAccumulator:
         my, ey = _two_sum(mya, dy * (nb / n))
         my, my_lo = _two_sum(my, ey + mya_lo)
         return (
-            n, mx, my, sxx, syya + syyb + dy * dy * w, sxya + sxyb + dx * dy * w, ssea + sseb + between, mx_lo, my_lo
+            n,
+            mx,
+            my,
+            sxx,
+            syya + syyb + dy * dy * w,
+            sxya + sxyb + dx * dy * w,
+            ssea + sseb + between,
+            mx_lo,
+            my_lo,
         )
 
     def update(self, x: Any, y: Any, *, check_finite: bool = True) -> "LinFitAccumulator":
@@ -239,7 +247,7 @@ class LinFitAccumulator:
         return _result(_fit(*self.m))
 
 
-# -- The long-recording pipeline, tiled windows (METHOD.md 3-6) -------------------
+# -- The long-recording pipeline, tiled windows (docs/method.md 3-6) -------------------
 
 __all__ += ["analyze_tiled"]
 
@@ -256,8 +264,15 @@ def _rows_pearson(sab: np.ndarray, saa: np.ndarray, sbb: np.ndarray) -> np.ndarr
         return np.where(den > 0, np.clip(sab / den, -1.0, 1.0), np.nan)
 
 
-def _tile_stats(fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, aux: Optional[np.ndarray],
-                raw: Optional[tuple], dead: tuple, nb: int) -> dict:
+def _tile_stats(
+    fx: Optional[np.ndarray],
+    fy: np.ndarray,
+    fz: np.ndarray,
+    aux: Optional[np.ndarray],
+    raw: Optional[tuple],
+    dead: tuple,
+    nb: int,
+) -> dict:
     """Statistics of the rows of (windows, W) arrays, orientation +1."""
     n_w, w = fz.shape
     mz, my = _row_mean(fz), _row_mean(fy)
@@ -271,8 +286,16 @@ def _tile_stats(fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, aux: O
         ok = (w >= 3) & (szz > 0)
         slope = np.where(ok, syz / szz, np.nan)
         se = np.where(ok, np.sqrt(sse / (w - 2) / szz), np.nan)
-    out = {"slope": slope, "intercept": my - slope * mz, "slope_stderr": se, "c_yz": _rows_pearson(syz, szz, syy),
-           "n": np.full(n_w, w, dtype=np.int64), "mean_z": mz, "mean_y": my, "syz": syz}
+    out = {
+        "slope": slope,
+        "intercept": my - slope * mz,
+        "slope_stderr": se,
+        "c_yz": _rows_pearson(syz, szz, syy),
+        "n": np.full(n_w, w, dtype=np.int64),
+        "mean_z": mz,
+        "mean_y": my,
+        "syz": syz,
+    }
     out["r"] = np.where(ok, out["c_yz"], np.nan)
     if fx is not None and w >= 2:
         dx = fx - _row_mean(fx)[:, None]
@@ -281,7 +304,7 @@ def _tile_stats(fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, aux: O
         out["c_xz"] = _rows_pearson((dx * dz).sum(axis=1), sxx, szz)
     else:
         out["c_xy"] = out["c_xz"] = np.full(n_w, np.nan)
-    # Deadband and bins (METHOD.md 4): bin floor((fz - lo) * n_bins / span),
+    # Deadband and bins (docs/method.md 4): bin floor((fz - lo) * n_bins / span),
     # the top edge in the last bin.
     kind, value = dead
     d = np.full(n_w, value) if kind == "force" else value * np.sqrt(szz / (w - 1)) if w >= 2 else np.full(n_w, np.nan)
@@ -385,7 +408,7 @@ def analyze_tiled(
         parts.append(_tile_stats(rows.get("fx"), rows["fy"], rows["fz"], aux, raw, (db.kind, db.value), nb))
     st = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     if orientation == "auto":
-        # METHOD.md 0: the sign of the whole-recording slope, from the
+        # docs/method.md 0: the sign of the whole-recording slope, from the
         # windows' moments merged (within + between windows).
         nw = st["n"].astype(float)
         mz, my = np.average(st["mean_z"], weights=nw), np.average(st["mean_y"], weights=nw)
@@ -400,11 +423,25 @@ def analyze_tiled(
         force_dependence = (mu_b - mu_a) / mu_r
     i = st["aux_mean"]
     return {
-        "time": time, "mu_r": mu_r, "f_y0": st["intercept"], "r": st["r"], "mu_r_stderr": st["slope_stderr"],
-        "mu_a": mu_a, "mu_b": mu_b, "force_dependence": force_dependence, "c_xy": st["c_xy"],
-        "c_xz": st["c_xz"], "c_yz": st["c_yz"], "i": i,
-        "J": i / area_mm2 if area_mm2 is not None else np.full(n_win, np.nan), "n": st["n"],
-        "deadband": st["deadband"], "mu_classic": st["mu_classic"], "bin_count": st["bin_count"],
-        "bin_cof": s * st["bin_cof"], "fz_min": st["fz_min"], "fz_max": st["fz_max"],
+        "time": time,
+        "mu_r": mu_r,
+        "f_y0": st["intercept"],
+        "r": st["r"],
+        "mu_r_stderr": st["slope_stderr"],
+        "mu_a": mu_a,
+        "mu_b": mu_b,
+        "force_dependence": force_dependence,
+        "c_xy": st["c_xy"],
+        "c_xz": st["c_xz"],
+        "c_yz": st["c_yz"],
+        "i": i,
+        "J": i / area_mm2 if area_mm2 is not None else np.full(n_win, np.nan),
+        "n": st["n"],
+        "deadband": st["deadband"],
+        "mu_classic": st["mu_classic"],
+        "bin_count": st["bin_count"],
+        "bin_cof": s * st["bin_cof"],
+        "fz_min": st["fz_min"],
+        "fz_max": st["fz_max"],
         "orientation": np.array(s),
     }

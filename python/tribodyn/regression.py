@@ -1,5 +1,5 @@
 """Closed-form, numerically stable, mergeable least squares, Eqs. (6)-(8)
-(METHOD.md section 3).
+(docs/method.md section 3).
 
 Ordinary least squares of y on x (in tribodyn: fy on fz): y = slope x +
 intercept. The Rust kernel accumulates centred moments (n, means, S_xx,
@@ -85,7 +85,7 @@ def _pair(x: Any, y: Any, check_finite: bool, min_len: int) -> tuple[np.ndarray,
 
 
 def linfit(x: Any, y: Any, *, check_finite: bool = True) -> LinFit:
-    """Ordinary least squares of ``y`` on ``x`` (Eqs. 6-8, METHOD.md 3).
+    """Ordinary least squares of ``y`` on ``x`` (Eqs. 6-8, docs/method.md 3).
 
     Parameters
     ----------
@@ -132,7 +132,7 @@ def _proves_finite(t: tuple) -> bool:
 
 
 class LinFitAccumulator:
-    """Mergeable accumulator of the least-squares fit (METHOD.md 3).
+    """Mergeable accumulator of the least-squares fit (docs/method.md 3).
 
     Examples
     --------

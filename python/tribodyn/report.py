@@ -1,4 +1,4 @@
-"""A self-contained HTML report of an analysis (METHOD.md sections 4-7).
+"""A self-contained HTML report of an analysis (docs/method.md sections 4-7).
 
 :func:`write_report` writes ONE ``report.html``: inline CSS, every figure
 embedded as a base64 PNG, no script and no network reference, so the file
@@ -107,8 +107,12 @@ def _is_scalar(v: Any) -> bool:
 
 def _is_stats(v: Any) -> bool:
     """A statistics dict like ``Results.summary()["mu_r"]`` (n, mean, median, ...)."""
-    return (isinstance(v, Mapping) and bool(v) and ("n" in v or "mean" in v or "median" in v)
-            and all(_is_scalar(x) for x in v.values()))
+    return (
+        isinstance(v, Mapping)
+        and bool(v)
+        and ("n" in v or "mean" in v or "median" in v)
+        and all(_is_scalar(x) for x in v.values())
+    )
 
 
 def _cell(v: Any) -> str:
@@ -147,8 +151,10 @@ def _render_value(v: Any) -> str:
     if isinstance(v, Mapping):
         if not v:
             return '<span class="note">none</span>'
-        if all(isinstance(x, Mapping) and x and all(_is_scalar(y) or isinstance(y, (list, tuple)) for y in x.values())
-               for x in v.values()):
+        if all(
+            isinstance(x, Mapping) and x and all(_is_scalar(y) or isinstance(y, (list, tuple)) for y in x.values())
+            for x in v.values()
+        ):
             return _matrix_table(v)
         return _kv_table(v)
     return _esc(v)
@@ -172,8 +178,9 @@ def _columns_table(table: Any, max_rows: int) -> str:
         n = len(records)
         rows = ([rec.get(c) for c in cols] for rec in records[:max_rows])
     head = "<tr>" + "".join(f"<th>{html.escape(str(c))}</th>" for c in cols) + "</tr>"
-    body = "\n".join("<tr>" + "".join(_cell(x.item() if isinstance(x, np.generic) else x) for x in row) + "</tr>"
-                     for row in rows)
+    body = "\n".join(
+        "<tr>" + "".join(_cell(x.item() if isinstance(x, np.generic) else x) for x in row) + "</tr>" for row in rows
+    )
     note = f'<p class="note">First {max_rows} of {n} rows.</p>' if n > max_rows else ""
     return f'<div class="scroll"><table>\n{head}\n{body}\n</table></div>{note}'
 
@@ -220,8 +227,9 @@ def _quality_section(quality: Mapping[str, Any]) -> str:
     if failures is not None:
         parts.append("<h3>Gate failures by reason</h3>")
         if failures:
-            rows = "".join(f'<tr><td class="key">{html.escape(str(k))}</td>{_cell(v)}</tr>'
-                           for k, v in failures.items())
+            rows = "".join(
+                f'<tr><td class="key">{html.escape(str(k))}</td>{_cell(v)}</tr>' for k, v in failures.items()
+            )
             parts.append(f'<table><tr><th class="key">reason</th><th>windows</th></tr>{rows}</table>')
         else:
             parts.append('<p class="note">No window failed the gate.</p>')
@@ -245,7 +253,7 @@ def write_report(
     dpi: int = REPORT_DPI,
     max_table_rows: int = MAX_TABLE_ROWS,
 ) -> str:
-    """Writes one self-contained HTML report, atomically (METHOD.md 4-7).
+    """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
     Parameters
     ----------
@@ -311,8 +319,10 @@ def write_report(
         "</head>",
         "<body>",
         f"<h1>{html.escape(title)}</h1>",
-        (f'<p class="meta">tribodyn {html.escape(str(version))} &middot; {html.escape(stamp)} &middot; '
-         f"{len(images)} figure{'s' if len(images) != 1 else ''}</p>"),
+        (
+            f'<p class="meta">tribodyn {html.escape(str(version))} &middot; {html.escape(stamp)} &middot; '
+            f"{len(images)} figure{'s' if len(images) != 1 else ''}</p>"
+        ),
         '<h2 id="summary">Summary</h2>',
     ]
     scalars = {k: v for k, v in summary.items() if not isinstance(v, Mapping)}
@@ -340,8 +350,10 @@ def write_report(
         out.append('<p class="note">No figures.</p>')
     for k, (caption, b64) in enumerate(images, 1):
         cap = html.escape(caption)
-        out.append(f'<figure id="fig{k}"><img src="data:image/png;base64,{b64}" alt="{cap}">'
-                   f"<figcaption><b>Figure {k}.</b> {cap}</figcaption></figure>")
+        out.append(
+            f'<figure id="fig{k}"><img src="data:image/png;base64,{b64}" alt="{cap}">'
+            f"<figcaption><b>Figure {k}.</b> {cap}</figcaption></figure>"
+        )
 
     out.append('<h2 id="parameters">Parameters</h2>')
     out.append(_kv_table(params) if params else '<p class="note">No parameters.</p>')
@@ -393,8 +405,10 @@ def _opr_caption(opr: Any) -> str:
     unit = "°C" if opr.by == "temperature" else "A/mm²"
     parts = []
     if opr.optimum is not None:
-        parts.append(f"Optimum (shaded): {_fmt(opr.optimum[0])}–{_fmt(opr.optimum[1])} {unit}, binned COF within "
-                     f"{100 * opr.tol:g} % of its minimum {_fmt(opr.mu_min)}")
+        parts.append(
+            f"Optimum (shaded): {_fmt(opr.optimum[0])}–{_fmt(opr.optimum[1])} {unit}, binned COF within "
+            f"{100 * opr.tol:g} % of its minimum {_fmt(opr.mu_min)}"
+        )
     if opr.onset is not None:
         parts.append(f"COF reaches {1 + opr.rise:g} × the minimum at {_fmt(opr.onset)} {unit} (dashed red line)")
     return ("; ".join(parts) + ".") if parts else "No optimum found."
@@ -442,12 +456,16 @@ def build_report_figures(
     ok = int(np.sum(np.asarray(getattr(results, "table", results).get("ok", np.ones(n)), dtype=bool)))
     what = f"{n} windows, {ok} passed the quality gate; failed windows as grey crosses"
     if has_t:
-        cap = ("COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator "
-               f"temperature against time ({what}); cf. paper Fig. 10.")
+        cap = (
+            "COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator "
+            f"temperature against time ({what}); cf. paper Fig. 10."
+        )
         out.append((cap, _figs.cof_and_temperature_vs_time(results, temperature_log=temperature_log)))
         opr = _range_or_none(results, opr_temperature, "temperature")
-        cap = ("COF against temperature, heating and cooling branches apart (hysteresis) with binned "
-               f"medians. {_opr_caption(opr)} Cf. paper Fig. 11.")
+        cap = (
+            "COF against temperature, heating and cooling branches apart (hysteresis) with binned "
+            f"medians. {_opr_caption(opr)} Cf. paper Fig. 11."
+        )
         out.append((cap, _figs.cof_vs_temperature(results, opr)))
     if has_j:
         cap = f"COF and current density J against time ({what}); cf. paper Fig. 12."
@@ -456,8 +474,9 @@ def build_report_figures(
         cap = f"COF against current density with binned medians. {_opr_caption(opr)} Cf. paper Sec. 4.2."
         out.append((cap, _figs.cof_vs_current_density(results, opr)))
     if not (has_t or has_j):
-        out.append((f"COF against time ({what}); no temperature or current density was given.",
-                    _figs.cof_vs_time(results)))
+        out.append(
+            (f"COF against time ({what}); no temperature or current density was given.", _figs.cof_vs_time(results))
+        )
     return out
 
 
@@ -483,12 +502,18 @@ def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, Figure]]:
     gate = "passed" if res.ok else "failed (" + "; ".join(res.reasons) + ")"
     caps = (
         f"Dynamic forces of the example window ({span}); cf. paper Fig. 2.",
-        ("Correlation functions C_xy, C_xz, C_yz of the example window against the time shift, "
-         f"Eq. (1); C_yz(0) = {_fmt(res.c_yz)}, quality gate {gate}; cf. paper Figs. 3-5."),
-        ("Force phase plots of the example window with the regression of F_y,d on F_z,d "
-         f"(mu_r = {_fmt(res.mu_r)}, orientation s = {res.orientation:+d}); cf. paper Figs. 6-8."),
-        (f"COF per F_z,d bin of the example window, deadband {_fmt(res.deadband)} N shaded; "
-         f"mu_r = {_fmt(res.mu_r)}, mu_a = {_fmt(res.mu_a)}, mu_b = {_fmt(res.mu_b)}; cf. paper Fig. 9."),
+        (
+            "Correlation functions C_xy, C_xz, C_yz of the example window against the time shift, "
+            f"Eq. (1); C_yz(0) = {_fmt(res.c_yz)}, quality gate {gate}; cf. paper Figs. 3-5."
+        ),
+        (
+            "Force phase plots of the example window with the regression of F_y,d on F_z,d "
+            f"(mu_r = {_fmt(res.mu_r)}, orientation s = {res.orientation:+d}); cf. paper Figs. 6-8."
+        ),
+        (
+            f"COF per F_z,d bin of the example window, deadband {_fmt(res.deadband)} N shaded; "
+            f"mu_r = {_fmt(res.mu_r)}, mu_a = {_fmt(res.mu_a)}, mu_b = {_fmt(res.mu_b)}; cf. paper Fig. 9."
+        ),
     )
     figs = (
         _figs.forces_vs_time(fx, fy, fz, fs, t0=t0),
@@ -517,7 +542,7 @@ def _range_dict(opr: Any) -> Dict[str, Any]:
 
 
 def build_report_summary(results: Any, *, opr_temperature: Any = None, opr_current: Any = None) -> Dict[str, Any]:
-    """``results.summary()`` plus the optimum ranges, for :func:`write_report` (METHOD.md 7).
+    """``results.summary()`` plus the optimum ranges, for :func:`write_report` (docs/method.md 7).
 
     The operating ranges are computed with the defaults when not given and
     the covariate has data; they go under ``"operating_ranges"`` keyed by
@@ -535,7 +560,7 @@ def build_report_summary(results: Any, *, opr_temperature: Any = None, opr_curre
 
 
 def quality_from_results(results: Any) -> Dict[str, Any]:
-    """Quality statistics of an analysis (METHOD.md 5): gate pass fraction, failure reasons, correlations.
+    """Quality statistics of an analysis (docs/method.md 5): gate pass fraction, failure reasons, correlations.
 
     Returns windows, gated, gate_pass_fraction, the gate threshold,
     orientation, gate_failures (reason -> windows) and, over all windows,
@@ -578,17 +603,28 @@ def write_results_report(
     :func:`build_report_figures` and the per-window table, written by :func:`write_report`."""
     opr_t = _range_or_none(results, opr_temperature, "temperature")
     opr_j = _range_or_none(results, opr_current, "current_density")
-    figs = build_report_figures(results, opr_temperature=opr_t, opr_current=opr_j, example=example,
-                                temperature_log=temperature_log)
+    figs = build_report_figures(
+        results, opr_temperature=opr_t, opr_current=opr_j, example=example, temperature_log=temperature_log
+    )
     summary = build_report_summary(results, opr_temperature=opr_t, opr_current=opr_j)
     for k in _QUALITY_KEYS:  # shown in the quality section
         summary.pop(k, None)
     tables = None
     if include_table:
         # Columns that are NaN in every window (no current, no skew, ...) only add noise.
-        cols = {k: v for k, v in results.table.items()
-                if not (np.asarray(v).dtype.kind == "f" and not np.isfinite(np.asarray(v)).any())}
+        cols = {
+            k: v
+            for k, v in results.table.items()
+            if not (np.asarray(v).dtype.kind == "f" and not np.isfinite(np.asarray(v)).any())
+        }
         tables = {"Per-window results": cols}
-    return write_report(path, title=title, summary=summary, params=dict(results.params), figures=figs,
-                        tables=tables,
-                        quality=quality_from_results(results), dpi=dpi)
+    return write_report(
+        path,
+        title=title,
+        summary=summary,
+        params=dict(results.params),
+        figures=figs,
+        tables=tables,
+        quality=quality_from_results(results),
+        dpi=dpi,
+    )

@@ -1,4 +1,4 @@
-"""Typed results of the COF identification (METHOD.md sections 4-7)."""
+"""Typed results of the COF identification (docs/method.md sections 4-7)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ __all__ = ["BinTable", "CofResult", "Results", "WINDOW_COLUMNS"]
 
 @dataclass(frozen=True)
 class BinTable:
-    """COF against normal force: equal-width fz bins (METHOD.md 4).
+    """COF against normal force: equal-width fz bins (docs/method.md 4).
 
     Attributes
     ----------
@@ -46,7 +46,7 @@ class BinTable:
 
 @dataclass(frozen=True)
 class CofResult:
-    """COF of one acquisition (``tribodyn.identify``; METHOD.md 3-5).
+    """COF of one acquisition (``tribodyn.identify``; docs/method.md 3-5).
 
     Attributes
     ----------
@@ -138,7 +138,7 @@ WINDOW_COLUMNS: Dict[str, str] = {
 
 @dataclass(frozen=True)
 class Results:
-    """Per-window results of ``tribodyn.analyze`` (METHOD.md section 6).
+    """Per-window results of ``tribodyn.analyze`` (docs/method.md section 6).
 
     Attributes
     ----------
@@ -164,7 +164,7 @@ class Results:
     orientation: int
     params: Dict[str, Any] = field(default_factory=dict)
     #: Per-window n, mean_z, mean_y, syz (centred moments of fz, fy): lets
-    #: separately analysed parts fix one orientation (METHOD.md 0).
+    #: separately analysed parts fix one orientation (docs/method.md 0).
     moments: Dict[str, np.ndarray] = field(default_factory=dict)
 
     def with_orientation(self, s: int) -> "Results":
@@ -177,8 +177,16 @@ class Results:
         for col in ("mu_r", "mu_a", "mu_b"):
             table[col] = -table[col]
         params = {**self.params, "orientation_used": s}
-        return Results(table=table, bin_counts=self.bin_counts, bin_cof=-self.bin_cof, fz_min=self.fz_min,
-                       fz_max=self.fz_max, orientation=s, params=params, moments=self.moments)
+        return Results(
+            table=table,
+            bin_counts=self.bin_counts,
+            bin_cof=-self.bin_cof,
+            fz_min=self.fz_min,
+            fz_max=self.fz_max,
+            orientation=s,
+            params=params,
+            moments=self.moments,
+        )
 
     def __len__(self) -> int:
         return int(len(self.table["time"]))
@@ -216,9 +224,18 @@ class Results:
             if v.size == 0:
                 return {"n": 0}
             q = np.percentile(v, [5, 25, 50, 75, 95])
-            return {"n": int(v.size), "mean": float(v.mean()), "std": float(v.std()), "min": float(v.min()),
-                    "p05": float(q[0]), "p25": float(q[1]), "median": float(q[2]), "p75": float(q[3]),
-                    "p95": float(q[4]), "max": float(v.max())}
+            return {
+                "n": int(v.size),
+                "mean": float(v.mean()),
+                "std": float(v.std()),
+                "min": float(v.min()),
+                "p05": float(q[0]),
+                "p25": float(q[1]),
+                "median": float(q[2]),
+                "p75": float(q[3]),
+                "p95": float(q[4]),
+                "max": float(v.max()),
+            }
 
         out: Dict[str, Any] = {
             "windows": len(self),

@@ -1,6 +1,6 @@
 """Simulated brush/commutator rig with a KNOWN coefficient of friction.
 
-This module reproduces the rig of the seed paper (METHOD.md section 8) closely
+This module reproduces the rig of the seed paper (docs/method.md section 8) closely
 enough to serve as the bundled example and as the source of truth for tests.
 It is written from the physics below, never fitted to the analysis code, and
 it only needs NumPy and SciPy (it imports nothing else from ``tribodyn``).
@@ -47,7 +47,7 @@ Model (per sample)
 * Channel skew ``k`` (``skew`` option): ``fz`` is DELAYED by ``k`` samples
   relative to ``fy``, ``fx`` and ``i`` (``fz[n] = z[n - k]``; a negative ``k``
   delays ``fy``, ``fx`` and ``i`` by ``-k`` instead). With the lag convention
-  of METHOD.md section 1 (if y is x delayed by d, ``C_xy`` peaks at +d), the
+  of docs/method.md section 1 (if y is x delayed by d, ``C_xy`` peaks at +d), the
   lag of max ``|C(fy, fz)(j)|`` is ``j = +k``.
 * Charge amplifier (unless ``raw=True``): 1st-order Butterworth high-pass at
   0.1 Hz, ``scipy.signal.butter(1, 0.1, "highpass", fs=fs, output="sos")``
@@ -120,7 +120,7 @@ __all__ = [
 ]
 
 # --------------------------------------------------------------------------
-# Rig constants (METHOD.md section 8)
+# Rig constants (docs/method.md section 8)
 # --------------------------------------------------------------------------
 RPM: float = 250.0
 N_LAMELLAS: int = 24
@@ -340,11 +340,7 @@ def _huber(u: np.ndarray, w: float) -> np.ndarray:
 
 
 def _mu_of_temperature(temperature: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    return (
-        _T_MU_MIN
-        + _T_K_LO * _huber(_T_LO - temperature, _T_W)
-        + _T_K_HI * _huber(upper - _T_HI, _T_W)
-    )
+    return _T_MU_MIN + _T_K_LO * _huber(_T_LO - temperature, _T_W) + _T_K_HI * _huber(upper - _T_HI, _T_W)
 
 
 def cof_vs_temperature(temperature: Any, branch: str = "heating") -> np.ndarray:
@@ -551,9 +547,7 @@ class _Rig:
 
         if self.loss_fn is not None:
             c = self.loss_fn(t)
-            normal = np.maximum(
-                self.n0 * (1.0 - _LOSS_PRELOAD_DROP * c) + (1.0 + _LOSS_DYN_GAIN * c) * fz_d, 0.0
-            )
+            normal = np.maximum(self.n0 * (1.0 - _LOSS_PRELOAD_DROP * c) + (1.0 + _LOSS_DYN_GAIN * c) * fz_d, 0.0)
             wr = self._noise(_NS_RING, m0, n)
             ring = []
             for k in range(3):
@@ -625,9 +619,7 @@ class _Acquisition:
 # --------------------------------------------------------------------------
 # Helpers
 # --------------------------------------------------------------------------
-def _check_common(
-    seed: int, fs: float, orientation: int, force_dependence: float, skew: int
-) -> float:
+def _check_common(seed: int, fs: float, orientation: int, force_dependence: float, skew: int) -> float:
     """Validate the common options; return fs as a Python float."""
     if not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
@@ -762,9 +754,7 @@ def temperature_test(
     temp = np.interp(tg, bt, bT)
     t_up = _play(temp, _T_PLAY)
     mu = _mu_of_temperature(temp, t_up)
-    channels = _record_scenario(
-        tg, mu, duration, seed, fs, orientation, force_dependence, skew, raw
-    )
+    channels = _record_scenario(tg, mu, duration, seed, fs, orientation, force_dependence, skew, raw)
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2]))
     times = [0.0]
@@ -776,7 +766,7 @@ def temperature_test(
     times.append(duration)
     # The operator also reads the temperature whenever the heating programme
     # changes course (the path's breakpoints), as a real test log would; the
-    # analysis interpolates the log linearly (METHOD.md 6), which is then
+    # analysis interpolates the log linearly (docs/method.md 6), which is then
     # exact between readings up to the reading noise.
     times = sorted(set(times) | {float(t) for t, _ in TEMPERATURE_PATH if 0.0 < t < duration})
     log_t = np.unique(np.round(np.array(times), 1))
@@ -1023,7 +1013,5 @@ def scenario(name: str, **kw: Any) -> Simulation:
     try:
         fn = _SCENARIOS[name.strip().lower()]
     except KeyError:
-        raise ValueError(
-            f"unknown scenario {name!r}; choose 'temperature' or 'current_density'"
-        ) from None
+        raise ValueError(f"unknown scenario {name!r}; choose 'temperature' or 'current_density'") from None
     return fn(**kw)

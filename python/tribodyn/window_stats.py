@@ -1,5 +1,5 @@
 """Per-window statistics and the quality gate, shared by ``identify`` and
-``analyze`` (METHOD.md sections 3-5).
+``analyze`` (docs/method.md sections 3-5).
 
 The Rust kernel ``_core.windows_stats`` computes, for every window, the
 regression of fy on fz, the three Pearson coefficients, the deadband, the fz
@@ -46,13 +46,24 @@ def compute(
     """
     fy_raw, fz_raw = raw if raw is not None else (None, None)
     return _core.windows_stats(
-        fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), int(length), 1.0, deadband.kind,
-        float(deadband.value), int(n_bins), fy_raw, fz_raw, parallel,
+        fx,
+        fy,
+        fz,
+        aux,
+        np.ascontiguousarray(starts, dtype=np.int64),
+        int(length),
+        1.0,
+        deadband.kind,
+        float(deadband.value),
+        int(n_bins),
+        fy_raw,
+        fz_raw,
+        parallel,
     )
 
 
 def orient(stats: Dict[str, np.ndarray], s: int, *, inplace: bool = False) -> Dict[str, np.ndarray]:
-    """Applies orientation ``s`` (METHOD.md 0): mu = s * slope, and so on.
+    """Applies orientation ``s`` (docs/method.md 0): mu = s * slope, and so on.
 
     Returns a new dict with ``mu_r``, ``mu_r_stderr``, ``f_y0`` and
     ``force_dependence`` added. F_y0 is the intercept in the measured fy
@@ -80,7 +91,7 @@ def orient(stats: Dict[str, np.ndarray], s: int, *, inplace: bool = False) -> Di
 
 
 def gate_reasons(stats: Dict[str, np.ndarray], gate: float, skew: Optional[np.ndarray] = None) -> np.ndarray:
-    """Why each window fails the quality gate (METHOD.md 5); '' when it passes.
+    """Why each window fails the quality gate (docs/method.md 5); '' when it passes.
 
     Reasons: the fit is degenerate (fewer than 3 samples, constant fz);
     |C_yz(0)| below ``gate``; the deadband excludes every sample; a channel

@@ -1,4 +1,4 @@
-"""Windows of a recording that arrives chunk by chunk (METHOD.md 6).
+"""Windows of a recording that arrives chunk by chunk (docs/method.md 6).
 
 Windows of ``length`` samples start every ``hop`` samples from the start of
 the recording (``hop == length`` tiles it). :class:`Windower` receives chunks

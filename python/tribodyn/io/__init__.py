@@ -137,13 +137,11 @@ def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
     by_content = _sniff(head)
     if by_ext in _BINARY and by_content != by_ext:
         raise RecordingError(
-            f"{p}: not a valid {by_ext} file (its first bytes are not a {by_ext} signature: "
-            "corrupt or mislabelled)"
+            f"{p}: not a valid {by_ext} file (its first bytes are not a {by_ext} signature: corrupt or mislabelled)"
         )
     if by_content is None:
         raise RecordingError(
-            f"{p}: unknown format (binary content of no supported kind); supported: "
-            + ", ".join(FORMATS)
+            f"{p}: unknown format (binary content of no supported kind); supported: " + ", ".join(FORMATS)
         )
     if by_ext == "lvm" and by_content != "lvm":
         raise RecordingError(f"{p}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)")
@@ -217,9 +215,7 @@ def open_recording(
     if fmt == "auto":
         fmt = detect_format(p)
     elif fmt not in FORMATS:
-        raise RecordingError(
-            f"unknown format {format!r}; use 'auto' or one of {', '.join(FORMATS)}"
-        )
+        raise RecordingError(f"unknown format {format!r}; use 'auto' or one of {', '.join(FORMATS)}")
     else:
         _read_head(p)  # missing / empty / directory checks
     cls, vendor = _backend(fmt)
@@ -230,9 +226,7 @@ def open_recording(
         return cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
     except TypeError as exc:
         if "unexpected keyword argument" in str(exc):
-            raise TypeError(
-                f"open_recording: option not accepted for format {fmt!r}: {exc}"
-            ) from None
+            raise TypeError(f"open_recording: option not accepted for format {fmt!r}: {exc}") from None
         raise
     except (OSError, EOFError, UnicodeError) as exc:
         raise RecordingError(f"{p}: cannot read as {fmt}: {exc}") from None

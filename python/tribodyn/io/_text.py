@@ -126,8 +126,7 @@ def parse_rows(
         f = split_fields(ln.rstrip("\r\n"), delimiter)
         if len(f) < need:
             raise RecordingError(
-                f"{path}: line {no} has {len(f)} fields, expected at least {need} "
-                "(truncated or corrupt file)"
+                f"{path}: line {no} has {len(f)} fields, expected at least {need} (truncated or corrupt file)"
             )
         for c, (i, name) in enumerate(zip(usecols, colnames)):
             s = f[i].strip()
@@ -138,8 +137,7 @@ def parse_rows(
                 out[r, c] = to_float(s, decimal)
             except ValueError:
                 raise RecordingError(
-                    f"{path}: line {no}: {s[:40]!r} in channel {name!r} is not a number "
-                    "(corrupt file?)"
+                    f"{path}: line {no}: {s[:40]!r} in channel {name!r} is not a number (corrupt file?)"
                 ) from None
     return out
 

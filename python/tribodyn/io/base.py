@@ -295,21 +295,17 @@ class Recording:
                 raise RecordingError(f"fs must be finite and > 0, got {fs!r}")
             if self._file_fs is not None and abs(fs_v - self._file_fs) > 1e-9 * self._file_fs:
                 self.warnings.append(
-                    f"fs={fs_v:g} Hz given overrides the file's {self._file_fs:g} Hz "
-                    f"({self._fs_source})"
+                    f"fs={fs_v:g} Hz given overrides the file's {self._file_fs:g} Hz ({self._fs_source})"
                 )
             self.fs: float = fs_v
             self._fs_source = "given by the caller"
         elif self._file_fs is not None:
             if not (math.isfinite(self._file_fs) and self._file_fs > 0):
-                raise RecordingError(
-                    f"{self.path}: the file's sampling rate is invalid ({self._file_fs!r}); pass fs="
-                )
+                raise RecordingError(f"{self.path}: the file's sampling rate is invalid ({self._file_fs!r}); pass fs=")
             self.fs = float(self._file_fs)
         else:
             raise RecordingError(
-                f"{self.path}: sampling rate unknown (this {self.format} file does not carry it); "
-                "pass fs=... (Hz)"
+                f"{self.path}: sampling rate unknown (this {self.format} file does not carry it); pass fs=... (Hz)"
             )
         # scaling and units
         user_scale: Dict[str, float] = {}
@@ -536,8 +532,9 @@ class Recording:
                 continue
             # Hand out a fresh, owned array: reuse one the backend just made
             # (it owns its data, nothing else refers to it), copy anything else.
-            fresh = (self._owned_reads and r.dtype == np.float64 and r.flags.owndata
-                     and r.flags.writeable and r.base is None)
+            fresh = (
+                self._owned_reads and r.dtype == np.float64 and r.flags.owndata and r.flags.writeable and r.base is None
+            )
             a = r if fresh else np.array(r, dtype=np.float64)
             if f != 1.0:
                 a *= f
@@ -609,13 +606,15 @@ class Recording:
         copy = bool(copy)
         if not copy and self._can_view():
             # Views: one mapping per chunk, so a chunk never straddles two.
-            return self._chunk_gen(size, keys, names, self._view_blocks(names, size, start, stop), stop - start,
-                                   copy=False)
+            return self._chunk_gen(
+                size, keys, names, self._view_blocks(names, size, start, stop), stop - start, copy=False
+            )
         block = max(size, self._block_rows)
         if start == 0 and stop == self._n:
             return self._chunk_gen(size, keys, names, self._iter_blocks(names, block), self._n, copy=copy)
-        return self._chunk_gen(size, keys, names, self._range_blocks(names, block, start, stop), stop - start,
-                               copy=copy)
+        return self._chunk_gen(
+            size, keys, names, self._range_blocks(names, block, start, stop), stop - start, copy=copy
+        )
 
     def _view_blocks(self, names: Sequence[str], size: int, start: int, stop: int) -> Iterator[Dict[str, np.ndarray]]:
         for a in range(start, stop, size):
@@ -639,8 +638,13 @@ class Recording:
                 return
 
     def _chunk_gen(
-        self, size: int, keys: List[Tuple[str, str]], names: List[str], blocks: Iterator[Dict[str, np.ndarray]],
-        expected: int, copy: bool = True,
+        self,
+        size: int,
+        keys: List[Tuple[str, str]],
+        names: List[str],
+        blocks: Iterator[Dict[str, np.ndarray]],
+        expected: int,
+        copy: bool = True,
     ) -> Iterator[Dict[str, np.ndarray]]:
         pending: deque = deque()
         offset = 0  # rows of pending[0] already handed out
@@ -786,9 +790,7 @@ def equal_length_selection(
     ls = {lengths[n] for n in pool}
     if len(ls) != 1:
         detail = ", ".join(f"{n!r}={lengths[n]}" for n in pool)
-        raise RecordingError(
-            f"{path}: unequal channel lengths ({detail}); map channels of one length with channels="
-        )
+        raise RecordingError(f"{path}: unequal channel lengths ({detail}); map channels of one length with channels=")
     n = ls.pop()
     names = [k for k, v in lengths.items() if v == n]
     skipped = [k for k, v in lengths.items() if v != n]

@@ -91,11 +91,7 @@ def sniff_vendor(head: str) -> Optional[str]:
     lines = head.splitlines()
     if any("CETR" in ln for ln in lines[:5]):
         return "cetr"
-    if (
-        lines
-        and lines[0].startswith("Data file")
-        and any(ln.startswith("Test started at") for ln in lines[:40])
-    ):
+    if lines and lines[0].startswith("Data file") and any(ln.startswith("Test started at") for ln in lines[:40]):
         return "compend"
     return None
 
@@ -289,9 +285,7 @@ class DelimitedRecording(Recording):
         path = self.path
         if delimiter is not None:
             delim: Optional[str] = None if delimiter in ("whitespace", " ") else delimiter
-            found = _find_data_start(
-                head, delim, decimal if decimal else (None if delim != "," else ".")
-            )
+            found = _find_data_start(head, delim, decimal if decimal else (None if delim != "," else "."))
             if found is None:
                 raise RecordingError(f"{path}: no data rows found with delimiter {delimiter!r}")
         else:
@@ -307,9 +301,7 @@ class DelimitedRecording(Recording):
                 if best is None or score > best[0]:
                     best = (score, cand, r)
             if best is None:
-                raise RecordingError(
-                    f"{path}: no table of numbers found (not a delimited text recording?)"
-                )
+                raise RecordingError(f"{path}: no table of numbers found (not a delimited text recording?)")
             delim, found = best[1], best[2]
         d0, nf, _ = found
         # sample data rows
@@ -341,11 +333,7 @@ class DelimitedRecording(Recording):
         name_f: Optional[List[str]] = None
         unit_f: Optional[List[str]] = None
         name_idx = unit_idx = None
-        if (
-            above
-            and same(above[-1][1])
-            and not _numericish(split_fields(above[-1][1], delim), decimal)
-        ):
+        if above and same(above[-1][1]) and not _numericish(split_fields(above[-1][1], delim), decimal):
             l1 = above[-1]
             if (
                 len(above) >= 2
@@ -400,9 +388,7 @@ class DelimitedRecording(Recording):
             ]
             if not hits:
                 avail = ", ".join(repr(n) for n in names)
-                raise RecordingError(
-                    f"{path}: no time column {time_column!r}; available channels: {avail}"
-                )
+                raise RecordingError(f"{path}: no time column {time_column!r}; available channels: {avail}")
             k = hits[0]
         else:
             k = None
@@ -484,9 +470,7 @@ class DelimitedRecording(Recording):
                     state = "await"
                     if not self._is_data(fields):
                         if s != unit_b:
-                            self.warnings.append(
-                                f"line {lineno}: units row differs from the first block's"
-                            )
+                            self.warnings.append(f"line {lineno}: units row differs from the first block's")
                         continue
                 # await: the next data row starts a block
                 if self._is_data(fields):
@@ -536,10 +520,7 @@ class DelimitedRecording(Recording):
             "header": _key_values(self._header_lines, delim),
             "delimiter": delim if delim is not None else "whitespace",
             "decimal": decimal,
-            "blocks": [
-                {"first_line": b.lineno, "rows": b.n, "info": _key_values(b.info, delim)}
-                for b in blocks
-            ],
+            "blocks": [{"first_line": b.lineno, "rows": b.n, "info": _key_values(b.info, delim)} for b in blocks],
         }
         if self._text_cols:
             self.metadata["text_columns"] = list(self._text_cols)
@@ -558,8 +539,7 @@ class DelimitedRecording(Recording):
         all_numbers = len(nonempty) >= 2 and all(is_number(f, self._decimal) for f in nonempty)
         if (unterminated and _numericish(fields, self._decimal)) or all_numbers:
             raise RecordingError(
-                f"{self.path}: line {lineno} has {len(fields)} fields, expected {self._nf} "
-                "(truncated or corrupt file)"
+                f"{self.path}: line {lineno} has {len(fields)} fields, expected {self._nf} (truncated or corrupt file)"
             )
 
     # --------------------------------------------------------------- vendors
@@ -586,9 +566,7 @@ class DelimitedRecording(Recording):
                         f"{counts[-1]} (truncated file?)"
                     )
                 if b.n > counts[-1]:
-                    self.warnings.append(
-                        f"step {k} holds {b.n} rows, its Data Count says {counts[-1]}"
-                    )
+                    self.warnings.append(f"step {k} holds {b.n} rows, its Data Count says {counts[-1]}")
         elif self._vendor == "compend":
             for n in names:
                 if n in _COMPEND_UNITS and self._raw_units.get(n) is None:
@@ -596,9 +574,7 @@ class DelimitedRecording(Recording):
                     self._auto[n] = (1.0, u, f"unit not in the file; COMPEND exports {n!r} in {u}")
             self._default_roles = {r: c for r, c in _COMPEND_ROLES.items() if c in names}
             if not any(ln.startswith("Test completed") for ln in self._footer):
-                self.warnings.append(
-                    "no 'Test completed' line at the end: test aborted or file truncated?"
-                )
+                self.warnings.append("no 'Test completed' line at the end: test aborted or file truncated?")
         else:
             self._default_roles = roles_by_name(names)
 
@@ -612,12 +588,8 @@ class DelimitedRecording(Recording):
         comment = self._comment.encode() if self._comment else None
         with open(self.path, "rb") as fh:
             for b in self._blocks:
-                for lines, nos in iter_data_lines(
-                    fh, b.offset, b.lineno, b.n, block, self.path, comment
-                ):
-                    a = parse_rows(
-                        lines, nos, self._delim, self._decimal, usecols, list(names), self.path
-                    )
+                for lines, nos in iter_data_lines(fh, b.offset, b.lineno, b.n, block, self.path, comment):
+                    a = parse_rows(lines, nos, self._delim, self._decimal, usecols, list(names), self.path)
                     yield {nm: a[:, c] for c, nm in enumerate(names)}
 
 

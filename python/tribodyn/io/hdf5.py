@@ -175,9 +175,7 @@ class Hdf5Recording(Recording):
             vals = [r[0] for r in rates.values()]
             if max(vals) - min(vals) > 1e-9 * max(vals):
                 detail = ", ".join(f"{k!r}: {r[0]:g} Hz" for k, r in rates.items())
-                raise RecordingError(
-                    f"{self.path}: channels have different sampling rates ({detail})"
-                )
+                raise RecordingError(f"{self.path}: channels have different sampling rates ({detail})")
             self._file_fs, self._fs_source = next(iter(rates.values()))
         elif time_channel is not None:
             self._fs_from_time_channel(time_channel)
@@ -195,9 +193,7 @@ class Hdf5Recording(Recording):
             try:
                 out[nm] = self._dsets[nm][start:stop]
             except (OSError, RuntimeError) as exc:
-                raise RecordingError(
-                    f"{self.path}: cannot read {nm!r} (corrupt file?): {exc}"
-                ) from None
+                raise RecordingError(f"{self.path}: cannot read {nm!r} (corrupt file?): {exc}") from None
         return out
 
     def _close(self) -> None:

@@ -85,9 +85,7 @@ class LvmRecording(Recording):
         with open(path, "rb") as fh:
             first = fh.readline()
             if not first.lstrip(b"\xef\xbb\xbf").startswith(b"LabVIEW Measurement"):
-                raise RecordingError(
-                    f"{path}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)"
-                )
+                raise RecordingError(f"{path}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)")
             offset = len(first)
             lineno = 1
             # ---- file header
@@ -172,9 +170,7 @@ class LvmRecording(Recording):
                             raise RecordingError(
                                 f"{path}: line {lineno}: data before any segment header (corrupt LVM file?)"
                             )
-                        seg = _Segment(
-                            line_off, lineno, segments[-1].header if segments else cur_header
-                        )
+                        seg = _Segment(line_off, lineno, segments[-1].header if segments else cur_header)
                         seg.n = 1
                         segments.append(seg)
                         last_raw, last_lineno = raw, lineno
@@ -211,9 +207,7 @@ class LvmRecording(Recording):
         for sg in segments:
             sg.header.setdefault("__columns__", list(colnames or []))
         if last_raw and not last_raw.endswith((b"\n", b"\r")):
-            raise RecordingError(
-                f"{path}: line {last_lineno} is incomplete (no end-of-line): file truncated?"
-            )
+            raise RecordingError(f"{path}: line {last_lineno} is incomplete (no end-of-line): file truncated?")
         self._layout(segments, x_columns, multi_headings, file_header)
         # the last row must have every field (a cut inside the line would not)
         tail = last_raw.decode("latin-1").rstrip("\r\n").split(self._sep)
@@ -256,11 +250,7 @@ class LvmRecording(Recording):
                     f"({sg.header['__columns__']} vs {cols0}); not supported"
                 )
         # channel columns: not X_Value, not the trailing Comment column
-        idx = [
-            i
-            for i, n in enumerate(cols0)
-            if n != "X_Value" and not (n == "Comment" and i == len(cols0) - 1)
-        ]
+        idx = [i for i, n in enumerate(cols0) if n != "X_Value" and not (n == "Comment" and i == len(cols0) - 1)]
         if not idx:
             raise RecordingError(f"{path}: LVM file without data channels")
 
@@ -326,8 +316,7 @@ class LvmRecording(Recording):
             ann_i = int(ann) if ann is not None and ann >= 0 and ann == int(ann) else None
             if ann_i is not None and ann_i != sg.n:
                 self.warnings.append(
-                    f"segment {k} announces {ann_i} samples but holds {sg.n} data rows "
-                    "(the data rows are used)"
+                    f"segment {k} announces {ann_i} samples but holds {sg.n} data rows (the data rows are used)"
                 )
             blocks.append((sg.offset, sg.lineno, sg.n))
             if multi_headings.lower() == "no" and ann_i and sg.n > ann_i and sg.n % ann_i == 0:
@@ -358,9 +347,7 @@ class LvmRecording(Recording):
         with open(self.path, "rb") as fh:
             for offset, lineno, n in self._blocks:
                 for lines, nos in iter_data_lines(fh, offset, lineno, n, block, self.path):
-                    a = parse_rows(
-                        lines, nos, self._sep, self._decimal, usecols, list(names), self.path
-                    )
+                    a = parse_rows(lines, nos, self._sep, self._decimal, usecols, list(names), self.path)
                     yield {nm: a[:, c] for c, nm in enumerate(names)}
 
 

@@ -110,13 +110,12 @@ class NpyRecording(Recording):
             expected = data_offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
             size = os.fstat(self._fd).st_size
             if size < expected:
-                raise RecordingError(
-                    f"{self.path}: truncated .npy file ({size} bytes, its header needs {expected})"
-                )
+                raise RecordingError(f"{self.path}: truncated .npy file ({size} bytes, its header needs {expected})")
             try:
                 # What np.load(mmap_mode="r") does, on this descriptor.
-                arr = np.memmap(fh, dtype=dtype, mode="r", offset=data_offset, shape=shape,
-                                order="F" if fortran else "C")
+                arr = np.memmap(
+                    fh, dtype=dtype, mode="r", offset=data_offset, shape=shape, order="F" if fortran else "C"
+                )
             except (ValueError, OSError) as exc:
                 raise RecordingError(f"{self.path}: cannot map .npy file: {exc}") from None
         if arr.ndim == 1:
@@ -128,9 +127,7 @@ class NpyRecording(Recording):
             elif layout in ("channels_first", "samples_first"):
                 self._rows_are_channels = layout == "channels_first"
             else:
-                raise RecordingError(
-                    f"layout must be 'channels_first' or 'samples_first', got {layout!r}"
-                )
+                raise RecordingError(f"layout must be 'channels_first' or 'samples_first', got {layout!r}")
         else:
             raise RecordingError(f"{self.path}: .npy array of shape {arr.shape}: need 1-D or 2-D")
         self._arr = arr
@@ -171,8 +168,9 @@ class NpyRecording(Recording):
         the kernel a misaligned offset.
         """
         a = self._arr
-        return (self._rows_are_channels and self._direct_read_ok() and a.dtype == np.float64
-                and a.offset % a.itemsize == 0)
+        return (
+            self._rows_are_channels and self._direct_read_ok() and a.dtype == np.float64 and a.offset % a.itemsize == 0
+        )
 
     def _offset(self, row: int, start: int = 0) -> int:
         """Byte offset in the file of sample ``start`` of channel row ``row`` (channels-first)."""
@@ -215,8 +213,7 @@ class NpyRecording(Recording):
             if count == 0:
                 out[nm] = np.empty(0)
                 continue
-            m = mmap.mmap(self._fd, length, flags=mmap.MAP_SHARED | mmap.MAP_POPULATE, prot=mmap.PROT_READ,
-                          offset=base)
+            m = mmap.mmap(self._fd, length, flags=mmap.MAP_SHARED | mmap.MAP_POPULATE, prot=mmap.PROT_READ, offset=base)
             out[nm] = np.frombuffer(m, dtype=a.dtype, count=count, offset=off - base)
         return out
 
@@ -281,9 +278,7 @@ class NpzRecording(Recording):
         try:
             self._zip = zipfile.ZipFile(self.path, "r")
         except (zipfile.BadZipFile, OSError, EOFError) as exc:
-            raise RecordingError(
-                f"{self.path}: not a readable .npz (truncated or corrupt?): {exc}"
-            ) from None
+            raise RecordingError(f"{self.path}: not a readable .npz (truncated or corrupt?): {exc}") from None
         try:
             self._open(channels, fs, scale, units, time_channel)
         except BaseException:
@@ -335,11 +330,7 @@ class NpzRecording(Recording):
                 if key in ("fs", "sampling_rate", "dt") and dtype.kind in "biuf":
                     v = float(self._load_small(zi.filename))
                     if v > 0 and np.isfinite(v):
-                        meta_fs = (
-                            (v, f"member {key!r}")
-                            if key != "dt"
-                            else (rate_from_step(v), "1/member 'dt'")
-                        )
+                        meta_fs = (v, f"member {key!r}") if key != "dt" else (rate_from_step(v), "1/member 'dt'")
                 elif key == "units" and dtype.kind == "U":
                     try:
                         u = json.loads(str(self._load_small(zi.filename)))

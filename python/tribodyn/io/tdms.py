@@ -63,9 +63,7 @@ def check_tdms_segments(path: str) -> int:
             fh.seek(pos)
             lead = fh.read(_LEAD_IN)
             if len(lead) < _LEAD_IN:
-                raise RecordingError(
-                    f"{path}: truncated TDMS file ({size - pos} stray bytes after segment {count})"
-                )
+                raise RecordingError(f"{path}: truncated TDMS file ({size - pos} stray bytes after segment {count})")
             if lead[:4] != b"TDSm":
                 what = "not a TDMS file" if count == 0 else f"corrupt TDMS file at byte {pos}"
                 raise RecordingError(f"{path}: {what} (bad segment tag {lead[:4]!r})")
@@ -80,8 +78,7 @@ def check_tdms_segments(path: str) -> int:
             end = pos + _LEAD_IN + next_off
             if end > size:
                 raise RecordingError(
-                    f"{path}: truncated TDMS file: segment {count + 1} needs {end} bytes, "
-                    f"the file has {size}"
+                    f"{path}: truncated TDMS file: segment {count + 1} needs {end} bytes, the file has {size}"
                 )
             pos = end
             count += 1
@@ -111,9 +108,7 @@ class TdmsRecording(Recording):
 
         n_segments = check_tdms_segments(self.path)
         # npTDMS raises assorted errors on bad metadata, hence Exception
-        self._file = open_or_raise(
-            lambda: TdmsFile.open(self.path), self.path, "cannot read TDMS metadata", Exception
-        )
+        self._file = open_or_raise(lambda: TdmsFile.open(self.path), self.path, "cannot read TDMS metadata", Exception)
         with closing_on_error(self):
             self._open(channels, fs, scale, units, group, n_segments)
 
@@ -149,10 +144,7 @@ class TdmsRecording(Recording):
             name = c.name if counts[c.name] == 1 else f"{gname}/{c.name}"
             full[name] = c
         lengths = {n: len(c) for n, c in full.items()}
-        aliases = {
-            f"{gname}/{c.name}": (c.name if counts[c.name] == 1 else f"{gname}/{c.name}")
-            for gname, c in objs
-        }
+        aliases = {f"{gname}/{c.name}": (c.name if counts[c.name] == 1 else f"{gname}/{c.name}") for gname, c in objs}
         self._aliases = aliases
         wanted = [
             resolve_name(self.path, list(full), v, f"channel for role {k!r}", aliases)
@@ -208,8 +200,7 @@ class TdmsRecording(Recording):
                 raise RecordingError(f"{self.path}: cannot read channel {nm!r}: {exc}") from None
             if len(a) != stop - start:
                 raise RecordingError(
-                    f"{self.path}: channel {nm!r} has {len(a)} samples in {start}:{stop} "
-                    "(truncated or corrupt file)"
+                    f"{self.path}: channel {nm!r} has {len(a)} samples in {start}:{stop} (truncated or corrupt file)"
                 )
             out[nm] = np.asarray(a)
         return out

@@ -94,9 +94,7 @@ def sha256_file(path: PathLike, chunk_size: int = 1 << 20) -> str:
 
 def _checked(channels: Mapping[str, np.ndarray], fs: Optional[float]) -> Dict[str, np.ndarray]:
     """Channels as 1-D numeric arrays of one length; fs finite and > 0."""
-    if fs is not None and not (
-        isinstance(fs, (int, float, np.number)) and math.isfinite(float(fs)) and float(fs) > 0
-    ):
+    if fs is not None and not (isinstance(fs, (int, float, np.number)) and math.isfinite(float(fs)) and float(fs) > 0):
         raise ValueError(f"fs must be a finite number > 0, got {fs!r}")
     if not channels:
         raise ValueError("channels is empty")
@@ -107,9 +105,7 @@ def _checked(channels: Mapping[str, np.ndarray], fs: Optional[float]) -> Dict[st
             raise ValueError(f"channel names must be non-empty strings, got {name!r}")
         arr = np.asarray(a)
         if arr.ndim != 1 or arr.dtype.kind not in "biuf":
-            raise ValueError(
-                f"channel {name!r} must be a 1-D numeric array, got {arr.dtype} {arr.shape}"
-            )
+            raise ValueError(f"channel {name!r} must be a 1-D numeric array, got {arr.dtype} {arr.shape}")
         if n is None:
             n = arr.shape[0]
         elif arr.shape[0] != n:
@@ -269,8 +265,7 @@ def save_npy(path: PathLike, channels: Mapping[str, np.ndarray]) -> List[str]:
     arr = np.stack([np.asarray(a, dtype=np.float64) for a in ch.values()])
     if arr.shape[0] >= 10 * arr.shape[1]:
         raise ValueError(
-            "more channels than 1/10 of the samples: the reader would take the array as "
-            "samples x channels"
+            "more channels than 1/10 of the samples: the reader would take the array as samples x channels"
         )
 
     def write(tmp: str) -> None:

@@ -1,4 +1,4 @@
-//! Lagged correlation function, Eq. (1) of the paper (METHOD.md 1).
+//! Lagged correlation function, Eq. (1) of the paper (docs/method.md 1).
 //!
 //! C(j) = S_xy(j) / sqrt(S_xx(j) S_yy(j)), with x and y centred on the means
 //! of the WHOLE inputs and each sum taken over the overlap of x_i and
@@ -313,7 +313,14 @@ unsafe fn direct_part_avx2(xc: &[f64], yp: &[f64], pad: usize, max_lag: usize, a
 /// `T` lags at a time: acc[t] += xc_i * yc_{i+j+t}, the T accumulators in
 /// registers and the y values of consecutive lags one unaligned load.
 #[inline(always)]
-fn direct_part_tiled<const T: usize>(xc: &[f64], yp: &[f64], pad: usize, max_lag: usize, a: usize, b: usize) -> Vec<f64> {
+fn direct_part_tiled<const T: usize>(
+    xc: &[f64],
+    yp: &[f64],
+    pad: usize,
+    max_lag: usize,
+    a: usize,
+    b: usize,
+) -> Vec<f64> {
     let n = xc.len() as i64;
     let l = max_lag as i64;
     let lags = 2 * max_lag + 1;
@@ -438,7 +445,16 @@ fn fft_numerator(x: &[f64], y: &[f64], mx: f64, my: f64, max_lag: usize, plan: &
 /// The numerator summed over blocks b0..b1: the cross spectra
 /// conj(X_b) Y_b are added in block order, then one inverse FFT.
 #[allow(clippy::too_many_arguments)]
-fn fft_blocks(x: &[f64], y: &[f64], mx: f64, my: f64, max_lag: usize, plan: &FftPlan, b0: usize, b1: usize) -> Vec<f64> {
+fn fft_blocks(
+    x: &[f64],
+    y: &[f64],
+    mx: f64,
+    my: f64,
+    max_lag: usize,
+    plan: &FftPlan,
+    b0: usize,
+    b1: usize,
+) -> Vec<f64> {
     let n = x.len();
     let l = max_lag;
     let m = plan.m;

@@ -1,4 +1,4 @@
-//! Streaming IIR filtering with second-order sections (METHOD.md 2).
+//! Streaming IIR filtering with second-order sections (docs/method.md 2).
 //!
 //! The recurrence is transposed direct form II per section, written with the
 //! same operations in the same order as `scipy.signal.sosfilt`:
@@ -76,7 +76,13 @@ fn section_lockstep<const K: usize, const FROM_SRC: bool>(
         let row = std::mem::take(&mut dst[c]);
         &mut row[..len]
     });
-    let load = |c: usize, t: usize, dst: &[&mut [f64]; K]| -> f64 { if FROM_SRC { src[c][t] } else { dst[c][t] } };
+    let load = |c: usize, t: usize, dst: &[&mut [f64]; K]| -> f64 {
+        if FROM_SRC {
+            src[c][t]
+        } else {
+            dst[c][t]
+        }
+    };
     let mut z0: [f64; K] = std::array::from_fn(|c| z[c][0]);
     let mut z1: [f64; K] = std::array::from_fn(|c| z[c][1]);
     if b2 == 0.0 && a2 == 0.0 {
@@ -133,7 +139,12 @@ fn add_z1(w: f64, b2: f64, a2: f64, (x, y): (f64, f64)) -> f64 {
 /// output is written once, by the thread that filters it, and the copy
 /// rides along the latency-bound recursion); returns whether every input
 /// sample was finite (in place: whether the final state is).
-fn filter_group(sos: &[Section], src: Option<&[&[f64]]>, rows: &mut [&mut [f64]], state: &mut [&mut [[f64; 2]]]) -> bool {
+fn filter_group(
+    sos: &[Section],
+    src: Option<&[&[f64]]>,
+    rows: &mut [&mut [f64]],
+    state: &mut [&mut [[f64; 2]]],
+) -> bool {
     fn run<const K: usize>(
         sos: &[Section],
         src: Option<&[&[f64]]>,
@@ -183,7 +194,12 @@ fn filter_group(sos: &[Section], src: Option<&[&[f64]]>, rows: &mut [&mut [f64]]
 /// Filters up to four channels `src[c]` into `out[c]` on the calling
 /// thread, carrying `state[c]` (its `n_sections` pairs): the same bits as
 /// [`sosfilt_into`]. Returns whether every input sample was finite.
-pub(crate) fn filter_rows(sos: &[Section], src: &[&[f64]], out: &mut [&mut [f64]], state: &mut [&mut [[f64; 2]]]) -> bool {
+pub(crate) fn filter_rows(
+    sos: &[Section],
+    src: &[&[f64]],
+    out: &mut [&mut [f64]],
+    state: &mut [&mut [[f64; 2]]],
+) -> bool {
     debug_assert!(src.len() == out.len() && out.len() == state.len() && out.len() <= MAX_LOCKSTEP);
     filter_group(sos, Some(src), out, state)
 }
@@ -221,7 +237,14 @@ pub fn uses_threads(n: usize, channels: usize) -> bool {
 }
 
 /// Channels are split into lockstep groups spread over the thread pool.
-fn filter_channels(sos: &[Section], src: Option<&[f64]>, data: &mut [f64], n: usize, channels: usize, state: &mut [[f64; 2]]) -> bool {
+fn filter_channels(
+    sos: &[Section],
+    src: Option<&[f64]>,
+    data: &mut [f64],
+    n: usize,
+    channels: usize,
+    state: &mut [[f64; 2]],
+) -> bool {
     if n == 0 {
         return true;
     }
@@ -232,11 +255,8 @@ fn filter_channels(sos: &[Section], src: Option<&[f64]>, data: &mut [f64], n: us
     let mut rows: Vec<&mut [f64]> = data.chunks_mut(n).collect();
     let mut states: Vec<&mut [[f64; 2]]> = state.chunks_mut(ns).collect();
     let src_rows: Vec<&[f64]> = src.map(|s| s.chunks(n).collect()).unwrap_or_default();
-    let src_groups: Vec<Option<&[&[f64]]>> = if src.is_some() {
-        src_rows.chunks(group).map(Some).collect()
-    } else {
-        vec![None; channels.div_ceil(group)]
-    };
+    let src_groups: Vec<Option<&[&[f64]]>> =
+        if src.is_some() { src_rows.chunks(group).map(Some).collect() } else { vec![None; channels.div_ceil(group)] };
     if channels <= group {
         filter_group(sos, src_groups[0], &mut rows, &mut states)
     } else if !par {
@@ -316,7 +336,8 @@ mod tests {
     use super::*;
 
     // Butterworth order 2 high-pass, fc = 0.1 Hz at 1 kHz, from scipy.
-    const HP2: Section = [0.999555802071375, -1.99911160414275, 0.999555802071375, 1.0, -1.9991114067771, 0.999111801508402];
+    const HP2: Section =
+        [0.999555802071375, -1.99911160414275, 0.999555802071375, 1.0, -1.9991114067771, 0.999111801508402];
 
     fn reference(sos: &[Section], x: &[f64], state: &mut [[f64; 2]]) -> Vec<f64> {
         x.iter()

@@ -1,12 +1,12 @@
 //! tribodyn-core: the numeric kernels of tribodyn, free of Python.
 //!
-//! Each kernel lives in its own module and follows `METHOD.md` (shared with
+//! Each kernel lives in its own module and follows `docs/method.md` (shared with
 //! the Python package; the README links every formula):
-//! - [`correlation`]: lagged correlation function, Eq. (1) (METHOD.md 1);
-//! - [`iir`]: streaming second-order-sections filter (METHOD.md 2);
+//! - [`correlation`]: lagged correlation function, Eq. (1) (docs/method.md 1);
+//! - [`iir`]: streaming second-order-sections filter (docs/method.md 2);
 //! - [`regression`]: mergeable, centred least-squares moments, Eqs. (6)-(8)
-//!   (METHOD.md 3);
-//! - [`windows`]: per-window statistics of a recording (METHOD.md 4-6);
+//!   (docs/method.md 3);
+//! - [`windows`]: per-window statistics of a recording (docs/method.md 4-6);
 //! - [`mapped`]: the same, read straight from a file's pages (memory maps).
 //!
 //! Every public function validates what a caller controls and returns

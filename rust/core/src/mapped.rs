@@ -132,7 +132,13 @@ fn as_f64(m: &Mmap) -> &[f64] {
     unsafe { std::slice::from_raw_parts(bytes.as_ptr() as *const f64, bytes.len() / 8) }
 }
 
-fn block(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, b: usize) -> Result<Vec<WindowStats>, KernelError> {
+fn block(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    b: usize,
+) -> Result<Vec<WindowStats>, KernelError> {
     let kb = grid.k0 + b * grid.block;
     let ke = (kb + grid.block).min(grid.k1);
     let a = kb * grid.step;
@@ -148,7 +154,12 @@ fn block(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, b: 
 /// Statistics of windows `grid.k0 .. grid.k1` of the channels in `file`,
 /// in order, computed in parallel on the current pool, a block of
 /// `grid.block` windows per task.
-pub fn windows_stats_mapped(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions) -> Result<Vec<WindowStats>, KernelError> {
+pub fn windows_stats_mapped(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+) -> Result<Vec<WindowStats>, KernelError> {
     let parts = std::sync::Mutex::new(Vec::new());
     windows_stats_mapped_each(file, layout, grid, opt, &|first, stats| {
         parts.lock().unwrap_or_else(|e| e.into_inner()).push((first, stats));
@@ -163,7 +174,13 @@ pub fn windows_stats_mapped(file: &File, layout: &FileLayout, grid: &Grid, opt: 
 /// `sink(first, stats)` with `first` the index (from 0 at `grid.k0`) of
 /// `stats[0]`. Blocks arrive in any order; the caller places them. Nothing
 /// is kept here, so the memory of a block's results is reused by the next.
-pub fn windows_stats_mapped_each<F>(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, sink: &F) -> Result<(), KernelError>
+pub fn windows_stats_mapped_each<F>(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    sink: &F,
+) -> Result<(), KernelError>
 where
     F: Fn(usize, Vec<WindowStats>) + Sync,
 {
@@ -280,7 +297,13 @@ fn filter_block(
 }
 
 /// The windows of one filtered block.
-fn filtered_windows(f: &Filtered, layout: &FileLayout, ks: std::ops::Range<usize>, step: usize, opt: &WindowOptions) -> Result<Vec<WindowStats>, KernelError> {
+fn filtered_windows(
+    f: &Filtered,
+    layout: &FileLayout,
+    ks: std::ops::Range<usize>,
+    step: usize,
+    opt: &WindowOptions,
+) -> Result<Vec<WindowStats>, KernelError> {
     let raw = |i: usize| f.maps[i].as_ref().map(as_f64);
     let x = usize::from(layout.fx.is_some());
     let ch = Channels {
@@ -292,7 +315,8 @@ fn filtered_windows(f: &Filtered, layout: &FileLayout, ks: std::ops::Range<usize
     };
     let starts: Vec<usize> = ks.clone().map(|k| k * step - f.from).collect();
     // In parallel: the thread that filters the next block joins in when it is done.
-    crate::windows::windows_stats(&ch, &starts, opt).map_err(|err| invalid(format!("{err} (block from sample {})", f.from)))
+    crate::windows::windows_stats(&ch, &starts, opt)
+        .map_err(|err| invalid(format!("{err} (block from sample {})", f.from)))
 }
 
 /// Statistics of windows `grid.k0 .. grid.k1` of raw forces high-passed
@@ -300,7 +324,13 @@ fn filtered_windows(f: &Filtered, layout: &FileLayout, ks: std::ops::Range<usize
 /// call of the filter), with the classical COF of the raw forces. Needs
 /// `grid.step >= opt.len` (windows that do not overlap), so each block's
 /// windows lie in its own filtered samples.
-pub fn windows_stats_mapped_highpass(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions, hp: &HighPass<'_>) -> Result<Vec<WindowStats>, KernelError> {
+pub fn windows_stats_mapped_highpass(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    hp: &HighPass<'_>,
+) -> Result<Vec<WindowStats>, KernelError> {
     let out = std::sync::Mutex::new(Vec::with_capacity(grid.k1.saturating_sub(grid.k0)));
     windows_stats_mapped_highpass_each(file, layout, grid, opt, hp, &|_, stats| {
         out.lock().unwrap_or_else(|e| e.into_inner()).extend(stats);
@@ -339,7 +369,15 @@ where
     let ks = |b: usize| (grid.k0 + b * grid.block)..(grid.k0 + (b + 1) * grid.block).min(grid.k1);
     // Block b filters [F_b, F_{b+1}): F_0 = origin, F_b = start of its first
     // window, the last ends with the last window.
-    let bound = |b: usize| if b == 0 { hp.origin } else if b == blocks { (grid.k1 - 1) * grid.step + opt.len } else { ks(b).start * grid.step };
+    let bound = |b: usize| {
+        if b == 0 {
+            hp.origin
+        } else if b == blocks {
+            (grid.k1 - 1) * grid.step + opt.len
+        } else {
+            ks(b).start * grid.step
+        }
+    };
     let forces = 2 + usize::from(layout.fx.is_some()); // fx (if any), fy, fz
     let mut state: Vec<Vec<[f64; 2]>> = vec![vec![[0.0; 2]; hp.sos.len()]; forces];
     let mut cur = filter_block(file, layout, hp, bound(0), bound(1), &mut state, Vec::new())?;
@@ -348,7 +386,11 @@ where
         // Filter the next block while this one's windows are computed.
         let bufs = std::mem::take(&mut spare);
         let (next, stats) = rayon::join(
-            || (b + 1 < blocks).then(|| filter_block(file, layout, hp, bound(b + 1), bound(b + 2), &mut state, bufs)).transpose(),
+            || {
+                (b + 1 < blocks)
+                    .then(|| filter_block(file, layout, hp, bound(b + 1), bound(b + 2), &mut state, bufs))
+                    .transpose()
+            },
             || filtered_windows(&cur, layout, ks(b), grid.step, opt),
         );
         sink(b * grid.block, stats?);
@@ -427,12 +469,19 @@ mod tests {
         let k0 = 1;
         let k1 = (n - opt.len) / step + 1;
         // By hand: filter [origin, n) in one call, then the kernel.
-        let mut state: Vec<[f64; 2]> = [fy[origin], fz[origin]].iter().flat_map(|&x0| zi.iter().map(move |z| [z[0] * x0, z[1] * x0])).collect();
+        let mut state: Vec<[f64; 2]> =
+            [fy[origin], fz[origin]].iter().flat_map(|&x0| zi.iter().map(move |z| [z[0] * x0, z[1] * x0])).collect();
         let src: Vec<f64> = fy[origin..].iter().chain(&fz[origin..]).copied().collect();
         let mut filt = vec![0.0; src.len()];
         crate::iir::sosfilt_into(&sos, &src, &mut filt, 2, &mut state).unwrap();
         let m = n - origin;
-        let ch = Channels { fx: None, fy: &filt[..m], fz: &filt[m..], aux: Some(&aux[origin..]), raw: Some((&fy[origin..], &fz[origin..])) };
+        let ch = Channels {
+            fx: None,
+            fy: &filt[..m],
+            fz: &filt[m..],
+            aux: Some(&aux[origin..]),
+            raw: Some((&fy[origin..], &fz[origin..])),
+        };
         let starts: Vec<usize> = (k0..k1).map(|k| k * step - origin).collect();
         let want = windows_stats(&ch, &starts, &opt).unwrap();
         let hp = HighPass { sos: &sos, zi: &zi, origin };

@@ -1,5 +1,5 @@
 //! Closed-form, numerically stable, mergeable least squares of y on x,
-//! Eqs. (6)-(8) of the paper (METHOD.md 3).
+//! Eqs. (6)-(8) of the paper (docs/method.md 3).
 //!
 //! [`Moments`] holds (n, mean_x, mean_y, S_xx, S_yy, S_xy) with the second
 //! moments centred on the running means. A block of samples is reduced by
@@ -186,11 +186,8 @@ impl Moments {
         if x.len() <= TASK {
             return Ok(Self::of_serial(x, y));
         }
-        let parts: Vec<Moments> = x
-            .par_chunks(TASK)
-            .zip(y.par_chunks(TASK))
-            .map(|(a, b)| Self::of_serial(a, b))
-            .collect();
+        let parts: Vec<Moments> =
+            x.par_chunks(TASK).zip(y.par_chunks(TASK)).map(|(a, b)| Self::of_serial(a, b)).collect();
         Ok(parts.iter().fold(Moments::default(), |acc, m| acc.merge(m)))
     }
 

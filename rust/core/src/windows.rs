@@ -1,5 +1,5 @@
 //! Per-window statistics of a recording, batched over windows
-//! (METHOD.md 4-6): the hot loop of `tribodyn.analyze`.
+//! (docs/method.md 4-6): the hot loop of `tribodyn.analyze`.
 //!
 //! For each window [start, start + len) of the channels fy (friction), fz
 //! (normal), optionally fx (axial), an auxiliary channel (current or shunt
@@ -43,7 +43,7 @@ use crate::error::KernelError;
 use crate::regression::Moments;
 use rayon::prelude::*;
 
-/// How the deadband is given (METHOD.md 4).
+/// How the deadband is given (docs/method.md 4).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Deadband {
     /// Exclude |fz| < d newtons.
@@ -57,7 +57,7 @@ pub enum Deadband {
 pub struct WindowOptions {
     /// Window length in samples.
     pub len: usize,
-    /// Orientation s in {+1, -1}: mu = s * slope (METHOD.md 0).
+    /// Orientation s in {+1, -1}: mu = s * slope (docs/method.md 0).
     pub orientation: f64,
     pub deadband: Deadband,
     pub n_bins: usize,
@@ -267,7 +267,15 @@ fn check_finite(name: &str, x: &[f64], sum: f64) -> Result<(), KernelError> {
 /// when `X`, fx: [dz, dy, zz, yy, yz, dx, xx, xy, xz], each a sum of
 /// deviations or of their products.
 #[inline(always)]
-fn centred<const X: bool>(fx: &[f64], fy: &[f64], fz: &[f64], mx: f64, my: f64, mz: f64, pf: &Prefetch<'_>) -> [f64; 9] {
+fn centred<const X: bool>(
+    fx: &[f64],
+    fy: &[f64],
+    fz: &[f64],
+    mx: f64,
+    my: f64,
+    mz: f64,
+    pf: &Prefetch<'_>,
+) -> [f64; 9] {
     let n = fz.len();
     let full = n - n % LANES;
     // One named array per sum (not a 2-D array) so that each stays in a
@@ -371,9 +379,7 @@ impl<'a> Prefetch<'a> {
                 // SAFETY: a prefetch is a hint that never faults; the
                 // address lies inside the slice (j < len).
                 unsafe {
-                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                        c.as_ptr().add(j) as *const i8,
-                    )
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(c.as_ptr().add(j) as *const i8)
                 };
                 j += 8; // 64-byte lines
             }
@@ -542,7 +548,11 @@ pub fn window_stats(ch: &Channels<'_>, opt: &WindowOptions) -> Result<WindowStat
 
 /// [`window_stats`] of `ch`, fetching the samples of `next` (the window
 /// computed after it, if known) into cache meanwhile. Same results.
-pub fn window_stats_then(ch: &Channels<'_>, next: Option<&Channels<'_>>, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
+pub fn window_stats_then(
+    ch: &Channels<'_>,
+    next: Option<&Channels<'_>>,
+    opt: &WindowOptions,
+) -> Result<WindowStats, KernelError> {
     ch.check()?;
     let pf = Prefetch::of(next);
     #[cfg(target_arch = "x86_64")]
@@ -717,7 +727,11 @@ fn one(ch: &Channels<'_>, starts: &[usize], k: usize, opt: &WindowOptions) -> Re
 
 /// Statistics of every window `[starts[k], starts[k] + opt.len)` of the
 /// channels, in parallel on the current pool, in the order of `starts`.
-pub fn windows_stats(ch: &Channels<'_>, starts: &[usize], opt: &WindowOptions) -> Result<Vec<WindowStats>, KernelError> {
+pub fn windows_stats(
+    ch: &Channels<'_>,
+    starts: &[usize],
+    opt: &WindowOptions,
+) -> Result<Vec<WindowStats>, KernelError> {
     check_starts(ch, starts, opt)?;
     // A task per few windows: a 2000-sample window is a few microseconds of
     // work, so one task each would spend a noticeable share on scheduling.
@@ -726,7 +740,11 @@ pub fn windows_stats(ch: &Channels<'_>, starts: &[usize], opt: &WindowOptions) -
 
 /// [`windows_stats`] on the calling thread (for a handful of windows, where
 /// entering the pool costs more than it saves). Same results.
-pub fn windows_stats_serial(ch: &Channels<'_>, starts: &[usize], opt: &WindowOptions) -> Result<Vec<WindowStats>, KernelError> {
+pub fn windows_stats_serial(
+    ch: &Channels<'_>,
+    starts: &[usize],
+    opt: &WindowOptions,
+) -> Result<Vec<WindowStats>, KernelError> {
     check_starts(ch, starts, opt)?;
     (0..starts.len()).map(|k| one(ch, starts, k, opt)).collect()
 }
@@ -747,7 +765,14 @@ mod tests {
     }
 
     /// The window's statistics by plain loops, in sample order.
-    fn naive(fx: &[f64], fy: &[f64], fz: &[f64], s: f64, d: f64, nb: usize) -> (Vec<u64>, Vec<f64>, f64, f64, f64, f64) {
+    fn naive(
+        fx: &[f64],
+        fy: &[f64],
+        fz: &[f64],
+        s: f64,
+        d: f64,
+        nb: usize,
+    ) -> (Vec<u64>, Vec<f64>, f64, f64, f64, f64) {
         let n = fz.len() as f64;
         let mean = |v: &[f64]| v.iter().sum::<f64>() / n;
         let (mx, my, mz) = (mean(fx), mean(fy), mean(fz));
@@ -884,11 +909,17 @@ mod tests {
             {
                 if std::arch::is_x86_feature_detected!("avx2") {
                     // SAFETY: AVX2 is available (checked).
-                    assert_eq!(format!("{:?}", unsafe { window_avx2(&ch, &opt, &Prefetch::of(Some(&ch))) }.unwrap()), base);
+                    assert_eq!(
+                        format!("{:?}", unsafe { window_avx2(&ch, &opt, &Prefetch::of(Some(&ch))) }.unwrap()),
+                        base
+                    );
                 }
                 if std::arch::is_x86_feature_detected!("avx512f") {
                     // SAFETY: AVX-512F is available (checked).
-                    assert_eq!(format!("{:?}", unsafe { window_avx512(&ch, &opt, &Prefetch::of(Some(&ch))) }.unwrap()), base);
+                    assert_eq!(
+                        format!("{:?}", unsafe { window_avx512(&ch, &opt, &Prefetch::of(Some(&ch))) }.unwrap()),
+                        base
+                    );
                 }
             }
             assert_eq!(format!("{:?}", window_stats(&ch, &opt).unwrap()), base);

@@ -47,9 +47,7 @@ fn method_of(name: &str) -> PyResult<Method> {
         "direct" => Ok(Method::Direct),
         "fft" => Ok(Method::Fft),
         "auto" => Ok(Method::Auto),
-        other => Err(PyValueError::new_err(format!(
-            "method must be 'direct', 'fft' or 'auto', got {other:?}"
-        ))),
+        other => Err(PyValueError::new_err(format!("method must be 'direct', 'fft' or 'auto', got {other:?}"))),
     }
 }
 
@@ -199,7 +197,7 @@ fn fit_tuple(f: LinFit) -> (f64, f64, f64, f64, f64, f64, u64, bool) {
     (f.slope, f.intercept, f.r, f.slope_stderr, f.intercept_stderr, f.resid_std, f.n, f.degenerate)
 }
 
-/// Mergeable centred moments of (x, y) (METHOD.md 3).
+/// Mergeable centred moments of (x, y) (docs/method.md 3).
 #[pyclass(name = "Moments", module = "tribodyn._core", from_py_object)]
 #[derive(Clone, Default)]
 struct PyMoments {
@@ -266,11 +264,7 @@ type FitTuple = (f64, f64, f64, f64, f64, f64, u64, bool);
 
 /// One-shot least squares of y on x.
 #[pyfunction]
-fn linfit(
-    py: Python<'_>,
-    x: PyReadonlyArray1<'_, f64>,
-    y: PyReadonlyArray1<'_, f64>,
-) -> PyResult<FitTuple> {
+fn linfit(py: Python<'_>, x: PyReadonlyArray1<'_, f64>, y: PyReadonlyArray1<'_, f64>) -> PyResult<FitTuple> {
     let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
     let f = if regression::uses_threads(xs.len()) {
         py.detach(|| parallel::run(|| regression::linfit(xs, ys)))
@@ -286,7 +280,7 @@ fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResu
     a.as_ref().map(|v| v.as_slice().map_err(slice_err(name))).transpose()
 }
 
-/// Per-window statistics (METHOD.md 4-6) for windows starting at `starts`.
+/// Per-window statistics (docs/method.md 4-6) for windows starting at `starts`.
 /// Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
 /// forces before the high-pass) add `mu_classic`; a non-finite sample in a
 /// window raises ValueError. `parallel=False` keeps the work on the calling
@@ -341,9 +335,28 @@ fn windows_stats<'py>(
 
 /// Names of the float columns of the per-window dict, in [`Columns::set`]'s order.
 const F_COLS: [&str; 22] = [
-    "slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std", "sse",
-    "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz", "deadband", "mu_a", "mu_b",
-    "fz_min", "fz_max", "aux_mean", "mu_classic",
+    "slope",
+    "intercept",
+    "r",
+    "slope_stderr",
+    "intercept_stderr",
+    "resid_std",
+    "sse",
+    "mean_z",
+    "mean_y",
+    "szz",
+    "syy",
+    "syz",
+    "c_xy",
+    "c_xz",
+    "c_yz",
+    "deadband",
+    "mu_a",
+    "mu_b",
+    "fz_min",
+    "fz_max",
+    "aux_mean",
+    "mu_classic",
 ];
 /// Names of the count columns (int64: a window holds far fewer than 2^63 samples).
 const I_COLS: [&str; 3] = ["n", "n_a", "n_b"];
@@ -381,9 +394,28 @@ impl Columns {
             let fit: LinFit = w.moments.fit();
             let m = &w.moments;
             let vals = [
-                fit.slope, fit.intercept, fit.r, fit.slope_stderr, fit.intercept_stderr, fit.resid_std, m.sse,
-                m.mean_x, m.mean_y, m.sxx, m.syy, m.sxy, w.c_xy, w.c_xz, w.c_yz, w.deadband, w.mu_a, w.mu_b,
-                w.fz_min, w.fz_max, w.aux_mean, w.mu_classic,
+                fit.slope,
+                fit.intercept,
+                fit.r,
+                fit.slope_stderr,
+                fit.intercept_stderr,
+                fit.resid_std,
+                m.sse,
+                m.mean_x,
+                m.mean_y,
+                m.sxx,
+                m.syy,
+                m.sxy,
+                w.c_xy,
+                w.c_xz,
+                w.c_yz,
+                w.deadband,
+                w.mu_a,
+                w.mu_b,
+                w.fz_min,
+                w.fz_max,
+                w.aux_mean,
+                w.mu_classic,
             ];
             for (col, v) in self.f.iter_mut().zip(vals) {
                 col[row] = v;
@@ -484,7 +516,11 @@ fn windows_stats_file<'py>(
             let secs = sections(s)?;
             let zs = z.as_array();
             if zs.shape() != [secs.len(), 2] {
-                return Err(PyValueError::new_err(format!("zi must have shape ({}, 2), got {:?}", secs.len(), zs.shape())));
+                return Err(PyValueError::new_err(format!(
+                    "zi must have shape ({}, 2), got {:?}",
+                    secs.len(),
+                    zs.shape()
+                )));
             }
             let zi: Vec<[f64; 2]> = zs.rows().into_iter().map(|r| [r[0], r[1]]).collect();
             Some((secs, zi))
