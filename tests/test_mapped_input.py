@@ -122,7 +122,7 @@ def test_mapped_path_equals_mapping(data, npy, file_calls, hop, threads, chunk, 
     np.testing.assert_array_equal(starts, np.arange(k0, k1) * step)  # on the recording's grid, from start on
     assert np.all(got.table["n"] == length)
     # chunk= bounds the windows per mapped block.
-    block = file_calls[0]["args"][11]
+    block = file_calls[0]["kwargs"]["block"]
     if chunk is not None:
         assert 1 <= block <= max(1, int(round(chunk * FS)) // step)
     # Sanity of the analysis itself (so equality is not between two empty tables).
@@ -546,11 +546,16 @@ def layout(npy):
     return found[1]
 
 
-def _wsf(path, *args):
-    """``_core.windows_stats_file`` on a descriptor of ``path`` opened for the call."""
+KERNEL = list(td.columns.KERNEL_COLUMNS)
+
+
+def _wsf(path, offsets, n, k0, k1, step, length, orientation, kind, deadband, n_bins, block=512):
+    """``_core.windows_stats_file`` on a descriptor of ``path`` opened for the call (the table's kernel columns)."""
     fd = os.open(path, os.O_RDONLY)
     try:
-        return _core.windows_stats_file(fd, *args)
+        return _core.windows_stats_file(
+            fd, offsets, n, k0, k1, step, length, orientation, kind, deadband, n_bins, KERNEL, block=block
+        )
     finally:
         os.close(fd)
 
@@ -567,8 +572,9 @@ def test_windows_stats_file_equals_windows_stats(data, npy, layout, fx, aux, blo
     got = _wsf(npy, _offsets(layout, fx, aux), N, k0, k1, step, length, 1.0, "force", 0.35, 16, block)
     starts = np.arange(k0, k1, dtype=np.int64) * step
     want = _core.windows_stats(
-        data[0] if fx else None, data[1], data[2], data[3] if aux else None, starts, length, 1.0, "force", 0.35, 16
-    )
+        data[0] if fx else None, data[1], data[2], data[3] if aux else None, starts, length, 1.0, "force", 0.35, 16,
+        KERNEL,
+    )  # fmt: skip
     assert sorted(got) == sorted(want)
     for key in want:
         assert got[key].dtype == want[key].dtype, key
@@ -624,6 +630,10 @@ def test_windows_stats_file_errors(npy, layout, tmp_path):
             call(**kw)
     with pytest.raises(ValueError, match="deadband_kind"):
         _wsf(npy, off, *args[:6], "bogus", 0.35, 16)
+    with pytest.raises(ValueError, match='unknown kernel column "bogus"'):
+        _core.windows_stats_file(os.open(npy, os.O_RDONLY), off, *args, ["n", "bogus"])
+    with pytest.raises(ValueError, match=r"threads must be in \[1, "):
+        _core.windows_stats_file(os.open(npy, os.O_RDONLY), off, *args, KERNEL, threads=10**6)
     # A missing file, a directory, an empty file.
     with pytest.raises(OSError):
         call(path=tmp_path / "missing.npy")
@@ -635,11 +645,11 @@ def test_windows_stats_file_errors(npy, layout, tmp_path):
         call(path=empty)
     # Descriptors that are not open files.
     with pytest.raises(ValueError, match="file descriptor"):
-        _core.windows_stats_file(-1, off, *args)
+        _core.windows_stats_file(-1, off, *args, KERNEL)
     fd = os.open(npy, os.O_RDONLY)
     os.close(fd)
     with pytest.raises(OSError):
-        _core.windows_stats_file(fd, off, *args)
+        _core.windows_stats_file(fd, off, *args, KERNEL)
     # Negative numbers do not wrap around.
     with pytest.raises(OverflowError):
         call(n=-1)

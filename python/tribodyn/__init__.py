@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from .threads import get_threads, set_threads
+from .threads import get_threads, max_threads, set_threads
+from . import columns
 from .correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
 from .filters import HighPass, butter_highpass, highpass
 from .regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit
@@ -42,6 +43,8 @@ __all__ = [
     "DegenerateInputWarning",
     "set_threads",
     "get_threads",
+    "max_threads",
+    "columns",
     "identify",
     "CofResult",
     "BinTable",

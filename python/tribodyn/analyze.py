@@ -4,44 +4,62 @@ Reads a recording chunk by chunk, optionally high-passes raw (DC-coupled)
 channels with the streaming filter, cuts windows of ``window`` s every
 ``hop`` s, computes each window's COF statistics in the Rust kernel, joins
 temperature and current, and fixes the orientation once for the recording.
-The per-window table does not depend on the chunk size or thread count, and
-memory does not grow with the recording's length.
+The per-window table does not depend on the format, the chunk size or the
+thread count, and memory does not grow with the recording's length.
 
-Three ways in, one result (bit for bit):
+The options are checked once into a :class:`~tribodyn.plan.Plan`; the
+route is then chosen from the plan and from what the source declares it
+can do (:func:`choose_route`), before anything is read, and one finishing
+step (:func:`finish`) turns the kernel's statistics into the table:
 
-- a recording whose channels lie in the file as contiguous float64 runs (a
-  channels-first ``.npy``): one call of ``_core.windows_stats_file`` reads
-  the file's pages through memory maps, block by block, in parallel (raw
-  input: high-passed one block ahead of the windows), with no Python per
-  chunk (:func:`_stream_file`);
-- another random-access recording (HDF5, TDMS, other ``.npy``) with dynamic
-  input: spans read concurrently, one thread each (:func:`_stream_spans`);
-- anything else (mappings, iterators, sequential formats, raw input): one
-  stream of chunks, reading overlapped with the kernel (:func:`_run_chunks`).
+``"mapped"``
+    The recording lays its channels out as contiguous float64 runs
+    (``Recording.mappable`` and :meth:`~tribodyn.io.Recording.file_layout`):
+    one call of ``_core.windows_stats_file`` reads the file's pages through
+    memory maps, block by block, in parallel (raw input: high-passed one
+    block ahead of the windows), with no Python per chunk.
+``"spans"``
+    A recording that reads any range and may be read from several threads
+    at once (``random_access`` and ``thread_safe``), with dynamic input:
+    one span of windows per thread, each read and analysed on its thread.
+``"stream"``
+    Everything else (mappings, iterators of chunks, sequential formats,
+    readers that are not thread-safe such as npTDMS and h5py, raw input):
+    one stream of chunks read by the calling thread alone, the filter,
+    windows and kernel on one worker thread (reading overlapped with the
+    kernel when the call has two threads or more).
+``"acquisitions"``
+    A list of separate acquisitions, one window each.
+
+An error of a reader or a kernel surfaces as it is (a NaN or inf names its
+channel and window); no route falls back to another.
 """
 
 from __future__ import annotations
 
-import contextlib
+import dataclasses
 import os
 from collections import deque
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Deque, Dict, List, Optional, Sequence
+from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _core
-from ._validate import as_signal, check_fs, check_int, positive
-from .covariates import as_log, branch, constant_or_log, evaluate, interpolate
-from .deadband import DeadbandSpec, parse_deadband
+from ._validate import as_signal
+from .columns import TABLE
+from .covariates import branch, evaluate, interpolate
+from .deadband import DeadbandSpec
 from .filters import HighPass
-from .identify import Orientation, check_gate, resolve_orientation
+from .identify import Orientation, resolve_orientation
+from .io.base import RecordingError
+from .plan import Plan, make_plan
 from .results import Results
 from .window_stats import compute, gate_reasons, orient
 from .windowing import Windower
 
-__all__ = ["analyze", "threads_limited"]
+__all__ = ["analyze", "choose_route", "finish", "sign_of_total_slope"]
 
 FORCE_ROLES = ("fx", "fy", "fz")
 #: Samples per chunk read from a recording by default: large enough that the
@@ -50,169 +68,21 @@ FORCE_ROLES = ("fx", "fy", "fz")
 #: 65536-row blocks, so no chunk is pieced together).
 DEFAULT_CHUNK = 1 << 17
 #: Samples per chunk when spans of a random-access recording are read
-#: concurrently (one thread each, the kernel on that thread): larger, since
-#: each chunk is one call of the kernel and, for a ``.npy``, one mapping of
-#: the file (8 MiB per channel; two spans of four channels map 64 MiB).
+#: concurrently (one thread each, the kernel on that thread), and at most
+#: per block of the mapped route: larger, since each chunk is one call of
+#: the kernel and, for a ``.npy``, one mapping of the file (8 MiB per
+#: channel; two spans of four channels map 64 MiB).
 SPAN_CHUNK = 1 << 20
+#: Fewest windows per concurrently read span.
+_MIN_SPAN_WINDOWS = 64
+#: Roles the pipeline reads from a source.
+_ROLES = ("fx", "fy", "fz", "i", "u", "cof")
 
-
-@contextlib.contextmanager
-def threads_limited(threads: Optional[int]) -> Iterator[None]:
-    """Runs the block with the kernels limited to ``threads`` (None: unchanged)."""
-    if threads is None:
-        yield
-        return
-    n = check_int(threads, "threads", minimum=1)
-    before = _core.get_threads()
-    _core.set_threads(n)
-    try:
-        yield
-    finally:
-        _core.set_threads(before)
+Stats = Dict[str, np.ndarray]
 
 
 def _is_recording(source: Any) -> bool:
     return hasattr(source, "chunks") and hasattr(source, "fs") and not isinstance(source, Mapping)
-
-
-def _check_chunk(chunk: Any, where: str, needed: Sequence[str]) -> Dict[str, np.ndarray]:
-    if not isinstance(chunk, Mapping):
-        raise TypeError(
-            f"{where} must be a mapping of role -> array (roles fx, fy, fz, i, u), got {type(chunk).__name__}"
-        )
-    missing = [r for r in needed if r not in chunk]
-    if missing:
-        raise ValueError(
-            f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})"
-        )
-    # No NaN/inf scan here: the kernel refuses a non-finite sample in any
-    # window as it sums it, and the high-pass filter checks every sample it
-    # filters; samples outside every window change no result.
-    out = {
-        str(k): as_signal(v, f"{where}[{k!r}]", min_len=0, check_finite=False)
-        for k, v in chunk.items()
-        if k in ("fx", "fy", "fz", "i", "u", "cof")
-    }
-    lengths = {k: len(v) for k, v in out.items()}
-    if len(set(lengths.values())) > 1:
-        raise ValueError(f"{where}: channels must have equal lengths, got {lengths}")
-    return out
-
-
-class _Collector:
-    """Receives windows from the Windower and keeps their statistics, in order."""
-
-    def __init__(
-        self,
-        *,
-        length: int,
-        fs: float,
-        deadband: Any,
-        n_bins: int,
-        max_lag: Optional[int],
-        aux_role: Optional[str],
-        raw: bool,
-        parallel: bool = True,
-    ) -> None:
-        self.length, self.fs, self.deadband, self.n_bins = length, fs, deadband, n_bins
-        self.max_lag, self.aux_role, self.raw, self.parallel = max_lag, aux_role, raw, parallel
-        self.parts: List[Dict[str, np.ndarray]] = []
-
-    def __call__(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> None:
-        self.parts.append(self._batch(ch, rel, absolute))
-
-    def finish(self) -> List[Dict[str, np.ndarray]]:
-        """The statistics of every window so far, in order (one dict per batch)."""
-        return self.parts
-
-    def _batch(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> Dict[str, np.ndarray]:
-        aux = ch.get(self.aux_role) if self.aux_role else None
-        raw = (ch["fy_raw"], ch["fz_raw"]) if self.raw else None
-        try:
-            st = compute(
-                ch.get("fx"),
-                ch["fy"],
-                ch["fz"],
-                aux,
-                rel,
-                self.length,
-                self.deadband,
-                self.n_bins,
-                raw=raw,
-                parallel=self.parallel,
-            )
-        except ValueError:
-            _raise_non_finite(ch, rel, absolute, self.length, self.fs)
-            raise
-        for key in _UNUSED:
-            del st[key]
-        st["start"] = absolute.astype(np.int64)
-        if not self.raw:
-            del st["mu_classic"]
-        if "cof" in ch:
-            st["mu_instrument"] = _window_means(ch["cof"], rel, self.length)
-        if self.max_lag is not None:
-            st["skew"] = _skews(ch["fy"], ch["fz"], rel, self.length, self.max_lag)
-        return st
-
-
-#: Kernel outputs the table does not use (dropped per batch: a long
-#: recording's table is then about 60 doubles per window, held once).
-_UNUSED = ("intercept_stderr", "resid_std", "sse", "szz", "syy")
-
-
-def _raise_non_finite(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray, length: int, fs: float) -> None:
-    """Names the first window holding NaN or inf (the kernel's error speaks of chunk offsets)."""
-    for s, a in zip(rel, absolute):
-        for role in ("fz", "fy", "fx", "i", "u", "fz_raw", "fy_raw"):
-            if role in ch and not np.isfinite(ch[role][s : s + length]).all():
-                raise ValueError(
-                    f"{role.removesuffix('_raw')} contains NaN or inf in the window starting at "
-                    f"sample {a} (t = {a / fs:g} s)"
-                )
-
-
-def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
-    """Mean of |x| per window, NaN samples skipped (an instrument's COF column)."""
-    out = np.full(len(rel), np.nan)
-    for k, s in enumerate(rel):
-        v = np.abs(x[s : s + length])
-        v = v[np.isfinite(v)]
-        if v.size:
-            out[k] = v.mean()
-    return out
-
-
-def _skews(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int, max_lag: int) -> np.ndarray:
-    out = np.full(len(rel), np.nan)
-    lag = min(max_lag, length - 1)
-    for k, s in enumerate(rel):
-        c = _core.xcorr(np.ascontiguousarray(fy[s : s + length]), np.ascontiguousarray(fz[s : s + length]), lag, "auto")
-        if np.isfinite(c).any():
-            out[k] = int(np.nanargmax(np.abs(c))) - lag
-    return out
-
-
-def sign_of_total_slope(st: Dict[str, np.ndarray]) -> float:
-    """S_xy of fy on fz of all windows merged (within + between parts): its sign is the slope's.
-
-    ``st`` holds per-window ``n``, ``mean_z``, ``mean_y`` and ``syz``.
-    """
-    n = st["n"]
-    if n.sum() == 0:
-        return float("nan")
-    w = n / n.sum()
-    mz, my = np.sum(w * st["mean_z"]), np.sum(w * st["mean_y"])
-    return float(np.sum(st["syz"]) + np.sum(n * (st["mean_z"] - mz) * (st["mean_y"] - my)))
-
-
-def _chunks_of(source: Any, fs_chunk: int) -> Iterable[Any]:
-    if isinstance(source, Mapping):
-        n = len(next(iter(source.values()))) if source else 0
-        if fs_chunk <= 0 or n <= fs_chunk:
-            return [source]
-        return ({k: v[s : s + fs_chunk] for k, v in source.items()} for s in range(0, n, fs_chunk))
-    return source
 
 
 def analyze(
@@ -296,8 +166,11 @@ def analyze(
         ``rpm``/``n_lamellas`` are recorded in ``params`` (spectra are per
         acquisition, in :func:`tribodyn.identify`).
     threads : int, optional
-        Threads for the kernels (default: all cores, or the TRIBODYN_THREADS
-        environment variable). Results do not depend on it.
+        Kernel threads for this call only, 1 to 4 x the CPU count (default:
+        the ``TRIBODYN_THREADS`` environment variable, else
+        :func:`tribodyn.get_threads`, every core unless
+        :func:`tribodyn.set_threads` changed it). Results do not depend on
+        it, and concurrent calls do not change each other's count.
     start : int
         Sample index, within the whole recording, of the source's first
         sample (default 0). Windows stay on the recording's grid (starting
@@ -314,155 +187,153 @@ def analyze(
     Returns
     -------
     Results
-        Per-window table, bins and the parameters used.
+        Per-window table (columns in :data:`tribodyn.columns.TABLE`), bins
+        and the parameters used (``params["route"]`` names the route taken).
 
     Raises
     ------
     ValueError, TypeError
-        fs <= 0, window or hop <= 0, a window longer than the recording, a
-        missing or unequal channel, a bad temperature log, a voltage without
-        ``shunt_ohm``.
+        fs <= 0, window or hop <= 0, threads outside 1 .. 4 x the CPU count,
+        a window longer than the recording, a missing or unequal channel, a
+        NaN or inf in a window (naming the channel and the window), a bad
+        temperature log, a voltage without ``shunt_ohm``.
+    RecordingError
+        The recording cannot be read.
     """
     rec = source if _is_recording(source) else None
     if fs is None:
         if rec is None:
             raise TypeError("analyze needs fs= (the sampling rate in Hz)")
         fs = rec.fs
-    fs_v = check_fs(fs)
-    w_s = positive(window, "window")
-    h_s = positive(hop, "hop")
-    length = int(round(w_s * fs_v))
-    step = int(round(h_s * fs_v))
-    if length < 3:
-        raise ValueError(f"window = {window} s is under 3 samples at fs = {fs_v:g} Hz")
-    if step < 1:
-        raise ValueError(f"hop = {hop} s is under one sample at fs = {fs_v:g} Hz")
-    db = parse_deadband(deadband)
-    nb = check_int(n_bins, "n_bins", minimum=1)
-    g = check_gate(gate)
-    if max_lag is not None:
-        check_int(max_lag, "max_lag", minimum=0)
-    if (
-        isinstance(orientation, str)
-        and orientation != "auto"
-        or (not isinstance(orientation, str) and orientation not in (1, -1))
-    ):
-        raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
-    temp_log = None if temperature is None else as_log(temperature, "temperature")
-    if voltage is not None or shunt_ohm is not None:
-        if shunt_ohm is None:
-            raise ValueError("voltage needs shunt_ohm (i = u / R)")
-        shunt = positive(shunt_ohm, "shunt_ohm")
-    else:
-        shunt = None
-    cur_log = constant_or_log(current, "current")
-    volt_log = constant_or_log(voltage, "voltage")
-    area = None if area_mm2 is None else positive(area_mm2, "area_mm2")
-    hp_fc = None if highpass is None else positive(highpass, "highpass")
-    chunk_n = None if chunk is None else max(1, int(round(positive(chunk, "chunk") * fs_v)))
-    origin = check_int(start, "start", minimum=0)
-    end: Optional[int] = None
-    if stop is not None:
+    plan = make_plan(
+        fs=fs, window=window, hop=hop, highpass=highpass, orientation=orientation, temperature=temperature,
+        current=current, voltage=voltage, shunt_ohm=shunt_ohm, area_mm2=area_mm2, chunk=chunk, progress=progress,
+        deadband=deadband, n_bins=n_bins, gate=gate, max_lag=max_lag, rpm=rpm, n_lamellas=n_lamellas,
+        threads=threads, start=start, stop=stop,
+    )  # fmt: skip
+    if plan.stop is not None:
         if rec is None:
             raise ValueError(
-                "stop= applies to a recording source (a mapping or a stream of chunks ends where it "
-                "ends; slice it instead)"
+                "stop= applies to a recording source (a mapping or a stream of chunks ends where it ends; slice it "
+                "instead)"
             )
-        end = check_int(stop, "stop", minimum=0)
         n_rec = getattr(rec, "n_samples", None)
-        if end < origin or (isinstance(n_rec, int) and end > n_rec):
+        if isinstance(n_rec, int) and plan.stop > n_rec:
             raise ValueError(
-                f"stop must satisfy start <= stop <= {n_rec} (the recording's samples), got start={origin}, stop={end}"
+                f"stop must satisfy start <= stop <= {n_rec} (the recording's samples), "
+                f"got start={plan.start}, stop={plan.stop}"
             )
+    route = choose_route(source, rec, plan)
+    if route == "acquisitions":
+        st, aux_role = _acquisitions(source, plan)
+    elif route == "mapped":
+        st, aux_role = _run_mapped(rec, plan)
+    elif route == "spans":
+        st, aux_role = _run_spans(rec, plan)
+    else:
+        st, aux_role = _run_stream(_chunk_source(source, rec, plan), plan, _total(source, rec, plan))
+    return finish(st, aux_role, plan, route)
 
-    params: Dict[str, Any] = dict(
-        fs=fs_v,
-        window=w_s,
-        hop=h_s,
-        window_samples=length,
-        hop_samples=step,
-        highpass=hp_fc,
-        orientation=orientation,
-        deadband=str(db),
-        n_bins=nb,
-        gate=g,
-        max_lag=max_lag,
-        rpm=rpm,
-        n_lamellas=n_lamellas,
-        area_mm2=area,
-        shunt_ohm=shunt,
-        chunk_samples=chunk_n,
-        temperature_log_points=None if temp_log is None else int(temp_log[0].size),
-    )
 
-    with threads_limited(threads if threads is not None else _env_threads()):
-        if isinstance(source, (list, tuple)):
-            st, aux_role = _acquisitions(source, fs_v, db, nb, hp_fc, max_lag, shunt)
-        else:
-            st, aux_role = _stream(
-                source, rec, fs_v, length, step, db, nb, hp_fc, max_lag, chunk_n, progress, shunt, origin, end
-            )
+def choose_route(source: Any, rec: Any, plan: Plan) -> str:
+    """The route for this source and plan: ``"acquisitions"``, ``"mapped"``, ``"spans"`` or ``"stream"``.
 
+    Chosen before anything is read, from the plan and from the
+    capabilities a recording declares (``mappable``, ``random_access``,
+    ``thread_safe``; see :class:`tribodyn.io.Recording`).
+    """
+    if isinstance(source, (list, tuple)):
+        return "acquisitions"
+    if rec is None:
+        if isinstance(source, Mapping) or (isinstance(source, Iterable) and not isinstance(source, (str, bytes))):
+            return "stream"
+        raise TypeError(
+            "source must be a mapping, an iterable of mappings, a list of acquisitions or a recording, "
+            f"got {type(source).__name__}"
+        )
+    if _mapped_layout(rec, plan) is not None:
+        return "mapped"
+    if (
+        not plan.raw
+        and getattr(rec, "random_access", False)
+        and getattr(rec, "thread_safe", False)
+        and _spans(rec, plan) is not None
+    ):
+        return "spans"
+    return "stream"
+
+
+# -- finishing: orientation, gate, covariates, table ---------------------------------
+
+
+def sign_of_total_slope(st: Stats) -> float:
+    """S_xy of fy on fz of all windows merged (within + between parts): its sign is the slope's.
+
+    ``st`` holds per-window ``n``, ``mean_z``, ``mean_y`` and ``syz``.
+    """
+    n = st["n"]
+    if n.sum() == 0:
+        return float("nan")
+    w = n / n.sum()
+    mz, my = np.sum(w * st["mean_z"]), np.sum(w * st["mean_y"])
+    return float(np.sum(st["syz"]) + np.sum(n * (st["mean_z"] - mz) * (st["mean_y"] - my)))
+
+
+def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "") -> Results:
+    """The kernel's per-window statistics (orientation +1) as a :class:`Results` (docs/method.md 0, 5, 6).
+
+    Fixes the orientation once for all windows, applies the gate, joins the
+    covariates and lays the table out as :data:`tribodyn.columns.TABLE`
+    declares it. ``st`` is consumed (its arrays are flipped in place).
+    """
     if len(st["n"]) == 0:
-        if end is not None:
+        w = plan.window
+        if plan.stop is not None:
             raise ValueError(
-                f"samples {origin}..{end} hold no whole window ({w_s:g} s = {length} samples, starting "
-                f"every {step} samples from sample 0): no window to analyse"
+                f"samples {plan.start}..{plan.stop} hold no whole window ({w:g} s = {plan.length} samples, "
+                f"starting every {plan.step} samples from sample 0): no window to analyse"
             )
         raise ValueError(
-            f"the recording is shorter than one window ({w_s:g} s = {length} samples): no window to analyse"
+            f"the recording is shorter than one window ({w:g} s = {plan.length} samples): no window to analyse"
         )
-    s = resolve_orientation(orientation, sign_of_total_slope(st))
+    fs, cov = plan.fs, plan.covariates
+    s = resolve_orientation(plan.orientation, sign_of_total_slope(st))
     moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
-    if "acquisition" not in st:
-        st["acquisition"] = np.zeros(len(st["n"]), dtype=np.int64)
     o = orient(st, s, inplace=True)
-    del st
-    t_start = o["start"] / fs_v
-    if "t0" in o:
-        t_start = o["t0"]
-    n_win = o["n"]
-    centre = t_start + 0.5 * n_win / fs_v
-    reasons = gate_reasons(o, g, o.get("skew"))
-
-    cur = np.full(len(centre), np.nan)
+    t_start = o["t0"] if "t0" in o else o["start"] / fs
+    n_win = np.asarray(o["n"], dtype=np.int64)
+    centre = t_start + 0.5 * n_win / fs
+    reasons = gate_reasons(o, plan.gate, o.get("skew"))
+    nan = np.full(len(centre), np.nan)
+    cur = nan
     if aux_role == "i":
         cur = o["aux_mean"]
     elif aux_role == "u":
-        cur = o["aux_mean"] / shunt  # type: ignore[operator]
-    elif cur_log is not None:
-        cur = evaluate(cur_log, centre)
-    elif volt_log is not None:
-        cur = evaluate(volt_log, centre) / shunt  # type: ignore[operator]
-    table: Dict[str, np.ndarray] = {
+        cur = o["aux_mean"] / cov.shunt_ohm
+    elif cov.current is not None:
+        cur = evaluate(cov.current, centre)
+    elif cov.voltage is not None:
+        cur = evaluate(cov.voltage, centre) / cov.shunt_ohm
+    log = cov.temperature
+    values: Stats = {
+        **o,
         "time": centre,
         "t_start": t_start,
-        "mu_r": o["mu_r"],
-        "mu_r_stderr": o["mu_r_stderr"],
-        "f_y0": o["f_y0"],
-        "r": o["r"],
-        "mu_a": o["mu_a"],
-        "mu_b": o["mu_b"],
-        "force_dependence": o["force_dependence"],
-        "c_xy": o["c_xy"],
-        "c_xz": o["c_xz"],
-        "c_yz": o["c_yz"],
-        "skew": o.get("skew", np.full(len(centre), np.nan)),
+        "skew": o.get("skew", nan),
         "ok": np.asarray(reasons == "", dtype=bool),
         "reasons": reasons.astype(str),
-        "T": interpolate(temp_log, centre) if temp_log is not None else np.full(len(centre), np.nan),
-        "branch": branch(temp_log, centre) if temp_log is not None else np.zeros(len(centre), dtype=np.int8),
+        "T": interpolate(log, centre) if log is not None else nan,
+        "branch": branch(log, centre) if log is not None else np.zeros(len(centre), dtype=np.int8),
         "i": cur,
-        "J": cur / area if area is not None else np.full(len(centre), np.nan),
-        "mu_classic": o.get("mu_classic", np.full(len(centre), np.nan)),
-        "mu_instrument": o.get("mu_instrument", np.full(len(centre), np.nan)),
-        "deadband": o["deadband"],
-        "n": np.asarray(n_win, dtype=np.int64),
-        "acquisition": o["acquisition"],
+        "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan,
+        "mu_classic": o.get("mu_classic", nan),
+        "mu_instrument": o.get("mu_instrument", nan),
+        "n": n_win,
+        "acquisition": o.get("acquisition", np.zeros(len(centre), dtype=np.int64)),
     }
-    params["orientation_used"] = s
-    params["start"] = origin
-    params["stop"] = end
+    table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
+    params = plan.params()
+    params.update(orientation_used=s, start=plan.start, stop=plan.stop, threads=plan.threads, route=route)
     return Results(
         table=table,
         bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
@@ -475,17 +346,60 @@ def analyze(
     )
 
 
-def _env_threads() -> Optional[int]:
-    v = os.environ.get("TRIBODYN_THREADS")
-    if not v:
-        return None
+# -- the kernel on windows of arrays -------------------------------------------------
+
+
+def _kernel(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray, plan: Plan, aux_role: Optional[str],
+            threads: int) -> Stats:
+    """The statistics of the windows starting at ``rel`` of the arrays ``ch`` (``absolute`` in the recording)."""
+    aux = ch.get(aux_role) if aux_role else None
+    raw = (ch["fy_raw"], ch["fz_raw"]) if plan.raw else None
+    offset = int(absolute[0] - rel[0]) if len(rel) else 0
     try:
-        return max(1, int(v))
-    except ValueError:
-        raise ValueError(f"TRIBODYN_THREADS must be a whole number, got {v!r}") from None
+        st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, plan.length, plan.deadband, plan.n_bins,
+                     plan.kernel_columns, raw=raw, threads=threads, offset=offset)
+    except _core.NonFiniteError as exc:
+        raise _non_finite(exc, plan, aux_role) from None
+    st["start"] = absolute.astype(np.int64)
+    if "cof" in ch:
+        st["mu_instrument"] = _window_means(ch["cof"], rel, plan.length)
+    if plan.max_lag is not None:
+        st["skew"] = _skews(ch["fy"], ch["fz"], rel, plan.length, plan.max_lag, threads)
+    return st  # fmt: skip
 
 
-def _concat(parts: List[Dict[str, np.ndarray]]) -> Dict[str, np.ndarray]:
+def _non_finite(exc: Exception, plan: Plan, aux_role: Optional[str]) -> ValueError:
+    """The kernel's NaN/inf error in the recording's terms: the role, the window (or sample) and its time."""
+    _, channel, sample, window = exc.args
+    role = {"aux": aux_role or "aux"}.get(channel, str(channel).removesuffix("_raw"))
+    where = "in the window starting at sample" if window else "at sample"
+    tail = "" if window else "; the high-pass filter needs every sample"
+    return ValueError(f"{role} contains NaN or inf {where} {sample} (t = {sample / plan.fs:g} s{tail})")
+
+
+def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
+    """Mean of |x| per window, NaN samples skipped (an instrument's COF column)."""
+    out = np.full(len(rel), np.nan)
+    for k, s in enumerate(rel):
+        v = np.abs(x[s : s + length])
+        v = v[np.isfinite(v)]
+        if v.size:
+            out[k] = v.mean()
+    return out
+
+
+def _skews(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int, max_lag: int, threads: int) -> np.ndarray:
+    out = np.full(len(rel), np.nan)
+    lag = min(max_lag, length - 1)
+    for k, s in enumerate(rel):
+        c = _core.xcorr(np.ascontiguousarray(fy[s : s + length]), np.ascontiguousarray(fz[s : s + length]), lag,
+                        "auto", threads=threads)  # fmt: skip
+        if np.isfinite(c).any():
+            out[k] = int(np.nanargmax(np.abs(c))) - lag
+    return out
+
+
+def _concat(parts: List[Stats]) -> Stats:
     """Joins the batches column by column, freeing each column's pieces as it goes."""
     if not parts:
         return {"n": np.zeros(0, dtype=np.int64)}
@@ -496,226 +410,143 @@ def _concat(parts: List[Dict[str, np.ndarray]]) -> Dict[str, np.ndarray]:
     return out
 
 
-def _aux_role(chunk: Mapping, shunt: Optional[float]) -> Optional[str]:
-    if "i" in chunk:
+def _aux_role(roles: Any, shunt: Optional[float]) -> Optional[str]:
+    if "i" in roles:
         return "i"
-    if "u" in chunk:
+    if "u" in roles:
         if shunt is None:
             raise ValueError("the source has a voltage channel 'u': give shunt_ohm (i = u / R)")
         return "u"
     return None
 
 
-def _stream(
-    source: Any,
-    rec: Any,
-    fs: float,
-    length: int,
-    step: int,
-    db: Any,
-    nb: int,
-    hp_fc: Optional[float],
-    max_lag: Optional[int],
-    chunk_n: Optional[int],
-    progress: bool,
-    shunt: Optional[float],
-    origin: int = 0,
-    end: Optional[int] = None,
-):
-    threads = _core.get_threads()
-    if rec is not None and max_lag is None and not progress:
-        mapped = _stream_file(rec, origin, fs, length, step, db, nb, hp_fc, chunk_n, shunt, threads, end)
-        if mapped is not None:
-            return mapped
-    if rec is not None:
-        size = chunk_n or DEFAULT_CHUNK
-        total = end if end is not None else getattr(rec, "n_samples", None)
-        spans = _spans(rec, origin, length, step, threads, end) if hp_fc is None else None
-        if spans:
-            # Large chunks where they are views of the file (no copy); the
-            # default where the reader copies, so that copies stay small.
-            views = getattr(rec, "_can_view", lambda: False)()
-            return _stream_spans(
-                rec,
-                spans,
-                chunk_n or (SPAN_CHUNK if views else DEFAULT_CHUNK),
-                fs,
-                length,
-                step,
-                db,
-                nb,
-                max_lag,
-                progress,
-                shunt,
-            )
-        # Views where the format has them: nothing here writes into a chunk.
-        chunks: Iterable[Any] = rec.chunks(size, start=origin, stop=end, copy=False)
-    elif isinstance(source, Mapping):
-        chunks = _chunks_of(source, chunk_n or DEFAULT_CHUNK)
-        total = len(next(iter(source.values()))) if source else 0
-    elif isinstance(source, Iterable) and not isinstance(source, (str, bytes)):
-        chunks = source
-        total = None
-    else:
+def _check_chunk(chunk: Any, where: str) -> Dict[str, np.ndarray]:
+    if not isinstance(chunk, Mapping):
         raise TypeError(
-            "source must be a mapping, an iterable of mappings, a list of acquisitions or a recording, "
-            f"got {type(source).__name__}"
+            f"{where} must be a mapping of role -> array (roles fx, fy, fz, i, u), got {type(chunk).__name__}"
         )
-    bar = _progress(progress, total)
-    try:
-        # Overlap reading with the kernel only when two threads may run: with
-        # one, the whole pipeline stays on one core.
-        parts, aux_role = _run_chunks(
-            chunks, origin, fs, length, step, db, nb, hp_fc, max_lag, shunt, bar, pipelined=threads >= 2
+    missing = [r for r in ("fy", "fz") if r not in chunk]
+    if missing:
+        raise ValueError(
+            f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})"
         )
-    finally:
-        if bar is not None:
-            bar.close()
-    return _concat(parts), aux_role
+    # No NaN/inf scan here: the kernel refuses a non-finite sample in any
+    # window as it sums it, and the high-pass filter checks every sample it
+    # filters; samples outside every window change no result.
+    out = {
+        str(k): as_signal(v, f"{where}[{k!r}]", min_len=0, check_finite=False) for k, v in chunk.items() if k in _ROLES
+    }
+    lengths = {k: len(v) for k, v in out.items()}
+    if len(set(lengths.values())) > 1:
+        raise ValueError(f"{where}: channels must have equal lengths, got {lengths}")
+    return out
 
 
-def _stream_file(
-    rec: Any,
-    origin: int,
-    fs: float,
-    length: int,
-    step: int,
-    db: Any,
-    nb: int,
-    hp_fc: Optional[float],
-    chunk_n: Optional[int],
-    shunt: Optional[float],
-    threads: int,
-    end: Optional[int] = None,
-):
-    """A recording whose channels the kernel can read from the file's own pages (a float64 ``.npy``).
+# -- route "mapped" ------------------------------------------------------------------
 
-    One call of ``_core.windows_stats_file``: the file is memory-mapped a
-    block of windows at a time, with no copy and no Python per chunk. For
-    dynamic input the blocks run in parallel; raw input is high-passed
-    block after block (the same filter, state and bits as ``HighPass``),
-    one block ahead of the windows. None when the recording does not allow
-    it (another format, scaled channels, an instrument ``cof`` column,
-    overlapping windows with ``highpass``) or the call fails (a NaN, say):
-    the streaming path then runs and words any error.
-    """
-    roles = getattr(rec, "roles", None)
-    layout_of = getattr(rec, "file_layout", None)
-    if not isinstance(roles, Mapping) or layout_of is None or "cof" in roles or not {"fy", "fz"} <= set(roles):
+
+def _mapped_layout(rec: Any, plan: Plan) -> Optional[Tuple[int, Dict[str, int], Optional[str]]]:
+    """(descriptor, byte offsets, aux role) when the route "mapped" applies, else None (nothing is read)."""
+    if not getattr(rec, "mappable", False) or plan.max_lag is not None or plan.progress:
         return None
-    aux = _aux_role(roles, shunt)
-    wanted = [r for r in FORCE_ROLES if r in roles] + ([aux] if aux else [])
-    found = layout_of(wanted)
-    n_rec = getattr(rec, "n_samples", None)
-    if found is None or not isinstance(n_rec, int):
+    roles = rec.roles
+    if "cof" in roles or not {"fy", "fz"} <= set(roles):
         return None
-    n = n_rec if end is None else end  # windows end by here
-    fd, layout = found
-    k0 = -(-origin // step)
-    k1 = (n - length) // step + 1 if n >= length else 0
+    if plan.raw and plan.step < plan.length:
+        return None  # the mapped filter needs windows that do not overlap
+    aux = _aux_role(roles, plan.covariates.shunt_ohm)
+    found = rec.file_layout([r for r in FORCE_ROLES if r in roles] + ([aux] if aux else []))
+    if found is None:
+        return None
+    return found[0], found[1], aux
+
+
+def _grid(n: int, plan: Plan) -> Tuple[int, int]:
+    """First window (index k) at or after ``plan.start`` and one past the last that ends by ``n``."""
+    k0 = -(-plan.start // plan.step)
+    k1 = (n - plan.length) // plan.step + 1 if n >= plan.length else 0
+    return k0, max(k0, k1)
+
+
+def _run_mapped(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
+    """One call of ``_core.windows_stats_file``: the file's pages, block by block (see the module doc)."""
+    found = _mapped_layout(rec, plan)
+    assert found is not None, "choose_route chose 'mapped'"
+    fd, layout, aux = found
+    n_rec = rec.n_samples
+    k0, k1 = _grid(n_rec if plan.stop is None else plan.stop, plan)
     if k1 <= k0:
-        return None
+        return {"n": np.zeros(0, dtype=np.int64)}, aux
     # Windows per task: at most SPAN_CHUNK samples (or the chunk asked
     # for), in equal blocks, a multiple of the threads in number, so that
     # the threads finish together and the memory mapped at once (a block
     # per thread) hardly depends on the recording's length.
     count = k1 - k0
-    cap = max(1, (chunk_n or SPAN_CHUNK) // step)
+    cap = max(1, (plan.chunk or SPAN_CHUNK) // plan.step)
     blocks = -(-count // cap)
-    blocks = -(-blocks // threads) * threads
+    blocks = -(-blocks // plan.threads) * plan.threads
     block = max(1, -(-count // blocks))
-    offsets = (layout.get("fx"), layout["fy"], layout["fz"], layout[aux] if aux else None)
     sos = zi = None
-    if hp_fc is not None:
-        if step < length:
-            return None
-        hp = HighPass(fs, cutoff=hp_fc)
-        sos, zi = hp.sos, hp._zi
-        block = cap
+    if plan.raw:
+        hp = HighPass(plan.fs, cutoff=plan.highpass)
+        sos, zi, block = hp.sos, hp.steady_state, cap
+    offsets = (layout.get("fx"), layout["fy"], layout["fz"], layout[aux] if aux else None)
     try:
         st = _core.windows_stats_file(
-            fd, offsets, n_rec, k0, k1, step, length, 1.0, db.kind, float(db.value), nb, block, sos, zi, origin
-        )
-    except (ValueError, OSError):
-        return None
-    for key in _UNUSED + (() if hp_fc is not None else ("mu_classic",)):
-        del st[key]
-    st["start"] = np.arange(k0, k1, dtype=np.int64) * step
+            fd, offsets, n_rec, k0, k1, plan.step, plan.length, 1.0, plan.deadband.kind, float(plan.deadband.value),
+            plan.n_bins, list(plan.kernel_columns), block=block, sos=sos, zi=zi, origin=plan.start,
+            threads=plan.threads,
+        )  # fmt: skip
+    except _core.NonFiniteError as exc:
+        raise _non_finite(exc, plan, aux) from None
+    except ValueError as exc:
+        # The kernel checks the file's length before each block: a file
+        # that shrank since it was opened is the recording's error.
+        need = max(o for o in offsets if o is not None) + 8 * n_rec
+        if os.fstat(fd).st_size < need:
+            raise RecordingError(f"{rec.path}: file ends early (truncated since it was opened?): {exc}") from None
+        raise
+    st["start"] = np.arange(k0, k1, dtype=np.int64) * plan.step
     return st, aux
 
 
-#: Formats whose readers read any range of samples directly.
-_RANDOM_ACCESS = ("npy", "hdf5", "tdms")
-#: Fewest windows per concurrently read span.
-_MIN_SPAN_WINDOWS = 64
+# -- route "spans" -------------------------------------------------------------------
 
 
-def _spans(
-    rec: Any, origin: int, length: int, step: int, threads: int, end: Optional[int] = None
-) -> Optional[List[tuple]]:
-    """Sample ranges of a recording, one per thread, on the window grid; None to read it as one stream.
+def _spans(rec: Any, plan: Plan) -> Optional[List[Tuple[int, int]]]:
+    """Sample ranges of a recording, one per thread, on the window grid; None when too short to split.
 
     With one thread the whole recording is one span (read the same way:
     large chunks, views where the format has them, the kernel on the
-    reading thread).
-
-    Span j reads [k_j * step, (k_{j+1} - 1) * step + length) and holds exactly
-    the windows k_j .. k_{j+1} - 1, so the spans' windows are the recording's,
-    each once, with the same samples.
+    reading thread). Span j reads [k_j * step, (k_{j+1} - 1) * step + length)
+    and holds exactly the windows k_j .. k_{j+1} - 1, so the spans' windows
+    are the recording's, each once, with the same samples.
     """
-    n = getattr(rec, "n_samples", None)
-    if getattr(rec, "format", None) not in _RANDOM_ACCESS or not isinstance(n, int):
-        return None
-    n = n if end is None else end
-    k0 = -(-origin // step)
-    k1 = (n - length) // step + 1 if n >= length else 0  # one past the last window
+    n = rec.n_samples if plan.stop is None else plan.stop
+    k0, k1 = _grid(n, plan)
     count = k1 - k0
-    parts = min(threads, count // _MIN_SPAN_WINDOWS)
+    parts = min(plan.threads, count // _MIN_SPAN_WINDOWS)
     if parts < 1:
         return None
     ks = [k0 + (count * j) // parts for j in range(parts + 1)]
-    return [(ks[j] * step, (ks[j + 1] - 1) * step + length) for j in range(parts)]
+    return [(ks[j] * plan.step, (ks[j + 1] - 1) * plan.step + plan.length) for j in range(parts)]
 
 
-def _stream_spans(
-    rec: Any,
-    spans: List[tuple],
-    size: int,
-    fs: float,
-    length: int,
-    step: int,
-    db: Any,
-    nb: int,
-    max_lag: Optional[int],
-    progress: bool,
-    shunt: Optional[float],
-):
-    """Reads and analyses the spans concurrently, one thread each (dynamic input only: no filter state).
+def _run_spans(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
+    """Reads and analyses the spans concurrently, one thread each (dynamic input: no filter state).
 
-    The reader's copies and the kernel release the GIL, so the spans run in
-    parallel; the batches are joined in span order, so the table is the one
-    of a single stream.
+    Only for readers that declare ``thread_safe``. The reader's copies and
+    the kernel release the GIL, so the spans run in parallel; the batches
+    are joined in span order, so the table is the one of a single stream.
     """
-    bar = _progress(progress, sum(b - a for a, b in spans))
+    spans = _spans(rec, plan)
+    assert spans is not None, "choose_route chose 'spans'"
+    size = plan.chunk or (SPAN_CHUNK if getattr(rec, "views", False) else DEFAULT_CHUNK)
+    bar = _progress(plan.progress, sum(b - a for a, b in spans))
     try:
         with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
             futures = [
-                ex.submit(
-                    _run_chunks,
-                    rec.chunks(size, start=a, stop=b, copy=False),
-                    a,
-                    fs,
-                    length,
-                    step,
-                    db,
-                    nb,
-                    None,
-                    max_lag,
-                    shunt,
-                    bar,
-                    pipelined=False,
-                    parallel=False,
-                )
+                ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b, copy=False), a, plan, bar, threads=1)
                 for a, b in spans
             ]
             results = [f.result() for f in futures]
@@ -725,35 +556,56 @@ def _stream_spans(
     return _concat([st for parts, _ in results for st in parts]), results[0][1]
 
 
-def _run_chunks(
-    chunks: Iterable[Any],
-    origin: int,
-    fs: float,
-    length: int,
-    step: int,
-    db: Any,
-    nb: int,
-    hp_fc: Optional[float],
-    max_lag: Optional[int],
-    shunt: Optional[float],
-    bar: Any,
-    *,
-    pipelined: bool,
-    depth: int = 2,
-    parallel: bool = True,
-):
+# -- route "stream" ------------------------------------------------------------------
+
+
+def _chunk_source(source: Any, rec: Any, plan: Plan) -> Iterable[Any]:
+    if rec is not None:
+        # Views where the format has them: nothing here writes into a chunk.
+        return rec.chunks(plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop, copy=False)
+    if isinstance(source, Mapping):
+        n = len(next(iter(source.values()))) if source else 0
+        size = plan.chunk or DEFAULT_CHUNK
+        if n <= size:
+            return [source]
+        return ({k: v[s : s + size] for k, v in source.items()} for s in range(0, n, size))
+    return source
+
+
+def _total(source: Any, rec: Any, plan: Plan) -> Optional[int]:
+    if rec is not None:
+        return (plan.stop if plan.stop is not None else rec.n_samples) - plan.start
+    if isinstance(source, Mapping):
+        return len(next(iter(source.values()))) if source else 0
+    return None
+
+
+def _run_stream(chunks: Iterable[Any], plan: Plan, total: Optional[int]) -> Tuple[Stats, Optional[str]]:
+    bar = _progress(plan.progress, total)
+    try:
+        parts, aux_role = _run_chunks(chunks, plan.start, plan, bar, threads=plan.threads)
+    finally:
+        if bar is not None:
+            bar.close()
+    return _concat(parts), aux_role
+
+
+def _run_chunks(chunks: Iterable[Any], origin: int, plan: Plan, bar: Any, *, threads: int,
+                depth: int = 2) -> Tuple[List[Stats], Optional[str]]:  # fmt: skip
     """Checks, filters and windows a stream of chunks; the batches of window statistics, in order.
 
-    With ``pipelined``, the caller's thread only reads (the reader's copies
-    release the GIL) while one worker thread filters, windows and runs the
-    kernel (which releases the GIL and uses the kernel threads), chunk after
-    chunk in order, at most ``depth`` chunks ahead: the filter state and the
-    windower's tail are only ever touched by that worker.
+    The calling thread alone reads the chunks (so a reader that is not
+    thread-safe is never read from two threads). With ``threads`` >= 2 one
+    worker thread filters, windows and runs the kernel (which releases the
+    GIL and uses ``threads`` kernel threads), chunk after chunk in order,
+    at most ``depth`` chunks behind the reading: the filter state and the
+    windower's tail are only ever touched by that worker. With one thread
+    everything runs on the calling thread.
     """
-    stage = _Stage(origin, fs, length, step, db, nb, hp_fc, max_lag, shunt, parallel)
-    if not pipelined:
+    stage = _Stage(origin, plan, threads)
+    if threads < 2:
         for i, raw_chunk in enumerate(chunks):
-            stage.push(_check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz")), i)
+            stage.push(_check_chunk(raw_chunk, f"chunk {i}"))
             if bar is not None:
                 bar.update(len(raw_chunk["fz"]))
         return stage.finish()
@@ -761,10 +613,10 @@ def _run_chunks(
     with ThreadPoolExecutor(1, thread_name_prefix="tribodyn") as ex:
         try:
             for i, raw_chunk in enumerate(chunks):
-                ch = _check_chunk(raw_chunk, f"chunk {i}", ("fy", "fz"))
+                ch = _check_chunk(raw_chunk, f"chunk {i}")
                 while len(pending) >= depth:
                     pending.popleft().result()
-                pending.append(ex.submit(stage.push, ch, i))
+                pending.append(ex.submit(stage.push, ch))
                 if bar is not None:
                     bar.update(len(ch["fz"]))
             while pending:
@@ -778,68 +630,54 @@ def _run_chunks(
 class _Stage:
     """Filter, windower and kernel for one stream of chunks (used by one thread at a time)."""
 
-    def __init__(
-        self,
-        origin: int,
-        fs: float,
-        length: int,
-        step: int,
-        db: Any,
-        nb: int,
-        hp_fc: Optional[float],
-        max_lag: Optional[int],
-        shunt: Optional[float],
-        parallel: bool = True,
-    ) -> None:
-        self.origin, self.fs, self.length, self.step, self.db, self.nb = origin, fs, length, step, db, nb
-        self.parallel = parallel
-        self.hp_fc, self.max_lag, self.shunt = hp_fc, max_lag, shunt
-        self.collector: Optional[_Collector] = None
+    def __init__(self, origin: int, plan: Plan, threads: int) -> None:
+        self.origin, self.plan, self.threads = origin, plan, threads
+        self.parts: List[Stats] = []
+        self.aux_role: Optional[str] = None
         self.windower: Optional[Windower] = None
         self.hp: Optional[HighPass] = None
         self.force_roles: List[str] = []
+        self.seen = origin  # the recording's index of the next chunk's first sample
 
-    def push(self, ch: Dict[str, np.ndarray], i: int) -> None:
-        if self.collector is None:
-            aux = _aux_role(ch, self.shunt)
+    def _windows(self, ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray) -> None:
+        self.parts.append(_kernel(ch, rel, absolute, self.plan, self.aux_role, self.threads))
+
+    def push(self, ch: Dict[str, np.ndarray]) -> None:
+        plan = self.plan
+        if self.windower is None:
+            self.aux_role = _aux_role(ch, plan.covariates.shunt_ohm)
             self.force_roles = [r for r in FORCE_ROLES if r in ch]
-            self.collector = _Collector(
-                length=self.length,
-                fs=self.fs,
-                deadband=self.db,
-                n_bins=self.nb,
-                max_lag=self.max_lag,
-                aux_role=aux,
-                raw=self.hp_fc is not None,
-                parallel=self.parallel,
-            )
-            self.windower = Windower(self.length, self.step, self.collector, origin=self.origin)
-            if self.hp_fc is not None:
-                self.hp = HighPass(self.fs, cutoff=self.hp_fc, channels=len(self.force_roles))
+            self.windower = Windower(plan.length, plan.step, self._windows, origin=self.origin)
+            if plan.raw:
+                self.hp = HighPass(plan.fs, cutoff=plan.highpass, channels=len(self.force_roles), threads=self.threads)
         elif set(self.force_roles) - set(ch):
             missing = sorted(set(self.force_roles) - set(ch))
-            raise ValueError(f"chunk {i} lacks channel(s) present in the first chunk: {missing}")
+            raise ValueError(f"a chunk from sample {self.seen} on lacks channel(s) present in the first: {missing}")
+        first, self.seen = self.seen, self.seen + len(ch["fz"])
         if self.hp is not None:
             # The filter refuses NaN/inf as it reads every sample.
+            stacked = np.stack([ch[r] for r in self.force_roles])
             try:
-                filtered = self.hp.process(np.stack([ch[r] for r in self.force_roles]))
+                filtered = self.hp.process(stacked)
             except ValueError:
-                bad = [r for r in self.force_roles if not np.isfinite(ch[r]).all()]
-                if not bad:
+                bad = ~np.isfinite(stacked)
+                if not bad.any():
                     raise
+                k, j = np.argwhere(bad.T)[0]  # the first sample, then the first channel
+                s = first + int(k)
                 raise ValueError(
-                    f"{bad[0]} contains NaN or inf in chunk {i} (the high-pass filter needs every sample)"
+                    f"{self.force_roles[j]} contains NaN or inf at sample {s} "
+                    f"(t = {s / plan.fs:g} s; the high-pass filter needs every sample)"
                 ) from None
             ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
             for k, r in enumerate(self.force_roles):
                 ch[r] = filtered[k]
-        assert self.windower is not None
         self.windower.push(ch)
 
-    def finish(self) -> tuple:
-        if self.collector is None:
+    def finish(self) -> Tuple[List[Stats], Optional[str]]:
+        if self.windower is None:
             raise ValueError("the source holds no samples")
-        return self.collector.finish(), self.collector.aux_role
+        return self.parts, self.aux_role
 
 
 def _progress(on: bool, total: Optional[int]) -> Any:
@@ -852,39 +690,38 @@ def _progress(on: bool, total: Optional[int]) -> Any:
     return tqdm(total=total, unit="sample", unit_scale=True, desc="analyse", leave=False)
 
 
-def _acquisitions(
-    source: Sequence[Any],
-    fs: float,
-    db: Any,
-    nb: int,
-    hp_fc: Optional[float],
-    max_lag: Optional[int],
-    shunt: Optional[float],
-):
-    parts: List[Dict[str, np.ndarray]] = []
+# -- route "acquisitions" ------------------------------------------------------------
+
+
+def _acquisitions(source: Sequence[Any], plan: Plan) -> Tuple[Stats, Optional[str]]:
+    parts: List[Stats] = []
     t = 0.0
     aux_role: Optional[str] = None
     for k, acq in enumerate(source):
-        ch = _check_chunk(acq, f"acquisition {k}", ("fy", "fz"))
+        ch = _check_chunk(acq, f"acquisition {k}")
         n = len(ch["fz"])
         if n < 3:
             raise ValueError(f"acquisition {k} has {n} samples; at least 3 are needed")
-        aux_role = _aux_role(ch, shunt) if k == 0 else aux_role
-        if hp_fc is not None:
+        aux_role = _aux_role(ch, plan.covariates.shunt_ohm) if k == 0 else aux_role
+        if plan.raw:
             roles = [r for r in FORCE_ROLES if r in ch]
-            filtered = HighPass(fs, cutoff=hp_fc, channels=len(roles)).process(np.stack([ch[r] for r in roles]))
+            hp = HighPass(plan.fs, cutoff=plan.highpass, channels=len(roles), threads=plan.threads)
+            filtered = hp.process(np.stack([ch[r] for r in roles]))
             ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
             for j, r in enumerate(roles):
                 ch[r] = filtered[j]
-        col = _Collector(
-            length=n, fs=fs, deadband=db, n_bins=nb, max_lag=max_lag, aux_role=aux_role, raw=hp_fc is not None
-        )
-        st = col._batch(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64))
+        one = plan if n == plan.length else _with_length(plan, n)
+        st = _kernel(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), one, aux_role, plan.threads)
         t0 = acq.get("t0") if isinstance(acq, Mapping) else None
         st["t0"] = np.array([float(t0) if t0 is not None else t])
         st["acquisition"] = np.array([k], dtype=np.int64)
-        t += n / fs
+        t += n / plan.fs
         parts.append(st)
     if not parts:
         raise ValueError("the list of acquisitions is empty")
     return _concat(parts), aux_role
+
+
+def _with_length(plan: Plan, n: int) -> Plan:
+    """The plan with one window of ``n`` samples (an acquisition is one window)."""
+    return dataclasses.replace(plan, length=n)

@@ -18,6 +18,7 @@ from scipy import signal as _signal
 
 from . import _core
 from ._validate import as_channels, check_fs, check_int, finite_error, positive
+from .threads import resolve_threads
 
 __all__ = ["HighPass", "highpass", "butter_highpass"]
 
@@ -81,6 +82,9 @@ class HighPass:
         constant input equal to its first sample (``sosfilt_zi(sos) * x[0]``),
         removing the start-up transient of a DC-coupled signal; "zero" starts
         at rest.
+    threads : int, optional
+        Kernel threads for this filter's calls (default: the process
+        default, see :func:`tribodyn.set_threads`); never changes the output.
 
     Examples
     --------
@@ -98,8 +102,10 @@ class HighPass:
         sos: Optional[Any] = None,
         channels: int = 1,
         init: Init = "steady",
+        threads: Optional[int] = None,
     ) -> None:
         self.fs = check_fs(fs)
+        self.threads = None if threads is None else resolve_threads(threads)
         self.sos = butter_highpass(self.fs, cutoff=cutoff, order=order) if sos is None else _check_sos(sos)
         self.channels = check_int(channels, "channels", minimum=1)
         if init not in ("steady", "zero"):
@@ -117,6 +123,14 @@ class HighPass:
     @property
     def n_sections(self) -> int:
         return int(self.sos.shape[0])
+
+    @property
+    def steady_state(self) -> np.ndarray:
+        """Per-section state for a constant unit input, shape (n_sections, 2) (zeros with ``init="zero"``).
+
+        A channel starts in ``steady_state * x[0]`` (a copy).
+        """
+        return self._zi.copy()
 
     @property
     def state(self) -> np.ndarray:
@@ -172,7 +186,7 @@ class HighPass:
             else:
                 state = np.ascontiguousarray(self._zi[np.newaxis, :, :] * x[:, 0, np.newaxis, np.newaxis])
             y = np.empty_like(x)
-            finite = _core.sosfilt_into(self.sos, x, y, state)
+            finite = _core.sosfilt_into(self.sos, x, y, state, threads=self.threads)
             if check_finite and not finite:
                 raise ValueError(finite_error("chunk"))
             self._state = state

@@ -445,3 +445,143 @@ def analyze_tiled(
         "fz_max": st["fz_max"],
         "orientation": np.array(s),
     }
+
+
+# -- Per-window statistics, any window starts (docs/method.md 3-5) ----------------------
+
+__all__ += ["window_stats"]
+
+
+def _pearson_from(sab: float, saa: float, sbb: float) -> float:
+    den = np.sqrt(saa * sbb)
+    return float(np.clip(sab / den, -1.0, 1.0)) if den > 0 else float("nan")
+
+
+def window_stats(
+    fx: Optional[np.ndarray],
+    fy: np.ndarray,
+    fz: np.ndarray,
+    aux: Optional[np.ndarray],
+    starts: Any,
+    length: int,
+    deadband: Any,
+    n_bins: int,
+    raw: Optional[tuple] = None,
+) -> dict:
+    """``tribodyn.window_stats.compute`` one window at a time (docs/method.md 3-5).
+
+    Window k is samples ``[starts[k], starts[k] + length)``; windows may be in
+    any order, overlap or tile. Orientation +1. Same keys as the kernel's dict:
+    the regression of fy on fz (Eqs. 6-8) from two-pass centred sums, NaN when
+    degenerate (fewer than 3 samples or S_zz = 0); Pearson C_xy, C_xz, C_yz
+    (NaN for a constant channel; C_xy, C_xz NaN without fx); the deadband d
+    (a force, or k * std(fz) with n - 1); the fz bins
+    floor((fz - min) * (n_bins / (max - min))), the maximum in the last bin,
+    every sample in bin 0 when max = min; bin counts and per-bin mean of
+    fy/fz over the samples with |fz| >= d and fz != 0; mu_a (those with
+    fz < 0), mu_b (fz > 0); the mean of ``aux``; and with ``raw`` = (fy_raw,
+    fz_raw) the classical COF mean(|fy_raw| / |fz_raw|) over fz_raw != 0.
+    """
+    from .deadband import parse_deadband
+
+    db = parse_deadband(deadband)
+    nb = int(n_bins)
+    n = int(length)
+    cols: dict = {}
+
+    def put(key: str, value: Any) -> None:
+        cols.setdefault(key, []).append(value)
+
+    nan = float("nan")
+    for s in np.asarray(starts, dtype=np.int64):
+        w = slice(int(s), int(s) + n)
+        y, z = np.asarray(fy[w], dtype=float), np.asarray(fz[w], dtype=float)
+        # Eqs. 6-8 from centred sums.
+        mz, my = mean(z), mean(y)
+        dz, dy = z - mz, y - my
+        szz, syy, syz = float(dz @ dz), float(dy @ dy), float(dy @ dz)
+        if szz > 0:
+            e = dy - (syz / szz) * dz
+            sse = max(float(e @ e - e.sum() ** 2 / n), 0.0)
+        else:
+            sse = syy
+        if n >= 3 and szz > 0:
+            slope = syz / szz
+            resid_var = sse / (n - 2)
+            slope_se = np.sqrt(resid_var / szz)
+            fit = {
+                "slope": slope,
+                "intercept": my - slope * mz,
+                "r": _pearson_from(syz, szz, syy),
+                "slope_stderr": slope_se,
+                "intercept_stderr": slope_se * np.sqrt(szz / n + mz * mz),
+                "resid_std": np.sqrt(resid_var),
+            }
+        else:
+            fit = dict.fromkeys(("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std"), nan)
+        for key, value in fit.items():
+            put(key, value)
+        for key, value in (("sse", sse), ("mean_z", mz), ("mean_y", my), ("szz", szz), ("syy", syy), ("syz", syz)):
+            put(key, value)
+        # Pearson at lag 0 (docs/method.md 5).
+        put("c_yz", _pearson_from(syz, szz, syy))
+        if fx is not None and n >= 2:
+            x = np.asarray(fx[w], dtype=float)
+            dx = x - mean(x)
+            sxx = float(dx @ dx)
+            put("c_xy", _pearson_from(float(dx @ dy), sxx, syy))
+            put("c_xz", _pearson_from(float(dx @ dz), sxx, szz))
+        else:
+            put("c_xy", nan)
+            put("c_xz", nan)
+        # Deadband and bins (docs/method.md 4).
+        if db.kind == "force":
+            d = db.value
+        else:
+            d = db.value * np.sqrt(szz / (n - 1)) if n >= 2 else nan
+        keep = (np.abs(z) >= d) & (z != 0)  # a NaN d keeps nothing
+        lo, hi = float(z.min()), float(z.max())
+        span = hi - lo
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            t = (z - lo) * (nb / span) if span > 0 else np.zeros(n)
+            ratio = y / z
+        # A tiny span can make nb / span infinite: (lo - lo) * inf is NaN, bin 0.
+        t = np.where(t >= 0, t, 0.0)
+        k = np.minimum(np.floor(t), nb - 1).astype(np.int64)
+        counts = np.zeros(nb, dtype=np.int64)
+        cof = np.full(nb, nan)
+        for j in range(nb):
+            in_bin = keep & (k == j)
+            counts[j] = in_bin.sum()
+            if counts[j]:
+                cof[j] = ratio[in_bin].mean()
+        neg, pos = keep & (z < 0), keep & (z > 0)
+        put("deadband", d)
+        put("mu_a", ratio[neg].mean() if neg.any() else nan)
+        put("mu_b", ratio[pos].mean() if pos.any() else nan)
+        put("n_a", int(neg.sum()))
+        put("n_b", int(pos.sum()))
+        put("fz_min", lo)
+        put("fz_max", hi)
+        put("bin_count", counts)
+        put("bin_cof", cof)
+        put("aux_mean", mean(np.asarray(aux[w], dtype=float)) if aux is not None and n > 0 else nan)
+        if raw is not None:
+            ay, az = np.abs(np.asarray(raw[0][w], dtype=float)), np.abs(np.asarray(raw[1][w], dtype=float))
+            nz = az > 0
+            put("mu_classic", float((ay[nz] / az[nz]).mean()) if nz.any() else nan)
+        else:
+            put("mu_classic", nan)
+        put("n", n)
+    m = len(np.asarray(starts))
+    out = {}
+    for key, values in cols.items():
+        if key == "bin_count":
+            out[key] = np.array(values, dtype=np.int64).reshape(m, nb)
+        elif key == "bin_cof":
+            out[key] = np.array(values, dtype=float).reshape(m, nb)
+        elif key in ("n", "n_a", "n_b"):
+            out[key] = np.array(values, dtype=np.int64)
+        else:
+            out[key] = np.array(values, dtype=float)
+    return out

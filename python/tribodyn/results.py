@@ -7,6 +7,7 @@ from typing import Any, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
+from .columns import WINDOW_COLUMNS
 from .correlation import XcorrResult
 
 __all__ = ["BinTable", "CofResult", "Results", "WINDOW_COLUMNS"]
@@ -107,35 +108,6 @@ class CofResult:
     spectra: Optional[Dict[str, Dict[str, float]]] = None
 
 
-#: Columns of the per-window table, in order, with their meaning.
-WINDOW_COLUMNS: Dict[str, str] = {
-    "time": "window centre, s from the start of the recording",
-    "t_start": "window start, s",
-    "mu_r": "COF by regression, s * slope of fy on fz (Eqs. 6-8)",
-    "mu_r_stderr": "standard error of mu_r",
-    "f_y0": "regression intercept, N",
-    "r": "Pearson r of fy and fz",
-    "mu_a": "mean s*fy/fz over fz <= -d (Sec. 3.3)",
-    "mu_b": "mean s*fy/fz over fz >= +d",
-    "force_dependence": "(mu_b - mu_a) / mu_r",
-    "c_xy": "Pearson C_xy(0)",
-    "c_xz": "Pearson C_xz(0)",
-    "c_yz": "Pearson C_yz(0)",
-    "skew": "lag (samples) of max |C_yz(j)| (NaN unless max_lag given)",
-    "ok": "quality gate passed",
-    "reasons": "why the gate failed ('' when ok)",
-    "T": "temperature at the window centre, degC (NaN outside the log)",
-    "branch": "+1 heating, -1 cooling, 0 unknown (sign of dT/dt)",
-    "i": "mean current, A",
-    "J": "mean current density, A/mm^2",
-    "mu_classic": "classical COF mean(|fy|/|fz|) of the raw forces (only with highpass)",
-    "mu_instrument": "mean of the instrument's own COF column ('cof' channel), if any",
-    "deadband": "deadband applied, N",
-    "n": "samples in the window",
-    "acquisition": "index of the acquisition (file) the window comes from",
-}
-
-
 @dataclass(frozen=True)
 class Results:
     """Per-window results of ``tribodyn.analyze`` (docs/method.md section 6).
@@ -143,7 +115,8 @@ class Results:
     Attributes
     ----------
     table : dict of str -> ndarray
-        One entry per column of :data:`WINDOW_COLUMNS`, one row per window.
+        One entry per column of :data:`tribodyn.columns.TABLE` (the same
+        names as :data:`WINDOW_COLUMNS`), one row per window.
     bin_counts, bin_cof : ndarray (n_windows, n_bins)
         Per-window COF against fz; bin edges span [fz_min, fz_max] per row.
     fz_min, fz_max : ndarray (n_windows,)

@@ -11,11 +11,13 @@ orientation can be fixed once per recording after all windows are seen.
 
 from __future__ import annotations
 
-from typing import Dict, Optional, Tuple
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _core
+from .columns import kernel_columns
+from .columns import KERNEL_COLUMNS
 from .deadband import Deadband
 
 __all__ = ["compute", "orient", "gate_reasons", "COF_KEYS"]
@@ -33,33 +35,32 @@ def compute(
     length: int,
     deadband: Deadband,
     n_bins: int,
+    columns: Optional[Sequence[str]] = None,
     *,
     raw: Optional[Tuple[np.ndarray, np.ndarray]] = None,
-    parallel: bool = True,
+    threads: Optional[int] = None,
+    offset: int = 0,
 ) -> Dict[str, np.ndarray]:
     """Kernel statistics of windows ``[s, s + length)`` for ``s`` in ``starts`` (orientation +1).
 
-    ``raw`` (fy, fz before the high-pass) adds ``mu_classic``, the classical
-    COF mean(|fy|/|fz|) per window (NaN without it). A NaN or inf sample in a
-    window raises ``ValueError``. ``parallel=False`` runs the windows on the
-    calling thread (the results are the same).
+    ``columns`` names the statistics wanted, in order (default
+    :data:`tribodyn.columns.KERNEL_COLUMNS`, plus ``mu_classic`` with
+    ``raw``); the kernel returns exactly those. ``raw`` (fy, fz before the
+    high-pass) defines ``mu_classic``, the classical COF mean(|fy|/|fz|)
+    per window. A NaN or inf sample in a window raises
+    ``tribodyn._core.NonFiniteError`` (a ``ValueError``) naming the window's
+    start counted from ``offset``. ``threads`` (default: the process
+    default) never changes the results; 1 keeps the work on the calling
+    thread.
     """
     fy_raw, fz_raw = raw if raw is not None else (None, None)
+    if columns is None:
+        columns = kernel_columns(raw is not None)
     return _core.windows_stats(
-        fx,
-        fy,
-        fz,
-        aux,
-        np.ascontiguousarray(starts, dtype=np.int64),
-        int(length),
-        1.0,
-        deadband.kind,
-        float(deadband.value),
-        int(n_bins),
-        fy_raw,
-        fz_raw,
-        parallel,
-    )
+        fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), int(length), 1.0, deadband.kind,
+        float(deadband.value), int(n_bins), list(columns), fy_raw=fy_raw, fz_raw=fz_raw, threads=threads,
+        offset=int(offset),
+    )  # fmt: skip
 
 
 def orient(stats: Dict[str, np.ndarray], s: int, *, inplace: bool = False) -> Dict[str, np.ndarray]:

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 import operator
 import os
+import threading
 from collections import deque
 from dataclasses import dataclass
 from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
@@ -242,6 +243,24 @@ class Recording:
     #: where the library must hold a whole member).
     streaming: bool = True
 
+    # -- Capabilities, declared by each reader class. The pipeline chooses
+    # its route from these before it reads (tribodyn.analyze.choose_route),
+    # never from a format's name.
+    #: Reads any range of samples directly (``chunks(start=, stop=)`` does
+    #: not read what comes before), not only in order.
+    random_access: bool = False
+    #: May be read from several threads at once. The reads of a reader that
+    #: is not (npTDMS and h5py keep one file position per handle) go
+    #: through the recording's own lock, and the pipeline reads it from one
+    #: thread only.
+    thread_safe: bool = False
+    #: Channels may lie in the file as contiguous float64 runs that a kernel
+    #: reads itself (:meth:`file_layout` then says where, per file).
+    mappable: bool = False
+    #: ``chunks(copy=False)`` may hand out read-only views of the file's
+    #: pages instead of copies.
+    views: bool = False
+
     def __init__(self, path: Union[str, "os.PathLike[str]"]) -> None:
         self.path: str = os.fspath(path)
         self._closed = False
@@ -257,6 +276,7 @@ class Recording:
         self.warnings: List[str] = []
         self._block_rows = DEFAULT_BLOCK_ROWS
         self._aliases: Dict[str, str] = {}
+        self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ setup
     def _setup(
@@ -486,14 +506,22 @@ class Recording:
         """Raw (unscaled) samples ``start:stop`` of the named channels (random-access formats)."""
         raise NotImplementedError  # pragma: no cover - every backend overrides one reader
 
+    def _read(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        """:meth:`_read_range`, under the recording's lock unless the reader is :attr:`thread_safe`."""
+        if self.thread_safe:
+            return self._read_range(names, start, stop)
+        with self._lock:
+            self._check_open()
+            return self._read_range(names, start, stop)
+
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
         """Raw (unscaled) consecutive blocks of about ``block`` rows covering the recording.
 
-        The default reads ranges with :meth:`_read_range`; sequential formats
+        The default reads ranges with :meth:`_read`; sequential formats
         override this instead.
         """
         for start in range(0, self._n, block):
-            yield self._read_range(names, start, min(start + block, self._n))
+            yield self._read(names, start, min(start + block, self._n))
 
     def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, int]]]:
         """(file descriptor, byte offset of sample 0 of each role's channel), or None.
@@ -509,7 +537,7 @@ class Recording:
         return None
 
     def _can_view(self) -> bool:
-        """True when :meth:`_view_range` hands out views (backends that can override both)."""
+        """True when this file's :meth:`_view_range` hands out views (readers declaring :attr:`views`)."""
         return False
 
     def _view_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
@@ -604,7 +632,7 @@ class Recording:
         keys = self._keys(roles)
         names = list(dict.fromkeys(n for _, n in keys))
         copy = bool(copy)
-        if not copy and self._can_view():
+        if not copy and self.views and self._can_view():
             # Views: one mapping per chunk, so a chunk never straddles two.
             return self._chunk_gen(
                 size, keys, names, self._view_blocks(names, size, start, stop), stop - start, copy=False
@@ -623,9 +651,9 @@ class Recording:
 
     def _range_blocks(self, names: Sequence[str], block: int, start: int, stop: int) -> Iterator[Dict[str, np.ndarray]]:
         """Raw blocks covering samples ``start:stop`` only."""
-        if type(self)._read_range is not Recording._read_range:
+        if self.random_access:
             for a in range(start, stop, block):
-                yield self._read_range(names, a, min(a + block, stop))
+                yield self._read(names, a, min(a + block, stop))
             return
         pos = 0
         for blk in self._iter_blocks(names, block):

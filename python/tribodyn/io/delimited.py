@@ -208,6 +208,9 @@ def _key_values(lines: Sequence[str], delim: Optional[str]) -> Dict[str, str]:
 class DelimitedRecording(Recording):
     """A delimited text file (generic, CETR or COMPEND); see the module docstring."""
 
+    # Each read opens its own file handle.
+    thread_safe = True
+
     format = "delimited"
 
     def __init__(

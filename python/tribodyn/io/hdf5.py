@@ -77,6 +77,11 @@ def _rate_of(obj: Any) -> Optional[Tuple[float, str]]:
 class Hdf5Recording(Recording):
     """An HDF5 file; see the module docstring."""
 
+    # h5py serialises calls with a global lock, but one handle's reads are
+    # not proven safe to interleave: read from one thread at a time.
+    random_access = True
+    thread_safe = False
+
     format = "hdf5"
 
     def __init__(

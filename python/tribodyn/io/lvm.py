@@ -59,6 +59,9 @@ class _Segment:
 class LvmRecording(Recording):
     """A LabVIEW Measurement file; see the module docstring."""
 
+    # Each read opens its own file handle.
+    thread_safe = True
+
     format = "lvm"
 
     def __init__(

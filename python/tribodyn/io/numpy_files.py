@@ -63,6 +63,13 @@ def _read_npy_header(fh: IO[bytes], where: str) -> Tuple[Tuple[int, ...], bool, 
 class NpyRecording(Recording):
     """A memory-mapped ``.npy`` file; see the module docstring."""
 
+    # Reads with pread or from a read-only map (no shared file position);
+    # float64 channels-first files are laid out for the kernel.
+    random_access = True
+    thread_safe = True
+    mappable = True
+    views = True
+
     format = "npy"
 
     def __init__(
@@ -260,6 +267,9 @@ class NpyRecording(Recording):
 
 class NpzRecording(Recording):
     """A ``.npz`` archive; members are streamed (see the module docstring)."""
+
+    # Each read opens its own member streams; zipfile locks its shared file.
+    thread_safe = True
 
     format = "npz"
 

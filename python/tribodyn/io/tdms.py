@@ -90,6 +90,10 @@ def check_tdms_segments(path: str) -> int:
 class TdmsRecording(Recording):
     """A TDMS file; see the module docstring."""
 
+    # npTDMS seeks and reads one shared file object: never from two threads.
+    random_access = True
+    thread_safe = False
+
     format = "tdms"
 
     def __init__(

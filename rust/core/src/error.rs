@@ -12,8 +12,32 @@ pub enum KernelError {
     TooShort { name: &'static str, len: usize, min: usize },
     /// A lag outside 0..=n-1 was asked for.
     LagOutOfRange { max_lag: usize, n: usize },
+    /// A sample that must be finite is NaN or inf. `channel` is the
+    /// kernel's name of the channel (`fx`, `fy`, `fz`, `aux`, `fy_raw`,
+    /// `fz_raw`); `sample` the start of the window that holds it
+    /// (`window`), or the sample itself (not `window`: a filter needs every
+    /// sample), counted from the start of the data the caller names (see
+    /// [`KernelError::shifted`]); None until a caller knows it.
+    NonFinite { channel: &'static str, sample: Option<usize>, window: bool },
     /// Any other malformed argument (shape, value), described in words.
     Invalid(String),
+}
+
+impl KernelError {
+    /// The error with its sample position moved by `offset` (a window or
+    /// block that starts at `offset` of the caller's data); a position not
+    /// known yet becomes `offset` with `window` (the window itself).
+    pub fn shifted(self, offset: usize) -> KernelError {
+        match self {
+            KernelError::NonFinite { channel, sample: None, .. } => {
+                KernelError::NonFinite { channel, sample: Some(offset), window: true }
+            }
+            KernelError::NonFinite { channel, sample: Some(s), window } => {
+                KernelError::NonFinite { channel, sample: Some(s + offset), window }
+            }
+            other => other,
+        }
+    }
 }
 
 impl fmt::Display for KernelError {
@@ -27,6 +51,14 @@ impl fmt::Display for KernelError {
             }
             KernelError::LagOutOfRange { max_lag, n } => {
                 write!(f, "max_lag must be in [0, n-1] = [0, {}], got {max_lag}", n.saturating_sub(1))
+            }
+            KernelError::NonFinite { channel, sample, window } => {
+                write!(f, "{channel} contains NaN or inf")?;
+                match (sample, window) {
+                    (Some(s), true) => write!(f, " in the window starting at sample {s}"),
+                    (Some(s), false) => write!(f, " at sample {s}"),
+                    (None, _) => Ok(()),
+                }
             }
             KernelError::Invalid(msg) => f.write_str(msg),
         }

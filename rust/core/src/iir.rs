@@ -230,10 +230,10 @@ fn check_shapes(sos: &[Section], len: usize, channels: usize, state: &[[f64; 2]]
 /// calling thread: entering the pool costs more than a short chunk.
 const SERIAL_SAMPLES: usize = 1 << 16;
 
-/// Whether filtering `channels` rows of `n` samples uses the thread pool;
-/// when not, callers need not enter it.
-pub fn uses_threads(n: usize, channels: usize) -> bool {
-    channels > 1 && n.saturating_mul(channels) >= SERIAL_SAMPLES && crate::parallel::threads() > 1
+/// Whether filtering `channels` rows of `n` samples on `threads` threads
+/// uses a pool; when not, callers need not enter one.
+pub fn uses_threads(n: usize, channels: usize, threads: usize) -> bool {
+    channels > 1 && n.saturating_mul(channels) >= SERIAL_SAMPLES && threads > 1
 }
 
 /// Channels are split into lockstep groups spread over the thread pool.
@@ -249,8 +249,9 @@ fn filter_channels(
         return true;
     }
     let ns = sos.len();
-    let par = uses_threads(n, channels);
-    let threads = if par { crate::parallel::threads().max(1) } else { 1 };
+    // The pool the caller entered (1 outside every pool).
+    let par = uses_threads(n, channels, crate::parallel::current());
+    let threads = if par { crate::parallel::current() } else { 1 };
     let group = channels.div_ceil(threads).clamp(1, MAX_LOCKSTEP);
     let mut rows: Vec<&mut [f64]> = data.chunks_mut(n).collect();
     let mut states: Vec<&mut [[f64; 2]]> = state.chunks_mut(ns).collect();

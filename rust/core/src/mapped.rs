@@ -8,8 +8,8 @@
 //! are mapped with `MAP_POPULATE` (the pages entered in one call, not
 //! faulted one by one), its windows computed in order on one thread with
 //! the next window prefetched, and the maps dropped. Blocks run in parallel
-//! (the calling thread and scoped helpers, [`crate::parallel::threads`] in
-//! all) and are placed in order, so the results are those of
+//! (the calling thread and scoped helpers, as many in all as the caller
+//! names) and are placed in order, so the results are those of
 //! [`crate::windows::windows_stats`] on the same samples, bit for bit.
 //!
 //! Raw (DC-coupled) forces are high-passed on the way
@@ -148,20 +148,24 @@ fn block(
     let (fy, fz) = (sl(1).unwrap_or(&[]), sl(2).unwrap_or(&[]));
     let ch = Channels { fx: sl(0), fy, fz, aux: sl(3), raw: None };
     let starts: Vec<usize> = (kb..ke).map(|k| k * grid.step - a).collect();
-    windows_stats_serial(&ch, &starts, opt).map_err(|err| invalid(format!("{err} (block of samples {a}..{e})")))
+    windows_stats_serial(&ch, &starts, opt).map_err(|err| match err {
+        KernelError::NonFinite { .. } => err.shifted(a),
+        other => invalid(format!("{other} (block of samples {a}..{e})")),
+    })
 }
 
 /// Statistics of windows `grid.k0 .. grid.k1` of the channels in `file`,
-/// in order, computed in parallel on the current pool, a block of
-/// `grid.block` windows per task.
+/// in order, computed on `threads` threads, a block of `grid.block`
+/// windows per task.
 pub fn windows_stats_mapped(
     file: &File,
     layout: &FileLayout,
     grid: &Grid,
     opt: &WindowOptions,
+    threads: usize,
 ) -> Result<Vec<WindowStats>, KernelError> {
     let parts = std::sync::Mutex::new(Vec::new());
-    windows_stats_mapped_each(file, layout, grid, opt, &|first, stats| {
+    windows_stats_mapped_each(file, layout, grid, opt, threads, &|first, stats| {
         parts.lock().unwrap_or_else(|e| e.into_inner()).push((first, stats));
     })?;
     let mut parts = parts.into_inner().unwrap_or_else(|e| e.into_inner());
@@ -179,17 +183,19 @@ pub fn windows_stats_mapped_each<F>(
     layout: &FileLayout,
     grid: &Grid,
     opt: &WindowOptions,
+    threads: usize,
     sink: &F,
 ) -> Result<(), KernelError>
 where
     F: Fn(usize, Vec<WindowStats>) + Sync,
 {
     check(file, layout, grid, opt)?;
+    crate::parallel::check_threads(threads)?;
     if grid.k1 <= grid.k0 {
         return Ok(());
     }
     let blocks = (grid.k1 - grid.k0).div_ceil(grid.block);
-    for_each_block(blocks, crate::parallel::threads(), |b| {
+    for_each_block(blocks, threads, |b| {
         sink(b * grid.block, block(file, layout, grid, opt, b)?);
         Ok(())
     })
@@ -290,10 +296,25 @@ fn filter_block(
     let mut outs: Vec<&mut [f64]> = forces.iter_mut().map(|v| v.as_mut_slice()).collect();
     let mut states: Vec<&mut [[f64; 2]]> = state.iter_mut().map(|v| v.as_mut_slice()).collect();
     if !iir::filter_rows(hp.sos, &src, &mut outs, &mut states) {
-        return Err(invalid(format!("a force channel contains NaN or inf in samples {from}..{to}")));
+        return Err(first_non_finite(layout, &src, from));
     }
     drop(src);
     Ok(Filtered { from, maps, forces })
+}
+
+/// The first NaN or inf of the raw forces `src` (fx if present, fy, fz)
+/// that start at sample `from`, by sample and then channel.
+fn first_non_finite(layout: &FileLayout, src: &[&[f64]], from: usize) -> KernelError {
+    let names: &[&'static str] = if layout.fx.is_some() { &["fx", "fy", "fz"] } else { &["fy", "fz"] };
+    let n = src.first().map_or(0, |c| c.len());
+    for i in 0..n {
+        for (name, c) in names.iter().zip(src) {
+            if !c[i].is_finite() {
+                return KernelError::NonFinite { channel: name, sample: Some(from + i), window: false };
+            }
+        }
+    }
+    invalid(format!("the high-pass filter diverged in samples from {from}"))
 }
 
 /// The windows of one filtered block.
@@ -315,8 +336,10 @@ fn filtered_windows(
     };
     let starts: Vec<usize> = ks.clone().map(|k| k * step - f.from).collect();
     // In parallel: the thread that filters the next block joins in when it is done.
-    crate::windows::windows_stats(&ch, &starts, opt)
-        .map_err(|err| invalid(format!("{err} (block from sample {})", f.from)))
+    crate::windows::windows_stats(&ch, &starts, opt).map_err(|err| match err {
+        KernelError::NonFinite { .. } => err.shifted(f.from),
+        other => invalid(format!("{other} (block from sample {})", f.from)),
+    })
 }
 
 /// Statistics of windows `grid.k0 .. grid.k1` of raw forces high-passed
@@ -437,15 +460,15 @@ mod tests {
         let starts: Vec<usize> = (3..k1).map(|k| k * step).collect();
         let want = windows_stats(&ch, &starts, &opt).unwrap();
         for block in [1, 7, 1000] {
-            let got = windows_stats_mapped(&file, &layout, &Grid { k0: 3, k1, step, block }, &opt).unwrap();
+            let got = windows_stats_mapped(&file, &layout, &Grid { k0: 3, k1, step, block }, &opt, 2).unwrap();
             assert_eq!(format!("{got:?}"), format!("{want:?}"), "block {block}");
         }
         // Bad layouts are errors, not panics.
         let past = FileLayout { n: n + 1, ..layout };
-        assert!(windows_stats_mapped(&file, &past, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt).is_err());
+        assert!(windows_stats_mapped(&file, &past, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt, 2).is_err());
         let odd = FileLayout { fy: 129, ..layout };
-        assert!(windows_stats_mapped(&file, &odd, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt).is_err());
-        assert!(windows_stats_mapped(&file, &layout, &Grid { k0: 0, k1: k1 + 1, step, block: 4 }, &opt).is_err());
+        assert!(windows_stats_mapped(&file, &odd, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt, 2).is_err());
+        assert!(windows_stats_mapped(&file, &layout, &Grid { k0: 0, k1: k1 + 1, step, block: 4 }, &opt, 2).is_err());
         std::fs::remove_file(path).unwrap();
     }
 

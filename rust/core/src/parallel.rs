@@ -1,45 +1,132 @@
-//! The thread pool that kernels run their parallel parts on.
+//! Thread counts and the pools that kernels run their parallel parts on.
+//!
+//! A thread count belongs to a call: every entry point takes the count it
+//! may use ([`run_with`] installs a pool of exactly that many threads for
+//! the duration of the call), so concurrent callers with different counts
+//! never see each other's setting. [`set_default_threads`] only sets what
+//! a call that names no count gets.
 //!
 //! Results never depend on the thread count: work is split at fixed
 //! boundaries and combined in a fixed order; threads only change who
 //! computes each piece.
 
+use crate::error::KernelError;
+use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-static THREADS: AtomicUsize = AtomicUsize::new(0);
-static POOL: Mutex<Option<(usize, Arc<rayon::ThreadPool>)>> = Mutex::new(None);
+/// The default of calls that name no count (0 = every core).
+static DEFAULT: AtomicUsize = AtomicUsize::new(0);
+/// One pool per thread count asked for, kept for later calls (at most
+/// [`max_threads`] of them; a pool's threads sleep while it is unused).
+static POOLS: Mutex<Option<HashMap<usize, Arc<rayon::ThreadPool>>>> = Mutex::new(None);
 
-/// Sets the number of threads kernels may use (0 = all cores).
-pub fn set_threads(n: usize) {
-    THREADS.store(n, Ordering::Relaxed);
+/// The cores this process may run on.
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
 }
 
-/// The number of threads kernels will use.
-pub fn threads() -> usize {
-    match THREADS.load(Ordering::Relaxed) {
-        0 => std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+/// The largest thread count a call may ask for: 4 x [`cores`].
+pub fn max_threads() -> usize {
+    4 * cores()
+}
+
+/// Checks a thread count asked for (1 ..= [`max_threads`]).
+pub fn check_threads(n: usize) -> Result<usize, KernelError> {
+    let max = max_threads();
+    if n == 0 || n > max {
+        return Err(KernelError::Invalid(format!(
+            "threads must be in [1, {max}] (4 x the {} cores), got {n}",
+            cores()
+        )));
+    }
+    Ok(n)
+}
+
+/// Sets the count of calls that name none (0 = every core).
+pub fn set_default_threads(n: usize) -> Result<(), KernelError> {
+    if n != 0 {
+        check_threads(n)?;
+    }
+    DEFAULT.store(n, Ordering::Relaxed);
+    Ok(())
+}
+
+/// The count of calls that name none.
+pub fn default_threads() -> usize {
+    match DEFAULT.load(Ordering::Relaxed) {
+        0 => cores(),
         n => n,
     }
 }
 
-fn pool(n: usize) -> Option<Arc<rayon::ThreadPool>> {
-    let mut guard = POOL.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some((m, p)) = guard.as_ref() {
-        if *m == n {
-            return Some(p.clone());
-        }
+/// The count a call uses: the one it names (checked), else the default.
+pub fn resolve(n: Option<usize>) -> Result<usize, KernelError> {
+    match n {
+        Some(n) => check_threads(n),
+        None => Ok(default_threads()),
     }
-    let p = Arc::new(rayon::ThreadPoolBuilder::new().num_threads(n).build().ok()?);
-    *guard = Some((n, p.clone()));
-    Some(p)
 }
 
-/// Runs `f` on a pool of [`threads()`] threads. With one thread `f` still
-/// runs inside a one-thread pool, so `par_iter` inside it is serial.
-pub fn run<R: Send>(f: impl FnOnce() -> R + Send) -> R {
-    match pool(threads()) {
-        Some(p) => p.install(f),
-        None => f(),
+fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>, KernelError> {
+    let mut guard = POOLS.lock().unwrap_or_else(|e| e.into_inner());
+    let pools = guard.get_or_insert_with(HashMap::new);
+    if let Some(p) = pools.get(&n) {
+        return Ok(p.clone());
+    }
+    let p = rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .thread_name(|i| format!("tribodyn-{i}"))
+        .build()
+        .map_err(|e| KernelError::Invalid(format!("cannot start {n} kernel threads: {e}")))?;
+    let p = Arc::new(p);
+    pools.insert(n, p.clone());
+    Ok(p)
+}
+
+/// Runs `f` on a pool of exactly `threads` threads (checked); `par_iter`
+/// and `rayon::join` inside `f` use that pool and [`current`] reports its
+/// size. With one thread `f` still runs inside a one-thread pool, so
+/// parallel iterators in it are serial.
+pub fn run_with<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> Result<R, KernelError> {
+    Ok(pool(check_threads(threads)?)?.install(f))
+}
+
+/// The threads of the pool the caller runs on (inside [`run_with`]); 1 on
+/// a thread outside every pool, where parallel iterators would otherwise
+/// fall back to rayon's global pool.
+pub fn current() -> usize {
+    if rayon::current_thread_index().is_some() {
+        rayon::current_num_threads()
+    } else {
+        1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_are_checked_not_panicking() {
+        assert!(check_threads(0).is_err());
+        assert!(check_threads(max_threads() + 1).is_err());
+        assert!(run_with(30_000, || 1).is_err());
+        assert_eq!(run_with(2, current).unwrap(), 2);
+        assert_eq!(run_with(1, current).unwrap(), 1);
+        assert_eq!(current(), 1);
+    }
+
+    #[test]
+    fn concurrent_calls_keep_their_counts() {
+        let handles: Vec<_> = (0..8)
+            .map(|i| {
+                std::thread::spawn(move || {
+                    let n = 1 + i % max_threads().min(3);
+                    (0..50).all(|_| run_with(n, current).unwrap() == n)
+                })
+            })
+            .collect();
+        assert!(handles.into_iter().all(|h| h.join().unwrap()));
     }
 }

@@ -256,11 +256,11 @@ fn pass1(fx: Option<&[f64]>, fy: &[f64], fz: &[f64], aux: Option<&[f64]>) -> (f6
 /// Fails when `x` holds NaN or inf, given its sum: a finite sum proves
 /// every sample finite; a non-finite one is checked by a scan (overflow of
 /// finite samples is not an error).
-fn check_finite(name: &str, x: &[f64], sum: f64) -> Result<(), KernelError> {
+fn check_finite(name: &'static str, x: &[f64], sum: f64) -> Result<(), KernelError> {
     if sum.is_finite() || x.iter().all(|v| v.is_finite()) {
         return Ok(());
     }
-    Err(KernelError::Invalid(format!("{name} contains NaN or inf")))
+    Err(KernelError::NonFinite { channel: name, sample: None, window: true })
 }
 
 /// Centred sums of one pass about provisional means: for (fz, fy) and,
@@ -721,8 +721,10 @@ fn check_starts(ch: &Channels<'_>, starts: &[usize], opt: &WindowOptions) -> Res
 fn one(ch: &Channels<'_>, starts: &[usize], k: usize, opt: &WindowOptions) -> Result<WindowStats, KernelError> {
     let s = starts[k];
     let next = starts.get(k + 1).map(|&t| ch.slice(t..t + opt.len));
-    window_stats_then(&ch.slice(s..s + opt.len), next.as_ref(), opt)
-        .map_err(|e| KernelError::Invalid(format!("{e} (window starting at sample {s})")))
+    window_stats_then(&ch.slice(s..s + opt.len), next.as_ref(), opt).map_err(|e| match e {
+        KernelError::NonFinite { .. } => e.shifted(s),
+        other => KernelError::Invalid(format!("{other} (window starting at sample {s})")),
+    })
 }
 
 /// Statistics of every window `[starts[k], starts[k] + opt.len)` of the

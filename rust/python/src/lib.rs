@@ -23,9 +23,37 @@ use tribodyn_core::sums;
 use tribodyn_core::windows::{self, Deadband, WindowOptions};
 use tribodyn_core::KernelError;
 
-/// The one place kernel errors become Python exceptions.
+pyo3::create_exception!(
+    _core,
+    NonFiniteError,
+    PyValueError,
+    "A sample that must be finite is NaN or inf: args (message, channel, sample, window)."
+);
+
+/// The one place kernel errors become Python exceptions: `NonFiniteError`
+/// (a `ValueError` carrying the channel and sample, for the Python layer
+/// to name the window in the recording's terms) or `ValueError`.
 fn to_py(e: KernelError) -> PyErr {
-    PyValueError::new_err(e.to_string())
+    match e {
+        KernelError::NonFinite { channel, sample, window } => {
+            NonFiniteError::new_err((e.to_string(), channel, sample, window))
+        }
+        other => PyValueError::new_err(other.to_string()),
+    }
+}
+
+/// The thread count of one call: `threads` if given (1 ..= 4 x cores),
+/// else the default ([`parallel::set_default_threads`]).
+fn threads_of(threads: Option<i64>) -> PyResult<usize> {
+    match threads {
+        None => Ok(parallel::default_threads()),
+        Some(t) => {
+            let n = usize::try_from(t).map_err(|_| {
+                PyValueError::new_err(format!("threads must be in [1, {}], got {t}", parallel::max_threads()))
+            })?;
+            parallel::check_threads(n).map_err(to_py)
+        }
+    }
 }
 
 /// `as_slice` also accepts Fortran order, which a kernel reading rows of a
@@ -53,18 +81,20 @@ fn method_of(name: &str) -> PyResult<Method> {
 
 /// Eq. (1) for lags -max_lag..=max_lag.
 #[pyfunction]
-#[pyo3(signature = (x, y, max_lag, method))]
+#[pyo3(signature = (x, y, max_lag, method, *, threads=None))]
 fn xcorr<'py>(
     py: Python<'py>,
     x: PyReadonlyArray1<'py, f64>,
     y: PyReadonlyArray1<'py, f64>,
     max_lag: usize,
     method: &str,
+    threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let method = method_of(method)?;
+    let threads = threads_of(threads)?;
     let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
     let c = if correlation::uses_threads(xs.len(), max_lag) {
-        py.detach(|| parallel::run(|| correlation::xcorr(xs, ys, max_lag, method)))
+        py.detach(|| parallel::run_with(threads, || correlation::xcorr(xs, ys, max_lag, method))).map_err(to_py)?
     } else {
         // One window: entering the pool would cost more than the work.
         correlation::xcorr(xs, ys, max_lag, method)
@@ -100,12 +130,15 @@ fn sections(sos: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<iir::Section>> {
 /// Filters `data` (channels, n) in place with `sos`, carrying `state`
 /// (channels, n_sections, 2) in place.
 #[pyfunction]
+#[pyo3(signature = (sos, data, state, *, threads=None))]
 fn sosfilt_inplace(
     py: Python<'_>,
     sos: PyReadonlyArray2<'_, f64>,
     mut data: PyReadwriteArray2<'_, f64>,
     mut state: PyReadwriteArray3<'_, f64>,
+    threads: Option<i64>,
 ) -> PyResult<()> {
+    let threads = threads_of(threads)?;
     let secs = sections(&sos)?;
     let channels = data.as_array().nrows();
     let st_shape = state.as_array().shape().to_vec();
@@ -122,8 +155,9 @@ fn sosfilt_inplace(
     // (channels * n_sections * 2) floats viewed as pairs.
     let mut pairs: Vec<[f64; 2]> = s.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
     let n = d.len() / channels.max(1);
-    if iir::uses_threads(n, channels) {
-        py.detach(|| parallel::run(|| iir::sosfilt_inplace(&secs, d, channels, &mut pairs)))
+    if iir::uses_threads(n, channels, threads) {
+        py.detach(|| parallel::run_with(threads, || iir::sosfilt_inplace(&secs, d, channels, &mut pairs)))
+            .map_err(to_py)?
     } else {
         iir::sosfilt_inplace(&secs, d, channels, &mut pairs)
     }
@@ -139,13 +173,16 @@ fn sosfilt_inplace(
 /// of `x` was finite (a NaN or inf leaves the state non-finite; only then
 /// is `x` scanned), so the caller's input check costs no extra pass.
 #[pyfunction]
+#[pyo3(signature = (sos, x, out, state, *, threads=None))]
 fn sosfilt_into(
     py: Python<'_>,
     sos: PyReadonlyArray2<'_, f64>,
     x: PyReadonlyArray2<'_, f64>,
     mut out: PyReadwriteArray2<'_, f64>,
     mut state: PyReadwriteArray3<'_, f64>,
+    threads: Option<i64>,
 ) -> PyResult<bool> {
+    let threads = threads_of(threads)?;
     let secs = sections(&sos)?;
     let channels = x.as_array().nrows();
     if out.as_array().shape() != x.as_array().shape() {
@@ -170,8 +207,9 @@ fn sosfilt_into(
     let s = state.as_slice_mut().map_err(slice_err("state"))?;
     let mut pairs: Vec<[f64; 2]> = s.chunks_exact(2).map(|p| [p[0], p[1]]).collect();
     let n = src.len() / channels.max(1);
-    let finite = if iir::uses_threads(n, channels) {
-        py.detach(|| parallel::run(|| iir::sosfilt_into(&secs, src, d, channels, &mut pairs)))
+    let finite = if iir::uses_threads(n, channels, threads) {
+        py.detach(|| parallel::run_with(threads, || iir::sosfilt_into(&secs, src, d, channels, &mut pairs)))
+            .map_err(to_py)?
     } else {
         iir::sosfilt_into(&secs, src, d, channels, &mut pairs)
     }
@@ -185,12 +223,14 @@ fn sosfilt_into(
 /// Whether every value of a C-contiguous float64 array is finite (no NaN or
 /// inf), without the temporary mask of `np.isfinite(a).all()`.
 #[pyfunction]
-fn all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f64>) -> PyResult<bool> {
+#[pyo3(signature = (a, *, threads=None))]
+fn all_finite(py: Python<'_>, a: PyReadonlyArrayDyn<'_, f64>, threads: Option<i64>) -> PyResult<bool> {
+    let threads = threads_of(threads)?;
     let s = a.as_slice().map_err(slice_err("a"))?;
     if s.len() < (1 << 20) {
         return Ok(sums::all_finite(s));
     }
-    Ok(py.detach(|| parallel::run(|| sums::par_all_finite(s))))
+    py.detach(|| parallel::run_with(threads, || sums::par_all_finite(s))).map_err(to_py)
 }
 
 fn fit_tuple(f: LinFit) -> (f64, f64, f64, f64, f64, f64, u64, bool) {
@@ -212,10 +252,18 @@ impl PyMoments {
     }
 
     /// Adds the samples of one chunk.
-    fn update(&mut self, py: Python<'_>, x: PyReadonlyArray1<'_, f64>, y: PyReadonlyArray1<'_, f64>) -> PyResult<()> {
+    #[pyo3(signature = (x, y, *, threads=None))]
+    fn update(
+        &mut self,
+        py: Python<'_>,
+        x: PyReadonlyArray1<'_, f64>,
+        y: PyReadonlyArray1<'_, f64>,
+        threads: Option<i64>,
+    ) -> PyResult<()> {
+        let threads = threads_of(threads)?;
         let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
         let m = if regression::uses_threads(xs.len()) {
-            py.detach(|| parallel::run(|| Moments::of(xs, ys)))
+            py.detach(|| parallel::run_with(threads, || Moments::of(xs, ys))).map_err(to_py)?
         } else {
             Moments::of(xs, ys)
         }
@@ -264,10 +312,17 @@ type FitTuple = (f64, f64, f64, f64, f64, f64, u64, bool);
 
 /// One-shot least squares of y on x.
 #[pyfunction]
-fn linfit(py: Python<'_>, x: PyReadonlyArray1<'_, f64>, y: PyReadonlyArray1<'_, f64>) -> PyResult<FitTuple> {
+#[pyo3(signature = (x, y, *, threads=None))]
+fn linfit(
+    py: Python<'_>,
+    x: PyReadonlyArray1<'_, f64>,
+    y: PyReadonlyArray1<'_, f64>,
+    threads: Option<i64>,
+) -> PyResult<FitTuple> {
+    let threads = threads_of(threads)?;
     let (xs, ys) = (x.as_slice().map_err(slice_err("x"))?, y.as_slice().map_err(slice_err("y"))?);
     let f = if regression::uses_threads(xs.len()) {
-        py.detach(|| parallel::run(|| regression::linfit(xs, ys)))
+        py.detach(|| parallel::run_with(threads, || regression::linfit(xs, ys))).map_err(to_py)?
     } else {
         // One window: entering the pool would cost more than the work.
         regression::linfit(xs, ys)
@@ -280,13 +335,15 @@ fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResu
     a.as_ref().map(|v| v.as_slice().map_err(slice_err(name))).transpose()
 }
 
-/// Per-window statistics (docs/method.md 4-6) for windows starting at `starts`.
-/// Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
-/// forces before the high-pass) add `mu_classic`; a non-finite sample in a
-/// window raises ValueError. `parallel=False` keeps the work on the calling
-/// thread (for callers that already run one stream per core).
+/// Per-window statistics (docs/method.md 3-6) for windows starting at
+/// `starts`: a dict of the `columns` asked for, in that order, one row per
+/// window (see [`column`] for the names). `fy_raw`, `fz_raw` (the forces
+/// before the high-pass) define `mu_classic`. A non-finite sample in a
+/// window raises `NonFiniteError`, its sample counted from `offset` (the
+/// caller's index of sample 0 of the arrays). `threads=1` keeps the work on
+/// the calling thread.
 #[pyfunction]
-#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, fy_raw=None, fz_raw=None, parallel=true))]
+#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, columns, *, fy_raw=None, fz_raw=None, threads=None, offset=0))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats<'py>(
     py: Python<'py>,
@@ -300,11 +357,15 @@ fn windows_stats<'py>(
     deadband_kind: &str,
     deadband: f64,
     n_bins: usize,
+    columns: Vec<String>,
     fy_raw: Option<PyReadonlyArray1<'py, f64>>,
     fz_raw: Option<PyReadonlyArray1<'py, f64>>,
-    parallel: bool,
+    threads: Option<i64>,
+    offset: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let threads = threads_of(threads)?;
     let deadband = parse_deadband(deadband_kind, deadband)?;
+    let cols = columns_of(&columns)?;
     let starts: Vec<usize> = starts
         .as_slice()
         .map_err(slice_err("starts"))?
@@ -321,127 +382,151 @@ fn windows_stats<'py>(
     let ch = windows::Channels { fx: fxs, fy: fys, fz: fzs, aux: auxs, raw };
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
     // A few windows cost less than entering the pool.
-    let stats = if starts.len() < 8 || !parallel {
+    let stats = if starts.len() < 8 || threads == 1 {
         py.detach(|| windows::windows_stats_serial(&ch, &starts, &opt))
     } else {
-        py.detach(|| parallel::run(|| windows::windows_stats(&ch, &starts, &opt)))
+        py.detach(|| parallel::run_with(threads, || windows::windows_stats(&ch, &starts, &opt))).map_err(to_py)?
     }
-    .map_err(to_py)?;
-    let mut cols = Columns::new(stats.len(), n_bins);
-    cols.set(0, &stats);
+    .map_err(|e| to_py(e.shifted(offset)))?;
+    let mut out = Columns::new(cols, stats.len(), n_bins);
+    out.set(0, &stats);
     drop(stats);
-    cols.into_dict(py)
+    out.into_dict(py, &columns)
 }
 
-/// Names of the float columns of the per-window dict, in [`Columns::set`]'s order.
-const F_COLS: [&str; 22] = [
-    "slope",
-    "intercept",
-    "r",
-    "slope_stderr",
-    "intercept_stderr",
-    "resid_std",
-    "sse",
-    "mean_z",
-    "mean_y",
-    "szz",
-    "syy",
-    "syz",
-    "c_xy",
-    "c_xz",
-    "c_yz",
-    "deadband",
-    "mu_a",
-    "mu_b",
-    "fz_min",
-    "fz_max",
-    "aux_mean",
-    "mu_classic",
-];
-/// Names of the count columns (int64: a window holds far fewer than 2^63 samples).
-const I_COLS: [&str; 3] = ["n", "n_a", "n_b"];
+/// One per-window column the kernel can deliver.
+#[derive(Clone, Copy)]
+enum Column {
+    /// A float per window, from the window's statistics and its fit.
+    F(fn(&windows::WindowStats, &LinFit) -> f64),
+    /// A count per window.
+    I(fn(&windows::WindowStats) -> u64),
+    /// Samples per fz bin (windows x n_bins, int64).
+    BinCount,
+    /// COF per fz bin (windows x n_bins).
+    BinCof,
+}
 
-/// The per-window statistics as columns (one row per window), each
-/// allocated once at its final size: rows are written as the kernel
-/// delivers its windows, so their per-window vectors are freed (and their
-/// memory reused) block after block. Fresh memory is costly on its first
-/// touch, so the peak of it matters.
+/// The kernel's vocabulary: the column called `name` (orientation +1;
+/// docs/method.md 3-5). Which of them a table holds, in which order, with
+/// which unit and meaning, is declared once in Python (`tribodyn.columns`).
+fn column(name: &str) -> Option<Column> {
+    use Column::{BinCof, BinCount, F, I};
+    Some(match name {
+        "slope" => F(|_, f| f.slope),
+        "intercept" => F(|_, f| f.intercept),
+        "r" => F(|_, f| f.r),
+        "slope_stderr" => F(|_, f| f.slope_stderr),
+        "intercept_stderr" => F(|_, f| f.intercept_stderr),
+        "resid_std" => F(|_, f| f.resid_std),
+        "sse" => F(|w, _| w.moments.sse),
+        "mean_z" => F(|w, _| w.moments.mean_x),
+        "mean_y" => F(|w, _| w.moments.mean_y),
+        "szz" => F(|w, _| w.moments.sxx),
+        "syy" => F(|w, _| w.moments.syy),
+        "syz" => F(|w, _| w.moments.sxy),
+        "c_xy" => F(|w, _| w.c_xy),
+        "c_xz" => F(|w, _| w.c_xz),
+        "c_yz" => F(|w, _| w.c_yz),
+        "deadband" => F(|w, _| w.deadband),
+        "mu_a" => F(|w, _| w.mu_a),
+        "mu_b" => F(|w, _| w.mu_b),
+        "fz_min" => F(|w, _| w.fz_min),
+        "fz_max" => F(|w, _| w.fz_max),
+        "aux_mean" => F(|w, _| w.aux_mean),
+        "mu_classic" => F(|w, _| w.mu_classic),
+        "n" => I(|w| w.moments.n),
+        "n_a" => I(|w| w.n_a),
+        "n_b" => I(|w| w.n_b),
+        "bin_count" => BinCount,
+        "bin_cof" => BinCof,
+        _ => return None,
+    })
+}
+
+const COLUMN_NAMES: &str = "slope, intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z, mean_y, \
+szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min, fz_max, aux_mean, mu_classic, n, n_a, n_b, \
+bin_count, bin_cof";
+
+fn columns_of(names: &[String]) -> PyResult<Vec<Column>> {
+    names
+        .iter()
+        .map(|n| {
+            column(n).ok_or_else(|| {
+                PyValueError::new_err(format!("unknown kernel column {n:?}; the kernel has {COLUMN_NAMES}"))
+            })
+        })
+        .collect()
+}
+
+/// One column's values, allocated once at its final size.
+enum Buf {
+    F(Vec<f64>),
+    I(Vec<i64>),
+}
+
+/// The per-window statistics as the columns asked for (one row per
+/// window), each allocated once at its final size: rows are written as the
+/// kernel delivers its windows, so their per-window vectors are freed (and
+/// their memory reused) block after block. Fresh memory is costly on its
+/// first touch, so the peak of it matters.
 struct Columns {
     rows: usize,
     n_bins: usize,
-    f: Vec<Vec<f64>>,
-    i: Vec<Vec<i64>>,
-    counts: Vec<i64>,
-    cof: Vec<f64>,
+    cols: Vec<(Column, Buf)>,
 }
 
 impl Columns {
-    fn new(rows: usize, n_bins: usize) -> Self {
-        Columns {
-            rows,
-            n_bins,
-            f: (0..F_COLS.len()).map(|_| vec![0.0; rows]).collect(),
-            i: (0..I_COLS.len()).map(|_| vec![0; rows]).collect(),
-            counts: vec![0; rows * n_bins],
-            cof: vec![0.0; rows * n_bins],
-        }
+    fn new(cols: Vec<Column>, rows: usize, n_bins: usize) -> Self {
+        let cols = cols
+            .into_iter()
+            .map(|c| {
+                let buf = match c {
+                    Column::F(_) => Buf::F(vec![0.0; rows]),
+                    Column::I(_) => Buf::I(vec![0; rows]),
+                    Column::BinCount => Buf::I(vec![0; rows * n_bins]),
+                    Column::BinCof => Buf::F(vec![0.0; rows * n_bins]),
+                };
+                (c, buf)
+            })
+            .collect();
+        Columns { rows, n_bins, cols }
     }
 
     /// Rows `first..` from consecutive windows.
     fn set(&mut self, first: usize, stats: &[windows::WindowStats]) {
+        let nb = self.n_bins;
         for (k, w) in stats.iter().enumerate() {
             let row = first + k;
             let fit: LinFit = w.moments.fit();
-            let m = &w.moments;
-            let vals = [
-                fit.slope,
-                fit.intercept,
-                fit.r,
-                fit.slope_stderr,
-                fit.intercept_stderr,
-                fit.resid_std,
-                m.sse,
-                m.mean_x,
-                m.mean_y,
-                m.sxx,
-                m.syy,
-                m.sxy,
-                w.c_xy,
-                w.c_xz,
-                w.c_yz,
-                w.deadband,
-                w.mu_a,
-                w.mu_b,
-                w.fz_min,
-                w.fz_max,
-                w.aux_mean,
-                w.mu_classic,
-            ];
-            for (col, v) in self.f.iter_mut().zip(vals) {
-                col[row] = v;
+            for (c, buf) in self.cols.iter_mut() {
+                match (c, buf) {
+                    (Column::F(get), Buf::F(v)) => v[row] = get(w, &fit),
+                    (Column::I(get), Buf::I(v)) => v[row] = get(w) as i64,
+                    (Column::BinCount, Buf::I(v)) => {
+                        for (dst, &c) in v[row * nb..(row + 1) * nb].iter_mut().zip(&w.bin_count) {
+                            *dst = c as i64;
+                        }
+                    }
+                    (Column::BinCof, Buf::F(v)) => v[row * nb..(row + 1) * nb].copy_from_slice(&w.bin_cof),
+                    _ => unreachable!("each column's buffer is made for its kind in Columns::new"),
+                }
             }
-            for (col, v) in self.i.iter_mut().zip([m.n, w.n_a, w.n_b]) {
-                col[row] = v as i64;
-            }
-            let b = row * self.n_bins;
-            for (dst, &c) in self.counts[b..b + self.n_bins].iter_mut().zip(&w.bin_count) {
-                *dst = c as i64;
-            }
-            self.cof[b..b + self.n_bins].copy_from_slice(&w.bin_cof);
         }
     }
 
-    fn into_dict(self, py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    fn into_dict<'py>(self, py: Python<'py>, names: &[String]) -> PyResult<Bound<'py, PyDict>> {
         let out = PyDict::new(py);
-        for (name, v) in F_COLS.iter().zip(self.f) {
-            out.set_item(*name, PyArray1::from_vec(py, v))?;
-        }
-        for (name, v) in I_COLS.iter().zip(self.i) {
-            out.set_item(*name, PyArray1::from_vec(py, v))?;
-        }
         let shape = [self.rows, self.n_bins];
-        out.set_item("bin_count", PyArray1::from_vec(py, self.counts).reshape(shape)?)?;
-        out.set_item("bin_cof", PyArray1::from_vec(py, self.cof).reshape(shape)?)?;
+        for (name, (c, buf)) in names.iter().zip(self.cols) {
+            let bins = matches!(c, Column::BinCount | Column::BinCof);
+            match buf {
+                Buf::F(v) if bins => out.set_item(name, PyArray1::from_vec(py, v).reshape(shape)?)?,
+                Buf::I(v) if bins => out.set_item(name, PyArray1::from_vec(py, v).reshape(shape)?)?,
+                Buf::F(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
+                Buf::I(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
+            }
+        }
         Ok(out)
     }
 }
@@ -490,7 +575,7 @@ fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
 /// and the classical COF of the raw forces is added (`mu_classic`); the
 /// windows must not overlap (step >= length).
 #[pyfunction]
-#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, block=512, sos=None, zi=None, origin=0))]
+#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, columns, *, block=512, sos=None, zi=None, origin=0, threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats_file<'py>(
     py: Python<'py>,
@@ -505,12 +590,16 @@ fn windows_stats_file<'py>(
     deadband_kind: &str,
     deadband: f64,
     n_bins: usize,
+    columns: Vec<String>,
     block: usize,
     sos: Option<PyReadonlyArray2<'py, f64>>,
     zi: Option<PyReadonlyArray2<'py, f64>>,
     origin: usize,
+    threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let threads = threads_of(threads)?;
     let deadband = parse_deadband(deadband_kind, deadband)?;
+    let cols_asked = columns_of(&columns)?;
     let highpass = match (&sos, &zi) {
         (Some(s), Some(z)) => {
             let secs = sections(s)?;
@@ -534,33 +623,45 @@ fn windows_stats_file<'py>(
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
     // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
     mapped::check(&file, &layout, &grid, &opt).map_err(to_py)?;
-    let cols = std::sync::Mutex::new(Columns::new(k1.saturating_sub(k0), n_bins));
+    let cols = std::sync::Mutex::new(Columns::new(cols_asked, k1.saturating_sub(k0), n_bins));
     // Each block's rows go into the columns as soon as it is done.
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
         cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);
     };
     py.detach(|| match &highpass {
         // Its own threads (the caller and scoped helpers), no pool to wake.
-        None => mapped::windows_stats_mapped_each(&file, &layout, &grid, &opt, &sink),
+        None => mapped::windows_stats_mapped_each(&file, &layout, &grid, &opt, threads, &sink),
         Some((sos, zi)) => {
             let hp = mapped::HighPass { sos, zi, origin };
-            parallel::run(|| mapped::windows_stats_mapped_highpass_each(&file, &layout, &grid, &opt, &hp, &sink))
+            parallel::run_with(threads, || {
+                mapped::windows_stats_mapped_highpass_each(&file, &layout, &grid, &opt, &hp, &sink)
+            })
+            .and_then(|r| r)
         }
     })
     .map_err(to_py)?;
-    cols.into_inner().unwrap_or_else(|e| e.into_inner()).into_dict(py)
+    cols.into_inner().unwrap_or_else(|e| e.into_inner()).into_dict(py, &columns)
 }
 
-/// Sets the number of threads kernels use (0 = all cores).
+/// Sets the thread count of calls that name none (0 = all cores; at most
+/// `max_threads()`).
 #[pyfunction]
-fn set_threads(n: usize) {
-    parallel::set_threads(n);
+fn set_threads(n: i64) -> PyResult<()> {
+    let n = usize::try_from(n)
+        .map_err(|_| PyValueError::new_err(format!("threads must be in [0, {}], got {n}", parallel::max_threads())))?;
+    parallel::set_default_threads(n).map_err(to_py)
 }
 
-/// The number of threads kernels use.
+/// The thread count of calls that name none.
 #[pyfunction]
 fn get_threads() -> usize {
-    parallel::threads()
+    parallel::default_threads()
+}
+
+/// The largest thread count a call may ask for (4 x the cores).
+#[pyfunction]
+fn max_threads() -> usize {
+    parallel::max_threads()
 }
 
 #[pymodule]
@@ -576,6 +677,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(max_threads, m)?)?;
+    m.add("NonFiniteError", m.py().get_type::<NonFiniteError>())?;
     m.add_class::<PyMoments>()?;
     Ok(())
 }
