@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
+from tribodyn.reference import TILED_COLUMNS
 
 FS = 1000.0
 ROLES = ("fx", "fy", "fz", "i")
@@ -159,25 +160,9 @@ def run_reference(path: Path, *, raw: bool) -> Dict[str, np.ndarray]:
     return reference.analyze_tiled(channels, fs=FS, window=2.0, n_bins=16, area_mm2=AREA, highpass=0.1 if raw else None)
 
 
-#: Columns compared between the pipeline and the reference.
-COMPARED = (
-    "time",
-    "mu_r",
-    "f_y0",
-    "r",
-    "mu_r_stderr",
-    "mu_a",
-    "mu_b",
-    "force_dependence",
-    "c_xy",
-    "c_xz",
-    "c_yz",
-    "i",
-    "J",
-    "n",
-    "deadband",
-    "mu_classic",
-)
+#: Columns compared between the pipeline and the reference: the table's
+#: columns (``tribodyn.columns.TABLE``) the reference computes.
+COMPARED = TILED_COLUMNS
 
 
 def table_of(res: Any) -> Dict[str, np.ndarray]:

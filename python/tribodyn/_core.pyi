@@ -4,7 +4,9 @@
 The binding only converts types: array arguments must already be
 C-contiguous float64 (the Python wrappers ensure it; anything else raises
 ``ValueError``, a wrong dtype ``TypeError``), kernel errors become
-``ValueError``, and the GIL is released around the kernels. Check for drift
+``ValueError`` (a NaN or inf in a window: its subclass ``NonFiniteError``),
+and the GIL is released around the kernels. ``threads=`` applies to one
+call (1 .. ``max_threads()``); None means ``get_threads()``. Check for drift
 with ``python -m mypy.stubtest tribodyn._core``.
 """
 
@@ -16,8 +18,10 @@ from typing_extensions import TypeAlias
 
 __all__ = [
     "Moments",
+    "NonFiniteError",
     "all_finite",
     "get_threads",
+    "max_threads",
     "linfit",
     "pearson",
     "set_threads",
@@ -36,7 +40,10 @@ _FitTuple: TypeAlias = tuple[float, float, float, float, float, float, int, bool
 # (n, mean_x, mean_y, sxx, syy, sxy, sse)
 _StateTuple: TypeAlias = tuple[int, float, float, float, float, float, float, float, float]
 
-def xcorr(x: _F64, y: _F64, max_lag: int, method: str) -> _F64:
+class NonFiniteError(ValueError):
+    """A sample that must be finite is NaN or inf: args (message, channel, sample, window)."""
+
+def xcorr(x: _F64, y: _F64, max_lag: int, method: str, *, threads: int | None = None) -> _F64:
     """Eq. (1) for lags -max_lag..=max_lag.
 
     ``method`` is "direct", "fft" or "auto". Returns C(j) in lag order.
@@ -48,21 +55,21 @@ def xcorr_auto_method(n: int, max_lag: int) -> str:
 def pearson(x: _F64, y: _F64) -> float:
     """Pearson's r, C(0) of Eq. (1)."""
 
-def sosfilt_inplace(sos: _F64, data: _F64, state: _F64) -> None:
+def sosfilt_inplace(sos: _F64, data: _F64, state: _F64, *, threads: int | None = None) -> None:
     """Filters `data` (channels, n) in place with `sos`, carrying `state`
     (channels, n_sections, 2) in place."""
 
-def sosfilt_into(sos: _F64, x: _F64, out: _F64, state: _F64) -> bool:
+def sosfilt_into(sos: _F64, x: _F64, out: _F64, state: _F64, *, threads: int | None = None) -> bool:
     """Filters `x` (channels, n) into `out` (same shape) with `sos`, carrying
     `state` (channels, n_sections, 2) in place. Returns whether every sample
     of `x` was finite (a NaN or inf leaves the state non-finite; only then
     is `x` scanned), so the caller's input check costs no extra pass."""
 
-def all_finite(a: _F64) -> bool:
+def all_finite(a: _F64, *, threads: int | None = None) -> bool:
     """Whether every value of a C-contiguous float64 array is finite (no NaN or
     inf), without the temporary mask of `np.isfinite(a).all()`."""
 
-def linfit(x: _F64, y: _F64) -> _FitTuple:
+def linfit(x: _F64, y: _F64, *, threads: int | None = None) -> _FitTuple:
     """One-shot least squares of y on x.
 
     Returns (slope, intercept, r, slope_stderr, intercept_stderr, resid_std,
@@ -80,37 +87,45 @@ def windows_stats(
     deadband_kind: str,
     deadband: float,
     n_bins: int,
+    columns: list[str],
+    *,
     fy_raw: _F64 | None = None,
     fz_raw: _F64 | None = None,
-    parallel: bool = True,
+    threads: int | None = None,
+    offset: int = 0,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
-    """Per-window statistics (docs/method.md 4-6) for windows starting at `starts`.
-    Returns a dict of arrays, one row per window. `fy_raw`, `fz_raw` (the
-    forces before the high-pass) add `mu_classic`; a non-finite sample in a
-    window raises ValueError. `parallel=False` keeps the work on the calling
-    thread (for callers that already run one stream per core).
+    """Per-window statistics (docs/method.md 3-6) for windows starting at
+    `starts`: a dict of the `columns` asked for, in that order, one row per
+    window. `fy_raw`, `fz_raw` (the forces before the high-pass) define
+    `mu_classic`. A non-finite sample in a window raises `NonFiniteError`,
+    its sample counted from `offset` (the caller's index of sample 0 of the
+    arrays). `threads=1` keeps the work on the calling thread.
 
     ``deadband_kind`` is "force" (``deadband`` in N) or "sigma" (a multiple
-    of the window's standard deviation of fz). Keys: slope, intercept, r,
-    slope_stderr, intercept_stderr, resid_std, sse, n, mean_z, mean_y, szz,
-    syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, n_a, n_b, fz_min,
-    fz_max, aux_mean, mu_classic (each of shape (windows,)), bin_count and
-    bin_cof (shape (windows, n_bins)). n, n_a, n_b and bin_count are int64,
-    the others float64.
+    of the window's standard deviation of fz). Column names: slope,
+    intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z,
+    mean_y, szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min,
+    fz_max, aux_mean, mu_classic (float64, shape (windows,)), n, n_a, n_b
+    (int64), bin_count (int64) and bin_cof (float64) of shape
+    (windows, n_bins); ``tribodyn.columns`` declares which a table uses.
     """
 
 def set_threads(n: int) -> None:
-    """Sets the number of threads kernels use (0 = all cores)."""
+    """Sets the thread count of calls that name none (0 = all cores; at most
+    `max_threads()`)."""
 
 def get_threads() -> int:
-    """The number of threads kernels use."""
+    """The thread count of calls that name none."""
+
+def max_threads() -> int:
+    """The largest thread count a call may ask for (4 x the cores)."""
 
 @final  # a pyo3 class: not subclassable at runtime
 class Moments:
     """Mergeable centred moments of (x, y) (docs/method.md 3)."""
 
     def __new__(cls) -> Moments: ...
-    def update(self, x: _F64, y: _F64) -> None:
+    def update(self, x: _F64, y: _F64, *, threads: int | None = None) -> None:
         """Adds the samples of one chunk."""
 
     def merge(self, other: Moments) -> Moments:
@@ -148,19 +163,22 @@ def windows_stats_file(
     deadband_kind: str,
     deadband: float,
     n_bins: int,
+    columns: list[str],
+    *,
     block: int = 512,
     sos: _F64 | None = None,
     zi: _F64 | None = None,
     origin: int = 0,
+    threads: int | None = None,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics of windows k0..k1 (window k = samples
     [k * step, k * step + length)) of channels stored in the open file `fd`
     (a file descriptor, duplicated for the call and left open) as
     contiguous little-endian f64 runs starting at the byte offsets
     `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The file's
-    pages are read through memory maps, `block` windows per task, in
-    parallel; same dict and same results as `windows_stats` on those
-    samples. The file must not shrink meanwhile.
+    pages are read through memory maps, `block` windows per task, on
+    `threads` threads; the `columns` asked for, with the same results as
+    `windows_stats` on those samples. The file must not shrink meanwhile.
 
     With `sos` (and `zi`, its steady state for a unit input, one row per
     section) the force channels are raw: they are high-passed from sample

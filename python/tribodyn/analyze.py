@@ -349,15 +349,28 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "") -> R
 # -- the kernel on windows of arrays -------------------------------------------------
 
 
-def _kernel(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray, plan: Plan, aux_role: Optional[str],
-            threads: int) -> Stats:
+def _kernel(
+    ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray, plan: Plan, aux_role: Optional[str], threads: int
+) -> Stats:
     """The statistics of the windows starting at ``rel`` of the arrays ``ch`` (``absolute`` in the recording)."""
     aux = ch.get(aux_role) if aux_role else None
     raw = (ch["fy_raw"], ch["fz_raw"]) if plan.raw else None
     offset = int(absolute[0] - rel[0]) if len(rel) else 0
     try:
-        st = compute(ch.get("fx"), ch["fy"], ch["fz"], aux, rel, plan.length, plan.deadband, plan.n_bins,
-                     plan.kernel_columns, raw=raw, threads=threads, offset=offset)
+        st = compute(
+            ch.get("fx"),
+            ch["fy"],
+            ch["fz"],
+            aux,
+            rel,
+            plan.length,
+            plan.deadband,
+            plan.n_bins,
+            plan.kernel_columns,
+            raw=raw,
+            threads=threads,
+            offset=offset,
+        )
     except _core.NonFiniteError as exc:
         raise _non_finite(exc, plan, aux_role) from None
     st["start"] = absolute.astype(np.int64)
@@ -488,7 +501,7 @@ def _run_mapped(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
     block = max(1, -(-count // blocks))
     sos = zi = None
     if plan.raw:
-        hp = HighPass(plan.fs, cutoff=plan.highpass)
+        hp = HighPass(plan.fs, cutoff=_cutoff(plan))
         sos, zi, block = hp.sos, hp.steady_state, cap
     offsets = (layout.get("fx"), layout["fy"], layout["fz"], layout[aux] if aux else None)
     try:
@@ -649,7 +662,7 @@ class _Stage:
             self.force_roles = [r for r in FORCE_ROLES if r in ch]
             self.windower = Windower(plan.length, plan.step, self._windows, origin=self.origin)
             if plan.raw:
-                self.hp = HighPass(plan.fs, cutoff=plan.highpass, channels=len(self.force_roles), threads=self.threads)
+                self.hp = HighPass(plan.fs, cutoff=_cutoff(plan), channels=len(self.force_roles), threads=self.threads)
         elif set(self.force_roles) - set(ch):
             missing = sorted(set(self.force_roles) - set(ch))
             raise ValueError(f"a chunk from sample {self.seen} on lacks channel(s) present in the first: {missing}")
@@ -680,6 +693,11 @@ class _Stage:
         return self.parts, self.aux_role
 
 
+def _cutoff(plan: Plan) -> float:
+    assert plan.highpass is not None, "only raw input is high-passed"
+    return plan.highpass
+
+
 def _progress(on: bool, total: Optional[int]) -> Any:
     if not on:
         return None
@@ -705,7 +723,7 @@ def _acquisitions(source: Sequence[Any], plan: Plan) -> Tuple[Stats, Optional[st
         aux_role = _aux_role(ch, plan.covariates.shunt_ohm) if k == 0 else aux_role
         if plan.raw:
             roles = [r for r in FORCE_ROLES if r in ch]
-            hp = HighPass(plan.fs, cutoff=plan.highpass, channels=len(roles), threads=plan.threads)
+            hp = HighPass(plan.fs, cutoff=_cutoff(plan), channels=len(roles), threads=plan.threads)
             filtered = hp.process(np.stack([ch[r] for r in roles]))
             ch["fy_raw"], ch["fz_raw"] = ch["fy"], ch["fz"]
             for j, r in enumerate(roles):

@@ -158,7 +158,7 @@ def _ranges(n: int, fs: float, options: Dict[str, Any], split_s: Optional[float]
     length, step = int(round(window * fs)), int(round(hop * fs))
     n_windows = 0 if n < length else (n - length) // step + 1
     per = max(1, int(split_s // hop))  # windows per range
-    out = []
+    out: List[Tuple[int, Optional[int]]] = []
     for k0 in range(0, n_windows, per):
         k1 = min(k0 + per, n_windows)
         out.append((k0 * step, (k1 - 1) * step + length))

@@ -17,6 +17,7 @@ import numpy as np
 from scipy import signal as _signal
 
 from ._validate import as_channels, check_fs
+from .columns import TABLE
 from .correlation import XcorrResult, _max_lag, _prepare
 from .filters import Init, _check_sos, butter_highpass
 from .regression import LinFit, _pair, _result
@@ -249,7 +250,19 @@ class LinFitAccumulator:
 
 # -- The long-recording pipeline, tiled windows (docs/method.md 3-6) -------------------
 
-__all__ += ["analyze_tiled"]
+__all__ += ["analyze_tiled", "TILED_COLUMNS"]
+
+#: The columns of the per-window table (``tribodyn.columns.TABLE``) that
+#: :func:`analyze_tiled` computes, in the table's order.
+TILED_COLUMNS = tuple(
+    c.name
+    for c in TABLE
+    if c.name
+    in {
+        "time", "mu_r", "f_y0", "r", "mu_r_stderr", "mu_a", "mu_b", "force_dependence", "c_xy", "c_xz", "c_yz",
+        "i", "J", "n", "deadband", "mu_classic",
+    }
+)  # fmt: skip
 
 
 def _row_mean(a: np.ndarray) -> np.ndarray:
@@ -422,7 +435,7 @@ def analyze_tiled(
     with np.errstate(invalid="ignore", divide="ignore"):
         force_dependence = (mu_b - mu_a) / mu_r
     i = st["aux_mean"]
-    return {
+    columns = {
         "time": time,
         "mu_r": mu_r,
         "f_y0": st["intercept"],
@@ -439,12 +452,11 @@ def analyze_tiled(
         "n": st["n"],
         "deadband": st["deadband"],
         "mu_classic": st["mu_classic"],
-        "bin_count": st["bin_count"],
-        "bin_cof": s * st["bin_cof"],
-        "fz_min": st["fz_min"],
-        "fz_max": st["fz_max"],
-        "orientation": np.array(s),
     }
+    out = {c: columns[c] for c in TILED_COLUMNS}  # the table's names and order
+    out.update(bin_count=st["bin_count"], bin_cof=s * st["bin_cof"], fz_min=st["fz_min"], fz_max=st["fz_max"])
+    out["orientation"] = np.array(s)
+    return out
 
 
 # -- Per-window statistics, any window starts (docs/method.md 3-5) ----------------------

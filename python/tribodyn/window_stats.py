@@ -17,7 +17,6 @@ import numpy as np
 
 from . import _core
 from .columns import kernel_columns
-from .columns import KERNEL_COLUMNS
 from .deadband import Deadband
 
 __all__ = ["compute", "orient", "gate_reasons", "COF_KEYS"]

@@ -373,11 +373,13 @@ class Recording:
         """
         name = self._resolve(time_channel, "time_channel")
         m = min(self._n, 100_001)
-        gen = self._iter_blocks([name], m)
+        blocks = self._iter_blocks([name], m)
         try:
-            t = np.asarray(next(gen)[name][:m], dtype=np.float64)
+            t = np.asarray(next(blocks)[name][:m], dtype=np.float64)
         finally:
-            gen.close()
+            close = getattr(blocks, "close", None)  # a generator: release its file now
+            if close is not None:
+                close()
         f = fs_from_times([t])
         if f is None:
             raise RecordingError(f"{self.path}: time channel {name!r} has no increasing steps")

@@ -126,7 +126,7 @@ class NpyRecording(Recording):
             except (ValueError, OSError) as exc:
                 raise RecordingError(f"{self.path}: cannot map .npy file: {exc}") from None
         if arr.ndim == 1:
-            arr = arr.reshape(1, -1)
+            arr = arr.reshape(1, -1)  # type: ignore[assignment]  # a memmap's reshape is a memmap
             self._rows_are_channels = True
         elif arr.ndim == 2:
             if layout is None:
@@ -239,7 +239,7 @@ class NpyRecording(Recording):
         out = np.empty(stop - start, dtype=a.dtype)
         offset = self._offset(row, start)
         assert self._fd is not None, "open recordings hold their descriptor"
-        view = memoryview(out).cast("B")
+        view = memoryview(out).cast("B")  # type: ignore[arg-type]  # numpy's stubs lack the buffer protocol
         done = 0
         while done < view.nbytes:
             got = os.preadv(self._fd, [view[done:]], offset + done) if hasattr(os, "preadv") else 0
