@@ -139,10 +139,10 @@ _CONFIG_KEYS = {
 
 
 def _load_config(path: str) -> Dict[str, Any]:
-    try:
-        import tomllib  # type: ignore[import-not-found]
-    except ImportError:  # pragma: no cover - Python < 3.11
-        import tomli as tomllib  # type: ignore[no-redef]
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python < 3.11
+        import tomli as tomllib
     p = Path(path)
     if not p.is_file():
         raise UserError(f"config file not found: {p}")
@@ -178,8 +178,9 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
         open_opts["channels"] = channels
     if scale:
         open_opts["scale"] = scale
-    if get("fs") is not None:
-        open_opts["fs"] = float(get("fs"))
+    fs = get("fs")
+    if fs is not None:
+        open_opts["fs"] = float(fs)
     opts: Dict[str, Any] = {}
     for key, name in (
         ("window", "window"),

@@ -64,7 +64,7 @@ _MU_STYLE = {
     "mu_a": dict(color="tab:blue", marker="v", label=r"$\mu_a$ ($F_{z,d} \leq -d$)"),
     "mu_b": dict(color="tab:orange", marker="^", label=r"$\mu_b$ ($F_{z,d} \geq +d$)"),
 }
-_FAILED = dict(color="0.6", marker="x", linestyle="none", markersize=4, alpha=0.8)
+_FAILED: Dict[str, Any] = dict(color="0.6", marker="x", linestyle="none", markersize=4, alpha=0.8)
 _OPTIMUM_COLOUR = "tab:green"
 _ONSET_COLOUR = "tab:red"
 _BRANCH_STYLE = {
@@ -305,6 +305,7 @@ def correlation_functions(source: Any, *, title: Optional[str] = None) -> Figure
             )
             ax.set_ylim(-1.05, 1.05)
             continue
+        assert res is not None, "c is None whenever res is None, handled above"
         lags = np.asarray(res.lags)
         if res.tau is not None:
             x = np.asarray(res.tau, dtype=float) * 1e3
@@ -781,7 +782,9 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
         _no_data(ax, f"no {spec['name']} data")
         return fig
     opr = _opr_of(results, opr, by)
-    lim = _cof_limits([mu[good]]) if good.any() else (0.0, 0.3)
+    lim = _cof_limits([mu[good]]) if good.any() else None
+    if lim is None:
+        lim = (0.0, 0.3)
     if opr is not None and opr.optimum is not None:
         lo, hi = opr.optimum
         ax.axvspan(
@@ -792,6 +795,7 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
             zorder=0,
             label=f"optimum {lo:.4g}–{hi:.4g} {spec['unit']} (min COF {_fmt(opr.mu_min, '.3f')})",
         )
+    groups: Tuple[Tuple[str, np.ndarray], ...]
     if branches:
         br = _column(results, "branch", n, fill=0.0)
         groups = (("heating", br > 0), ("cooling", br < 0), ("unknown", br == 0))

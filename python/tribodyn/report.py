@@ -348,11 +348,11 @@ def write_report(
     out.append('<h2 id="figures">Figures</h2>')
     if not images:
         out.append('<p class="note">No figures.</p>')
-    for k, (caption, b64) in enumerate(images, 1):
+    for fig_no, (caption, b64) in enumerate(images, 1):
         cap = html.escape(caption)
         out.append(
-            f'<figure id="fig{k}"><img src="data:image/png;base64,{b64}" alt="{cap}">'
-            f"<figcaption><b>Figure {k}.</b> {cap}</figcaption></figure>"
+            f'<figure id="fig{fig_no}"><img src="data:image/png;base64,{b64}" alt="{cap}">'
+            f"<figcaption><b>Figure {fig_no}.</b> {cap}</figcaption></figure>"
         )
 
     out.append('<h2 id="parameters">Parameters</h2>')

@@ -183,9 +183,9 @@ class LvmRecording(Recording):
                     if first_field == _END:
                         state = "after_header"
                         continue
-                    parts = [decode_header(p, self._encoding).strip() for p in s.split(sep)]
-                    if parts[0]:
-                        cur_header[parts[0]] = parts
+                    hfields = [decode_header(p, self._encoding).strip() for p in s.split(sep)]
+                    if hfields[0]:
+                        cur_header[hfields[0]] = hfields
                     continue
                 if state == "after_header":
                     if blank:
@@ -274,18 +274,18 @@ class LvmRecording(Recording):
         keep = []
         skipped = []
         for i in idx:
-            ann = [hnum(sg, "Samples", i) for sg in segments]
-            if all(a == 0 for a in ann):
+            ann_all = [hnum(sg, "Samples", i) for sg in segments]
+            if all(a == 0 for a in ann_all):
                 skipped.append(cols0[i])
             else:
                 keep.append(i)
         if not keep:
             raise RecordingError(f"{path}: every LVM channel is announced empty (Samples 0)")
         for k, sg in enumerate(segments, 1):
-            ann = {cols0[i]: hnum(sg, "Samples", i) for i in keep}
-            known = {v for v in ann.values() if v is not None}
+            ann_by_name = {cols0[i]: hnum(sg, "Samples", i) for i in keep}
+            known = {v for v in ann_by_name.values() if v is not None}
             if len(known) > 1:
-                detail = ", ".join(f"{n!r}={v:g}" for n, v in ann.items() if v is not None)
+                detail = ", ".join(f"{n!r}={v:g}" for n, v in ann_by_name.items() if v is not None)
                 raise RecordingError(f"{path}: unequal channel lengths in segment {k} ({detail})")
         names = _dedupe([cols0[i] for i in keep])
         self._usecols = keep
@@ -315,8 +315,8 @@ class LvmRecording(Recording):
         blocks: List[Tuple[int, int, int]] = []
         pos = 0
         for k, sg in enumerate(segments, 1):
-            ann = hnum(sg, "Samples", keep[0])
-            ann_i = int(ann) if ann is not None and ann >= 0 and ann == int(ann) else None
+            ann_n = hnum(sg, "Samples", keep[0])
+            ann_i = int(ann_n) if ann_n is not None and ann_n >= 0 and ann_n == int(ann_n) else None
             if ann_i is not None and ann_i != sg.n:
                 self.warnings.append(
                     f"segment {k} announces {ann_i} samples but holds {sg.n} data rows (the data rows are used)"

@@ -17,7 +17,7 @@ import json
 import math
 import os
 import tempfile
-from typing import Callable, Dict, List, Mapping, Optional, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
 
@@ -153,7 +153,8 @@ def save_npz(
     bad = [k for k in ch if k in _RESERVED_NPZ or "/" in k]
     if bad:
         raise ValueError(f"channel names {bad} are reserved or contain '/' (not allowed in .npz)")
-    members: Dict[str, np.ndarray] = dict(ch)
+    # Any: the members go to np.savez as keyword arguments (its stubs type them as ArrayLike or bool)
+    members: Dict[str, Any] = dict(ch)
     members["fs"] = np.array(float(fs))
     u = _units_for(units, list(ch))
     if u:
@@ -230,7 +231,7 @@ def save_tdms(
                 if start == 0:
                     objs = [RootObject(properties={"creator": "tribodyn"}), GroupObject(group)]
                 for name, a in ch.items():
-                    props = {}
+                    props: Dict[str, Union[str, float, int]] = {}
                     if start == 0:
                         props = {
                             "wf_increment": 1.0 / float(fs),
