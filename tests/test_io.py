@@ -758,3 +758,12 @@ def test_chunks_of_a_sample_range_equal_the_slice(name):
             np.testing.assert_array_equal(np.concatenate([p[key] for p in parts]), whole[a:b])
         with pytest.raises(tribodyn.RecordingError, match="start/stop"):
             rec.chunks(7, start=b, stop=a)
+
+
+@pytest.mark.parametrize("name", ["allow_pickle", "file"])
+def test_save_npz_refuses_names_of_savez_arguments(tmp_path, name):
+    from tribodyn.io.writers import save_npz
+
+    with pytest.raises(ValueError, match="reserved"):
+        save_npz(tmp_path / "x.npz", {name: np.arange(4.0), "fy": np.arange(4.0)}, 10.0)
+    assert not (tmp_path / "x.npz").exists()

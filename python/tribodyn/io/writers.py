@@ -33,7 +33,9 @@ __all__ = [
 
 PathLike = Union[str, "os.PathLike[str]"]
 
-_RESERVED_NPZ = ("fs", "units", "dt", "sampling_rate")
+# Metadata members, and np.savez's own argument names (a channel "allow_pickle"
+# would be taken as the flag and dropped; "file" would clash).
+_RESERVED_NPZ = ("fs", "units", "dt", "sampling_rate", "file", "allow_pickle")
 
 
 def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
