@@ -25,8 +25,11 @@ def _as_float_array(x: Any, name: str) -> np.ndarray:
     if a.dtype.kind not in "biuf":
         raise TypeError(f"{name} must hold real numbers, got dtype {a.dtype}")
     # Not np.ascontiguousarray: it turns a scalar into shape (1,), which would
-    # slip past the callers' ndim checks.
-    return np.asarray(a, dtype=np.float64, order="C")
+    # slip past the callers' ndim checks. A valid but unaligned float64 array
+    # (a view at an odd byte offset of a buffer) is copied: the kernels read
+    # aligned f64 only.
+    out = np.asarray(a, dtype=np.float64, order="C")
+    return out if out.flags.aligned else out.copy()
 
 
 def _check_finite(a: np.ndarray, name: str) -> None:

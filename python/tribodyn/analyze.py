@@ -224,6 +224,7 @@ def analyze(
                 f"got start={plan.start}, stop={plan.stop}"
             )
     route = choose_route(source, rec, plan)
+    _check_table_size(plan, _total(source, rec, plan))
     if route == "acquisitions":
         st, aux_role = _acquisitions(source, plan)
     elif route == "mapped":
@@ -261,6 +262,28 @@ def choose_route(source: Any, rec: Any, plan: Plan) -> str:
     ):
         return "spans"
     return "stream"
+
+
+#: Bytes per window of the table besides its bins (its columns and the
+#: kernel's, at most twice at once while batches are joined).
+_ROW_BYTES = 2 * 8 * 48
+
+
+def _check_table_size(plan: Plan, total: Optional[int]) -> None:
+    """Refuses, before reading, a table that would not fit in half of the machine's memory."""
+    if total is None or total < plan.length:
+        return
+    windows = (plan.start + total - plan.length) // plan.step - _grid(0, plan)[0] + 1
+    need = windows * (plan.n_bins * 16 + _ROW_BYTES)
+    try:
+        have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not a POSIX system
+        return
+    if need > have // 2:
+        raise ValueError(
+            f"the per-window table would need about {need / 2**30:.1f} GiB ({windows} windows x {plan.n_bins} bins), "
+            f"more than half of this machine's {have / 2**30:.1f} GiB: use fewer bins or a longer hop"
+        )
 
 
 # -- finishing: orientation, gate, covariates, table ---------------------------------

@@ -186,6 +186,11 @@ def _combine(parts: List[Results], orientation: Any) -> Results:
 
 
 def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], List[Any]]:
+    if client is not None and not (callable(getattr(client, "submit", None)) and hasattr(client, "gather")):
+        raise TypeError(
+            f"client must be a dask.distributed.Client (or None to run serially), got {type(client).__name__}; "
+            "tribodyn.distributed.local_client() starts a local cluster"
+        )
     if client is None:
 
         def serial(fn: Callable, args: List[tuple]) -> List[Any]:

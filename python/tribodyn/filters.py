@@ -25,6 +25,13 @@ __all__ = ["HighPass", "highpass", "butter_highpass"]
 Init = Literal["steady", "zero"]
 
 
+#: Highest Butterworth order :func:`butter_highpass` designs (the paper's
+#: amplifier is order 1; beyond a few dozen the design is numerically void).
+MAX_ORDER = 32
+#: Most channels one :class:`HighPass` filters together.
+MAX_CHANNELS = 4096
+
+
 def butter_highpass(fs: float, *, cutoff: float = 0.1, order: int = 1) -> np.ndarray:
     """Butterworth high-pass as SOS, exactly ``scipy.signal.butter(..., output="sos")``.
 
@@ -35,6 +42,8 @@ def butter_highpass(fs: float, *, cutoff: float = 0.1, order: int = 1) -> np.nda
     if not fc < fs_v / 2:
         raise ValueError(f"cutoff must be in (0, fs/2) = (0, {fs_v / 2:g}) Hz, got {cutoff!r}")
     n = check_int(order, "order", minimum=1)
+    if n > MAX_ORDER:
+        raise ValueError(f"order must be in [1, {MAX_ORDER}], got {n}")
     return np.ascontiguousarray(_signal.butter(n, fc, "highpass", fs=fs_v, output="sos"), dtype=np.float64)
 
 
@@ -48,6 +57,8 @@ def _check_sos(sos: Any) -> np.ndarray:
         raise TypeError("sos must be a real (n_sections, 6) array") from None
     if s.ndim != 2 or s.shape[1] != 6 or s.shape[0] < 1:
         raise ValueError(f"sos must have shape (n_sections, 6), got {s.shape}")
+    if s.shape[0] > MAX_ORDER:
+        raise ValueError(f"sos may have at most {MAX_ORDER} sections, got {s.shape[0]}")
     if not np.isfinite(s).all():
         raise ValueError("sos contains NaN or inf")
     if not np.all(s[:, 3] == 1.0):
@@ -108,6 +119,8 @@ class HighPass:
         self.threads = None if threads is None else resolve_threads(threads)
         self.sos = butter_highpass(self.fs, cutoff=cutoff, order=order) if sos is None else _check_sos(sos)
         self.channels = check_int(channels, "channels", minimum=1)
+        if self.channels > MAX_CHANNELS:
+            raise ValueError(f"channels must be in [1, {MAX_CHANNELS}], got {self.channels}")
         if init not in ("steady", "zero"):
             raise ValueError(f"init must be 'steady' or 'zero', got {init!r}")
         self.init: Init = init

@@ -113,6 +113,11 @@ def _curve(cov: np.ndarray, mu: np.ndarray, edges: np.ndarray, tol: float, rise:
     return RangeCurve(edges, centres, med, count, mu_min, (float(edges[lo]), float(edges[hi + 1])), onset)
 
 
+#: The most covariate bins :func:`operating_range` makes (a bin width far
+#: below the covariate's resolution is a mistake, not a finer answer).
+MAX_BINS = 10_000
+
+
 def operating_range(
     results: Results,
     by: By = "temperature",
@@ -148,6 +153,8 @@ def operating_range(
         Unknown ``by``, bad widths/tolerances, or no gated window with a
         finite covariate.
     """
+    if not isinstance(results, Results):
+        raise TypeError(f"results must be the Results of tribodyn.analyze, got {type(results).__name__}")
     if by not in _COLUMN:
         raise ValueError(f"by must be 'temperature' or 'current_density', got {by!r}")
     width = _DEFAULT_WIDTH[by] if bin_width is None else float(bin_width)
@@ -165,6 +172,11 @@ def operating_range(
     # A/mm^2 fall mid-bin, never on an edge.
     k_lo = int(np.floor(cov[keep].min() / width + 0.5))
     k_hi = int(np.floor(cov[keep].max() / width + 0.5))
+    if k_hi - k_lo + 1 > MAX_BINS:
+        raise ValueError(
+            f"bin_width = {width:g} cuts the {by.replace('_', ' ')} range "
+            f"[{cov[keep].min():g}, {cov[keep].max():g}] into {k_hi - k_lo + 1} bins; at most {MAX_BINS} are allowed"
+        )
     edges = (np.arange(k_lo, k_hi + 2) - 0.5) * width
     curves = {"all": _curve(cov[keep], mu[keep], edges, tol, rise, min_count)}
     if by == "temperature":

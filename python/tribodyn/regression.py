@@ -17,6 +17,7 @@ the COF is mu_r = s * slope (see :func:`tribodyn.identify`).
 from __future__ import annotations
 
 import math
+import threading
 import warnings
 from typing import Any, NamedTuple
 
@@ -140,20 +141,22 @@ class LinFitAccumulator:
     >>> for fz_chunk, fy_chunk in chunks:
     ...     acc.update(fz_chunk, fy_chunk)
     >>> acc.result().slope
+
+    One accumulator may be shared by threads: its calls take a lock (the
+    kernel of an update still runs without the GIL), so concurrent updates
+    are applied one after the other, in some order (the result does not
+    depend on it, to rounding).
     """
 
     def __init__(self) -> None:
         self._m = _core.Moments()
-
-    @property
-    def n(self) -> int:
-        """Samples accumulated so far."""
-        return int(self._m.state()[0])
+        self._lock = threading.Lock()
 
     def update(self, x: Any, y: Any, *, check_finite: bool = True) -> "LinFitAccumulator":
         """Adds a chunk of samples (empty chunks are allowed); returns self."""
         xa, ya = _pair(x, y, check_finite, 0)
-        self._m.update(xa, ya)
+        with self._lock:
+            self._m.update(xa, ya)
         return self
 
     def merge(self, other: "LinFitAccumulator") -> "LinFitAccumulator":
@@ -161,18 +164,30 @@ class LinFitAccumulator:
         if not isinstance(other, LinFitAccumulator):
             raise TypeError(f"other must be a LinFitAccumulator, got {type(other).__name__}")
         out = LinFitAccumulator()
-        out._m = self._m.merge(other._m)
+        with self._lock:
+            mine = _core.Moments.from_state(*self._m.state())
+        with other._lock:
+            out._m = mine.merge(other._m)
         return out
 
     def result(self) -> LinFit:
         """The fit of everything accumulated so far."""
-        return _result(self._m.fit())
+        with self._lock:
+            return _result(self._m.fit())
+
+    @property
+    def n(self) -> int:
+        """Samples accumulated so far."""
+        with self._lock:
+            return int(self._m.state()[0])
 
     def __getstate__(self) -> tuple:
-        return self._m.state()
+        with self._lock:
+            return self._m.state()
 
     def __setstate__(self, state: tuple) -> None:
         self._m = _core.Moments.from_state(*state)
+        self._lock = threading.Lock()
 
     def __repr__(self) -> str:
         return f"LinFitAccumulator(n={self.n})"

@@ -1,0 +1,112 @@
+"""Misuse of the Python API meets a documented error, never a crash or a wrong type.
+
+Each case comes from a fuzzing audit of the API: bounds checked before
+anything is allocated, exception types as documented, thread-safe shared
+objects, and valid but unusual arrays (unaligned) accepted.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+
+import numpy as np
+import pytest
+
+import tribodyn as td
+from tribodyn import _core
+from tribodyn.filters import MAX_CHANNELS, MAX_ORDER
+
+
+def _unaligned(a: np.ndarray) -> np.ndarray:
+    """A C-contiguous float64 view of ``a`` at an odd byte offset (not aligned)."""
+    buf = np.zeros(a.size * 8 + 1, dtype=np.uint8)
+    view = np.frombuffer(buf.data, dtype=np.float64, count=a.size, offset=1)
+    view.setflags(write=True)
+    view[:] = a
+    assert not view.flags.aligned and view.flags.c_contiguous
+    return view
+
+
+def test_unaligned_arrays_are_accepted_with_the_same_results():
+    rng = np.random.default_rng(3)
+    fz = rng.normal(size=3000)
+    fy = -0.12 * fz + 0.01 * rng.normal(size=3000)
+    for f in (td.linfit, lambda x, y: td.pearson(x, y)):
+        assert f(_unaligned(fz), _unaligned(fy)) == f(fz, fy)
+    np.testing.assert_array_equal(td.xcorr(_unaligned(fy), _unaligned(fz), max_lag=5).c, td.xcorr(fy, fz, max_lag=5).c)
+    np.testing.assert_array_equal(td.highpass(_unaligned(fz), fs=1000.0), td.highpass(fz, fs=1000.0))
+    got = td.analyze({"fy": _unaligned(fy), "fz": _unaligned(fz)}, fs=1000.0, window=1.0, hop=1.0)
+    want = td.analyze({"fy": fy, "fz": fz}, fs=1000.0, window=1.0, hop=1.0)
+    np.testing.assert_array_equal(got["mu_r"], want["mu_r"])
+
+
+def test_the_kernel_names_alignment_when_given_an_unaligned_array():
+    x = _unaligned(np.arange(10.0))
+    with pytest.raises(ValueError, match="C-contiguous, aligned float64"):
+        _core.pearson(x, x)
+
+
+def test_linfit_accumulator_shared_by_threads():
+    rng = np.random.default_rng(5)
+    chunks = [(rng.normal(size=20_000), rng.normal(size=20_000)) for _ in range(240)]
+    acc = td.LinFitAccumulator()
+    with cf.ThreadPoolExecutor(8) as ex:
+        list(ex.map(lambda c: acc.update(*c), chunks))
+    one = td.LinFitAccumulator()
+    for c in chunks:
+        one.update(*c)
+    assert acc.n == one.n == 240 * 20_000
+    assert acc.result().slope == pytest.approx(one.result().slope, rel=1e-12, abs=1e-15)
+
+
+@pytest.mark.parametrize(
+    "call, match",
+    [
+        (lambda: td.HighPass(1000.0, order=10**6), r"order must be in \[1, %d\]" % MAX_ORDER),
+        (lambda: td.butter_highpass(1000.0, order=MAX_ORDER + 1), "order must be in"),
+        (lambda: td.HighPass(1000.0, channels=10**9), r"channels must be in \[1, %d\]" % MAX_CHANNELS),
+        (lambda: td.HighPass(1000.0, sos=np.tile([1.0, -1, 0, 1, -0.9, 0], (MAX_ORDER + 1, 1))), "at most"),
+    ],
+)
+def test_filter_bounds_are_checked_before_allocating(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+def test_operating_range_bounds_and_types():
+    from tribodyn import simulate
+
+    sim = simulate.current_density_test(seed=1)
+    res = td.analyze(sim.channels, fs=sim.fs, window=2, hop=10, area_mm2=sim.area_mm2)
+    with pytest.raises(ValueError, match="bins; at most"):
+        td.operating_range(res, "current_density", bin_width=1e-9)
+    with pytest.raises(TypeError, match="Results of tribodyn.analyze"):
+        td.operating_range(dict(res.table), "current_density")  # type: ignore[arg-type]
+
+
+def test_analyze_many_client_must_be_a_client():
+    with pytest.raises(TypeError, match="dask.distributed.Client"):
+        td.analyze_many(["x.npy"], client="local", fs=1000.0)
+
+
+def test_a_table_that_cannot_fit_is_refused_before_reading():
+    n = 2_000_000
+    src = {"fy": np.zeros(n), "fz": np.zeros(n)}
+    with pytest.raises(ValueError, match=r"per-window table would need about .* GiB"):
+        td.analyze(src, fs=1000.0, window=0.003, hop=0.001, n_bins=1 << 20)
+
+
+@pytest.mark.parametrize("threads", [0, -1, 30000, 10**20])
+def test_threads_out_of_range_are_value_errors_everywhere(threads):
+    x = np.arange(100.0)
+    for call in (
+        lambda: td.analyze({"fy": x, "fz": x}, fs=10.0, window=1.0, threads=threads),
+        lambda: _core.linfit(x, x, threads=threads),
+        lambda: _core.xcorr(x, x, 3, "auto", threads=threads),
+        lambda: td.HighPass(10.0, cutoff=1.0, threads=threads),
+    ):
+        with pytest.raises((ValueError, OverflowError)) as info:
+            call()
+        assert info.type is ValueError or threads == 10**20  # a Python int past i64 is numpy's OverflowError
+    with pytest.raises(ValueError):
+        td.set_threads(td.max_threads() + 1)
