@@ -112,12 +112,15 @@ def main(argv: Optional[List[str]] = None) -> None:
     ap.add_argument("--baseline", help="directory of another build of tribodyn, put first on PYTHONPATH")
     ap.add_argument("--threads", default="default", help="threads= of every call (default: the default)")
     ap.add_argument("--tmp", help="directory for the temporary files")
+    ap.add_argument("--only", help="run the cases whose label contains this text")
     args = ap.parse_args(argv)
     builds = [("this", None)] + ([("baseline", args.baseline)] if args.baseline else [])
     with tempfile.TemporaryDirectory(dir=args.tmp) as d:
         paths = write_files(Path(d), args.hours)
         rows = []
         for label, key, extra in CASES:
+            if args.only and args.only not in label:
+                continue
             runs: Dict[str, List[Dict[str, Any]]] = {b: [] for b, _ in builds}
             for _ in range(args.repeats):
                 for b, pp in reversed(builds):  # interleaved, the baseline first

@@ -73,6 +73,10 @@ DEFAULT_CHUNK = 1 << 17
 #: the kernel and, for a ``.npy``, one mapping of the file (8 MiB per
 #: channel; two spans of four channels map 64 MiB).
 SPAN_CHUNK = 1 << 20
+#: Samples per block of the route "mapped" (at most; a block is whole
+#: windows): each thread reads a block's channels into buffers it reuses,
+#: small enough to stay in cache between the read and the windows.
+MAPPED_BLOCK = int(os.environ.get("TRIBODYN_MAPPED_BLOCK", 1 << 17))
 #: Fewest windows per concurrently read span.
 _MIN_SPAN_WINDOWS = 64
 #: Roles the pipeline reads from a source.
@@ -233,7 +237,9 @@ def analyze(
         st, aux_role = _run_spans(rec, plan)
     else:
         st, aux_role = _run_stream(_chunk_source(source, rec, plan), plan, _total(source, rec, plan))
-    return finish(st, aux_role, plan, route)
+    res = finish(st, aux_role, plan, route)
+    warns = tuple(dict.fromkeys(str(w) for w in getattr(rec, "warnings", ()) or ()))
+    return dataclasses.replace(res, warnings=warns) if warns else res
 
 
 def choose_route(source: Any, rec: Any, plan: Plan) -> str:
@@ -518,7 +524,7 @@ def _run_mapped(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
     # the threads finish together and the memory mapped at once (a block
     # per thread) hardly depends on the recording's length.
     count = k1 - k0
-    cap = max(1, (plan.chunk or SPAN_CHUNK) // plan.step)
+    cap = max(1, (plan.chunk or MAPPED_BLOCK) // plan.step)
     blocks = -(-count // cap)
     blocks = -(-blocks // plan.threads) * plan.threads
     block = max(1, -(-count // blocks))
@@ -577,13 +583,12 @@ def _run_spans(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
     """
     spans = _spans(rec, plan)
     assert spans is not None, "choose_route chose 'spans'"
-    size = plan.chunk or (SPAN_CHUNK if getattr(rec, "views", False) else DEFAULT_CHUNK)
+    size = plan.chunk or DEFAULT_CHUNK
     bar = _progress(plan.progress, sum(b - a for a, b in spans))
     try:
         with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
             futures = [
-                ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b, copy=False), a, plan, bar, threads=1)
-                for a, b in spans
+                ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b), a, plan, bar, threads=1) for a, b in spans
             ]
             results = [f.result() for f in futures]
     finally:
@@ -597,8 +602,10 @@ def _run_spans(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
 
 def _chunk_source(source: Any, rec: Any, plan: Plan) -> Iterable[Any]:
     if rec is not None:
-        # Views where the format has them: nothing here writes into a chunk.
-        return rec.chunks(plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop, copy=False)
+        # Copies, not views of a memory map: a file truncated while it is
+        # read must be an error, not a SIGBUS. (Readers hand out the arrays
+        # they read without a second copy.)
+        return rec.chunks(plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop)
     if isinstance(source, Mapping):
         n = len(next(iter(source.values()))) if source else 0
         size = plan.chunk or DEFAULT_CHUNK

@@ -182,6 +182,7 @@ def _combine(parts: List[Results], orientation: Any) -> Results:
         orientation=s,
         params={**parts[0].params, "start": 0, "stop": None, "ranges": len(parts), "orientation_used": s},
         moments=moments,
+        warnings=tuple(dict.fromkeys(w for p in parts for w in p.warnings)),
     )
 
 

@@ -301,6 +301,7 @@ def write_report(
     images = [(caption, _png_base64(fig, dpi)) for caption, fig in figs]
 
     summary = dict(summary)
+    warns = _pop_warnings(summary)
     if quality is None:
         quality = {k: summary.pop(k) for k in _QUALITY_KEYS if k in summary}
     try:
@@ -323,8 +324,12 @@ def write_report(
             f'<p class="meta">tribodyn {html.escape(str(version))} &middot; {html.escape(stamp)} &middot; '
             f"{len(images)} figure{'s' if len(images) != 1 else ''}</p>"
         ),
-        '<h2 id="summary">Summary</h2>',
     ]
+    if warns:
+        out.append('<h2 id="warnings">Warnings</h2>')
+        out.append('<p class="note">What the readers found odd in the input, and what the analysis noticed:</p>')
+        out.append("<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warns) + "</ul>")
+    out.append('<h2 id="summary">Summary</h2>')
     scalars = {k: v for k, v in summary.items() if not isinstance(v, Mapping)}
     nested = {k: v for k, v in summary.items() if isinstance(v, Mapping)}
     stats = {k: v for k, v in nested.items() if _is_stats(v)}
@@ -365,6 +370,17 @@ def write_report(
     out += ["</body>", "</html>", ""]
     _atomic_write_text(target, "\n".join(out))
     return target
+
+
+def _pop_warnings(summary: Dict[str, Any]) -> List[str]:
+    """Takes the ``warnings`` lists out of a summary (and of the per-recording dicts in it), in order, each once."""
+    found: List[str] = [str(w) for w in summary.pop("warnings", None) or ()]
+    for key, value in list(summary.items()):
+        if isinstance(value, Mapping) and "warnings" in value:
+            sub = dict(value)
+            found += [f"{key}: {w}" for w in sub.pop("warnings") or ()]
+            summary[key] = sub
+    return list(dict.fromkeys(found))
 
 
 def _atomic_write_text(target: str, text: str) -> None:

@@ -127,6 +127,12 @@ class Results:
         Every parameter used, for provenance.
     moments : dict
         Per-window centred moments (n, mean_z, mean_y, syz) for merging.
+    warnings : tuple of str
+        What the reader found odd in the recording (``Recording.warnings``:
+        e.g. a segment holding fewer rows than announced, irregular
+        sampling, a last row dropped as cut off) and what the analysis
+        noticed; each once, in order. They travel into ``summary()``,
+        ``summary.json``, the report and the CLI's stderr.
     """
 
     table: Dict[str, np.ndarray]
@@ -139,6 +145,7 @@ class Results:
     #: Per-window n, mean_z, mean_y, syz (centred moments of fz, fy): lets
     #: separately analysed parts fix one orientation (docs/method.md 0).
     moments: Dict[str, np.ndarray] = field(default_factory=dict)
+    warnings: Tuple[str, ...] = ()
 
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""
@@ -159,6 +166,7 @@ class Results:
             orientation=s,
             params=params,
             moments=self.moments,
+            warnings=self.warnings,
         )
 
     def __len__(self) -> int:
@@ -216,6 +224,7 @@ class Results:
             "gate_pass_fraction": float(ok.mean()) if len(self) else float("nan"),
             "orientation": self.orientation,
             "mu_r": stats(mu),
+            "warnings": list(self.warnings),
         }
         for col in ("mu_a", "mu_b", "force_dependence"):
             v = np.asarray(self.table[col])[ok]

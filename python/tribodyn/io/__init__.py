@@ -36,6 +36,7 @@ recognised by their first lines).
 from __future__ import annotations
 
 import os
+import stat
 from typing import Any, Mapping, Optional, Union
 
 from .base import ChannelInfo, Recording, RecordingError
@@ -154,6 +155,8 @@ def _read_head(p: str) -> bytes:
     if os.path.isdir(p):
         raise RecordingError(f"{p}: is a directory, not a recording file")
     try:
+        if not stat.S_ISREG(os.stat(p).st_mode):  # a FIFO would block, /dev/zero never end
+            raise RecordingError(f"{p}: not a regular file")
         with open(p, "rb") as fh:
             head = fh.read(4096)
     except OSError as exc:

@@ -8,13 +8,14 @@ seek straight to a data block later.
 
 from __future__ import annotations
 
+import codecs
 import itertools
 import warnings
-from typing import IO, Iterator, List, Optional, Sequence, Tuple
+from typing import IO, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .base import RecordingError
+from .base import RecordingError, roles_by_name
 
 #: Lines parsed at once by the text readers (a block of lines costs far more
 #: memory than its numbers, so text blocks are smaller than binary ones).
@@ -22,13 +23,111 @@ TEXT_BLOCK_ROWS = 8192
 
 __all__ = [
     "TEXT_BLOCK_ROWS",
+    "check_encoding",
     "decode_header",
+    "default_roles",
+    "duplicate_warnings",
+    "dropped_row_warning",
+    "incomplete_row_error",
     "is_number",
     "iter_data_lines",
     "parse_rows",
+    "row_defects",
     "split_fields",
     "to_float",
 ]
+
+
+def check_encoding(encoding: object) -> str:
+    """``encoding`` when it names a text encoding Python knows; raises :class:`RecordingError` otherwise."""
+    if not isinstance(encoding, str):
+        raise RecordingError(f"encoding must be a string such as 'utf-8', got {encoding!r} (encoding=)")
+    try:
+        codecs.lookup(encoding)
+    except LookupError:
+        raise RecordingError(f"unknown encoding {encoding!r} (encoding=)") from None
+    try:
+        b"0".decode(encoding)
+    except LookupError:  # 'base64', 'rot13'...: codecs, but not text encodings
+        raise RecordingError(f"{encoding!r} is not a text encoding (encoding=)") from None
+    except UnicodeError:  # a text encoding that wants more than one byte
+        pass
+    return encoding
+
+
+def row_defects(nfields: int, expected: int, terminated: bool) -> str:
+    """What is wrong with a last row, for messages: missing fields and/or line end ('' when nothing)."""
+    out = []
+    if nfields < expected:
+        out.append(f"{nfields} fields, expected {expected}")
+    if not terminated:
+        out.append("no line end")
+    return " and ".join(out)
+
+
+def dropped_row_warning(lineno: int, defects: str) -> str:
+    """Warning for a last row dropped because it may have been cut off (see :func:`row_defects`)."""
+    return f"last row (line {lineno}) has {defects}: dropped as possibly cut off"
+
+
+def incomplete_row_error(path: str, lineno: int, defects: str) -> RecordingError:
+    """Error for a last row that is refused because it may have been cut off (see :func:`row_defects`)."""
+    return RecordingError(f"{path}: last row (line {lineno}) has {defects}: incomplete row, file truncated or corrupt")
+
+
+def _and(items: Sequence[str]) -> str:
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1]
+
+
+def _duplicated(names: Sequence[str]) -> Dict[str, List[int]]:
+    """Names met more than once -> their indices."""
+    where: Dict[str, List[int]] = {}
+    for k, n in enumerate(names):
+        where.setdefault(n, []).append(k)
+    return {n: ks for n, ks in where.items() if len(ks) > 1}
+
+
+def default_roles(names: Sequence[str], unique: Sequence[str]) -> Dict[str, str]:
+    """Default role map of a text file's columns: :func:`~tribodyn.io.base.roles_by_name` of the names
+    as written in the file (``names``), as the unique channel names the reader gave them (``unique``).
+
+    A role is never mapped to a column whose name appears more than once in the file (see
+    :func:`duplicate_warnings`).
+    """
+    return {role: unique[names.index(n)] for role, n in roles_by_name(names).items()}
+
+
+def duplicate_warnings(
+    names: Sequence[str], unique: Sequence[str], columns: Sequence[int], roles: Mapping[str, str]
+) -> List[str]:
+    """One warning per channel name appearing more than once in a file's column row.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Channel names as written in the file.
+    unique : sequence of str
+        The distinct names the reader gave them (``'fy [N]'``, ``'fy [N].1'``...).
+    columns : sequence of int
+        1-based column of each channel in the file.
+    roles : mapping
+        The recording's role map, to say what happened to a role such a name would have had.
+    """
+    out = []
+    for name, ks in _duplicated(names).items():
+        given = [unique[k] for k in ks]
+        msg = (
+            f"channel name {name!r} appears in columns {_and([str(columns[k]) for k in ks])}: "
+            f"read as {_and([repr(g) for g in given])}"
+        )
+        for role in roles_by_name([name]):
+            mapped = roles.get(role)
+            if mapped is None:
+                msg += f"; role {role!r} left unmapped (ambiguous): map one with channels="
+            elif mapped in given:
+                msg += f"; role {role!r} mapped to {mapped!r} (column {columns[ks[given.index(mapped)]]})"
+        out.append(msg)
+    return out
 
 
 def to_float(s: str, decimal: str = ".") -> float:

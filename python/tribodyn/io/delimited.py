@@ -13,7 +13,11 @@ Generic files
     Blank lines and lines starting with ``#`` are ignored; non-numeric lines
     after the data are a footer. The column row repeated further down starts
     a new *block* (a separate acquisition): blocks are concatenated and their
-    sample ranges exposed as :attr:`Recording.segments`.
+    sample ranges exposed as :attr:`Recording.segments`. The last row must be
+    whole: one without its line end, or with too few fields, may have been cut
+    off while the file was written or copied and is dropped with a warning (a
+    short row before the end is an error). A column name met twice is read as
+    ``name`` and ``name.1`` with a warning, and no role is mapped to either.
 
 CETR UMT exports (``format='cetr'``, detected by ``CETR`` in the first lines)
     A text header, then one block per test "Step", each with a column row
@@ -34,6 +38,9 @@ COMPEND pin-on-disc exports (``format='compend'``)
     Force.1``. Default roles: ``fy='Friction Force'``, ``fz='Load'``,
     ``cof='Friction Coefficient'``.
 
+Both vendor exports write every row whole: there a cut last row is refused
+(as in LVM files), not dropped.
+
 Reading is streaming: a scan pass at open reads the file line by line
 (counting rows, recording byte offsets of the blocks, keeping at most 200 000
 time values); :meth:`Recording.chunks` then parses blocks of lines
@@ -51,14 +58,20 @@ import numpy as np
 
 from ._text import (
     TEXT_BLOCK_ROWS,
+    check_encoding,
     decode_header,
+    default_roles,
+    dropped_row_warning,
+    duplicate_warnings,
+    incomplete_row_error,
     is_number,
     iter_data_lines,
     parse_rows,
+    row_defects,
     split_fields,
     to_float,
 )
-from .base import Recording, RecordingError, fs_from_times, roles_by_name
+from .base import Recording, RecordingError, fs_from_times
 from .units import GRAM_FORCE, TIME_TO_S, is_known_unit, normalize_unit
 
 __all__ = ["DelimitedRecording", "sniff_vendor"]
@@ -148,6 +161,27 @@ def _find_data_start(
     return None
 
 
+def _numeric_share(lines: Sequence[str], delim: Optional[str], decimal: Optional[str], nf: int) -> float:
+    """Share of numbers among the non-empty fields of the first 50 rows of ``nf`` fields."""
+    num = total = rows = 0
+    for ln in lines:
+        if not ln.strip() or ln.lstrip().startswith("#"):
+            continue
+        fields = split_fields(ln, delim)
+        if len(fields) != nf:
+            continue
+        f = [x for x in fields if x.strip()]
+        total += len(f)
+        if decimal is None:
+            num += sum(1 for x in f if is_number(x, ".") or is_number(x, ","))
+        else:
+            num += sum(1 for x in f if is_number(x, decimal))
+        rows += 1
+        if rows >= 50:
+            break
+    return num / total if total else 0.0
+
+
 _BRACKET_UNIT = re.compile(r"^(.*?)\s*(\[([^\[\]]{1,16})\]|\(([^()]{1,12})\))\s*$")
 
 
@@ -232,6 +266,8 @@ class DelimitedRecording(Recording):
         self._block_rows = TEXT_BLOCK_ROWS
         if time_column is None:
             time_column = time_channel
+        if encoding:
+            check_encoding(encoding)
         self._stat = os.stat(self.path)
         head_raw = self._read_head()
         enc = encoding or _guess_encoding(head_raw)
@@ -261,6 +297,8 @@ class DelimitedRecording(Recording):
         self._scan(head_raw)
         self._vendor_fixups()
         self._setup(channels, fs, scale, units)
+        if self._vendor is None:  # the vendors' duplicates (COMPEND's 'Friction Force') are by design
+            self.warnings += duplicate_warnings(self._file_names, self._names, self._columns, self.roles)
 
     # ------------------------------------------------------------------ head
     def _read_head(self) -> List[bytes]:
@@ -300,7 +338,9 @@ class DelimitedRecording(Recording):
                 r = _find_data_start(head, cand, dec)
                 if r is None:
                     continue
-                score = (r[1] >= 2, r[2], -r[0], r[1])
+                # The share of numbers decides between candidates that find as many rows: "1,5;2,5;3,5"
+                # is three numbers split at ';', not "1", "5;2", "5;3", "5" split at ','.
+                score = (r[1] >= 2, r[2], _numeric_share(head[r[0] :], cand, dec, r[1]), -r[0], r[1])
                 if best is None or score > best[0]:
                     best = (score, cand, r)
             if best is None:
@@ -377,6 +417,8 @@ class DelimitedRecording(Recording):
             raw_units.append(u or None)
         if not use:
             raise RecordingError(f"{path}: no numeric column found")
+        self._file_names = list(names)
+        self._columns = [j + 1 for j in use]
         names = _dedupe(names)
         self._usecols = use
         self._names = names
@@ -433,6 +475,10 @@ class DelimitedRecording(Recording):
         offset = 0
         lineno = 0
         ntimes = 0
+        # A row cut short (see _broken) is an error unless it is the file's last row: the
+        # error is raised when another row follows it.
+        broken: Optional[Tuple[int, int, bool]] = None  # (line number, fields, line end)
+        last: Optional[Tuple[int, bytes, bool]] = None  # last data row: (line number, raw, time kept)
         with open(path, "rb") as fh:
             for raw in fh:
                 line_off = offset
@@ -443,19 +489,29 @@ class DelimitedRecording(Recording):
                 s = raw.strip()
                 if not s or (comment is not None and s.startswith(comment.encode())):
                     continue
+                if broken is not None:
+                    raise RecordingError(
+                        f"{path}: line {broken[0]} has {broken[1]} fields, expected {self._nf} "
+                        "(truncated or corrupt file)"
+                    )
                 text = raw.decode("latin-1").rstrip("\r\n")
                 fields = split_fields(text, delim)
                 if state == "data":
                     if self._is_data(fields):
                         blk = blocks[-1]
                         blk.n += 1
-                        if time_idx is not None and ntimes < _TIME_VALUES:
+                        kept = time_idx is not None and ntimes < _TIME_VALUES
+                        if time_idx is not None and kept:
                             _append_time(blk.times, fields[time_idx], decimal)
                             ntimes += 1
+                        last = (lineno, raw, kept)
                         continue
-                    self._check_broken(fields, lineno, raw)
                     state = "between"
-                    between = [decode_header(raw, self._encoding).rstrip("\r\n")]
+                    between = []
+                    if self._broken(fields, raw):
+                        broken = (lineno, len(fields), raw.endswith((b"\n", b"\r")))
+                    else:
+                        between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
                     continue
                 if state == "between":
                     if name_b is not None and s == name_b:
@@ -466,8 +522,10 @@ class DelimitedRecording(Recording):
                             f"{path}: line {lineno}: data row after non-data lines without a new "
                             "column row (corrupt file?)"
                         )
-                    self._check_broken(fields, lineno, raw)
-                    between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
+                    if self._broken(fields, raw):
+                        broken = (lineno, len(fields), raw.endswith((b"\n", b"\r")))
+                    else:
+                        between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
                     continue
                 if state == "units":
                     state = "await"
@@ -479,18 +537,43 @@ class DelimitedRecording(Recording):
                 if self._is_data(fields):
                     blk = _Block(line_off, lineno, between)
                     blk.n = 1
-                    if time_idx is not None and ntimes < _TIME_VALUES:
+                    kept = time_idx is not None and ntimes < _TIME_VALUES
+                    if time_idx is not None and kept:
                         _append_time(blk.times, fields[time_idx], decimal)
                         ntimes += 1
+                    last = (lineno, raw, kept)
                     blocks.append(blk)
                     between = []
                     state = "data"
                     continue
-                self._check_broken(fields, lineno, raw)
-                between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
                 state = "between"
+                if self._broken(fields, raw):
+                    broken = (lineno, len(fields), raw.endswith((b"\n", b"\r")))
+                else:
+                    between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
         if state == "between" or state == "units" or state == "await":
             footer = between
+        # The last row must be whole: newline-terminated (a line end is the last thing written) and
+        # with every field. A vendor export always is, so it is refused; in other files the row is
+        # dropped with a warning (it may be the row being written when the file was copied).
+        strict = self._vendor is not None
+        if broken is not None:
+            defects = row_defects(broken[1], self._nf, broken[2])
+            if strict:
+                raise incomplete_row_error(path, broken[0], defects)
+            self.warnings.append(dropped_row_warning(broken[0], defects))
+        elif last is not None and not last[1].endswith((b"\n", b"\r")):
+            defects = row_defects(self._nf, self._nf, False)
+            if strict:
+                raise incomplete_row_error(path, last[0], defects)
+            self.warnings.append(dropped_row_warning(last[0], defects))
+            blk = blocks[-1]
+            blk.n -= 1
+            if last[2]:
+                blk.times.pop()
+            if blk.n == 0:
+                blocks.pop()
+                footer = blk.info
         if not blocks:
             raise RecordingError(f"{path}: no data rows")
         self._blocks = blocks
@@ -530,20 +613,17 @@ class DelimitedRecording(Recording):
         if footer:
             self.metadata["footer"] = footer[:20]
 
-    def _check_broken(self, fields: List[str], lineno: int, raw: bytes) -> None:
-        """Raises for a row cut short: too few fields and either the file's
-        unterminated last line or all numbers (a text line is a footer)."""
+    def _broken(self, fields: List[str], raw: bytes) -> bool:
+        """True for a row cut short: too few fields and either the file's unterminated last
+        line or all numbers (a text line is a footer)."""
         if len(fields) >= self._nf:
-            return
+            return False
         nonempty = [f for f in fields if f.strip()]
         if not nonempty:
-            return
+            return False
         unterminated = not raw.endswith((b"\n", b"\r"))
         all_numbers = len(nonempty) >= 2 and all(is_number(f, self._decimal) for f in nonempty)
-        if (unterminated and _numericish(fields, self._decimal)) or all_numbers:
-            raise RecordingError(
-                f"{self.path}: line {lineno} has {len(fields)} fields, expected {self._nf} (truncated or corrupt file)"
-            )
+        return (unterminated and _numericish(fields, self._decimal)) or all_numbers
 
     # --------------------------------------------------------------- vendors
     def _vendor_fixups(self) -> None:
@@ -579,7 +659,7 @@ class DelimitedRecording(Recording):
             if not any(ln.startswith("Test completed") for ln in self._footer):
                 self.warnings.append("no 'Test completed' line at the end: test aborted or file truncated?")
         else:
-            self._default_roles = roles_by_name(names)
+            self._default_roles = default_roles(self._file_names, names)
 
     # ---------------------------------------------------------------- reading
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:

@@ -26,19 +26,34 @@ How this reader behaves:
   "Untitled" columns) are skipped and listed in ``metadata['skipped']``.
 * Header values are parsed as numbers or kept as text, never evaluated; no
   cache file is written anywhere.
-* A last line without end-of-line is reported as a truncated file (LabVIEW
-  ends every row with one).
+* The last data row must be whole: a row without its end-of-line, or with
+  fewer fields than the channels need, is reported as a truncated file
+  (LabVIEW writes every row whole, line end included).
+* A channel name appearing more than once is read as ``name``, ``name.1``...
+  with a warning, and no role is mapped to it automatically.
 """
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._text import TEXT_BLOCK_ROWS, decode_header, iter_data_lines, parse_rows, to_float
-from .base import Recording, RecordingError, rate_from_step, roles_by_name
+from ._text import (
+    TEXT_BLOCK_ROWS,
+    check_encoding,
+    decode_header,
+    default_roles,
+    duplicate_warnings,
+    incomplete_row_error,
+    iter_data_lines,
+    parse_rows,
+    row_defects,
+    to_float,
+)
+from .base import Recording, RecordingError, rate_from_step
 
 __all__ = ["LvmRecording"]
 
@@ -76,10 +91,11 @@ class LvmRecording(Recording):
     ) -> None:
         super().__init__(path)
         self._block_rows = TEXT_BLOCK_ROWS
-        self._encoding = encoding
+        self._encoding = check_encoding(encoding)
         self._scan()
-        self._default_roles = roles_by_name(self._names)
+        self._default_roles = default_roles(self._file_names, self._names)
         self._setup(channels, fs, scale, units)
+        self.warnings += duplicate_warnings(self._file_names, self._names, self._columns, self.roles)
 
     # ------------------------------------------------------------------ scan
     def _scan(self) -> None:
@@ -199,7 +215,7 @@ class LvmRecording(Recording):
                     last_raw, last_lineno = raw, lineno
                     state = "data"
                     if colnames is None:
-                        colnames = self._implicit_columns(cur_header, x_columns)
+                        colnames = self._implicit_columns(cur_header, x_columns, len(s.split(sep)), path, lineno)
                     seg.header = dict(cur_header)
                     seg.header["__columns__"] = list(colnames)
                     continue
@@ -209,27 +225,38 @@ class LvmRecording(Recording):
             raise RecordingError(f"{path}: LVM file without data rows")
         for sg in segments:
             sg.header.setdefault("__columns__", list(colnames or []))
-        if last_raw and not last_raw.endswith((b"\n", b"\r")):
-            raise RecordingError(f"{path}: line {last_lineno} is incomplete (no end-of-line): file truncated?")
+        # the last data row must be whole: line end and every field (a cut inside it would lose them)
+        terminated = last_raw.endswith((b"\n", b"\r"))
+        if not terminated:
+            raise incomplete_row_error(path, last_lineno, row_defects(1, 1, False))
         self._layout(segments, x_columns, multi_headings, file_header)
-        # the last row must have every field (a cut inside the line would not)
         tail = last_raw.decode("latin-1").rstrip("\r\n").split(self._sep)
         if len(tail) < max(self._usecols) + 1:
-            raise RecordingError(
-                f"{path}: line {last_lineno} has {len(tail)} fields, expected "
-                f"{max(self._usecols) + 1} (truncated file?)"
-            )
+            raise incomplete_row_error(path, last_lineno, row_defects(len(tail), max(self._usecols) + 1, terminated))
 
     def _column_row(self, s: bytes, sep: bytes) -> List[str]:
         return [decode_header(p, self._encoding).strip() for p in s.split(sep)]
 
     @staticmethod
-    def _implicit_columns(header: Dict[str, List[str]], x_columns: str) -> List[str]:
-        """Column row when the file has none: X column(s) plus ``Untitled`` channels."""
+    def _implicit_columns(
+        header: Dict[str, List[str]], x_columns: str, nfields: int, path: str, lineno: int
+    ) -> List[str]:
+        """Column row when the file has none: X column(s) plus ``Untitled`` channels.
+
+        ``nfields`` is the field count of the first data row (line ``lineno``): a
+        ``Channels`` count the row cannot hold is refused as a corrupt header
+        (before a list of that many names is built).
+        """
         try:
             nch = int(header.get("Channels", ["", "0"])[1])
-        except ValueError:
+        except (ValueError, IndexError):
             nch = 0
+        ncols = 2 * nch if x_columns == "Multi" else nch + 1
+        if ncols > nfields + 1:  # + 1: an X column is counted even with X_Columns No
+            raise RecordingError(
+                f"{path}: line {lineno} has {nfields} fields but the segment header announces {ncols} columns "
+                "(corrupt LVM file?)"
+            )
         if x_columns == "Multi":
             cols = []
             for k in range(nch):
@@ -287,7 +314,9 @@ class LvmRecording(Recording):
             if len(known) > 1:
                 detail = ", ".join(f"{n!r}={v:g}" for n, v in ann_by_name.items() if v is not None)
                 raise RecordingError(f"{path}: unequal channel lengths in segment {k} ({detail})")
-        names = _dedupe([cols0[i] for i in keep])
+        self._file_names = [cols0[i] or "Untitled" for i in keep]
+        self._columns = [i + 1 for i in keep]
+        names = _dedupe(self._file_names)
         self._usecols = keep
         self._names = names
         first = segments[0]
@@ -316,7 +345,8 @@ class LvmRecording(Recording):
         pos = 0
         for k, sg in enumerate(segments, 1):
             ann_n = hnum(sg, "Samples", keep[0])
-            ann_i = int(ann_n) if ann_n is not None and ann_n >= 0 and ann_n == int(ann_n) else None
+            ok = ann_n is not None and math.isfinite(ann_n) and ann_n >= 0 and ann_n == int(ann_n)
+            ann_i = int(ann_n) if ok and ann_n is not None else None
             if ann_i is not None and ann_i != sg.n:
                 self.warnings.append(
                     f"segment {k} announces {ann_i} samples but holds {sg.n} data rows (the data rows are used)"

@@ -1,31 +1,30 @@
 //! Windows of a recording whose channels are runs of little-endian f64 in
-//! one file (a channels-first float64 `.npy`, say), read through memory
-//! maps block by block: the kernel reads the page cache directly, with no
-//! copy, and each thread maps one block at a time, so memory stays flat
+//! one file (a channels-first float64 `.npy`, say), read by the kernel
+//! itself block by block, with no Python per chunk, so memory stays flat
 //! whatever the recording's length.
 //!
 //! A block is a run of consecutive windows. Its samples of every channel
-//! are mapped with `MAP_POPULATE` (the pages entered in one call, not
-//! faulted one by one), its windows computed in order on one thread with
-//! the next window prefetched, and the maps dropped. Blocks run in parallel
-//! (the calling thread and scoped helpers, as many in all as the caller
-//! names) and are placed in order, so the results are those of
-//! [`crate::windows::windows_stats`] on the same samples, bit for bit.
+//! are read with `pread` into buffers each thread keeps from one block to
+//! the next (small enough to stay in cache between the read and the
+//! windows), its windows computed in order on one thread with the next
+//! window prefetched. Blocks run in parallel (the calling thread and scoped
+//! helpers, as many in all as the caller names) and are placed in order, so
+//! the results are those of [`crate::windows::windows_stats`] on the same
+//! samples, bit for bit.
+//!
+//! Reading, not memory-mapping: a file truncated or overwritten while it is
+//! read gives an error (a short read), never a SIGBUS that kills the
+//! process, as touching a mapped page past the end of a file does.
 //!
 //! Raw (DC-coupled) forces are high-passed on the way
 //! ([`windows_stats_mapped_highpass`]): the filter runs through the blocks
 //! in order, carrying its state, one block ahead of the windows, so that
 //! filtering block b + 1 and computing the windows of block b run at the
 //! same time on two threads.
-//!
-//! The file must not shrink while it is read: touching a mapped page past
-//! the end of a file kills the process (SIGBUS), as with any memory map.
-//! Its length is checked before each block is mapped.
 
 use crate::error::KernelError;
 use crate::iir::{self, Section};
 use crate::windows::{windows_stats_serial, Channels, WindowOptions, WindowStats};
-use memmap2::{Mmap, MmapOptions};
 use std::fs::File;
 
 const F64: u64 = std::mem::size_of::<f64>() as u64;
@@ -101,35 +100,56 @@ pub fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions)
     Ok(())
 }
 
-/// Samples [a, b) of the channel whose sample 0 is at byte `off`, mapped.
-fn map(file: &File, off: u64, a: usize, b: usize) -> Result<Mmap, KernelError> {
-    let start = off + a as u64 * F64;
-    let len = (b - a) * F64 as usize;
-    let size = file.metadata().map_err(|e| invalid(format!("cannot read the file's length: {e}")))?.len();
-    if start + len as u64 > size {
-        return Err(invalid(format!("the file shrank to {size} bytes while it was read")));
+/// The samples [a, b) of a layout's channels, read into buffers that are
+/// kept from one block to the next (fresh memory costs a page fault per
+/// 4 KiB on its first touch).
+#[derive(Default)]
+struct Samples {
+    /// fx, fy, fz, aux; empty where the layout has no such channel.
+    bufs: [Vec<f64>; 4],
+    present: [bool; 4],
+}
+
+impl Samples {
+    fn read(&mut self, file: &File, layout: &FileLayout, a: usize, b: usize) -> Result<(), KernelError> {
+        for (i, off) in layout.offsets().into_iter().enumerate() {
+            self.present[i] = off.is_some();
+            if let Some(off) = off {
+                read_f64s(file, off + a as u64 * F64, b - a, &mut self.bufs[i])?;
+            }
+        }
+        Ok(())
     }
-    // SAFETY: a read-only map of a range checked to lie inside the file;
-    // the module docs state the one condition left to the caller (the file
-    // must not shrink meanwhile).
-    unsafe { MmapOptions::new().offset(start).len(len).populate().map(file) }
-        .map_err(|e| invalid(format!("cannot map bytes {start}..{} of the file: {e}", start + len as u64)))
+
+    /// Channel `i` (0 fx, 1 fy, 2 fz, 3 aux), None where the layout has none.
+    fn get(&self, i: usize) -> Option<&[f64]> {
+        self.present[i].then(|| self.bufs[i].as_slice())
+    }
 }
 
-/// Samples [a, b) of every channel of the layout, mapped (None where the
-/// layout has no such channel), in the order fx, fy, fz, aux.
-fn map_channels(file: &File, layout: &FileLayout, a: usize, b: usize) -> Result<Vec<Option<Mmap>>, KernelError> {
-    layout.offsets().iter().map(|o| o.map(|off| map(file, off, a, b)).transpose()).collect()
+/// Reads `n` little-endian f64 from byte `at` of `file` into `buf`
+/// (resized to `n`; its memory reused). A file that ends before is an
+/// error naming the bytes missing, as is any other failed read.
+#[cfg(unix)]
+fn read_f64s(file: &File, at: u64, n: usize, buf: &mut Vec<f64>) -> Result<(), KernelError> {
+    use std::os::unix::fs::FileExt;
+    buf.resize(n, 0.0);
+    // SAFETY: the byte view covers exactly the n initialised f64 of `buf`,
+    // which it borrows mutably; every byte pattern is a valid f64.
+    let bytes = unsafe { std::slice::from_raw_parts_mut(buf.as_mut_ptr() as *mut u8, n * F64 as usize) };
+    file.read_exact_at(bytes, at).map_err(|e| {
+        let end = at + bytes.len() as u64;
+        if e.kind() == std::io::ErrorKind::UnexpectedEof {
+            invalid(format!("the file ends before byte {end}: it was truncated while it was read"))
+        } else {
+            invalid(format!("cannot read bytes {at}..{end} of the file: {e}"))
+        }
+    })
 }
 
-fn as_f64(m: &Mmap) -> &[f64] {
-    let bytes: &[u8] = m;
-    // The offset and the page-aligned base make the start 8-byte aligned
-    // (checked), and every byte pattern is a valid f64.
-    assert_eq!(bytes.as_ptr() as usize % std::mem::align_of::<f64>(), 0, "f64 alignment of a mapped channel");
-    // SAFETY: aligned (above), len / 8 values inside the map, which
-    // outlives the slice (borrowed from it).
-    unsafe { std::slice::from_raw_parts(bytes.as_ptr() as *const f64, bytes.len() / 8) }
+#[cfg(not(unix))]
+fn read_f64s(_file: &File, _at: u64, _n: usize, _buf: &mut Vec<f64>) -> Result<(), KernelError> {
+    Err(invalid("reading a file's samples directly needs a Unix system".into()))
 }
 
 fn block(
@@ -138,13 +158,14 @@ fn block(
     grid: &Grid,
     opt: &WindowOptions,
     b: usize,
+    samples: &mut Samples,
 ) -> Result<Vec<WindowStats>, KernelError> {
     let kb = grid.k0 + b * grid.block;
     let ke = (kb + grid.block).min(grid.k1);
     let a = kb * grid.step;
     let e = (ke - 1) * grid.step + opt.len;
-    let maps = map_channels(file, layout, a, e)?;
-    let sl = |i: usize| maps[i].as_ref().map(as_f64);
+    samples.read(file, layout, a, e)?;
+    let sl = |i: usize| samples.get(i);
     let (fy, fz) = (sl(1).unwrap_or(&[]), sl(2).unwrap_or(&[]));
     let ch = Channels { fx: sl(0), fy, fz, aux: sl(3), raw: None };
     let starts: Vec<usize> = (kb..ke).map(|k| k * grid.step - a).collect();
@@ -195,34 +216,36 @@ where
         return Ok(());
     }
     let blocks = (grid.k1 - grid.k0).div_ceil(grid.block);
-    for_each_block(blocks, threads, |b| {
-        sink(b * grid.block, block(file, layout, grid, opt, b)?);
+    for_each_block(blocks, threads, |b, samples: &mut Samples| {
+        sink(b * grid.block, block(file, layout, grid, opt, b, samples)?);
         Ok(())
     })
 }
 
-/// Runs `f(0) .. f(blocks - 1)` on `threads` threads: the calling thread
-/// and `threads - 1` scoped helpers, each taking the next block from a
-/// shared counter. The caller starts at once (a pool would first have to
+/// Runs `f(0, s) .. f(blocks - 1, s)` on `threads` threads: the calling
+/// thread and `threads - 1` scoped helpers, each taking the next block from
+/// a shared counter and passing its own state `s` (buffers it reuses). The caller starts at once (a pool would first have to
 /// wake a sleeping worker, which on a virtual machine can cost as much as
 /// a short recording's whole analysis), and blocks are handed out one at a
 /// time, so the threads finish together. After an error no new block is
 /// started; the error of the lowest failed block is returned.
-fn for_each_block<F>(blocks: usize, threads: usize, f: F) -> Result<(), KernelError>
+fn for_each_block<S, F>(blocks: usize, threads: usize, f: F) -> Result<(), KernelError>
 where
-    F: Fn(usize) -> Result<(), KernelError> + Sync,
+    S: Default,
+    F: Fn(usize, &mut S) -> Result<(), KernelError> + Sync,
 {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     let next = AtomicUsize::new(0);
     let stop = AtomicBool::new(false);
     let failed: std::sync::Mutex<Option<(usize, KernelError)>> = std::sync::Mutex::new(None);
     let work = || {
+        let mut state = S::default();
         while !stop.load(Ordering::Relaxed) {
             let b = next.fetch_add(1, Ordering::Relaxed);
             if b >= blocks {
                 break;
             }
-            if let Err(e) = f(b) {
+            if let Err(e) = f(b, &mut state) {
                 stop.store(true, Ordering::Relaxed);
                 let mut slot = failed.lock().unwrap_or_else(|p| p.into_inner());
                 if slot.as_ref().is_none_or(|(k, _)| b < *k) {
@@ -257,17 +280,19 @@ pub struct HighPass<'a> {
     pub origin: usize,
 }
 
-/// One block of the high-pass pipeline: its raw maps and filtered forces.
+/// One block of the high-pass pipeline: its raw samples and filtered forces.
+#[derive(Default)]
 struct Filtered {
     /// Samples [from, to) of the recording.
     from: usize,
-    maps: Vec<Option<Mmap>>,
+    raw: Samples,
     forces: Vec<Vec<f64>>,
 }
 
-/// Maps samples [from, to) and filters the forces, carrying `state`, into
-/// `forces` (buffers of an earlier block, reused: fresh ones would cost a
-/// page fault per 4 KiB on first touch).
+/// Reads samples [from, to) into `buf`'s raw samples and filters the
+/// forces, carrying `state`, into its `forces` (the buffers of an earlier
+/// block, reused: fresh ones would cost a page fault per 4 KiB on first
+/// touch).
 #[allow(clippy::too_many_arguments)]
 fn filter_block(
     file: &File,
@@ -276,10 +301,11 @@ fn filter_block(
     from: usize,
     to: usize,
     state: &mut [Vec<[f64; 2]>],
-    mut forces: Vec<Vec<f64>>,
+    buf: Filtered,
 ) -> Result<Filtered, KernelError> {
-    let maps = map_channels(file, layout, from, to)?;
-    let src: Vec<&[f64]> = maps.iter().take(3).flatten().map(as_f64).collect();
+    let Filtered { mut raw, mut forces, .. } = buf;
+    raw.read(file, layout, from, to)?;
+    let src: Vec<&[f64]> = (0..3).filter_map(|i| raw.get(i)).collect();
     forces.resize_with(src.len(), Vec::new);
     for (buf, s) in forces.iter_mut().zip(&src) {
         // Every sample is overwritten by the filter; only a length change
@@ -299,7 +325,7 @@ fn filter_block(
         return Err(first_non_finite(layout, &src, from));
     }
     drop(src);
-    Ok(Filtered { from, maps, forces })
+    Ok(Filtered { from, raw, forces })
 }
 
 /// The first NaN or inf of the raw forces `src` (fx if present, fy, fz)
@@ -325,7 +351,7 @@ fn filtered_windows(
     step: usize,
     opt: &WindowOptions,
 ) -> Result<Vec<WindowStats>, KernelError> {
-    let raw = |i: usize| f.maps[i].as_ref().map(as_f64);
+    let raw = |i: usize| f.raw.get(i);
     let x = usize::from(layout.fx.is_some());
     let ch = Channels {
         fx: layout.fx.map(|_| f.forces[0].as_slice()),
@@ -403,8 +429,8 @@ where
     };
     let forces = 2 + usize::from(layout.fx.is_some()); // fx (if any), fy, fz
     let mut state: Vec<Vec<[f64; 2]>> = vec![vec![[0.0; 2]; hp.sos.len()]; forces];
-    let mut cur = filter_block(file, layout, hp, bound(0), bound(1), &mut state, Vec::new())?;
-    let mut spare: Vec<Vec<f64>> = Vec::new();
+    let mut cur = filter_block(file, layout, hp, bound(0), bound(1), &mut state, Filtered::default())?;
+    let mut spare = Filtered::default();
     for b in 0..blocks {
         // Filter the next block while this one's windows are computed.
         let bufs = std::mem::take(&mut spare);
@@ -418,7 +444,7 @@ where
         );
         sink(b * grid.block, stats?);
         match next? {
-            Some(n) => spare = std::mem::replace(&mut cur, n).forces,
+            Some(n) => spare = std::mem::replace(&mut cur, n),
             None => break,
         }
     }

@@ -21,9 +21,11 @@ static DEFAULT: AtomicUsize = AtomicUsize::new(0);
 /// [`max_threads`] of them; a pool's threads sleep while it is unused).
 static POOLS: Mutex<Option<HashMap<usize, Arc<rayon::ThreadPool>>>> = Mutex::new(None);
 
-/// The cores this process may run on.
+/// The cores this process may run on (asked once: the answer reads cgroup
+/// files, which would cost more than a short kernel call).
 pub fn cores() -> usize {
-    std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1)
+    static CORES: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *CORES.get_or_init(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1))
 }
 
 /// The largest thread count a call may ask for: 4 x [`cores`].

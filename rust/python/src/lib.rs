@@ -67,7 +67,7 @@ fn c_order(c_contiguous: bool, name: &str) -> PyResult<()> {
 }
 
 fn slice_err(name: &str) -> impl Fn(numpy::AsSliceError) -> PyErr + '_ {
-    move |_| PyValueError::new_err(format!("{name} must be a C-contiguous float64 array"))
+    move |_| PyValueError::new_err(format!("{name} must be a C-contiguous, aligned float64 array"))
 }
 
 fn method_of(name: &str) -> PyResult<Method> {
@@ -388,7 +388,7 @@ fn windows_stats<'py>(
         py.detach(|| parallel::run_with(threads, || windows::windows_stats(&ch, &starts, &opt))).map_err(to_py)?
     }
     .map_err(|e| to_py(e.shifted(offset)))?;
-    let mut out = Columns::new(cols, stats.len(), n_bins);
+    let mut out = Columns::new(cols, stats.len(), n_bins)?;
     out.set(0, &stats);
     drop(stats);
     out.into_dict(py, &columns)
@@ -476,21 +476,37 @@ struct Columns {
     cols: Vec<(Column, Buf)>,
 }
 
+/// A vector of `len` zeros, or a `MemoryError` (never an abort) when it
+/// cannot be had.
+fn zeros<T: Clone + Default>(len: usize, what: &str) -> PyResult<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).map_err(|_| {
+        pyo3::exceptions::PyMemoryError::new_err(format!(
+            "the per-window table needs {len} values for {what}, more memory than there is"
+        ))
+    })?;
+    v.resize(len, T::default());
+    Ok(v)
+}
+
 impl Columns {
-    fn new(cols: Vec<Column>, rows: usize, n_bins: usize) -> Self {
+    fn new(cols: Vec<Column>, rows: usize, n_bins: usize) -> PyResult<Self> {
+        let bins = rows.checked_mul(n_bins).ok_or_else(|| {
+            pyo3::exceptions::PyMemoryError::new_err(format!("{rows} windows x {n_bins} bins overflow"))
+        })?;
         let cols = cols
             .into_iter()
             .map(|c| {
                 let buf = match c {
-                    Column::F(_) => Buf::F(vec![0.0; rows]),
-                    Column::I(_) => Buf::I(vec![0; rows]),
-                    Column::BinCount => Buf::I(vec![0; rows * n_bins]),
-                    Column::BinCof => Buf::F(vec![0.0; rows * n_bins]),
+                    Column::F(_) => Buf::F(zeros(rows, "a column")?),
+                    Column::I(_) => Buf::I(zeros(rows, "a column")?),
+                    Column::BinCount => Buf::I(zeros(bins, "bin_count")?),
+                    Column::BinCof => Buf::F(zeros(bins, "bin_cof")?),
                 };
-                (c, buf)
+                Ok((c, buf))
             })
-            .collect();
-        Columns { rows, n_bins, cols }
+            .collect::<PyResult<_>>()?;
+        Ok(Columns { rows, n_bins, cols })
     }
 
     /// Rows `first..` from consecutive windows.
@@ -623,7 +639,7 @@ fn windows_stats_file<'py>(
     let opt = WindowOptions { len: length, orientation, deadband, n_bins };
     // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
     mapped::check(&file, &layout, &grid, &opt).map_err(to_py)?;
-    let cols = std::sync::Mutex::new(Columns::new(cols_asked, k1.saturating_sub(k0), n_bins));
+    let cols = std::sync::Mutex::new(Columns::new(cols_asked, k1.saturating_sub(k0), n_bins)?);
     // Each block's rows go into the columns as soon as it is done.
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
         cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);

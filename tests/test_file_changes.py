@@ -1,0 +1,83 @@
+"""A recording truncated or overwritten while ``analyze`` reads it: an error, never a crash.
+
+The kernel of the route "mapped" reads the file with ``pread`` (no memory
+map: touching a mapped page past the end of a truncated file raises SIGBUS
+and kills the process). Each case runs ``analyze`` in a child process in a
+loop while the parent truncates or overwrites the file, and checks the
+child ends with a worded error (or finishes before the change), never by a
+signal.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+CHILD = textwrap.dedent(
+    """
+    import sys, time
+    import tribodyn as td
+    path, extra = sys.argv[1], eval(sys.argv[2])
+    rec = td.open_recording(path, fs=1000.0, names=["fx", "fy", "fz", "i"])
+    print("open", flush=True)
+    t_end = time.monotonic() + 20
+    runs = 0
+    try:
+        while time.monotonic() < t_end:
+            td.analyze(rec, window=0.5, hop=0.5, threads=2, **extra)
+            runs += 1
+    except (td.RecordingError, ValueError) as exc:
+        print("error", type(exc).__name__, str(exc).splitlines()[0], flush=True)
+        sys.exit(0)
+    print("no error after", runs, "runs", flush=True)
+    """
+)
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    from tribodyn import simulate
+
+    ch = next(iter(simulate.continuous(1200.0, chunk_s=1200.0, current=4.0, seed=2, fs=1000.0)))
+    a = np.stack([ch[r] for r in ("fx", "fy", "fz", "i")])
+    p = tmp_path_factory.mktemp("changes") / "rec.npy"
+    np.save(p, a)
+    return p
+
+
+def _truncate(p):
+    with open(p, "r+b") as fh:
+        fh.truncate(os.path.getsize(p) // 3)
+
+
+def _overwrite_shorter(p):
+    # As `cp short.npy p` does: the same inode, truncated, then written.
+    with open(p, "wb") as fh:
+        fh.write(b"\x93NUMPY" + b"\0" * 1000)
+
+
+@pytest.mark.parametrize("change", [_truncate, _overwrite_shorter], ids=["truncate", "overwrite"])
+@pytest.mark.parametrize("extra", ["{}", "{'highpass': 0.1}", "{'max_lag': 0}"], ids=["mapped", "mapped-raw", "spans"])
+def test_change_during_analyze_is_an_error_not_a_signal(recording, tmp_path, change, extra):
+    p = tmp_path / "rec.npy"
+    shutil.copy(recording, p)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", CHILD, str(p), extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    assert proc.stdout is not None
+    assert proc.stdout.readline().strip() == "open"
+    time.sleep(0.3)  # some runs under way
+    change(p)
+    out, err = proc.communicate(timeout=60)
+    how = signal.Signals(-proc.returncode).name if proc.returncode < 0 else f"exit {proc.returncode}"
+    assert proc.returncode == 0, f"child ended by {how}: {err[-500:]}"
+    assert out.startswith("error RecordingError"), out + err[-500:]
+    assert "truncated" in out or "ends early" in out or "changed" in out, out
