@@ -110,3 +110,27 @@ def test_threads_out_of_range_are_value_errors_everywhere(threads):
         assert info.type is ValueError or threads == 10**20  # a Python int past i64 is numpy's OverflowError
     with pytest.raises(ValueError):
         td.set_threads(td.max_threads() + 1)
+
+
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"channels": ["fy"]}, "channels must be a mapping"),
+        ({"channels": "fy"}, "channels must be a mapping"),
+        ({"channels": {"fy": 5}}, r"channels\['fy'\] must be a channel name"),
+        ({"scale": [1]}, "scale must be a mapping"),
+        ({"scale": {"fy": "x"}}, r"scale\['fy'\] must be a number"),
+        ({"units": 3}, "units must be a mapping"),
+    ],
+)
+def test_open_recording_argument_types(tmp_path, kw, match):
+    from tribodyn.io.writers import save_hdf5
+
+    p = tmp_path / "x.h5"
+    save_hdf5(p, {"fy": np.arange(10.0), "fz": np.arange(10.0)}, 10.0)
+    with pytest.raises(TypeError, match=match):
+        td.open_recording(p, **kw)
+    with pytest.raises(TypeError, match="path must be"):
+        td.open_recording(5)  # type: ignore[arg-type]
+    with td.open_recording(p, scale={"fy": np.float32(2.0)}) as rec:
+        assert rec.read()["fy"][1] == 2.0

@@ -35,9 +35,10 @@ recognised by their first lines).
 
 from __future__ import annotations
 
+import numbers
 import os
 import stat
-from typing import Any, Mapping, Optional, Union
+from typing import Any, Mapping, Optional, Tuple, Union
 
 from .base import ChannelInfo, Recording, RecordingError
 from .writers import (
@@ -211,9 +212,15 @@ def open_recording(
         Missing file, unknown format, unmapped/missing channel, truncated or
         corrupt file, sampling rate unknown, unequal channel lengths.
     TypeError
-        An option the format does not take.
+        An argument of the wrong type (named), or an option the format does
+        not take.
     """
-    p = os.fspath(path)
+    if not isinstance(path, (str, bytes, os.PathLike)):
+        raise TypeError(f"path must be a str or os.PathLike, got {type(path).__name__}")
+    _check_mapping(channels, "channels", (str, type(None)), "a channel name (or None)")
+    _check_mapping(scale, "scale", (numbers.Real,), "a number")
+    _check_mapping(options.get("units"), "units", (str,), "a unit string")
+    p = os.fsdecode(os.fspath(path))
     fmt = _ALIASES.get(format, format)
     if fmt == "auto":
         fmt = detect_format(p)
@@ -233,6 +240,21 @@ def open_recording(
         raise
     except (OSError, EOFError, UnicodeError) as exc:
         raise RecordingError(f"{p}: cannot read as {fmt}: {exc}") from None
+
+
+def _check_mapping(value: Any, name: str, kinds: Tuple[type, ...], what: str) -> None:
+    """A mapping role/channel -> value of one of ``kinds`` (or None), else a ``TypeError`` naming ``name``."""
+    if value is None:
+        return
+    if not isinstance(value, Mapping):
+        raise TypeError(
+            f"{name} must be a mapping role/channel -> {what}, e.g. {{'fy': 'Ft'}}, got {type(value).__name__}"
+        )
+    for key, v in value.items():
+        if not isinstance(key, str):
+            raise TypeError(f"{name} keys must be role or channel names (str), got {key!r}")
+        if isinstance(v, bool) or not isinstance(v, kinds):
+            raise TypeError(f"{name}[{key!r}] must be {what}, got {type(v).__name__} {v!r}")
 
 
 def _backend(fmt: str) -> Any:
