@@ -41,3 +41,23 @@ def test_no_warnings_no_section(tmp_path):
     write_report(page, title="t", summary=res.summary(), params=res.params, figures=[])
     assert 'id="warnings"' not in page.read_text(encoding="utf-8")
     assert np.isfinite(res["mu_r"]).all()
+
+
+def test_cli_prints_each_reader_warning_once_on_stderr(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    p = _recording(tmp_path)
+    out = tmp_path / "out"
+    r = subprocess.run(
+        [sys.executable, "-m", "tribodyn.cli", "analyze", str(p), "--out", str(out), "--fs", "1000.5", "--hop", "2"],
+        capture_output=True,
+        text=True,
+    )
+    assert r.returncode == 0, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if "overrides the file" in ln]
+    assert len(lines) == 1 and lines[0].startswith("tribodyn: warning: w.h5: ")
+    summary = json.loads((out / "summary.json").read_text())
+    assert any("overrides the file" in w for w in summary["recordings"]["w.h5"]["warnings"])
+    assert "overrides the file" in (out / "report.html").read_text(encoding="utf-8")

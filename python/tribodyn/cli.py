@@ -2,19 +2,30 @@
 
 Sub-commands: ``demo`` (simulate the paper's tests, analyse, report),
 ``analyze`` (your recordings), ``info`` (what a file holds) and ``simulate``
-(write a simulated recording). User errors print one line and exit with
-status 2 (no traceback unless ``--debug``); a bug exits with status 1 and a
-traceback. When several recordings are analysed and some fail, the others
-are written, the failures are listed in ``summary.json`` and on stderr, and
-the status is 3.
+(write a simulated recording). User errors (bad options, config values,
+paths, unreadable inputs, an unusable output folder, a full disk or a
+read-only file system) print one line on stderr and exit with status 2 (no
+traceback unless ``--debug``); a bug exits with status 1 and a traceback.
+When several recordings are analysed and some fail, the others are written,
+the failures are listed in ``summary.json`` and on stderr, and the status is
+3. Warnings are lines starting with ``tribodyn: warning:``.
+
+``--out`` is written as one unit (:class:`tribodyn.outputs.OutputSet`): it
+then holds the new set and nothing else, or, after a failure or an
+interruption, what it held before. A non-empty folder that does not hold a
+previous tribodyn output set is refused unless ``--overwrite``.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+import os
+import re
+import stat
 import sys
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Sequence
+from typing import Any, Dict, List, Mapping, Optional, Sequence
 
 __all__ = ["main"]
 
@@ -23,8 +34,34 @@ EXIT_USER_ERROR = 2
 EXIT_SOME_FAILED = 3
 
 
+#: Roles --map may name (tribodyn.io.base.KNOWN_ROLES, kept here so the CLI starts fast).
+ROLES = ("fx", "fy", "fz", "i", "u", "cof")
+
+#: Unknown roles that are common names of a valid one (for the error message).
+_ROLE_GUESSES = {
+    "fn": "fz",
+    "n": "fz",
+    "load": "fz",
+    "ft": "fy",
+    "ff": "fy",
+    "mu": "cof",
+    "current": "i",
+    "voltage": "u",
+}
+
+#: How the analysis says a recording has no fy/fz channel (tribodyn.analyze).
+_MISSING_CHANNELS = "lacks the required channel(s)"
+
+
 class UserError(Exception):
     """A problem with the user's input or options: one line, no traceback."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line usage error (status 2) instead of the usage block."""
+
+    def error(self, message: str) -> Any:
+        self.exit(EXIT_USER_ERROR, f"tribodyn: error: {message} (see {self.prog} --help)\n")
 
 
 def _kv(text: str, what: str, convert=str) -> Dict[str, Any]:
@@ -33,10 +70,28 @@ def _kv(text: str, what: str, convert=str) -> Dict[str, Any]:
         if "=" not in part:
             raise UserError(f"--{what} takes ROLE=VALUE pairs separated by commas, got {part!r}")
         k, v = part.split("=", 1)
+        if not k.strip():
+            raise UserError(f"--{what}: {part!r} names no role")
         try:
             out[k.strip()] = convert(v.strip())
         except ValueError:
             raise UserError(f"--{what}: {v.strip()!r} is not a number") from None
+    return out
+
+
+def _role_map(pairs: Mapping[Any, Any], where: str) -> Dict[str, str]:
+    """Role -> channel, roles checked against ROLES (case-insensitive), channel names kept as given."""
+    out: Dict[str, str] = {}
+    for key, name in pairs.items():
+        role = str(key).strip().lower()
+        if role not in ROLES:
+            guess = f" (did you mean {_ROLE_GUESSES[role]}?)" if role in _ROLE_GUESSES else ""
+            raise UserError(f"{where}: unknown role {str(key).strip()!r}; valid roles: {', '.join(ROLES)}{guess}")
+        if not isinstance(name, str):
+            raise UserError(f"{where}: the channel of role {role} must be a name (text), got {name!r}")
+        if not name.strip():
+            raise UserError(f"{where}: role {role} needs a channel name ({role}=CHANNEL)")
+        out[role] = name.strip()
     return out
 
 
@@ -56,17 +111,18 @@ def _deadband(text: str) -> Any:
 
 
 def _parser() -> argparse.ArgumentParser:
-    common = argparse.ArgumentParser(add_help=False)
+    common = _Parser(add_help=False)
     common.add_argument("--quiet", "-q", action="store_true", help="no progress bar or summary")
     common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
 
-    p = argparse.ArgumentParser(prog="tribodyn", description="Coefficient of friction from measured dynamic forces.")
+    p = _Parser(prog="tribodyn", description="Coefficient of friction from measured dynamic forces.")
     p.add_argument("--version", action="store_true", help="print the version and exit")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
     d = sub.add_parser("demo", parents=[common], help="simulate the paper's two tests, analyse them, write a report")
     d.add_argument("--out", default="tribodyn-demo", help="output directory (default: ./tribodyn-demo)")
     d.add_argument("--seed", type=int, default=0, help="simulation seed")
+    d.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
 
     a = sub.add_parser("analyze", aliases=["analyse"], parents=[common], help="analyse recording files")
     a.add_argument(
@@ -75,11 +131,21 @@ def _parser() -> argparse.ArgumentParser:
         metavar="FILE",
         help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV), directories or glob patterns",
     )
-    a.add_argument("--out", required=True, help="output directory")
+    a.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
+    a.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
     a.add_argument("--config", help="TOML file with any of these options (command-line options win)")
     a.add_argument("--format", help="file format (default: from the extension and content)")
-    a.add_argument("--map", help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof)")
-    a.add_argument("--scale", help="unit factors to SI, ROLE=FACTOR,... (e.g. fz=0.00980665 for gram-force)")
+    a.add_argument(
+        "--map",
+        action="append",
+        help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof; any case); may be repeated",
+    )
+    a.add_argument(
+        "--scale",
+        action="append",
+        help="unit factors to SI, ROLE=FACTOR,... (e.g. fz=0.00980665 for gram-force; replaces the reader's "
+        "own conversion); may be repeated",
+    )
     a.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
     a.add_argument("--window", type=float, help="window length in s (default 2)")
     a.add_argument("--hop", type=float, help="window start spacing in s (default 10; = window tiles)")
@@ -115,62 +181,128 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
-_CONFIG_KEYS = {
-    "format",
-    "map",
-    "scale",
-    "fs",
-    "window",
-    "hop",
-    "highpass",
-    "temperature",
-    "area",
-    "shunt",
-    "rpm",
-    "lamellas",
-    "orientation",
-    "deadband",
-    "bins",
-    "gate",
-    "max_lag",
-    "chunk",
-    "threads",
+_OVERWRITE_HELP = "replace --out even when it holds files that are not a previous tribodyn output set"
+
+# Config keys: what each must be (checked like the command-line options).
+_NUMBER, _INTEGER, _TEXT = "a number", "an integer", "a string"
+_CONFIG_KEYS: Dict[str, str] = {
+    "format": _TEXT,
+    "map": 'a table of role = "channel" (or a string "fy=Ft,fz=Fn")',
+    "scale": 'a table of role = number (or a string "fz=0.00980665")',
+    "fs": _NUMBER,
+    "window": _NUMBER,
+    "hop": _NUMBER,
+    "highpass": _NUMBER,
+    "temperature": _TEXT,
+    "area": _NUMBER,
+    "shunt": _NUMBER,
+    "rpm": _NUMBER,
+    "lamellas": _INTEGER,
+    "orientation": '"auto", 1 or -1',
+    "deadband": 'a number (N) or a string such as "0.7sigma"',
+    "bins": _INTEGER,
+    "gate": _NUMBER,
+    "max_lag": _INTEGER,
+    "chunk": _NUMBER,
+    "threads": _INTEGER,
 }
+
+
+def _toml_type(v: Any) -> str:
+    for t, name in ((bool, "a boolean"), (int, "an integer"), (float, "a float"), (str, "a string")):
+        if isinstance(v, t):
+            return name
+    if isinstance(v, list):
+        return "an array"
+    if isinstance(v, dict):
+        return "a table"
+    return f"a TOML {type(v).__name__}"
+
+
+def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
+    """The config value ``v`` of ``key`` checked and converted like the option, or UserError."""
+    expected = _CONFIG_KEYS[key]
+
+    def bad() -> UserError:
+        return UserError(f"{where}: {shown} must be {expected}, got {v!r} ({_toml_type(v)})")
+
+    is_int = isinstance(v, int) and not isinstance(v, bool)
+    if expected == _NUMBER:
+        if not (is_int or isinstance(v, float)):
+            raise bad()
+        return float(v)
+    if expected == _INTEGER:
+        if not is_int:
+            raise bad()
+        return v
+    if expected == _TEXT:
+        if not isinstance(v, str):
+            raise bad()
+        return v
+    if key == "orientation":
+        if v == "auto" or (is_int and v in (1, -1)):
+            return v
+        if isinstance(v, str) and v in ("1", "+1", "-1"):
+            return int(v)
+        raise bad()
+    if key == "deadband":
+        if is_int or isinstance(v, float):
+            return float(v)
+        if isinstance(v, str):
+            return _deadband(v)
+        raise bad()
+    if key == "map":
+        if isinstance(v, str):
+            return _role_map(_kv(v, "map"), f"{where}: map")
+        if isinstance(v, dict):
+            return _role_map(v, f"{where}: map")
+        raise bad()
+    # scale
+    if isinstance(v, str):
+        return _kv(v, "scale", float)
+    if not isinstance(v, dict):
+        raise bad()
+    for k, f in v.items():
+        if isinstance(f, bool) or not isinstance(f, (int, float)):
+            raise UserError(f"{where}: scale.{k} must be a number, got {f!r} ({_toml_type(f)})")
+    return {k: float(f) for k, f in v.items()}
 
 
 def _load_config(path: str) -> Dict[str, Any]:
     if sys.version_info >= (3, 11):
         import tomllib
     else:  # pragma: no cover - Python < 3.11
-        import tomli as tomllib
+        try:
+            import tomli as tomllib
+        except ImportError:
+            raise UserError("--config needs the tomli package on Python < 3.11 (pip install tomli)") from None
     p = Path(path)
     if not p.is_file():
         raise UserError(f"config file not found: {p}")
     try:
         with open(p, "rb") as f:
-            cfg = tomllib.load(f)
+            raw = tomllib.load(f)
     except tomllib.TOMLDecodeError as exc:
         raise UserError(f"config file {p.name} is not valid TOML: {exc}") from None
-    cfg = {k.replace("-", "_"): v for k, v in cfg.items()}
-    unknown = set(cfg) - _CONFIG_KEYS
+    except UnicodeDecodeError:
+        raise UserError(f"config file {p.name} is not valid TOML: not UTF-8 text") from None
+    unknown = sorted(k for k in raw if k.replace("-", "_") not in _CONFIG_KEYS)
     if unknown:
-        raise UserError(f"config file {p.name}: unknown option(s) {', '.join(sorted(unknown))}")
-    return cfg
+        raise UserError(f"config file {p.name}: unknown option(s) {', '.join(unknown)}")
+    return {
+        k.replace("-", "_"): _config_value(k.replace("-", "_"), k, v, f"config file {p.name}") for k, v in raw.items()
+    }
 
 
 def _analysis_options(ns: argparse.Namespace) -> tuple:
     cfg = _load_config(ns.config) if ns.config else {}
     get = lambda key: getattr(ns, key) if getattr(ns, key, None) is not None else cfg.get(key)  # noqa: E731
-    channels = cfg.get("map") or {}
-    if isinstance(channels, str):
-        channels = _kv(channels, "map")
-    if ns.map:
-        channels = {**channels, **_kv(ns.map, "map")}
-    scale = cfg.get("scale") or {}
-    if isinstance(scale, str):
-        scale = _kv(scale, "scale", float)
-    if ns.scale:
-        scale = {**scale, **_kv(ns.scale, "scale", float)}
+    channels: Dict[str, str] = dict(cfg.get("map") or {})
+    for text in ns.map or ():  # repeated --map options add up; a later role wins
+        channels.update(_role_map(_kv(text, "map"), "--map"))
+    scale: Dict[str, float] = dict(cfg.get("scale") or {})
+    for text in ns.scale or ():
+        scale.update(_kv(text, "scale", float))
     open_opts: Dict[str, Any] = {}
     if get("format"):
         open_opts["format"] = get("format")
@@ -201,11 +333,82 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
         v = get(key)
         if v is not None:
             opts[name] = v
+    rpm, lamellas = opts.get("rpm"), opts.get("n_lamellas")
+    if rpm is not None and not (math.isfinite(rpm) and rpm > 0):
+        raise UserError(f"--rpm must be a finite number > 0, got {rpm!r}")
+    if lamellas is not None and lamellas < 1:
+        raise UserError(f"--lamellas must be at least 1, got {lamellas!r}")
+    protect = [p for p in (ns.config, get("temperature")) if p]
     if get("temperature"):
         from .jobs import read_log
 
         opts["temperature"] = read_log(get("temperature"))
-    return open_opts, opts
+    return open_opts, opts, protect
+
+
+def _check_regular(paths: Sequence[str]) -> None:
+    """Refuses inputs that are not regular files (a pipe would block the reader forever)."""
+    for p in paths:
+        try:
+            mode = os.stat(p).st_mode
+        except OSError:
+            continue  # the reader says what is wrong
+        if not stat.S_ISREG(mode) and not stat.S_ISDIR(mode):
+            raise UserError(f"{p}: not a regular file (a pipe, socket or device?)")
+
+
+def _warn_converted(files: Sequence[str], open_opts: Dict[str, Any]) -> None:
+    """Warns when --scale targets a channel the reader converts to SI itself (the factor replaces that)."""
+    from .io import open_recording
+
+    plain = {k: v for k, v in open_opts.items() if k != "scale"}
+    for f in files:
+        try:
+            with open_recording(f, **plain) as rec:
+                infos = list(rec.channels)
+                roles = dict(rec.roles)
+        except Exception:  # the analysis reports what is wrong with the file
+            continue
+        for key, factor in open_opts["scale"].items():
+            name = roles.get(key, key)
+            info = next((c for c in infos if c.name == name), None)
+            info = info or next((c for c in infos if c.name.lower() == str(name).lower()), None)
+            if info is None or (info.scale == 1.0 and "convert" not in info.note.lower()):
+                continue
+            how = info.note or f"x{info.scale:g}"
+            print(
+                f"tribodyn: warning: {Path(f).name}: --scale {key}={factor:g} replaces the reader's own conversion "
+                f"of channel {info.name!r} ({how}); the factor must take the file's raw values "
+                f"({info.raw_unit or 'no unit'}) to SI, it is not applied on top",
+                file=sys.stderr,
+            )
+
+
+def _channels_hint(message: str, files: Sequence[str], open_opts: Dict[str, Any]) -> str:
+    """A 'lacks the required channel(s)' message with the file's channels and the --map option."""
+    if _MISSING_CHANNELS not in message:
+        return message
+    path = files[0] if len(files) == 1 else None
+    for f in files:
+        if message.startswith(f"{Path(f).name}:"):
+            path = f
+    if path is None:
+        return f"{message}; map channels with --map ROLE=CHANNEL"
+    from .io import open_recording
+
+    try:
+        with open_recording(path, **open_opts) as rec:
+            names, roles = rec.channel_names, dict(rec.roles)
+    except Exception:
+        return f"{message}; map channels with --map ROLE=CHANNEL"
+    missing = [r for r in ("fy", "fz") if r not in roles] or ["fy", "fz"]
+    shown = ", ".join(repr(n) for n in names[:30]) + (f" and {len(names) - 30} more" if len(names) > 30 else "")
+    mapped = ", ".join(f"{r}={n!r}" for r, n in roles.items()) or "none"
+    example = ",".join(f"{r}=CHANNEL" for r in missing)
+    return (
+        f"{Path(path).name} {_MISSING_CHANNELS} {', '.join(missing)} (mapped: {mapped}); "
+        f"its channels: {shown}; map them with --map ROLE=CHANNEL, e.g. --map {example}"
+    )
 
 
 def _progress_wanted(ns: argparse.Namespace) -> bool:
@@ -244,14 +447,21 @@ def _run(ns: argparse.Namespace) -> int:
     if ns.command == "demo":
         from .jobs import run_demo
 
-        summary = run_demo(ns.out, seed=ns.seed, progress=_progress_wanted(ns))
+        summary = run_demo(ns.out, seed=ns.seed, progress=_progress_wanted(ns), overwrite=ns.overwrite)
         if not ns.quiet:
             _print_demo(summary, ns.out)
         return 0
     if ns.command in ("analyze", "analyse"):
+        from .distributed import expand_paths
         from .jobs import run_analysis
+        from .outputs import OutputSet
 
-        open_opts, opts = _analysis_options(ns)
+        open_opts, opts, protect = _analysis_options(ns)
+        files = expand_paths(ns.files)
+        _check_regular(files)
+        OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
+        if open_opts.get("scale"):
+            _warn_converted(files, open_opts)
         client = None
         if ns.scheduler:
             from .distributed import connect
@@ -273,7 +483,13 @@ def _run(ns: argparse.Namespace) -> int:
                 progress=_progress_wanted(ns),
                 client=client,
                 split=ns.split,
+                overwrite=ns.overwrite,
+                protect=protect,
             )
+        except ValueError as exc:
+            if _MISSING_CHANNELS in str(exc):
+                raise UserError(_channels_hint(str(exc), files, open_opts)) from exc
+            raise
         finally:
             if client is not None:
                 cluster = getattr(client, "cluster", None)
@@ -282,8 +498,16 @@ def _run(ns: argparse.Namespace) -> int:
                     cluster.close()
         if not ns.quiet:
             _print_analysis(summary, ns.out)
+        # The readers' warnings, once each (they are also in summary.json and the report).
+        for name, s in summary.get("recordings", {}).items():
+            for w in dict.fromkeys(s.get("warnings") or ()):
+                print(f"tribodyn: warning: {name}: {w}", file=sys.stderr)
         for name, f in summary.get("failures", {}).items():
-            print(f"tribodyn: warning: {name} failed: {f['error']}", file=sys.stderr)
+            err = f["error"]
+            if _MISSING_CHANNELS in err:
+                err = _channels_hint(err, [p for p in files if Path(p).name == name][:1], open_opts)
+                err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
+            print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
         return EXIT_SOME_FAILED if summary.get("failures") else 0
     if ns.command == "info":
         from .io import open_recording
@@ -291,8 +515,9 @@ def _run(ns: argparse.Namespace) -> int:
         kw: Dict[str, Any] = {}
         if ns.format:
             kw["format"] = ns.format
-        if ns.fs:
+        if ns.fs is not None:
             kw["fs"] = ns.fs
+        _check_regular([ns.file])
         with open_recording(ns.file, **kw) as rec:
             info = rec.info()
         _print_info(info)
@@ -301,6 +526,7 @@ def _run(ns: argparse.Namespace) -> int:
         from . import simulate
         from .io.writers import save_recording
 
+        _check_recording_target(ns.out)
         sim = simulate.scenario(
             ns.scenario, seed=ns.seed, raw=ns.raw, skew=ns.skew, force_dependence=ns.force_dependence
         )
@@ -309,6 +535,18 @@ def _run(ns: argparse.Namespace) -> int:
             print(f"wrote {ns.out}: {sim.duration:g} s at {sim.fs:g} Hz, channels {', '.join(sim.channels)}")
         return 0
     raise UserError("no command given (try: tribodyn demo)")
+
+
+def _check_recording_target(path: str) -> None:
+    """Refuses a simulate --out the writer would refuse, before the (long) simulation."""
+    if os.path.isdir(path):
+        raise UserError(f"{path} is a folder: give a file name (.npz, .h5/.hdf5 or .tdms)")
+    ext = os.path.splitext(path)[1].lower()
+    if ext not in (".npz", ".h5", ".hdf5", ".hdf", ".tdms"):
+        raise UserError(f"cannot write recordings as {ext!r}: use .npz, .h5/.hdf5 or .tdms")
+    folder = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(folder):
+        raise UserError(f"{path}: the folder {folder} does not exist")
 
 
 def _print_info(info: Dict[str, Any]) -> None:
@@ -330,10 +568,10 @@ def _user_errors() -> tuple:
         UserError,
         ValueError,
         TypeError,
-        FileNotFoundError,
-        PermissionError,
-        IsADirectoryError,
-        NotADirectoryError,
+        OverflowError,
+        # Missing or unusable paths, permissions, a full disk (ENOSPC), a
+        # read-only file system (EROFS), a busy folder...: the user's to fix.
+        OSError,
     ]
     try:
         from .io import RecordingError
@@ -347,7 +585,10 @@ def _user_errors() -> tuple:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``tribodyn`` console script; returns the exit status."""
     parser = _parser()
-    ns = parser.parse_args(argv)
+    try:
+        ns = parser.parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a usage error (one line, see _Parser.error)
+        return exc.code if isinstance(exc.code, int) else EXIT_USER_ERROR
     if ns.version:
         from . import __version__
 
@@ -359,18 +600,39 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         return _run(ns)
     except KeyboardInterrupt:
-        print("tribodyn: interrupted (no partial outputs were kept)", file=sys.stderr)
+        print(
+            "tribodyn: interrupted (the output folder holds what it held before, or the whole new set)", file=sys.stderr
+        )
         return 130
     except _user_errors() as exc:
         if getattr(ns, "debug", False):
             raise
-        print(f"tribodyn: error: {_cli_words(str(exc))}", file=sys.stderr)
+        print(f"tribodyn: error: {_one_line(_cli_words(_error_text(exc)))}", file=sys.stderr)
         return EXIT_USER_ERROR
+
+
+# The staging/aside folders of tribodyn.outputs: errors name the output folder instead.
+_WORK_DIR = re.compile(r"\.tribodyn-(?:staging|old)-\d+-[A-Za-z0-9_]+")
+
+
+def _error_text(exc: BaseException) -> str:
+    """The message of an error; an OSError as 'PATH: reason' (naming --out, not its staging folder)."""
+    if isinstance(exc, OSError) and exc.strerror:
+        names = [_WORK_DIR.sub("", str(n)) for n in (exc.filename, exc.filename2) if n is not None]
+        if len(names) == 2:
+            return f"cannot move {names[0]} to {names[1]}: {exc.strerror}"
+        return f"{names[0]}: {exc.strerror}" if names else exc.strerror
+    return str(exc) or type(exc).__name__
+
+
+def _one_line(msg: str) -> str:
+    return " ".join(msg.split()) if "\n" in msg or "\r" in msg else msg
 
 
 def _cli_words(msg: str) -> str:
     """A library message in the CLI's terms (its options instead of Python keywords)."""
-    return msg.replace("pass fs=... (Hz)", "give --fs HZ").replace("; pass fs=", "; give --fs HZ")
+    msg = msg.replace("pass fs=... (Hz)", "give --fs HZ").replace("; pass fs=", "; give --fs HZ")
+    return msg.replace("pass overwrite=True", "pass --overwrite")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,10 +1,12 @@
 """The jobs behind the command line: the demo and the analysis of files.
 
-Each job analyses, then writes its outputs all-or-nothing (see
-:mod:`tribodyn.outputs`): per-window tables (CSV, Parquet), ``summary.json``
-(COF statistics, optimum ranges, gate statistics, every parameter, the
-tribodyn version, input names and SHA-256), figures (PNG) and a
-self-contained ``report.html``.
+Each job checks its output folder first (before the work: see
+:class:`tribodyn.outputs.OutputSet`), analyses, then writes its outputs
+all-or-nothing as one folder: per-window tables (CSV, Parquet),
+``summary.json`` (COF statistics, optimum ranges, gate statistics, every
+parameter, the tribodyn version, input names and SHA-256), figures (PNG) and
+a self-contained ``report.html``. The folder then holds this set only (the
+files of an earlier run into it are gone).
 """
 
 from __future__ import annotations
@@ -123,14 +125,17 @@ def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, Any]], prefix: str) 
     return names
 
 
-def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False) -> Dict[str, Any]:
+def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: bool = False) -> Dict[str, Any]:
     """Simulates the paper's two tests, analyses them and writes every output.
 
-    Returns the summary (also written to ``summary.json``).
+    ``out_dir`` is replaced as a whole (see :class:`~tribodyn.outputs.OutputSet`;
+    ``overwrite`` allows replacing a folder that holds other files). Returns
+    the summary (also written to ``summary.json``).
     """
     from . import __version__, simulate
     from .report import write_report
 
+    output = OutputSet(out_dir, overwrite=overwrite)  # refuses an unusable folder before the work
     sim_t = simulate.temperature_test(seed=seed)
     sim_j = simulate.current_density_test(seed=seed)
     res_t = analyze(
@@ -173,7 +178,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False) -> Dict[str
             "params": res_j.params,
         },
     }
-    with OutputSet(out_dir) as out:
+    with output as out:
         files = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
         figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, example=example)
         figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, example=None)
@@ -213,6 +218,12 @@ def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
                     out[f"{key}: instability onset ({by})"] = f"{rng['onset']:.3g} {rng['unit']}"
         elif not isinstance(val, (Mapping, list)):
             out[key] = val
+    # The readers' warnings go to the report's own section (report._pop_warnings).
+    warns = [
+        f"{key}: {w}" for key, val in summary.items() if isinstance(val, Mapping) for w in val.get("warnings") or ()
+    ]
+    if warns:
+        out["warnings"] = warns
     return out
 
 
@@ -225,6 +236,8 @@ def run_analysis(
     progress: bool = False,
     client: Any = None,
     split: Optional[float] = None,
+    overwrite: bool = False,
+    protect: Sequence[Any] = (),
 ) -> Dict[str, Any]:
     """Analyses recording files and writes the outputs into ``out_dir``.
 
@@ -235,6 +248,11 @@ def run_analysis(
     recordings (and ranges of ``split`` seconds of long ones) run on the
     cluster (:func:`tribodyn.analyze_many`). A recording that fails is listed
     in ``summary["failures"]``; if every one fails, the first error is raised.
+
+    ``out_dir`` is checked before the work and replaced as a whole (see
+    :class:`~tribodyn.outputs.OutputSet`): a folder holding anything but a
+    previous output set is refused unless ``overwrite``; a folder holding
+    an input file, or one of the files ``protect`` names, always.
     """
     from . import __version__
     from .distributed import analyze_many, expand_paths
@@ -245,6 +263,7 @@ def run_analysis(
     if not paths:
         raise ValueError("no input file given")
     files = expand_paths(paths)
+    output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
     if len(files) == 1 and client is None and split is None:
         # One file, here: read it directly (progress bar over its samples).
         from .io import open_recording
@@ -269,7 +288,7 @@ def run_analysis(
     }
     single = len(runs) == 1 and not failures
     labels = _labels([p for p, _ in runs])
-    with OutputSet(out_dir) as out:
+    with output as out:
         all_figs = []
         for (p, res), label in zip(runs, labels):
             prefix = "" if single else f"{label}/"

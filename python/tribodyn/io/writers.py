@@ -12,6 +12,7 @@ units and sampling rate (``.npy`` keeps neither names nor fs: see
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import json
 import math
@@ -50,10 +51,18 @@ def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
         same directory; it must write the complete content there (opening it
         itself, e.g. ``open(tmp, 'wb')``, ``h5py.File(tmp, 'w')``).
 
+    Raises
+    ------
+    OSError
+        The directory is missing or not writable, the disk is full, the file
+        system is read-only...: the error names ``path`` (not the temporary
+        file), keeps its class and ``errno``.
+
     Notes
     -----
     The temporary file is flushed to disk and renamed over ``path``; its
-    permissions follow the umask like a normally created file. If
+    permissions follow the umask like a normally created file. A symbolic
+    link at ``path`` is replaced by the file, never written through. If
     ``write_fn`` (or anything after it) raises, the temporary file is removed
     and the exception propagates: ``path`` is then either untouched or absent,
     never partial.
@@ -61,10 +70,13 @@ def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
     target = os.path.abspath(os.fspath(path))
     directory = os.path.dirname(target)
     if os.path.isdir(target):
-        raise IsADirectoryError(f"{target} is a directory")
+        raise IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR), target)
     base = os.path.basename(target)
     _, ext = os.path.splitext(base)
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=directory)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=directory)
+    except OSError as exc:
+        raise _naming(exc, target) from None
     try:
         os.close(fd)
         write_fn(tmp)
@@ -74,12 +86,41 @@ def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError) and exc.filename in (tmp, None):
+            raise _naming(exc, target) from None
         raise
+    _fsync_dir(directory)
+
+
+def _naming(exc: OSError, target: str) -> OSError:
+    """``exc`` (same class and errno) naming ``target`` instead of a temporary file."""
+    if exc.errno is None:
+        return exc
+    try:
+        return type(exc)(exc.errno, exc.strerror, target)
+    except TypeError:  # pragma: no cover - an OSError subclass with another signature
+        return exc
+
+
+def _fsync_dir(directory: str) -> None:
+    """Best effort: makes a rename in ``directory`` durable (POSIX only)."""
+    if os.name != "posix":
+        return
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
 
 
 def sha256_file(path: PathLike, chunk_size: int = 1 << 20) -> str:
