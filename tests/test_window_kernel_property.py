@@ -31,7 +31,8 @@ sy^2; resid_std in sy / sqrt(n - 2); mu_a, mu_b, bin_cof in max |fy/fz| over
 the window's kept samples; means and extremes in max|channel|. Both sides
 centre with two passes (the kernel in fixed lanes with the Chan et al.
 correction, the reference in NumPy's order), so they differ by a few ulps
-times n in those units; a real error is far larger. S_zz, S_yy, the
+times n in those units (measured: every test still passes with 1e-14 in
+place of 1e-9); a real error is far larger. S_zz, S_yy, the
 deadband and mu_classic are relative only (so a constant channel must give
 exactly S = 0 on both sides). NaN positions must match
 exactly; counts (n, n_a, n_b, bin_count) must be equal.
@@ -68,7 +69,7 @@ def _kernel_names():
         try:
             compute(None, fz, fz, None, np.array([0]), 8, parse_deadband(0.35), 2, [key])
         except ValueError as e:
-            assert "unknown kernel column" in str(e), e
+            assert "column" in str(e), e
         else:
             names.append(key)
     return tuple(names)
@@ -84,10 +85,10 @@ MAX_THREADS = min(8, 4 * (os.cpu_count() or 1))
 
 
 def _windows(x, starts, length):
-    return np.stack([np.asarray(x[s : s + length], dtype=float) for s in starts])
+    return np.array([np.asarray(x[s : s + length], dtype=float) for s in starts]).reshape(len(starts), length)
 
 
-def _units(fy, fz, aux, starts, length, want, deadband):
+def _units(fy, fz, aux, starts, length, want):
     """Per window (shape (m,) or (m, 1)), the natural unit of every float key."""
     y, z = _windows(fy, starts, length), _windows(fz, starts, length)
     ay, az = np.abs(y).max(axis=1), np.abs(z).max(axis=1)
@@ -132,11 +133,11 @@ def _units(fy, fz, aux, starts, length, want, deadband):
     return units
 
 
-def assert_matches(got, want, fy, fz, aux, starts, length, deadband):
+def assert_matches(got, want, fy, fz, aux, starts, length):
     """The kernel's dict ``got`` equals the reference's ``want`` (module docs)."""
     keys = sorted(set(got) & set(want))
     assert keys, "the kernel and the reference share no key"
-    units = _units(fy, fz, aux, starts, length, want, deadband)
+    units = _units(fy, fz, aux, starts, length, want)
     m = len(starts)
     for key in keys:
         a, b = np.asarray(got[key]), np.asarray(want[key])
@@ -154,7 +155,7 @@ def assert_matches(got, want, fy, fz, aux, starts, length, deadband):
                 f" kernel {a[rows].tolist()} reference {b[rows].tolist()}"
             )
         assert not np.isinf(a).any() and not np.isinf(b).any(), f"{key}: inf"
-        atol = TOL * np.broadcast_to(units.get(key, np.zeros(m)), a.shape) if a.ndim else 0.0
+        atol = TOL * np.broadcast_to(units.get(key, np.zeros(m)), a.shape)
         ok = nan_a | (np.abs(a - b) <= TOL * np.abs(b) + atol)
         if not ok.all():
             rows = np.flatnonzero(~ok.reshape(m, -1).all(axis=1))
@@ -181,7 +182,7 @@ def check(fx, fy, fz, aux, starts, length, deadband, n_bins, raw=None, threads=N
             assert not tie, "a sample lies on the sigma deadband"
     if currently_in_test_context():
         note(f"length={length} starts={starts.tolist()} deadband={deadband!r} n_bins={n_bins}")
-    assert_matches(got, want, fy, fz, aux, starts, length, db)
+    assert_matches(got, want, fy, fz, aux, starts, length)
     return got
 
 
@@ -273,6 +274,7 @@ def test_random_windows(data):
     fx, fy, fz, aux, fy_raw, fz_raw = _generated(data.draw, n, d)
     with_fx, with_aux, with_raw = data.draw(st.tuples(st.booleans(), st.booleans(), st.booleans()))
     n_bins = data.draw(st.integers(1, 20))
+    threads = data.draw(st.one_of(st.none(), st.integers(1, MAX_THREADS)))
     got = check(
         fx if with_fx else None,
         fy,
@@ -283,6 +285,7 @@ def test_random_windows(data):
         deadband,
         n_bins,
         raw=(fy_raw, fz_raw) if with_raw else None,
+        threads=threads,
     )
     # Conventions that do not depend on the reference.
     assert (got["n"] == length).all()
@@ -445,6 +448,12 @@ def test_threads_give_the_same_bits(data):
     for key in a:
         assert a[key].dtype == b[key].dtype and a[key].shape == b[key].shape, key
         assert a[key].tobytes() == b[key].tobytes(), f"{key}: threads={threads} and threads=1 differ"
+
+
+def test_no_windows():
+    """No start: every column has zero rows (bins: shape (0, n_bins))."""
+    fz = np.linspace(-1.0, 1.0, 10)
+    check(fz, fz, fz, fz, np.zeros(0, dtype=np.int64), 3, 0.35, 4, raw=(fz, fz))
 
 
 def test_bad_starts_are_refused():

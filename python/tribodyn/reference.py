@@ -499,10 +499,13 @@ def window_stats(
     db = parse_deadband(deadband)
     nb = int(n_bins)
     n = int(length)
-    cols: dict = {}
+    fit_keys = ("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std")
+    keys = fit_keys + ("sse", "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz", "deadband", "mu_a")
+    keys += ("mu_b", "n_a", "n_b", "fz_min", "fz_max", "bin_count", "bin_cof", "aux_mean", "mu_classic", "n")
+    cols: dict = {key: [] for key in keys}
 
     def put(key: str, value: Any) -> None:
-        cols.setdefault(key, []).append(value)
+        cols[key].append(value)
 
     nan = float("nan")
     for s in np.asarray(starts, dtype=np.int64):
@@ -530,7 +533,7 @@ def window_stats(
                 "resid_std": np.sqrt(resid_var),
             }
         else:
-            fit = dict.fromkeys(("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std"), nan)
+            fit = dict.fromkeys(fit_keys, nan)
         for key, value in fit.items():
             put(key, value)
         for key, value in (("sse", sse), ("mean_z", mz), ("mean_y", my), ("szz", szz), ("syy", syy), ("syz", syz)):
@@ -555,6 +558,8 @@ def window_stats(
         lo, hi = float(z.min()), float(z.max())
         span = hi - lo
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            # n_bins / span first, as the kernel does: (z - lo) * nb / span
+            # rounds differently and moves some samples on an edge to a neighbour.
             t = (z - lo) * (nb / span) if span > 0 else np.zeros(n)
             ratio = y / z
         # A tiny span can make nb / span infinite: (lo - lo) * inf is NaN, bin 0.
