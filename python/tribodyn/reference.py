@@ -11,7 +11,7 @@ cannot be expressed in NumPy, so it uses ``scipy.signal.sosfilt``.
 from __future__ import annotations
 
 from fractions import Fraction
-from typing import Any, Optional
+from typing import Any, Optional, Tuple
 
 import numpy as np
 from scipy import signal as _signal
@@ -500,8 +500,9 @@ def window_stats(
     nb = int(n_bins)
     n = int(length)
     fit_keys = ("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std")
-    keys = fit_keys + ("sse", "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz", "deadband", "mu_a")
-    keys += ("mu_b", "n_a", "n_b", "fz_min", "fz_max", "bin_count", "bin_cof", "aux_mean", "mu_classic", "n")
+    keys: Tuple[str, ...] = fit_keys + ("sse", "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz")
+    keys += ("deadband", "mu_a", "mu_b", "n_a", "n_b", "fz_min", "fz_max", "bin_count", "bin_cof", "aux_mean")
+    keys += ("mu_classic", "n")
     cols: dict = {key: [] for key in keys}
 
     def put(key: str, value: Any) -> None:
