@@ -81,3 +81,42 @@ def test_change_during_analyze_is_an_error_not_a_signal(recording, tmp_path, cha
     assert proc.returncode == 0, f"child ended by {how}: {err[-500:]}"
     assert out.startswith("error RecordingError"), out + err[-500:]
     assert "truncated" in out or "ends early" in out or "changed" in out, out
+
+
+@pytest.mark.parametrize("fmt", ["npy", "h5", "tdms", "csv"])
+def test_a_file_rewritten_after_opening_is_refused_by_every_format(tmp_path, fmt):
+    """Same size, other numbers (as `cp other file` does): the size/mtime/inode check catches it."""
+    import tribodyn as td
+    from tribodyn.io.writers import save_hdf5, save_npy, save_tdms
+
+    rng = np.random.default_rng(1)
+    fz = rng.normal(size=20_000)
+    ch = {"fx": rng.normal(size=20_000), "fy": -0.1 * fz, "fz": fz, "i": np.full(20_000, 4.0)}
+    p = tmp_path / f"r.{fmt}"
+
+    def write(c):
+        if fmt == "npy":
+            if p.exists():  # in place, as `cp` does (save_npy renames a new file over the path)
+                tmp = tmp_path / "new.npy"
+                save_npy(tmp, c)
+                with open(p, "r+b") as fh:
+                    fh.write(tmp.read_bytes())
+            else:
+                save_npy(p, c)
+        elif fmt == "h5":
+            save_hdf5(p, c, 1000.0)
+        elif fmt == "tdms":
+            save_tdms(p, c, 1000.0)
+        else:
+            np.savetxt(p, np.column_stack([c[r] for r in ("fx", "fy", "fz", "i")]), fmt="%.6e", delimiter=",",
+                       header="fx,fy,fz,i", comments="")  # fmt: skip
+
+    write(ch)
+    opts = {"names": ["fx", "fy", "fz", "i"]} if fmt == "npy" else {}
+    with td.open_recording(p, fs=1000.0, **opts) as rec:
+        size = os.path.getsize(p)
+        time.sleep(0.01)
+        write({k: v * 1.5 for k, v in ch.items()})  # same layout and size, other values
+        assert os.path.getsize(p) == size
+        with pytest.raises(td.RecordingError, match="changed|truncated|ends early"):
+            td.analyze(rec, window=1.0, hop=1.0)

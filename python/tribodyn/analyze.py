@@ -237,6 +237,8 @@ def analyze(
         st, aux_role = _run_spans(rec, plan)
     else:
         st, aux_role = _run_stream(_chunk_source(source, rec, plan), plan, _total(source, rec, plan))
+    if rec is not None and hasattr(rec, "check_unchanged"):
+        rec.check_unchanged()  # a file changed while it was read: an error, not a table of mixed data
     res = finish(st, aux_role, plan, route)
     warns = tuple(dict.fromkeys(str(w) for w in getattr(rec, "warnings", ()) or ()))
     return dataclasses.replace(res, warnings=warns) if warns else res

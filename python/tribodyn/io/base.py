@@ -365,6 +365,36 @@ class Recording:
         self.channels: List[ChannelInfo] = infos
         if not self._segments:
             self._segments = [(0, self._n)]
+        self._identity_at_open = self._identity()
+
+    def _identity(self) -> Optional[Tuple[int, int, int, int]]:
+        """(size, mtime_ns, inode, device) of the file read: of the recording's own descriptor when it holds one
+        (a path renamed over later names another file, which is not read), else of the path."""
+        try:
+            fd = getattr(self, "_fd", None)
+            st = os.fstat(fd) if isinstance(fd, int) else os.stat(self.path)
+        except OSError:
+            return None
+        return (st.st_size, st.st_mtime_ns, st.st_ino, st.st_dev)
+
+    def check_unchanged(self) -> None:
+        """Raises :class:`RecordingError` when the file changed since it was opened (size, mtime or inode).
+
+        Called after the last read of :meth:`chunks` and :meth:`read`, and by
+        :func:`tribodyn.analyze` after a recording's last window: a file
+        truncated, rewritten or replaced while it was read is an error, not a
+        table of mixed data.
+        """
+        before = getattr(self, "_identity_at_open", None)
+        now = self._identity()
+        if before is None or now == before:
+            return
+        what = [
+            name for name, a, b in zip(("size", "modification time", "inode", "device"), before, now or ()) if a != b
+        ]
+        raise RecordingError(
+            f"{self.path}: file changed while it was read ({', '.join(what) or 'gone'} differ from when it was opened)"
+        )
 
     def _fs_from_time_channel(self, time_channel: str) -> None:
         """Sets the file's fs from the median step of a time channel (in seconds).
@@ -714,6 +744,7 @@ class Recording:
                 yield take(size)
         if buffered:
             yield take(buffered)
+        self.check_unchanged()
         if total != expected:
             raise RecordingError(
                 f"{self.path}: read {total} samples but expected {expected} of the {self._n} announced "
@@ -750,6 +781,7 @@ class Recording:
                 if f != 1.0:
                     dst *= f
             pos += m
+        self.check_unchanged()
         if pos != self._n:
             raise RecordingError(
                 f"{self.path}: read {pos} samples but the file announced {self._n} "
