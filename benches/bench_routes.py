@@ -71,12 +71,16 @@ print(json.dumps({"s": dt, "route": res.params.get("route", "?"), "digest": h.he
 """
 
 
-def write_files(directory: Path, hours: float) -> Dict[str, Path]:
+def write_files(directory: Path, hours: float, keys: set) -> Dict[str, Path]:
+    """The recording in the formats ``keys`` asks for (the dynamic ``.npy`` always)."""
     from tribodyn.io.writers import save_recording
 
     dur = hours * 3600.0
-    paths = bp.write_recording(directory, "dyn", dur, raw=False, formats=("npy", "h5"))
-    paths["npy_raw"] = bp.write_recording(directory, "raw", dur, raw=True, formats=("npy",))["npy"]
+    paths = bp.write_recording(directory, "dyn", dur, raw=False, formats=("npy", "h5") if "h5" in keys else ("npy",))
+    if "npy_raw" in keys:
+        paths["npy_raw"] = bp.write_recording(directory, "raw", dur, raw=True, formats=("npy",))["npy"]
+    if not keys & {"tdms", "csv"}:
+        return paths
     arr = np.load(paths["npy"], mmap_mode="r")
     channels = {r: np.asarray(arr[j]) for j, r in enumerate(bp.ROLES)}
     paths["tdms"] = directory / "dyn.tdms"
@@ -116,11 +120,10 @@ def main(argv: Optional[List[str]] = None) -> None:
     args = ap.parse_args(argv)
     builds = [("this", None)] + ([("baseline", args.baseline)] if args.baseline else [])
     with tempfile.TemporaryDirectory(dir=args.tmp) as d:
-        paths = write_files(Path(d), args.hours)
+        cases = [c for c in CASES if not args.only or args.only in c[0]]
+        paths = write_files(Path(d), args.hours, {key for _, key, _ in cases})
         rows = []
-        for label, key, extra in CASES:
-            if args.only and args.only not in label:
-                continue
+        for label, key, extra in cases:
             runs: Dict[str, List[Dict[str, Any]]] = {b: [] for b, _ in builds}
             for _ in range(args.repeats):
                 for b, pp in reversed(builds):  # interleaved, the baseline first

@@ -239,9 +239,7 @@ def analyze(
         st, aux_role = _run_stream(_chunk_source(source, rec, plan), plan, _total(source, rec, plan))
     if rec is not None and hasattr(rec, "check_unchanged"):
         rec.check_unchanged()  # a file changed while it was read: an error, not a table of mixed data
-    res = finish(st, aux_role, plan, route)
-    warns = tuple(dict.fromkeys(str(w) for w in getattr(rec, "warnings", ()) or ()))
-    return dataclasses.replace(res, warnings=warns) if warns else res
+    return finish(st, aux_role, plan, route, warnings=getattr(rec, "warnings", ()))
 
 
 def choose_route(source: Any, rec: Any, plan: Plan) -> str:
@@ -310,12 +308,13 @@ def sign_of_total_slope(st: Stats) -> float:
     return float(np.sum(st["syz"]) + np.sum(n * (st["mean_z"] - mz) * (st["mean_y"] - my)))
 
 
-def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "") -> Results:
+def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warnings: Sequence[str] = ()) -> Results:
     """The kernel's per-window statistics (orientation +1) as a :class:`Results` (docs/method.md 0, 5, 6).
 
     Fixes the orientation once for all windows, applies the gate, joins the
     covariates and lays the table out as :data:`tribodyn.columns.TABLE`
     declares it. ``st`` is consumed (its arrays are flipped in place).
+    ``warnings`` (the reader's) are kept, each once.
     """
     if len(st["n"]) == 0:
         w = plan.window
@@ -374,6 +373,7 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "") -> R
         orientation=s,
         params=params,
         moments=moments,
+        warnings=tuple(dict.fromkeys(str(w) for w in warnings)),
     )
 
 
