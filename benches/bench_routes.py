@@ -51,7 +51,7 @@ CASES = [
 ]
 
 CHILD = r"""
-import hashlib, json, resource, sys, time
+import hashlib, json, sys, time
 import numpy as np
 import tribodyn as td
 path, fs, extra, threads = sys.argv[1], float(sys.argv[2]), eval(sys.argv[3]), sys.argv[4]
@@ -65,7 +65,8 @@ dt = time.perf_counter() - t0
 h = hashlib.sha256()
 for c in ("mu_r", "c_yz", "mu_a", "mu_b", "i"):
     h.update(np.ascontiguousarray(res.table[c]).tobytes())
-rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+# VmHWM: this process's peak (ru_maxrss would carry the parent's peak across exec).
+rss = next(int(l.split()[1]) for l in open("/proc/self/status") if l.startswith("VmHWM")) / 1024
 print(json.dumps({"s": dt, "route": res.params.get("route", "?"), "digest": h.hexdigest()[:12],
                   "gated": int(res.table["ok"].sum()), "windows": len(res), "rss_mb": rss}))
 """
