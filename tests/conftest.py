@@ -1,4 +1,4 @@
-"""Shared test configuration: hypothesis profiles.
+"""Shared test configuration: hypothesis profiles, and a fixture that restores the thread setting.
 
 "ci" (loaded when the CI environment variable is set): few examples, no
 deadline, derandomized so a CI run is reproducible. "dev" otherwise: more
@@ -10,8 +10,23 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from hypothesis import settings
+
+import tribodyn as td
 
 settings.register_profile("ci", max_examples=40, deadline=None, derandomize=True)
 settings.register_profile("dev", max_examples=100, deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
+
+
+@pytest.fixture
+def restore_threads():
+    """Puts the process-wide thread setting back as it was (0 = all cores, if it was that); yields the core count."""
+    before = td.get_threads()
+    td.set_threads(0)
+    all_cores = td.get_threads()
+    td.set_threads(before)
+    yield all_cores
+    td.set_threads(0 if before == all_cores else before)
+    assert td.get_threads() == before

@@ -354,18 +354,6 @@ ROUNDS = 4
 CALLERS = 8
 
 
-@pytest.fixture
-def restore_threads():
-    """Puts the process-wide thread count back as it was (0 = all cores, if it was that)."""
-    before = td.get_threads()
-    td.set_threads(0)
-    all_cores = td.get_threads()
-    td.set_threads(before)
-    yield before
-    td.set_threads(0 if before == all_cores else before)
-    assert td.get_threads() == before
-
-
 @pytest.mark.parametrize("shared", [False, True], ids=["own-recordings", "one-shared-recording"])
 def test_concurrent_calls(files, reference, restore_threads, shared):
     """8 Python threads analyse the same TDMS and HDF5 files at once, each with

@@ -17,18 +17,6 @@ import tribodyn as td
 N_THREADS = 8
 
 
-@pytest.fixture
-def restore_threads():
-    """Puts the thread setting back as it was (0 = all cores, if it was that)."""
-    before = td.get_threads()
-    td.set_threads(0)
-    default = td.get_threads()
-    td.set_threads(before)
-    yield default
-    td.set_threads(0 if before == default else before)
-    assert td.get_threads() == before
-
-
 def make_jobs(seed: int) -> list[dict]:
     """Different data per job; sizes reach the kernels' parallel paths
     (FFT correlation, regression above 2^18 samples, many channels)."""
