@@ -12,12 +12,23 @@ groups up to the file root, as an attribute ``fs``, ``sampling_rate`` or
 named ``fs`` at the root works too; else ``time_channel=`` names a dataset
 of times (s) whose median step gives fs. Units come from an attribute ``unit``,
 ``units`` or ``unit_string``.
+
+Errors h5py raises while the metadata are read (a corrupt attribute or
+object header gives ``OSError``, ``RuntimeError``, ``KeyError`` or
+``ValueError``) are reported as a :class:`~tribodyn.io.base.RecordingError`
+naming the file and the object. Only attributes holding numbers or text are
+read: one of another type (a flipped type byte can turn a string into a
+variable-length sequence, which h5py crashes the process reading) is refused
+unread. The file's size, mtime and inode are taken at open and checked again
+after every read (:meth:`~tribodyn.io.base.Recording.check_unchanged`): HDF5
+returns zeros past the end of a file truncated under it, so a file changed
+while it is read is refused.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 
@@ -32,6 +43,11 @@ from .base import (
 )
 
 __all__ = ["Hdf5Recording"]
+
+_T = TypeVar("_T")
+
+#: What h5py raises on corrupt metadata (RecordingError, a ValueError, is passed on as it is).
+_H5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
 
 _RATE_ATTRS = ("fs", "sampling_rate", "sample_rate")
 _STEP_ATTRS = ("dt", "wf_increment")
@@ -59,19 +75,21 @@ def _text(v: Any) -> Optional[str]:
     return None
 
 
-def _rate_of(obj: Any) -> Optional[Tuple[float, str]]:
-    """(fs, source) from an object's attributes, or None."""
+def _rate_of(attr: Callable[[str], Any], name: str) -> Optional[Tuple[float, str]]:
+    """(fs, source) from the attributes of object ``name`` (``attr(key)`` gives one, None when absent), or None."""
     for key in _RATE_ATTRS:
-        if key in obj.attrs:
-            v = _scalar(obj.attrs[key])
-            if v is not None:
-                return v, f"attribute {key!r} of {obj.name!r}"
+        v = _scalar(attr(key))
+        if v is not None:
+            return v, f"attribute {key!r} of {name!r}"
     for key in _STEP_ATTRS:
-        if key in obj.attrs:
-            v = _scalar(obj.attrs[key])
-            if v is not None:
-                return rate_from_step(v), f"1/attribute {key!r} of {obj.name!r}"
+        v = _scalar(attr(key))
+        if v is not None:
+            return rate_from_step(v), f"1/attribute {key!r} of {name!r}"
     return None
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()) or type(exc).__name__
 
 
 class Hdf5Recording(Recording):
@@ -99,14 +117,51 @@ class Hdf5Recording(Recording):
         import h5py  # local: keeps `import tribodyn.io` light
 
         self._h5: Any = None
+        self._h5py: Any = h5py
+        identity = self._identity()  # before anything is read: a change during the opening counts too
         self._h5 = open_or_raise(
             lambda: h5py.File(self.path, "r"),
             self.path,
             "cannot open as HDF5 (truncated or corrupt?)",
-            OSError,
+            _H5_ERRORS,
         )
         with closing_on_error(self):
             self._open(h5py, channels, fs, scale, units, group, time_channel)
+            self._identity_at_open = identity
+            self.check_unchanged()
+
+    def _meta(self, what: str, fn: Callable[[], _T]) -> _T:
+        """``fn()``, reading metadata of ``what``; h5py's errors become a RecordingError naming it."""
+        try:
+            return fn()
+        except RecordingError:
+            raise
+        except _H5_ERRORS as exc:
+            raise RecordingError(f"{self.path}: corrupt HDF5 file: cannot read {what}: {_one_line(exc)}") from None
+
+    def _attr_of(self, obj: Any, name: str, key: str, display: bool = False) -> Any:
+        """Attribute ``key`` of the object at ``name``, None when it has none.
+
+        Only numbers and text are read: an attribute of another type (e.g. a
+        variable-length sequence, what a flipped type byte can make of a
+        string, and which h5py may crash reading) is refused, or with
+        ``display`` shown as its type without reading it.
+        """
+
+        def get() -> Any:
+            if key not in obj.attrs:
+                return None
+            dt = obj.attrs.get_id(key).dtype
+            if not (dt.kind in "biufSU" or self._h5py.check_string_dtype(dt) is not None):
+                if display:
+                    return f"<HDF5 attribute of type {dt}, not shown>"
+                raise RecordingError(
+                    f"{self.path}: attribute {key!r} of {name!r} is of type {dt}, neither a number nor text "
+                    "(corrupt file?)"
+                )
+            return obj.attrs[key]
+
+        return self._meta(f"attribute {key!r} of {name!r}", get)
 
     def _open(
         self,
@@ -120,27 +175,29 @@ class Hdf5Recording(Recording):
     ) -> None:
         root = self._h5
         if group is not None:
-            if group not in root or not isinstance(root[group], h5py.Group):
+            g = self._meta(f"group {group!r}", lambda: root[group] if group in root else None)
+            if not isinstance(g, h5py.Group):
                 raise RecordingError(f"{self.path}: no HDF5 group {group!r}")
-            root = root[group]
+            root = g
         found: Dict[str, Any] = {}
+        lengths: Dict[str, int] = {}
         skipped: List[str] = []
 
         def visit(name: str, obj: Any) -> None:
-            if isinstance(obj, h5py.Dataset):
-                full = obj.name.lstrip("/")
-                if obj.ndim == 1 and obj.dtype.kind in "biuf" and obj.shape[0] > 0:
-                    found[full] = obj
-                elif obj.ndim != 0:
-                    skipped.append(full)
+            def describe() -> None:
+                if isinstance(obj, h5py.Dataset):
+                    full = obj.name.lstrip("/")
+                    if obj.ndim == 1 and obj.dtype.kind in "biuf" and obj.shape[0] > 0:
+                        found[full] = obj
+                        lengths[full] = int(obj.shape[0])
+                    elif obj.ndim != 0:
+                        skipped.append(full)
 
-        try:
-            root.visititems(visit)
-        except (OSError, RuntimeError) as exc:
-            raise RecordingError(f"{self.path}: corrupt HDF5 file: {exc}") from None
+            self._meta(f"object {name!r}", describe)
+
+        self._meta("the object tree", lambda: root.visititems(visit))
         if not found:
             raise RecordingError(f"{self.path}: no 1-D numeric dataset in this HDF5 file")
-        lengths = {k: int(d.shape[0]) for k, d in found.items()}
         wanted = [
             resolve_name(self.path, list(found), v, f"channel for role {k!r}")
             for k, v in (channels or {}).items()
@@ -155,27 +212,29 @@ class Hdf5Recording(Recording):
         for k, d in self._dsets.items():
             u = None
             for key in _UNIT_ATTRS:
-                if key in d.attrs:
-                    u = _text(d.attrs[key])
-                    if u:
-                        break
+                u = _text(self._attr_of(d, k, key))
+                if u:
+                    break
             self._raw_units[k] = u
         # sampling rate: per channel, nearest definition up the tree
         rates: Dict[str, Tuple[float, str]] = {}
         for k, d in self._dsets.items():
             obj = d
             while True:
-                r = _rate_of(obj)
+                oname = self._meta(f"the name of an ancestor of {k!r}", lambda: str(obj.name))
+                r = _rate_of(lambda key: self._attr_of(obj, oname, key), oname)
                 if r is not None:
                     rates[k] = r
                     break
-                if obj.name == "/":
+                if oname == "/":
                     break
-                obj = obj.parent
-        if not rates and "fs" in self._h5 and isinstance(self._h5["fs"], h5py.Dataset):
-            v = _scalar(self._h5["fs"][()])
-            if v is not None:
-                rates = {k: (v, "dataset '/fs'") for k in self._dsets}
+                obj = self._meta(f"the parent group of {oname!r}", lambda: obj.parent)
+        if not rates:
+            fs_d = self._meta("dataset '/fs'", lambda: self._h5["fs"] if "fs" in self._h5 else None)
+            if isinstance(fs_d, h5py.Dataset):
+                v = _scalar(self._meta("dataset '/fs'", lambda: fs_d[()]))
+                if v is not None:
+                    rates = {k: (v, "dataset '/fs'") for k in self._dsets}
         if rates:
             vals = [r[0] for r in rates.values()]
             if max(vals) - min(vals) > 1e-9 * max(vals):
@@ -184,7 +243,8 @@ class Hdf5Recording(Recording):
             self._file_fs, self._fs_source = next(iter(rates.values()))
         elif time_channel is not None:
             self._fs_from_time_channel(time_channel)
-        self.metadata = {"attributes": {k: _attr(v) for k, v in self._h5.attrs.items()}}
+        root_attrs = self._meta("the attributes of '/'", lambda: list(self._h5.attrs))
+        self.metadata = {"attributes": {k: _attr(self._attr_of(self._h5, "/", k, display=True)) for k in root_attrs}}
         if skipped:
             self.metadata["skipped"] = skipped
         self._default_roles = roles_by_name(self._names)
@@ -197,8 +257,13 @@ class Hdf5Recording(Recording):
         for nm in names:
             try:
                 out[nm] = self._dsets[nm][start:stop]
-            except (OSError, RuntimeError) as exc:
-                raise RecordingError(f"{self.path}: cannot read {nm!r} (corrupt file?): {exc}") from None
+            except _H5_ERRORS as exc:
+                self.check_unchanged()  # a changed file explains the error better
+                raise RecordingError(f"{self.path}: cannot read {nm!r} (corrupt file?): {_one_line(exc)}") from None
+            if len(out[nm]) != stop - start:
+                raise RecordingError(f"{self.path}: {nm!r} gave {len(out[nm])} samples for {start}:{stop}")
+        # HDF5 fills what lies past the end of a truncated file with zeros: check the file is the one opened
+        self.check_unchanged()
         return out
 
     def _close(self) -> None:

@@ -23,9 +23,12 @@
 
 from __future__ import annotations
 
+import ast
 import json
+import math
 import mmap
 import os
+import struct
 import zipfile
 from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
@@ -43,21 +46,66 @@ from .base import (
 __all__ = ["NpyRecording", "NpzRecording"]
 
 
+#: Largest header accepted (numpy's own default limit for loading untrusted files).
+_MAX_HEADER = 10000
+
+
+def _read_header_3_0(fh: IO[bytes]) -> Tuple[Any, Any, Any]:
+    """(shape, fortran_order, dtype) of a format 3.0 header: a 2.0 header (4-byte length) encoded as utf-8.
+
+    numpy has no public reader for it; this parses it with the checks numpy
+    applies (:func:`numpy.lib.format.read_array_header_2_0` does the same
+    for latin-1 text).
+    """
+    raw = fh.read(4)
+    if len(raw) != 4:
+        raise EOFError("file ends in the array header length")
+    (hlen,) = struct.unpack("<I", raw)
+    if hlen > _MAX_HEADER:
+        raise ValueError(f"header length {hlen} exceeds {_MAX_HEADER}")
+    text = fh.read(hlen)
+    if len(text) != hlen:
+        raise EOFError("file ends in the array header")
+    d = ast.literal_eval(text.decode("utf-8"))
+    if not isinstance(d, dict):
+        raise ValueError(f"header is not a dictionary: {d!r}")
+    if set(d) != {"descr", "fortran_order", "shape"}:
+        raise ValueError(f"header does not contain the correct keys: {sorted(map(repr, d))}")
+    shape = d["shape"]
+    if not isinstance(shape, tuple) or not all(isinstance(x, int) for x in shape):
+        raise ValueError(f"shape is not valid: {shape!r}")
+    if not isinstance(d["fortran_order"], bool):
+        raise ValueError(f"fortran_order is not a valid bool: {d['fortran_order']!r}")
+    return shape, d["fortran_order"], np.lib.format.descr_to_dtype(d["descr"])
+
+
 def _read_npy_header(fh: IO[bytes], where: str) -> Tuple[Tuple[int, ...], bool, np.dtype]:
-    """(shape, fortran_order, dtype) from an open ``.npy`` stream positioned at its start."""
+    """(shape, fortran_order, dtype) from an open ``.npy`` stream positioned at its start.
+
+    Uses numpy's public header readers (format 1.0 and 2.0) and
+    :func:`_read_header_3_0`. Whatever a corrupt header makes them raise
+    (``ValueError``, ``SyntaxError``, ``tokenize.TokenError``, ``TypeError``,
+    ``OverflowError``...) is a :class:`RecordingError`, as are a negative
+    dimension and a bool where an integer belongs.
+    """
     fmt = np.lib.format
     try:
         version = fmt.read_magic(fh)
         if version == (1, 0):
-            shape, fortran, dtype = fmt.read_array_header_1_0(fh)
+            shape, fortran, dtype = fmt.read_array_header_1_0(fh, max_header_size=_MAX_HEADER)
         elif version == (2, 0):
-            shape, fortran, dtype = fmt.read_array_header_2_0(fh)
+            shape, fortran, dtype = fmt.read_array_header_2_0(fh, max_header_size=_MAX_HEADER)
+        elif version == (3, 0):
+            shape, fortran, dtype = _read_header_3_0(fh)
         else:
-            # numpy >= 1.17 writes (3, 0) only for utf-8 field names
-            shape, fortran, dtype = fmt._read_array_header(fh, version)  # type: ignore[attr-defined]
-    except (ValueError, EOFError, OSError, SyntaxError) as exc:
-        raise RecordingError(f"{where}: not a valid .npy header ({exc})") from None
-    return tuple(int(s) for s in shape), bool(fortran), np.dtype(dtype)
+            raise ValueError(f"unknown .npy format version {version[0]}.{version[1]}")
+        dtype = np.dtype(dtype)
+    except Exception as exc:  # noqa: BLE001 - numpy's parsers raise assorted errors on corrupt headers
+        msg = " ".join(str(exc).split())[:200] or type(exc).__name__
+        raise RecordingError(f"{where}: not a valid .npy header ({msg})") from None
+    if any(isinstance(s, bool) or s < 0 for s in shape):
+        raise RecordingError(f"{where}: not a valid .npy header (shape {tuple(shape)!r})")
+    return tuple(int(s) for s in shape), bool(fortran), dtype
 
 
 class NpyRecording(Recording):
@@ -114,7 +162,7 @@ class NpyRecording(Recording):
             data_offset = fh.tell()
             if dtype.hasobject or dtype.kind not in "biuf":
                 raise RecordingError(f"{self.path}: .npy of dtype {dtype} is not numeric signal data")
-            expected = data_offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+            expected = data_offset + math.prod(shape) * dtype.itemsize  # Python ints: no overflow
             size = os.fstat(self._fd).st_size
             if size < expected:
                 raise RecordingError(f"{self.path}: truncated .npy file ({size} bytes, its header needs {expected})")

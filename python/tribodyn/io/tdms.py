@@ -13,14 +13,35 @@ another length than the mapped ones (or than all others) are listed in
 
 Before npTDMS sees the file, the segment lead-ins are walked (28 bytes each)
 so a file cut short (npTDMS would read the remainder with a log message) is
-reported as a :class:`~tribodyn.io.base.RecordingError`.
+reported as a :class:`~tribodyn.io.base.RecordingError`. The walk also parses
+each segment's metadata far enough to measure it: a raw-data offset that does
+not point where the metadata ends (zero bytes between the two excepted: DAQmx
+pads its metadata to 4 KiB) is refused, as npTDMS would read the samples from
+the wrong place. After npTDMS has read the metadata, every segment's data
+size must be a whole number of chunks of the size its channels declare,
+segments holding the same channels must agree on the data layout
+(interleaved or not), and no segment may hold data of an object that is no
+channel (npTDMS drops an object whose path it cannot parse); anything else is
+a corrupt segment header, refused naming the segment (1-based index and byte
+position). A channel's scaling must be complete and supported (npTDMS would
+raise ``KeyError`` for a missing ``NI_Scale[n]_*`` property, or hand out
+unscaled values for an unknown scale type).
+
+npTDMS's log records emitted during these calls are kept off the terminal:
+those telling of inconsistent segment sizes become a RecordingError, the
+others go into ``warnings``. The file's size, mtime and inode are checked
+again after every read (:meth:`~tribodyn.io.base.Recording.check_unchanged`):
+a file changed while it is read is refused instead of giving other numbers.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import struct
-from typing import Any, Dict, List, Mapping, Optional, Sequence
+import threading
+from dataclasses import dataclass
+from typing import IO, Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -37,29 +58,126 @@ from .base import (
 __all__ = ["TdmsRecording", "check_tdms_segments"]
 
 _LEAD_IN = 28
+_TOC_META_DATA = 1 << 1
+_TOC_INTERLEAVED = 1 << 5
 _TOC_BIG_ENDIAN = 1 << 6
+_TOC_DAQMX = 1 << 7
 _INCOMPLETE = 0xFFFFFFFFFFFFFFFF
 
+# Raw data index headers of the metadata (npTDMS tdms_segment.py / daqmx.py).
+_NO_DATA = 0xFFFFFFFF
+_SAME_AS_PREVIOUS = 0x00000000
+_DAQMX_SCALER_SIZES = {0x00001269: 20, 0x0000126A: 17}  # format changing / digital line scaler
+_STRING = 0x20
+# Sizes of the fixed-size TDMS property types (npTDMS types.py); strings are length-prefixed.
+_PROP_SIZES = {
+    1: 1, 2: 2, 3: 4, 4: 8, 5: 1, 6: 2, 7: 4, 8: 8, 9: 4, 10: 8,
+    0x19: 4, 0x1A: 8, 0x21: 1, 0x44: 16, 0x08000C: 8, 0x10000D: 16,
+}  # fmt: skip
 
-def check_tdms_segments(path: str) -> int:
-    """Walks the segment lead-ins of a TDMS file and checks they fit in the file.
+#: Largest NI_Number_Of_Scales believed (NI's scale chains are a few scales long).
+_MAX_SCALES = 64
 
-    Returns
-    -------
-    int
-        Number of segments.
+# npTDMS log messages telling that a segment's sizes contradict its channels.
+_INCONSISTENT = (
+    "not a multiple of the chunk size",
+    "Cropping data",
+    "less data than expected",
+    "metadata is incomplete",
+)
+
+
+@dataclass(frozen=True)
+class _Segment:
+    """One segment's lead-in, as found by :func:`_walk_segments`."""
+
+    number: int  # 1-based
+    position: int
+    toc: int
+    next_offset: int
+    raw_offset: int
+
+    def where(self) -> str:
+        return f"segment {self.number} at byte {self.position}"
+
+
+class _MetadataOverrun(Exception):
+    """The metadata runs past the limit given to :class:`_MetadataReader`."""
+
+
+class _MetadataReader:
+    """Reads at most ``limit`` bytes of one segment's metadata and counts them."""
+
+    def __init__(self, fh: IO[bytes], order: str, limit: int) -> None:
+        self._fh = fh
+        self._order = order
+        self._left = limit
+        self.used = 0
+
+    def take(self, n: int) -> bytes:
+        if n > self._left:
+            raise _MetadataOverrun
+        b = self._fh.read(n)
+        if len(b) != n:
+            raise _MetadataOverrun
+        self._left -= n
+        self.used += n
+        return b
+
+    def u32(self) -> int:
+        return int(struct.unpack(self._order + "I", self.take(4))[0])
+
+
+def _metadata_length(fh: IO[bytes], order: str, limit: int) -> Optional[int]:
+    """Bytes of metadata npTDMS parses for the segment whose metadata starts at ``fh``'s position.
+
+    Follows npTDMS's parser (objects, raw data indexes including DAQmx ones,
+    properties). Returns None when a property of a type npTDMS cannot size
+    is met (the length is then unknown); raises :class:`_MetadataOverrun`
+    when the metadata would need more than ``limit`` bytes.
+    """
+    m = _MetadataReader(fh, order, limit)
+    for _ in range(m.u32()):
+        m.take(m.u32())  # object path
+        index = m.u32()
+        scaler_size = _DAQMX_SCALER_SIZES.get(index)
+        if scaler_size is not None:
+            m.take(4)  # data type
+            _dim, _chunk, n_scalers = struct.unpack(order + "IQI", m.take(16))
+            m.take(n_scalers * scaler_size)
+            m.take(4 * m.u32())  # raw data widths
+        elif index not in (_NO_DATA, _SAME_AS_PREVIOUS):
+            (data_type,) = struct.unpack(order + "I", m.take(16)[:4])  # type, dimension, number of values
+            if data_type == _STRING:
+                m.take(8)  # total size of the strings
+        for _ in range(m.u32()):
+            m.take(m.u32())  # property name
+            kind = m.u32()
+            if kind == _STRING:
+                m.take(m.u32())
+            elif kind in _PROP_SIZES:
+                m.take(_PROP_SIZES[kind])
+            else:
+                return None
+    return m.used
+
+
+def _walk_segments(path: str) -> List[_Segment]:
+    """The segments of a TDMS file, checked for a complete lead-in and metadata of the declared size.
 
     Raises
     ------
     RecordingError
-        Not a TDMS file, or a segment that runs past the end of the file or
-        was never finished by its writer.
+        Not a TDMS file, a segment that runs past the end of the file or was
+        never finished by its writer, or one whose raw data offset is not
+        where its metadata ends.
     """
     size = os.path.getsize(path)
     pos = 0
-    count = 0
+    out: List[_Segment] = []
     with open(path, "rb") as fh:
         while pos < size:
+            count = len(out)
             fh.seek(pos)
             lead = fh.read(_LEAD_IN)
             if len(lead) < _LEAD_IN:
@@ -69,22 +187,174 @@ def check_tdms_segments(path: str) -> int:
                 raise RecordingError(f"{path}: {what} (bad segment tag {lead[:4]!r})")
             (toc,) = struct.unpack("<I", lead[4:8])
             order = ">" if toc & _TOC_BIG_ENDIAN else "<"
-            _version, next_off, _raw_off = struct.unpack(order + "IQQ", lead[8:28])
+            _version, next_off, raw_off = struct.unpack(order + "IQQ", lead[8:28])
+            seg = _Segment(count + 1, pos, toc, next_off, raw_off)
             if next_off == _INCOMPLETE:
                 raise RecordingError(
-                    f"{path}: TDMS segment {count + 1} at byte {pos} was never completed "
-                    "(writer aborted or file truncated)"
+                    f"{path}: TDMS {seg.where()} was never completed (writer aborted or file truncated)"
                 )
             end = pos + _LEAD_IN + next_off
             if end > size:
                 raise RecordingError(
                     f"{path}: truncated TDMS file: segment {count + 1} needs {end} bytes, the file has {size}"
                 )
+            _check_metadata_size(path, fh, seg, order)
+            out.append(seg)
             pos = end
-            count += 1
-    if count == 0:
+    if not out:
         raise RecordingError(f"{path}: empty TDMS file")
-    return count
+    return out
+
+
+def _check_metadata_size(path: str, fh: IO[bytes], seg: _Segment, order: str) -> None:
+    """Refuses a segment whose raw data offset is not the length of its metadata (``fh`` after its lead-in)."""
+    bad = f"{path}: corrupt TDMS file: {seg.where()}"
+    if seg.raw_offset > seg.next_offset:
+        raise RecordingError(
+            f"{bad}: raw data offset {seg.raw_offset} lies beyond the segment's end ({seg.next_offset} bytes)"
+        )
+    if not seg.toc & _TOC_META_DATA:
+        if seg.raw_offset != 0:
+            raise RecordingError(f"{bad}: raw data offset {seg.raw_offset} in a segment without metadata")
+        return
+    try:
+        used = _metadata_length(fh, order, seg.raw_offset)
+    except _MetadataOverrun:
+        raise RecordingError(
+            f"{bad}: its metadata runs past the raw data offset {seg.raw_offset} (corrupt segment header)"
+        ) from None
+    if used is not None and used != seg.raw_offset and not _zeros(fh, seg.raw_offset - used):
+        raise RecordingError(
+            f"{bad}: raw data offset {seg.raw_offset} but the metadata ends after {used} bytes (corrupt segment header)"
+        )
+
+
+def _zeros(fh: IO[bytes], n: int) -> bool:
+    """True when the next ``n`` bytes of ``fh`` are all zero: padding (DAQmx pads metadata to 4 KiB), not data."""
+    while n > 0:
+        b = fh.read(min(n, 1 << 16))
+        if not b or b.count(0) != len(b):
+            return False
+        n -= len(b)
+    return True
+
+
+def check_tdms_segments(path: str) -> int:
+    """Walks the segment lead-ins of a TDMS file and checks they fit in the file.
+
+    Each segment's metadata is measured too: its raw data offset must be
+    where the metadata ends.
+
+    Returns
+    -------
+    int
+        Number of segments.
+
+    Raises
+    ------
+    RecordingError
+        Not a TDMS file, a segment that runs past the end of the file or
+        was never finished by its writer, or a segment whose raw data offset
+        contradicts its metadata.
+    """
+    return len(_walk_segments(path))
+
+
+def _check_chunks(path: str, tdms_file: Any, walk: Sequence[_Segment]) -> Dict[str, int]:
+    """Checks the segments as npTDMS parsed them; returns the samples per channel path their sizes imply.
+
+    Every segment's data must be a whole number of chunks of the size its
+    channels declare, and segments holding the same (two or more) channels
+    with the same counts must agree on the layout (interleaved or not): a
+    flipped layout bit otherwise reads every value from the wrong bytes.
+    Uses npTDMS's parsed segments; with an npTDMS that does not keep them in
+    the expected form nothing is checked here (and an empty dict returned).
+    """
+    segs = getattr(getattr(tdms_file, "_reader", None), "_segments", None)
+    if not isinstance(segs, list):
+        return {}
+    by_pos = {s.position: s for s in walk}
+    layouts: Dict[Tuple[Any, ...], Tuple[bool, _Segment]] = {}
+    implied: Dict[str, int] = {}
+    for seg in segs:
+        try:
+            info = by_pos.get(int(seg.position))
+            data = int(seg.next_segment_pos) - int(seg.data_position)
+            chunk = int(seg._get_chunk_size())
+            n_chunks = int(seg.num_chunks)
+            partial = seg.final_chunk_lengths_override is not None
+            toc = int(seg.toc_mask)
+            objs = [o for o in (seg.ordered_objects or ()) if o.has_data]
+            counts = [(str(o.path), int(o.number_values), getattr(o, "daqmx_metadata", None) is not None) for o in objs]
+        except Exception:  # noqa: BLE001 - another npTDMS's internals: leave it to the log records
+            return {}
+        if info is None:
+            return {}
+        if chunk > 0 and (partial or data % chunk or n_chunks != data // chunk):
+            raise RecordingError(
+                f"{path}: corrupt TDMS file: {info.where()}: its {data} bytes of data are not a whole number "
+                f"of chunks of {chunk} bytes (segment header inconsistent with its channels)"
+            )
+        for p, nv, _ in counts:
+            implied[p] = implied.get(p, 0) + nv * n_chunks
+        if len(counts) < 2 or n_chunks == 0 or toc & _TOC_DAQMX or any(d for _, _, d in counts):
+            continue  # one channel reads the same either way; DAQmx data ignore the flag
+        key = tuple((p, nv, str(getattr(o, "data_type", ""))) for (p, nv, _), o in zip(counts, objs))
+        inter = bool(toc & _TOC_INTERLEAVED)
+        first_inter, first = layouts.setdefault(key, (inter, info))
+        if first_inter != inter:
+
+            def how(x: bool) -> str:
+                return "interleaved" if x else "contiguous"
+
+            raise RecordingError(
+                f"{path}: corrupt TDMS file: {info.where()} declares {how(inter)} data but {first.where()} "
+                f"holds the same channels {how(first_inter)} (corrupt table of contents)"
+            )
+    return implied
+
+
+class _NptdmsLog(logging.Filter):
+    """Collects npTDMS's log records of this thread while active, keeping them off the terminal.
+
+    Installed as a filter on every ``nptdms`` logger for the duration of a
+    ``with`` block (npTDMS gives each module logger its own console
+    handler, so stopping propagation would not be enough); records of other
+    threads pass untouched. Removed again on exit: nothing global changes.
+    """
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._thread = threading.get_ident()
+        self._loggers: List[logging.Logger] = []
+        self.messages: List[str] = []
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if record.thread != self._thread:
+            return True
+        try:
+            msg = record.getMessage()
+        except Exception:  # noqa: BLE001 - a malformed record: keep its template
+            msg = str(record.msg)
+        if record.levelno >= logging.WARNING:
+            self.messages.append(" ".join(msg.split())[:300])
+        return False
+
+    def __enter__(self) -> "_NptdmsLog":
+        for name, lg in list(logging.Logger.manager.loggerDict.items()):
+            if isinstance(lg, logging.Logger) and (name == "nptdms" or name.startswith("nptdms.")):
+                lg.addFilter(self)
+                self._loggers.append(lg)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for lg in self._loggers:
+            lg.removeFilter(self)
+        self._loggers = []
+
+    def inconsistent(self) -> Optional[str]:
+        """The first message telling of segment sizes inconsistent with the channels, or None."""
+        return next((m for m in self.messages if any(s in m for s in _INCONSISTENT)), None)
 
 
 class TdmsRecording(Recording):
@@ -110,11 +380,60 @@ class TdmsRecording(Recording):
         self._file: Any = None
         from nptdms import TdmsFile  # local: keeps `import tribodyn.io` light
 
-        n_segments = check_tdms_segments(self.path)
-        # npTDMS raises assorted errors on bad metadata, hence Exception
-        self._file = open_or_raise(lambda: TdmsFile.open(self.path), self.path, "cannot read TDMS metadata", Exception)
+        identity = self._identity()  # before anything is read: a change during the opening counts too
+        walk = _walk_segments(self.path)
+        with _NptdmsLog() as log:
+            # npTDMS raises assorted errors on bad metadata, hence Exception
+            self._file = open_or_raise(
+                lambda: TdmsFile.open(self.path), self.path, "cannot read TDMS metadata", Exception
+            )
         with closing_on_error(self):
-            self._open(channels, fs, scale, units, group, n_segments)
+            implied = _check_chunks(self.path, self._file, walk)
+            self._npt_messages(log, "reading the metadata")
+            self._open(channels, fs, scale, units, group, len(walk), implied)
+            self._identity_at_open = identity
+            self.check_unchanged()
+
+    def _npt_messages(self, log: _NptdmsLog, what: str) -> None:
+        """Turns the npTDMS log records of one call into a RecordingError (inconsistent sizes) or warnings."""
+        bad = log.inconsistent()
+        if bad is not None:
+            raise RecordingError(f"{self.path}: corrupt TDMS file: npTDMS, {what}: {bad}")
+        for m in log.messages:
+            w = f"npTDMS, {what}: {m}"
+            if w not in self.warnings:
+                self.warnings.append(w)
+
+    def _dtype(self, g: Any, c: Any) -> Any:
+        """The channel's (scaled) dtype; a missing or unusable scaling property is a RecordingError."""
+        gname = g.name
+        where = f"{self.path}: TDMS channel '{gname}/{c.name}'"
+        for level in (c.properties, g.properties, self._file.properties):
+            n = level.get("NI_Number_Of_Scales")
+            try:
+                count = float(n) if n is not None else 0.0
+            except (TypeError, ValueError):
+                count = -1.0
+            if not (count.is_integer() and 0 <= count <= _MAX_SCALES):
+                # npTDMS would build that many scalings (a flipped bit: 134 million, for minutes)
+                raise RecordingError(f"{where}: implausible scaling property NI_Number_Of_Scales = {n!r}")
+        try:
+            with _NptdmsLog() as log:
+                dt = c.dtype
+        except KeyError as exc:
+            prop = exc.args[0] if exc.args else "?"
+            raise RecordingError(f"{where}: scaling property {prop!r} is missing") from None
+        except Exception as exc:  # noqa: BLE001 - npTDMS's scaling code raises assorted errors
+            raise RecordingError(f"{where}: unusable scaling properties: {' '.join(str(exc).split())}") from None
+        unsupported = next((m for m in log.messages if "Unsupported scale type" in m), None)
+        if unsupported is not None:
+            # npTDMS would hand out the raw, unscaled values
+            raise RecordingError(f"{where}: {unsupported.lower()} (values cannot be scaled)")
+        self._npt_messages(log, f"channel '{gname}/{c.name}'")
+        if getattr(c.data_type, "__name__", "") == "DaqMxRawData" and np.dtype(dt).kind not in "biuf":
+            # npTDMS found no scaling for the channel's DAQmx raw bytes: it cannot give values
+            raise RecordingError(f"{where}: DAQmx raw data without scaling properties (NI_Scale[n]_...)")
+        return dt
 
     def _open(
         self,
@@ -124,6 +443,7 @@ class TdmsRecording(Recording):
         units: Optional[Mapping[str, str]],
         group: Optional[str],
         n_segments: int,
+        implied: Mapping[str, int],
     ) -> None:
         objs = []
         skipped: List[str] = []
@@ -135,11 +455,27 @@ class TdmsRecording(Recording):
                 raise RecordingError(f"{self.path}: no TDMS group {group!r}; groups: {avail}")
         for g in groups:
             for c in g.channels():
-                kind = np.dtype(c.dtype).kind if c.dtype is not None else "O"
+                dt = self._dtype(g, c)
+                kind = np.dtype(dt).kind if dt is not None else "O"
                 if kind in "biuf" and len(c) > 0:
                     objs.append((g.name, c))
                 else:
                     skipped.append(f"{g.name}/{c.name}")
+        known = {str(c.path) for g in self._file.groups() for c in g.channels()}
+        lost = [p for p, k in implied.items() if k > 0 and p not in known]
+        if lost:
+            # npTDMS drops an object it cannot place in a group (e.g. a path with a flipped quote)
+            raise RecordingError(
+                f"{self.path}: corrupt TDMS file: data of object {lost[0]!r}, which is no channel of a group "
+                "(malformed object path)"
+            )
+        for gname, c in objs:
+            expect = implied.get(str(c.path))
+            if expect is not None and expect != len(c):
+                raise RecordingError(
+                    f"{self.path}: corrupt TDMS file: channel '{gname}/{c.name}' has {len(c)} samples but "
+                    f"its segments' sizes imply {expect}"
+                )
         counts: Dict[str, int] = {}
         for _, c in objs:
             counts[c.name] = counts.get(c.name, 0) + 1
@@ -199,14 +535,19 @@ class TdmsRecording(Recording):
         out = {}
         for nm in names:
             try:
-                a = self._objs[nm].read_data(start, stop - start)
+                with _NptdmsLog() as log:
+                    a = self._objs[nm].read_data(start, stop - start)
             except Exception as exc:  # noqa: BLE001 - npTDMS errors vary
+                self.check_unchanged()  # a changed file explains the error better
                 raise RecordingError(f"{self.path}: cannot read channel {nm!r}: {exc}") from None
+            self._npt_messages(log, f"reading channel {nm!r}")
             if len(a) != stop - start:
+                self.check_unchanged()
                 raise RecordingError(
                     f"{self.path}: channel {nm!r} has {len(a)} samples in {start}:{stop} (truncated or corrupt file)"
                 )
             out[nm] = np.asarray(a)
+        self.check_unchanged()  # one stat per read: a file changed under npTDMS gives other numbers
         return out
 
     def _close(self) -> None:
