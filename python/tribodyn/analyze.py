@@ -589,8 +589,10 @@ def _run_spans(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
     bar = _progress(plan.progress, sum(b - a for a, b in spans))
     try:
         with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
+            copy = _copies(rec)
             futures = [
-                ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b), a, plan, bar, threads=1) for a, b in spans
+                ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b, copy=copy), a, plan, bar, threads=1)
+                for a, b in spans
             ]
             results = [f.result() for f in futures]
     finally:
@@ -604,10 +606,7 @@ def _run_spans(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
 
 def _chunk_source(source: Any, rec: Any, plan: Plan) -> Iterable[Any]:
     if rec is not None:
-        # Copies, not views of a memory map: a file truncated while it is
-        # read must be an error, not a SIGBUS. (Readers hand out the arrays
-        # they read without a second copy.)
-        return rec.chunks(plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop)
+        return rec.chunks(plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop, copy=_copies(rec))
     if isinstance(source, Mapping):
         n = len(next(iter(source.values()))) if source else 0
         size = plan.chunk or DEFAULT_CHUNK
@@ -615,6 +614,13 @@ def _chunk_source(source: Any, rec: Any, plan: Plan) -> Iterable[Any]:
             return [source]
         return ({k: v[s : s + size] for k, v in source.items()} for s in range(0, n, size))
     return source
+
+
+def _copies(rec: Any) -> bool:
+    """Whether the pipeline asks a recording for copies: only of a reader that would hand out views of a memory
+    map (a file truncated while it is read must be an error, not a SIGBUS). Nothing in the pipeline writes into a
+    chunk, so the arrays other readers make are used as they come (no second copy)."""
+    return bool(getattr(rec, "views", False))
 
 
 def _total(source: Any, rec: Any, plan: Plan) -> Optional[int]:
