@@ -76,7 +76,8 @@ SPAN_CHUNK = 1 << 20
 #: Samples per block of the route "mapped" (at most; a block is whole
 #: windows): each thread reads a block's channels into buffers it reuses,
 #: small enough to stay in cache between the read and the windows.
-MAPPED_BLOCK = int(os.environ.get("TRIBODYN_MAPPED_BLOCK", 1 << 17))
+#: 2^15 measured fastest here (benches/RESULTS.md); ``chunk=`` overrides it.
+MAPPED_BLOCK = 1 << 15
 #: Fewest windows per concurrently read span.
 _MIN_SPAN_WINDOWS = 64
 #: Roles the pipeline reads from a source.
