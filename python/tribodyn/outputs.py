@@ -42,7 +42,7 @@ from typing import Any, Dict, Iterable, Iterator, List, Optional, Set, Type, Uni
 
 import numpy as np
 
-from .io.writers import sha256_file
+from .io.writers import _fsync_dir, sha256_file
 from .results import Results
 
 __all__ = [
@@ -152,21 +152,6 @@ def _within(inner: PathLike, outer: Path) -> bool:
         return os.path.commonpath([a, b]) == b
     except ValueError:  # different drives
         return False
-
-
-def _fsync_dir(folder: Path) -> None:
-    if os.name != "posix":
-        return
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 def _sync_tree(folder: Path) -> None:

@@ -107,7 +107,7 @@ def _naming(exc: OSError, target: str) -> OSError:
         return exc
 
 
-def _fsync_dir(directory: str) -> None:
+def _fsync_dir(directory: PathLike) -> None:
     """Best effort: makes a rename in ``directory`` durable (POSIX only)."""
     if os.name != "posix":
         return
