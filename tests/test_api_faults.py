@@ -134,3 +134,14 @@ def test_open_recording_argument_types(tmp_path, kw, match):
         td.open_recording(5)  # type: ignore[arg-type]
     with td.open_recording(p, scale={"fy": np.float32(2.0)}) as rec:
         assert rec.read()["fy"][1] == 2.0
+
+
+def test_table_columns_never_share_memory():
+    """Columns that are all NaN (no temperature log, no current, dynamic input) are separate arrays."""
+    rng = np.random.default_rng(2)
+    fz = rng.normal(size=5000)
+    res = td.analyze({"fy": -0.1 * fz, "fz": fz}, fs=1000.0, window=1.0, hop=1.0)
+    cols = list(res.table.values())
+    for a in range(len(cols)):
+        for b in range(a + 1, len(cols)):
+            assert not np.shares_memory(cols[a], cols[b])

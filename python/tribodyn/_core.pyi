@@ -175,10 +175,11 @@ def windows_stats_file(
     [k * step, k * step + length)) of channels stored in the open file `fd`
     (a file descriptor, duplicated for the call and left open) as
     contiguous little-endian f64 runs starting at the byte offsets
-    `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The file's
-    pages are read through memory maps, `block` windows per task, on
-    `threads` threads; the `columns` asked for, with the same results as
-    `windows_stats` on those samples. The file must not shrink meanwhile.
+    `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The
+    samples are read with `pread`, `block` windows per task, on `threads`
+    threads; the `columns` asked for, with the same results as
+    `windows_stats` on those samples. A file that shrinks meanwhile is a
+    `ValueError` (a short read), never a crash.
 
     With `sos` (and `zi`, its steady state for a unit input, one row per
     section) the force channels are raw: they are high-passed from sample

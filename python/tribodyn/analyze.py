@@ -15,9 +15,9 @@ step (:func:`finish`) turns the kernel's statistics into the table:
 ``"mapped"``
     The recording lays its channels out as contiguous float64 runs
     (``Recording.mappable`` and :meth:`~tribodyn.io.Recording.file_layout`):
-    one call of ``_core.windows_stats_file`` reads the file's pages through
-    memory maps, block by block, in parallel (raw input: high-passed one
-    block ahead of the windows), with no Python per chunk.
+    one call of ``_core.windows_stats_file`` reads the channels with
+    ``pread`` into reused buffers, block by block, in parallel (raw input:
+    high-passed one block ahead of the windows), with no Python per chunk.
 ``"spans"``
     A recording that reads any range and may be read from several threads
     at once (``random_access`` and ``thread_safe``), with dynamic input:
@@ -67,12 +67,6 @@ FORCE_ROLES = ("fx", "fy", "fz")
 #: in cache between reading and analysing (and a multiple of the readers'
 #: 65536-row blocks, so no chunk is pieced together).
 DEFAULT_CHUNK = 1 << 17
-#: Samples per chunk when spans of a random-access recording are read
-#: concurrently (one thread each, the kernel on that thread), and at most
-#: per block of the mapped route: larger, since each chunk is one call of
-#: the kernel and, for a ``.npy``, one mapping of the file (8 MiB per
-#: channel; two spans of four channels map 64 MiB).
-SPAN_CHUNK = 1 << 20
 #: Samples per block of the route "mapped" (at most; a block is whole
 #: windows): each thread reads a block's channels into buffers it reuses,
 #: small enough to stay in cache between the read and the windows.
@@ -161,8 +155,8 @@ def analyze(
         Seconds per chunk when reading a mapping or a recording (default
         131072 samples, about 2 min at 1 kHz, for a recording; a mapping is
         taken whole). For a channels-first float64 ``.npy`` the kernel reads
-        the file's pages itself, in blocks of at most this many seconds
-        (default 2^20 samples) per thread. Never changes a result.
+        the file itself, in blocks of at most this many seconds (default 2^15
+        samples) per thread. Never changes a result.
     progress : bool
         Show a progress bar on stderr.
     deadband, n_bins, gate, max_lag, rpm, n_lamellas
@@ -229,7 +223,8 @@ def analyze(
                 f"got start={plan.start}, stop={plan.stop}"
             )
     route = choose_route(source, rec, plan)
-    _check_table_size(plan, _total(source, rec, plan))
+    total = _total(source, rec, plan)
+    _check_table_size(plan, total)
     if route == "acquisitions":
         st, aux_role = _acquisitions(source, plan)
     elif route == "mapped":
@@ -237,7 +232,7 @@ def analyze(
     elif route == "spans":
         st, aux_role = _run_spans(rec, plan)
     else:
-        st, aux_role = _run_stream(_chunk_source(source, rec, plan), plan, _total(source, rec, plan))
+        st, aux_role = _run_stream(_chunk_source(source, rec, plan), plan, total)
     if rec is not None and hasattr(rec, "check_unchanged"):
         rec.check_unchanged()  # a file changed while it was read: an error, not a table of mixed data
     return finish(st, aux_role, plan, route, warnings=getattr(rec, "warnings", ()))
@@ -335,8 +330,11 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     n_win = np.asarray(o["n"], dtype=np.int64)
     centre = t_start + 0.5 * n_win / fs
     reasons = gate_reasons(o, plan.gate, o.get("skew"))
-    nan = np.full(len(centre), np.nan)
-    cur = nan
+
+    def nan() -> np.ndarray:  # a fresh column each time: no two table columns share memory
+        return np.full(len(centre), np.nan)
+
+    cur = nan()
     if aux_role == "i":
         cur = o["aux_mean"]
     elif aux_role == "u":
@@ -350,15 +348,15 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         **o,
         "time": centre,
         "t_start": t_start,
-        "skew": o.get("skew", nan),
+        "skew": o["skew"] if "skew" in o else nan(),
         "ok": np.asarray(reasons == "", dtype=bool),
         "reasons": reasons.astype(str),
-        "T": interpolate(log, centre) if log is not None else nan,
+        "T": interpolate(log, centre) if log is not None else nan(),
         "branch": branch(log, centre) if log is not None else np.zeros(len(centre), dtype=np.int8),
         "i": cur,
-        "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan,
-        "mu_classic": o.get("mu_classic", nan),
-        "mu_instrument": o.get("mu_instrument", nan),
+        "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan(),
+        "mu_classic": o["mu_classic"] if "mu_classic" in o else nan(),
+        "mu_instrument": o["mu_instrument"] if "mu_instrument" in o else nan(),
         "n": n_win,
         "acquisition": o.get("acquisition", np.zeros(len(centre), dtype=np.int64)),
     }
@@ -522,10 +520,10 @@ def _run_mapped(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
     k0, k1 = _grid(n_rec if plan.stop is None else plan.stop, plan)
     if k1 <= k0:
         return {"n": np.zeros(0, dtype=np.int64)}, aux
-    # Windows per task: at most SPAN_CHUNK samples (or the chunk asked
+    # Windows per task: at most MAPPED_BLOCK samples (or the chunk asked
     # for), in equal blocks, a multiple of the threads in number, so that
-    # the threads finish together and the memory mapped at once (a block
-    # per thread) hardly depends on the recording's length.
+    # the threads finish together and the buffers (a block per thread) do
+    # not depend on the recording's length.
     count = k1 - k0
     cap = max(1, (plan.chunk or MAPPED_BLOCK) // plan.step)
     blocks = -(-count // cap)
