@@ -85,7 +85,7 @@ def test_sigma_deadband_and_explicit_orientation_match_reference(files):
     arr = np.load(files["dyn"]["npy"], mmap_mode="r")
     ch = {r: arr[j] for j, r in enumerate(bench.ROLES)}
     for kw in (dict(deadband="0.7sigma"), dict(orientation=1, n_bins=5), dict(deadband=0.0, n_bins=1)):
-        res = td.analyze(ch, fs=bench.FS, window=2.0, hop=2.0, area_mm2=2.0, **kw)
+        res = td.analyze(ch, fs=bench.FS, window=2.0, hop=2.0, area_mm2=2.0, method="paper", **kw)
         ref = reference.analyze_tiled(ch, fs=bench.FS, window=2.0, area_mm2=2.0, **kw)
         _assert_same(bench.table_of(res), ref)
 

@@ -19,7 +19,8 @@ from .deadband import Deadband, parse_deadband
 from .results import WINDOW_COLUMNS, BinTable, CofResult, Results
 from .identify import identify
 from .analyze import analyze
-from .ranges import OperatingRange, RangeCurve, operating_range
+from .ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating_range
+from .covariates import align_log
 from .io import Recording, RecordingError, open_recording
 from .distributed import ManyResults, analyze_many
 
@@ -54,6 +55,9 @@ __all__ = [
     "operating_range",
     "OperatingRange",
     "RangeCurve",
+    "BranchFit",
+    "Hysteresis",
+    "align_log",
     "Deadband",
     "parse_deadband",
     "open_recording",

@@ -93,6 +93,10 @@ def windows_stats(
     fz_raw: _F64 | None = None,
     threads: int | None = None,
     offset: int = 0,
+    lag: int = 0,
+    lines: list[float] | None = None,
+    segments: int = 4,
+    delay: float = 0.0,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics (docs/method.md 3-6) for windows starting at
     `starts`: a dict of the `columns` asked for, in that order, one row per
@@ -108,6 +112,14 @@ def windows_stats(
     fz_max, aux_mean, mu_classic (float64, shape (windows,)), n, n_a, n_b
     (int64), bin_count (int64) and bin_cof (float64) of shape
     (windows, n_bins); ``tribodyn.columns`` declares which a table uses.
+
+    Beyond the paper (docs/method.md 3a-3e): ``ext`` (float64, (windows, 5,
+    16)), the block sums of the estimators with the instrument fz lagged by
+    ``lag`` samples (``tribodyn.estimators.PRODUCTS``); ``spec`` (float64,
+    (windows, len(lines), 4)), the cross-spectra at ``lines`` (cycles per
+    sample) averaged over ``segments``; ``delay`` advances fz by that many
+    samples in every window first (a fractional-delay filter; the windows
+    lose 16 samples at each end).
     """
 
 def set_threads(n: int) -> None:
@@ -170,6 +182,10 @@ def windows_stats_file(
     zi: _F64 | None = None,
     origin: int = 0,
     threads: int | None = None,
+    lag: int = 0,
+    lines: list[float] | None = None,
+    segments: int = 4,
+    delay: float = 0.0,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics of windows k0..k1 (window k = samples
     [k * step, k * step + length)) of channels stored in the open file `fd`
@@ -185,4 +201,5 @@ def windows_stats_file(
     section) the force channels are raw: they are high-passed from sample
     `origin` on (state carried, each channel started at `zi * x[origin]`)
     and the classical COF of the raw forces is added (`mu_classic`); the
-    windows must not overlap (step >= length)."""
+    windows must not overlap (step >= length). ``lag``, ``lines``,
+    ``segments``, ``delay``: as for `windows_stats`."""

@@ -42,14 +42,15 @@ import os
 from collections import deque
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _core
 from ._validate import as_signal
 from .columns import TABLE
-from .covariates import branch, evaluate, interpolate
+from .contact_loss import mark_contact_loss
+from .covariates import align_to_recording, branch, evaluate, interpolate, log_quality
 from .deadband import DeadbandSpec
 from .filters import HighPass
 from .identify import Orientation, resolve_orientation
@@ -59,7 +60,7 @@ from .results import Results
 from .window_stats import compute, gate_reasons, orient
 from .windowing import Windower
 
-__all__ = ["analyze", "choose_route", "finish", "sign_of_total_slope"]
+__all__ = ["analyze", "analyze_partial", "combine", "Partial", "choose_route", "finish", "sign_of_total_slope"]
 
 FORCE_ROLES = ("fx", "fy", "fz")
 #: Samples per chunk read from a recording by default: large enough that the
@@ -101,13 +102,19 @@ def analyze(
     progress: bool = False,
     deadband: DeadbandSpec = 0.35,
     n_bins: int = 16,
-    gate: float = 0.85,
+    gate: Union[float, str, None] = None,
     max_lag: Optional[int] = None,
     rpm: Optional[float] = None,
     n_lamellas: Optional[int] = None,
     threads: Optional[int] = None,
     start: int = 0,
     stop: Optional[int] = None,
+    estimator: Optional[str] = None,
+    method: Optional[str] = None,
+    max_rel_ci: Optional[float] = None,
+    align: Optional[str] = None,
+    iv_lag: Optional[float] = None,
+    noise: Any = None,
 ) -> Results:
     """COF of every window of a long recording (docs/method.md 6).
 
@@ -159,11 +166,47 @@ def analyze(
         samples) per thread. Never changes a result.
     progress : bool
         Show a progress bar on stderr.
-    deadband, n_bins, gate, max_lag, rpm, n_lamellas
+    deadband, n_bins, max_lag
         As for :func:`tribodyn.identify`, per window. ``max_lag`` adds the
-        channel skew per window (costly: one correlation function per window).
-        ``rpm``/``n_lamellas`` are recorded in ``params`` (spectra are per
-        acquisition, in :func:`tribodyn.identify`).
+        lag of max |C_yz(j)| per window (costly: one correlation function
+        per window); a non-zero lag fails the gate.
+    estimator : {"corrected", "iv", "ols", "deming"}, optional
+        The slope estimator (docs/method.md 3a-3c). Default "corrected":
+        least squares corrected for the noise on fz, whose variance is
+        measured from the recording with instruments (or taken from
+        ``noise``); unbiased under noise on fz and as precise as OLS
+        without it (measured: docs/method.md 3f). "ols" is the paper's Eq. 8,
+        "iv" instrumental variables (fz lagged by ``iv_lag``), "deming"
+        needs ``noise``.
+    method : {None, "paper"}
+        "paper": the paper's method exactly (OLS, |C_yz(0)| >= 0.85, OLS
+        standard errors, no alignment), the tables of tribodyn 0.2.
+    gate : float or "ci", optional
+        Quality gate (docs/method.md 5): "ci" (default) keeps a window when
+        the 95 % interval of mu_r is at most +-``max_rel_ci`` of it; a
+        number g is the paper's |C_yz(0)| >= g (0.85 with
+        ``method="paper"``). With either, a window whose slope has the sign
+        opposite to the recording's orientation fails.
+    max_rel_ci : float, optional
+        Largest relative half-width of the 95 % interval for gate "ci"
+        (default 0.1).
+    align : {None, "auto"}
+        "auto": measure the delay of fz behind fy from the cross-spectral
+        phase at the rig's lines (needs ``rpm``), and when it exceeds 0.05
+        samples analyse again with fz advanced by it (a fractional-delay
+        filter, docs/method.md 3e); ``params["delay_samples"]`` holds it.
+        None leaves the data untouched (a measurable delay is then warned of).
+    iv_lag : float, optional
+        Instrument lag in s (default one revolution, 60 / rpm, when ``rpm``
+        is given; else a tenth of the window, at least 10 samples).
+    noise : (sigma_y, sigma_z), optional
+        Standard deviations (N) of the measurement noise on fy and fz, e.g.
+        the standard deviations of a record taken with the rig at rest
+        (docs/method.md 3c); needed by "deming".
+    rpm, n_lamellas : optional
+        Rig data: the instrument lag (one revolution) and the line
+        frequencies f0 = rpm/60, 2 f0, 3 f0, f_l = n_lamellas f0, 2 f_l of
+        the columns ``skew``, ``h1_f0``, ``h1_fl``, ``coherence_fl``.
     threads : int, optional
         Kernel threads for this call only, 1 to 4 x the CPU count (default:
         the ``TRIBODYN_THREADS`` environment variable, else
@@ -199,17 +242,92 @@ def analyze(
     RecordingError
         The recording cannot be read.
     """
+    options = {k: v for k, v in locals().items() if k != "source"}
+    res = _analyze(source, options, partial=False)
+    assert isinstance(res, Results)
+    return res
+
+
+@dataclasses.dataclass(frozen=True)
+class Partial:
+    """The kernel's statistics of one range of a recording, before the finishing step (docs/method.md 6, 9).
+
+    What a worker of :func:`tribodyn.analyze_many` returns for a range:
+    :func:`combine` joins the ranges of one recording and finishes them
+    once, so that every recording-wide quantity (the orientation, the
+    noise on fz of the corrected estimator) comes from all its windows and
+    the table is exactly the one of a single pass.
+    """
+
+    st: Dict[str, np.ndarray]
+    aux_role: Optional[str]
+    plan: Plan
+    route: str
+    warnings: Tuple[str, ...]
+
+
+def analyze_partial(source: Any, **options: Any) -> Partial:
+    """:func:`analyze` up to the finishing step (same options; ``align`` must be None)."""
+    if options.get("align") is not None:
+        raise ValueError("align='auto' needs the whole recording: analyse it in one piece, or pass the delay yourself")
+    return _analyze(source, options, partial=True)  # type: ignore[return-value]
+
+
+def combine(parts: Sequence[Partial]) -> Results:
+    """The ranges of one recording, in order, finished once (exactly the table of one pass over them)."""
+    if not parts:
+        raise ValueError("no ranges to combine")
+    plan = dataclasses.replace(parts[0].plan, start=parts[0].plan.start, stop=parts[-1].plan.stop)
+    st = _concat([dict(p.st) for p in parts])
+    warnings = tuple(dict.fromkeys(w for p in parts for w in p.warnings))
+    res = finish(st, parts[0].aux_role, plan, parts[0].route, warnings=warnings)
+    if len(parts) > 1:
+        res.params.update(start=0, stop=None, ranges=len(parts))
+    return res
+
+
+def _analyze(source: Any, options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
+    """:func:`analyze`'s body: ``options`` are its keyword arguments."""
+    fs, temperature, current, voltage = (options.pop(k, None) for k in ("fs", "temperature", "current", "voltage"))
+    align = options.get("align")
     rec = source if _is_recording(source) else None
     if fs is None:
         if rec is None:
             raise TypeError("analyze needs fs= (the sampling rate in Hz)")
         fs = rec.fs
-    plan = make_plan(
-        fs=fs, window=window, hop=hop, highpass=highpass, orientation=orientation, temperature=temperature,
-        current=current, voltage=voltage, shunt_ohm=shunt_ohm, area_mm2=area_mm2, chunk=chunk, progress=progress,
-        deadband=deadband, n_bins=n_bins, gate=gate, max_lag=max_lag, rpm=rpm, n_lamellas=n_lamellas,
-        threads=threads, start=start, stop=stop,
-    )  # fmt: skip
+    if rec is not None:  # logs with absolute times start at the reader's start time (docs/method.md 6)
+        temperature, current, voltage = (
+            align_to_recording(x, rec, nm)
+            for x, nm in ((temperature, "temperature"), (current, "current"), (voltage, "voltage"))
+        )
+    plan = make_plan(fs=fs, temperature=temperature, current=current, voltage=voltage, **options)
+    if partial:
+        return _partial(source, rec, plan)
+    if align == "auto":
+        if not (rec is not None or isinstance(source, (Mapping, list, tuple))):
+            raise ValueError(
+                "align='auto' reads the source twice (to measure the delay, then to correct it): pass a mapping of "
+                "arrays, a list of acquisitions or a recording, not a one-pass stream of chunks"
+            )
+        first = _analyze_plan(source, rec, dataclasses.replace(plan, align=None))
+        delay = float(first.params.get("skew_median", float("nan")))
+        if not (np.isfinite(delay) and abs(delay) > ALIGN_MIN):
+            first.params.update(align="auto", delay_samples=0.0 if not np.isfinite(delay) else delay, aligned=False)
+            return first
+        res = _analyze_plan(source, rec, dataclasses.replace(plan, delay=delay))
+        res.params.update(delay_samples=delay, aligned=True)
+        return res
+    return _analyze_plan(source, rec, plan)
+
+
+def _analyze_plan(source: Any, rec: Any, plan: Plan) -> Results:
+    """:func:`analyze` with its options checked into ``plan``."""
+    p = _partial(source, rec, plan)
+    return finish(p.st, p.aux_role, p.plan, p.route, warnings=p.warnings)
+
+
+def _partial(source: Any, rec: Any, plan: Plan) -> Partial:
+    """The kernel's statistics of every window of ``source`` (the routes), not yet finished."""
     if plan.stop is not None:
         if rec is None:
             raise ValueError(
@@ -235,7 +353,7 @@ def analyze(
         st, aux_role = _run_stream(_chunk_source(source, rec, plan), plan, total)
     if rec is not None and hasattr(rec, "check_unchanged"):
         rec.check_unchanged()  # a file changed while it was read: an error, not a table of mixed data
-    return finish(st, aux_role, plan, route, warnings=getattr(rec, "warnings", ()))
+    return Partial(st, aux_role, plan, route, tuple(getattr(rec, "warnings", ())))
 
 
 def choose_route(source: Any, rec: Any, plan: Plan) -> str:
@@ -325,11 +443,25 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     fs, cov = plan.fs, plan.covariates
     s = resolve_orientation(plan.orientation, sign_of_total_slope(st))
     moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
+    confidence = _orientation_confidence(st, s) if plan.orientation == "auto" and not plan.paper else {}
     o = orient(st, s, inplace=True)
     t_start = o["t0"] if "t0" in o else o["start"] / fs
     n_win = np.asarray(o["n"], dtype=np.int64)
     centre = t_start + 0.5 * n_win / fs
-    reasons = gate_reasons(o, plan.gate, o.get("skew"))
+    found: Dict[str, Any] = {}
+    notes: List[str] = []
+    stats_cols = _statistics(o, plan, s, found, notes)
+    o.update(stats_cols)
+    skew_gate = o.get("skew_lag")
+    reasons = gate_reasons(o, plan.gate, skew_gate, rel_ci=stats_cols.get("rel_ci"), max_rel_ci=plan.max_rel_ci)
+    if confidence:
+        found.update(confidence)
+        if confidence["orientation_agreement"] < 0.9 or abs(confidence["orientation_r"]) < 0.2:
+            notes.append(
+                f"orientation 'auto' is uncertain: the whole recording's r is {confidence['orientation_r']:+.2f} and "
+                f"{100 * confidence['orientation_agreement']:.0f} % of the windows agree with s = {s:+d}; pass "
+                "orientation= if you know the sign"
+            )
 
     def nan() -> np.ndarray:  # a fresh column each time: no two table columns share memory
         return np.full(len(centre), np.nan)
@@ -344,15 +476,21 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     elif cov.voltage is not None:
         cur = evaluate(cov.voltage, centre) / cov.shunt_ohm
     log = cov.temperature
+    if not plan.paper:  # the paper's preset keeps the paper's gate exactly
+        reasons = mark_contact_loss(reasons, o, cur / cov.area_mm2 if cov.area_mm2 is not None else cur)  # method.md 7
     values: Stats = {
         **o,
         "time": centre,
         "t_start": t_start,
         "skew": o["skew"] if "skew" in o else nan(),
+        "h1_f0": o.get("h1_f0", nan()),
+        "h1_fl": o.get("h1_fl", nan()),
+        "coherence_fl": o.get("coherence_fl", nan()),
         "ok": np.asarray(reasons == "", dtype=bool),
         "reasons": reasons.astype(str),
         "T": interpolate(log, centre) if log is not None else nan(),
         "branch": branch(log, centre) if log is not None else np.zeros(len(centre), dtype=np.int8),
+        **log_quality(log, centre),  # T_uncertainty, T_gap (docs/method.md 6)
         "i": cur,
         "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan(),
         "mu_classic": o["mu_classic"] if "mu_classic" in o else nan(),
@@ -363,6 +501,8 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
     params = plan.params()
     params.update(orientation_used=s, start=plan.start, stop=plan.stop, threads=plan.threads, route=route)
+    params.update(found)
+    warnings = list(warnings) + notes
     return Results(
         table=table,
         bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
@@ -374,6 +514,124 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         moments=moments,
         warnings=tuple(dict.fromkeys(str(w) for w in warnings)),
     )
+
+
+#: Normal quantile 0.975: the paper's intervals (mu_r +- 1.96 OLS standard errors).
+_Z975 = 1.959963984540054
+#: Below this median |r| of instrument and fz the instrument is weak (docs/method.md 3b).
+WEAK_INSTRUMENT = 0.3
+#: A recording-wide fz delay (samples) above which align="auto" corrects it
+#: and align=None warns (docs/method.md 3e).
+ALIGN_MIN = 0.05
+
+
+def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List[str]) -> Stats:
+    """mu_r by the plan's estimator, its interval, the force dependence and the line statistics (docs/method.md 3a-3e).
+
+    ``o`` holds the oriented kernel statistics (``mu_r`` = s * OLS slope);
+    returns the columns that replace or join them. ``found`` gets what the
+    recording revealed (for ``params``), ``notes`` the warnings.
+    """
+    from .estimators import T975, line_stats, pooled_noise, quadratic, slopes
+
+    k = len(o["n"])
+    mu_ols = np.array(o["mu_r"], dtype=float)
+    if plan.paper:
+        se = np.asarray(o["mu_r_stderr"], dtype=float)
+        out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - _Z975 * se, "mu_r_high": mu_ols + _Z975 * se}
+        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr"):
+            out[name] = np.full(k, np.nan)
+        if "skew" in o:
+            out["skew_lag"] = o["skew"]
+        return out
+    E = o.pop("ext")
+    n = np.asarray(o["n"])
+    pooled = None
+    if plan.estimator == "corrected" and plan.noise is None:
+        pooled = pooled_noise(E, n)
+        if not np.isfinite(pooled[0]):
+            notes.append(
+                f"the noise on fz could not be measured (instrument lag {plan.iv_lag} samples needs windows longer "
+                "than twice it): mu_r is the least-squares slope; pass iv_lag= or noise="
+            )
+            pooled = (0.0, 0.0)
+        found["noise_z_std"] = float(np.sqrt(pooled[0]))
+    sl = slopes(E, n, plan.estimator, noise=plan.noise, pooled=pooled)
+    r_inst = sl.instrument_r[np.isfinite(sl.instrument_r)]
+    found["instrument_r"] = float(np.median(r_inst)) if r_inst.size else float("nan")
+    weak = bool(r_inst.size) and abs(found["instrument_r"]) < WEAK_INSTRUMENT
+    if weak and pooled is not None and pooled != (0.0, 0.0):
+        # A weak instrument cannot measure the noise on fz: least squares, said so.
+        pooled = (0.0, 0.0)
+        found["noise_z_std"] = 0.0
+        sl = slopes(E, n, plan.estimator, noise=plan.noise, pooled=pooled)
+        notes.append(
+            f"the noise on fz could not be measured: the instrument (fz lagged by {plan.iv_lag} samples) is weak "
+            f"(median r = {found['instrument_r']:.2f}), so mu_r is the least-squares slope; pass rpm= (a lag of "
+            "one revolution), iv_lag= or noise= (docs/method.md 3b)"
+        )
+    elif weak and plan.estimator == "iv":
+        notes.append(
+            f"the instrument (fz lagged by {plan.iv_lag} samples) is weak: median r = {found['instrument_r']:.2f}; "
+            "IV slopes are imprecise; pass rpm= (a lag of one revolution) or iv_lag= (docs/method.md 3b)"
+        )
+    mu = s * sl.slope
+    se = sl.se
+    a2, a2_se = quadratic(E, n, instrumented=plan.estimator != "ols")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = T975 * se / np.abs(mu)
+        out = {
+            "mu_r": mu,
+            "mu_r_stderr": se,
+            "mu_r_low": mu - T975 * se,
+            "mu_r_high": mu + T975 * se,
+            "mu_ols": mu_ols,
+            "attenuation_p": sl.attenuation_p,
+            "dmu_dfn": s * a2,
+            "dmu_dfn_stderr": a2_se,
+            "f_y0": o["mean_y"] - sl.slope * o["mean_z"],
+            "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
+            "rel_ci": rel,
+        }
+    if "skew" in o:
+        out["skew_lag"] = o["skew"]
+    if "spec" in o:
+        ls = line_stats(o.pop("spec"), plan.lines, s)
+        index = dict(plan.line_index)
+        out["skew"] = ls["skew"]
+        if "f0" in index:
+            out["h1_f0"] = ls["h1"][:, index["f0"]]
+        if "fl" in index:
+            out["h1_fl"] = ls["h1"][:, index["fl"]]
+            out["coherence_fl"] = ls["coherence"][:, index["fl"]]
+        sk = ls["skew"][np.isfinite(ls["skew"])]
+        delay = float(np.median(sk)) if sk.size else float("nan")
+        found["skew_median"] = delay + plan.delay if np.isfinite(delay) else delay
+        if plan.align is None and np.isfinite(delay) and abs(delay) > ALIGN_MIN:
+            notes.append(
+                f"fz lags fy by {delay:+.2f} samples (cross-spectral phase at the rig's lines, median over windows): "
+                "mu_r is biased low by it; analyze(..., align='auto') corrects it (docs/method.md 3e)"
+            )
+    return out
+
+
+def _orientation_confidence(st: Stats, s: int) -> Dict[str, float]:
+    """The recording's Pearson r of fy and fz (windows merged) and the fraction of windows whose slope has sign s."""
+    n = np.asarray(st["n"], dtype=float)
+    slope = np.asarray(st["slope"], dtype=float)
+    good = np.isfinite(slope) & (slope != 0)
+    agree = float(np.mean(np.sign(slope[good]) == s)) if good.any() else float("nan")
+    r = float("nan")
+    if "szz" in st and "syy" in st and n.sum() > 0:
+        w = n / n.sum()
+        mz, my = float(np.sum(w * st["mean_z"])), float(np.sum(w * st["mean_y"]))
+        dz, dy = st["mean_z"] - mz, st["mean_y"] - my
+        szz = np.sum(st["szz"]) + np.sum(n * dz * dz)
+        syy = np.sum(st["syy"]) + np.sum(n * dy * dy)
+        syz = np.sum(st["syz"]) + np.sum(n * dz * dy)
+        if szz > 0 and syy > 0:
+            r = float(syz / np.sqrt(szz * syy))
+    return {"orientation_r": r, "orientation_agreement": agree}
 
 
 # -- the kernel on windows of arrays -------------------------------------------------
@@ -400,6 +658,7 @@ def _kernel(
             raw=raw,
             threads=threads,
             offset=offset,
+            options=plan.kernel_options,
         )
     except _core.NonFiniteError as exc:
         raise _non_finite(exc, plan, aux_role) from None
@@ -538,7 +797,7 @@ def _run_mapped(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
         st = _core.windows_stats_file(
             fd, offsets, n_rec, k0, k1, plan.step, plan.length, 1.0, plan.deadband.kind, float(plan.deadband.value),
             plan.n_bins, list(plan.kernel_columns), block=block, sos=sos, zi=zi, origin=plan.start,
-            threads=plan.threads,
+            threads=plan.threads, **plan.kernel_options,
         )  # fmt: skip
     except _core.NonFiniteError as exc:
         raise _non_finite(exc, plan, aux) from None

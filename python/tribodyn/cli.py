@@ -103,6 +103,23 @@ def _orientation(text: str) -> Any:
     raise argparse.ArgumentTypeError("orientation must be auto, +1 or -1")
 
 
+def _gate(text: str) -> Any:
+    if text == "ci":
+        return "ci"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("gate must be ci or a number in [0, 1]") from None
+
+
+def _pair(text: str) -> Any:
+    try:
+        a, b = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError("noise must be SY,SZ: two numbers in N, e.g. 0.01,0.005") from None
+    return (a, b)
+
+
 def _deadband(text: str) -> Any:
     try:
         return float(text)
@@ -158,7 +175,25 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--orientation", type=_orientation, help="auto (default), +1 or -1")
     a.add_argument("--deadband", type=_deadband, help="deadband in N (default 0.35) or e.g. 0.7sigma")
     a.add_argument("--bins", type=int, help="normal-force bins (default 16)")
-    a.add_argument("--gate", type=float, help="quality gate on |C_yz(0)| (default 0.85)")
+    a.add_argument(
+        "--gate",
+        type=_gate,
+        help="quality gate: ci (default: the 95 %% interval's width) or a |C_yz(0)| threshold such as 0.85",
+    )
+    a.add_argument(
+        "--max-rel-ci", type=float, help="gate ci: largest relative half-width of the 95 %% interval (default 0.1)"
+    )
+    a.add_argument(
+        "--estimator",
+        choices=["corrected", "iv", "ols", "deming"],
+        help="slope estimator (default corrected; docs/method.md 3a)",
+    )
+    a.add_argument("--method", choices=["paper"], help="paper: the paper's method exactly (OLS, |C_yz| >= 0.85)")
+    a.add_argument(
+        "--align", choices=["auto"], help="auto: measure the fz delay at the rig's lines and correct it (needs --rpm)"
+    )
+    a.add_argument("--iv-lag", type=float, help="instrument lag in s (default one revolution with --rpm)")
+    a.add_argument("--noise", type=_pair, help="SY,SZ: noise standard deviations of fy and fz in N (deming needs them)")
     a.add_argument("--max-lag", type=int, help="per-window channel-skew check up to this lag (samples)")
     a.add_argument("--chunk", type=float, help="seconds read per chunk (memory bound; default 60)")
     a.add_argument("--threads", type=int, help="kernel threads (default: all cores or TRIBODYN_THREADS)")
@@ -201,7 +236,13 @@ _CONFIG_KEYS: Dict[str, str] = {
     "orientation": '"auto", 1 or -1',
     "deadband": 'a number (N) or a string such as "0.7sigma"',
     "bins": _INTEGER,
-    "gate": _NUMBER,
+    "gate": 'a number (|C_yz| threshold) or "ci"',
+    "max_rel_ci": _NUMBER,
+    "estimator": _TEXT,
+    "method": _TEXT,
+    "align": _TEXT,
+    "iv_lag": _NUMBER,
+    "noise": "a list of two numbers [sigma_y, sigma_z] in N",
     "max_lag": _INTEGER,
     "chunk": _NUMBER,
     "threads": _INTEGER,
@@ -244,6 +285,20 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
             return v
         if isinstance(v, str) and v in ("1", "+1", "-1"):
             return int(v)
+        raise bad()
+    if key == "gate":
+        if v == "ci":
+            return v
+        if is_int or isinstance(v, float):
+            return float(v)
+        raise bad()
+    if key == "noise":
+        if (
+            isinstance(v, list)
+            and len(v) == 2
+            and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
+        ):
+            return (float(v[0]), float(v[1]))
         raise bad()
     if key == "deadband":
         if is_int or isinstance(v, float):
@@ -326,6 +381,12 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
         ("deadband", "deadband"),
         ("bins", "n_bins"),
         ("gate", "gate"),
+        ("max_rel_ci", "max_rel_ci"),
+        ("estimator", "estimator"),
+        ("method", "method"),
+        ("align", "align"),
+        ("iv_lag", "iv_lag"),
+        ("noise", "noise"),
         ("max_lag", "max_lag"),
         ("chunk", "chunk"),
         ("threads", "threads"),
@@ -415,6 +476,31 @@ def _progress_wanted(ns: argparse.Namespace) -> bool:
     return not ns.quiet and sys.stderr.isatty()
 
 
+def _print_breakpoints(rng: Dict[str, Any], s: Dict[str, Any]) -> None:
+    """The verdict and the breakpoints with their 95 % intervals next to the simulator's truth (docs/method.md 7)."""
+    if not rng.get("verdict"):
+        return
+    print(f"  verdict: {rng['verdict']}")
+    sim, bath = s.get("simulated_optimum") or {}, s.get("simulated_breakpoints") or {}
+    fits = {"all": rng, **{k[4:]: v for k, v in rng.items() if k.startswith("fit_")}}
+    for name, f in fits.items():
+        if not f or not f.get("optimum") or not f.get("optimum_ci"):
+            continue
+        (lo, hi), (lci, hci) = f["optimum"], f["optimum_ci"]
+
+        def iv(ci: Any) -> str:
+            return f"[{ci[0]:.4g}, {ci[1]:.4g}]" if ci and None not in ci else "[-]"
+
+        line = f"  {name}: breakpoints {lo:.4g} {iv(lci)} and {hi:.4g} {iv(hci)} {rng['unit']}"
+        truth = sim.get(rng["by"] if name == "all" else f"{rng['by']}_{name}")
+        if truth:
+            line += f"; simulated flat bottom {truth[0]:g}..{truth[1]:g}"
+        b = bath.get(name)
+        if b and b.get("lower") is not None and b.get("upper") is not None:
+            line += f" (straight-wall fit of it: {b['lower']:.4g}..{b['upper']:.4g})"
+        print(line)
+
+
 def _print_demo(summary: Dict[str, Any], out: str) -> None:
     for key, label in (("temperature_test", "temperature test"), ("current_density_test", "current-density test")):
         s = summary[key]
@@ -430,6 +516,7 @@ def _print_demo(summary: Dict[str, Any], out: str) -> None:
         if rng.get("onset") is not None:
             line += f"; steep rise from {rng['onset']:.2f} {rng['unit']}"
         print(line)
+        _print_breakpoints(rng, s)
     print(f"outputs in {out}/ (report.html, summary.json, *_windows.csv, figures/)")
 
 

@@ -6,8 +6,10 @@ separately give exactly the windows of one pass when they are cut on the
 window grid (``analyze(start=...)``). So the work is split into pure tasks,
 one per recording or per range of a long recording, that take a *path*
 (workers read the files themselves; no arrays cross the network) and return
-the per-window results. The orientation of each recording is then fixed once
-from the merged moments of all its windows (docs/method.md 0), exactly as one
+the kernel's per-window statistics, not yet finished. Each recording's
+ranges are then joined and finished once (``tribodyn.analyze.combine``):
+its orientation (docs/method.md 0) and the noise on fz of the corrected
+estimator (docs/method.md 3c) come from all its windows, exactly as one
 serial pass would.
 
 Tasks are pure (same input, same output, no side effects), so a task lost
@@ -29,8 +31,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
-from .analyze import analyze, sign_of_total_slope
-from .identify import resolve_orientation
+from .analyze import Partial, analyze_partial, combine
 from .results import Results
 
 __all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
@@ -133,8 +134,12 @@ def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float
 
 def range_task(
     path: str, open_options: Dict[str, Any], options: Dict[str, Any], start: int, stop: Optional[int]
-) -> Union[Results, RecordingFailure]:
-    """Windows of samples ``start:stop`` of one recording (the whole one when ``stop`` is None)."""
+) -> Union[Partial, RecordingFailure]:
+    """The kernel's statistics of the windows of samples ``start:stop`` of one recording, not yet finished.
+
+    The ranges of a recording are finished together by :func:`_combine`
+    (recording-wide orientation and noise on fz, docs/method.md 3c).
+    """
     from .io import open_recording
 
     try:
@@ -144,7 +149,7 @@ def range_task(
             # The recording itself, so that analyze reads the range the
             # fastest way its format allows (a float64 .npy: straight from
             # the file's pages).
-            return analyze(rec, fs=fs, start=start, stop=stop, **opts)
+            return analyze_partial(rec, fs=fs, start=start, stop=stop, **opts)
     except Exception as exc:  # reported per recording, see plan_task
         return _failure(path, exc)
 
@@ -165,25 +170,13 @@ def _ranges(n: int, fs: float, options: Dict[str, Any], split_s: Optional[float]
     return out or [(0, None)]
 
 
-def _combine(parts: List[Results], orientation: Any) -> Results:
-    """One recording's ranges joined in order, with ONE orientation (docs/method.md 0)."""
-    if len(parts) == 1:
-        return parts[0]  # one task: analyze already fixed the orientation
-    moments = {k: np.concatenate([p.moments[k] for p in parts]) for k in parts[0].moments}
-    s = resolve_orientation(orientation, sign_of_total_slope(moments))
-    parts = [p.with_orientation(s) for p in parts]
-    table = {c: np.concatenate([p.table[c] for p in parts]) for c in parts[0].table}
-    return Results(
-        table=table,
-        bin_counts=np.concatenate([p.bin_counts for p in parts]),
-        bin_cof=np.concatenate([p.bin_cof for p in parts]),
-        fz_min=np.concatenate([p.fz_min for p in parts]),
-        fz_max=np.concatenate([p.fz_max for p in parts]),
-        orientation=s,
-        params={**parts[0].params, "start": 0, "stop": None, "ranges": len(parts), "orientation_used": s},
-        moments=moments,
-        warnings=tuple(dict.fromkeys(w for p in parts for w in p.warnings)),
-    )
+def _combine(parts: List[Partial]) -> Results:
+    """One recording's ranges joined in order and finished once (docs/method.md 0, 3c): the one-pass table.
+
+    Each part's plan carries the orientation asked for; "auto" is fixed
+    here, from all the windows.
+    """
+    return combine(parts)
 
 
 def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], List[Any]]:
@@ -263,7 +256,8 @@ def analyze_many(
     open_options = dict(open_options or {})
     options = dict(analyze_options)
     options.pop("start", None)
-    orientation = options.get("orientation", "auto")
+    if options.get("align") is not None:
+        raise ValueError("analyze_many does not align (align='auto' reads a recording twice): use analyze per file")
     if split is not None and not split > 0:
         raise ValueError(f"split must be > 0 seconds, got {split!r}")
     run = _runner(client, progress)
@@ -286,8 +280,6 @@ def analyze_many(
             fs = options.get("fs") or fs
             ranges = _ranges(n, fs, options, split)
         opts = dict(options)
-        if len(ranges) > 1:
-            opts["orientation"] = 1 if orientation == "auto" else orientation
         if chunk is not None:
             opts["chunk"] = chunk
         for a, b in ranges:
@@ -306,7 +298,7 @@ def analyze_many(
         if bad is not None:
             failures[f] = bad
             continue
-        results[f] = _combine(parts, orientation)
+        results[f] = _combine(parts)
     ordered_failures = {f: failures[f] for f in files if f in failures}
     return ManyResults(results=results, failures=ordered_failures, tasks=len(jobs))
 

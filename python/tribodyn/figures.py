@@ -852,6 +852,7 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
                 linewidth=1.2 if names else 1.8,
                 label=f"all: binned median ({_fmt(opr.bin_width, '.3g')} {spec['unit']} bins)",
             )
+        _draw_fit(ax, opr, spec["unit"], branches)
         if opr.onset is not None and np.isfinite(opr.onset):
             what = "instability onset" if column == "J" else "onset of the COF rise"
             ax.axvline(
@@ -865,6 +866,38 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
     ax.grid(True, alpha=0.3)
     _legend_above(ax, ncol=2)
     return fig
+
+
+_FIT_STYLE = {"all": ("black", "-"), "heating": ("tab:red", "-"), "cooling": ("tab:blue", "-")}
+
+
+def _draw_fit(ax: Any, opr: Any, unit: str, branches: bool) -> None:
+    """The segmented fit(s), their 95 % bands, the breakpoints with intervals and the verdict (docs/method.md 7)."""
+    fits = getattr(opr, "fits", None) or {}
+    if not fits:
+        return
+    names = [n for n in ("heating", "cooling") if n in fits] if branches else []
+    names = names or ["all"]
+    for name in names:
+        f = fits[name]
+        colour, ls = _FIT_STYLE.get(name, ("black", "-"))
+        if np.isfinite(f.band_low).any():
+            ax.fill_between(f.grid, f.band_low, f.band_high, color=colour, alpha=0.12, linewidth=0,
+                            label=f"{name}: 95 % band of the fit")  # fmt: skip
+        ax.plot(f.grid, f.curve, ls, color=colour, linewidth=2.0, label=f"{name}: bathtub fit ({f.verdict})")
+        for side in ("lower", "upper"):
+            b, ci = getattr(f, side), getattr(f, f"{side}_ci")
+            if b is None:
+                continue
+            txt = f"{name}: {side} breakpoint {b:.4g}"
+            if ci is not None:
+                txt += f" [{ci[0]:.4g}, {ci[1]:.4g}]"
+                ax.axvspan(ci[0], ci[1], color=colour, alpha=0.06, zorder=0)
+            ax.axvline(b, color=colour, linestyle=":", linewidth=1.2, label=f"{txt} {unit}")
+    import textwrap
+
+    ax.text(0.01, 0.99, textwrap.fill(f"Verdict: {opr.verdict}. {opr.explanation}", 95), transform=ax.transAxes,
+            fontsize=7.5, va="top", ha="left", bbox=dict(facecolor="white", alpha=0.8, edgecolor="0.7"))  # fmt: skip
 
 
 def cof_vs_temperature(results: Any, opr: Any = None, *, title: Optional[str] = None) -> Figure:

@@ -77,6 +77,9 @@ def identify(
     max_lag: Optional[int] = None,
     rpm: Optional[float] = None,
     n_lamellas: Optional[int] = None,
+    estimator: str = "ols",
+    iv_lag: Optional[float] = None,
+    noise: Any = None,
 ) -> CofResult:
     """COF of one acquisition from its dynamic forces (docs/method.md 3-5).
 
@@ -102,7 +105,19 @@ def identify(
         Also compute C_xy, C_xz, C_yz for lags up to ``max_lag`` and the skew
         (lag of max |C_yz|); a non-zero skew fails the gate.
     rpm, n_lamellas : optional
-        Rig data: cross-spectra at f0 and f_l (Welch).
+        Rig data: cross-spectra at f0 and f_l (Welch); ``rpm`` also sets the
+        instrument lag (one revolution).
+    estimator : {"ols", "iv", "corrected", "deming"}
+        The slope estimator (docs/method.md 3a-3c). Default "ols", the
+        paper's: one acquisition has no other windows to measure the noise
+        on fz from, so "corrected" here equals "iv" unless ``noise`` is
+        given. Every estimator but "ols" adds the batch-means standard
+        error, its 95 % interval, ``attenuation_p`` and ``dmu_dfn``.
+    iv_lag : float, optional
+        Instrument lag in s (default: one revolution with ``rpm``, else a
+        tenth of the acquisition, at least 10 samples).
+    noise : (sigma_y, sigma_z), optional
+        Measurement-noise standard deviations in N ("deming" needs them).
 
     Returns
     -------
@@ -137,6 +152,9 @@ def identify(
     if rpm is not None and n_lamellas is not None and n >= 8:
         spectra = cross_spectra(fx_a, fy_a, fz_a, fs_v, float(rpm), check_int(n_lamellas, "n_lamellas", minimum=1))
 
+    extra: Dict[str, float] = {}
+    if estimator != "ols":
+        extra = _estimate(fy_a, fz_a, fs_v, s, estimator, iv_lag, noise, rpm, o)
     reasons = gate_reasons(o, g, None if skew is None else np.array([skew], dtype=float))[0]
     return CofResult(
         mu_r=float(o["mu_r"][0]),
@@ -158,4 +176,40 @@ def identify(
         correlations=correlations,
         skew=skew,
         spectra=spectra,
+        estimator=estimator,
+        mu_ols=extra.get("mu_ols", float(o["mu_r"][0])),
+        mu_r_low=extra.get("mu_r_low", float("nan")),
+        mu_r_high=extra.get("mu_r_high", float("nan")),
+        attenuation_p=extra.get("attenuation_p", float("nan")),
+        dmu_dfn=extra.get("dmu_dfn", float("nan")),
+        dmu_dfn_stderr=extra.get("dmu_dfn_stderr", float("nan")),
     )
+
+
+def _estimate(
+    fy: np.ndarray, fz: np.ndarray, fs: float, s: int, estimator: str, iv_lag: Any, noise: Any, rpm: Any,
+    o: Dict[str, np.ndarray],
+) -> Dict[str, float]:  # fmt: skip
+    """The slope of ``estimator`` and its statistics for one acquisition; updates ``o`` (docs/method.md 3a-3e)."""
+    from .estimators import T975, quadratic, slopes
+    from .plan import check_statistics
+
+    n = fz.size
+    opts = check_statistics(fs, n, estimator=estimator, iv_lag=iv_lag, noise=noise, rpm=rpm)
+    st = compute(
+        None, fy, fz, None, np.zeros(1, dtype=np.int64), n, parse_deadband(0.0), 1, ["n", "ext"],
+        options=dict(lag=opts["iv_lag"]),
+    )  # fmt: skip
+    E, nn = st["ext"], st["n"]
+    sl = slopes(E, nn, opts["estimator"], noise=opts["noise"])
+    a2, a2_se = quadratic(E, nn, instrumented=True)
+    mu, se = float(s * sl.slope[0]), float(sl.se[0])
+    mu_ols = float(o["mu_r"][0])
+    o["mu_r"] = np.array([mu])
+    o["mu_r_stderr"] = np.array([se])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        o["force_dependence"] = (o["mu_b"] - o["mu_a"]) / mu
+    return dict(
+        mu_ols=mu_ols, mu_r_low=mu - T975 * se, mu_r_high=mu + T975 * se,
+        attenuation_p=float(sl.attenuation_p[0]), dmu_dfn=float(s * a2[0]), dmu_dfn_stderr=float(a2_se[0]),
+    )  # fmt: skip

@@ -26,11 +26,17 @@ __all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
 
 
 def read_log(path: Any) -> Tuple[np.ndarray, np.ndarray]:
-    """Reads a two-column log (time in s, value) from a CSV/TSV/whitespace file.
+    """Reads a two-column log (time, value) from a CSV/TSV/whitespace file.
 
-    Lines that do not start with a number (headers, comments) are skipped; a
-    decimal comma is accepted when the delimiter is not a comma.
+    Times are seconds from the recording's start, or absolute: ISO 8601
+    (``2024-05-02T10:15:00``, also with a space for the ``T``) or epoch
+    seconds, returned as epoch seconds, which :func:`tribodyn.analyze`
+    aligns with the recording's start time (docs/method.md 6). Lines before
+    the data that do not start with a time (headers, comments) are skipped;
+    a decimal comma is accepted when the delimiter is not a comma.
     """
+    from .covariates import to_epoch_seconds
+
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"log file not found: {p}")
@@ -47,18 +53,26 @@ def read_log(path: Any) -> Tuple[np.ndarray, np.ndarray]:
                     break
             if len(parts) < 2:
                 continue
+            if delim is None and len(parts) >= 3 and parts[0][:1].isdigit() and "-" in parts[0] and ":" in parts[1]:
+                parts = [f"{parts[0]}T{parts[1]}", *parts[2:]]  # date and time split by a space
             if delim != ",":
-                parts = [x.replace(",", ".") for x in parts]
+                parts = [parts[0], *(x.replace(",", ".") for x in parts[1:])]
             try:
-                a, b = float(parts[0]), float(parts[1])
-            except ValueError:
+                b = float(parts[1])
+                try:
+                    a = float(parts[0].replace(",", ".") if delim != "," else parts[0])
+                except ValueError:
+                    a = float(to_epoch_seconds(parts[0]))
+            except (ValueError, TypeError):
                 if t:  # a non-numeric row after data is an error, before it a header
                     raise ValueError(f"{p.name}, line {line_no}: not two numbers: {s!r}") from None
                 continue
             t.append(a)
             v.append(b)
     if not t:
-        raise ValueError(f"{p.name}: no (time, value) rows found")
+        raise ValueError(
+            f"{p.name}: no (time, value) rows found (times in s from the recording's start, ISO 8601 or epoch seconds)"
+        )
     return np.asarray(t), np.asarray(v)
 
 
@@ -66,24 +80,41 @@ def range_summary(opr: Optional[OperatingRange]) -> Optional[Dict[str, Any]]:
     """The JSON-ready essentials of an operating range."""
     if opr is None:
         return None
-    out: Dict[str, Any] = {
-        "by": opr.by,
-        "unit": opr.unit,
-        "optimum": opr.optimum,
-        "mu_min": opr.mu_min,
-        "onset": opr.onset,
-        "bin_width": opr.bin_width,
-        "tol": opr.tol,
-    }
+    out: Dict[str, Any] = dict(opr.to_dict())
+    out.update(
+        {
+            "by": opr.by,
+            "unit": opr.unit,
+            "optimum": opr.optimum,
+            "mu_min": opr.mu_min,
+            "onset": opr.onset,
+            "bin_width": opr.bin_width,
+            "tol": opr.tol,
+        }
+    )
     for name, c in opr.curves.items():
         if name != "all":
-            out[f"optimum_{name}"] = c.optimum
+            f = opr.fits.get(name)
+            out[f"optimum_{name}"] = f.optimum if f is not None else c.optimum
     return out
 
 
-def _try_range(res: Results, by: str) -> Optional[OperatingRange]:
+def _truth_breakpoints(res: Results, truth: Any, by: str) -> Optional[Dict[str, Any]]:
+    """The same segmented fit applied to the simulator's noise-free COF at the same windows (no bootstrap):
+    where a straight-walled bathtub puts the simulated curve's edges (its walls are curved)."""
+    table = dict(res.table)
+    table["mu_r"] = np.asarray(truth.mu_at(res["time"]), dtype=float)
+    twin = Results(table=table, bin_counts=res.bin_counts, bin_cof=res.bin_cof, fz_min=res.fz_min,
+                   fz_max=res.fz_max, orientation=res.orientation, params=res.params)  # fmt: skip
+    opr = _try_range(twin, by, n_boot=0)
+    if opr is None:
+        return None
+    return {name: {"lower": f.lower, "upper": f.upper, "mu_min": f.mu_min} for name, f in opr.fits.items()}
+
+
+def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
     try:
-        return operating_range(res, by)  # type: ignore[arg-type]
+        return operating_range(res, by, **kw)  # type: ignore[arg-type]
     except ValueError:
         return None
 
@@ -169,12 +200,14 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
             **res_t.summary(),
             "operating_range": range_summary(opr_t),
             "simulated_optimum": dict(sim_t.truth.optimum),
+            "simulated_breakpoints": _truth_breakpoints(res_t, sim_t.truth, "temperature"),
             "params": res_t.params,
         },
         "current_density_test": {
             **res_j.summary(),
             "operating_range": range_summary(opr_j),
             "simulated_optimum": dict(sim_j.truth.optimum),
+            "simulated_breakpoints": _truth_breakpoints(res_j, sim_j.truth, "current_density"),
             "params": res_j.params,
         },
     }
@@ -199,6 +232,38 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
     return summary
 
 
+def _interval(ci: Any) -> str:
+    if ci is None:
+        return ""
+    return f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci[0] is not None and ci[1] is not None else ""
+
+
+def _breakpoint_rows(key: str, rng: Mapping[str, Any], val: Mapping[str, Any]) -> Dict[str, str]:
+    """Breakpoints with their 95 % intervals per branch, next to the simulator's truth when known."""
+    rows: Dict[str, str] = {}
+    ci = rng.get("optimum_ci")
+    if ci is None:
+        return rows
+    by, unit = rng["by"], rng["unit"]
+    sim = val.get("simulated_optimum") or {}
+    bath = val.get("simulated_breakpoints") or {}
+    fits = {"all": rng, **{k[4:]: v for k, v in rng.items() if k.startswith("fit_")}}
+    for name, f in fits.items():
+        if not f or not f.get("optimum") or not f.get("optimum_ci"):
+            continue
+        (lo, hi), (lci, hci) = f["optimum"], f["optimum_ci"]
+        text = f"{lo:.4g}{_interval(lci)} to {hi:.4g}{_interval(hci)} {unit}"
+        truth = sim.get(by if name == "all" else f"{by}_{name}")
+        if truth is not None:
+            text += f"; simulated flat bottom {truth[0]:g} to {truth[1]:g}"
+        b = bath.get(name)
+        if b is not None:
+            fmt = lambda v: "none" if v is None else f"{v:.4g}"  # noqa: E731
+            text += f"; the same fit of the simulated COF {fmt(b['lower'])} to {fmt(b['upper'])}"
+        rows[f"{key}: breakpoints [95 % interval], {name}"] = text
+    return rows
+
+
 def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
     """A short, readable summary for the report's first table."""
     out: Dict[str, Any] = {}
@@ -208,12 +273,18 @@ def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
             out[f"{key}: windows (gated)"] = f"{val['windows']} ({val['gated']})"
             if mu.get("n"):
                 out[f"{key}: mu_r median [p05, p95]"] = f"{mu['median']:.4f} [{mu['p05']:.4f}, {mu['p95']:.4f}]"
+                ci = (mu.get("ci") or {}).get("median")
+                if ci is not None:
+                    out[f"{key}: mu_r median, 95 % interval"] = f"{ci[0]:.4f} to {ci[1]:.4f}"
             for rng in (val[k] for k in val if k.startswith("operating_range")):
+                if rng and rng.get("verdict"):
+                    out[f"{key}: verdict ({rng['by'].replace('_', ' ')})"] = f"{rng['verdict']}: {rng['explanation']}"
                 if not rng or not rng.get("optimum"):
                     continue
                 lo, hi = rng["optimum"]
                 by = rng["by"].replace("_", " ")
                 out[f"{key}: optimum {by}"] = f"{lo:g} to {hi:g} {rng['unit']} (mu_min {rng['mu_min']:.4f})"
+                out.update(_breakpoint_rows(key, rng, val))
                 if rng.get("onset") is not None:
                     out[f"{key}: instability onset ({by})"] = f"{rng['onset']:.3g} {rng['unit']}"
         elif not isinstance(val, (Mapping, list)):

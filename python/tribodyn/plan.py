@@ -9,6 +9,8 @@ changes while a recording is read.
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+import numpy as np
 from typing import Any, Dict, Optional, Tuple, Union
 
 from ._validate import check_fs, check_int, positive
@@ -94,7 +96,7 @@ class Plan:
     step: int
     deadband: Deadband
     n_bins: int
-    gate: float
+    gate: Union[float, str]
     orientation: Union[int, str]
     highpass: Optional[float]
     max_lag: Optional[int]
@@ -106,6 +108,35 @@ class Plan:
     start: int
     stop: Optional[int]
     progress: bool
+    #: "paper" or "" (docs/method.md 3a): the paper's preset fixes estimator, gate and alignment.
+    method: str = ""
+    #: Slope estimator (docs/method.md 3a-3c): "corrected", "iv", "ols" or "deming".
+    estimator: str = "ols"
+    #: Largest relative half-width of the 95 % interval for gate "ci".
+    max_rel_ci: float = 0.1
+    #: "auto" (estimate and correct the fz delay) or None.
+    align: Optional[str] = None
+    #: Instrument lag, samples (docs/method.md 3b).
+    iv_lag: int = 0
+    #: Line frequencies (cycles per sample) and the index of f0, f_l among them.
+    lines: Tuple[float, ...] = ()
+    line_index: Tuple[Tuple[str, int], ...] = ()
+    #: fz is advanced by this many samples in every window (set by align="auto").
+    delay: float = 0.0
+    #: (sigma_y, sigma_z) of the measurement noise, N, or None.
+    noise: Optional[Tuple[float, float]] = None
+
+    @property
+    def paper(self) -> bool:
+        """True for the paper's preset (``method="paper"``): its statistics only, exactly as before."""
+        return self.method == "paper"
+
+    @property
+    def kernel_options(self) -> Dict[str, Any]:
+        """The options of the statistics beyond the paper for ``_core.windows_stats`` (docs/method.md 3a-3e)."""
+        if self.paper:
+            return {}
+        return dict(lag=self.iv_lag, lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=self.delay)
 
     @property
     def raw(self) -> bool:
@@ -115,7 +146,8 @@ class Plan:
     @property
     def kernel_columns(self) -> Tuple[str, ...]:
         """The statistics asked of the kernel per window (``tribodyn.columns``)."""
-        return kernel_columns(self.raw)
+        extra: Tuple[str, ...] = () if self.paper else ("szz", "syy", "ext") + (("spec",) if self.lines else ())
+        return kernel_columns(self.raw) + extra
 
     def params(self) -> Dict[str, Any]:
         """The settings for provenance (``Results.params``, ``summary.json``)."""
@@ -131,6 +163,12 @@ class Plan:
             deadband=str(self.deadband),
             n_bins=self.n_bins,
             gate=self.gate,
+            method=self.method or None,
+            estimator=self.estimator,
+            max_rel_ci=self.max_rel_ci if self.gate == "ci" else None,
+            align=self.align,
+            iv_lag_samples=None if self.paper else self.iv_lag,
+            noise=self.noise,
             max_lag=self.max_lag,
             rpm=self.rpm,
             n_lamellas=self.n_lamellas,
@@ -157,13 +195,19 @@ def make_plan(
     progress: bool = False,
     deadband: DeadbandSpec = 0.35,
     n_bins: Any = 16,
-    gate: Any = 0.85,
+    gate: Any = None,
     max_lag: Any = None,
     rpm: Any = None,
     n_lamellas: Any = None,
     threads: Any = None,
     start: Any = 0,
     stop: Any = None,
+    method: Any = None,
+    estimator: Any = None,
+    max_rel_ci: Any = None,
+    align: Any = None,
+    iv_lag: Any = None,
+    noise: Any = None,
 ) -> Plan:
     """Checks the options of :func:`tribodyn.analyze` into a :class:`Plan`.
 
@@ -198,6 +242,10 @@ def make_plan(
     end = None if stop is None else check_int(stop, "stop", minimum=0)
     if end is not None and end < origin:
         raise ValueError(f"stop must satisfy start <= stop, got start={origin}, stop={end}")
+    stats = check_statistics(
+        fs_v, length, method=method, estimator=estimator, gate=gate, max_rel_ci=max_rel_ci, align=align,
+        iv_lag=iv_lag, noise=noise, rpm=rpm, n_lamellas=n_lamellas,
+    )  # fmt: skip
     return Plan(
         fs=fs_v,
         window=w_s,
@@ -206,7 +254,6 @@ def make_plan(
         step=step,
         deadband=parse_deadband(deadband),
         n_bins=check_int(n_bins, "n_bins", minimum=1),
-        gate=check_gate(gate),
         orientation=check_orientation(orientation),
         highpass=None if highpass is None else positive(highpass, "highpass"),
         max_lag=None if max_lag is None else check_int(max_lag, "max_lag", minimum=0),
@@ -218,4 +265,78 @@ def make_plan(
         start=origin,
         stop=end,
         progress=bool(progress),
+        **stats,
     )
+
+
+#: Segments averaged per window for the line cross-spectra (docs/method.md 3e).
+LINE_SEGMENTS = 4
+#: Default largest relative half-width of the 95 % interval (gate "ci"; docs/method.md 5).
+MAX_REL_CI = 0.1
+
+
+def check_statistics(
+    fs: float,
+    length: int,
+    *,
+    method: Any = None,
+    estimator: Any = None,
+    gate: Any = None,
+    max_rel_ci: Any = None,
+    align: Any = None,
+    iv_lag: Any = None,
+    noise: Any = None,
+    rpm: Any = None,
+    n_lamellas: Any = None,
+) -> Dict[str, Any]:
+    """The statistical options checked, defaults resolved (docs/method.md 3a-5).
+
+    ``method="paper"`` is the paper's preset: OLS, |C_yz(0)| >= 0.85, no
+    alignment, exactly the tables of tribodyn 0.2; an option that
+    contradicts it is an error. Otherwise the defaults are the corrected
+    estimator, the gate on the interval width and no alignment.
+    """
+    from .estimators import ESTIMATORS, line_frequencies
+
+    if method not in (None, "paper"):
+        raise ValueError(f"method must be None or 'paper', got {method!r}")
+    if method == "paper":
+        for name, value, allowed in (("estimator", estimator, (None, "ols")), ("align", align, (None,))):
+            if value not in allowed:
+                raise ValueError(f"method='paper' uses estimator='ols' and align=None; got {name}={value!r}")
+        if gate == "ci":
+            raise ValueError("method='paper' uses the |C_yz| gate (a number such as 0.85), not gate='ci'")
+        return dict(method="paper", estimator="ols", gate=check_gate(0.85 if gate is None else gate))
+    est = "corrected" if estimator is None else estimator
+    if est not in ESTIMATORS:
+        raise ValueError(f"estimator must be one of {', '.join(map(repr, ESTIMATORS))}, got {estimator!r}")
+    g: Union[float, str] = "ci" if gate is None or gate == "ci" else check_gate(gate)
+    rel = MAX_REL_CI if max_rel_ci is None else positive(max_rel_ci, "max_rel_ci")
+    if align not in (None, "auto"):
+        raise ValueError(f"align must be None or 'auto', got {align!r}")
+    rev = None if rpm is None else positive(rpm, "rpm")
+    if iv_lag is None:
+        # One revolution when the speed is known (the run-out repeats, the
+        # noise does not); else a tenth of the window, at least 10 samples.
+        lag = int(round(60.0 * fs / rev)) if rev is not None else max(10, length // 10)
+    else:
+        lag = max(1, int(round(positive(iv_lag, "iv_lag") * fs)))
+    sig: Optional[Tuple[float, float]] = None
+    if noise is not None:
+        try:
+            sy, sz = (float(v) for v in noise)
+        except (TypeError, ValueError):
+            raise TypeError(f"noise must be (sigma_y, sigma_z) in N, got {noise!r}") from None
+        if not (sy >= 0 and sz > 0 and np.isfinite(sy) and np.isfinite(sz)):
+            raise ValueError(f"noise must be (sigma_y >= 0, sigma_z > 0) in N, got {noise!r}")
+        sig = (sy, sz)
+    if est == "deming" and sig is None:
+        raise ValueError("estimator='deming' needs noise=(sigma_y, sigma_z) in N (docs/method.md 3c)")
+    nl = None if n_lamellas is None else check_int(n_lamellas, "n_lamellas", minimum=1)
+    lines, index = line_frequencies(fs, rev, nl)
+    if align == "auto" and not lines:
+        raise ValueError("align='auto' needs rpm= (and n_lamellas=): the delay is measured at the rig's lines")
+    return dict(
+        method="", estimator=est, gate=g, max_rel_ci=rel, align=align, iv_lag=lag, lines=lines,
+        line_index=tuple(index.items()), noise=sig,
+    )  # fmt: skip

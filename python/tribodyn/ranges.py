@@ -1,31 +1,69 @@
 """Operating ranges: COF against temperature or current density
 (docs/method.md section 7, paper Secs. 4.1-4.2).
 
-From the quality-gated windows, the COF (mu_r) is binned on the covariate
-(median per bin). The optimum is the contiguous run of bins around the
-lowest median whose medians stay within ``tol`` (relative) of that minimum.
-The instability onset is the first covariate value above the optimum where
-the binned COF reaches ``(1 + rise)`` times the minimum (linear
-interpolation between bin centres): the paper's steep rise before sparking
-and loss of contact. For temperature, heating and cooling branches (sign of
-dT/dt) are also binned apart to show the hysteresis of Fig. 11.
+``method="segmented"`` (the default) fits a continuous, flat-bottomed
+piecewise-linear curve ("bathtub") to the COF of the usable windows against
+the covariate, weighted by the windows' standard errors
+(:mod:`tribodyn.segmented`): the flat bottom is the optimum, its height the
+minimum COF, the walls the rise on either side (either may be absent). For
+temperature the heating and cooling branches are fitted apart (plateau
+windows, branch 0, enter both), and their difference of breakpoints is the
+hysteresis of Fig. 11. 95 % intervals come from a moving-block bootstrap
+over time with a fixed seed. The result says what it found in
+``verdict``: "optimum", "optimum at the edge of the tested range", "no
+dependence", "covariate constant" or "too few windows", with a sentence.
+
+Usable windows passed the quality gate (so no "contact loss" window, see
+:mod:`tribodyn.contact_loss`), have a finite COF, standard error and
+covariate, and, for temperature, do not lie in a fast log gap
+(``T_gap``, :func:`tribodyn.covariates.log_quality`); the others are
+counted by reason in ``excluded``.
+
+``method="binned"`` is the earlier method, kept as it was: the gated COF is
+binned on the covariate (median per bin); the optimum is the contiguous run
+of bins around the lowest median whose medians stay within ``tol``
+(relative) of that minimum; the onset is the first covariate value above
+the optimum where the binned COF reaches ``(1 + rise)`` times the minimum.
+Both methods return the binned curves (``curves``), drawn as points.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Dict, Literal, Optional, Tuple
+import math
+from dataclasses import dataclass, field
+from typing import Any, Dict, Literal, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .contact_loss import REASON as _CONTACT_LOSS
 from .results import Results
+from .segmented import Fit, Selection, bootstrap_indices, fit_bathtub, fit_family
 
-__all__ = ["RangeCurve", "OperatingRange", "operating_range"]
+__all__ = ["RangeCurve", "OperatingRange", "BranchFit", "Hysteresis", "operating_range", "VERDICTS"]
 
 By = Literal["temperature", "current_density"]
+Method = Literal["segmented", "binned"]
 _COLUMN = {"temperature": "T", "current_density": "J"}
 _DEFAULT_WIDTH = {"temperature": 5.0, "current_density": 0.5}
 _UNIT = {"temperature": "degC", "current_density": "A/mm^2"}
+_BRANCHES = {"heating": 1, "cooling": -1}
+
+#: The verdicts of :func:`operating_range` (docs/method.md 7).
+VERDICTS = (
+    "optimum",
+    "no dependence",
+    "covariate constant",
+    "optimum at the edge of the tested range",
+    "too few windows",
+)
+#: Fewest usable windows a fit needs (5 parameters and walls of 3 windows).
+MIN_WINDOWS = 10
+#: Below this spread (max - min over the usable windows) the covariate
+#: counts as constant: 1 degC, 0.05 A/mm^2.
+RESOLUTION = {"temperature": 1.0, "current_density": 0.05}
+#: Level of the F-tests that choose the model (docs/method.md 7).
+ALPHA = 0.01
+Interval = Tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -60,11 +98,133 @@ class RangeCurve:
 
 
 @dataclass(frozen=True)
-class OperatingRange:
-    """Result of :func:`operating_range`.
+class BranchFit:
+    """The segmented fit of one branch ("all", "heating" or "cooling"; docs/method.md 7).
 
-    ``curves`` holds "all", and for temperature also "heating" and
-    "cooling". ``optimum``, ``mu_min`` and ``onset`` repeat the "all" curve's.
+    Attributes
+    ----------
+    branch : str
+    verdict : str
+        One of :data:`VERDICTS`.
+    explanation : str
+        The verdict in one sentence.
+    n_windows : int
+        Windows in the fit.
+    family : str
+        "flat", "lower", "upper" or "both": the walls the data support.
+    optimum : (float, float) or None
+        The flat bottom; an absent wall's side is the end of the tested
+        range. None unless the verdict is an optimum.
+    optimum_ci : ((float, float), (float, float)) or None
+        95 % intervals of the lower and upper end; an absent wall's side is
+        ``(-inf, x_min)`` or ``(x_max, inf)``: the edge lies at or beyond
+        the tested range.
+    lower, upper : float or None
+        Breakpoints (None when that wall is absent).
+    lower_ci, upper_ci : (float, float) or None
+        Their 95 % intervals.
+    mu_min, mu_min_ci : float, (float, float) or None
+        Height of the flat bottom (the weighted mean for a flat fit).
+    onset, onset_ci : float or None, (float, float) or None
+        Where the upper wall reaches ``(1 + rise) mu_min``; None beyond the
+        tested range (the interval's upper end is then inf).
+    slope_lower, slope_upper : float
+        Wall slopes (COF per covariate unit; 0 when absent).
+    edge_lower, edge_upper : bool
+        The optimum's end is the end of the tested range (that wall absent).
+    p_flat : float
+        F-test p-value of the flat fit against the best wall model.
+    tau : float
+        Between-window standard deviation added to the standard errors.
+    x_range : (float, float)
+        Tested covariate range (usable windows).
+    grid, curve, band_low, band_high : ndarray
+        The fit and its 95 % pointwise bootstrap band on a grid of the range.
+    """
+
+    branch: str
+    verdict: str
+    explanation: str
+    n_windows: int
+    family: str
+    optimum: Optional[Interval]
+    optimum_ci: Optional[Tuple[Interval, Interval]]
+    lower: Optional[float]
+    lower_ci: Optional[Interval]
+    upper: Optional[float]
+    upper_ci: Optional[Interval]
+    mu_min: float
+    mu_min_ci: Optional[Interval]
+    onset: Optional[float]
+    onset_ci: Optional[Interval]
+    slope_lower: float
+    slope_upper: float
+    edge_lower: bool
+    edge_upper: bool
+    p_flat: float
+    tau: float
+    x_range: Interval
+    grid: np.ndarray
+    curve: np.ndarray
+    band_low: np.ndarray
+    band_high: np.ndarray
+
+
+@dataclass(frozen=True)
+class Hysteresis:
+    """Heating minus cooling breakpoints, with 95 % intervals from the same bootstrap resamples (docs/method.md 7).
+
+    ``lower``/``upper`` are None when a branch lacks that wall.
+    """
+
+    lower: Optional[float]
+    lower_ci: Optional[Interval]
+    upper: Optional[float]
+    upper_ci: Optional[Interval]
+
+
+@dataclass(frozen=True)
+class OperatingRange:
+    """Result of :func:`operating_range` (docs/method.md section 7).
+
+    ``optimum``, ``optimum_ci``, ``mu_min`` (and interval), ``onset`` (and
+    interval), the edge flags, ``verdict`` and ``explanation`` are those of
+    the fit of the requested branch (``fits[branch or "all"]``). ``curves``
+    holds the binned medians ("all", and for temperature "heating" and
+    "cooling"), which are the whole answer of ``method="binned"``.
+
+    Attributes
+    ----------
+    by, unit : str
+    bin_width, tol, rise : float
+        The binned curves' settings; ``rise`` also defines ``onset``.
+    curves : dict of RangeCurve
+    optimum : (float, float) or None
+    mu_min : float
+    onset : float or None
+    method : str
+        "segmented" or "binned".
+    branch : str or None
+    verdict : str
+        One of :data:`VERDICTS`.
+    explanation : str
+    optimum_ci, mu_min_ci, onset_ci
+        95 % intervals (None for "binned").
+    edge_lower, edge_upper : bool
+    fits : dict of BranchFit
+        "all", and for temperature "heating" and "cooling" when they have windows.
+    hysteresis : Hysteresis or None
+        Temperature only.
+    n_windows : int
+        Usable windows (all branches).
+    excluded : dict of str -> int
+        Windows left out, by reason: "gate", "contact loss", "temperature
+        log gap", "no covariate", "no COF".
+    instability, instability_ci : float or None, (float, float) or None
+        Lowest covariate of a contact-loss window, and the interval between
+        the highest covariate below it without contact loss and it.
+    n_boot, seed : int
+        Bootstrap resamples and the generator's seed.
     """
 
     by: str
@@ -76,6 +236,62 @@ class OperatingRange:
     optimum: Optional[Tuple[float, float]]
     mu_min: float
     onset: Optional[float]
+    method: str = "binned"
+    branch: Optional[str] = None
+    verdict: str = ""
+    explanation: str = ""
+    optimum_ci: Optional[Tuple[Interval, Interval]] = None
+    mu_min_ci: Optional[Interval] = None
+    onset_ci: Optional[Interval] = None
+    edge_lower: bool = False
+    edge_upper: bool = False
+    fits: Dict[str, BranchFit] = field(default_factory=dict)
+    hysteresis: Optional[Hysteresis] = None
+    n_windows: int = 0
+    excluded: Dict[str, int] = field(default_factory=dict)
+    instability: Optional[float] = None
+    instability_ci: Optional[Interval] = None
+    n_boot: int = 0
+    seed: int = 0
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The JSON-ready essentials (for ``summary.json`` and the report)."""
+        out: Dict[str, Any] = {
+            "by": self.by,
+            "unit": self.unit,
+            "method": self.method,
+            "branch": self.branch,
+            "verdict": self.verdict,
+            "explanation": self.explanation,
+            "optimum": self.optimum,
+            "optimum_ci": self.optimum_ci,
+            "mu_min": self.mu_min,
+            "mu_min_ci": self.mu_min_ci,
+            "onset": self.onset,
+            "onset_ci": self.onset_ci,
+            "edge_lower": self.edge_lower,
+            "edge_upper": self.edge_upper,
+            "n_windows": self.n_windows,
+            "excluded": dict(self.excluded),
+            "instability": self.instability,
+            "instability_ci": self.instability_ci,
+            "bin_width": self.bin_width,
+            "tol": self.tol,
+            "rise": self.rise,
+        }
+        for name, f in self.fits.items():
+            if name == "all":
+                continue
+            out[f"fit_{name}"] = {
+                k: getattr(f, k)
+                for k in ("verdict", "n_windows", "optimum", "optimum_ci", "mu_min", "mu_min_ci", "onset", "onset_ci")
+            }
+        if self.hysteresis is not None:
+            h = self.hysteresis
+            out["hysteresis"] = {"lower": h.lower, "lower_ci": h.lower_ci, "upper": h.upper, "upper_ci": h.upper_ci}
+        if self.method == "segmented":
+            out["bootstrap"] = {"n_boot": self.n_boot, "seed": self.seed}
+        return out
 
 
 def _curve(cov: np.ndarray, mu: np.ndarray, edges: np.ndarray, tol: float, rise: float, min_count: int) -> RangeCurve:
@@ -118,56 +334,186 @@ def _curve(cov: np.ndarray, mu: np.ndarray, edges: np.ndarray, tol: float, rise:
 MAX_BINS = 10_000
 
 
-def operating_range(
-    results: Results,
-    by: By = "temperature",
-    *,
-    bin_width: Optional[float] = None,
-    tol: float = 0.15,
-    rise: float = 0.5,
-    min_count: int = 1,
-) -> OperatingRange:
-    """Optimum covariate range of the COF (docs/method.md 7).
+def _pct(v: np.ndarray) -> Optional[Interval]:
+    """95 % percentile interval of bootstrap values (NaN replicates dropped; None if most are NaN)."""
+    v = np.asarray(v, dtype=float)
+    v = v[~np.isnan(v)]
+    if v.size < 20:
+        return None
+    lo, hi = np.percentile(v, [2.5, 97.5])
+    return float(lo), float(hi)
 
-    Parameters
-    ----------
-    results : Results
-        From :func:`tribodyn.analyze`, with ``T`` (a temperature log) or
-        ``J`` (a current and ``area_mm2``) filled in.
-    by : {"temperature", "current_density"}
-    bin_width : float, optional
-        Covariate bin width (default 5 degC or 0.5 A/mm^2). Bins are aligned
-        centred on multiples of the width.
-    tol : float
-        Relative tolerance above the minimum COF that still counts as optimum
-        (default 0.15).
-    rise : float
-        Relative COF rise over the minimum that marks the instability onset
-        (default 0.5, i.e. 1.5 x the minimum).
-    min_count : int
-        Gated windows a bin needs to count (default 1).
 
-    Raises
-    ------
-    ValueError
-        Unknown ``by``, bad widths/tolerances, or no gated window with a
-        finite covariate.
-    """
-    if not isinstance(results, Results):
-        raise TypeError(f"results must be the Results of tribodyn.analyze, got {type(results).__name__}")
-    if by not in _COLUMN:
-        raise ValueError(f"by must be 'temperature' or 'current_density', got {by!r}")
-    width = _DEFAULT_WIDTH[by] if bin_width is None else float(bin_width)
-    if not (np.isfinite(width) and width > 0):
-        raise ValueError(f"bin_width must be > 0, got {bin_width!r}")
-    if not (tol >= 0 and rise > 0 and min_count >= 1):
-        raise ValueError("tol must be >= 0, rise > 0 and min_count >= 1")
-    cov = np.asarray(results[_COLUMN[by]], dtype=float)
-    mu = np.asarray(results["mu_r"], dtype=float)
-    keep = results.gated() & np.isfinite(cov) & np.isfinite(mu)
-    if not keep.any():
-        what = "a temperature log" if by == "temperature" else "a current and area_mm2"
-        raise ValueError(f"no quality-gated window has a {by.replace('_', ' ')} (did analyze get {what}?)")
+def _onset(f: Fit, rise: float, x_max: float) -> float:
+    """Where the upper wall reaches (1 + rise) m; inf beyond the tested range, NaN without an upper wall."""
+    if not (f.a_hi > 0 and np.isfinite(f.b_hi)):
+        return math.inf if np.isfinite(f.m) else math.nan
+    x = f.b_hi + rise * abs(f.m) / f.a_hi
+    return x if x <= x_max else math.inf
+
+
+def _excluded(
+    results: Results, by: str, cov: np.ndarray, mu: np.ndarray, se: np.ndarray
+) -> Tuple[np.ndarray, Dict[str, int]]:
+    ok = results.gated()
+    reasons = np.asarray(results["reasons"]).astype(str)
+    lost = np.char.find(reasons, _CONTACT_LOSS) >= 0
+    gap = np.asarray(results.table.get("T_gap", np.zeros(len(ok), dtype=bool)), dtype=bool)
+    if by != "temperature":
+        gap = np.zeros(len(ok), dtype=bool)
+    has = np.isfinite(cov)
+    counts = {
+        "no covariate": int((~has).sum()),
+        "contact loss": int((has & lost).sum()),
+        "gate": int((has & ~ok & ~lost).sum()),
+        "temperature log gap": int((has & ok & gap).sum()),
+    }
+    usable = has & ok & ~gap
+    bad = usable & ~(np.isfinite(mu) & np.isfinite(se) & (se >= 0))
+    counts["no COF"] = int(bad.sum())
+    return usable & ~bad, {k: v for k, v in counts.items() if v}
+
+
+def _explain(verdict: str, by: str, unit: str, f: Fit, sel: Optional[Selection], n: int, rng: Interval) -> str:
+    what = by.replace("_", " ")
+    span = f"{rng[0]:.4g}-{rng[1]:.4g} {unit}"
+    if verdict == "too few windows":
+        return f"Only {n} usable windows (at least {MIN_WINDOWS} are needed), so no range is fitted."
+    if verdict == "covariate constant":
+        return (
+            f"The {what} only spans {span} (less than {RESOLUTION[by]:g} {unit}), so the COF's dependence on it "
+            "cannot be identified."
+        )
+    p = sel.p_flat if sel is not None else float("nan")
+    if verdict == "no dependence":
+        return (
+            f"A constant COF of {f.m:.4f} fits as well as a bathtub (F-test p = {p:.2g} >= {ALPHA:g}): the COF "
+            f"does not depend on the {what} over {span}."
+        )
+    lo = f"{f.b_lo:.4g}" if np.isfinite(f.b_lo) else None
+    hi = f"{f.b_hi:.4g}" if np.isfinite(f.b_hi) else None
+    if verdict == "optimum":
+        return (
+            f"The COF is lowest ({f.m:.4f}) between {lo} and {hi} {unit} and rises on both sides "
+            f"(flat fit rejected, p = {p:.2g})."
+        )
+    if lo is None:
+        return (
+            f"The COF is lowest ({f.m:.4f}) from the lowest tested {what}, {rng[0]:.4g} {unit}, up to {hi} {unit}: "
+            "the optimum may extend below the tested range."
+        )
+    return (
+        f"The COF is lowest ({f.m:.4f}) from {lo} {unit} up to the highest tested {what}, {rng[1]:.4g} {unit}: "
+        "the optimum may extend above the tested range."
+    )
+
+
+def _branch_fit(
+    name: str, by: str, x: np.ndarray, y: np.ndarray, se: np.ndarray, boot: Sequence[np.ndarray], rise: float
+) -> Tuple[BranchFit, Dict[str, np.ndarray]]:
+    """The fit of one branch and its bootstrap draws (``boot``: resampled positions into x)."""
+    unit = _UNIT[by]
+    n = len(x)
+    grid = np.linspace(float(x.min()), float(x.max()), 121) if n else np.zeros(0)
+    rng: Interval = (float(x.min()), float(x.max())) if n else (math.nan, math.nan)
+    nan_draws: Dict[str, np.ndarray] = {}
+    empty = np.full(len(grid), np.nan)
+    sel: Optional[Selection] = None
+    if n < MIN_WINDOWS or not (rng[1] - rng[0] >= RESOLUTION[by]):
+        verdict = "too few windows" if n < MIN_WINDOWS else "covariate constant"
+        w = 1.0 / np.maximum(se, 1e-12) ** 2 if n else np.zeros(0)
+        m = float(np.sum(w * y) / np.sum(w)) if n else math.nan
+        f = Fit("flat", m, 0.0, 0.0, math.nan, math.nan, math.nan)
+        bf = BranchFit(
+            name, verdict, _explain(verdict, by, unit, f, None, n, rng), n, "flat", None, None, None, None, None,
+            None, m, None, None, None, 0.0, 0.0, False, False, math.nan, math.nan, rng, grid,
+            np.full(len(grid), m), empty, empty,
+        )  # fmt: skip
+        return bf, nan_draws
+    sel = fit_bathtub(x, y, se, alpha=ALPHA)
+    f = sel.fit
+    # Bootstrap: the chosen family refitted on each resample, same weights.
+    draws = {k: np.full(len(boot), np.nan) for k in ("b_lo", "b_hi", "m", "onset")}
+    curves = np.full((len(boot), len(grid)), np.nan)
+    for b, idx in enumerate(boot):
+        if len(idx) < MIN_WINDOWS:
+            continue
+        g = fit_family(x[idx], y[idx], sel.weights[idx], f.family)
+        if not np.isfinite(g.rss):
+            continue
+        draws["b_lo"][b], draws["b_hi"][b], draws["m"][b] = g.b_lo, g.b_hi, g.m
+        draws["onset"][b] = _onset(g, rise, rng[1])
+        curves[b] = g.predict(grid)
+    band_lo, band_hi = (np.nanpercentile(curves, q, axis=0) for q in (2.5, 97.5)) if np.isfinite(
+        curves).any() else (empty, empty)  # fmt: skip
+    has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
+    if f.family == "flat":
+        verdict = "no dependence"
+    elif has_lo and has_hi:
+        verdict = "optimum"
+    else:
+        verdict = "optimum at the edge of the tested range"
+    lower_ci = _pct(draws["b_lo"]) if has_lo else None
+    upper_ci = _pct(draws["b_hi"]) if has_hi else None
+    on = _onset(f, rise, rng[1])
+    onset_ci = None
+    if has_hi:
+        v = draws["onset"][~np.isnan(draws["onset"])]
+        if v.size >= 20:
+            # Resamples whose onset lies beyond the tested range count as +inf.
+            lo_, hi_ = np.percentile(np.where(np.isinf(v), np.finfo(float).max, v), [2.5, 97.5])
+            onset_ci = (float(lo_), math.inf if hi_ >= np.finfo(float).max else float(hi_))
+    optimum: Optional[Interval] = None
+    optimum_ci: Optional[Tuple[Interval, Interval]] = None
+    if verdict != "no dependence":
+        optimum = (f.b_lo if has_lo else rng[0], f.b_hi if has_hi else rng[1])
+        lo_ci = lower_ci if has_lo else (-math.inf, rng[0])
+        hi_ci = upper_ci if has_hi else (rng[1], math.inf)
+        optimum_ci = (lo_ci, hi_ci) if lo_ci is not None and hi_ci is not None else None
+    bf = BranchFit(
+        branch=name,
+        verdict=verdict,
+        explanation=_explain(verdict, by, unit, f, sel, n, rng),
+        n_windows=n,
+        family=f.family,
+        optimum=optimum,
+        optimum_ci=optimum_ci,
+        lower=f.b_lo if has_lo else None,
+        lower_ci=lower_ci,
+        upper=f.b_hi if has_hi else None,
+        upper_ci=upper_ci,
+        mu_min=f.m,
+        mu_min_ci=_pct(draws["m"]),
+        onset=on if np.isfinite(on) else None,
+        onset_ci=onset_ci,
+        slope_lower=f.a_lo,
+        slope_upper=f.a_hi,
+        edge_lower=verdict != "no dependence" and not has_lo,
+        edge_upper=verdict != "no dependence" and not has_hi,
+        p_flat=sel.p_flat,
+        tau=math.sqrt(sel.tau2),
+        x_range=rng,
+        grid=grid,
+        curve=f.predict(grid),
+        band_low=band_lo,
+        band_high=band_hi,
+    )
+    return bf, draws
+
+
+def _instability(results: Results, cov: np.ndarray) -> Tuple[Optional[float], Optional[Interval]]:
+    """Lowest covariate of a contact-loss window and the interval from the highest one below it without."""
+    reasons = np.asarray(results["reasons"]).astype(str)
+    lost = (np.char.find(reasons, _CONTACT_LOSS) >= 0) & np.isfinite(cov)
+    if not lost.any():
+        return None, None
+    first = float(cov[lost].min())
+    below = np.isfinite(cov) & ~lost & (cov < first)
+    lo = float(cov[below].max()) if below.any() else first
+    return first, (lo, first)
+
+
+def _binned_curves(cov, mu, keep, by, branches, width, tol, rise, min_count) -> Dict[str, RangeCurve]:
     # Bin centres on multiples of the width, so set points such as J = 4.5
     # A/mm^2 fall mid-bin, never on an edge.
     k_lo = int(np.floor(cov[keep].min() / width + 0.5))
@@ -180,20 +526,158 @@ def operating_range(
     edges = (np.arange(k_lo, k_hi + 2) - 0.5) * width
     curves = {"all": _curve(cov[keep], mu[keep], edges, tol, rise, min_count)}
     if by == "temperature":
-        br = np.asarray(results["branch"])[keep]
-        for name, sign in (("heating", 1), ("cooling", -1)):
+        br = branches[keep]
+        for name, sign in _BRANCHES.items():
             sel = br == sign
             if sel.any():
                 curves[name] = _curve(cov[keep][sel], mu[keep][sel], edges, tol, rise, min_count)
-    a = curves["all"]
+    return curves
+
+
+def operating_range(
+    results: Results,
+    by: By = "temperature",
+    method: Method = "segmented",
+    branch: Optional[str] = None,
+    *,
+    bin_width: Optional[float] = None,
+    tol: float = 0.15,
+    rise: float = 0.5,
+    min_count: int = 1,
+    n_boot: int = 400,
+    seed: int = 0,
+    block: Optional[int] = None,
+) -> OperatingRange:
+    """Optimum covariate range of the COF, with 95 % intervals and a verdict (docs/method.md 7).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze`, with ``T`` (a temperature log) or
+        ``J`` (a current and ``area_mm2``) filled in.
+    by : {"temperature", "current_density"}
+    method : {"segmented", "binned"}
+        "segmented" (default): the weighted bathtub fit with block-bootstrap
+        intervals (docs/method.md 7). "binned": the earlier binned medians
+        within ``tol`` of the minimum (no intervals; kept for comparison).
+    branch : {None, "heating", "cooling"}
+        Temperature only: whose fit the top-level fields report (default
+        None: all usable windows together). Every branch is fitted anyway
+        (``fits``), with the hysteresis between them.
+    bin_width : float, optional
+        Covariate bin width of the binned curves (default 5 degC or 0.5
+        A/mm^2). Bins are aligned centred on multiples of the width.
+    tol : float
+        "binned": relative tolerance above the minimum COF that still counts
+        as optimum (default 0.15).
+    rise : float
+        Relative COF rise over the minimum that marks the onset (default
+        0.5, i.e. 1.5 x the minimum): on the fitted upper wall
+        ("segmented"), between bin centres ("binned").
+    min_count : int
+        Gated windows a bin needs to count (default 1).
+    n_boot : int
+        Bootstrap resamples (default 400; 0 skips the intervals).
+    seed : int
+        Seed of the bootstrap (default 0: results repeat exactly).
+    block : int, optional
+        Bootstrap block length in windows (default ``max(3, ceil(n^(1/3)))``).
+
+    Returns
+    -------
+    OperatingRange
+
+    Raises
+    ------
+    ValueError
+        Unknown ``by``, ``method`` or ``branch``, bad widths/tolerances, or
+        no gated window with a finite covariate.
+    """
+    if not isinstance(results, Results):
+        raise TypeError(f"results must be the Results of tribodyn.analyze, got {type(results).__name__}")
+    if by not in _COLUMN:
+        raise ValueError(f"by must be 'temperature' or 'current_density', got {by!r}")
+    if method not in ("segmented", "binned"):
+        raise ValueError(f"method must be 'segmented' or 'binned', got {method!r}")
+    if branch is not None and branch not in _BRANCHES:
+        raise ValueError(f"branch must be None, 'heating' or 'cooling', got {branch!r}")
+    if branch is not None and by != "temperature":
+        raise ValueError("branch applies to by='temperature' only (current density has no heating/cooling branches)")
+    width = _DEFAULT_WIDTH[by] if bin_width is None else float(bin_width)
+    if not (np.isfinite(width) and width > 0):
+        raise ValueError(f"bin_width must be > 0, got {bin_width!r}")
+    if not (tol >= 0 and rise > 0 and min_count >= 1):
+        raise ValueError("tol must be >= 0, rise > 0 and min_count >= 1")
+    if not (isinstance(n_boot, (int, np.integer)) and 0 <= n_boot <= 100_000):
+        raise ValueError(f"n_boot must be an integer in [0, 100000], got {n_boot!r}")
+    if block is not None and not (isinstance(block, (int, np.integer)) and block >= 1):
+        raise ValueError(f"block must be an integer >= 1, got {block!r}")
+    cov = np.asarray(results[_COLUMN[by]], dtype=float)
+    mu = np.asarray(results["mu_r"], dtype=float)
+    keep = results.gated() & np.isfinite(cov) & np.isfinite(mu)
+    if not keep.any():
+        what = "a temperature log" if by == "temperature" else "a current and area_mm2"
+        raise ValueError(f"no quality-gated window has a {by.replace('_', ' ')} (did analyze get {what}?)")
+    br_all = np.asarray(results["branch"]) if "branch" in results.table else np.zeros(len(cov), dtype=np.int8)
+    curves = _binned_curves(cov, mu, keep, by, br_all, width, tol, rise, min_count)
+    instability, instability_ci = _instability(results, cov)
+    common: Dict[str, Any] = dict(
+        by=by, unit=_UNIT[by], bin_width=width, tol=tol, rise=rise, curves=curves, branch=branch,
+        instability=instability, instability_ci=instability_ci,
+    )  # fmt: skip
+    if method == "binned":
+        c = curves[branch or "all"] if (branch or "all") in curves else curves["all"]
+        edges = c.edges
+        verdict = "too few windows" if c.optimum is None else (
+            "optimum at the edge of the tested range" if c.optimum[0] <= edges[0] or c.optimum[1] >= edges[-1]
+            else "optimum")  # fmt: skip
+        return OperatingRange(
+            optimum=c.optimum, mu_min=c.mu_min, onset=c.onset, method="binned", verdict=verdict,
+            explanation=(f"Binned medians ({width:g} {_UNIT[by]} bins): the optimum is the run of bins within "
+                         f"{100 * tol:g} % of the lowest median; no intervals (method='binned')."),
+            edge_lower=c.optimum is not None and c.optimum[0] <= edges[0],
+            edge_upper=c.optimum is not None and c.optimum[1] >= edges[-1],
+            n_windows=int(keep.sum()), **common,
+        )  # fmt: skip
+    se = np.asarray(results["mu_r_stderr"], dtype=float)
+    usable, excluded = _excluded(results, by, cov, mu, se)
+    pos = np.flatnonzero(usable)  # time order: the table's
+    x, y, s = cov[pos], mu[pos], se[pos]
+    br = br_all[pos]
+    boot = bootstrap_indices(len(pos), n_boot, seed, block) if len(pos) and n_boot else np.zeros((0, 0), int)
+    names = ["all"] + ([b for b in _BRANCHES] if by == "temperature" else [])
+    fits: Dict[str, BranchFit] = {}
+    draws: Dict[str, Dict[str, np.ndarray]] = {}
+    for name in names:
+        member = np.ones(len(pos), dtype=bool) if name == "all" else (br == _BRANCHES[name]) | (br == 0)
+        if name != "all" and not (br == _BRANCHES[name]).any():
+            continue
+        # Positions in the branch's own arrays for each resampled window of the whole series.
+        where = np.cumsum(member) - 1
+        sub = [where[idx[member[idx]]] for idx in boot]
+        fits[name], draws[name] = _branch_fit(name, by, x[member], y[member], s[member], sub, rise)
+    hysteresis = None
+    if "heating" in fits and "cooling" in fits:
+        hysteresis = _hysteresis(fits, draws)
+    f = fits[branch] if branch is not None and branch in fits else fits["all"]
+    if branch is not None and branch not in fits:
+        raise ValueError(f"no usable window on the {branch} branch (see the branch column: +1 heating, -1 cooling)")
     return OperatingRange(
-        by=by,
-        unit=_UNIT[by],
-        bin_width=width,
-        tol=tol,
-        rise=rise,
-        curves=curves,
-        optimum=a.optimum,
-        mu_min=a.mu_min,
-        onset=a.onset,
-    )
+        optimum=f.optimum, mu_min=f.mu_min, onset=f.onset, method="segmented", verdict=f.verdict,
+        explanation=f.explanation, optimum_ci=f.optimum_ci, mu_min_ci=f.mu_min_ci, onset_ci=f.onset_ci,
+        edge_lower=f.edge_lower, edge_upper=f.edge_upper, fits=fits, hysteresis=hysteresis,
+        n_windows=len(pos), excluded=excluded, n_boot=int(n_boot), seed=int(seed), **common,
+    )  # fmt: skip
+
+
+def _hysteresis(fits: Dict[str, BranchFit], draws: Dict[str, Dict[str, np.ndarray]]) -> Hysteresis:
+    h, c = fits["heating"], fits["cooling"]
+    out: Dict[str, Any] = {}
+    for side, key in (("lower", "b_lo"), ("upper", "b_hi")):
+        a, b = getattr(h, side), getattr(c, side)
+        if a is None or b is None or key not in draws["heating"] or key not in draws["cooling"]:
+            out[side], out[f"{side}_ci"] = None, None
+            continue
+        out[side] = a - b
+        out[f"{side}_ci"] = _pct(draws["heating"][key] - draws["cooling"][key])
+    return Hysteresis(**out)

@@ -603,3 +603,75 @@ def window_stats(
         else:
             out[key] = np.array(values, dtype=float)
     return out
+
+
+def block_sums(fy: Any, fz: Any, lag: int, blocks: int = 5) -> np.ndarray:
+    """NumPy reference of the kernel's column ``"ext"`` for one window (docs/method.md 3a-3d).
+
+    Returns (blocks, 16): per block k = [k n // B, (k + 1) n // B), the sums
+    of z, y, w, zz, zy, yy, wz, wy, ww, zzz, zzy, zzzz, wzz, wwz, wwy, wwzz
+    with z, y the centred forces and w the instrument (fz lagged by ``lag``
+    samples, fz led by ``lag`` for the first ``lag`` samples), centred; the
+    instrument's sums are NaN unless n > 2 lag.
+    """
+    fy = np.asarray(fy, dtype=np.float64)
+    fz = np.asarray(fz, dtype=np.float64)
+    n = fz.size
+    z = fz - fz.mean()
+    y = fy - fy.mean()
+    has_w = lag >= 1 and n > 2 * lag
+    if has_w:
+        w = np.concatenate([fz[lag : 2 * lag], fz[: n - lag]])
+        w = w - w.mean()
+    else:
+        w = np.zeros(n)
+    terms = np.stack(
+        [
+            z,
+            y,
+            w,
+            z * z,
+            z * y,
+            y * y,
+            w * z,
+            w * y,
+            w * w,
+            z**3,
+            z * z * y,
+            z**4,
+            w * z * z,
+            w * w * z,
+            w * w * y,
+            w * w * z * z,
+        ]  # fmt: skip
+    )
+    edges = np.arange(blocks + 1) * n // blocks
+    out = np.stack([terms[:, a:b].sum(axis=1) for a, b in zip(edges[:-1], edges[1:])])
+    if not has_w:
+        out[:, [2, 6, 7, 8, 12, 13, 14, 15]] = np.nan
+    return out
+
+
+def line_spectra(fy: Any, fz: Any, lines: Any, segments: int = 4) -> np.ndarray:
+    """NumPy reference of the kernel's column ``"spec"`` for one window (docs/method.md 3e).
+
+    Returns (lines, 4): Re S_yz, Im S_yz, S_zz, S_yy with S_yz the mean over
+    ``segments`` consecutive segments of m = n // segments samples of
+    Y conj(Z), Y and Z the DFTs at each line (cycles per sample) of the
+    segment, centred and multiplied by the Hann window 0.5 - 0.5 cos(2 pi t / m).
+    """
+    fy = np.asarray(fy, dtype=np.float64)
+    fz = np.asarray(fz, dtype=np.float64)
+    m = fz.size // segments
+    t = np.arange(m)
+    h = 0.5 - 0.5 * np.cos(2 * np.pi * t / m)
+    out = np.zeros((len(lines), 4))
+    for j, f in enumerate(lines):
+        e = np.exp(-2j * np.pi * f * t)
+        for k in range(segments):
+            ys, zs = fy[k * m : (k + 1) * m], fz[k * m : (k + 1) * m]
+            Y = np.sum(h * (ys - ys.mean()) * e)
+            Z = np.sum(h * (zs - zs.mean()) * e)
+            c = Y * np.conj(Z)
+            out[j] += (c.real, c.imag, abs(Z) ** 2, abs(Y) ** 2)
+    return out / segments

@@ -111,8 +111,18 @@ def _is_stats(v: Any) -> bool:
         isinstance(v, Mapping)
         and bool(v)
         and ("n" in v or "mean" in v or "median" in v)
-        and all(_is_scalar(x) for x in v.values())
+        and all(_is_scalar(x) for k, x in v.items() if k != "ci")
     )
+
+
+def _with_intervals(stats: Mapping[str, Any]) -> Dict[str, Any]:
+    """A statistics dict with its bootstrap intervals ("ci") as "median 95 % CI" and "mean 95 % CI" cells."""
+    out = {k: x for k, x in stats.items() if k != "ci"}
+    for name in ("median", "mean"):
+        lo_hi = (stats.get("ci") or {}).get(name)
+        if lo_hi is not None:
+            out[f"{name} 95 % CI"] = f"[{_fmt(lo_hi[0])}, {_fmt(lo_hi[1])}]"
+    return out
 
 
 def _cell(v: Any) -> str:
@@ -337,7 +347,7 @@ def write_report(
         out.append(_kv_table(scalars))
     if stats:
         out.append("<h3>COF statistics of the gated windows</h3>")
-        out.append(_matrix_table(stats))
+        out.append(_matrix_table({k: _with_intervals(v) for k, v in stats.items()}))
     for k, v in nested.items():
         if k in stats:
             continue
@@ -419,6 +429,8 @@ def _opr_caption(opr: Any) -> str:
     if opr is None:
         return "No operating range (no quality-gated window with this covariate)."
     unit = "°C" if opr.by == "temperature" else "A/mm²"
+    if getattr(opr, "method", "binned") == "segmented":
+        return _segmented_caption(opr, unit)
     parts = []
     if opr.optimum is not None:
         parts.append(
@@ -428,6 +440,36 @@ def _opr_caption(opr: Any) -> str:
     if opr.onset is not None:
         parts.append(f"COF reaches {1 + opr.rise:g} × the minimum at {_fmt(opr.onset)} {unit} (dashed red line)")
     return ("; ".join(parts) + ".") if parts else "No optimum found."
+
+
+def _ci(ci: Any) -> str:
+    return "" if ci is None else f" [{_fmt(ci[0])}, {_fmt(ci[1])}]"
+
+
+def _segmented_caption(opr: Any, unit: str) -> str:
+    """The segmented fit in words: verdict, breakpoints and intervals, exclusions (docs/method.md 7)."""
+    parts = [f"Bathtub fit (line) with its 95 % bootstrap band; verdict: {opr.verdict}. {opr.explanation}"]
+    for name, f in opr.fits.items():
+        if f.verdict in ("too few windows", "covariate constant"):
+            parts.append(f"{name} ({f.n_windows} windows): {f.verdict}.")
+            continue
+        bits = []
+        if f.lower is not None:
+            bits.append(f"lower breakpoint {_fmt(f.lower)}{_ci(f.lower_ci)} {unit}")
+        if f.upper is not None:
+            bits.append(f"upper breakpoint {_fmt(f.upper)}{_ci(f.upper_ci)} {unit}")
+        bits.append(f"minimum COF {_fmt(f.mu_min)}{_ci(f.mu_min_ci)}")
+        if f.onset is not None:
+            bits.append(f"COF {1 + opr.rise:g} × the minimum at {_fmt(f.onset)}{_ci(f.onset_ci)} {unit}")
+        parts.append(f"{name} ({f.n_windows} windows, {f.verdict}): " + ", ".join(bits) + ".")
+    h = opr.hysteresis
+    if h is not None and h.upper is not None:
+        parts.append(f"Hysteresis of the upper edge (heating − cooling): {_fmt(h.upper)}{_ci(h.upper_ci)} {unit}.")
+    if opr.instability is not None:
+        parts.append(f"Contact loss from {_fmt(opr.instability)} {unit} (onset between{_ci(opr.instability_ci)}).")
+    if opr.excluded:
+        parts.append("Left out of the fit: " + ", ".join(f"{v} ({k})" for k, v in opr.excluded.items()) + ".")
+    return " ".join(parts)
 
 
 def build_report_figures(
@@ -541,15 +583,19 @@ def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, Figure]]:
 
 
 def _range_dict(opr: Any) -> Dict[str, Any]:
-    d: Dict[str, Any] = {
-        "unit": opr.unit,
-        "optimum": None if opr.optimum is None else list(opr.optimum),
-        "mu_min": opr.mu_min,
-        "onset": opr.onset,
-        "bin_width": opr.bin_width,
-        "tol": opr.tol,
-        "rise": opr.rise,
-    }
+    d: Dict[str, Any] = dict(opr.to_dict()) if hasattr(opr, "to_dict") else {}
+    d.pop("by", None)
+    d.update(
+        {
+            "unit": opr.unit,
+            "optimum": None if opr.optimum is None else list(opr.optimum),
+            "mu_min": opr.mu_min,
+            "onset": opr.onset,
+            "bin_width": opr.bin_width,
+            "tol": opr.tol,
+            "rise": opr.rise,
+        }
+    )
     for name in ("heating", "cooling"):
         c = opr.curves.get(name)
         if c is not None:

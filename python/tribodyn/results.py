@@ -106,6 +106,18 @@ class CofResult:
     correlations: Optional[Dict[str, XcorrResult]] = None
     skew: Optional[int] = None
     spectra: Optional[Dict[str, Dict[str, float]]] = None
+    #: The slope estimator of ``mu_r`` (docs/method.md 3a-3c).
+    estimator: str = "ols"
+    #: The paper's least-squares COF (Eq. 8), whatever the estimator.
+    mu_ols: float = float("nan")
+    #: 95 % interval of mu_r (NaN with "ols": batch means need another estimator's sums).
+    mu_r_low: float = float("nan")
+    mu_r_high: float = float("nan")
+    #: p-value of OLS = IV (docs/method.md 3b); NaN with "ols".
+    attenuation_p: float = float("nan")
+    #: d mu / d Fn from the instrumented quadratic fit (docs/method.md 3e); NaN with "ols".
+    dmu_dfn: float = float("nan")
+    dmu_dfn_stderr: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -196,12 +208,18 @@ class Results:
         return pd.DataFrame(dict(self.table))
 
     def summary(self) -> Dict[str, Any]:
-        """COF statistics of the gated windows (for the JSON summary)."""
+        """COF statistics of the gated windows (for the JSON summary).
+
+        Each statistic of ``mu_r`` (and of ``mu_a``, ``mu_b``,
+        ``force_dependence``, ``dmu_dfn``) comes with a 95 % interval in
+        ``"ci"``: a moving-block bootstrap over the gated windows in time
+        order (docs/method.md 3d; :func:`bootstrap_ci`).
+        """
         ok = self.gated()
         mu = np.asarray(self.table["mu_r"])[ok]
         mu = mu[np.isfinite(mu)]
 
-        def stats(v: np.ndarray) -> Mapping[str, float]:
+        def stats(v: np.ndarray) -> Mapping[str, Any]:
             if v.size == 0:
                 return {"n": 0}
             q = np.percentile(v, [5, 25, 50, 75, 95])
@@ -216,6 +234,7 @@ class Results:
                 "p75": float(q[3]),
                 "p95": float(q[4]),
                 "max": float(v.max()),
+                "ci": bootstrap_ci(v),
             }
 
         out: Dict[str, Any] = {
@@ -226,9 +245,15 @@ class Results:
             "mu_r": stats(mu),
             "warnings": list(self.warnings),
         }
-        for col in ("mu_a", "mu_b", "force_dependence"):
+        for col in ("mu_a", "mu_b", "force_dependence", "dmu_dfn"):
+            if col not in self.table:
+                continue
             v = np.asarray(self.table[col])[ok]
             out[col] = stats(v[np.isfinite(v)])
+        for key in ("method", "estimator", "gate", "noise_z_std", "delay_samples", "orientation_r",
+                    "orientation_agreement"):  # fmt: skip
+            if self.params.get(key) is not None:
+                out[key] = self.params[key]
         reasons = [r for r in self.table["reasons"] if r]
         counts: Dict[str, int] = {}
         for r in reasons:
@@ -237,3 +262,40 @@ class Results:
                 counts[key] = counts.get(key, 0) + 1
         out["gate_failures"] = counts
         return out
+
+
+#: Resamples of :func:`bootstrap_ci` and its fixed seed (results are reproducible).
+BOOTSTRAP_RESAMPLES = 999
+BOOTSTRAP_SEED = 20061136
+
+
+def bootstrap_ci(v: np.ndarray, level: float = 0.95) -> Dict[str, Tuple[float, float]]:
+    """95 % intervals of the median, mean, p05 and p95 of ``v`` (windows in time order; docs/method.md 3d).
+
+    Moving-block bootstrap (Kuensch 1989): blocks of l = ceil(n^(1/3))
+    consecutive windows, drawn with replacement until n windows, 999
+    resamples with a fixed seed; percentile intervals. Neighbouring windows
+    are correlated (the temperature or the contact changes slowly), which
+    blocks keep. Empty for fewer than 3 windows.
+    """
+    v = np.asarray(v, dtype=float)
+    n = v.size
+    if n < 3:
+        return {}
+    ell = int(np.ceil(n ** (1.0 / 3.0)))
+    nblocks = -(-n // ell)
+    rng = np.random.default_rng(BOOTSTRAP_SEED)
+    starts = rng.integers(0, n - ell + 1, size=(BOOTSTRAP_RESAMPLES, nblocks))
+    idx = (starts[:, :, None] + np.arange(ell)[None, None, :]).reshape(BOOTSTRAP_RESAMPLES, -1)[:, :n]
+    r = v[idx]
+    a = (1.0 - level) / 2.0 * 100.0
+    out: Dict[str, Tuple[float, float]] = {}
+    for name, values in (
+        ("median", np.median(r, axis=1)),
+        ("mean", r.mean(axis=1)),
+        ("p05", np.percentile(r, 5, axis=1)),
+        ("p95", np.percentile(r, 95, axis=1)),
+    ):
+        lo, hi = np.percentile(values, [a, 100.0 - a])
+        out[name] = (float(lo), float(hi))
+    return out

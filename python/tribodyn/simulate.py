@@ -61,6 +61,42 @@ Model (per sample)
   full scale +-50 A. ``raw=True`` returns the DC-coupled forces (preload
   included, no high-pass), still quantised.
 
+Measurement conditions (:func:`conditions`)
+-------------------------------------------
+A stationary recording at constant ``mu`` for the statistics of the COF
+identification (issue 12). The true contact force ``N`` is the rig's DC
+fz above (``mu0 = 1``, ``beta = 0``, no skew, mean about ``N0``); on it:
+
+* Force-dependent friction: ``mu(N) = mu (1 + beta (N - N0))`` with ``beta``
+  per newton (NOT relative to ``N0`` as the ``force_dependence`` of the
+  other scenarios), so ``d mu / d N = mu beta`` and
+  ``fy = s mu (1 - beta N0) N + s mu beta N^2`` exactly (clipped at
+  ``mu(t, N) >= 0``).
+* Friction ripple at the lamella frequency ``f_l = N_LAMELLAS RPM / 60``:
+  ``mu(t) -> mu (1 + r sin(2 pi f_l t + phi))``, ``phi`` drawn from the seed.
+* ``fy = s mu(t, N) N + e_y + d_y``: ``e_y`` white or band noise (2nd-order
+  Butterworth band-pass 20-200 Hz) of std ``y_noise``; ``d_y`` a
+  low-frequency disturbance, white noise through a 2nd-order Butterworth
+  low-pass at 2 Hz, of std ``drift``.
+* Inter-channel delay ``d`` (samples, fractional, either sign): the measured
+  fz is the true one delayed, ``fz[n] = N(n - d)``, applied exactly as a
+  band-limited shift ``exp(-2j pi f d)`` in the frequency domain (after
+  removing the straight line through the record's end points, which is
+  shifted analytically) on a record padded by 2 s at each end.
+* ``fz = N(n - d) + e_z``: measurement noise that is not contact force,
+  white or band (20-200 Hz), of std ``std(N - mean N) 10^(-SNR_z/20)``; OLS
+  of fy on fz is then attenuated by ``1 / (1 + 10^(-SNR_z/10))``.
+* fx: the rig's fx (``0.2 fz_d`` plus 0.4 N band noise), not delayed.
+* Every noise is scaled to its stated std exactly over the returned record
+  (before the amplifier). Then the charge amplifier (the 0.1 Hz high-pass,
+  started from the mean of the first padded second, so the 2 s pad absorbs
+  any start-up transient) and the 16-bit converter as above; ``raw=True``
+  skips the high-pass.
+* Randomness: the rig's own streams plus one generator seeded by
+  ``(seed, 12)`` that always draws, in order, ``phi`` and the unit noises of
+  fz, fy and the disturbance, so switching one condition on or off leaves
+  the others' realisations unchanged.
+
 Determinism and streaming
 -------------------------
 All randomness is drawn per fixed block of 1 s (``round(fs)`` samples) from
@@ -87,6 +123,11 @@ Scenarios
     632 s to the end.
 :func:`continuous`
     Stationary run of any length, yielded chunk by chunk.
+:func:`conditions`
+    Stationary run (whole record) under controlled measurement conditions:
+    noise on fz at a given SNR, white or band noise on fy, a low-frequency
+    disturbance on fy, friction ripple at ``f_l``, a fractional fy/fz delay
+    and a force-dependent COF (see "Measurement conditions" above).
 
 Ground truth (:class:`Truth`) is tabulated on a 0.1 s grid (``TRUTH_DT``)
 covering ``[0, duration]``.
@@ -113,6 +154,7 @@ __all__ = [
     "Truth",
     "cof_vs_current_density",
     "cof_vs_temperature",
+    "conditions",
     "continuous",
     "current_density_test",
     "scenario",
@@ -983,6 +1025,265 @@ def continuous(
             pos += k
 
     return gen()
+
+
+# --------------------------------------------------------------------------
+# Stationary recording under controlled measurement conditions (issue 12)
+# --------------------------------------------------------------------------
+_NS_CONDITIONS = 12  # SeedSequence([seed, 12]); the rig uses [seed, 0] and 3-entry keys
+_COND_PAD_S = 2.0  # pad at each end of the generated record (s)
+_COND_BAND_HZ = (20.0, 200.0)  # band of the "band" noises
+_COND_DRIFT_HZ = 2.0  # low-pass corner of the fy disturbance
+_COND_NOISE_KINDS = ("white", "band")
+
+
+def _cond_number(name: str, value: Any, *, nonneg: bool = False) -> float:
+    """``value`` as a finite float (>= 0 when ``nonneg``), else ValueError."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    if nonneg and v < 0.0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")
+    return v
+
+
+def _cond_kind(name: str, kind: Any) -> str:
+    if not isinstance(kind, str) or kind not in _COND_NOISE_KINDS:
+        raise ValueError(f"unknown {name} {kind!r}; choose 'white' or 'band'")
+    return kind
+
+
+def _cond_unit(w: np.ndarray, sos: np.ndarray | None, keep: slice) -> np.ndarray:
+    """``w`` filtered by ``sos`` (if any), scaled to unit std over ``keep``."""
+    x = signal.sosfilt(sos, w) if sos is not None else w
+    s = float(np.std(x[keep]))
+    return x / s if s > 0.0 else x
+
+
+def _fractional_delay(x: np.ndarray, d: float) -> np.ndarray:
+    """``x`` delayed by ``d`` samples (band-limited): ``out[n] = x(n - d)``.
+
+    The straight line through the end points is removed and shifted
+    analytically; the remainder (zero at both ends) is shifted by
+    ``exp(-2j pi f d)`` on a zero-padded FFT. Only the ends of the record
+    (the caller's pads) see the circular wrap.
+    """
+    from scipy import fft as sfft
+
+    size = x.size
+    n = np.arange(size, dtype=np.float64)
+    slope = (x[-1] - x[0]) / (size - 1) if size > 1 else 0.0
+    line = x[0] + slope * n
+    m = sfft.next_fast_len(size, real=True)
+    spec = sfft.rfft(x - line, n=m)
+    spec *= np.exp(-2j * np.pi * np.fft.rfftfreq(m) * d)
+    return sfft.irfft(spec, n=m)[:size] + (x[0] + slope * (n - d))
+
+
+def conditions(
+    duration_s: float,
+    *,
+    mu: float = 0.1,
+    seed: int = 0,
+    fs: float = 1000.0,
+    orientation: int = -1,
+    snr_z: float | None = None,
+    z_noise: str = "white",
+    y_noise: float = 0.0,
+    y_noise_kind: str = "white",
+    drift: float = 0.0,
+    ripple: float = 0.0,
+    delay: float = 0.0,
+    beta: float = 0.0,
+    raw: bool = False,
+) -> Simulation:
+    """A stationary recording under controlled measurement conditions.
+
+    The true contact force ``N`` is the rig's DC-coupled fz (mean about the
+    preload ``N0 = PRELOAD_N``); the friction force, the noises, the delay
+    and the amplifier are applied to the whole record as described in the
+    module docstring ("Measurement conditions"). Sample ``n`` is at
+    ``n / fs`` (the rig runs 1 s of settling and a 2 s pad before t = 0).
+    Deterministic for a seed; about a second per 1000 s at 1 kHz.
+
+    Parameters
+    ----------
+    duration_s : float
+        Length of the recording (s); ``round(duration_s * fs) >= 2`` samples.
+    mu : float
+        True COF at the preload (constant, >= 0).
+    seed : int
+        Seed of all random parts (the rig's and ``(seed, 12)``).
+    fs : float
+        Sampling rate (Hz).
+    orientation : {-1, +1}
+        Sign of fy relative to the friction force.
+    snr_z : float or None
+        SNR of fz (dB): extra measurement noise on fz (not contact force) of
+        std ``std(N - mean N) * 10**(-snr_z / 20)``; None for none.
+    z_noise : {"white", "band"}
+        Kind of the fz noise: white, or a 2nd-order Butterworth band-pass
+        20-200 Hz.
+    y_noise : float
+        Std (N) of extra noise on fy, >= 0.
+    y_noise_kind : {"white", "band"}
+        Kind of the fy noise (same band as ``z_noise``).
+    drift : float
+        Std (N) of a low-frequency disturbance on fy (white noise through a
+        2nd-order Butterworth low-pass at 2 Hz), >= 0. The std is that before
+        the 0.1 Hz high-pass, which removes a few per cent of it.
+    ripple : float
+        Relative friction ripple ``r`` at ``f_l``:
+        ``mu(t) = mu (1 + r sin(2 pi f_l t + phi))``, >= 0.
+    delay : float
+        Samples (fractional, either sign) by which the measured fz is delayed
+        relative to fy/fx: ``fz[n] = N(n - delay)``; ``|delay| <= fs``. The
+        lag of max ``|C(fy, fz)|`` is ``round(delay)``.
+    beta : float
+        Force dependence per newton: ``mu(N) = mu (1 + beta (N - N0))``, so
+        ``d mu / d N = mu * beta``.
+    raw : bool
+        Return DC-coupled forces (no high-pass), still quantised.
+
+    Returns
+    -------
+    Simulation
+        Channels fx, fy, fz. ``truth.mu`` is ``mu`` (constant),
+        ``truth.force_dependence`` is ``beta`` per newton (not relative to
+        ``N0`` as in the other scenarios), ``truth.skew`` is
+        ``int(round(delay))``; ``truth.params`` holds every condition plus
+        ``"noise_z_std"`` (std of the fz noise actually added, N),
+        ``"dmu_dfn"`` (``mu * beta``), ``"ripple_phase"`` and ``"f_l"``.
+
+    Raises
+    ------
+    ValueError
+        Unknown noise kind, negative std/ripple/mu, non-finite values,
+        ``|delay| > fs`` or too short a record.
+    """
+    fs = _check_common(seed, fs, orientation, 0.0, 0)
+    duration = _cond_number("duration_s", duration_s, nonneg=True)
+    n_out = round(duration * fs)
+    if n_out < 2:
+        raise ValueError(f"duration_s * fs must give >= 2 samples, got {duration_s!r}")
+    mu_c = _cond_number("mu", mu, nonneg=True)
+    snr = None if snr_z is None else _cond_number("snr_z", snr_z)
+    z_kind = _cond_kind("z_noise", z_noise)
+    y_kind = _cond_kind("y_noise_kind", y_noise_kind)
+    y_std = _cond_number("y_noise", y_noise, nonneg=True)
+    drift_std = _cond_number("drift", drift, nonneg=True)
+    ripple_c = _cond_number("ripple", ripple, nonneg=True)
+    delay_c = _cond_number("delay", delay)
+    beta_c = _cond_number("beta", beta)
+    pre = max(1, round(fs))
+    if abs(delay_c) > pre:
+        raise ValueError(f"|delay| must be <= {pre} samples, got {delay!r}")
+    if not isinstance(raw, (bool, np.bool_)):
+        raise ValueError(f"raw must be a bool, got {raw!r}")
+
+    def ones(t: np.ndarray) -> np.ndarray:
+        return np.ones(np.shape(t))
+
+    # The rig settles for 1 s (discarded), then the record is generated with
+    # a pad of 2 s at each end: sample n of the result is rig index n.
+    pad = max(1, round(_COND_PAD_S * fs))
+    n_tot = n_out + 2 * pad
+    rig = _Rig(fs=fs, seed=int(seed), orientation=1, beta=0.0, mu0_fn=ones, start_index=-(pre + pad))
+    rig.next(pre)
+    normal = np.empty(n_tot)
+    fx = np.empty(n_tot)
+    step = max(1, round(60.0 * fs))
+    for pos in range(0, n_tot, step):
+        part = rig.next(min(step, n_tot - pos))
+        normal[pos : pos + part["fz"].size] = part["fz"]
+        fx[pos : pos + part["fx"].size] = part["fx"]
+    keep = slice(pad, pad + n_out)
+    t = (np.arange(n_tot, dtype=np.float64) - pad) / fs
+
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), _NS_CONDITIONS]))
+    phi = float(rng.uniform(0.0, 2.0 * np.pi))
+    w_z = rng.standard_normal(n_tot)
+    w_y = rng.standard_normal(n_tot)
+    w_d = rng.standard_normal(n_tot)
+    sos_band = _band_sos(*_COND_BAND_HZ, fs)[0]
+    f_l = N_LAMELLAS * RPM / 60.0
+
+    mu_t = mu_c * (1.0 + beta_c * (normal - PRELOAD_N))
+    if ripple_c != 0.0:
+        mu_t = mu_t * (1.0 + ripple_c * np.sin(2.0 * np.pi * f_l * t + phi))
+    fy = float(orientation) * np.maximum(mu_t, 0.0) * normal
+    if y_std > 0.0:
+        fy += y_std * _cond_unit(w_y, sos_band if y_kind == "band" else None, keep)
+    if drift_std > 0.0:
+        sos_lp = signal.butter(2, min(_COND_DRIFT_HZ, 0.4 * fs), "lowpass", fs=fs, output="sos")
+        fy += drift_std * _cond_unit(w_d, sos_lp, keep)
+
+    fz = _fractional_delay(normal, delay_c) if delay_c != 0.0 else normal.copy()
+    noise_z_std = 0.0
+    if snr is not None:
+        e_z = float(np.std(normal[keep])) * 10.0 ** (-snr / 20.0)
+        e_z = e_z * _cond_unit(w_z, sos_band if z_kind == "band" else None, keep)
+        fz += e_z
+        noise_z_std = float(np.std(e_z[keep]))
+
+    channels: dict[str, np.ndarray] = {}
+    sos_hp = signal.butter(HP_ORDER, HP_CUTOFF_HZ, "highpass", fs=fs, output="sos")
+    zi = signal.sosfilt_zi(sos_hp)
+    for name, x in (("fx", fx), ("fy", fy), ("fz", fz)):
+        if not raw:
+            static = float(np.mean(x[: min(pre, pad)]))
+            x = signal.sosfilt(sos_hp, x, zi=zi * static)[0]
+        channels[name] = _quantise(x[keep], FULL_SCALE_N)
+
+    tg = _truth_grid(duration)
+    truth = Truth(
+        t=tg,
+        mu=np.full(tg.shape, mu_c),
+        temperature=None,
+        current_density=None,
+        contact_loss=(),
+        optimum={},
+        force_dependence=beta_c,
+        skew=int(round(delay_c)),
+        params={
+            "scenario": "conditions",
+            "preload_N": PRELOAD_N,
+            "mu": mu_c,
+            "seed": int(seed),
+            "fs": fs,
+            "orientation": int(orientation),
+            "snr_z": snr,
+            "z_noise": z_kind,
+            "y_noise": y_std,
+            "y_noise_kind": y_kind,
+            "drift": drift_std,
+            "ripple": ripple_c,
+            "delay": delay_c,
+            "beta": beta_c,
+            "raw": bool(raw),
+            "noise_z_std": noise_z_std,
+            "dmu_dfn": mu_c * beta_c,
+            "ripple_phase": phi,
+            "f_l": f_l,
+            "noise_band_hz": _COND_BAND_HZ,
+            "drift_cutoff_hz": _COND_DRIFT_HZ,
+        },
+    )
+    return Simulation(
+        fs=float(fs),
+        channels=channels,
+        temperature_log=None,
+        area_mm2=None,
+        rpm=RPM,
+        n_lamellas=N_LAMELLAS,
+        orientation=int(orientation),
+        truth=truth,
+    )
 
 
 _SCENARIOS: dict[str, Callable[..., Simulation]] = {

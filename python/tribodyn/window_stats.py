@@ -11,7 +11,7 @@ orientation can be fixed once per recording after all windows are seen.
 
 from __future__ import annotations
 
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -39,6 +39,7 @@ def compute(
     raw: Optional[Tuple[np.ndarray, np.ndarray]] = None,
     threads: Optional[int] = None,
     offset: int = 0,
+    options: Optional[Dict[str, Any]] = None,
 ) -> Dict[str, np.ndarray]:
     """Kernel statistics of windows ``[s, s + length)`` for ``s`` in ``starts`` (orientation +1).
 
@@ -50,7 +51,9 @@ def compute(
     ``tribodyn._core.NonFiniteError`` (a ``ValueError``) naming the window's
     start counted from ``offset``. ``threads`` (default: the process
     default) never changes the results; 1 keeps the work on the calling
-    thread.
+    thread. ``options`` are the kernel's options of the statistics beyond
+    the paper (``Plan.kernel_options``: instrument lag, line frequencies,
+    segments, fz delay; docs/method.md 3a-3e).
     """
     fy_raw, fz_raw = raw if raw is not None else (None, None)
     if columns is None:
@@ -58,7 +61,7 @@ def compute(
     return _core.windows_stats(
         fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), int(length), 1.0, deadband.kind,
         float(deadband.value), int(n_bins), list(columns), fy_raw=fy_raw, fz_raw=fz_raw, threads=threads,
-        offset=int(offset),
+        offset=int(offset), **(options or {}),
     )  # fmt: skip
 
 
@@ -90,17 +93,39 @@ def orient(stats: Dict[str, np.ndarray], s: int, *, inplace: bool = False) -> Di
     return out
 
 
-def gate_reasons(stats: Dict[str, np.ndarray], gate: float, skew: Optional[np.ndarray] = None) -> np.ndarray:
+def gate_reasons(
+    stats: Dict[str, np.ndarray],
+    gate: Union[float, str],
+    skew: Optional[np.ndarray] = None,
+    *,
+    rel_ci: Optional[np.ndarray] = None,
+    max_rel_ci: float = 0.1,
+    sign: bool = True,
+) -> np.ndarray:
     """Why each window fails the quality gate (docs/method.md 5); '' when it passes.
 
-    Reasons: the fit is degenerate (fewer than 3 samples, constant fz);
-    |C_yz(0)| below ``gate``; the deadband excludes every sample; a channel
-    skew (max |C_yz(j)| away from lag 0). Returns an object array of str.
+    Reasons: the fit is degenerate (fewer than 3 samples, constant fz, no
+    variance of fz beyond its noise); with a number ``gate``, |C_yz(0)|
+    below it (the paper's gate); with ``gate="ci"``, a 95 % interval whose
+    relative half-width ``rel_ci`` exceeds ``max_rel_ci``; with ``sign``, a
+    slope whose sign is opposite to the recording's orientation (mu_r < 0);
+    the deadband excludes every sample; a channel skew (max |C_yz(j)| away
+    from lag 0, with ``max_lag``). Returns an object array of str.
     """
     c = np.abs(np.asarray(stats["c_yz"], dtype=float))
-    degenerate = ~np.isfinite(stats["mu_r"] if "mu_r" in stats else stats["slope"])
+    mu = np.asarray(stats["mu_r"] if "mu_r" in stats else stats["slope"], dtype=float)
+    degenerate = ~np.isfinite(mu)
+    low = np.zeros(len(c), dtype=bool)
+    wide = np.zeros(len(c), dtype=bool)
     with np.errstate(invalid="ignore"):
-        low = ~degenerate & ~(c >= gate)
+        if gate == "ci":
+            if rel_ci is None:
+                raise ValueError("gate='ci' needs the intervals' relative half-widths")
+            rel = np.asarray(rel_ci, dtype=float)
+            wide = ~degenerate & ~(rel <= max_rel_ci)
+        else:
+            low = ~degenerate & ~(c >= float(gate))
+        opposite = ~degenerate & (mu < 0) if sign else np.zeros(len(c), dtype=bool)
     empty = (stats["n_a"] + stats["n_b"]) == 0
     skewed = np.zeros(len(c), dtype=bool)
     if skew is not None:
@@ -109,12 +134,16 @@ def gate_reasons(stats: Dict[str, np.ndarray], gate: float, skew: Optional[np.nd
             skewed = np.isfinite(sk) & (sk != 0)
     reasons = np.full(len(c), "", dtype=object)
     # Strings only for the windows that fail (few, in a good recording).
-    for k in np.flatnonzero(degenerate | low | empty | skewed):
+    for k in np.flatnonzero(degenerate | low | wide | opposite | empty | skewed):
         why = []
         if degenerate[k]:
-            why.append("degenerate: fewer than 3 samples or constant fz")
+            why.append("degenerate: fewer than 3 samples, constant fz or no fz variance beyond its noise")
         elif low[k]:
-            why.append(f"low correlation: |C_yz(0)| = {c[k]:.3f} < {gate:g}")
+            why.append(f"low correlation: |C_yz(0)| = {c[k]:.3f} < {float(gate):g}")
+        elif wide[k]:
+            why.append(f"imprecise: 95 % interval +-{100 * rel[k]:.1f} % > +-{100 * max_rel_ci:g} %")
+        if opposite[k]:
+            why.append("slope sign opposite to the recording's orientation")
         if empty[k]:
             why.append(f"deadband: {stats['deadband'][k]:.4g} N excludes every sample")
         if skewed[k]:

@@ -437,6 +437,16 @@ class Recording:
         return list(self._segments)
 
     @property
+    def start_time(self) -> Optional[str]:
+        """Absolute time of the first sample as an ISO 8601 string (UTC), or None when the file does not say.
+
+        TDMS: the mapped channels' ``wf_start_time``. Logs with absolute
+        times are aligned with it (docs/method.md 6).
+        """
+        st = self.metadata.get("start_time")
+        return None if st is None else str(st)
+
+    @property
     def closed(self) -> bool:
         """True once :meth:`close` was called."""
         return self._closed

@@ -528,6 +528,10 @@ class TdmsRecording(Recording):
         }
         if skipped:
             self.metadata["skipped"] = skipped
+        starts = [c.properties.get("wf_start_time") for c in self._objs.values()]
+        starts = [st for st in starts if st is not None]
+        if starts:  # the first sample's absolute time (UTC), for logs with absolute times (docs/method.md 6)
+            self.metadata["start_time"] = str(np.datetime64(starts[0], "us"))
         self._default_roles = roles_by_name(self._names)
         self._setup(channels, fs, scale, units)
 

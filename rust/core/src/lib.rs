@@ -7,6 +7,8 @@
 //! - [`regression`]: mergeable, centred least-squares moments, Eqs. (6)-(8)
 //!   (docs/method.md 3);
 //! - [`windows`]: per-window statistics of a recording (docs/method.md 4-6);
+//! - [`extended`]: sums for the estimators beyond the paper, line spectra and
+//!   the fractional-delay correction (docs/method.md 3a-3e);
 //! - [`mapped`]: the same, read straight from a file's pages (memory maps).
 //!
 //! Every public function validates what a caller controls and returns
@@ -14,6 +16,7 @@
 
 pub mod correlation;
 pub mod error;
+pub mod extended;
 pub mod iir;
 mod lanes;
 pub mod mapped;

@@ -479,7 +479,13 @@ mod tests {
         let (path, file) = temp_file(&bytes);
         let row = (n * 8) as u64;
         let layout = FileLayout { fx: Some(128), fy: 128 + row, fz: 128 + 2 * row, aux: Some(128 + 3 * row), n };
-        let opt = WindowOptions { len: 300, orientation: 1.0, deadband: Deadband::Force(0.1), n_bins: 8 };
+        let opt = WindowOptions {
+            len: 300,
+            orientation: 1.0,
+            deadband: Deadband::Force(0.1),
+            n_bins: 8,
+            ext: Default::default(),
+        };
         let step = 250;
         let k1 = (n - opt.len) / step + 1;
         let ch = Channels { fx: Some(&fx), fy: &fy, fz: &fz, aux: Some(&aux), raw: None };
@@ -513,7 +519,13 @@ mod tests {
         let layout = FileLayout { fx: None, fy: 64, fz: 64 + row, aux: Some(64 + 2 * row), n };
         let sos: Vec<Section> = vec![[0.9997, -0.9997, 0.0, 1.0, -0.9994, 0.0]];
         let zi = crate::iir::sosfilt_zi(&sos).unwrap();
-        let opt = WindowOptions { len: 400, orientation: 1.0, deadband: Deadband::Force(0.1), n_bins: 8 };
+        let opt = WindowOptions {
+            len: 400,
+            orientation: 1.0,
+            deadband: Deadband::Force(0.1),
+            n_bins: 8,
+            ext: Default::default(),
+        };
         let (step, origin) = (450, 7);
         let k0 = 1;
         let k1 = (n - opt.len) / step + 1;

@@ -40,6 +40,7 @@
 //! told apart by a scan).
 
 use crate::error::KernelError;
+use crate::extended::{self, ExtOptions};
 use crate::regression::Moments;
 use rayon::prelude::*;
 
@@ -61,6 +62,9 @@ pub struct WindowOptions {
     pub orientation: f64,
     pub deadband: Deadband,
     pub n_bins: usize,
+    /// Statistics beyond the paper's and the delay correction
+    /// ([`crate::extended`]; docs/method.md 3a-3e). Default: none.
+    pub ext: ExtOptions,
 }
 
 /// The channels of a recording (or of one chunk of it), all of one length.
@@ -148,6 +152,10 @@ pub struct WindowStats {
     /// mean(|fy_raw| / |fz_raw|) over fz_raw != 0 (NaN without raw forces
     /// or when every fz_raw is 0).
     pub mu_classic: f64,
+    /// [`extended::block_sums`] when `opt.ext.sums`, else empty.
+    pub ext_sums: Vec<f64>,
+    /// [`extended::line_spectra`] when `opt.ext.n_lines > 0`, else empty.
+    pub spec: Vec<f64>,
 }
 
 /// Interleaved accumulators per sum: fixed, so the order of summation (and
@@ -554,6 +562,31 @@ pub fn window_stats_then(
     opt: &WindowOptions,
 ) -> Result<WindowStats, KernelError> {
     ch.check()?;
+    opt.ext.check()?;
+    if opt.ext.delay != 0.0 {
+        // fz advanced by the delay over the samples where every tap is
+        // inside the window; the other channels cut to the same samples.
+        return extended::delayed(ch.fz, opt.ext.delay, |g, t0, t1| {
+            let cut = Channels { fz: g, ..ch.slice(t0..t1) };
+            let no_delay = WindowOptions { ext: ExtOptions { delay: 0.0, ..opt.ext }, ..*opt };
+            window_stats_then(&cut, None, &no_delay).map_err(|e| e.shifted(t0))
+        })?;
+    }
+    let mut w = window_dispatch(ch, next, opt)?;
+    if opt.ext.sums {
+        w.ext_sums = extended::block_sums(ch.fy, ch.fz, opt.ext.lag);
+    }
+    if opt.ext.n_lines > 0 {
+        w.spec = extended::line_spectra(ch.fy, ch.fz, &opt.ext);
+    }
+    Ok(w)
+}
+
+fn window_dispatch(
+    ch: &Channels<'_>,
+    next: Option<&Channels<'_>>,
+    opt: &WindowOptions,
+) -> Result<WindowStats, KernelError> {
     let pf = Prefetch::of(next);
     #[cfg(target_arch = "x86_64")]
     {
@@ -635,6 +668,8 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
             bin_cof: vec![f64::NAN; nb],
             aux_mean,
             mu_classic,
+            ext_sums: Vec::new(),
+            spec: Vec::new(),
         });
     }
     let (mz0, my0, mx0) = (sz / nf, sy / nf, sx / nf);
@@ -696,6 +731,8 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
         bin_cof,
         aux_mean,
         mu_classic,
+        ext_sums: Vec::new(),
+        spec: Vec::new(),
     })
 }
 
@@ -804,7 +841,13 @@ mod tests {
     #[test]
     fn one_window_by_hand() {
         let (fx, fy, fz) = rig(2003);
-        let opt = WindowOptions { len: 2003, orientation: -1.0, deadband: Deadband::Force(0.35), n_bins: 16 };
+        let opt = WindowOptions {
+            len: 2003,
+            orientation: -1.0,
+            deadband: Deadband::Force(0.35),
+            n_bins: 16,
+            ext: ExtOptions::default(),
+        };
         let w = window_stats(&with_x(&fx, &fy, &fz), &opt).unwrap();
         let fit = w.moments.fit();
         assert!((-fit.slope - 0.12).abs() < 2e-3);
@@ -839,7 +882,13 @@ mod tests {
     #[test]
     fn offsets_do_not_move_the_fit() {
         let (fx, fy, fz) = rig(2000);
-        let opt = WindowOptions { len: 2000, orientation: 1.0, deadband: Deadband::Sigma(0.5), n_bins: 8 };
+        let opt = WindowOptions {
+            len: 2000,
+            orientation: 1.0,
+            deadband: Deadband::Sigma(0.5),
+            n_bins: 8,
+            ext: ExtOptions::default(),
+        };
         let a = window_stats(&with_x(&fx, &fy, &fz), &opt).unwrap();
         let fys: Vec<f64> = fy.iter().map(|v| v + 1e4).collect();
         let fxs: Vec<f64> = fx.iter().map(|v| v - 1e5).collect();
@@ -853,7 +902,13 @@ mod tests {
     #[test]
     fn batch_equals_single_and_is_checked() {
         let (fx, fy, fz) = rig(10_000);
-        let opt = WindowOptions { len: 1000, orientation: 1.0, deadband: Deadband::Sigma(0.7), n_bins: 8 };
+        let opt = WindowOptions {
+            len: 1000,
+            orientation: 1.0,
+            deadband: Deadband::Sigma(0.7),
+            n_bins: 8,
+            ext: ExtOptions::default(),
+        };
         let starts = [0usize, 1000, 4321, 9000];
         let ch = Channels { aux: Some(&fx), raw: Some((&fy, &fz)), ..with_x(&fx, &fy, &fz) };
         let all = windows_stats(&ch, &starts, &opt).unwrap();
@@ -873,7 +928,13 @@ mod tests {
     #[test]
     fn non_finite_samples_are_refused() {
         let (_, mut fy, fz) = rig(3000);
-        let opt = WindowOptions { len: 1000, orientation: 1.0, deadband: Deadband::Force(0.35), n_bins: 8 };
+        let opt = WindowOptions {
+            len: 1000,
+            orientation: 1.0,
+            deadband: Deadband::Force(0.35),
+            n_bins: 8,
+            ext: ExtOptions::default(),
+        };
         fy[1500] = f64::NAN;
         let e = windows_stats(&Channels::forces(&fy, &fz), &[0, 1000], &opt).unwrap_err();
         assert!(e.to_string().contains("fy contains NaN") && e.to_string().contains("1000"), "{e}");
@@ -887,7 +948,13 @@ mod tests {
 
     #[test]
     fn degenerate_windows_do_not_panic() {
-        let opt = WindowOptions { len: 5, orientation: 1.0, deadband: Deadband::Force(0.0), n_bins: 3 };
+        let opt = WindowOptions {
+            len: 5,
+            orientation: 1.0,
+            deadband: Deadband::Force(0.0),
+            n_bins: 3,
+            ext: ExtOptions::default(),
+        };
         let w = window_stats(&Channels::forces(&[1.0; 5], &[2.0; 5]), &opt).unwrap();
         assert!(w.moments.fit().slope.is_nan() && w.c_yz.is_nan());
         assert_eq!(w.bin_count, vec![5, 0, 0]);
@@ -903,8 +970,20 @@ mod tests {
         let (fx, fy, fz) = rig(2037);
         let ch = Channels { aux: Some(&fx), raw: Some((&fy, &fz)), ..with_x(&fx, &fy, &fz) };
         for opt in [
-            WindowOptions { len: 2037, orientation: -1.0, deadband: Deadband::Force(0.35), n_bins: 16 },
-            WindowOptions { len: 2037, orientation: 1.0, deadband: Deadband::Sigma(0.7), n_bins: 7 },
+            WindowOptions {
+                len: 2037,
+                orientation: -1.0,
+                deadband: Deadband::Force(0.35),
+                n_bins: 16,
+                ext: ExtOptions::default(),
+            },
+            WindowOptions {
+                len: 2037,
+                orientation: 1.0,
+                deadband: Deadband::Sigma(0.7),
+                n_bins: 7,
+                ext: ExtOptions::default(),
+            },
         ] {
             let base = format!("{:?}", window_body(&ch, &opt, &Prefetch::of(None)).unwrap());
             #[cfg(target_arch = "x86_64")]
@@ -931,7 +1010,13 @@ mod tests {
     #[test]
     fn deadband_excluding_everything_gives_nan() {
         let (_, fy, fz) = rig(500);
-        let opt = WindowOptions { len: 500, orientation: 1.0, deadband: Deadband::Force(1e9), n_bins: 4 };
+        let opt = WindowOptions {
+            len: 500,
+            orientation: 1.0,
+            deadband: Deadband::Force(1e9),
+            n_bins: 4,
+            ext: ExtOptions::default(),
+        };
         let w = window_stats(&Channels::forces(&fy, &fz), &opt).unwrap();
         assert!(w.mu_a.is_nan() && w.mu_b.is_nan());
         assert!(w.bin_cof.iter().all(|v| v.is_nan()));

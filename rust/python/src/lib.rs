@@ -15,12 +15,16 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tribodyn_core::correlation::{self, Method};
+use tribodyn_core::extended;
 use tribodyn_core::iir;
 use tribodyn_core::mapped;
 use tribodyn_core::parallel;
 use tribodyn_core::regression::{self, LinFit, Moments};
 use tribodyn_core::sums;
 use tribodyn_core::windows::{self, Deadband, WindowOptions};
+
+/// Values per window of the column "ext".
+const EXT_WIDTH: usize = extended::BLOCKS * extended::PRODUCTS;
 use tribodyn_core::KernelError;
 
 pyo3::create_exception!(
@@ -343,7 +347,7 @@ fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResu
 /// caller's index of sample 0 of the arrays). `threads=1` keeps the work on
 /// the calling thread.
 #[pyfunction]
-#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, columns, *, fy_raw=None, fz_raw=None, threads=None, offset=0))]
+#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, columns, *, fy_raw=None, fz_raw=None, threads=None, offset=0, lag=0, lines=None, segments=4, delay=0.0))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats<'py>(
     py: Python<'py>,
@@ -362,10 +366,15 @@ fn windows_stats<'py>(
     fz_raw: Option<PyReadonlyArray1<'py, f64>>,
     threads: Option<i64>,
     offset: usize,
+    lag: usize,
+    lines: Option<Vec<f64>>,
+    segments: usize,
+    delay: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let threads = threads_of(threads)?;
     let deadband = parse_deadband(deadband_kind, deadband)?;
     let cols = columns_of(&columns)?;
+    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay)?;
     let starts: Vec<usize> = starts
         .as_slice()
         .map_err(slice_err("starts"))?
@@ -380,7 +389,7 @@ fn windows_stats<'py>(
         _ => return Err(PyValueError::new_err("fy_raw and fz_raw go together")),
     };
     let ch = windows::Channels { fx: fxs, fy: fys, fz: fzs, aux: auxs, raw };
-    let opt = WindowOptions { len: length, orientation, deadband, n_bins };
+    let opt = WindowOptions { len: length, orientation, deadband, n_bins, ext };
     // A few windows cost less than entering the pool.
     let stats = if starts.len() < 8 || threads == 1 {
         py.detach(|| windows::windows_stats_serial(&ch, &starts, &opt))
@@ -388,7 +397,7 @@ fn windows_stats<'py>(
         py.detach(|| parallel::run_with(threads, || windows::windows_stats(&ch, &starts, &opt))).map_err(to_py)?
     }
     .map_err(|e| to_py(e.shifted(offset)))?;
-    let mut out = Columns::new(cols, stats.len(), n_bins)?;
+    let mut out = Columns::new(cols, stats.len(), n_bins, ext.spec_len())?;
     out.set(0, &stats);
     drop(stats);
     out.into_dict(py, &columns)
@@ -405,6 +414,38 @@ enum Column {
     BinCount,
     /// COF per fz bin (windows x n_bins).
     BinCof,
+    /// Block sums for the estimators (windows x BLOCKS x PRODUCTS).
+    Ext,
+    /// Cross-spectra at the lines (windows x n_lines x 4).
+    Spec,
+}
+
+/// The options of the statistics beyond the paper: block sums when the
+/// column "ext" is asked for (instrument lag `lag`), line spectra when
+/// "spec" is (at `lines`, cycles per sample), and the fz delay correction.
+fn ext_options(
+    columns: &[String],
+    lag: usize,
+    lines: Option<&[f64]>,
+    segments: usize,
+    delay: f64,
+) -> PyResult<extended::ExtOptions> {
+    let mut ext =
+        extended::ExtOptions { sums: columns.iter().any(|c| c == "ext"), lag, segments, delay, ..Default::default() };
+    if columns.iter().any(|c| c == "spec") {
+        let lines = lines.unwrap_or(&[]);
+        if lines.is_empty() || lines.len() > extended::MAX_LINES {
+            return Err(PyValueError::new_err(format!(
+                "the column 'spec' needs 1 to {} line frequencies, got {}",
+                extended::MAX_LINES,
+                lines.len()
+            )));
+        }
+        ext.lines[..lines.len()].copy_from_slice(lines);
+        ext.n_lines = lines.len();
+    }
+    ext.check().map_err(to_py)?;
+    Ok(ext)
 }
 
 /// The kernel's vocabulary: the column called `name` (orientation +1;
@@ -440,13 +481,15 @@ fn column(name: &str) -> Option<Column> {
         "n_b" => I(|w| w.n_b),
         "bin_count" => BinCount,
         "bin_cof" => BinCof,
+        "ext" => Column::Ext,
+        "spec" => Column::Spec,
         _ => return None,
     })
 }
 
 const COLUMN_NAMES: &str = "slope, intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z, mean_y, \
 szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min, fz_max, aux_mean, mu_classic, n, n_a, n_b, \
-bin_count, bin_cof";
+bin_count, bin_cof, ext, spec";
 
 fn columns_of(names: &[String]) -> PyResult<Vec<Column>> {
     names
@@ -473,6 +516,7 @@ enum Buf {
 struct Columns {
     rows: usize,
     n_bins: usize,
+    spec: usize,
     cols: Vec<(Column, Buf)>,
 }
 
@@ -490,10 +534,12 @@ fn zeros<T: Clone + Default>(len: usize, what: &str) -> PyResult<Vec<T>> {
 }
 
 impl Columns {
-    fn new(cols: Vec<Column>, rows: usize, n_bins: usize) -> PyResult<Self> {
-        let bins = rows.checked_mul(n_bins).ok_or_else(|| {
-            pyo3::exceptions::PyMemoryError::new_err(format!("{rows} windows x {n_bins} bins overflow"))
-        })?;
+    fn new(cols: Vec<Column>, rows: usize, n_bins: usize, spec: usize) -> PyResult<Self> {
+        let overflow =
+            |what: &str| pyo3::exceptions::PyMemoryError::new_err(format!("{rows} windows x {what} overflow"));
+        let bins = rows.checked_mul(n_bins).ok_or_else(|| overflow("bins"))?;
+        let ext_len = rows.checked_mul(EXT_WIDTH).ok_or_else(|| overflow("block sums"))?;
+        let spec_len = rows.checked_mul(spec).ok_or_else(|| overflow("line spectra"))?;
         let cols = cols
             .into_iter()
             .map(|c| {
@@ -502,11 +548,13 @@ impl Columns {
                     Column::I(_) => Buf::I(zeros(rows, "a column")?),
                     Column::BinCount => Buf::I(zeros(bins, "bin_count")?),
                     Column::BinCof => Buf::F(zeros(bins, "bin_cof")?),
+                    Column::Ext => Buf::F(zeros(ext_len, "ext")?),
+                    Column::Spec => Buf::F(zeros(spec_len, "spec")?),
                 };
                 Ok((c, buf))
             })
             .collect::<PyResult<_>>()?;
-        Ok(Columns { rows, n_bins, cols })
+        Ok(Columns { rows, n_bins, spec, cols })
     }
 
     /// Rows `first..` from consecutive windows.
@@ -525,6 +573,8 @@ impl Columns {
                         }
                     }
                     (Column::BinCof, Buf::F(v)) => v[row * nb..(row + 1) * nb].copy_from_slice(&w.bin_cof),
+                    (Column::Ext, Buf::F(v)) => v[row * EXT_WIDTH..(row + 1) * EXT_WIDTH].copy_from_slice(&w.ext_sums),
+                    (Column::Spec, Buf::F(v)) => v[row * self.spec..(row + 1) * self.spec].copy_from_slice(&w.spec),
                     _ => unreachable!("each column's buffer is made for its kind in Columns::new"),
                 }
             }
@@ -536,11 +586,24 @@ impl Columns {
         let shape = [self.rows, self.n_bins];
         for (name, (c, buf)) in names.iter().zip(self.cols) {
             let bins = matches!(c, Column::BinCount | Column::BinCof);
-            match buf {
-                Buf::F(v) if bins => out.set_item(name, PyArray1::from_vec(py, v).reshape(shape)?)?,
-                Buf::I(v) if bins => out.set_item(name, PyArray1::from_vec(py, v).reshape(shape)?)?,
-                Buf::F(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
-                Buf::I(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
+            match (c, buf) {
+                (Column::Ext, Buf::F(v)) => {
+                    out.set_item(
+                        name,
+                        PyArray1::from_vec(py, v).reshape([self.rows, extended::BLOCKS, extended::PRODUCTS])?,
+                    )?;
+                    continue;
+                }
+                (Column::Spec, Buf::F(v)) => {
+                    out.set_item(name, PyArray1::from_vec(py, v).reshape([self.rows, self.spec / 4, 4])?)?;
+                    continue;
+                }
+                (_, buf) => match buf {
+                    Buf::F(v) if bins => out.set_item(name, PyArray1::from_vec(py, v).reshape(shape)?)?,
+                    Buf::I(v) if bins => out.set_item(name, PyArray1::from_vec(py, v).reshape(shape)?)?,
+                    Buf::F(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
+                    Buf::I(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
+                },
             }
         }
         Ok(out)
@@ -592,7 +655,7 @@ fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
 /// and the classical COF of the raw forces is added (`mu_classic`); the
 /// windows must not overlap (step >= length).
 #[pyfunction]
-#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, columns, *, block=512, sos=None, zi=None, origin=0, threads=None))]
+#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, columns, *, block=512, sos=None, zi=None, origin=0, threads=None, lag=0, lines=None, segments=4, delay=0.0))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats_file<'py>(
     py: Python<'py>,
@@ -613,10 +676,15 @@ fn windows_stats_file<'py>(
     zi: Option<PyReadonlyArray2<'py, f64>>,
     origin: usize,
     threads: Option<i64>,
+    lag: usize,
+    lines: Option<Vec<f64>>,
+    segments: usize,
+    delay: f64,
 ) -> PyResult<Bound<'py, PyDict>> {
     let threads = threads_of(threads)?;
     let deadband = parse_deadband(deadband_kind, deadband)?;
     let cols_asked = columns_of(&columns)?;
+    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay)?;
     let highpass = match (&sos, &zi) {
         (Some(s), Some(z)) => {
             let secs = sections(s)?;
@@ -637,10 +705,10 @@ fn windows_stats_file<'py>(
     let file = dup_fd(fd)?;
     let layout = mapped::FileLayout { fx: offsets.0, fy: offsets.1, fz: offsets.2, aux: offsets.3, n };
     let grid = mapped::Grid { k0, k1, step, block };
-    let opt = WindowOptions { len: length, orientation, deadband, n_bins };
+    let opt = WindowOptions { len: length, orientation, deadband, n_bins, ext };
     // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
     mapped::check(&file, &layout, &grid, &opt).map_err(to_py)?;
-    let cols = std::sync::Mutex::new(Columns::new(cols_asked, k1.saturating_sub(k0), n_bins)?);
+    let cols = std::sync::Mutex::new(Columns::new(cols_asked, k1.saturating_sub(k0), n_bins, ext.spec_len())?);
     // Each block's rows go into the columns as soon as it is done.
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
         cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);

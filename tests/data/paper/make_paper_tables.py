@@ -10,6 +10,7 @@ import numpy as np
 import tribodyn
 from tribodyn import simulate
 
+
 def main() -> None:
     out = {}
     sim = simulate.current_density_test(seed=3)

@@ -1,0 +1,86 @@
+"""Contact loss and sparking at high current density (docs/method.md 7).
+
+When the brush loses contact (paper Sec. 4.2: beyond the optimum current
+density the contact burns out and sparks), the forcemeter measures the
+brush's ringing instead of friction. A window is flagged "contact loss"
+when the current density is high, i.e. in the upper half of the recording's
+range of J (all windows when J does not vary), and either
+
+* the friction/normal correlation collapses: ``|C_yz(0)|`` below
+  :data:`COLLAPSE` (0.7) times the median ``|C_yz(0)|`` of the recording, or
+* the COF and its spread jump together: ``mu_r_stderr`` above
+  :data:`SPREAD_JUMP` (4) times the recording's median standard error, in
+  this window and in a neighbouring one (a step of the current moves the
+  COF within one window, which widens one window's spread only), and
+  ``mu_r`` more than :data:`COF_JUMP` (10 %) away from the median of the
+  preceding :data:`HISTORY` (5) unflagged windows.
+
+The reason "contact loss: ..." is appended to the window's gate reasons, so
+the window fails the gate and stays out of every fit.
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+__all__ = ["mark_contact_loss", "contact_loss_mask", "COLLAPSE", "SPREAD_JUMP", "COF_JUMP", "HISTORY", "REASON"]
+
+COLLAPSE = 0.7
+SPREAD_JUMP = 4.0
+COF_JUMP = 0.10
+HISTORY = 5
+#: The reason's key in ``Results["reasons"]`` (and ``summary()["gate_failures"]``).
+REASON = "contact loss"
+
+
+def contact_loss_mask(stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndarray:
+    """Windows showing contact loss (criteria in the module docstring; docs/method.md 7).
+
+    ``stats`` holds ``c_yz``, ``mu_r`` and ``mu_r_stderr`` per window; ``j``
+    the current density (or the current: only its ordering matters). No
+    finite ``j``: nothing is flagged.
+    """
+    j = np.asarray(j, dtype=float)
+    n = j.size
+    out = np.zeros(n, dtype=bool)
+    fin = np.isfinite(j)
+    if not fin.any():
+        return out
+    lo, hi = float(j[fin].min()), float(j[fin].max())
+    with np.errstate(invalid="ignore"):
+        high = fin & (j >= 0.5 * (lo + hi)) & (np.abs(j) > 0)
+    c = np.abs(np.asarray(stats["c_yz"], dtype=float))
+    mu = np.asarray(stats["mu_r"], dtype=float)
+    se = np.asarray(stats["mu_r_stderr"], dtype=float)
+    c_med = float(np.nanmedian(c)) if np.isfinite(c).any() else np.nan
+    se_med = float(np.nanmedian(se)) if np.isfinite(se).any() else np.nan
+    with np.errstate(invalid="ignore"):
+        collapse = np.isfinite(c) & (c < COLLAPSE * c_med)
+        spread = np.isfinite(se) & (se > SPREAD_JUMP * se_med)
+    # A spread that lasts: a step of the current moves the COF within one
+    # window (a wide spread once) without any loss of contact.
+    lasting = spread & (np.r_[spread[1:], False] | np.r_[False, spread[:-1]])
+    history: list = []
+    for k in range(n):
+        jump = False
+        if lasting[k] and np.isfinite(mu[k]) and history:
+            ref = float(np.median(history[-HISTORY:]))
+            jump = abs(mu[k] - ref) > COF_JUMP * abs(ref)
+        out[k] = high[k] and (collapse[k] or jump)
+        if not out[k] and not collapse[k] and np.isfinite(mu[k]) and not spread[k]:
+            history.append(mu[k])
+    return out
+
+
+def mark_contact_loss(reasons: np.ndarray, stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndarray:
+    """``reasons`` (the gate's, one str per window) with ``"contact loss: ..."`` appended where
+    :func:`contact_loss_mask` flags a window (docs/method.md 7). Returns a new object array."""
+    out = np.asarray(reasons, dtype=object).copy()
+    lost = contact_loss_mask(stats, j)
+    c = np.abs(np.asarray(stats["c_yz"], dtype=float))
+    for k in np.flatnonzero(lost):
+        why = f"{REASON}: |C_yz(0)| = {c[k]:.3f} at a current in the upper half of the range"
+        out[k] = f"{out[k]}; {why}" if out[k] else why
+    return out

@@ -1,0 +1,260 @@
+"""Operating ranges with confidence (docs/method.md 6-7; issue 13).
+
+The segmented (bathtub) fit against the simulator's truth, the verdicts,
+the branch labels and covariate checks of the temperature log, absolute
+log times, and contact loss. Every simulation and bootstrap has a fixed seed.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import numpy as np
+import pytest
+
+import tribodyn as td
+from tribodyn import simulate
+from tribodyn.covariates import branch, log_quality
+
+
+def _cat(gen) -> dict:
+    parts = list(gen)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _truth_twin(res: td.Results, truth) -> td.Results:
+    """The same windows with the simulator's noise-free COF (for the straight-wall truth)."""
+    table = dict(res.table)
+    table["mu_r"] = np.asarray(truth.mu_at(res["time"]), dtype=float)
+    return td.Results(table=table, bin_counts=res.bin_counts, bin_cof=res.bin_cof, fz_min=res.fz_min,
+                      fz_max=res.fz_max, orientation=res.orientation, params=res.params)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def temp_sim():
+    return simulate.temperature_test(seed=3)
+
+
+@pytest.fixture(scope="module")
+def temp_res(temp_sim):
+    return td.analyze(temp_sim.channels, fs=temp_sim.fs, window=2.0, hop=10.0, temperature=temp_sim.temperature_log)
+
+
+@pytest.fixture(scope="module")
+def temp_range(temp_res):
+    return td.operating_range(temp_res, "temperature")
+
+
+@pytest.fixture(scope="module")
+def cd_sim():
+    return simulate.current_density_test(seed=4)
+
+
+@pytest.fixture(scope="module")
+def cd_res(cd_sim):
+    return td.analyze(cd_sim.channels, fs=cd_sim.fs, window=2.0, hop=10.0, area_mm2=cd_sim.area_mm2)
+
+
+def test_heating_breakpoints_near_the_simulated_flat_bottom(temp_range, temp_res, temp_sim):
+    heat = temp_range.fits["heating"]
+    assert heat.verdict == "optimum"
+    lo_true, hi_true = temp_sim.truth.optimum["temperature_heating"]
+    assert abs(heat.lower - lo_true) <= 3 and abs(heat.upper - hi_true) <= 3
+    # The simulated walls are curved (C1 Huber): a straight-walled fit of the noise-free COF at the
+    # same windows puts the edges where the straight walls meet the floor; the intervals hold them.
+    twin = td.operating_range(_truth_twin(temp_res, temp_sim.truth), "temperature", n_boot=0).fits["heating"]
+    assert heat.lower_ci[0] <= twin.lower <= heat.lower_ci[1]
+    assert heat.upper_ci[0] <= twin.upper <= heat.upper_ci[1]
+    assert heat.lower_ci[0] <= lo_true <= heat.lower_ci[1]
+    assert abs(heat.mu_min - 0.1) < 0.002 and heat.mu_min_ci[0] <= heat.mu_min <= heat.mu_min_ci[1]
+
+
+def test_branches_apart_and_hysteresis(temp_range, temp_sim):
+    heat, cool = temp_range.fits["heating"], temp_range.fits["cooling"]
+    assert abs(cool.upper - temp_sim.truth.optimum["temperature_cooling"][1]) <= 3
+    assert heat.upper_ci[0] > cool.upper_ci[1]  # the upper edges' intervals do not overlap
+    h = temp_range.hysteresis
+    assert h is not None and h.upper > 0 and h.upper_ci[0] > 0
+    assert h.upper_ci[0] <= heat.upper - cool.upper <= h.upper_ci[1]
+    assert temp_range.verdict == "optimum" and temp_range.optimum == temp_range.fits["all"].optimum
+
+
+def test_branch_argument_reports_that_branch(temp_res, temp_range):
+    heat = td.operating_range(temp_res, "temperature", branch="heating")
+    assert heat.optimum == temp_range.fits["heating"].optimum and heat.branch == "heating"
+    with pytest.raises(ValueError, match="branch"):
+        td.operating_range(temp_res, "temperature", branch="up")
+
+
+def test_results_repeat_with_the_seed(temp_res, temp_range):
+    again = td.operating_range(temp_res, "temperature")
+    assert again.optimum_ci == temp_range.optimum_ci and again.seed == 0
+
+
+def test_current_density_upper_breakpoint_and_onset(cd_res, cd_sim):
+    opr = td.operating_range(cd_res, "current_density")
+    assert opr.verdict == "optimum"
+    twin = td.operating_range(_truth_twin(cd_res, cd_sim.truth), "current_density", n_boot=0)
+    lo, hi = opr.optimum
+    assert abs(hi - twin.optimum[1]) <= 0.25
+    assert opr.optimum_ci[1][0] <= twin.optimum[1] <= opr.optimum_ci[1][1]
+    # the simulated flat bottom [4.25, 4.75] lies inside the reported interval's reach
+    t_lo, t_hi = cd_sim.truth.optimum["current_density"]
+    assert opr.optimum_ci[0][0] <= t_hi and t_lo <= opr.optimum_ci[1][1]
+    assert opr.onset is not None and hi < opr.onset <= 6.5
+    assert opr.onset_ci[0] <= opr.onset <= opr.onset_ci[1]
+
+
+def test_binned_method_keeps_todays_results(cd_res):
+    old = td.operating_range(cd_res, "current_density", method="binned")
+    seg = td.operating_range(cd_res, "current_density")
+    assert old.method == "binned" and old.optimum == old.curves["all"].optimum and old.optimum_ci is None
+    assert seg.curves["all"].optimum == old.optimum  # the binned medians stay as points
+
+
+def test_constant_current_density_is_no_optimum():
+    ch = _cat(simulate.continuous(400.0, current=20.0, seed=1))
+    res = td.analyze(ch, fs=1000.0, window=2, hop=10, area_mm2=4.0)
+    opr = td.operating_range(res, "current_density")
+    assert opr.verdict == "covariate constant" and opr.optimum is None and opr.optimum_ci is None
+    assert "current density" in opr.explanation
+
+
+def test_cof_independent_of_temperature_is_no_dependence():
+    ch = _cat(simulate.continuous(1200.0, seed=2))
+    rng = np.random.default_rng(0)
+    log = (np.linspace(0, 1200, 13), np.round(np.linspace(100, 170, 13) + rng.normal(0, 0.3, 13), 1))
+    res = td.analyze(ch, fs=1000.0, window=2, hop=10, temperature=log)
+    opr = td.operating_range(res, "temperature")
+    assert opr.verdict == "no dependence" and opr.optimum is None
+    assert abs(opr.mu_min - 0.12) < 0.005
+
+
+def test_data_on_one_wall_is_an_edge(temp_sim):
+    n = 2_000_000  # 0-2000 s: 155 degC, then heating to 175: only the upper wall
+    t, v = temp_sim.temperature_log
+    keep = t <= 2000
+    res = td.analyze({k: x[:n] for k, x in temp_sim.channels.items()}, fs=temp_sim.fs, window=2, hop=10,
+                     temperature=(t[keep], v[keep]))  # fmt: skip
+    opr = td.operating_range(res, "temperature")
+    assert opr.verdict == "optimum at the edge of the tested range"
+    assert opr.edge_lower and not opr.edge_upper
+    assert opr.optimum[0] == pytest.approx(opr.fits["all"].x_range[0])
+    assert opr.optimum_ci[0][0] == -np.inf
+
+
+def test_too_few_windows(cd_res):
+    table = {k: np.asarray(v)[:5] for k, v in cd_res.table.items()}
+    small = td.Results(table=table, bin_counts=cd_res.bin_counts[:5], bin_cof=cd_res.bin_cof[:5],
+                       fz_min=cd_res.fz_min[:5], fz_max=cd_res.fz_max[:5], orientation=cd_res.orientation)  # fmt: skip
+    opr = td.operating_range(small, "current_density")
+    assert opr.verdict == "too few windows" and opr.optimum is None
+
+
+def test_plateau_with_a_noisy_log_is_branch_zero():
+    rng = np.random.default_rng(5)
+    t = np.cumsum(np.r_[0.0, rng.uniform(100, 200, 30)])
+    v = np.round(150.0 + rng.normal(0, 0.3, t.size), 1)
+    at = np.arange(5.0, t[-1], 10.0)
+    assert np.all(branch((t, v), at) == 0)
+    # a ramp in the same log noise keeps its sign
+    ramp = np.round(100.0 + 0.02 * t + rng.normal(0, 0.3, t.size), 1)
+    assert np.all(branch((t, ramp), at) == 1)
+
+
+def test_plateau_windows_of_the_temperature_test_are_branch_zero(temp_res, temp_sim):
+    tt = temp_res["time"]
+    flat = np.abs(np.gradient(temp_sim.truth.temperature_at(tt))) < 1e-9
+    assert np.all(temp_res["branch"][flat & (tt > 20) & (tt < 990)] == 0)  # 155 degC for 1000 s
+
+
+def test_log_missing_a_fast_cool_down_flags_its_windows(temp_sim):
+    t, v = temp_sim.temperature_log
+    keep = ~np.isin(t, [3950.0, 4010.0])  # the readings at the start and end of the cool-down
+    log = (t[keep], v[keep])
+    res = td.analyze(temp_sim.channels, fs=temp_sim.fs, window=2, hop=10, temperature=log)
+    err = np.abs(res["T"] - temp_sim.truth.temperature_at(res["time"]))
+    affected = err > 3.0
+    assert affected.sum() >= 5
+    assert np.all(res["T_gap"][affected])
+    assert np.all(res["T_uncertainty"][affected] >= err[affected] - 1.0)
+    opr = td.operating_range(res, "temperature")
+    assert opr.excluded["temperature log gap"] == int(res["T_gap"].sum())
+    q = log_quality(log, res["time"])
+    np.testing.assert_array_equal(q["T_gap"], res["T_gap"])
+
+
+def test_contact_loss_flagged_and_out_of_the_fit(cd_res, cd_sim):
+    inside = cd_sim.truth.in_contact_loss(cd_res["time"])
+    assert inside.sum() >= 5
+    reasons = cd_res["reasons"]
+    assert all("contact loss" in r for r in reasons[inside])
+    assert not any("contact loss" in r for r in reasons[~cd_sim.truth.in_contact_loss(cd_res["time"], 1.0)])
+    assert not cd_res.gated()[inside].any()
+    opr = td.operating_range(cd_res, "current_density")
+    assert opr.excluded["contact loss"] == int(inside.sum())
+    assert opr.n_windows == int(cd_res.gated().sum())
+    assert opr.instability == pytest.approx(6.5, abs=0.01)
+    assert opr.instability_ci[0] == pytest.approx(6.0, abs=0.01)
+    assert cd_res.summary()["gate_failures"]["contact loss"] == int(inside.sum())
+
+
+def _tdms_with_start(path, start: np.datetime64, sim) -> None:
+    from nptdms import ChannelObject, TdmsWriter
+
+    props = {"wf_start_time": start, "wf_increment": 1.0 / sim.fs}
+    n = 60_000
+    with TdmsWriter(str(path)) as w:
+        w.write_segment([ChannelObject("g", r, sim.channels[r][:n], properties=props) for r in ("fx", "fy", "fz")])
+
+
+def test_absolute_log_times_align_with_the_tdms_start(tmp_path, temp_sim):
+    start = np.datetime64("2024-05-02T10:15:00")
+    path = tmp_path / "run.tdms"
+    _tdms_with_start(path, start, temp_sim)
+    stamps = [str(start + np.timedelta64(s, "s")) for s in (0, 20, 40, 60)]
+    values = [150.0, 152.0, 154.0, 156.0]
+    with td.open_recording(path) as rec:
+        assert rec.start_time == "2024-05-02T10:15:00.000000"
+        aligned = td.align_log((stamps, values), rec.start_time)
+        np.testing.assert_array_equal(aligned[0], [0.0, 20.0, 40.0, 60.0])
+        res = td.analyze(rec, window=2, hop=10, temperature=(stamps, values))
+    np.testing.assert_allclose(res["T"], 150.0 + 0.1 * res["time"], atol=1e-9)
+    # epoch seconds and offsets are the same instants
+    epoch = (start - np.datetime64(0, "s")).astype(int)
+    t2, _ = td.align_log(([epoch + 20.0], [1.0]), "2024-05-02T12:15:00+02:00")
+    assert t2[0] == 20.0
+    t3, _ = td.align_log(([dt.datetime(2024, 5, 2, 10, 15, 40, tzinfo=dt.timezone.utc)], [1.0]), start)
+    assert t3[0] == 40.0
+
+
+def test_absolute_log_times_without_a_start_time_say_what_is_missing(temp_sim):
+    ch = {k: v[:60_000] for k, v in temp_sim.channels.items()}
+    for log in ((["2024-05-02T10:15:00", "2024-05-02T10:16:00"], [1.0, 2.0]), ([1.7e9, 1.7e9 + 60], [1.0, 2.0])):
+        with pytest.raises(ValueError, match="start time is missing"):
+            td.analyze(ch, fs=temp_sim.fs, window=2, hop=10, temperature=log)
+    with pytest.raises(ValueError, match="start time is missing"):
+        td.align_log((["2024-05-02T10:15:00"], [1.0]), None)
+
+
+def test_report_and_summary_show_the_fit(cd_res):
+    from tribodyn import report
+
+    opr = td.operating_range(cd_res, "current_density")
+    d = opr.to_dict()
+    assert d["verdict"] == "optimum" and d["optimum_ci"] is not None and d["bootstrap"]["seed"] == 0
+    figs = report.build_report_figures(cd_res, opr_current=opr)
+    cap = [c for c, _ in figs if "against current density with" in c][0]
+    assert "verdict: optimum" in cap and "upper breakpoint" in cap and "[" in cap and "contact loss" in cap.lower()
+    ax = figs[-1][1].axes[0]
+    labels = [h.get_label() for h in ax.get_lines()]
+    assert any("bathtub fit" in s for s in labels) and any("upper breakpoint" in s for s in labels)
+
+
+def test_log_file_with_iso_times_reads_as_epoch_seconds(tmp_path):
+    from tribodyn.jobs import read_log
+
+    path = tmp_path / "temp.csv"
+    path.write_text("time,T\n2024-05-02T10:15:00,150.0\n2024-05-02T10:15:20,152.0\n")
+    t, v = read_log(path)
+    np.testing.assert_array_equal(td.align_log((t, v), "2024-05-02T10:15:00")[0], [0.0, 20.0])
