@@ -198,6 +198,9 @@ def test_tdms_inconsistent_chunks_refused_by_each_layer(tmp_path, monkeypatch):
     from nptdms import TdmsFile
 
     assert len(TdmsFile.read(p)["tribodyn"]["fy"]) == 2018  # npTDMS reads it (with a log line): other samples
+    with pytest.raises(RecordingError, match=rf"segment 1 at byte {pos}: .*metadata runs past"):
+        open_recording(p)  # the native index
+    monkeypatch.setattr(tdms, "_NATIVE", False)  # the layers of the npTDMS path (the fallback)
     monkeypatch.setattr(tdms, "_check_metadata_size", lambda *a: None)
     with pytest.raises(RecordingError, match=rf"segment 1 at byte {pos}: .* not a whole number of chunks"):
         open_recording(p)
@@ -220,6 +223,7 @@ def test_tdms_nptdms_log_stays_off_the_terminal(tmp_path, monkeypatch, capfd, ca
             lg, logging.Logger)
     ]  # fmt: skip
     before = {lg.name: list(lg.filters) for lg in nptdms_loggers}
+    monkeypatch.setattr(tdms, "_NATIVE", False)  # the npTDMS path (the fallback)
     monkeypatch.setattr(tdms, "_check_metadata_size", lambda *a: None)  # let npTDMS meet the bad segment
     caplog.set_level(logging.DEBUG)
     with pytest.raises(RecordingError, match="segment 2 at byte"):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -56,14 +57,27 @@ def test_demo_writes_every_output(demo_dir):
     assert summary["tribodyn_version"]
     html = (demo_dir / "report.html").read_text()
     assert html.count("data:image/png;base64,") >= len(figs)
-    assert "http://" not in html and "https://" not in html
+    # Self-contained: nothing is loaded from the network (Bokeh's inline JavaScript mentions URLs in its text).
+    assert not re.search(r"""<[a-z]+\s[^>]*\b(?:src|href)\s*=\s*["']?(?:https?:)?//""", html)
     assert not leftovers(demo_dir)
+
+
+def test_demo_report_labels_are_words_and_units_consistent(demo_dir):
+    html = (demo_dir / "report.html").read_text()
+    text = re.sub(r"<script.*?</script>", "", html, flags=re.S)
+    for code in ("degC", "A/mm^2", "temperature_test:", "current_density_test:", "mu_r median", "tribodyn_version"):
+        assert code not in text, code
+    assert "temperature test: optimum temperature" in text and "°C" in text and "A/mm²" in text
+    assert re.search(r"\d+\.\d to \d+\.\d °C", text)
 
 
 def test_demo_prints_a_summary(tmp_path, capsys):
     assert run("demo", "--out", tmp_path / "d") == 0
     out = capsys.readouterr().out
-    assert "optimum" in out and "degC" in out and "A/mm^2" in out
+    assert "optimum" in out and "°C" in out and "A/mm²" in out
+    # Readable units and numbers rounded to the data's precision ("133.5 to 157.9 °C", not "133.521..157.892 degC").
+    assert "degC" not in out and "A/mm^2" not in out
+    assert re.search(r"optimum \d+\.\d to \d+\.\d °C", out), out
 
 
 @pytest.mark.parametrize("name", ["cetr_umt2_HT-2n-6-4_2_001.csv", "cetr_umt2_HT-2n-6-4_2_002.csv"])
@@ -193,8 +207,12 @@ def test_npy_without_rate_asks_for_the_cli_option(tmp_path, capsys):
     rng = np.random.default_rng(3)
     fz = rng.normal(size=(4000,))
     np.save(p, np.stack([fz * 0.2, fz]))
-    assert cli.main(["info", str(p)]) == cli.EXIT_USER_ERROR
+    # info describes the file anyway, and says what is missing.
+    assert cli.main(["info", str(p)]) == 0
+    out = capsys.readouterr().out
+    assert "sampling rate: unknown (give --fs HZ)" in out and "fs=..." not in out
+    assert cli.main(["analyze", str(p), "--out", str(tmp_path / "o")]) == cli.EXIT_USER_ERROR
     err = capsys.readouterr().err
     assert "sampling rate unknown" in err and "give --fs HZ" in err and "fs=..." not in err
     assert cli.main(["info", str(p), "--fs", "1000"]) == 0
-    assert "fs: 1000.0" in capsys.readouterr().out
+    assert "sampling rate: 1000 Hz" in capsys.readouterr().out

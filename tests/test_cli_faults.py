@@ -504,7 +504,6 @@ def test_a_pipe_as_input_is_refused_not_read(tmp_path, capsys):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["info", "{tmp}"], "directory"),
         (["info", "{tmp}/none.tdms"], "no such file"),
         (["info", "{tmp}/empty.csv"], "empty"),
         (["info", "{tmp}/junk.bin"], "unknown format"),
@@ -520,6 +519,15 @@ def test_bad_paths_are_one_line(tmp_path, rec, capsys, argv, message):
     (tmp_path / "junk.bin").write_bytes(bytes(range(256)) * 4)
     assert cli.main([a.format(tmp=tmp_path, rec=rec) for a in argv]) == 2
     assert message.lower() in error_line(capsys.readouterr().err).lower()
+
+
+def test_info_on_a_directory_describes_its_files_and_reports_the_bad_ones(tmp_path, rec, capsys):
+    """info, like analyze, takes a folder as its files: the readable ones are shown, each bad one is a line, exit 3."""
+    (tmp_path / "empty.csv").write_bytes(b"")
+    assert cli.main(["info", str(tmp_path)]) == cli.EXIT_SOME_FAILED
+    cap = capsys.readouterr()
+    assert "empty.csv" in cap.err and "Traceback" not in cap.err
+    assert rec.name in cap.out
 
 
 @pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root ignores permissions")

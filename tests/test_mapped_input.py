@@ -367,7 +367,9 @@ def test_truncated_after_opening_raises_not_crashes(data, tmp_path, file_calls):
         for threads in (1, 2):
             with pytest.raises(RecordingError, match="file ends early|truncated"):
                 td.analyze(rec, hop=2.0, threads=threads, **KW)
-    assert file_calls and all(isinstance(c["error"], ValueError) for c in file_calls)
+    # The pre-pass (docs/method.md 6a) may read the cut samples first; either way a RecordingError, and any
+    # kernel call that saw the short file failed with a ValueError, never a crash.
+    assert all(isinstance(c["error"], ValueError) for c in file_calls)
 
 
 def _unaligned_npy(path, a: np.ndarray) -> int:
@@ -516,7 +518,8 @@ def test_other_formats_copy_false_same_values(data, tmp_path, kind):
     path, kw = _other_format(kind, a, tmp_path)
     with open_recording(path, **kw) as rec:
         assert rec.n_samples == n
-        assert rec.file_layout(list(ROLES)) is None
+        # HDF5 datasets stored plainly are read by the kernel too (issue 16); the others are not
+        assert (rec.file_layout(list(ROLES)) is not None) == (kind == "hdf5")
         whole = rec.read(list(ROLES))
         for size, span in [(4000, None), (65536, None), (3001, (123, n - 77)), (n, (n // 2, n))]:
             skw = {} if span is None else {"start": span[0], "stop": span[1]}

@@ -190,10 +190,10 @@ def test_contact_loss_flagged_and_out_of_the_fit(cd_res, cd_sim):
     reasons = cd_res["reasons"]
     assert all("contact loss" in r for r in reasons[inside])
     assert not any("contact loss" in r for r in reasons[~cd_sim.truth.in_contact_loss(cd_res["time"], 1.0)])
-    assert not cd_res.gated()[inside].any()
+    assert not cd_res.gated[inside].any()
     opr = td.operating_range(cd_res, "current_density")
     assert opr.excluded["contact loss"] == int(inside.sum())
-    assert opr.n_windows == int(cd_res.gated().sum())
+    assert opr.n_windows == int(cd_res.gated.sum())
     assert opr.instability == pytest.approx(6.5, abs=0.01)
     assert opr.instability_ci[0] == pytest.approx(6.0, abs=0.01)
     assert cd_res.summary()["gate_failures"]["contact loss"] == int(inside.sum())

@@ -34,17 +34,17 @@ def cd_res(cd_sim):
 
 
 def _median_rel_error(res, sim):
-    ok = res.gated()
+    ok = res.gated
     truth = sim.truth.mu_at(res["time"][ok])
     return float(np.median(np.abs(res["mu_r"][ok] / truth - 1)))
 
 
 def test_temperature_test_cof_within_2_percent(temp_res, temp_sim):
     assert len(temp_res) == 406  # 4060 s, a 2 s window every 10 s
-    assert temp_res.gated().mean() > 0.95
+    assert temp_res.gated.mean() > 0.95
     assert _median_rel_error(temp_res, temp_sim) <= 0.02
     assert temp_res.orientation == temp_sim.orientation == -1
-    assert np.all(temp_res["mu_r"][temp_res.gated()] > 0)  # reported positive
+    assert np.all(temp_res["mu_r"][temp_res.gated] > 0)  # reported positive
 
 
 def test_current_density_test_cof_and_contact_loss(cd_res, cd_sim):
@@ -53,10 +53,10 @@ def test_current_density_test_cof_and_contact_loss(cd_res, cd_sim):
     assert lost.any()
     # Windows inside contact loss fail the gate, with the reason.
     inside = cd_sim.truth.in_contact_loss(cd_res["time"], half_width=0.0) & lost
-    assert not cd_res.gated()[inside].any()
+    assert not cd_res.gated[inside].any()
     assert all("contact loss" in r for r in cd_res["reasons"][inside])
     # Windows well clear of it pass.
-    assert cd_res.gated()[~lost].mean() > 0.95
+    assert cd_res.gated[~lost].mean() > 0.95
     assert np.allclose(cd_res["J"], cd_res["i"] / cd_sim.area_mm2)
 
 
@@ -104,7 +104,7 @@ def test_raw_input_with_highpass_same_cof():
     n = 600_000
     a = td.analyze({k: v[:n] for k, v in dyn.channels.items()}, fs=dyn.fs, window=2.0, hop=10.0)
     b = td.analyze({k: v[:n] for k, v in raw.channels.items()}, fs=raw.fs, window=2.0, hop=10.0, highpass=0.1)
-    ok = a.gated() & b.gated()
+    ok = a.gated & b.gated
     assert ok.mean() > 0.9
     assert np.median(np.abs(b["mu_r"][ok] / a["mu_r"][ok] - 1)) <= 0.01
     # The classical COF of the raw forces is reported beside it.
@@ -128,7 +128,7 @@ def test_force_dependence_sign_and_size():
 def test_skewed_channel_is_reported():
     sim = simulate.temperature_test(seed=8, skew=3)
     ch = {k: v[:4000] for k, v in sim.channels.items()}
-    r = td.identify(ch["fx"], ch["fy"], ch["fz"], fs=sim.fs, max_lag=20)
+    r = td.identify(ch["fy"], ch["fz"], fx=ch["fx"], fs=sim.fs, max_lag=20)
     assert r.skew == 3
     assert not r.ok and any("skew" in why for why in r.reasons)
     res = td.analyze({k: v[:100_000] for k, v in sim.channels.items()}, fs=sim.fs, window=2.0, hop=10.0, max_lag=10)
@@ -137,7 +137,7 @@ def test_skewed_channel_is_reported():
 
 def test_identify_one_window(temp_sim):
     ch = {k: v[20_000:22_000] for k, v in temp_sim.channels.items()}
-    r = td.identify(ch["fx"], ch["fy"], ch["fz"], fs=temp_sim.fs, rpm=250, n_lamellas=24, max_lag=50)
+    r = td.identify(ch["fy"], ch["fz"], fx=ch["fx"], fs=temp_sim.fs, rpm=250, n_lamellas=24, max_lag=50)
     mu = float(temp_sim.truth.mu_at(21.0))
     assert abs(r.mu_r / mu - 1) < 0.03
     assert r.ok and r.reasons == ()
@@ -149,10 +149,10 @@ def test_identify_one_window(temp_sim):
     assert r.spectra["yz"]["f_l"] > r.spectra["xy"]["f_l"]
     assert set(r.correlations) == {"xy", "xz", "yz"} and r.skew == 0
     # Orientation given explicitly flips the sign; the fit does not move.
-    r2 = td.identify(None, ch["fy"], ch["fz"], fs=temp_sim.fs, orientation=1)
+    r2 = td.identify(ch["fy"], ch["fz"], fs=temp_sim.fs, orientation=1)
     assert r2.mu_r == -r.mu_r and np.isnan(r2.c_xy)
     # Sigma deadband.
-    r3 = td.identify(None, ch["fy"], ch["fz"], fs=temp_sim.fs, deadband="0.7sigma")
+    r3 = td.identify(ch["fy"], ch["fz"], fs=temp_sim.fs, deadband="0.7sigma")
     assert r3.deadband == pytest.approx(0.7 * np.std(ch["fz"], ddof=1), rel=1e-9)
 
 
@@ -161,7 +161,7 @@ def test_identify_mu_a_mu_b_by_hand():
     fz = np.linspace(-1.36, 1.12, 2000)
     rng.shuffle(fz)
     fy = -np.where(fz < 0, 0.160, 0.155) * fz + 0.001 * rng.standard_normal(fz.size)
-    r = td.identify(None, fy, fz, fs=1000.0, deadband=0.35)
+    r = td.identify(fy, fz, fs=1000.0, deadband=0.35)
     assert r.orientation == -1
     a = fz <= -0.35
     assert r.mu_a == pytest.approx(np.mean(-fy[a] / fz[a]), rel=1e-12)
@@ -174,7 +174,7 @@ def test_deadband_excluding_everything_gives_nan_row_with_reason(temp_sim):
     assert np.all(np.isnan(res["mu_a"])) and np.all(np.isnan(res["mu_b"]))
     assert np.all(np.isfinite(res["mu_r"]))
     assert all("deadband" in r for r in res["reasons"])
-    r = td.identify(None, ch["fy"][:2000], ch["fz"][:2000], fs=1000.0, deadband=100.0)
+    r = td.identify(ch["fy"][:2000], ch["fz"][:2000], fs=1000.0, deadband=100.0)
     assert np.isnan(r.mu_a) and not r.ok
 
 
@@ -185,7 +185,7 @@ def test_acquisitions_are_one_window_each(temp_sim):
     assert len(res) == 3
     np.testing.assert_array_equal(res["acquisition"], [0, 1, 2])
     np.testing.assert_allclose(res["time"], [1.0, 11.0, 5.0])
-    one = td.identify(acqs[2]["fx"], acqs[2]["fy"], acqs[2]["fz"], fs=temp_sim.fs, orientation=-1)
+    one = td.identify(acqs[2]["fy"], acqs[2]["fz"], fx=acqs[2]["fx"], fs=temp_sim.fs, orientation=-1)
     assert res["mu_ols"][2] == one.mu_r  # identify's default is the paper's OLS
 
 
@@ -201,7 +201,8 @@ def test_to_pandas_and_summary(temp_res):
     pd = pytest.importorskip("pandas")
     df = temp_res.to_pandas()
     assert isinstance(df, pd.DataFrame) and len(df) == len(temp_res)
-    assert list(df.columns) == list(td.WINDOW_COLUMNS)
+    assert df.index.name == "time" and list(df.columns) == [c for c in td.WINDOW_COLUMNS if c != "time"]
+    assert df.attrs["units"]["mu_r"] == "1"
     s = temp_res.summary()
     assert s["windows"] == 406 and 0.05 < s["mu_r"]["median"] < 0.3
 
@@ -247,11 +248,11 @@ def test_analyze_bad_channels():
 
 def test_identify_bad_input():
     with pytest.raises(ValueError, match="equal lengths"):
-        td.identify(None, np.zeros(10), np.zeros(11), fs=1.0)
+        td.identify(np.zeros(10), np.zeros(11), fs=1.0)
     with pytest.raises(ValueError, match="fs"):
-        td.identify(None, np.zeros(10), np.zeros(10), fs=0)
+        td.identify(np.zeros(10), np.zeros(10), fs=0)
     with pytest.raises(ValueError, match="n_bins"):
-        td.identify(None, np.zeros(10), np.zeros(10), fs=1.0, n_bins=0)
+        td.identify(np.zeros(10), np.zeros(10), fs=1.0, n_bins=0)
     # Constant fz: a NaN result with its reason, not an exception.
-    r = td.identify(None, np.arange(10.0), np.ones(10), fs=1.0)
+    r = td.identify(np.arange(10.0), np.ones(10), fs=1.0)
     assert np.isnan(r.mu_r) and not r.ok and "degenerate" in r.reasons[0]

@@ -92,7 +92,8 @@ def test_sigma_deadband_and_explicit_orientation_match_reference(files):
 
 def test_concurrent_spans_give_the_single_stream_table(files, monkeypatch):
     """With two threads a random-access, thread-safe recording may be read as concurrent spans (dynamic input);
-    an HDF5 file (not thread-safe) is read as one stream. Either way the table is the one-thread table."""
+    an HDF5 file read through h5py (not thread-safe) is read as one stream. Either way the table is the
+    one-thread table."""
     mod = importlib.import_module("tribodyn.analyze")
     from tribodyn.plan import make_plan
 
@@ -107,8 +108,14 @@ def test_concurrent_spans_give_the_single_stream_table(files, monkeypatch):
         assert mod._spans(rec, plan(hop=3.0, threads=3)) == [(0, 38_000), (39_000, 77_000), (78_000, 119_000)]
         assert mod._spans(rec, plan(hop=2.0, threads=2, start=5000)) == [(6000, 62_000), (62_000, 120_000)]
         assert mod.choose_route(rec, rec, plan(hop=2.0, threads=2, max_lag=0)) == "spans"
-    with bench.open_source(files["dyn"]["h5"]) as rec:
+    with bench.open_source(files["dyn"]["h5"]) as rec:  # uncompressed chunks: read natively (pread), issue 16
+        assert mod.choose_route(rec, rec, plan(hop=2.0, threads=2)) == "mapped"
+        assert mod.choose_route(rec, rec, plan(hop=2.0, threads=2, max_lag=0)) == "spans"
+    monkeypatch.setattr(importlib.import_module("tribodyn.io.hdf5"), "_NATIVE", False)
+    with bench.open_source(files["dyn"]["h5"]) as rec:  # through h5py alone: not thread-safe
         assert mod.choose_route(rec, rec, plan(hop=2.0, threads=2)) == "stream"
+    monkeypatch.undo()
+    monkeypatch.setattr(mod, "_MIN_SPAN_WINDOWS", 4)
     for h in ("npy", "h5"):
         for kw in (dict(threads=2), dict(threads=2, chunk=3.3)):
             two = bench.table_of(bench.run_pipeline(files["dyn"][h], raw=False, **kw))

@@ -108,7 +108,7 @@ def test_ci_gate_keeps_good_windows_with_fy_noise():
     ch["fy"] = ch["fy"] + np.random.default_rng(5).normal(0.0, 0.05, ch["fy"].size)
     res = tribodyn.analyze(ch, fs=sim.fs, rpm=sim.rpm, n_lamellas=sim.n_lamellas)
     truth = sim.truth.mu_at(res["time"])
-    ok = res.gated()
+    ok = res.gated
     assert ok.mean() >= 0.9
     # Window by window the gated COF is unbiased (measured +0.2 %). The
     # summary median sits 2.1 % above the truth's median (0.1, the flat
@@ -118,7 +118,7 @@ def test_ci_gate_keeps_good_windows_with_fy_noise():
     assert abs(np.median(res["mu_r"][ok] / truth[ok]) - 1) <= 0.01
     assert abs(np.median(res["mu_r"][ok]) / np.median(truth[ok]) - 1) <= 0.025
     paper = tribodyn.analyze(ch, fs=sim.fs, method="paper")
-    assert paper.gated().mean() < 0.6  # the |C_yz| gate rejects most of these good windows
+    assert paper.gated.mean() < 0.6  # the |C_yz| gate rejects most of these good windows
 
 
 # -- force dependence ----------------------------------------------------------------
@@ -256,8 +256,8 @@ def test_delay_correction_is_window_local_and_route_independent(tmp_path):
 def test_identify_estimators():
     sim = simulate.conditions(4, mu=MU, seed=23, snr_z=6)
     fy, fz = sim.channels["fy"], sim.channels["fz"]
-    ols = tribodyn.identify(None, fy, fz, fs=sim.fs)
-    iv = tribodyn.identify(None, fy, fz, fs=sim.fs, rpm=sim.rpm, estimator="iv")
+    ols = tribodyn.identify(fy, fz, fs=sim.fs)
+    iv = tribodyn.identify(fy, fz, fs=sim.fs, rpm=sim.rpm, estimator="iv")
     assert ols.estimator == "ols" and np.isnan(ols.mu_r_low)
     assert ols.mu_r < 0.85 * MU
     assert iv.mu_r == pytest.approx(MU, rel=0.05)
@@ -274,3 +274,20 @@ def test_kernel_rejects_bad_extended_options():
     with pytest.raises(ValueError, match="too short"):
         _core.windows_stats(None, x, x, None, np.zeros(1, dtype=np.int64), 20, 1.0, "force", 0.1, 4, ["n"],
                             delay=0.5)  # fmt: skip
+
+
+def test_classical_cof_kernel_matches_the_reference():
+    from tribodyn.tribometer import ClassicalSpec
+
+    sim = simulate.conditions(12, mu=MU, seed=24, raw=True, y_noise=0.01)
+    fy, fz = sim.channels["fy"], sim.channels["fz"]
+    starts = np.array([0, 1700, 5003], dtype=np.int64)
+    spec = ClassicalSpec(min_fn=2.6, tare_fy=0.01, tare_fz=0.02)  # leaves out part of each window
+    db = tribodyn.deadband.parse_deadband(0.35)
+    names = ["mu_classical", "mu_classical_median", "fz_mean", "fz_std"]
+    st = tribodyn.window_stats.compute(
+        None, fy, fz, None, starts, 2000, db, 16, names, options=dict(classical=(2.6, 0.01, 0.02))
+    )
+    want = reference.classical_windows(fy, fz, starts, 2000, spec)
+    for name in names:
+        np.testing.assert_allclose(st[name], want[name], rtol=1e-10, err_msg=name)

@@ -10,13 +10,14 @@ call (1 .. ``max_threads()``); None means ``get_threads()``. Check for drift
 with ``python -m mypy.stubtest tribodyn._core``.
 """
 
-from typing import final
+from typing import Any, final
 
 import numpy as np
 from numpy.typing import NDArray
 from typing_extensions import TypeAlias
 
 __all__ = [
+    "Extents",
     "Moments",
     "NonFiniteError",
     "all_finite",
@@ -25,6 +26,7 @@ __all__ = [
     "linfit",
     "pearson",
     "set_threads",
+    "tdms_index",
     "sosfilt_inplace",
     "sosfilt_into",
     "windows_stats",
@@ -165,7 +167,7 @@ class Moments:
 
 def windows_stats_file(
     fd: int,
-    offsets: tuple[int | None, int, int, int | None],
+    offsets: tuple[int | Extents | None, int | Extents, int | Extents, int | Extents | None],
     n: int,
     k0: int,
     k1: int,
@@ -191,7 +193,8 @@ def windows_stats_file(
     [k * step, k * step + length)) of channels stored in the open file `fd`
     (a file descriptor, duplicated for the call and left open) as
     contiguous little-endian f64 runs starting at the byte offsets
-    `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The
+    `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each, or as
+    `Extents` (any numeric type, segments, interleaved rows, scaling). The
     samples are read with `pread`, `block` windows per task, on `threads`
     threads; the `columns` asked for, with the same results as
     `windows_stats` on those samples. A file that shrinks meanwhile is a
@@ -203,3 +206,48 @@ def windows_stats_file(
     and the classical COF of the raw forces is added (`mu_classic`); the
     windows must not overlap (step >= length). ``lag``, ``lines``,
     ``segments``, ``delay``: as for `windows_stats`."""
+
+@final
+class Extents:
+    """Where a channel's samples lie in a file: runs of one numeric type and
+    byte order (TDMS segments, interleaved rows, DAQmx raw integers, HDF5
+    chunks), with scaling. Read with `pread` (any number of threads)."""
+
+    @staticmethod
+    def contiguous(dtype: str, big_endian: bool, parts: list[tuple[int, int]]) -> Extents:
+        """Extents of `dtype` (NumPy's name: "f8", "i2", ...) stored
+        contiguously: `parts` is a list of (sample count, byte offset)."""
+    def scaled(self, ops: list[tuple[str, list[float]]]) -> Extents:
+        """The same samples scaled by `ops` after these' own, in order: each
+        ("linear", [slope, intercept]) or ("poly", [c0, c1, ...])."""
+    def read(self, fd: int, start: int, stop: int) -> NDArray[np.float64]:
+        """Samples [start, stop) as float64 (scaled), read from the open file `fd`."""
+    @property
+    def n(self) -> int:
+        """Samples of the channel."""
+    @property
+    def dtype(self) -> str:
+        """NumPy's name of the stored type ("f8", "i2", ...)."""
+    @property
+    def big_endian(self) -> bool:
+        """Whether the samples are stored big-endian."""
+    @property
+    def runs(self) -> int:
+        """Runs of samples (one per segment or chunk; consecutive ones, and
+        equal ones at a fixed distance, merged)."""
+    @property
+    def is_scaled(self) -> bool:
+        """Whether scaling is applied."""
+    @property
+    def end(self) -> int:
+        """One past the last byte read."""
+
+def tdms_index(fd: int, index_fd: int | None = None) -> dict[str, Any]:
+    """The segment index of the TDMS file open as `fd` (see `tribodyn.io.tdms`),
+    its metadata read from the `.tdms_index` open as `index_fd` if given
+    (and it matches the data file): a dict with "segments", "warnings" (npTDMS's log, as it would say it),
+    "fallback" (why the file is not read natively, or None) and "objects":
+    a list of (path, properties [(name, type code, value bytes, big-endian)],
+    data type code or None, values, {scale key: Extents} (-1 for the
+    channel's own samples, else a DAQmx scale id), why not native or None).
+    A damaged file is a ValueError naming the segment."""

@@ -89,8 +89,8 @@ def analyze(
     source: Any,
     *,
     fs: Optional[float] = None,
-    window: float = 2.0,
-    hop: float = 10.0,
+    window: Optional[float] = None,
+    hop: Optional[float] = None,
     highpass: Optional[float] = None,
     orientation: Orientation = "auto",
     temperature: Any = None,
@@ -115,6 +115,11 @@ def analyze(
     align: Optional[str] = None,
     iv_lag: Optional[float] = None,
     noise: Any = None,
+    motion: str = "auto",
+    min_fn: Optional[float] = None,
+    tare: Any = None,
+    stroke_fraction: float = 0.5,
+    channels: Optional[Mapping[str, str]] = None,
 ) -> Results:
     """COF of every window of a long recording (docs/method.md 6).
 
@@ -130,12 +135,35 @@ def analyze(
         - a list (or tuple) of mappings: separate acquisitions, each one
           window (an optional scalar ``"t0"`` entry gives its start time in
           s; otherwise acquisitions are taken as back to back);
-        - a recording from :func:`tribodyn.open_recording` (read in chunks).
+        - a recording from :func:`tribodyn.open_recording` (read in chunks);
+          its separate acquisitions (``Recording.acquisitions``: CETR steps,
+          time restarts, LVM segments marked discontinuous) are windowed
+          apart, each from its first sample: no window straddles two;
+        - a pandas DataFrame: columns named by role, or mapped with
+          ``channels={"fy": "Ft", ...}``; fs from a ``time`` column or the
+          index when not given.
     fs : float
         Sampling rate in Hz (taken from a recording when omitted).
     window, hop : float
         Window length and start-to-start spacing in s (paper 2 and 10;
         ``hop == window`` tiles the recording). Only complete windows count.
+        Not given: 2 s and 10 s, except for slow recordings (docs/method.md
+        6b): a window of at least 100 samples and, below 100 Hz, hop =
+        window; ``params["window_note"]`` says what was chosen.
+    motion : {"auto", "unidirectional", "reciprocating"}
+        "reciprocating" adds the per-stroke table ``Results.strokes``
+        (strokes from the sign changes of the ``v`` role, of d``x``/dt, else
+        of fy; docs/method.md 6c); "auto" detects it from fy's sign changes.
+    min_fn : float, optional
+        Classical COF: samples with |fz| below it (N) are left out (default
+        5 % of the recording's median |fz|; docs/method.md 6a).
+    tare : float or mapping, optional
+        Classical COF: seconds at the start without contact (their mean fy
+        and fz are subtracted), or explicit offsets ``{"fy": N, "fz": N}``.
+    stroke_fraction : float
+        Central part of each stroke used for its COF (default 0.5).
+    channels : mapping, optional
+        For a DataFrame source: role -> column.
     highpass : float, optional
         Cut-off in Hz of a first-order Butterworth high-pass applied to raw,
         DC-coupled force channels first (streaming, state carried, "steady"
@@ -264,6 +292,10 @@ class Partial:
     plan: Plan
     route: str
     warnings: Tuple[str, ...]
+    #: What the pre-pass found and the role map (docs/method.md 6a-6d), for ``Results.params``.
+    tribo: Dict[str, Any] = dataclasses.field(default_factory=dict)
+    #: The per-stroke table of a reciprocating test (the whole recording's, the same in every range).
+    strokes: Optional[Dict[str, np.ndarray]] = None
 
 
 def analyze_partial(source: Any, **options: Any) -> Partial:
@@ -281,6 +313,9 @@ def combine(parts: Sequence[Partial]) -> Results:
     st = _concat([dict(p.st) for p in parts])
     warnings = tuple(dict.fromkeys(w for p in parts for w in p.warnings))
     res = finish(st, parts[0].aux_role, plan, parts[0].route, warnings=warnings)
+    res.params.update(parts[0].tribo)
+    if parts[0].strokes is not None:
+        res = dataclasses.replace(res, strokes=parts[0].strokes)
     if len(parts) > 1:
         res.params.update(start=0, stop=None, ranges=len(parts))
     return res
@@ -289,20 +324,173 @@ def combine(parts: Sequence[Partial]) -> Results:
 def _analyze(source: Any, options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
     """:func:`analyze`'s body: ``options`` are its keyword arguments."""
     fs, temperature, current, voltage = (options.pop(k, None) for k in ("fs", "temperature", "current", "voltage"))
+    extra = {k: options.pop(k, None) for k in ("motion", "min_fn", "tare", "stroke_fraction", "channels")}
     align = options.get("align")
+    if _is_dataframe(source):
+        from .tribometer import from_dataframe
+
+        source, fs = from_dataframe(source, extra["channels"], fs)
+    elif extra["channels"] is not None:
+        raise TypeError("channels= maps the columns of a pandas DataFrame; map a recording's with open_recording")
     rec = source if _is_recording(source) else None
     if fs is None:
         if rec is None:
             raise TypeError("analyze needs fs= (the sampling rate in Hz)")
         fs = rec.fs
+    motion = extra["motion"] if extra["motion"] is not None else "auto"
+    if motion not in ("auto", "unidirectional", "reciprocating"):
+        raise ValueError(f"motion must be 'auto', 'unidirectional' or 'reciprocating', got {motion!r}")
+    window_note = ""
+    if isinstance(fs, (int, float)) and not isinstance(fs, bool) and fs > 0:
+        from .tribometer import auto_window
+
+        options["window"], options["hop"], window_note = auto_window(float(fs), options.get("window"),
+                                                                     options.get("hop"))  # fmt: skip
+    else:
+        options["window"] = 2.0 if options.get("window") is None else options["window"]
+        options["hop"] = 10.0 if options.get("hop") is None else options["hop"]
     if rec is not None:  # logs with absolute times start at the reader's start time (docs/method.md 6)
         temperature, current, voltage = (
             align_to_recording(x, rec, nm)
             for x, nm in ((temperature, "temperature"), (current, "current"), (voltage, "voltage"))
         )
     plan = make_plan(fs=fs, temperature=temperature, current=current, voltage=voltage, **options)
+    from .tribometer import prepass
+
+    pre = prepass(source, rec, plan.fs, min_fn=extra["min_fn"], tare=extra["tare"], motion=motion)
+    plan = dataclasses.replace(plan, classical=pre.get("spec"))
+    tribo = _tribometer_params(rec, pre, window_note)
+    sf = extra["stroke_fraction"]
+    stroke_fraction = 0.5 if sf is None else float(sf)
+    if not (0 < stroke_fraction <= 1):
+        raise ValueError(f"stroke_fraction must be in (0, 1], got {sf!r}")
+    strokes: Optional[Dict[str, np.ndarray]] = None
+    run_source, run_rec, run_plan = source, rec, plan
+    if pre.get("motion") == "reciprocating":
+        tribo["stroke_fraction"] = stroke_fraction
+        found = _strokes(source, rec, plan, stroke_fraction, partition=partial)
+        if found is not None:
+            # docs/method.md 6c: the windows are the strokes' central parts, fy rectified (an acquisition each).
+            strokes, run_source = found
+            run_rec, run_plan = None, dataclasses.replace(plan, start=0, stop=None)
+            tribo["rectified"] = True
+            if not run_source:
+                raise ValueError("no stroke's central part holds 3 samples: no window to analyse")
     if partial:
-        return _partial(source, rec, plan)
+        p = _partial(run_source, run_rec, run_plan)
+        warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + ((window_note,) if window_note else ())
+        return dataclasses.replace(p, plan=plan, warnings=tuple(dict.fromkeys(warnings)), tribo=tribo,
+                                   strokes=strokes)  # fmt: skip
+    res = _analyze_aligned(run_source, run_rec, run_plan, align)
+    if run_rec is not rec and rec is not None:
+        res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
+    res.params.update(tribo)
+    if run_plan is not plan:
+        res.params.update(start=plan.start, stop=plan.stop)
+    if window_note:
+        res = dataclasses.replace(res, warnings=res.warnings + (window_note,))
+    if strokes is not None:
+        res = dataclasses.replace(res, strokes=strokes)
+    return res
+
+
+def _is_dataframe(source: Any) -> bool:
+    return type(source).__name__ == "DataFrame" and hasattr(source, "columns") and hasattr(source, "index")
+
+
+def _tribometer_params(rec: Any, pre: Dict[str, Any], window_note: str) -> Dict[str, Any]:
+    """What the pre-pass found and the role map, for ``Results.params`` (docs/method.md 6a-6d)."""
+    out: Dict[str, Any] = {"motion": pre.get("motion", "unidirectional"),
+                           "motion_detected": bool(pre.get("motion_detected"))}  # fmt: skip
+    if "sign_flip_share" in pre:
+        out["sign_flip_share"] = pre["sign_flip_share"]
+    if "static" in pre:
+        out["static_fz"] = bool(pre["static"])
+    spec = pre.get("spec")
+    if spec is not None:
+        out["min_fn"] = spec.min_fn
+        out["tare_offsets"] = {"fy": spec.tare_fy, "fz": spec.tare_fz}
+    if window_note:
+        out["window_note"] = window_note
+    if rec is not None and getattr(rec, "roles", None) is not None:
+        roles = dict(rec.roles)
+        out["roles"] = roles
+        defaults = getattr(rec, "_default_roles", None)
+        out["roles_source"] = "automatic" if defaults is not None and roles == dict(defaults) else "given"
+    return out
+
+
+#: Roles read for a reciprocating test: the pipeline's and the direction's (velocity, position).
+_STROKE_ROLES = (*_ROLES, "v", "x")
+#: A window straddles a direction change when the direction signal, times the stroke's direction, falls
+#: below -REVERSAL_SHARE x its p95 magnitude in it (docs/method.md 6c).
+REVERSAL_SHARE = 0.05
+
+
+def _strokes(source: Any, rec: Any, plan: Plan, fraction: float, partition: bool = False
+             ) -> Optional[Tuple[Dict[str, np.ndarray], List[Dict[str, Any]]]]:  # fmt: skip
+    """The per-stroke table of a reciprocating test and its windows as acquisitions (docs/method.md 6c).
+
+    Reads the whole fy, fz (and fx, i, u, cof, x, v when present). The
+    windows are the central ``fraction`` of each stroke (cut into windows of
+    the plan's length every hop when longer than one), fy rectified as
+    ``tare_fy + d (fy - tare_fy)`` with the stroke's direction d; each
+    carries its stroke index and whether it straddles a direction change.
+    Only windows within ``plan.start`` .. ``plan.stop`` are kept; with
+    ``partition`` (a range of :func:`tribodyn.analyze_many`), those starting
+    in ``plan.start`` .. the next range's start (``stop - length + step``),
+    so that consecutive ranges keep each window once. None for a one-pass
+    stream of chunks.
+    """
+    from .tribometer import ClassicalSpec, find_strokes, stroke_table
+
+    if rec is not None:
+        data = rec.read([r for r in _STROKE_ROLES if r in rec.roles])
+        bounds = list(getattr(rec, "acquisitions", None) or [(0, rec.n_samples)])
+    elif isinstance(source, Mapping):
+        data = {k: np.asarray(v, dtype=float) for k, v in source.items() if k in _STROKE_ROLES}
+        bounds = []
+    elif isinstance(source, (list, tuple)):
+        keys = [k for k in _STROKE_ROLES if all(k in a for a in source)]
+        data = {k: np.concatenate([np.asarray(a[k], dtype=float) for a in source]) for k in keys}
+        ends = np.cumsum([len(a["fz"]) for a in source])
+        bounds = list(zip([0, *ends[:-1].tolist()], ends.tolist()))
+    else:
+        return None
+    kind, sig = ("v", data["v"]) if "v" in data else (("x", data["x"]) if "x" in data else ("fy", data["fy"]))
+    strokes = find_strokes(sig, boundaries=bounds, kind=kind)
+    table = stroke_table(data["fy"], data["fz"], strokes, plan.fs, plan.classical, fraction, data.get("cof"))
+    # The windows: each stroke's central part, fy rectified.
+    dsig = np.gradient(np.asarray(sig, dtype=float)) if kind == "x" else np.asarray(sig, dtype=float)
+    fin = np.abs(dsig[np.isfinite(dsig)])
+    limit = REVERSAL_SHARE * float(np.percentile(fin, 95)) if fin.size else 0.0
+    tare = (plan.classical or ClassicalSpec(0.0)).tare_fy
+    n_all = len(data["fz"])
+    stop = plan.stop if plan.stop is not None else n_all
+    first_of_next = n_all if plan.stop is None else plan.stop - plan.length + plan.step
+    roles = [r for r in _ROLES if r in data]
+    pieces: List[Dict[str, Any]] = []
+    for k, (a, b, d) in enumerate(strokes):
+        m = b - a
+        c0 = a + int(round(m * (1 - fraction) / 2))
+        c1 = max(c0 + 1, a + int(round(m * (1 + fraction) / 2)))
+        starts = [c0] if c1 - c0 <= plan.length else list(range(c0, c1 - plan.length + 1, plan.step))
+        for s0 in starts:
+            s1 = min(c1, s0 + plan.length)
+            if s1 - s0 < 3 or s0 < plan.start or (s0 >= first_of_next if partition else s1 > stop):
+                continue
+            piece: Dict[str, Any] = {r: data[r][s0:s1] for r in roles}
+            piece["fy"] = tare + d * (piece["fy"] - tare)
+            piece["t0"] = s0 / plan.fs
+            piece["stroke"] = k
+            with np.errstate(invalid="ignore"):
+                piece["reversal"] = bool(np.any(d * dsig[s0:s1] < -limit))
+            pieces.append(piece)
+    return table, pieces
+
+
+def _analyze_aligned(source: Any, rec: Any, plan: Plan, align: Optional[str]) -> Results:
+    """The analysis, with align="auto"'s second pass when asked."""
     if align == "auto":
         if not (rec is not None or isinstance(source, (Mapping, list, tuple))):
             raise ValueError(
@@ -343,7 +531,12 @@ def _partial(source: Any, rec: Any, plan: Plan) -> Partial:
     route = choose_route(source, rec, plan)
     total = _total(source, rec, plan)
     _check_table_size(plan, total)
-    if route == "acquisitions":
+    acq = getattr(rec, "acquisitions", None) if rec is not None else None
+    if route != "acquisitions" and acq is not None and len(acq) > 1 and plan.start == 0 and plan.stop is None:
+        route = "segments"
+    if route == "segments":
+        st, aux_role = _run_segments(rec, plan, acq or [])
+    elif route == "acquisitions":
         st, aux_role = _acquisitions(source, plan)
     elif route == "mapped":
         st, aux_role = _run_mapped(rec, plan)
@@ -476,6 +669,10 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     elif cov.voltage is not None:
         cur = evaluate(cov.voltage, centre) / cov.shunt_ohm
     log = cov.temperature
+    if "stroke_reversal" in o and np.any(o["stroke_reversal"]):  # docs/method.md 6c
+        reasons = np.asarray(reasons, dtype=object).copy()
+        for k in np.flatnonzero(o["stroke_reversal"]):
+            reasons[k] = "; ".join(r for r in (reasons[k], "stroke reversal in the window") if r)
     if not plan.paper:  # the paper's preset keeps the paper's gate exactly
         reasons = mark_contact_loss(reasons, o, cur / cov.area_mm2 if cov.area_mm2 is not None else cur)  # method.md 7
     values: Stats = {
@@ -495,6 +692,10 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan(),
         "mu_classic": o["mu_classic"] if "mu_classic" in o else nan(),
         "mu_instrument": o["mu_instrument"] if "mu_instrument" in o else nan(),
+        "mu_classical": o["mu_classical"] if "mu_classical" in o else nan(),
+        "mu_classical_median": o["mu_classical_median"] if "mu_classical_median" in o else nan(),
+        "fz_mean": o["fz_mean"] if "fz_mean" in o else (nan() if plan.raw else np.asarray(moments["mean_z"])),
+        "fz_std": o["fz_std"] if "fz_std" in o else _fz_std(o, plan),
         "n": n_win,
         "acquisition": o.get("acquisition", np.zeros(len(centre), dtype=np.int64)),
     }
@@ -532,7 +733,7 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     returns the columns that replace or join them. ``found`` gets what the
     recording revealed (for ``params``), ``notes`` the warnings.
     """
-    from .estimators import T975, line_stats, pooled_noise, quadratic, slopes
+    from .estimators import T975, Sums, line_stats, pooled_noise, quadratic, slopes
 
     k = len(o["n"])
     mu_ols = np.array(o["mu_r"], dtype=float)
@@ -544,7 +745,7 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
         if "skew" in o:
             out["skew_lag"] = o["skew"]
         return out
-    E = o.pop("ext")
+    E = Sums(o.pop("ext"))
     n = np.asarray(o["n"])
     pooled = None
     if plan.estimator == "corrected" and plan.noise is None:
@@ -613,6 +814,16 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
                 "mu_r is biased low by it; analyze(..., align='auto') corrects it (docs/method.md 3e)"
             )
     return out
+
+
+def _fz_std(o: Stats, plan: Plan) -> np.ndarray:
+    """Per-window standard deviation of fz from the kernel's centred sum of squares (NaN without it)."""
+    if "szz" not in o:
+        return np.full(len(o["n"]), np.nan)
+    n = np.asarray(o["n"], dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        std: np.ndarray = np.sqrt(np.asarray(o["szz"], dtype=float) / n)
+        return std
 
 
 def _orientation_confidence(st: Stats, s: int) -> Dict[str, float]:
@@ -744,10 +955,31 @@ def _check_chunk(chunk: Any, where: str) -> Dict[str, np.ndarray]:
     return out
 
 
+# -- route "segments" ----------------------------------------------------------------
+
+
+def _run_segments(rec: Any, plan: Plan, ranges: Sequence[Tuple[int, int]]) -> Tuple[Stats, Optional[str]]:
+    """Each separate acquisition of a recording windowed from its own first sample (no window straddles two)."""
+    parts: List[Stats] = []
+    aux_role: Optional[str] = None
+    size = plan.chunk or DEFAULT_CHUNK
+    for k, (a, b) in enumerate(ranges):
+        if b - a < plan.length:
+            continue
+        batch, aux = _run_chunks(rec.chunks(size, start=a, stop=b, copy=_copies(rec)), 0, plan, None,
+                                 threads=plan.threads)  # fmt: skip
+        aux_role = aux_role or aux
+        for st in batch:
+            st["start"] = np.asarray(st["start"], dtype=np.int64) + a
+            st["acquisition"] = np.full(len(st["n"]), k, dtype=np.int64)
+            parts.append(st)
+    return _concat(parts), aux_role
+
+
 # -- route "mapped" ------------------------------------------------------------------
 
 
-def _mapped_layout(rec: Any, plan: Plan) -> Optional[Tuple[int, Dict[str, int], Optional[str]]]:
+def _mapped_layout(rec: Any, plan: Plan) -> Optional[Tuple[int, Dict[str, Any], Optional[str]]]:
     """(descriptor, byte offsets, aux role) when the route "mapped" applies, else None (nothing is read)."""
     if not getattr(rec, "mappable", False) or plan.max_lag is not None or plan.progress:
         return None
@@ -804,8 +1036,8 @@ def _run_mapped(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
     except ValueError as exc:
         # The kernel checks the file's length before each block: a file
         # that shrank since it was opened is the recording's error.
-        need = max(o for o in offsets if o is not None) + 8 * n_rec
-        if os.fstat(fd).st_size < need:
+        ends = [o + 8 * n_rec if isinstance(o, int) else o.end for o in offsets if o is not None]
+        if os.fstat(fd).st_size < max(ends):
             raise RecordingError(f"{rec.path}: file ends early (truncated since it was opened?): {exc}") from None
         raise
     st["start"] = np.arange(k0, k1, dtype=np.int64) * plan.step
@@ -864,14 +1096,18 @@ def _run_spans(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
 
 def _chunk_source(source: Any, rec: Any, plan: Plan) -> Iterable[Any]:
     if rec is not None:
-        return rec.chunks(plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop, copy=_copies(rec))
+        chunks: Iterable[Any] = rec.chunks(
+            plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop, copy=_copies(rec)
+        )
+        return chunks
     if isinstance(source, Mapping):
         n = len(next(iter(source.values()))) if source else 0
         size = plan.chunk or DEFAULT_CHUNK
         if n <= size:
             return [source]
         return ({k: v[s : s + size] for k, v in source.items()} for s in range(0, n, size))
-    return source
+    out: Iterable[Any] = source
+    return out
 
 
 def _copies(rec: Any) -> bool:
@@ -918,7 +1154,7 @@ def _run_chunks(chunks: Iterable[Any], origin: int, plan: Plan, bar: Any, *, thr
             if bar is not None:
                 bar.update(len(raw_chunk["fz"]))
         return stage.finish()
-    pending: Deque[Future] = deque()
+    pending: "Deque[Future[Any]]" = deque()
     with ThreadPoolExecutor(1, thread_name_prefix="tribodyn") as ex:
         try:
             for i, raw_chunk in enumerate(chunks):
@@ -997,11 +1233,9 @@ def _cutoff(plan: Plan) -> float:
 def _progress(on: bool, total: Optional[int]) -> Any:
     if not on:
         return None
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover - tqdm is a dependency
-        return None
-    return tqdm(total=total, unit="sample", unit_scale=True, desc="analyse", leave=False)
+    from ._progress import progress_bar
+
+    return progress_bar(total, unit="sample", unit_scale=True, desc="analyse")
 
 
 # -- route "acquisitions" ------------------------------------------------------------
@@ -1028,7 +1262,9 @@ def _acquisitions(source: Sequence[Any], plan: Plan) -> Tuple[Stats, Optional[st
         st = _kernel(ch, np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), one, aux_role, plan.threads)
         t0 = acq.get("t0") if isinstance(acq, Mapping) else None
         st["t0"] = np.array([float(t0) if t0 is not None else t])
-        st["acquisition"] = np.array([k], dtype=np.int64)
+        st["acquisition"] = np.array([acq.get("stroke", k) if isinstance(acq, Mapping) else k], dtype=np.int64)
+        if isinstance(acq, Mapping) and "reversal" in acq:  # a stroke's window (docs/method.md 6c)
+            st["stroke_reversal"] = np.array([bool(acq["reversal"])])
         t += n / plan.fs
         parts.append(st)
     if not parts:

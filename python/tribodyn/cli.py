@@ -25,7 +25,7 @@ import re
 import stat
 import sys
 from pathlib import Path
-from typing import Any, Dict, List, Mapping, Optional, Sequence
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Type
 
 __all__ = ["main"]
 
@@ -64,7 +64,7 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_USER_ERROR, f"tribodyn: error: {message} (see {self.prog} --help)\n")
 
 
-def _kv(text: str, what: str, convert=str) -> Dict[str, Any]:
+def _kv(text: str, what: str, convert: Callable[[str], Any] = str) -> Dict[str, Any]:
     out: Dict[str, Any] = {}
     for part in filter(None, (p.strip() for p in text.split(","))):
         if "=" not in part:
@@ -120,6 +120,17 @@ def _pair(text: str) -> Any:
     return (a, b)
 
 
+def _tare(text: str) -> Any:
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    try:
+        return {k: float(v) for k, v in _kv(text, "tare", float).items()}
+    except UserError as exc:
+        raise argparse.ArgumentTypeError(f"tare must be seconds or fy=N,fz=N offsets ({exc})") from None
+
+
 def _deadband(text: str) -> Any:
     try:
         return float(text)
@@ -128,12 +139,16 @@ def _deadband(text: str) -> Any:
 
 
 def _parser() -> argparse.ArgumentParser:
+    # Global options go before or after the sub-command: the sub-commands' copies
+    # default to SUPPRESS so they never overwrite a value given before it.
     common = _Parser(add_help=False)
-    common.add_argument("--quiet", "-q", action="store_true", help="no progress bar or summary")
-    common.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    common.add_argument("--quiet", "-q", action="store_true", default=argparse.SUPPRESS, help=_QUIET_HELP)
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=_DEBUG_HELP)
 
     p = _Parser(prog="tribodyn", description="Coefficient of friction from measured dynamic forces.")
     p.add_argument("--version", action="store_true", help="print the version and exit")
+    p.add_argument("--quiet", "-q", action="store_true", default=False, help=_QUIET_HELP)
+    p.add_argument("--debug", action="store_true", default=False, help=_DEBUG_HELP)
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
 
     d = sub.add_parser("demo", parents=[common], help="simulate the paper's two tests, analyse them, write a report")
@@ -164,7 +179,20 @@ def _parser() -> argparse.ArgumentParser:
         "own conversion); may be repeated",
     )
     a.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
-    a.add_argument("--window", type=float, help="window length in s (default 2)")
+    a.add_argument("--time-column", help="text files: the column holding time (gives fs; restarts split segments)")
+    a.add_argument("--encoding", help="text files: the encoding (default: detected; e.g. cp932, utf-16, latin-1)")
+    a.add_argument("--resample", type=float, help="text files with irregular time: interpolate linearly at HZ")
+    a.add_argument(
+        "--motion",
+        choices=["auto", "unidirectional", "reciprocating"],
+        help="auto (default: reciprocating when fy changes sign), unidirectional or reciprocating",
+    )
+    a.add_argument("--min-fn", type=float, help="classical COF: least |fz| in N (default 5 %% of the median |fz|)")
+    a.add_argument(
+        "--tare", type=_tare, help="classical COF: S seconds at the start without contact, or offsets fy=N,fz=N"
+    )
+    a.add_argument("--stroke-fraction", type=float, help="reciprocating: central part of each stroke (default 0.5)")
+    a.add_argument("--window", type=float, help="window length in s (default 2; slow recordings: from the rate)")
     a.add_argument("--hop", type=float, help="window start spacing in s (default 10; = window tiles)")
     a.add_argument("--highpass", type=float, help="high-pass raw DC-coupled forces at HZ first (e.g. 0.1)")
     a.add_argument("--temperature", help="temperature log file: two columns, time in s and degC")
@@ -201,8 +229,9 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
 
-    i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of a file")
-    i.add_argument("file", metavar="FILE")
+    i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of files")
+    i.add_argument("files", nargs="+", metavar="FILE", help="recordings, directories or glob patterns")
+    i.add_argument("--json", action="store_true", help="print one JSON document (a list, one object per file)")
     i.add_argument("--format", help="file format (default: detected)")
     i.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
 
@@ -216,6 +245,8 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+_QUIET_HELP = "no progress bar or summary (before or after the command)"
+_DEBUG_HELP = "show tracebacks of errors (before or after the command)"
 _OVERWRITE_HELP = "replace --out even when it holds files that are not a previous tribodyn output set"
 
 # Config keys: what each must be (checked like the command-line options).
@@ -225,6 +256,13 @@ _CONFIG_KEYS: Dict[str, str] = {
     "map": 'a table of role = "channel" (or a string "fy=Ft,fz=Fn")',
     "scale": 'a table of role = number (or a string "fz=0.00980665")',
     "fs": _NUMBER,
+    "time_column": _TEXT,
+    "encoding": _TEXT,
+    "resample": _NUMBER,
+    "motion": _TEXT,
+    "min_fn": _NUMBER,
+    "tare": "a number of seconds or a table of offsets",
+    "stroke_fraction": _NUMBER,
     "window": _NUMBER,
     "hop": _NUMBER,
     "highpass": _NUMBER,
@@ -300,6 +338,12 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
         ):
             return (float(v[0]), float(v[1]))
         raise bad()
+    if key == "tare":
+        if is_int or isinstance(v, float):
+            return float(v)
+        if isinstance(v, dict) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v.values()):
+            return {str(k): float(x) for k, x in v.items()}
+        raise bad()
     if key == "deadband":
         if is_int or isinstance(v, float):
             return float(v)
@@ -349,9 +393,12 @@ def _load_config(path: str) -> Dict[str, Any]:
     }
 
 
-def _analysis_options(ns: argparse.Namespace) -> tuple:
+def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str, Any], List[Any]]:
     cfg = _load_config(ns.config) if ns.config else {}
-    get = lambda key: getattr(ns, key) if getattr(ns, key, None) is not None else cfg.get(key)  # noqa: E731
+
+    def get(key: str) -> Any:
+        return getattr(ns, key) if getattr(ns, key, None) is not None else cfg.get(key)
+
     channels: Dict[str, str] = dict(cfg.get("map") or {})
     for text in ns.map or ():  # repeated --map options add up; a later role wins
         channels.update(_role_map(_kv(text, "map"), "--map"))
@@ -368,6 +415,9 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
     fs = get("fs")
     if fs is not None:
         open_opts["fs"] = float(fs)
+    for key in ("time_column", "encoding", "resample"):
+        if get(key) is not None:
+            open_opts[key] = get(key)
     opts: Dict[str, Any] = {}
     for key, name in (
         ("window", "window"),
@@ -390,6 +440,10 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
         ("max_lag", "max_lag"),
         ("chunk", "chunk"),
         ("threads", "threads"),
+        ("motion", "motion"),
+        ("min_fn", "min_fn"),
+        ("tare", "tare"),
+        ("stroke_fraction", "stroke_fraction"),
     ):
         v = get(key)
         if v is not None:
@@ -404,6 +458,7 @@ def _analysis_options(ns: argparse.Namespace) -> tuple:
         from .jobs import read_log
 
         opts["temperature"] = read_log(get("temperature"))
+        opts["temperature_file"] = str(get("temperature"))  # named in the report's inputs (not an analysis option)
     return open_opts, opts, protect
 
 
@@ -473,6 +528,7 @@ def _channels_hint(message: str, files: Sequence[str], open_opts: Dict[str, Any]
 
 
 def _progress_wanted(ns: argparse.Namespace) -> bool:
+    """A progress bar only for a person watching: stderr is a terminal and no --quiet."""
     return not ns.quiet and sys.stderr.isatty()
 
 
@@ -480,7 +536,10 @@ def _print_breakpoints(rng: Dict[str, Any], s: Dict[str, Any]) -> None:
     """The verdict and the breakpoints with their 95 % intervals next to the simulator's truth (docs/method.md 7)."""
     if not rng.get("verdict"):
         return
+    from ._labels import fmt_interval, fmt_number, fmt_range, unit_text
+
     print(f"  verdict: {rng['verdict']}")
+    unit = unit_text(rng["unit"])
     sim, bath = s.get("simulated_optimum") or {}, s.get("simulated_breakpoints") or {}
     fits = {"all": rng, **{k[4:]: v for k, v in rng.items() if k.startswith("fit_")}}
     for name, f in fits.items():
@@ -489,35 +548,66 @@ def _print_breakpoints(rng: Dict[str, Any], s: Dict[str, Any]) -> None:
         (lo, hi), (lci, hci) = f["optimum"], f["optimum_ci"]
 
         def iv(ci: Any) -> str:
-            return f"[{ci[0]:.4g}, {ci[1]:.4g}]" if ci and None not in ci else "[-]"
+            return fmt_interval(ci) or "[-]"
 
-        line = f"  {name}: breakpoints {lo:.4g} {iv(lci)} and {hi:.4g} {iv(hci)} {rng['unit']}"
+        line = f"  {name}: breakpoints {fmt_number(lo)} {iv(lci)} and {fmt_number(hi)} {iv(hci)} {unit}"
         truth = sim.get(rng["by"] if name == "all" else f"{rng['by']}_{name}")
         if truth:
-            line += f"; simulated flat bottom {truth[0]:g}..{truth[1]:g}"
+            line += f"; simulated flat bottom {fmt_range(truth[0], truth[1], unit)}"
         b = bath.get(name)
         if b and b.get("lower") is not None and b.get("upper") is not None:
-            line += f" (straight-wall fit of it: {b['lower']:.4g}..{b['upper']:.4g})"
+            line += f" (straight-wall fit of it: {fmt_range(b['lower'], b['upper'], unit)})"
         print(line)
 
 
 def _print_demo(summary: Dict[str, Any], out: str) -> None:
+    from ._labels import fmt_number, fmt_range, unit_text
+
     for key, label in (("temperature_test", "temperature test"), ("current_density_test", "current-density test")):
         s = summary[key]
         mu = s["mu_r"]
         rng = s["operating_range"] or {}
         line = (
             f"{label}: {s['gated']}/{s['windows']} windows pass the gate; "
-            f"COF {mu['p05']:.3f}..{mu['p95']:.3f} (median {mu['median']:.3f})"
+            f"COF {mu['p05']:.3f} to {mu['p95']:.3f} (median {mu['median']:.3f})"
         )
+        unit = unit_text(rng.get("unit"))
         if rng.get("optimum"):
             lo, hi = rng["optimum"]
-            line += f"; optimum {lo:g}..{hi:g} {rng['unit']} (COF {rng['mu_min']:.3f})"
+            line += f"; optimum {fmt_range(lo, hi, unit, ci=rng.get('optimum_ci'))} (COF {rng['mu_min']:.3f})"
         if rng.get("onset") is not None:
-            line += f"; steep rise from {rng['onset']:.2f} {rng['unit']}"
+            line += f"; steep rise from {fmt_number(rng['onset'])} {unit}"
         print(line)
         _print_breakpoints(rng, s)
     print(f"outputs in {out}/ (report.html, summary.json, *_windows.csv, figures/)")
+
+
+def _tribometer_lines(s: Dict[str, Any]) -> List[str]:
+    """The classical, instrument and per-stroke COF, the automatic role map and the chosen window (issue 14)."""
+    out: List[str] = []
+    cl, ins, st = s.get("classical") or {}, s.get("instrument") or {}, s.get("strokes") or {}
+    parts = []
+    if cl.get("n"):
+        parts.append(f"classical COF median {cl['median']:.4f} (mean {cl['mean']:.4f}, {cl['n']} windows)")
+    if ins.get("n"):
+        parts.append(f"instrument COF median {ins['median']:.4f} (mean {ins['mean']:.4f})")
+    for d in ("forward", "backward"):
+        if (st.get(d) or {}).get("n"):
+            parts.append(f"{d} strokes COF median {st[d]['median']:.4f} ({st[d]['n']} strokes)")
+    if parts:
+        out.append("; ".join(parts))
+    roles = s.get("roles") or {}
+    if roles and s.get("roles_source") == "automatic":
+        text = "roles: " + ", ".join(f"{r} <- {n}" for r, n in roles.items())
+        names = {str(n).split("/")[-1].split("[")[0].strip().lower() for n in roles.values()}
+        if "fy" in names or "fx" in roles:
+            text += "; pass --map if your sliding direction is x (--map fy=Fx)"
+        else:
+            text += " (automatic; --map ROLE=CHANNEL to change)"
+        out.append(text)
+    if s.get("window_note"):
+        out.append(str(s["window_note"]))
+    return out
 
 
 def _print_analysis(summary: Dict[str, Any], out: str) -> None:
@@ -525,9 +615,33 @@ def _print_analysis(summary: Dict[str, Any], out: str) -> None:
         mu = s["mu_r"]
         text = f"{name}: {s['gated']}/{s['windows']} windows pass the gate"
         if mu.get("n"):
-            text += f"; COF median {mu['median']:.4f} (p05 {mu['p05']:.4f}, p95 {mu['p95']:.4f})"
+            text += f"; COF median {mu['median']:.4f} (90 % of the windows {mu['p05']:.4f} to {mu['p95']:.4f})"
+            ci = (mu.get("ci") or {}).get("median")
+            if ci:
+                text += f", 95 % interval of the median {ci[0]:.4f} to {ci[1]:.4f}"
         print(text)
-    print(f"outputs in {out}/")
+        from ._labels import units_in_text
+        from .results import verdict_text
+
+        verdict = verdict_text(s.get("verdict"))
+        if verdict:
+            print(f"  verdict: {units_in_text(verdict)}")
+        for line in _tribometer_lines(s):
+            print(f"  {line}")
+        for key in ("operating_range_temperature", "operating_range_current_density"):
+            rng = s.get(key) or {}
+            if rng.get("optimum"):
+                from ._labels import fmt_range
+
+                lo, hi = rng["optimum"]
+                where = fmt_range(lo, hi, rng["unit"], ci=rng.get("optimum_ci"))
+                line = f"  optimum {rng['by'].replace('_', ' ')}: {where}"
+                if rng.get("mu_min") is not None:
+                    line += f" (COF {rng['mu_min']:.3f})"
+                if rng.get("verdict"):
+                    line += f"; {rng['verdict']}"
+                print(line)
+    print(f"outputs in {out}/ (open report.html)")
 
 
 def _run(ns: argparse.Namespace) -> int:
@@ -597,18 +711,7 @@ def _run(ns: argparse.Namespace) -> int:
             print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
         return EXIT_SOME_FAILED if summary.get("failures") else 0
     if ns.command == "info":
-        from .io import open_recording
-
-        kw: Dict[str, Any] = {}
-        if ns.format:
-            kw["format"] = ns.format
-        if ns.fs is not None:
-            kw["fs"] = ns.fs
-        _check_regular([ns.file])
-        with open_recording(ns.file, **kw) as rec:
-            info = rec.info()
-        _print_info(info)
-        return 0
+        return _run_info(ns)
     if ns.command == "simulate":
         from . import simulate
         from .io.writers import save_recording
@@ -636,22 +739,141 @@ def _check_recording_target(path: str) -> None:
         raise UserError(f"{path}: the folder {folder} does not exist")
 
 
+def _run_info(ns: argparse.Namespace) -> int:
+    """``info``: every file's format, size, fs, duration and channels; text or one JSON list.
+
+    A file that cannot be read is reported (``"error"`` in JSON, a line on
+    stderr) and the others are still shown; the status is then 3 (2 if none
+    could be read).
+    """
+    import json
+
+    from .distributed import expand_paths
+    from .io import open_recording
+
+    kw: Dict[str, Any] = {}
+    if ns.format:
+        kw["format"] = ns.format
+    if ns.fs is not None:
+        kw["fs"] = ns.fs
+    files = expand_paths(ns.files)
+    _check_regular(files)
+    infos: List[Dict[str, Any]] = []
+    failed = 0
+    for f in files:
+        try:
+            infos.append(_jsonable(_file_info(open_recording, f, kw)))
+        except _user_errors() as exc:
+            if len(files) == 1 and not ns.json:
+                raise
+            failed += 1
+            infos.append({"path": str(f), "error": _one_line(_cli_words(_error_text(exc)))})
+            if not ns.json:
+                print(f"tribodyn: error: {Path(f).name}: {infos[-1]['error']}", file=sys.stderr)
+    if ns.json:
+        print(json.dumps(infos, indent=2, ensure_ascii=False, allow_nan=False))
+    else:
+        for k, info in enumerate(i for i in infos if "error" not in i):
+            if k:
+                print()
+            _print_info(info)
+    if failed:
+        return EXIT_USER_ERROR if failed == len(files) else EXIT_SOME_FAILED
+    return 0
+
+
+def _file_info(open_recording: Any, path: str, kw: Dict[str, Any]) -> Dict[str, Any]:
+    """``Recording.info()``; a file that does not carry its sampling rate is still described (fs unknown)."""
+    try:
+        with open_recording(path, **kw) as rec:
+            return dict(rec.info())
+    except Exception as exc:
+        if "fs" in kw or "sampling rate unknown" not in str(exc):
+            raise
+    # Open it once more with a stand-in rate (1 Hz) to list its channels; report no rate and no duration.
+    with open_recording(path, **{**kw, "fs": 1.0}) as rec:
+        info = dict(rec.info())
+    info.update(fs=None, duration=None, fs_source="not in the file")
+    return info
+
+
+def _jsonable(v: Any) -> Any:
+    """Plain JSON values: NaN/inf as None, NumPy scalars and arrays as numbers and lists, others as text."""
+    if isinstance(v, Mapping):
+        return {str(k): _jsonable(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_jsonable(x) for x in v]
+    if hasattr(v, "tolist"):
+        return _jsonable(v.tolist())
+    if isinstance(v, float):
+        return v if math.isfinite(v) else None
+    if v is None or isinstance(v, (bool, int, str)):
+        return v
+    return str(v)
+
+
+def _size_text(n: Any) -> str:
+    if not isinstance(n, int):
+        return "unknown"
+    for unit, f in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= f:
+            return f"{n / f:.1f} {unit} ({n:,} bytes)"
+    return f"{n} bytes"
+
+
+def _duration_text(d: Any) -> str:
+    if not isinstance(d, (int, float)):
+        return "unknown"
+    if d >= 3600:
+        return f"{d:g} s ({d / 3600:.2f} h)"
+    if d >= 60:
+        return f"{d:g} s ({d / 60:.1f} min)"
+    return f"{d:g} s"
+
+
 def _print_info(info: Dict[str, Any]) -> None:
-    for key, val in info.items():
-        if key == "channels":
-            print("channels:")
-            for ch in val:
-                if isinstance(ch, dict):
-                    role = f"  [{ch.get('role')}]" if ch.get("role") else ""
-                    print(f"  {ch.get('name')} ({ch.get('unit') or '-'}){role}")
-                else:
-                    print(f"  {ch}")
-        else:
-            print(f"{key}: {val}")
+    """One file's info as aligned text: the essentials, the channels as a table, metadata and warnings."""
+    name = Path(str(info.get("path", "?"))).name
+    print(name)
+    print("=" * len(name))
+    fs = info.get("fs")
+    fs_text = f"{fs:g} Hz" if isinstance(fs, (int, float)) else "unknown (give --fs HZ)"
+    if info.get("fs_source"):
+        fs_text += f" ({info['fs_source']})"
+    rows = [
+        ("format", info.get("format")),
+        ("size", _size_text(info.get("size_bytes"))),
+        ("sampling rate", fs_text),
+        ("samples", f"{info['n_samples']:,}" if isinstance(info.get("n_samples"), int) else "unknown"),
+        ("duration", _duration_text(info.get("duration"))),
+        ("segments", info.get("segments")),
+    ]
+    for key, val in rows:
+        if val is not None:
+            print(f"  {key + ':':<15}{val}")
+    chans = [c for c in info.get("channels") or () if isinstance(c, Mapping)]
+    if chans:
+        print(f"  channels ({len(chans)}):")
+        w = max(len(str(c.get("name"))) for c in chans)
+        for c in chans:
+            unit = c.get("unit") or "-"
+            role = f"role {c['role']}" if c.get("role") else ""
+            note = c.get("note") or ""
+            print(f"    {str(c.get('name')):<{w}}  {unit:<8} {role:<8} {note}".rstrip())
+    meta = info.get("metadata") or {}
+    if meta:
+        print(f"  metadata ({len(meta)}):")
+        for k, v in list(meta.items())[:40]:
+            text = " ".join(str(v).split())
+            print(f"    {k}: {text[:100] + '...' if len(text) > 100 else text}")
+        if len(meta) > 40:
+            print(f"    ... and {len(meta) - 40} more (--json shows all)")
+    for wtext in info.get("warnings") or ():
+        print(f"  warning: {wtext}")
 
 
-def _user_errors() -> tuple:
-    errs: List[type] = [
+def _user_errors() -> Tuple[Type[BaseException], ...]:
+    errs: List[Type[BaseException]] = [
         UserError,
         ValueError,
         TypeError,

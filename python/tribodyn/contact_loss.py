@@ -21,7 +21,7 @@ the window fails the gate and stays out of every fit.
 
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Any, List, Mapping
 
 import numpy as np
 
@@ -62,7 +62,7 @@ def contact_loss_mask(stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndar
     # A spread that lasts: a step of the current moves the COF within one
     # window (a wide spread once) without any loss of contact.
     lasting = spread & (np.r_[spread[1:], False] | np.r_[False, spread[:-1]])
-    history: list = []
+    history: List[Any] = []
     for k in range(n):
         jump = False
         if lasting[k] and np.isfinite(mu[k]) and history:

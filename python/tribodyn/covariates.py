@@ -198,7 +198,8 @@ def align_to_recording(log: Any, rec: Any, name: str) -> Any:
 def interpolate(log: TimeLog, at: np.ndarray) -> np.ndarray:
     """Linear interpolation at ``at``; NaN outside [t_first, t_last]."""
     t, v = log
-    return np.interp(at, t, v, left=np.nan, right=np.nan)
+    out: np.ndarray = np.interp(at, t, v, left=np.nan, right=np.nan)
+    return out
 
 
 def log_noise(log: TimeLog) -> float:
@@ -213,7 +214,7 @@ def log_noise(log: TimeLog) -> float:
     log of fewer than 6 readings.
     """
     t, v = log
-    floor = _resolution(v) / np.sqrt(12.0)
+    floor = float(_resolution(v) / np.sqrt(12.0))
     if t.size < 6:  # under 4 residuals the course changes would dominate the median
         return floor
     a = (t[2:] - t[1:-1]) / (t[2:] - t[:-2])  # weight of the left neighbour

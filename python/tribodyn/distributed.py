@@ -27,7 +27,7 @@ import glob
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 
@@ -93,7 +93,7 @@ class ManyResults:
         }
 
 
-def expand_paths(inputs: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]]) -> List[str]:
+def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]]) -> List[str]:
     """Files from paths, directories (their files, sorted) and glob patterns, in order, without repeats."""
     items = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     out: List[str] = []
@@ -179,7 +179,7 @@ def _combine(parts: List[Partial]) -> Results:
     return combine(parts)
 
 
-def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], List[Any]]:
+def _runner(client: Any, progress: bool) -> Callable[[Callable[..., Any], List[Tuple[Any, ...]]], List[Any]]:
     if client is not None and not (callable(getattr(client, "submit", None)) and hasattr(client, "gather")):
         raise TypeError(
             f"client must be a dask.distributed.Client (or None to run serially), got {type(client).__name__}; "
@@ -187,16 +187,24 @@ def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], Li
         )
     if client is None:
 
-        def serial(fn: Callable, args: List[tuple]) -> List[Any]:
+        def serial(fn: Callable[..., Any], args: List[Tuple[Any, ...]]) -> List[Any]:
             if not progress:
                 return [fn(*a) for a in args]
-            from tqdm import tqdm
+            from ._progress import progress_bar
 
-            return [fn(*a) for a in tqdm(args, desc=fn.__name__.replace("_task", ""), unit="task", leave=False)]
+            bar = progress_bar(len(args), unit="task", desc=fn.__name__.replace("_task", ""))
+            out = []
+            for a in args:
+                out.append(fn(*a))
+                if bar is not None:
+                    bar.update(1)
+            if bar is not None:
+                bar.close()
+            return out
 
         return serial
 
-    def run(fn: Callable, args: List[tuple]) -> List[Any]:
+    def run(fn: Callable[..., Any], args: List[Tuple[Any, ...]]) -> List[Any]:
         # The tasks are pure functions of their arguments, so a task lost with
         # its worker is simply recomputed (retries). Keys are unique per call
         # (pure=False) so each call computes afresh rather than reusing a
@@ -205,14 +213,15 @@ def _runner(client: Any, progress: bool) -> Callable[[Callable, List[tuple]], Li
         if progress:
             from dask.distributed import progress as show
 
-            show(futures)
-        return client.gather(futures)
+            cast(Any, show)(futures)
+        out: List[Any] = client.gather(futures)
+        return out
 
     return run
 
 
 def analyze_many(
-    paths: Union[str, os.PathLike, Sequence[Union[str, os.PathLike]]],
+    paths: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]],
     *,
     client: Any = None,
     open_options: Optional[Dict[str, Any]] = None,
@@ -266,7 +275,7 @@ def analyze_many(
         plans: List[Any] = [None] * len(files)
     else:
         plans = run(plan_task, [(f, open_options) for f in files])
-    jobs: List[Tuple[int, tuple]] = []
+    jobs: List[Tuple[int, Tuple[Any, ...]]] = []
     failures: Dict[str, RecordingFailure] = {}
     for i, (f, plan) in enumerate(zip(files, plans)):
         if isinstance(plan, RecordingFailure):
@@ -309,10 +318,10 @@ def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
-    cluster = LocalCluster(
+    cluster = cast(Any, LocalCluster)(
         n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0"
     )
-    return Client(cluster)
+    return cast(Any, Client)(cluster)
 
 
 def connect(address: str, workers: int = 2) -> Any:
@@ -323,4 +332,4 @@ def connect(address: str, workers: int = 2) -> Any:
         from dask.distributed import Client
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
-    return Client(address)
+    return cast(Any, Client)(address)

@@ -43,6 +43,7 @@ __all__ = [
     "quadratic",
     "line_stats",
     "line_frequencies",
+    "Sums",
 ]
 
 #: Blocks per window of the batch-means standard errors (``_core``'s extended.BLOCKS).
@@ -56,8 +57,29 @@ ESTIMATORS = ("corrected", "iv", "ols", "deming")
 T975 = 2.7764451051977987
 
 
-def _p(E: np.ndarray, name: str) -> np.ndarray:
-    return E[..., _I[name]]
+class Sums:
+    """The block sums of many windows laid out for the arithmetic: ``blocks[p]`` is product p's
+    (windows, BLOCKS) array (contiguous), ``total[p]`` its (windows,) sum over the blocks."""
+
+    def __init__(self, E: np.ndarray) -> None:
+        E = np.asarray(E, dtype=float)
+        if E.ndim != 3 or E.shape[1:] != (BLOCKS, len(PRODUCTS)):
+            raise ValueError(f"block sums must have shape (windows, {BLOCKS}, {len(PRODUCTS)}), got {E.shape}")
+        self.E = E
+        self.blocks = np.ascontiguousarray(E.transpose(2, 0, 1))
+        self.total = self.blocks.sum(axis=2)
+
+    def __len__(self) -> int:
+        return int(self.E.shape[0])
+
+
+def _sums(E: "np.ndarray | Sums") -> Sums:
+    return E if isinstance(E, Sums) else Sums(E)
+
+
+def _p(S: Sums, name: str, total: bool = False) -> np.ndarray:
+    out: np.ndarray = S.total[_I[name]] if total else S.blocks[_I[name]]
+    return out
 
 
 def block_sizes(n: np.ndarray) -> np.ndarray:
@@ -71,7 +93,8 @@ def block_sizes(n: np.ndarray) -> np.ndarray:
 def _bm_se(U: np.ndarray, D: np.ndarray) -> np.ndarray:
     """Batch-means standard error sqrt(B / (B - 1) sum_k U_k^2) / |D| (docs/method.md 3d)."""
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.sqrt(BLOCKS / (BLOCKS - 1) * np.sum(U * U, axis=1)) / np.abs(D)
+        se: np.ndarray = np.sqrt(BLOCKS / (BLOCKS - 1) * np.sum(U * U, axis=1)) / np.abs(D)
+    return se
 
 
 @dataclass(frozen=True)
@@ -104,7 +127,7 @@ class Slopes:
     instrument_r: np.ndarray
 
 
-def pooled_noise(E: np.ndarray, n: np.ndarray) -> Tuple[float, float]:
+def pooled_noise(E: "np.ndarray | Sums", n: np.ndarray) -> Tuple[float, float]:
     """sigma_z^2 of the noise on fz measured from the recording, and its standard error (docs/method.md 3c).
 
     Per window (S_zz - S_zy / b_iv) / n: the part of fz's variance the
@@ -112,10 +135,10 @@ def pooled_noise(E: np.ndarray, n: np.ndarray) -> Tuple[float, float]:
     windows where the instrument is weak), clipped at 0. Its standard error
     is that of a median, sqrt(pi / 2) * 1.4826 MAD / sqrt(windows).
     """
-    T = E.sum(axis=1)
+    S = _sums(E)
     with np.errstate(invalid="ignore", divide="ignore"):
-        b_iv = _p(T, "wy") / _p(T, "wz")
-        s2 = (_p(T, "zz") - _p(T, "zy") / b_iv) / np.asarray(n, dtype=float)
+        b_iv = _p(S, "wy", True) / _p(S, "wz", True)
+        s2 = (_p(S, "zz", True) - _p(S, "zy", True) / b_iv) / np.asarray(n, dtype=float)
     s2 = s2[np.isfinite(s2)]
     if s2.size == 0:
         return float("nan"), float("nan")
@@ -126,7 +149,7 @@ def pooled_noise(E: np.ndarray, n: np.ndarray) -> Tuple[float, float]:
 
 
 def slopes(
-    E: np.ndarray,
+    E: "np.ndarray | Sums",
     n: np.ndarray,
     estimator: str,
     *,
@@ -149,23 +172,22 @@ def slopes(
     """
     if estimator not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {', '.join(map(repr, ESTIMATORS))}, got {estimator!r}")
-    E = np.asarray(E, dtype=float)
-    T = E.sum(axis=1)
+    S = _sums(E)
     nk = block_sizes(n)
     nf = np.asarray(n, dtype=float)
-    szz, szy, syy, swz, swy, sww = (_p(T, k) for k in ("zz", "zy", "yy", "wz", "wy", "ww"))
+    szz, szy, swz, swy, sww = (_p(S, k, True) for k in ("zz", "zy", "wz", "wy", "ww"))
     with np.errstate(invalid="ignore", divide="ignore"):
         b_ols = szy / szz
-        u_ols = _p(E, "zy") - b_ols[:, None] * _p(E, "zz")
+        u_ols = _p(S, "zy") - b_ols[:, None] * _p(S, "zz")
         b_iv = swy / swz
-        u_iv = _p(E, "wy") - b_iv[:, None] * _p(E, "wz")
+        u_iv = _p(S, "wy") - b_iv[:, None] * _p(S, "wz")
         r_inst = swz / np.sqrt(sww * szz)
         se_ols, se_iv = _bm_se(u_ols, szz), _bm_se(u_iv, swz)
         phi = u_iv / swz[:, None] - u_ols / szz[:, None]
         t = (b_iv - b_ols) / np.sqrt(BLOCKS / (BLOCKS - 1) * np.sum(phi * phi, axis=1))
-    from scipy import stats  # lazy: scipy.stats is slow to import
+    from scipy import special  # lazy: keeps `import tribodyn` light
 
-    p = 2.0 * stats.t.sf(np.abs(t), BLOCKS - 1)
+    p = 2.0 * special.stdtr(BLOCKS - 1, -np.abs(t))  # two-sided Student t, B - 1 degrees of freedom
     noise_z = float("nan")
     if estimator == "ols":
         b, se = b_ols, se_ols
@@ -175,18 +197,18 @@ def slopes(
         if noise is not None:
             s2, s2_se = float(noise[1]) ** 2, 0.0
         else:
-            s2, s2_se = pooled if pooled is not None else pooled_noise(E, n)
+            s2, s2_se = pooled if pooled is not None else pooled_noise(S, n)
         noise_z = s2
         with np.errstate(invalid="ignore", divide="ignore"):
             D = szz - nf * s2
             D = np.where(D > 0, D, np.nan)
             b = szy / D
-            u = _p(E, "zy") - b[:, None] * (_p(E, "zz") - nk * s2)
+            u = _p(S, "zy") - b[:, None] * (_p(S, "zz") - nk * s2)
             se = np.sqrt(_bm_se(u, D) ** 2 + (b * nf / D) ** 2 * (s2_se if np.isfinite(s2_se) else 0.0) ** 2)
     else:
         if noise is None:
             raise ValueError("estimator='deming' needs noise=(sigma_y, sigma_z) or a quiet record (docs/method.md 3c)")
-        b, se = _deming(E, nk, float(noise[0]) ** 2 / float(noise[1]) ** 2)
+        b, se = _deming(S, nk, float(noise[0]) ** 2 / float(noise[1]) ** 2)
     return Slopes(
         ols=b_ols, ols_se=se_ols, iv=b_iv, iv_se=se_iv, slope=b, se=se, attenuation_p=p, noise_z=noise_z,
         instrument_r=r_inst,
@@ -196,86 +218,80 @@ def slopes(
 def _deming_slope(szz: np.ndarray, syy: np.ndarray, szy: np.ndarray, delta: float) -> np.ndarray:
     with np.errstate(invalid="ignore", divide="ignore"):
         d = syy - delta * szz
-        return (d + np.sqrt(d * d + 4.0 * delta * szy * szy)) / (2.0 * szy)
+        b: np.ndarray = (d + np.sqrt(d * d + 4.0 * delta * szy * szy)) / (2.0 * szy)
+    return b
 
 
-def _deming(E: np.ndarray, nk: np.ndarray, delta: float) -> Tuple[np.ndarray, np.ndarray]:
+def _deming(S: Sums, nk: np.ndarray, delta: float) -> Tuple[np.ndarray, np.ndarray]:
     """Deming slope and its delete-one-block jackknife standard error (docs/method.md 3c)."""
-    T = E.sum(axis=1)
-    b = _deming_slope(_p(T, "zz"), _p(T, "yy"), _p(T, "zy"), delta)
+    T = S.total
+    b = _deming_slope(T[_I["zz"]], T[_I["yy"]], T[_I["zy"]], delta)
     reps = []
     for k in range(BLOCKS):
-        R = T - E[:, k, :]
+        R = T - S.blocks[:, :, k]
         m = nk.sum(axis=1) - nk[:, k]
         with np.errstate(invalid="ignore", divide="ignore"):
-            cz, cy = _p(R, "z") / m, _p(R, "y") / m
-        szz = _p(R, "zz") - m * cz * cz
-        syy = _p(R, "yy") - m * cy * cy
-        szy = _p(R, "zy") - m * cz * cy
+            cz, cy = R[_I["z"]] / m, R[_I["y"]] / m
+        szz = R[_I["zz"]] - m * cz * cz
+        syy = R[_I["yy"]] - m * cy * cy
+        szy = R[_I["zy"]] - m * cz * cy
         reps.append(_deming_slope(szz, syy, szy, delta))
     J = np.stack(reps, axis=1)
     se = np.sqrt((BLOCKS - 1) / BLOCKS * np.sum((J - J.mean(axis=1, keepdims=True)) ** 2, axis=1))
     return b, se
 
 
-def quadratic(E: np.ndarray, n: np.ndarray, instrumented: bool) -> Tuple[np.ndarray, np.ndarray]:
+def quadratic(E: "np.ndarray | Sums", n: np.ndarray, instrumented: bool) -> Tuple[np.ndarray, np.ndarray]:
     """d mu / d Fn per window and its batch-means standard error (orientation +1; docs/method.md 3e).
 
     Fits fy = c + a1 z + a2 (z^2 - mean z^2) per window; a2 is d mu / d Fn
     when mu = mu0 (1 + beta (Fn - Fn0)). With ``instrumented`` the
     instruments are w and w^2 - mean w^2 (w the lagged fz), which keeps a2
-    unbiased when fz carries noise.
+    unbiased when fz carries noise. a = H^-1 v with H the instruments'
+    cross-products with (z, q), q = z^2 - mean z^2; the block scores
+    g_k = h_k y - H_k a give var(a) = H^-1 (B / (B - 1) sum_k g_k g_k^T) H^-T.
     """
-    E = np.asarray(E, dtype=float)
-    T = E.sum(axis=1)
+    S = _sums(E)
     nk = block_sizes(n)
     nf = np.asarray(n, dtype=float)
-    g = _p  # shorthand
-    m2 = g(T, "zz") / nf
-    y_b, z_b = g(E, "y"), g(E, "z")
-    if instrumented:
-        mw2 = g(T, "ww") / nf
-        w_b = g(E, "w")
-        H = np.empty((len(nf), 2, 2))
-        H[:, 0, 0], H[:, 0, 1] = g(T, "wz"), g(T, "wzz")
-        H[:, 1, 0], H[:, 1, 1] = g(T, "wwz"), g(T, "wwzz") - nf * m2 * mw2
-        v = np.stack([g(T, "wy"), g(T, "wwy")], axis=1)
-        # Block sums of instrument x (y, z, q), q = z^2 - m2, r = w^2 - mw2.
-        hy = np.stack([g(E, "wy"), g(E, "wwy") - mw2[:, None] * y_b], axis=2)
-        hz = np.stack([g(E, "wz"), g(E, "wwz") - mw2[:, None] * z_b], axis=2)
-        hq = np.stack(
-            [
-                g(E, "wzz") - m2[:, None] * w_b,
-                g(E, "wwzz") - m2[:, None] * g(E, "ww") - mw2[:, None] * g(E, "zz") + (m2 * mw2)[:, None] * nk,
-            ],
-            axis=2,
-        )
-    else:
-        H = np.empty((len(nf), 2, 2))
-        H[:, 0, 0], H[:, 0, 1] = g(T, "zz"), g(T, "zzz")
-        H[:, 1, 0], H[:, 1, 1] = g(T, "zzz"), g(T, "zzzz") - nf * m2 * m2
-        v = np.stack([g(T, "zy"), g(T, "zzy")], axis=1)
-        hy = np.stack([g(E, "zy"), g(E, "zzy") - m2[:, None] * y_b], axis=2)
-        hz = np.stack([g(E, "zz"), g(E, "zzz") - m2[:, None] * z_b], axis=2)
-        hq = np.stack(
-            [g(E, "zzz") - m2[:, None] * z_b, g(E, "zzzz") - 2 * m2[:, None] * g(E, "zz") + (m2 * m2)[:, None] * nk],
-            axis=2,
-        )
-    a2 = np.full(len(nf), np.nan)
-    se = np.full(len(nf), np.nan)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        det = H[:, 0, 0] * H[:, 1, 1] - H[:, 0, 1] * H[:, 1, 0]
-        ok = np.isfinite(det) & (det != 0) & np.isfinite(v).all(axis=1)
-        if not ok.any():
-            return a2, se
-        Hi = np.linalg.inv(H[ok])
-        a = np.einsum("kij,kj->ki", Hi, v[ok])
-        G = hy[ok] - a[:, 0, None, None] * hz[ok] - a[:, 1, None, None] * hq[ok]  # (k, B, 2) block scores
-        S = BLOCKS / (BLOCKS - 1) * np.einsum("kbi,kbj->kij", G, G)
-        V = np.einsum("kij,kjl,kml->kim", Hi, S, Hi)
-    a2[ok] = a[:, 1]
-    se[ok] = np.sqrt(np.maximum(V[:, 1, 1], 0.0))
-    return a2, se
+
+    def t(name: str) -> np.ndarray:
+        return _p(S, name, True)
+
+    def b(name: str) -> np.ndarray:
+        return _p(S, name)
+
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        m2 = t("zz") / nf
+        y_b, z_b = b("y"), b("z")
+        if instrumented:
+            mw2 = t("ww") / nf
+            h00, h01, h10, h11 = t("wz"), t("wzz"), t("wwz"), t("wwzz") - nf * m2 * mw2
+            v0, v1 = t("wy"), t("wwy")
+            # Block sums of instrument x (y, z, q), q = z^2 - m2, r = w^2 - mw2.
+            hy0, hy1 = b("wy"), b("wwy") - mw2[:, None] * y_b
+            hz0, hz1 = b("wz"), b("wwz") - mw2[:, None] * z_b
+            hq0 = b("wzz") - m2[:, None] * b("w")
+            hq1 = b("wwzz") - m2[:, None] * b("ww") - mw2[:, None] * b("zz") + (m2 * mw2)[:, None] * nk
+        else:
+            h00, h01, h10, h11 = t("zz"), t("zzz"), t("zzz"), t("zzzz") - nf * m2 * m2
+            v0, v1 = t("zy"), t("zzy")
+            hy0, hy1 = b("zy"), b("zzy") - m2[:, None] * y_b
+            hz0, hz1 = b("zz"), b("zzz") - m2[:, None] * z_b
+            hq0 = b("zzz") - m2[:, None] * z_b
+            hq1 = b("zzzz") - 2 * m2[:, None] * b("zz") + (m2 * m2)[:, None] * nk
+        det = h00 * h11 - h01 * h10
+        det = np.where(det != 0, det, np.nan)
+        a1 = (h11 * v0 - h01 * v1) / det
+        a2 = (h00 * v1 - h10 * v0) / det
+        g0 = hy0 - a1[:, None] * hz0 - a2[:, None] * hq0
+        g1 = hy1 - a1[:, None] * hz1 - a2[:, None] * hq1
+        c = BLOCKS / (BLOCKS - 1)
+        s00, s01, s11 = c * np.sum(g0 * g0, axis=1), c * np.sum(g0 * g1, axis=1), c * np.sum(g1 * g1, axis=1)
+        r0, r1 = -h10 / det, h00 / det  # row 2 of H^-1
+        var = r0 * r0 * s00 + 2 * r0 * r1 * s01 + r1 * r1 * s11
+        se = np.sqrt(np.maximum(var, 0.0))
+    return a2, np.where(np.isfinite(a2), se, np.nan)
 
 
 def line_frequencies(

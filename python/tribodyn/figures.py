@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -47,6 +47,7 @@ __all__ = [
     "cof_vs_temperature",
     "cof_and_current_density_vs_time",
     "cof_vs_current_density",
+    "strokes_vs_cycle",
     "save_figure",
 ]
 
@@ -64,7 +65,6 @@ _MU_STYLE = {
     "mu_a": dict(color="tab:blue", marker="v", label=r"$\mu_a$ ($F_{z,d} \leq -d$)"),
     "mu_b": dict(color="tab:orange", marker="^", label=r"$\mu_b$ ($F_{z,d} \geq +d$)"),
 }
-_FAILED: Dict[str, Any] = dict(color="0.6", marker="x", linestyle="none", markersize=4, alpha=0.8)
 _OPTIMUM_COLOUR = "tab:green"
 _ONSET_COLOUR = "tab:red"
 _BRANCH_STYLE = {
@@ -167,7 +167,7 @@ def _cof_limits(values: Sequence[np.ndarray]) -> Optional[Tuple[float, float]]:
     return lo - 0.02 * (hi - lo) if lo < 0 else lo, hi + 0.1 * (hi - lo)
 
 
-def _legend_above(ax: Axes, handles: Optional[list] = None, ncol: int = 3) -> None:
+def _legend_above(ax: Axes, handles: Optional[List[Any]] = None, ncol: int = 3) -> None:
     """Legend in a frameless block just above the axes (the title goes in the suptitle)."""
     kw: Dict[str, Any] = {} if handles is None else {"handles": handles}
     hs = handles if handles is not None else ax.get_legend_handles_labels()[0]
@@ -538,13 +538,89 @@ _COVARIATE = {
 }
 
 
-def _cof_time_axes(ax: Axes, results: Any) -> Tuple[list, list]:
-    """Draws mu_r, mu_a, mu_b of the gated windows and the failed ones in grey; returns legend handles."""
+#: Above this many gated windows the COF-against-time figures draw a running median and band.
+BAND_FROM = 200
+#: Points of the running median (equal-count blocks of consecutive gated windows).
+BAND_BLOCKS = 200
+#: Height of the strip at the top of the axes that holds the failed windows (axes fraction).
+FAILED_STRIP = 0.07
+
+
+def running_band(t: np.ndarray, v: np.ndarray, blocks: int = BAND_BLOCKS) -> Tuple[np.ndarray, ...]:
+    """Median and 5th/95th percentiles of ``v`` over equal-count blocks of consecutive points in time order.
+
+    Returns (t_centre, median, p05, p95), one value per block of
+    ceil(n / blocks) points (at least 5). Readable from ten to 10^5
+    windows; O(n log n).
+    """
+    order = np.argsort(t, kind="stable")
+    t, v = t[order], v[order]
+    m = max(5, int(np.ceil(t.size / blocks)))
+    k = t.size // m
+    if k < 2:
+        return (np.empty(0),) * 4
+    tb = t[: k * m].reshape(k, m)
+    vb = v[: k * m].reshape(k, m)
+    q = np.percentile(vb, [50, 5, 95], axis=1)
+    return tb.mean(axis=1), q[0], q[1], q[2]
+
+
+def failed_reasons(results: Any, bad: np.ndarray, top: int = 3) -> str:
+    """The commonest gate-failure reasons of the windows ``bad``: 'reason (n), ...'."""
+    table = getattr(results, "table", results)
+    if "reasons" not in table:
+        return ""
+    counts: Dict[str, int] = {}
+    for r in np.asarray(table["reasons"])[bad]:
+        for part in str(r).split("; "):
+            key = part.split(":")[0].strip()
+            if key:
+                counts[key] = counts.get(key, 0) + 1
+    ranked = sorted(counts.items(), key=lambda kv: -kv[1])[:top]
+    return ", ".join(f"{k} ({v})" for k, v in ranked)
+
+
+def _failed_strip(ax: Axes, x: np.ndarray, results: Any, bad: np.ndarray) -> Any:
+    """Failed windows as ticks in a grey strip along the top of the axes, apart from the COF values."""
+    from matplotlib.patches import Rectangle
+    from matplotlib.transforms import blended_transform_factory
+
+    ax.add_patch(
+        Rectangle(
+            (0.0, 1.0 - FAILED_STRIP), 1.0, FAILED_STRIP, transform=ax.transAxes, color="0.93", zorder=0.5, linewidth=0
+        )  # fmt: skip
+    )
+    trans = blended_transform_factory(ax.transData, ax.transAxes)
+    xs = x[bad]
+    (h,) = ax.plot(
+        xs,
+        np.full(xs.size, 1.0 - FAILED_STRIP / 2),
+        transform=trans,
+        color="0.45",
+        marker="|",
+        linestyle="none",
+        markersize=7,
+        alpha=0.8,
+        label=f"gate failed ({int(bad.sum())} windows)",
+        zorder=4,
+        clip_on=False,
+    )
+    why = failed_reasons(results, bad)
+    if why:
+        ax.text(0.005, 1.0 - FAILED_STRIP - 0.005, f"failed (top strip): {why}", transform=ax.transAxes, fontsize=7,
+                va="top", ha="left", color="0.3", zorder=5)  # fmt: skip
+    return h
+
+
+def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
+    """mu_r, mu_a, mu_b of the gated windows (with a running median and 5-95 % band when there are many)
+    and the failed windows in a strip at the top; returns legend handles and the plotted COF values."""
     t = np.asarray(getattr(results, "table", results)["time"], dtype=float)
     n = t.size
     ok = _gated(results, n)
-    handles: list = []
+    handles: List[Any] = []
     tops = []
+    many = int(ok.sum()) > BAND_FROM
     for col in ("mu_r", "mu_a", "mu_b"):
         v = _column(results, col, n)
         sel = ok & np.isfinite(v) & np.isfinite(t)
@@ -552,6 +628,22 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[list, list]:
             continue
         st = _MU_STYLE[col]
         small = col != "mu_r"
+        if many:
+            tc, med, lo, hi = running_band(t[sel], v[sel])
+            if col == "mu_r":
+                (h,) = ax.plot(t[sel], v[sel], linestyle="none", marker=".", markersize=1.5, color="0.35", alpha=0.35,
+                               label=st["label"] + " per window", zorder=2, rasterized=True)  # fmt: skip
+                handles.append(h)
+                if tc.size:
+                    band = ax.fill_between(tc, lo, hi, color="tab:purple", alpha=0.25, linewidth=0, zorder=2.5,
+                                           label=r"5-95 % of $\mu_r$ (running)")  # fmt: skip
+                    handles.append(band)
+            if tc.size:
+                (h,) = ax.plot(tc, med, color=st["color"] if small else "black", linewidth=1.0 if small else 1.6,
+                               label=f"running median of {st['label']}", zorder=3)  # fmt: skip
+                handles.append(h)
+            tops.append(v[sel])
+            continue
         (h,) = ax.plot(
             t[sel],
             v[sel],
@@ -569,15 +661,11 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[list, list]:
     lim = _cof_limits(tops)
     if lim is None:
         lim = (0.0, 0.3)
-    ax.set_ylim(*lim)
-    mu = _column(results, "mu_r", n)
     bad = ~ok & np.isfinite(t)
-    if bad.any():
-        # Failed windows: their mu_r, clipped into view (NaN drawn at the bottom).
-        y = np.where(np.isfinite(mu), mu, lim[0])
-        y = np.clip(y, lim[0] + 0.01 * (lim[1] - lim[0]), lim[1] - 0.01 * (lim[1] - lim[0]))
-        (h,) = ax.plot(t[bad], y[bad], label=f"gate failed ({int(bad.sum())} windows)", **_FAILED)
-        handles.append(h)
+    if bad.any():  # room for the strip of failed windows above the data
+        lim = (lim[0], lim[1] + (lim[1] - lim[0]) * FAILED_STRIP / (1 - FAILED_STRIP) * 1.6)
+        handles.append(_failed_strip(ax, t, results, bad))
+    ax.set_ylim(*lim)
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")
     ax.grid(True, alpha=0.3)
@@ -816,10 +904,9 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
             alpha=0.35,
             label=f"{st['label']} ({int(sel.sum())})",
         )
-    if bad.any():
-        y = np.where(np.isfinite(mu), mu, lim[0])
-        y = np.clip(y, lim[0] + 0.01 * (lim[1] - lim[0]), lim[1] - 0.01 * (lim[1] - lim[0]))
-        ax.plot(cov[bad], y[bad], label=f"gate failed ({int(bad.sum())} windows)", **_FAILED)
+    if bad.any():  # apart from the COF values, in a strip at the top (never at COF = 0)
+        lim = (lim[0], lim[1] + (lim[1] - lim[0]) * FAILED_STRIP / (1 - FAILED_STRIP) * 1.6)
+        _failed_strip(ax, cov, results, bad)
     if opr is not None:
         names = ("heating", "cooling") if branches and ("heating" in opr.curves or "cooling" in opr.curves) else ()
         for name in names:
@@ -958,6 +1045,66 @@ def cof_vs_current_density(results: Any, opr: Any = None, *, title: Optional[str
 # --------------------------------------------------------------------------
 # saving
 # --------------------------------------------------------------------------
+# --------------------------------------------------------------------------
+# reciprocating tests: per-stroke COF against cycle (docs/method.md 6c)
+# --------------------------------------------------------------------------
+_DIRECTION_STYLE = {
+    1: dict(color="tab:red", marker="^", label="forward strokes (+1)"),
+    -1: dict(color="tab:blue", marker="v", label="backward strokes (-1)"),
+}
+
+
+def strokes_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
+    """Per-stroke classical COF against cycle number, one marker per direction (docs/method.md 6c).
+
+    Parameters
+    ----------
+    results : Results or mapping
+        :attr:`tribodyn.Results.strokes` (or the Results holding it): the
+        columns ``cycle``, ``direction``, ``mu`` and, when the recording had
+        an instrument COF column, ``mu_instrument`` (drawn as open markers).
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig, axes = _figure(1, 1, figsize=(10.0, 4.6))
+    ax = axes[0, 0]
+    fig.suptitle(title or "Per-stroke COF against cycle")
+    st = getattr(results, "strokes", results)
+    if not st or len(st.get("mu", ())) == 0:
+        _no_data(ax, "no strokes")
+        return fig
+    cycle = np.asarray(st["cycle"], dtype=float)
+    direction = np.asarray(st["direction"], dtype=np.int64)
+    mu = np.asarray(st["mu"], dtype=float)
+    inst = np.asarray(st.get("mu_instrument", np.full(mu.shape, np.nan)), dtype=float)
+    shown: List[np.ndarray] = []
+    for d, style in _DIRECTION_STYLE.items():
+        sel = direction == d
+        if not sel.any():
+            continue
+        keep = sel & np.isfinite(mu)
+        ax.plot(cycle[keep], mu[keep], linestyle="none", markersize=5, **style)
+        shown.append(mu[keep])
+        ik = sel & np.isfinite(inst)
+        if ik.any():
+            ax.plot(cycle[ik], inst[ik], linestyle="none", markersize=7, marker=style["marker"],
+                    markerfacecolor="none", color=style["color"], alpha=0.7,
+                    label=f"instrument COF, {str(style['label']).split()[0]} strokes")  # fmt: skip
+            shown.append(inst[ik])
+    lims = _cof_limits(shown)
+    if lims is not None:
+        ax.set_ylim(*lims)
+    ax.set_xlabel("cycle (one stroke each way)")
+    ax.set_ylabel(r"COF mean $|F_y|/|F_z|$ (central part of the stroke)")
+    ax.grid(True, alpha=0.3)
+    _legend_above(ax, ncol=4)
+    return fig
+
+
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:
     """Saves ``fig`` as PNG atomically: a temporary file in the same directory, then ``os.replace``.
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 from typing import Any, Literal, Optional
 
 import numpy as np
-from scipy import signal as _signal
 
+from ._compat import positional_options
 from . import _core
 from ._validate import as_channels, check_fs, check_int, finite_error, positive
 from .threads import resolve_threads
@@ -44,6 +44,8 @@ def butter_highpass(fs: float, *, cutoff: float = 0.1, order: int = 1) -> np.nda
     n = check_int(order, "order", minimum=1)
     if n > MAX_ORDER:
         raise ValueError(f"order must be in [1, {MAX_ORDER}], got {n}")
+    from scipy import signal as _signal  # lazy: scipy.signal takes ~0.5 s to import
+
     return np.ascontiguousarray(_signal.butter(n, fc, "highpass", fs=fs_v, output="sos"), dtype=np.float64)
 
 
@@ -128,6 +130,8 @@ class HighPass:
         self._zi = np.zeros((self.n_sections, 2))
         if init == "steady":
             try:
+                from scipy import signal as _signal
+
                 self._zi = np.ascontiguousarray(_signal.sosfilt_zi(self.sos), dtype=np.float64)
             except np.linalg.LinAlgError:
                 raise ValueError("sos has a pole at z = 1: no steady state exists (use init='zero')") from None
@@ -209,8 +213,8 @@ class HighPass:
 
 def highpass(
     x: Any,
-    fs: float,
-    *,
+    *args: Any,
+    fs: Optional[float] = None,
     cutoff: float = 0.1,
     order: int = 1,
     axis: int = -1,
@@ -224,7 +228,14 @@ def highpass(
     initial state as :class:`HighPass`; equal to
     ``scipy.signal.sosfilt(sos, x, axis=axis, zi=...)`` to rounding (in fact
     bitwise, as the arithmetic is the same).
+
+    ``fs`` is keyword-only; ``highpass(x, fs)`` still works with a
+    DeprecationWarning.
     """
+    if args:
+        fs = positional_options("highpass", args, ("fs",), {"fs": fs})["fs"]
+    if fs is None:
+        raise TypeError("highpass() missing required keyword argument 'fs' (sampling rate, Hz)")
     a = np.asarray(x)
     if a.dtype.kind not in "biuf":
         raise TypeError(f"x must hold real numbers, got dtype {a.dtype}")

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+import warnings
 from typing import Any, Dict, Optional, Union
 
 import numpy as np
-from scipy import signal as _signal
 
 from ._validate import as_signal, check_fs, check_int, same_length
 from .correlation import xcorr
@@ -55,6 +55,8 @@ def cross_spectra(
         pairs.update({"xy": (fx, fy), "xz": (fx, fz)})
     out: Dict[str, Dict[str, float]] = {}
     for name, (a, b) in pairs.items():
+        from scipy import signal as _signal  # lazy: slow to import
+
         f, p = _signal.csd(a, b, fs=fs, nperseg=nper)
         pick = {
             key: float(np.abs(p[int(np.argmin(np.abs(f - fq)))])) if fq <= fs / 2 else float("nan")
@@ -65,11 +67,11 @@ def cross_spectra(
 
 
 def identify(
-    fx: Optional[Any],
     fy: Any,
     fz: Any,
-    *,
-    fs: float,
+    *more: Any,
+    fx: Optional[Any] = None,
+    fs: Optional[float] = None,
     orientation: Orientation = "auto",
     deadband: DeadbandSpec = 0.35,
     n_bins: int = 16,
@@ -85,9 +87,11 @@ def identify(
 
     Parameters
     ----------
-    fx, fy, fz : array_like, 1-D, equal length
-        Dynamic axial, tangential (friction) and normal forces in N. ``fx``
-        may be None (then no x correlations).
+    fy, fz : array_like, 1-D, equal length
+        Dynamic tangential (friction) and normal forces in N.
+    fx : array_like, optional, keyword-only
+        Dynamic axial force in N (None: no x correlations). The 0.2 form
+        ``identify(fx, fy, fz, fs=...)`` still works with a DeprecationWarning.
     fs : float
         Sampling rate, Hz.
     orientation : {+1, -1, "auto"}
@@ -125,6 +129,17 @@ def identify(
         Degenerate input (constant fz, too few samples) gives NaN fields and
         ``ok=False`` with its reason, not an exception.
     """
+    if more:
+        if len(more) != 1 or fx is not None:
+            raise TypeError("identify() takes the forces as identify(fy, fz, fx=None, fs=...)")
+        warnings.warn(
+            "identify(fx, fy, fz, ...) is deprecated: use identify(fy, fz, fx=fx, fs=...)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        fx, fy, fz = fy, fz, more[0]
+    if fs is None:
+        raise TypeError("identify() missing required keyword argument 'fs' (sampling rate, Hz)")
     fs_v = check_fs(fs)
     fy_a = as_signal(fy, "fy", min_len=1)
     fz_a = as_signal(fz, "fz", min_len=1)

@@ -11,11 +11,13 @@ files of an earlier run into it are gone).
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ._labels import fmt_interval, fmt_number, fmt_range, key_text, unit_text, units_in_text
 from .analyze import analyze
 from .identify import identify
 from .outputs import OutputSet, input_provenance, write_json, write_table_csv, write_table_parquet
@@ -121,7 +123,7 @@ def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
 
 def _example_window(channels: Mapping[str, np.ndarray], fs: float, start: int, n: int) -> Dict[str, Any]:
     ch = {k: np.asarray(v[start : start + n]) for k, v in channels.items() if k in ("fx", "fy", "fz")}
-    res = identify(ch.get("fx"), ch["fy"], ch["fz"], fs=fs, max_lag=min(200, n - 1), rpm=250, n_lamellas=24)
+    res = identify(ch["fy"], ch["fz"], fx=ch.get("fx"), fs=fs, max_lag=min(200, n - 1), rpm=250, n_lamellas=24)
     return {**ch, "fs": fs, "t0": start / fs, "result": res}
 
 
@@ -130,7 +132,30 @@ def _write_set(out: OutputSet, prefix: str, res: Results, extra: Optional[Dict[s
     write_table_csv(res, out.path(names[0]), extra=extra)
     if write_table_parquet(res, out.path(f"{prefix}windows.parquet"), extra=extra):
         names.append(f"{prefix}windows.parquet")
+    if res.strokes is not None:  # a reciprocating test's per-stroke table (docs/method.md 6c)
+        names += _write_strokes(out, prefix, res.strokes)
     return names
+
+
+def _write_strokes(out: OutputSet, prefix: str, strokes: Mapping[str, np.ndarray]) -> List[str]:
+    """strokes.csv (and strokes.parquet when pyarrow is there)."""
+    import csv
+
+    names = [f"{prefix}strokes.csv"]
+    cols = list(strokes)
+    with open(out.path(names[0]), "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for row in zip(*(strokes[c] for c in cols)):
+            w.writerow(["" if isinstance(v, float) and v != v else repr(float(v)) if isinstance(v, float) else v
+                        for v in (x.item() if hasattr(x, "item") else x for x in row)])  # fmt: skip
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        return names
+    pq.write_table(pa.table({c: np.asarray(strokes[c]) for c in cols}), out.path(f"{prefix}strokes.parquet"))
+    return names + [f"{prefix}strokes.parquet"]
 
 
 def _figures(
@@ -138,22 +163,129 @@ def _figures(
     *,
     opr_t: Optional[OperatingRange],
     opr_j: Optional[OperatingRange],
-    example: Optional[Dict[str, Any]],
-):
-    from .report import build_report_figures
+    example: Optional[Dict[str, Any]] = None,
+    examples: Sequence[Dict[str, Any]] = (),
+) -> List[Tuple[str, str, Any]]:
+    """(file name, caption, Figure) of every figure, named after the paper's figures."""
+    from .report import build_named_figures
 
-    return build_report_figures(res, opr_temperature=opr_t, opr_current=opr_j, example=example)
+    exs = list(examples) + ([example] if example is not None else [])
+    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, examples=exs)
 
 
-def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, Any]], prefix: str) -> List[str]:
+def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str) -> List[str]:
     from .figures import save_figure
 
     names = []
-    for k, (caption, fig) in enumerate(figs, 1):
-        name = f"figures/{prefix}fig{k:02d}.png"
+    for stem, _caption, fig in figs:
+        name = f"figures/{prefix}{stem}.png"
         save_figure(fig, out.path(name))
         names.append(name)
     return names
+
+
+def _captioned(figs: Sequence[Tuple[str, str, Any]], files: Sequence[str]) -> List[Tuple[str, Any]]:
+    """(caption naming the PNG file, Figure) pairs for the report."""
+    return [(f"{cap} [{Path(f).name}]", fig) for (_, cap, fig), f in zip(figs, files)]
+
+
+def pick_windows(res: Results) -> Dict[str, int]:
+    """The windows whose diagnostic figures the report shows (docs/method.md 5).
+
+    ``representative``: the gated window whose mu_r is closest to the median
+    of the gated windows; ``worst``: the failed window with the smallest
+    |C_yz(0)| (NaN counts as the worst). Either is absent when no window fits.
+    """
+    ok = np.asarray(res["ok"], dtype=bool)
+    mu = np.asarray(res["mu_r"], dtype=float)
+    out: Dict[str, int] = {}
+    good = np.flatnonzero(ok & np.isfinite(mu))
+    if good.size:
+        out["representative"] = int(good[np.argmin(np.abs(mu[good] - np.median(mu[good])))])
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        c = np.abs(np.asarray(res["c_yz"], dtype=float)[bad])
+        out["worst"] = int(bad[np.argmin(np.where(np.isfinite(c), c, -1.0))])
+    return out
+
+
+def diagnostic_examples(
+    source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
+) -> List[Dict[str, Any]]:
+    """Figs. 2-9 inputs for the representative gated window and the worst failing one.
+
+    ``source`` is a recording path or a dict of channel arrays; the window's
+    samples are read again (high-passed like the analysis when it used
+    ``highpass``) and identified with the analysis's settings.
+    """
+    fs = float(res.params.get("fs") or 0.0)
+    n = int(res.params.get("window_samples") or 0)
+    if fs <= 0 or n < 3:
+        return []
+    out: List[Dict[str, Any]] = []
+    t_start = np.asarray(res["t_start"], dtype=float)
+    for tag, k in pick_windows(res).items():
+        start = int(round(float(t_start[k]) * fs)) - int(res.params.get("start") or 0)
+        if start < 0:
+            continue
+        ch = _read_window(source, start, n, open_options or {})
+        if ch is None or "fy" not in ch or "fz" not in ch or len(ch["fz"]) < 3:
+            continue
+        if res.params.get("highpass"):
+            from .filters import highpass
+
+            ch = {r: highpass(v, fs=fs, cutoff=float(res.params["highpass"])) for r, v in ch.items()}
+        lag = max(1, min(len(ch["fz"]) - 1, int(0.5 * fs)))
+        one = identify(
+            ch["fy"],
+            ch["fz"],
+            fx=ch.get("fx"),
+            fs=fs,
+            max_lag=lag,
+            orientation=res.orientation,
+            deadband=float(np.asarray(res["deadband"])[k]) if np.isfinite(res["deadband"][k]) else 0.35,
+        )
+        t0 = float(t_start[k])
+        if tag == "representative":
+            label = f"representative gated window (no. {k}, t = {t0:g} s, COF closest to the median)"
+            gate = "passed"
+        else:
+            why = str(np.asarray(res["reasons"])[k]) or "failed"
+            label = f"worst failing window (no. {k}, t = {t0:g} s, smallest |C_yz(0)|; failed: {why})"
+            gate = f"failed ({why})"
+        out.append({**ch, "fs": fs, "t0": t0, "result": one, "label": label, "tag": tag, "gate_text": gate})
+    return out
+
+
+def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any]) -> Optional[Dict[str, np.ndarray]]:
+    roles = ("fx", "fy", "fz")
+    if isinstance(source, Mapping):
+        return {r: np.asarray(source[r][start : start + n], dtype=float) for r in roles if r in source}
+    from .io import open_recording
+
+    with open_recording(source, **open_options) as rec:
+        have = [r for r in roles if r in dict(rec.roles)]
+        for chunk in rec.chunks(n, have, start=start, stop=start + n):
+            return {r: np.asarray(chunk[r], dtype=float) for r in have}
+    return None
+
+
+def _report_extras(res: Results, name: str, csv_name: str) -> List[Tuple[str, str]]:
+    """The interactive COF view and the table of windows, as report sections."""
+    from ._interactive import cof_views
+    from .report import windows_table_html
+
+    script, div = cof_views(res, name)
+    return [
+        (f"{name}: interactive COF against time, temperature and current density", script + div),
+        (f"{name}: table of windows", windows_table_html(res, csv_name)),
+    ]
+
+
+def _bokeh_head() -> str:
+    from ._interactive import bokeh_resources
+
+    return bokeh_resources()
 
 
 def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: bool = False) -> Dict[str, Any]:
@@ -164,7 +296,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
     the summary (also written to ``summary.json``).
     """
     from . import __version__, simulate
-    from .report import write_report
+    from .report import verdict_lines, write_report
 
     output = OutputSet(out_dir, overwrite=overwrite)  # refuses an unusable folder before the work
     sim_t = simulate.temperature_test(seed=seed)
@@ -191,8 +323,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
     )
     opr_t = operating_range(res_t, "temperature")
     opr_j = operating_range(res_j, "current_density")
-    example = _example_window(sim_t.channels, sim_t.fs, start=1_500_000, n=2000)
-    summary = {
+    summary: Dict[str, Any] = {
         "tribodyn_version": __version__,
         "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
         "seed": seed,
@@ -213,17 +344,30 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
     }
     with output as out:
         files = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
-        figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, example=example)
-        figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, example=None)
-        files += _save_figures(out, figs_t, "temperature_") + _save_figures(out, figs_j, "current_density_")
+        ex_t = diagnostic_examples(sim_t.channels, res_t)
+        ex_j = diagnostic_examples(sim_j.channels, res_j)
+        figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, examples=ex_t)
+        figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
+        png_t = _save_figures(out, figs_t, "temperature_")
+        png_j = _save_figures(out, figs_j, "current_density_")
+        files += png_t + png_j
         summary["files"] = files + ["summary.json", "report.html"]
         write_json(summary, out.path("summary.json"))
+        s_t, s_j = summary["temperature_test"], summary["current_density_test"]
+        verdict = verdict_lines("temperature test", s_t, res_t.params, {"temperature": s_t["operating_range"]})
+        verdict += verdict_lines("current-density test", s_j, res_j.params, {"current_density": s_j["operating_range"]})
         write_report(
             out.path("report.html"),
             title="tribodyn demo: the paper's rig, simulated",
             summary=_flat_summary(summary),
             params={"temperature test": res_t.params, "current-density test": res_j.params},
-            figures=list(figs_t) + list(figs_j),
+            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(figs_t, png_t)]
+            + [(f"Current-density test: {c}", f) for c, f in _captioned(figs_j, png_j)],
+            verdict=verdict,
+            inputs=[],
+            sections=_report_extras(res_t, "temperature test", "temperature_windows.csv")
+            + _report_extras(res_j, "current-density test", "current_density_windows.csv"),
+            head_html=_bokeh_head(),
             quality={
                 "temperature test": res_t.summary()["gate_failures"],
                 "current-density test": res_j.summary()["gate_failures"],
@@ -233,9 +377,11 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
 
 
 def _interval(ci: Any) -> str:
-    if ci is None:
-        return ""
-    return f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci[0] is not None and ci[1] is not None else ""
+    iv = fmt_interval(ci)
+    return f" {iv}" if iv else ""
+
+
+_BRANCH_TEXT = {"all": "all windows", "heating": "heating branch", "cooling": "cooling branch"}
 
 
 def _breakpoint_rows(key: str, rng: Mapping[str, Any], val: Mapping[str, Any]) -> Dict[str, str]:
@@ -244,7 +390,7 @@ def _breakpoint_rows(key: str, rng: Mapping[str, Any], val: Mapping[str, Any]) -
     ci = rng.get("optimum_ci")
     if ci is None:
         return rows
-    by, unit = rng["by"], rng["unit"]
+    by, unit = rng["by"], unit_text(rng["unit"])
     sim = val.get("simulated_optimum") or {}
     bath = val.get("simulated_breakpoints") or {}
     fits = {"all": rng, **{k[4:]: v for k, v in rng.items() if k.startswith("fit_")}}
@@ -252,43 +398,65 @@ def _breakpoint_rows(key: str, rng: Mapping[str, Any], val: Mapping[str, Any]) -
         if not f or not f.get("optimum") or not f.get("optimum_ci"):
             continue
         (lo, hi), (lci, hci) = f["optimum"], f["optimum_ci"]
-        text = f"{lo:.4g}{_interval(lci)} to {hi:.4g}{_interval(hci)} {unit}"
+        text = f"{fmt_number(lo)}{_interval(lci)} to {fmt_number(hi)}{_interval(hci)} {unit}"
         truth = sim.get(by if name == "all" else f"{by}_{name}")
         if truth is not None:
-            text += f"; simulated flat bottom {truth[0]:g} to {truth[1]:g}"
+            text += f"; simulated flat bottom {fmt_range(truth[0], truth[1], unit)}"
         b = bath.get(name)
         if b is not None:
-            fmt = lambda v: "none" if v is None else f"{v:.4g}"  # noqa: E731
-            text += f"; the same fit of the simulated COF {fmt(b['lower'])} to {fmt(b['upper'])}"
-        rows[f"{key}: breakpoints [95 % interval], {name}"] = text
+            lower, upper = ("none" if v is None else fmt_number(v) for v in (b["lower"], b["upper"]))
+            text += f"; the same fit of the simulated COF {lower} to {upper} {unit}"
+        branch = _BRANCH_TEXT.get(name, name)
+        rows[f"{_NAME_TEXT.get(key, key)}: {key_text(by)} breakpoints with 95 % intervals, {branch}"] = text
     return rows
 
 
+#: The demo's two tests as words.
+_NAME_TEXT = {"temperature_test": "temperature test", "current_density_test": "current-density test"}
+#: Top-level keys of the demo's summary as words.
+_TOP_TEXT = {"tribodyn_version": "tribodyn version", "job": "job", "seed": "simulator seed"}
+
+
 def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
-    """A short, readable summary for the report's first table."""
+    """A short, readable summary for the report's first table: labels in words, units as °C, A/mm², N."""
     out: Dict[str, Any] = {}
     for key, val in summary.items():
         if isinstance(val, Mapping) and "mu_r" in val:
+            name = _NAME_TEXT.get(key, str(key))  # a recording's file name stays as it is
             mu = val["mu_r"]
-            out[f"{key}: windows (gated)"] = f"{val['windows']} ({val['gated']})"
+            out[f"{name}: windows analysed (passed the quality gate)"] = f"{val['windows']} ({val['gated']})"
+            if val.get("verdict"):
+                from .results import verdict_text
+
+                out[f"{name}: verdict"] = units_in_text(verdict_text(val["verdict"]))
             if mu.get("n"):
-                out[f"{key}: mu_r median [p05, p95]"] = f"{mu['median']:.4f} [{mu['p05']:.4f}, {mu['p95']:.4f}]"
+                out[f"{name}: COF, median of the gated windows [5th, 95th percentile]"] = (
+                    f"{mu['median']:.4f} [{mu['p05']:.4f}, {mu['p95']:.4f}]"
+                )
                 ci = (mu.get("ci") or {}).get("median")
                 if ci is not None:
-                    out[f"{key}: mu_r median, 95 % interval"] = f"{ci[0]:.4f} to {ci[1]:.4f}"
+                    out[f"{name}: COF median, 95 % interval"] = f"{ci[0]:.4f} to {ci[1]:.4f}"
             for rng in (val[k] for k in val if k.startswith("operating_range")):
-                if rng and rng.get("verdict"):
-                    out[f"{key}: verdict ({rng['by'].replace('_', ' ')})"] = f"{rng['verdict']}: {rng['explanation']}"
-                if not rng or not rng.get("optimum"):
+                if not rng:
+                    continue
+                by = key_text(rng["by"])
+                unit = unit_text(rng["unit"])
+                if rng.get("verdict"):
+                    verdict = f"{rng['verdict']}: {rng['explanation']}"
+                    out[f"{name}: verdict on the optimum {by}"] = units_in_text(verdict)
+                if not rng.get("optimum"):
                     continue
                 lo, hi = rng["optimum"]
-                by = rng["by"].replace("_", " ")
-                out[f"{key}: optimum {by}"] = f"{lo:g} to {hi:g} {rng['unit']} (mu_min {rng['mu_min']:.4f})"
+                out[f"{name}: optimum {by}"] = (
+                    f"{fmt_range(lo, hi, unit, ci=rng.get('optimum_ci'))} (minimum COF {rng['mu_min']:.4f})"
+                )
                 out.update(_breakpoint_rows(key, rng, val))
                 if rng.get("onset") is not None:
-                    out[f"{key}: instability onset ({by})"] = f"{rng['onset']:.3g} {rng['unit']}"
+                    times = f"{1 + float(rng.get('rise') or 0.5):g} ×"
+                    label = f"{name}: {by} where the COF reaches {times} its minimum"
+                    out[label] = f"{fmt_number(rng['onset'])} {unit}"
         elif not isinstance(val, (Mapping, list)):
-            out[key] = val
+            out[_TOP_TEXT.get(key, key_text(key))] = units_in_text(val) if isinstance(val, str) else val
     # The readers' warnings go to the report's own section (report._pop_warnings).
     warns = [
         f"{key}: {w}" for key, val in summary.items() if isinstance(val, Mapping) for w in val.get("warnings") or ()
@@ -327,10 +495,11 @@ def run_analysis(
     """
     from . import __version__
     from .distributed import analyze_many, expand_paths
-    from .report import write_report
+    from .report import verdict_lines, write_report
 
     open_options = dict(open_options or {})
     opts = dict(analyze_options or {})
+    log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
     if not paths:
         raise ValueError("no input file given")
     files = expand_paths(paths)
@@ -345,8 +514,18 @@ def run_analysis(
     else:
         many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
         if not many.results:
-            first = next(iter(many.failures.values()))
-            raise ValueError(f"{Path(first.path).name}: {first.error}")
+            # Every recording failed: summary.json still lists every error (the CLI exits with status 3).
+            failed = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
+            summary_failed: Dict[str, Any] = {
+                "tribodyn_version": __version__,
+                "inputs": [str(f) for f in files],
+                "open_options": open_options,
+                "recordings": {},
+                "failures": failed,
+            }
+            with output as out:
+                write_json(summary_failed, out.path("summary.json"))
+            return summary_failed
         runs = [(Path(p), r) for p, r in many.results.items()]
         failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
 
@@ -359,15 +538,27 @@ def run_analysis(
     }
     single = len(runs) == 1 and not failures
     labels = _labels([p for p, _ in runs])
+    inputs = {i["file"]: i for i in summary["inputs"]}
+    for p, res in runs:
+        inputs[p.name]["channels"] = _channel_map(p, open_options)
+        inputs[p.name]["logs"] = [f"temperature: {Path(log_file).name}"] if log_file else []
     with output as out:
         all_figs = []
+        verdict: List[str] = []
+        sections: List[Tuple[str, str]] = []
         for (p, res), label in zip(runs, labels):
             prefix = "" if single else f"{label}/"
             opr_t = _try_range(res, "temperature")
             opr_j = _try_range(res, "current_density")
             files = _write_set(out, prefix, res)
-            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, example=None)
-            files += _save_figures(out, figs, prefix)
+            try:
+                examples = diagnostic_examples(str(p), res, open_options)
+            except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
+                examples = []
+                res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, examples=examples)
+            pngs = _save_figures(out, figs, prefix)
+            files += pngs
             rec_sum = {
                 **res.summary(),
                 "operating_range_temperature": range_summary(opr_t),
@@ -376,6 +567,11 @@ def run_analysis(
                 "files": files,
             }
             summary["recordings"][p.name] = rec_sum
+            ranges = {"temperature": rec_sum["operating_range_temperature"],
+                      "current_density": rec_sum["operating_range_current_density"]}  # fmt: skip
+            lines = verdict_lines(p.name, rec_sum, res.params, ranges)
+            extras = _report_extras(res, p.name, f"{prefix}windows.csv")
+            captioned = _captioned(figs, pngs)
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
                 write_report(
@@ -383,24 +579,52 @@ def run_analysis(
                     title=f"tribodyn: {p.name}",
                     summary=_flat_summary({p.name: rec_sum}),
                     params=res.params,
-                    figures=figs,
+                    figures=captioned,
                     quality=rec_sum["gate_failures"],
+                    verdict=lines,
+                    inputs=[inputs[p.name]],
+                    sections=_report_extras(res, p.name, "windows.csv"),
+                    head_html=_bokeh_head(),
                 )
-            all_figs += [(f"{p.name}: {c}", f) for c, f in figs]
+            verdict += lines
+            sections += extras
+            all_figs += [(f"{p.name}: {c}", f) for c, f in captioned]
         if not single:
             combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
             write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
             write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
         write_json(summary, out.path("summary.json"))
+        for name, f in failures.items():
+            verdict.append(f"{name}: not analysed: {f['error']}")
         write_report(
             out.path("report.html"),
-            title="tribodyn: " + ", ".join(p.name for p, _ in runs),
+            title="tribodyn: " + ", ".join([p.name for p, _ in runs] + list(failures)),
             summary=_flat_summary(summary["recordings"]),
             params={p.name: r.params for p, r in runs},
             figures=all_figs,
             quality={p.name: r.summary()["gate_failures"] for p, r in runs},
+            verdict=verdict,
+            inputs=list(inputs.values())
+            + [
+                {"file": n, "sha256": "", "channels": {}, "logs": [f"failed: {f['error']}"]}
+                for n, f in failures.items()
+            ],  # fmt: skip
+            sections=sections,
+            head_html=_bokeh_head(),
         )
     return summary
+
+
+def _channel_map(path: Path, open_options: Mapping[str, Any]) -> Dict[str, str]:
+    """Role -> 'channel (unit)' of a recording, as the analysis read it."""
+    from .io import open_recording
+
+    try:
+        with open_recording(path, **open_options) as rec:
+            units = {c.name: c.unit for c in rec.channels}
+            return {r: f"{c} ({units.get(c) or 'no unit'})" for r, c in dict(rec.roles).items()}
+    except Exception as exc:  # noqa: BLE001 - the analysis already read it; say what went wrong here
+        return {"?": f"channel map unavailable: {exc}"}
 
 
 def _labels(paths: Sequence[Path]) -> List[str]:

@@ -110,7 +110,7 @@ def _read_marker(folder: Path) -> Optional[Set[str]]:
     return set(files)
 
 
-def _entries(folder: Path) -> Iterator[os.DirEntry]:
+def _entries(folder: Path) -> Iterator[os.DirEntry[str]]:
     """Every entry below ``folder``, depth first, never following a symbolic link."""
     with os.scandir(folder) as it:
         entries = sorted(it, key=lambda e: e.name)
@@ -458,8 +458,12 @@ def write_table_parquet(results: Results, path: PathLike, *, extra: Optional[Dic
         import pyarrow.parquet as pq
     except ImportError:
         return False
+    from .columns import UNITS
+
     cols = _columns(results, extra)
     table = pa.table({k: (v.astype(str) if v.dtype == object else v) for k, v in cols.items()})
+    # Each field carries its unit (metadata b"unit"; tribodyn.columns.UNITS; "1" dimensionless, "" a label).
+    table = table.cast(pa.schema([f.with_metadata({"unit": UNITS.get(f.name, "")}) for f in table.schema]))
     pq.write_table(table, str(path))
     return True
 

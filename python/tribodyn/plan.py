@@ -125,6 +125,8 @@ class Plan:
     delay: float = 0.0
     #: (sigma_y, sigma_z) of the measurement noise, N, or None.
     noise: Optional[Tuple[float, float]] = None
+    #: The classical COF's settings (``tribometer.ClassicalSpec``: min_fn, tare) or None (docs/method.md 6a).
+    classical: Optional[Any] = None
 
     @property
     def paper(self) -> bool:
@@ -134,9 +136,14 @@ class Plan:
     @property
     def kernel_options(self) -> Dict[str, Any]:
         """The options of the statistics beyond the paper for ``_core.windows_stats`` (docs/method.md 3a-3e)."""
+        out: Dict[str, Any] = {}
+        if self.classical is not None:
+            c = self.classical
+            out["classical"] = (float(c.min_fn), float(c.tare_fy), float(c.tare_fz))
         if self.paper:
-            return {}
-        return dict(lag=self.iv_lag, lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=self.delay)
+            return out
+        out.update(lag=self.iv_lag, lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=self.delay)
+        return out
 
     @property
     def raw(self) -> bool:
@@ -147,6 +154,8 @@ class Plan:
     def kernel_columns(self) -> Tuple[str, ...]:
         """The statistics asked of the kernel per window (``tribodyn.columns``)."""
         extra: Tuple[str, ...] = () if self.paper else ("szz", "syy", "ext") + (("spec",) if self.lines else ())
+        if self.classical is not None:
+            extra += ("mu_classical", "mu_classical_median", "fz_mean", "fz_std")
         return kernel_columns(self.raw) + extra
 
     def params(self) -> Dict[str, Any]:

@@ -355,7 +355,7 @@ def _onset(f: Fit, rise: float, x_max: float) -> float:
 def _excluded(
     results: Results, by: str, cov: np.ndarray, mu: np.ndarray, se: np.ndarray
 ) -> Tuple[np.ndarray, Dict[str, int]]:
-    ok = results.gated()
+    ok = results.gated
     reasons = np.asarray(results["reasons"]).astype(str)
     lost = np.char.find(reasons, _CONTACT_LOSS) >= 0
     gap = np.asarray(results.table.get("T_gap", np.zeros(len(ok), dtype=bool)), dtype=bool)
@@ -513,7 +513,17 @@ def _instability(results: Results, cov: np.ndarray) -> Tuple[Optional[float], Op
     return first, (lo, first)
 
 
-def _binned_curves(cov, mu, keep, by, branches, width, tol, rise, min_count) -> Dict[str, RangeCurve]:
+def _binned_curves(
+    cov: np.ndarray,
+    mu: np.ndarray,
+    keep: np.ndarray,
+    by: str,
+    branches: Any,
+    width: float,
+    tol: float,
+    rise: float,
+    min_count: int,
+) -> Dict[str, RangeCurve]:
     # Bin centres on multiples of the width, so set points such as J = 4.5
     # A/mm^2 fall mid-bin, never on an edge.
     k_lo = int(np.floor(cov[keep].min() / width + 0.5))
@@ -614,7 +624,7 @@ def operating_range(
         raise ValueError(f"block must be an integer >= 1, got {block!r}")
     cov = np.asarray(results[_COLUMN[by]], dtype=float)
     mu = np.asarray(results["mu_r"], dtype=float)
-    keep = results.gated() & np.isfinite(cov) & np.isfinite(mu)
+    keep = results.gated & np.isfinite(cov) & np.isfinite(mu)
     if not keep.any():
         what = "a temperature log" if by == "temperature" else "a current and area_mm2"
         raise ValueError(f"no quality-gated window has a {by.replace('_', ' ')} (did analyze get {what}?)")

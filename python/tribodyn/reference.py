@@ -11,7 +11,7 @@ cannot be expressed in NumPy, so it uses ``scipy.signal.sosfilt``.
 from __future__ import annotations
 
 from fractions import Fraction
-from typing import Any, Optional, Tuple
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 from scipy import signal as _signal
@@ -108,7 +108,8 @@ class HighPass:
         # scipy's zi is (n_sections, channels, 2) for axis=-1 on (channels, m).
         y, zf = _signal.sosfilt(self.sos, x, axis=-1, zi=np.moveaxis(self.state, 0, 1))
         self.state = np.moveaxis(zf, 1, 0)
-        return y[0] if np.ndim(chunk) == 1 else y
+        out: np.ndarray = y[0] if np.ndim(chunk) == 1 else y
+        return out
 
 
 def highpass(
@@ -133,14 +134,14 @@ def highpass(
 # -- Eqs. (6)-(8) ---------------------------------------------------------------
 
 
-def _two_sum(a: float, b: float) -> tuple:
+def _two_sum(a: float, b: float) -> Tuple[Any, ...]:
     """a + b = s + e exactly (Knuth)."""
     s = a + b
     bb = s - a
     return s, (a - (s - bb)) + (b - bb)
 
 
-def _mean_pair(x: np.ndarray) -> tuple:
+def _mean_pair(x: np.ndarray) -> Tuple[Any, ...]:
     """The two-pass mean as a double-double (hi, lo)."""
     m0 = float(x.sum() / x.size)
     return _two_sum(m0, float((x - m0).sum() / x.size))
@@ -148,7 +149,7 @@ def _mean_pair(x: np.ndarray) -> tuple:
 
 def _fit(
     n: int, mx: float, my: float, sxx: float, syy: float, sxy: float, sse: float, mx_lo: float = 0.0, my_lo: float = 0.0
-) -> tuple:
+) -> Tuple[Any, ...]:
     if n < 3 or not sxx > 0:
         nan = float("nan")
         return (nan, nan, nan, nan, nan, nan, n, True)
@@ -163,7 +164,7 @@ def _fit(
     return (slope, intercept, r, se, se * np.sqrt(sxx / n + mx * mx), np.sqrt(var), n, False)
 
 
-def _moments(x: np.ndarray, y: np.ndarray) -> tuple:
+def _moments(x: np.ndarray, y: np.ndarray) -> Tuple[Any, ...]:
     """(n, mean_x, mean_y, S_xx, S_yy, S_xy, SSE, mean_x_lo, mean_y_lo) by centred passes."""
     n = x.size
     if n == 0:
@@ -193,10 +194,10 @@ class LinFitAccumulator:
     """
 
     def __init__(self) -> None:
-        self.m: tuple = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        self.m: Tuple[Any, ...] = (0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
     @staticmethod
-    def _merge(a: tuple, b: tuple) -> tuple:
+    def _merge(a: Tuple[Any, ...], b: Tuple[Any, ...]) -> Tuple[Any, ...]:
         na, mxa, mya, sxxa, syya, sxya, ssea, mxa_lo, mya_lo = a
         nb, mxb, myb, sxxb, syyb, sxyb, sseb, mxb_lo, myb_lo = b
         if nb == 0:
@@ -268,7 +269,8 @@ TILED_COLUMNS = tuple(
 def _row_mean(a: np.ndarray) -> np.ndarray:
     """Two-pass mean of every row (exact for a constant row)."""
     m0 = a.sum(axis=1) / a.shape[1]
-    return m0 + (a - m0[:, None]).sum(axis=1) / a.shape[1]
+    out: np.ndarray = m0 + (a - m0[:, None]).sum(axis=1) / a.shape[1]
+    return out
 
 
 def _rows_pearson(sab: np.ndarray, saa: np.ndarray, sbb: np.ndarray) -> np.ndarray:
@@ -282,10 +284,10 @@ def _tile_stats(
     fy: np.ndarray,
     fz: np.ndarray,
     aux: Optional[np.ndarray],
-    raw: Optional[tuple],
-    dead: tuple,
+    raw: Optional[Tuple[Any, ...]],
+    dead: Tuple[Any, ...],
     nb: int,
-) -> dict:
+) -> Dict[str, Any]:
     """Statistics of the rows of (windows, W) arrays, orientation +1."""
     n_w, w = fz.shape
     mz, my = _row_mean(fz), _row_mean(fy)
@@ -360,7 +362,7 @@ def analyze_tiled(
     area_mm2: Optional[float] = None,
     orientation: Any = "auto",
     block: int = 256,
-) -> dict:
+) -> Dict[str, Any]:
     """``tribodyn.analyze`` with hop == window, vectorised over windows.
 
     Each block of ``block`` consecutive windows is a (windows, W) view of
@@ -478,8 +480,8 @@ def window_stats(
     length: int,
     deadband: Any,
     n_bins: int,
-    raw: Optional[tuple] = None,
-) -> dict:
+    raw: Optional[Tuple[Any, ...]] = None,
+) -> Dict[str, Any]:
     """``tribodyn.window_stats.compute`` one window at a time (docs/method.md 3-5).
 
     Window k is samples ``[starts[k], starts[k] + length)``; windows may be in
@@ -503,7 +505,7 @@ def window_stats(
     keys: Tuple[str, ...] = fit_keys + ("sse", "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz")
     keys += ("deadband", "mu_a", "mu_b", "n_a", "n_b", "fz_min", "fz_max", "bin_count", "bin_cof", "aux_mean")
     keys += ("mu_classic", "n")
-    cols: dict = {key: [] for key in keys}
+    cols: Dict[str, Any] = {key: [] for key in keys}
 
     def put(key: str, value: Any) -> None:
         cols[key].append(value)
@@ -675,3 +677,29 @@ def line_spectra(fy: Any, fz: Any, lines: Any, segments: int = 4) -> np.ndarray:
             c = Y * np.conj(Z)
             out[j] += (c.real, c.imag, abs(Z) ** 2, abs(Y) ** 2)
     return out / segments
+
+
+def classical_windows(fy: np.ndarray, fz: np.ndarray, rel: np.ndarray, length: int, spec: Any
+                      ) -> Dict[str, np.ndarray]:  # fmt: skip
+    """NumPy reference of the kernel's classical COF per window starting at ``rel`` (docs/method.md 6a).
+
+    Mean and median of |fy - tare_fy| / |fz - tare_fz| over |fz - tare_fz| >=
+    min_fn, and the mean and standard deviation of fz - tare_fz.
+    """
+    k = len(rel)
+    mean = np.full(k, np.nan)
+    median = np.full(k, np.nan)
+    zm = np.full(k, np.nan)
+    zs = np.full(k, np.nan)
+    for j, s in enumerate(rel):
+        zr = fz[s : s + length] - spec.tare_fz
+        y = np.abs(fy[s : s + length] - spec.tare_fy)
+        z = np.abs(zr)
+        zm[j] = float(np.mean(zr))
+        zs[j] = float(np.std(zr))
+        keep = (z >= spec.min_fn) & (z > 0) & np.isfinite(y) & np.isfinite(z)
+        if keep.any():
+            r = y[keep] / z[keep]
+            mean[j] = float(r.mean())
+            median[j] = float(np.median(r))
+    return {"mu_classical": mean, "mu_classical_median": median, "fz_mean": zm, "fz_std": zs}

@@ -67,7 +67,7 @@ class LinFit(NamedTuple):
         return bool(np.isnan(self.slope))
 
 
-def _result(t: tuple, stacklevel: int = 3) -> LinFit:
+def _result(t: tuple[Any, ...], stacklevel: int = 3) -> LinFit:
     slope, intercept, r, se_s, se_i, rs, n, degenerate = t
     if degenerate:
         warnings.warn(
@@ -121,7 +121,7 @@ def linfit(x: Any, y: Any, *, check_finite: bool = True) -> LinFit:
     return _result(t)
 
 
-def _proves_finite(t: tuple) -> bool:
+def _proves_finite(t: tuple[Any, ...]) -> bool:
     """Whether a fit shows that its inputs were finite, sparing the check a pass.
 
     A NaN or inf anywhere in x or y makes that block's mean NaN, and NaN
@@ -181,11 +181,11 @@ class LinFitAccumulator:
         with self._lock:
             return int(self._m.state()[0])
 
-    def __getstate__(self) -> tuple:
+    def __getstate__(self) -> tuple[Any, ...]:
         with self._lock:
             return self._m.state()
 
-    def __setstate__(self, state: tuple) -> None:
+    def __setstate__(self, state: tuple[Any, ...]) -> None:
         self._m = _core.Moments.from_state(*state)
         self._lock = threading.Lock()
 

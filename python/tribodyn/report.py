@@ -29,10 +29,15 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 import numpy as np
 from matplotlib.figure import Figure
 
+from . import _labels
 from . import figures as _figs
 
 __all__ = [
     "write_report",
+    "verdict_lines",
+    "windows_table_html",
+    "inputs_table_html",
+    "PARAM_UNITS",
     "build_report_figures",
     "build_report_summary",
     "quality_from_results",
@@ -68,7 +73,196 @@ figure img { max-width: 100%; height: auto; border: 1px solid #ddd; }
 figcaption { font-size: .92em; color: #333; margin-top: .4em; text-align: left; }
 .note { color: #666; font-style: italic; }
 .bad { color: #a00; }
+.verdict { border: 2px solid #2a6; background: #f3fbf5; padding: .6em 1em; margin: 1em 0; }
+.verdict li { margin: .2em 0; }
+.verdict .headline { font-size: 1.15em; font-weight: bold; }
+tr.failed td { background: #fff3f3; }
+.bk-root, .bk { margin: 0 auto; }
 """
+
+#: Unit of each parameter of ``Results.params`` (shown next to its value; "" for none).
+PARAM_UNITS: Dict[str, str] = {
+    "fs": "Hz",
+    "window": "s",
+    "hop": "s",
+    "window_samples": "samples",
+    "hop_samples": "samples",
+    "highpass": "Hz",
+    "deadband": "N",
+    "n_bins": "bins",
+    "gate": "|C_yz(0)| or ci",
+    "max_rel_ci": "1",
+    "iv_lag_samples": "samples",
+    "iv_lag": "s",
+    "noise": "N",
+    "noise_z_std": "N",
+    "max_lag": "samples",
+    "rpm": "1/min",
+    "n_lamellas": "lamellas",
+    "area_mm2": "mm²",
+    "shunt_ohm": "Ω",
+    "chunk_samples": "samples",
+    "chunk": "s",
+    "temperature_log_points": "readings",
+    "start": "samples",
+    "stop": "samples",
+    "threads": "threads",
+    "skew_median": "samples",
+}
+
+
+def unit_text(unit: str) -> str:
+    """'degC' -> '°C', 'A/mm^2' -> 'A/mm²', dimensionless and labels -> '' (:func:`tribodyn._labels.unit_text`)."""
+    return _labels.unit_text(unit)
+
+
+def _median_ci(mu: Mapping[str, Any]) -> str:
+    ci = (mu.get("ci") or {}).get("median")
+    return f" (95 % interval {ci[0]:.4f} to {ci[1]:.4f})" if ci else ""
+
+
+def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, Any],
+                  ranges: Optional[Mapping[str, Any]] = None) -> List[str]:  # fmt: skip
+    """The verdict of one recording in words and numbers, headline first (docs/method.md 3d, 5, 7).
+
+    1. ``summary["verdict"]`` when the summary has one; 2. the headline COF:
+    the median of mu_r over the gated windows with its 95 % bootstrap
+    interval and the estimator (``params["estimator"]``); 3. the optimum
+    ranges with their intervals and verdicts; 4. the quality: gated
+    fraction and the main failure reasons; 5. how many reader warnings.
+    """
+    from .results import verdict_text
+
+    lines: List[str] = []
+    verdict = verdict_text(summary.get("verdict"))
+    mu = summary.get("mu_r") or {}
+    est = params.get("estimator") or summary.get("estimator") or "ols"
+    method = " (the paper's method)" if params.get("method") == "paper" else ""
+    if mu.get("n"):
+        lines.append(
+            f"{name}: COF μ = {mu['median']:.4f}{_median_ci(mu)}, the median over {mu['n']} gated windows of the "
+            f"{est} estimator{method}; 90 % of the windows between {mu['p05']:.4f} and {mu['p95']:.4f}."
+        )
+    else:
+        lines.append(f"{name}: no COF: none of the {summary.get('windows', 0)} windows passed the quality gate.")
+    if verdict:
+        lines.insert(1, f"{name}: {_labels.units_in_text(verdict)}")
+    for by, rng in (ranges or {}).items():
+        if not rng:
+            continue
+        unit = unit_text(str(rng.get("unit", "")))
+        what = str(by).replace("_", " ")
+        if rng.get("optimum"):
+            lo, hi = rng["optimum"]
+            ci = rng.get("optimum_ci") or (None, None)
+            ivs = [_labels.fmt_interval(c) for c in ci]
+            text = f"{name}: optimum {what} {_labels.fmt_range(lo, hi, unit, ci=rng.get('optimum_ci'))}"
+            if all(ivs):
+                text += f" (95 % intervals of the edges {ivs[0]} and {ivs[1]})"
+            if rng.get("mu_min") is not None:
+                text += f", minimum COF {rng['mu_min']:.4f}"
+        else:
+            text = f"{name}: no optimum {what} found"
+        if rng.get("verdict"):
+            text += f"; verdict: {rng['verdict']}"
+        lines.append(text + ".")
+    frac = summary.get("gate_pass_fraction")
+    if isinstance(frac, (int, float)) and math.isfinite(frac):
+        fails = summary.get("gate_failures") or {}
+        top = sorted(fails.items(), key=lambda kv: -kv[1])[:3]
+        why = "; main reasons: " + ", ".join(f"{k} ({v} windows)" for k, v in top) if top else ""
+        lines.append(
+            f"{name}: quality: {summary.get('gated')} of {summary.get('windows')} windows ({100 * frac:.1f} %) "
+            f"passed the quality gate{why}."
+        )
+    warns = summary.get("warnings") or ()
+    if warns:
+        lines.append(f"{name}: {len(warns)} reader warning(s), listed under Warnings below.")
+    return lines
+
+
+def inputs_table_html(inputs: Sequence[Mapping[str, Any]]) -> str:
+    """Inputs: file, size, SHA-256, format, channel map with units, logs used."""
+    if not inputs:
+        return '<p class="note">No input files (simulated data).</p>'
+    head = (
+        '<tr><th class="key">file</th><th>size (bytes)</th><th>SHA-256</th><th>channel map (role = channel, unit)</th>'
+        "<th>logs</th></tr>"
+    )
+    rows = []
+    for i in inputs:
+        cmap = i.get("channels") or {}
+        cm = ", ".join(f"{r} = {c}" for r, c in cmap.items()) if isinstance(cmap, Mapping) else str(cmap)
+        logs = ", ".join(str(x) for x in i.get("logs") or ()) or "none"
+        rows.append(
+            f'<tr><td class="key">{html.escape(str(i.get("file")))}</td>{_cell(i.get("bytes"))}'
+            f'<td class="key">{html.escape(str(i.get("sha256", "")))}</td><td class="text">{html.escape(cm)}</td>'
+            f'<td class="text">{html.escape(logs)}</td></tr>'
+        )
+    return "<table>" + head + "".join(rows) + "</table>"
+
+
+def windows_table_html(results: Any, csv_name: Optional[str] = None, *, edge_rows: int = 5,
+                       max_failures: int = 500) -> str:  # fmt: skip
+    """The first and last ``edge_rows`` windows and every failed one (up to ``max_failures``), units in the
+    header, with a link to the full CSV."""
+    from .columns import UNITS
+
+    table = results.table
+    n = len(table["time"])
+    ok = np.asarray(table["ok"], dtype=bool)
+    keep_cols = [c for c in ("time", "mu_r", "mu_r_low", "mu_r_high", "mu_ols", "c_yz", "T", "branch", "J",
+                             "mu_classic", "mu_instrument", "ok", "reasons") if c in table]  # fmt: skip
+    cols = [
+        c
+        for c in keep_cols
+        if not (np.asarray(table[c]).dtype.kind == "f" and not np.isfinite(np.asarray(table[c])).any())
+    ]
+    failed = np.flatnonzero(~ok)
+    rows = sorted(set(range(min(edge_rows, n))) | set(range(max(0, n - edge_rows), n)) | set(failed[:max_failures]))
+    head = (
+        "<tr><th>window</th>"
+        + "".join(
+            "<th>"
+            + html.escape(c + (f" ({unit_text(UNITS.get(c, ''))})" if unit_text(UNITS.get(c, "")) else ""))
+            + "</th>"
+            for c in cols
+        )
+        + "</tr>"
+    )
+    body = []
+    prev = -1
+    for k in rows:
+        if k != prev + 1:
+            body.append(
+                f'<tr><td colspan="{len(cols) + 1}" class="text note">… windows {prev + 1} to {k - 1} …</td></tr>'
+            )
+        cls = ' class="failed"' if not ok[k] else ""
+        cells = "".join(_cell(np.asarray(table[c])[k].item()) for c in cols)
+        body.append(f"<tr{cls}>{_cell(int(k))}{cells}</tr>")
+        prev = k
+    if prev < n - 1:
+        body.append(f'<tr><td colspan="{len(cols) + 1}" class="text note">… windows {prev + 1} to {n - 1} …</td></tr>')
+    link = (
+        f' All {n} windows and every column: <a href="{html.escape(csv_name)}">{html.escape(csv_name)}</a>.'
+        if csv_name
+        else ""
+    )
+    more = f" (the first {max_failures} of {failed.size} failures shown)" if failed.size > max_failures else ""
+    note = f'<p class="note">First and last {edge_rows} windows and every window that failed the gate{more}.{link}</p>'
+    return note + f'<div class="scroll"><table>{head}{"".join(body)}</table></div>'
+
+
+def _params_with_units(params: Mapping[str, Any]) -> Dict[str, Any]:
+    """Parameter rows 'name (unit)' -> value; nested dicts (one per recording) keep their own rows."""
+    out: Dict[str, Any] = {}
+    for k, v in params.items():
+        if isinstance(v, Mapping):
+            out[k] = _params_with_units(v)
+            continue
+        u = unit_text(PARAM_UNITS.get(str(k), ""))
+        out[f"{k} ({u})" if u else str(k)] = v
+    return out
 
 
 # --------------------------------------------------------------------------
@@ -262,6 +456,10 @@ def write_report(
     quality: Optional[Mapping[str, Any]] = None,
     dpi: int = REPORT_DPI,
     max_table_rows: int = MAX_TABLE_ROWS,
+    verdict: Optional[Sequence[str]] = None,
+    inputs: Optional[Sequence[Mapping[str, Any]]] = None,
+    sections: Optional[Sequence[Tuple[str, str]]] = None,
+    head_html: str = "",
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -291,6 +489,15 @@ def write_report(
         Resolution of the embedded figures.
     max_table_rows : int
         Rows shown per table.
+    verdict : list of str, optional
+        The verdict lines (:func:`verdict_lines`), shown first in a box;
+        the first line is the headline.
+    inputs : list of dict, optional
+        The input files (file, bytes, sha256, channels, logs), after the verdict.
+    sections : list of (title, html), optional
+        Further sections (interactive views, the table of windows), after the figures.
+    head_html : str
+        Inline ``<script>`` added to the head (Bokeh's JavaScript; no network reference).
 
     Returns
     -------
@@ -327,6 +534,7 @@ def write_report(
         '<meta charset="utf-8">',
         f"<title>{html.escape(title)}</title>",
         f"<style>{_CSS}</style>",
+        head_html,
         "</head>",
         "<body>",
         f"<h1>{html.escape(title)}</h1>",
@@ -335,6 +543,16 @@ def write_report(
             f"{len(images)} figure{'s' if len(images) != 1 else ''}</p>"
         ),
     ]
+    if verdict:
+        first, rest = verdict[0], verdict[1:]
+        out.append('<div class="verdict" id="verdict"><h2 style="margin-top:0">Verdict</h2>')
+        out.append(f'<p class="headline">{html.escape(first)}</p>')
+        if rest:
+            out.append("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in rest) + "</ul>")
+        out.append("</div>")
+    if inputs is not None:
+        out.append('<h2 id="inputs">Inputs</h2>')
+        out.append(inputs_table_html(inputs))
     if warns:
         out.append('<h2 id="warnings">Warnings</h2>')
         out.append('<p class="note">What the readers found odd in the input, and what the analysis noticed:</p>')
@@ -370,8 +588,12 @@ def write_report(
             f"<figcaption><b>Figure {fig_no}.</b> {cap}</figcaption></figure>"
         )
 
-    out.append('<h2 id="parameters">Parameters</h2>')
-    out.append(_kv_table(params) if params else '<p class="note">No parameters.</p>')
+    for sec_no, (sec_title, sec_html) in enumerate(sections or (), 1):
+        out.append(f'<h2 id="section{sec_no}">{html.escape(sec_title)}</h2>')
+        out.append(sec_html)
+
+    out.append('<h2 id="parameters">Parameters (with units)</h2>')
+    out.append(_kv_table(_params_with_units(params)) if params else '<p class="note">No parameters.</p>')
 
     for name, table in (tables or {}).items():
         out.append(f"<h2>{html.escape(str(name))}</h2>")
@@ -448,7 +670,8 @@ def _ci(ci: Any) -> str:
 
 def _segmented_caption(opr: Any, unit: str) -> str:
     """The segmented fit in words: verdict, breakpoints and intervals, exclusions (docs/method.md 7)."""
-    parts = [f"Bathtub fit (line) with its 95 % bootstrap band; verdict: {opr.verdict}. {opr.explanation}"]
+    expl = _labels.units_in_text(opr.explanation)
+    parts = [f"Bathtub fit (line) with its 95 % bootstrap band; verdict: {opr.verdict}. {expl}"]
     for name, f in opr.fits.items():
         if f.verdict in ("too few windows", "covariate constant"):
             parts.append(f"{name} ({f.n_windows} windows): {f.verdict}.")
@@ -506,39 +729,74 @@ def build_report_figures(
         density vs time and COF vs J (Fig. 12) when ``J`` has data, or COF
         vs time alone when neither has.
     """
-    out: List[Tuple[str, Figure]] = []
-    if example is not None:
-        out += _example_figures(example)
+    return [(c, f) for _, c, f in build_named_figures(
+        results, opr_temperature=opr_temperature, opr_current=opr_current,
+        examples=[example] if example is not None else (), temperature_log=temperature_log)]  # fmt: skip
+
+
+def build_named_figures(
+    results: Any,
+    *,
+    opr_temperature: Any = None,
+    opr_current: Any = None,
+    examples: Sequence[Mapping[str, Any]] = (),
+    temperature_log: Any = None,
+) -> List[Tuple[str, str, Figure]]:
+    """:func:`build_report_figures` with a file name per figure, after the paper's figure it corresponds to.
+
+    Each example window (a dict as ``example`` there, plus ``label``, e.g.
+    "representative gated window", and ``tag`` for the file name) gives
+    Figs. 2-9 named ``fig02_forces_<tag>``, ``fig03-05_correlations_<tag>``,
+    ``fig06-08_phase_plots_<tag>``, ``fig09_cof_vs_normal_force_<tag>``; then
+    ``fig10_cof_temperature_vs_time``, ``fig11_cof_vs_temperature``,
+    ``fig12_cof_current_density_vs_time``, ``sec4-2_cof_vs_current_density``
+    or ``cof_vs_time``.
+    """
+    out: List[Tuple[str, str, Figure]] = []
+    for ex in examples:
+        out += _example_figures(ex)
     has_t, has_j = _finite_any(results, "T"), _finite_any(results, "J")
     n = len(getattr(results, "table", results)["time"])
     ok = int(np.sum(np.asarray(getattr(results, "table", results).get("ok", np.ones(n)), dtype=bool)))
-    what = f"{n} windows, {ok} passed the quality gate; failed windows as grey crosses"
+    many = ok > _figs.BAND_FROM
+    what = (f"{n} windows, {ok} passed the quality gate"
+            + ("; line and shaded band: running median and 5-95 % of the gated windows" if many else "")
+            + "; failed windows as grey ticks in the strip at the top, with their commonest reasons")  # fmt: skip
     if has_t:
         cap = (
             "COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator "
             f"temperature against time ({what}); cf. paper Fig. 10."
         )
-        out.append((cap, _figs.cof_and_temperature_vs_time(results, temperature_log=temperature_log)))
+        out.append(("fig10_cof_temperature_vs_time", cap,
+                    _figs.cof_and_temperature_vs_time(results, temperature_log=temperature_log)))  # fmt: skip
         opr = _range_or_none(results, opr_temperature, "temperature")
         cap = (
             "COF against temperature, heating and cooling branches apart (hysteresis) with binned "
             f"medians. {_opr_caption(opr)} Cf. paper Fig. 11."
         )
-        out.append((cap, _figs.cof_vs_temperature(results, opr)))
+        out.append(("fig11_cof_vs_temperature", cap, _figs.cof_vs_temperature(results, opr)))
     if has_j:
         cap = f"COF and current density J against time ({what}); cf. paper Fig. 12."
-        out.append((cap, _figs.cof_and_current_density_vs_time(results)))
+        out.append(("fig12_cof_current_density_vs_time", cap, _figs.cof_and_current_density_vs_time(results)))
         opr = _range_or_none(results, opr_current, "current_density")
         cap = f"COF against current density with binned medians. {_opr_caption(opr)} Cf. paper Sec. 4.2."
-        out.append((cap, _figs.cof_vs_current_density(results, opr)))
+        out.append(("sec4-2_cof_vs_current_density", cap, _figs.cof_vs_current_density(results, opr)))
     if not (has_t or has_j):
-        out.append(
-            (f"COF against time ({what}); no temperature or current density was given.", _figs.cof_vs_time(results))
-        )
+        out.append(("cof_vs_time", f"COF against time ({what}); no temperature or current density was given.",
+                    _figs.cof_vs_time(results)))  # fmt: skip
+    strokes = getattr(results, "strokes", None)
+    if strokes is not None and len(strokes.get("mu", ())):
+        cap = (f"Reciprocating test: per-stroke classical COF (mean |fy|/|fz| over the central "
+               f"{getattr(results, 'params', {}).get('stroke_fraction', 0.5):g} of each stroke) against cycle "
+               f"number, one marker per sliding direction ({len(strokes['mu'])} strokes)"
+               + ("; open markers: the instrument's COF column" if np.isfinite(
+                   np.asarray(strokes.get("mu_instrument", [np.nan]), dtype=float)).any() else "")
+               + "; docs/method.md 6c.")  # fmt: skip
+        out.append(("strokes_cof_vs_cycle", cap, _figs.strokes_vs_cycle(results)))
     return out
 
 
-def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, Figure]]:
+def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, str, Figure]]:
     from .correlation import xcorr
     from .identify import identify
 
@@ -549,7 +807,7 @@ def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, Figure]]:
     n = len(np.asarray(fz))
     lag = max(0, min(n - 1, round(0.5 * fs)))
     if res is None:
-        res = identify(fx, fy, fz, fs=fs, max_lag=lag)
+        res = identify(fy, fz, fx=fx, fs=fs, max_lag=lag)
     corr = res.correlations
     if corr is None and n >= 2:
         corr = {"yz": xcorr(fy, fz, max_lag=lag, fs=fs, check_finite=False)}
@@ -558,18 +816,23 @@ def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, Figure]]:
             corr["xz"] = xcorr(fx, fz, max_lag=lag, fs=fs, check_finite=False)
     span = f"{n / fs:g} s at {fs:g} Hz from t = {t0:g} s"
     gate = "passed" if res.ok else "failed (" + "; ".join(res.reasons) + ")"
+    label = str(example.get("label") or "example window")
+    tag = str(example.get("tag") or "example")
+    window_gate = example.get("gate_text")  # the analysis's own verdict on this window
+    if window_gate:
+        gate = str(window_gate)
     caps = (
-        f"Dynamic forces of the example window ({span}); cf. paper Fig. 2.",
+        f"Dynamic forces of the {label} ({span}); cf. paper Fig. 2.",
         (
-            "Correlation functions C_xy, C_xz, C_yz of the example window against the time shift, "
+            f"Correlation functions C_xy, C_xz, C_yz of the {label} against the time shift, "
             f"Eq. (1); C_yz(0) = {_fmt(res.c_yz)}, quality gate {gate}; cf. paper Figs. 3-5."
         ),
         (
-            "Force phase plots of the example window with the regression of F_y,d on F_z,d "
+            f"Force phase plots of the {label} with the regression of F_y,d on F_z,d "
             f"(mu_r = {_fmt(res.mu_r)}, orientation s = {res.orientation:+d}); cf. paper Figs. 6-8."
         ),
         (
-            f"COF per F_z,d bin of the example window, deadband {_fmt(res.deadband)} N shaded; "
+            f"COF per F_z,d bin of the {label}, deadband {_fmt(res.deadband)} N shaded; "
             f"mu_r = {_fmt(res.mu_r)}, mu_a = {_fmt(res.mu_a)}, mu_b = {_fmt(res.mu_b)}; cf. paper Fig. 9."
         ),
     )
@@ -579,7 +842,9 @@ def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, Figure]]:
         _figs.phase_plots(fx, fy, fz, fit=res),
         _figs.cof_vs_normal_force(res),
     )
-    return list(zip(caps, figs))
+    names = (f"fig02_forces_{tag}", f"fig03-05_correlations_{tag}", f"fig06-08_phase_plots_{tag}",
+             f"fig09_cof_vs_normal_force_{tag}")  # fmt: skip
+    return list(zip(names, caps, figs))
 
 
 def _range_dict(opr: Any) -> Dict[str, Any]:

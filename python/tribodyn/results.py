@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import html as _html
+import warnings as _warnings
 from dataclasses import dataclass, field
-from typing import Any, Dict, Mapping, Optional, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
-from .columns import WINDOW_COLUMNS
+from .columns import UNITS, WINDOW_COLUMNS
 from .correlation import XcorrResult
 
 __all__ = ["BinTable", "CofResult", "Results", "WINDOW_COLUMNS"]
@@ -120,7 +122,33 @@ class CofResult:
     dmu_dfn_stderr: float = float("nan")
 
 
-@dataclass(frozen=True)
+class GatedMask(np.ndarray):
+    """``Results.gated``: the boolean mask of the gated windows, a plain array to NumPy.
+
+    ``Results.gated`` was a method; calling the mask (``res.gated()``) still
+    returns it, with a :class:`DeprecationWarning`. Arithmetic on it gives
+    plain arrays.
+    """
+
+    def __call__(self) -> np.ndarray:
+        _warnings.warn(
+            "Results.gated is a property now: use res.gated instead of res.gated()", DeprecationWarning, stacklevel=2
+        )
+        return self.view(np.ndarray)
+
+    def __array_wrap__(self, obj: Any, context: Any = None, return_scalar: bool = False) -> Any:
+        if return_scalar:
+            return obj[()]
+        return np.asarray(obj).view(np.ndarray)
+
+
+#: Columns shown by ``Results._repr_html_`` (those present and not all-NaN), in order.
+_PREVIEW_COLUMNS = ("time", "mu_r", "mu_r_low", "mu_r_high", "mu_ols", "c_yz", "T", "J", "ok", "reasons")
+#: Rows shown by ``Results._repr_html_``.
+PREVIEW_ROWS = 5
+
+
+@dataclass(frozen=True, repr=False)
 class Results:
     """Per-window results of ``tribodyn.analyze`` (docs/method.md section 6).
 
@@ -158,6 +186,8 @@ class Results:
     #: separately analysed parts fix one orientation (docs/method.md 0).
     moments: Dict[str, np.ndarray] = field(default_factory=dict)
     warnings: Tuple[str, ...] = ()
+    #: Per-stroke table of a reciprocating test (``tribometer.STROKE_COLUMNS``), or None (docs/method.md 6c).
+    strokes: Optional[Dict[str, np.ndarray]] = None
 
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""
@@ -179,6 +209,7 @@ class Results:
             params=params,
             moments=self.moments,
             warnings=self.warnings,
+            strokes=self.strokes,
         )
 
     def __len__(self) -> int:
@@ -195,17 +226,83 @@ class Results:
         """The bin table of window ``k``."""
         return BinTable.from_range(float(self.fz_min[k]), float(self.fz_max[k]), self.bin_counts[k], self.bin_cof[k])
 
+    @property
     def gated(self) -> np.ndarray:
-        """Boolean mask of the windows that passed the quality gate."""
-        return np.asarray(self.table["ok"], dtype=bool)
+        """Boolean mask of the windows that passed the quality gate (a property; ``res.gated()`` still works)."""
+        return np.asarray(self.table["ok"], dtype=bool).view(GatedMask)
+
+    @property
+    def units(self) -> Dict[str, str]:
+        """Unit of each column of the table (:data:`tribodyn.columns.UNITS`; ``""`` for labels)."""
+        return {c: UNITS.get(c, "") for c in self.table}
+
+    def headline(self) -> str:
+        """The verdict in one line: ``summary()["verdict"]`` when the summary has one, else the COF headline.
+
+        The COF headline is the median of mu_r over the gated windows with its
+        95 % interval (moving-block bootstrap, docs/method.md 3d), the
+        estimator and the gated fraction.
+        """
+        s = self.summary()
+        text = verdict_text(s.get("verdict"))
+        return f"{text} {_cof_headline(s, self.params)}" if text else _cof_headline(s, self.params)
+
+    def __repr__(self) -> str:
+        n = len(self)
+        ok = np.asarray(self.table["ok"], dtype=bool) if n else np.zeros(0, dtype=bool)
+        mu = np.asarray(self.table["mu_r"], dtype=float)[ok] if n else np.zeros(0)
+        mu = mu[np.isfinite(mu)]
+        cof = f"mu_r median {np.median(mu):.4g}" if mu.size else "no gated COF"
+        t = np.asarray(self.table["time"], dtype=float) if n else np.zeros(0)
+        span = f", t {t.min():.6g}..{t.max():.6g} s" if n and np.isfinite(t).any() else ""
+        est = self.params.get("estimator")
+        est_text = f", estimator {est}" if est else ""
+        text = f"<Results: {n} windows, {int(ok.sum())} gated, {cof}{est_text}{span}>"
+        return text if len(text) <= 300 else text[:296] + "...>"
+
+    def _repr_html_(self) -> str:
+        """Jupyter's view: the verdict (or the COF headline), the counts and the first rows with units."""
+        esc = _html.escape
+        n = len(self)
+        cols = [
+            c
+            for c in _PREVIEW_COLUMNS
+            if c in self.table
+            and not (np.asarray(self.table[c]).dtype.kind == "f" and not np.isfinite(self.table[c]).any())
+        ]
+        head = "".join(
+            f"<th>{esc(c)}"
+            + (f" ({esc(_unit_text(UNITS.get(c, '')))})" if _unit_text(UNITS.get(c, "")) else "")
+            + "</th>"
+            for c in cols
+        )
+        rows: List[str] = []
+        for k in range(min(n, PREVIEW_ROWS)):
+            cells = "".join(f"<td>{esc(_cell_text(self.table[c][k]))}</td>" for c in cols)
+            rows.append(f"<tr>{cells}</tr>")
+        more = f"<p><i>First {min(n, PREVIEW_ROWS)} of {n} windows; all of them: <code>res.to_pandas()</code>.</i></p>"
+        return (
+            '<div class="tribodyn-results">'
+            f"<p><b>tribodyn Results</b>: {n} windows, {int(np.sum(self.table['ok']))} passed the quality gate</p>"
+            f"<p><b>{esc(self.headline())}</b></p>"
+            f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>{more}</div>"
+        )
 
     def to_pandas(self) -> Any:
-        """The per-window table as a ``pandas.DataFrame`` (needs pandas)."""
-        try:
-            import pandas as pd
-        except ImportError as exc:  # pragma: no cover - depends on the environment
-            raise ImportError("to_pandas needs pandas: pip install pandas") from exc
-        return pd.DataFrame(dict(self.table))
+        """The per-window table as a ``pandas.DataFrame``, indexed by the window centre ``time`` in s.
+
+        The units of the columns (and of the index) are in ``df.attrs["units"]``
+        (from :data:`tribodyn.columns.UNITS`: ``"1"`` dimensionless, ``""`` a
+        label); ``df.attrs["params"]`` holds the analysis parameters.
+        """
+        import pandas as pd
+
+        data = {k: v for k, v in self.table.items() if k != "time"}
+        index = pd.Index(np.asarray(self.table["time"], dtype=float), name="time")
+        df = pd.DataFrame(data, index=index)
+        df.attrs["units"] = {"time": UNITS["time"], **{c: UNITS.get(c, "") for c in data}}
+        df.attrs["params"] = dict(self.params)
+        return df
 
     def summary(self) -> Dict[str, Any]:
         """COF statistics of the gated windows (for the JSON summary).
@@ -215,7 +312,7 @@ class Results:
         ``"ci"``: a moving-block bootstrap over the gated windows in time
         order (docs/method.md 3d; :func:`bootstrap_ci`).
         """
-        ok = self.gated()
+        ok = np.asarray(self.table["ok"], dtype=bool)
         mu = np.asarray(self.table["mu_r"])[ok]
         mu = mu[np.isfinite(mu)]
 
@@ -261,7 +358,89 @@ class Results:
                 key = part.split(":")[0]
                 counts[key] = counts.get(key, 0) + 1
         out["gate_failures"] = counts
+        out.update(self._tribometer_summary(stats))
         return out
+
+    def _tribometer_summary(self, stats: Any) -> Dict[str, Any]:
+        """ "classical", "instrument", "strokes", "roles", "motion" and "verdict" (docs/method.md 6a-6d)."""
+        from .tribometer import verdict
+
+        out: Dict[str, Any] = {}
+        for key, col in (("classical", "mu_classical"), ("instrument", "mu_instrument")):
+            v = np.asarray(self.table.get(col, []), dtype=float)
+            v = v[np.isfinite(v)]
+            if v.size:
+                out[key] = dict(stats(v))
+                if key == "classical":
+                    med = np.asarray(self.table["mu_classical_median"], dtype=float)
+                    out[key]["median_of_medians"] = float(np.nanmedian(med)) if np.isfinite(med).any() else None
+                    out[key]["min_fn"] = self.params.get("min_fn")
+                    out[key]["tare"] = self.params.get("tare_offsets")
+        if self.strokes is not None and len(self.strokes.get("mu", [])):
+            st = self.strokes
+            per: Dict[str, Any] = {"n": int(len(st["mu"]))}
+            for d, name in ((1, "forward"), (-1, "backward")):
+                m = np.asarray(st["mu"])[np.asarray(st["direction"]) == d]
+                m = m[np.isfinite(m)]
+                per[name] = dict(stats(m)) if m.size else {"n": 0}
+            allm = np.asarray(st["mu"], dtype=float)
+            per["all"] = dict(stats(allm[np.isfinite(allm)]))
+            out["strokes"] = per
+        for key in ("roles", "roles_source", "motion", "window_note"):
+            if self.params.get(key) is not None:
+                out[key] = self.params[key]
+        out["verdict"] = verdict(self.table, self.params, self.strokes, int(self.gated.sum()))
+        return out
+
+
+def _unit_text(unit: str) -> str:
+    """A unit as a reader writes it (°C, A/mm²); dimensionless ("1") and labels ("") as nothing."""
+    return {"1": "", "degC": "°C", "A/mm^2": "A/mm²", "1/N": "1/N"}.get(unit, unit)
+
+
+def _cell_text(v: Any) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return "yes" if v else "no"
+    if isinstance(v, (float, np.floating)):
+        return "NaN" if not np.isfinite(v) else format(float(v), ".4g")
+    return str(v)
+
+
+def verdict_text(verdict: Any) -> str:
+    """``summary()["verdict"]`` in words: a text as it is; the dict form (dynamic_method, motion, reasons,
+    cof) as one sentence; "" when there is none."""
+    if not verdict:
+        return ""
+    if isinstance(verdict, str):
+        return verdict
+    if not isinstance(verdict, Mapping):
+        return str(verdict)
+    if verdict.get("text"):
+        return str(verdict["text"])
+    motion = f" ({verdict['motion']} motion)" if verdict.get("motion") else ""
+    if verdict.get("dynamic_method", True):
+        text = f"The dynamic method applies{motion}."
+    else:
+        text = f"The dynamic method does not apply{motion}."
+    reasons = [str(r) for r in verdict.get("reasons") or ()]
+    if reasons:
+        text += " " + "; ".join(reasons) + "."
+    cof = verdict.get("cof")
+    if isinstance(cof, Mapping) and cof.get("value") is not None and np.isfinite(cof["value"]):
+        text += f" Headline COF {float(cof['value']):.4g} from {cof.get('estimate') or 'the analysis'}."
+    return text
+
+
+def _cof_headline(s: Mapping[str, Any], params: Mapping[str, Any]) -> str:
+    """'COF 0.152 (95 % interval 0.150-0.153; median of 380 gated windows of 406, corrected estimator)'."""
+    mu = s.get("mu_r") or {}
+    est = params.get("estimator") or s.get("estimator")
+    how = f", {est} estimator" if est else ""
+    if not mu.get("n"):
+        return f"No COF: none of the {s.get('windows', 0)} windows passed the quality gate{how}."
+    ci = (mu.get("ci") or {}).get("median")
+    iv = f" (95 % interval {ci[0]:.4g} to {ci[1]:.4g})" if ci else ""
+    return f"COF {mu['median']:.4g}{iv}: median of mu_r over {mu['n']} gated windows of {s.get('windows')}{how}."
 
 
 #: Resamples of :func:`bootstrap_ci` and its fixed seed (results are reproducible).

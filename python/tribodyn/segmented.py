@@ -30,10 +30,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Tuple
+from typing import Any, Callable, Dict, Optional, Tuple
 
 import numpy as np
-from scipy import stats as _stats
 
 __all__ = ["Fit", "fit_bathtub", "bootstrap_indices", "FAMILIES"]
 
@@ -83,7 +82,7 @@ class Fit:
 _NONE = Fit("flat", math.nan, 0.0, 0.0, math.nan, math.nan, math.inf)
 
 
-def _sums(x: np.ndarray, y: np.ndarray, w: np.ndarray, glo: np.ndarray, ghi: np.ndarray):
+def _sums(x: np.ndarray, y: np.ndarray, w: np.ndarray, glo: np.ndarray, ghi: np.ndarray) -> Dict[str, Any]:
     L = np.maximum(glo[:, None] - x[None, :], 0.0)
     U = np.maximum(x[None, :] - ghi[:, None], 0.0)
     Lw, Uw = L * w, U * w
@@ -96,7 +95,7 @@ def _sums(x: np.ndarray, y: np.ndarray, w: np.ndarray, glo: np.ndarray, ghi: np.
     )  # fmt: skip
 
 
-def _one_wall(S0, Sy, Syy, S, SS, Sy_):
+def _one_wall(S0: Any, Sy: Any, Syy: Any, S: Any, SS: Any, Sy_: Any) -> Tuple[Any, Any, Any, Any]:
     det = S0 * SS - S * S
     with np.errstate(invalid="ignore", divide="ignore"):
         m = (SS * Sy - S * Sy_) / det
@@ -105,7 +104,9 @@ def _one_wall(S0, Sy, Syy, S, SS, Sy_):
     return m, a, rss, det
 
 
-def _best(x, y, w, glo, ghi, family: str, min_wall: int) -> Fit:
+def _best(
+    x: np.ndarray, y: np.ndarray, w: np.ndarray, glo: np.ndarray, ghi: np.ndarray, family: str, min_wall: int
+) -> Fit:
     s = _sums(x, y, w, glo, ghi)
     S0, Sy, Syy = s["S0"], s["Sy"], s["Syy"]
     if family == "flat":
@@ -178,7 +179,7 @@ def fit_family(x: np.ndarray, y: np.ndarray, w: np.ndarray, family: str, min_wal
     return g if g.rss <= f.rss else f
 
 
-def _tau2(x, y, se2, fit_fn) -> Tuple[float, Fit]:
+def _tau2(x: np.ndarray, y: np.ndarray, se2: np.ndarray, fit_fn: Callable[[np.ndarray], Fit]) -> Tuple[float, Fit]:
     """Between-window variance (Paule-Mandel) and the fit with those weights."""
     tau2 = 0.0
     fit = fit_fn(1.0 / (se2 + tau2))
@@ -217,7 +218,7 @@ class Selection:
     tau2: float
     p_flat: float
     p_both: float
-    fits: dict
+    fits: Dict[str, Any]
 
 
 def _f_p(rss0: float, rss1: float, df: int, dof: int) -> float:
@@ -226,6 +227,8 @@ def _f_p(rss0: float, rss1: float, df: int, dof: int) -> float:
     if rss1 <= 0:
         return 0.0 if rss0 > rss1 else 1.0
     f = ((rss0 - rss1) / df) / (rss1 / dof)
+    from scipy import stats as _stats  # lazy: slow to import
+
     return float(_stats.f.sf(max(f, 0.0), df, dof))
 
 

@@ -146,6 +146,8 @@ from scipy.interpolate import PchipInterpolator
 
 __all__ = [
     "N_LAMELLAS",
+    "ReciprocatingSimulation",
+    "reciprocating",
     "PRELOAD_N",
     "RPM",
     "TEMPERATURE_PATH",
@@ -284,7 +286,8 @@ class Truth:
         times = np.asarray(times, dtype=np.float64)
         if values is None:
             return np.full(times.shape, np.nan)
-        return np.interp(times, self.t, values, left=np.nan, right=np.nan)
+        out: np.ndarray = np.interp(times, self.t, values, left=np.nan, right=np.nan)
+        return out
 
     def mu_at(self, times: Any) -> np.ndarray:
         """True COF ``mu0`` interpolated linearly at ``times`` (s).
@@ -514,7 +517,7 @@ class _Rig:
         self.sos_r, g = _band_sos(min(150.0, 0.25 * self.fs), 350.0, self.fs)
         self.g_r = _RING_STD / g
 
-        def z(sos):
+        def z(sos: np.ndarray) -> np.ndarray:
             return np.zeros((sos.shape[0], 2))
 
         self.z_bb, self.z_x = z(self.sos_bb), z(self.sos_x)
@@ -617,7 +620,8 @@ class _Rig:
 
 def _quantise(x: np.ndarray, full_scale: float) -> np.ndarray:
     lsb = 2.0 * full_scale / 2**ADC_BITS
-    return np.clip(np.round(x / lsb) * lsb, -full_scale, full_scale - lsb)
+    out: np.ndarray = np.clip(np.round(x / lsb) * lsb, -full_scale, full_scale - lsb)
+    return out
 
 
 class _Acquisition:
@@ -712,7 +716,8 @@ def _record_scenario(
     """
 
     def mu0_fn(t: np.ndarray) -> np.ndarray:
-        return np.interp(t, tg, mu)
+        out: np.ndarray = np.interp(t, tg, mu)
+        return out
 
     rig = _Rig(
         fs=fs,
@@ -1082,7 +1087,8 @@ def _fractional_delay(x: np.ndarray, d: float) -> np.ndarray:
     m = sfft.next_fast_len(size, real=True)
     spec = sfft.rfft(x - line, n=m)
     spec *= np.exp(-2j * np.pi * np.fft.rfftfreq(m) * d)
-    return sfft.irfft(spec, n=m)[:size] + (x[0] + slope * (n - d))
+    out: np.ndarray = sfft.irfft(spec, n=m)[:size] + (x[0] + slope * (n - d))
+    return out
 
 
 def conditions(
@@ -1316,3 +1322,62 @@ def scenario(name: str, **kw: Any) -> Simulation:
     except KeyError:
         raise ValueError(f"unknown scenario {name!r}; choose 'temperature' or 'current_density'") from None
     return fn(**kw)
+
+
+@dataclass(frozen=True)
+class ReciprocatingSimulation:
+    """A simulated reciprocating (ball-on-flat) test: :func:`reciprocating`.
+
+    Attributes
+    ----------
+    channels : dict of str -> ndarray
+        ``fy`` (signed friction, N), ``fz`` (normal force, N), ``x`` (position, m), ``v`` (velocity, m/s).
+    fs : float
+        Sampling rate, Hz.
+    mu_forward, mu_backward : float
+        The true COF in the +x and -x directions.
+    n_strokes : int
+        Strokes simulated (two per cycle).
+    """
+
+    channels: dict[str, np.ndarray]
+    fs: float
+    mu_forward: float
+    mu_backward: float
+    n_strokes: int
+
+
+def reciprocating(
+    *,
+    seed: int = 0,
+    fs: float = 1000.0,
+    stroke_length: float = 0.01,
+    frequency: float = 2.0,
+    cycles: int = 20,
+    mu_forward: float = 0.12,
+    mu_backward: float = 0.10,
+    normal_force: float = 10.0,
+    noise: float = 0.02,
+    fz_dynamic: float = 0.0,
+) -> ReciprocatingSimulation:
+    """A reciprocating test (docs/method.md 6c): sinusoidal position x = L/2 sin(2 pi f t), dead-weight fz.
+
+    Friction is +sign(v) mu_dir fz (mu_forward while v > 0, mu_backward while v < 0), smoothed over
+    the reversals by tanh(v / 5 % of the peak speed); fy and fz carry Gaussian noise of ``noise`` N.
+    ``fz_dynamic`` > 0 adds a dynamic part to the normal force (the friction follows it):
+    ``fz_dynamic (sin(2 pi 37 t) + 0.5 sin(2 pi 61 t + 1))`` N, for the direction-rectified
+    regression (docs/method.md 6c).
+    """
+    rng = np.random.default_rng(seed)
+    n = int(round(cycles / frequency * fs))
+    t = np.arange(n) / fs
+    w = 2 * np.pi * frequency
+    x = 0.5 * stroke_length * np.sin(w * t)
+    v = 0.5 * stroke_length * w * np.cos(w * t)
+    vmax = 0.5 * stroke_length * w
+    mu = np.where(v > 0, mu_forward, mu_backward)
+    load = normal_force + fz_dynamic * (np.sin(2 * np.pi * 37.0 * t) + 0.5 * np.sin(2 * np.pi * 61.0 * t + 1.0))
+    fz = load + noise * rng.standard_normal(n)
+    fy = np.tanh(v / (0.05 * vmax)) * mu * load + noise * rng.standard_normal(n)
+    return ReciprocatingSimulation({"fy": fy, "fz": fz, "x": x, "v": v}, float(fs), mu_forward, mu_backward,
+                                   2 * cycles)  # fmt: skip

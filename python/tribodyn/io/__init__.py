@@ -111,17 +111,9 @@ def _sniff(head: bytes) -> Optional[str]:
     text = head.lstrip(b"\xef\xbb\xbf")
     if text.startswith(b"LabVIEW Measurement"):
         return "lvm"
-    if b"\x00" in head:
-        return None
-    try:
-        head.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        if exc.start < len(head) - 4:  # not just a character cut at the end of the probe
-            try:
-                head.decode("cp1252")
-            except UnicodeDecodeError:
-                return None
-    return "delimited"
+    from ._text import sniff_encoding  # UTF-8/16 (BOM or NUL pattern), CP932, CP1252; None: binary
+
+    return "delimited" if sniff_encoding(head) is not None else None
 
 
 def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
@@ -233,7 +225,8 @@ def open_recording(
     if vendor is not None:
         kwargs["vendor"] = vendor
     try:
-        return cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
+        rec: Recording = cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
+        return rec
     except TypeError as exc:
         if "unexpected keyword argument" in str(exc):
             raise TypeError(f"open_recording: option not accepted for format {fmt!r}: {exc}") from None

@@ -281,3 +281,171 @@ def iter_data_lines(
                 )
         left -= len(lines)
         yield lines, nos
+
+
+# -- encodings -------------------------------------------------------------------------
+
+#: Byte-order marks and the encoding each announces (longest first).
+_BOMS: Tuple[Tuple[bytes, str], ...] = (
+    (b"\xef\xbb\xbf", "utf-8-sig"),
+    (b"\xff\xfe", "utf-16"),
+    (b"\xfe\xff", "utf-16"),
+)
+
+
+def _decodes(head: bytes, encoding: str) -> Optional[str]:
+    """``head`` decoded with ``encoding``, allowing a character cut at the end of the probe; None if it fails."""
+    for cut in range(4):
+        try:
+            return head[: len(head) - cut].decode(encoding)
+        except UnicodeDecodeError:
+            continue
+    return None
+
+
+def sniff_encoding(head: bytes) -> Optional[str]:
+    """The text encoding of a file from its first bytes, or None for binary content.
+
+    The documented detection, in order:
+
+    1. a byte-order mark: UTF-8 (``utf-8-sig``) or UTF-16 (either byte order);
+    2. NUL bytes at every other position of mostly ASCII text: UTF-16 LE or
+       BE without a mark (any other NUL byte: binary, None);
+    3. valid UTF-8: ``utf-8``;
+    4. valid CP932 (Shift-JIS, as Japanese instruments such as Kyowa's
+       write) holding at least one Japanese character: ``cp932``;
+    5. valid Windows-1252: ``cp1252`` (Latin-1 text);
+    6. otherwise None (binary).
+
+    ``encoding=`` of the readers overrides it.
+    """
+    for bom, enc in _BOMS:
+        if head.startswith(bom):
+            return enc
+    if b"\x00" in head:
+        probe = head[: 2 * (min(len(head), 512) // 2)]
+        if len(probe) >= 4:
+            even, odd = probe[0::2], probe[1::2]
+            if odd.count(0) >= 0.9 * len(odd) and even.count(0) == 0:
+                return "utf-16-le"
+            if even.count(0) >= 0.9 * len(even) and odd.count(0) == 0:
+                return "utf-16-be"
+        return None
+    if _decodes(head, "utf-8") is not None:
+        return "utf-8"
+    text = _decodes(head, "cp932")
+    if text is not None and any(
+        "\u3000" <= c <= "\u9fff" or "\uff00" <= c <= "\uffef" for c in text
+    ):  # kana, kanji, full-width forms
+        return "cp932"
+    if _decodes(head, "cp1252") is not None:
+        return "cp1252"
+    return None
+
+
+def is_wide(encoding: str) -> bool:
+    """True for encodings whose ASCII characters are not single bytes (UTF-16, UTF-32)."""
+    try:
+        return len("0".encode(encoding)) > 1 or codecs.lookup(encoding).name.startswith(("utf-16", "utf-32"))
+    except LookupError:
+        return False
+
+
+# -- sampling rates written in a header ------------------------------------------------
+
+#: Header keys that give a rate (Hz), lower case, units and punctuation removed.
+RATE_KEYS = ("sampling rate", "sampling frequency", "sample rate", "sampling freq", "scan rate", "sample frequency",
+             "data rate", "acquisition rate", "fs", "sr", "rate")  # fmt: skip
+#: Header keys that give a sampling step (s unless a unit says otherwise).
+STEP_KEYS = ("delta_x", "delta x", "interval", "sample interval", "sampling interval", "dt", "wf_increment",
+             "time step", "sampling period", "sample period", "increment", "time interval")  # fmt: skip
+_RATE_UNITS = {"hz": 1.0, "khz": 1e3, "mhz": 1e6, "s/s": 1.0, "sps": 1.0, "1/s": 1.0, "/s": 1.0, "ks/s": 1e3}
+_STEP_UNITS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "ns": 1e-9, "min": 60.0}
+_NUMBER = r"[-+]?(?:\d+(?:[.,]\d*)?|[.,]\d+)(?:[eE][-+]?\d+)?"
+
+
+def _key_unit(key: str) -> Tuple[str, Optional[str]]:
+    """(key without a bracketed unit, the unit) from ``'Sampling rate [kHz]'``."""
+    import re
+
+    m = re.match(r"^(.*?)\s*[\[(]([^\[\]()]{1,8})[\])]\s*$", key)
+    if m:
+        return m.group(1), m.group(2).strip()
+    return key, None
+
+
+def _norm_key(key: str) -> str:
+    import re
+
+    k = key.strip().strip("\"'").strip().lower()
+    k = re.sub(r"[:=]+$", "", k).strip()
+    return re.sub(r"\s+", " ", k)
+
+
+def header_rate(pairs: Mapping[str, str]) -> Optional[Tuple[float, str]]:
+    """(rate in Hz, the header key it comes from) from header ``key -> value`` pairs, or None.
+
+    Keys are matched without case, quotes or a bracketed unit against
+    :data:`RATE_KEYS` (a rate: ``Sampling rate [Hz]``, ``fs``; ``kHz`` and
+    ``S/s`` understood) and :data:`STEP_KEYS` (a step: ``Delta_X``,
+    ``Interval``, ``dt``, ``wf_increment``; in s unless ``ms``/``us`` is
+    written), exactly or by a fuzzy match (``difflib`` ratio >= 0.85, which
+    catches ``Sampling fequency``). The value's first number is taken, a
+    unit after it (``100 Hz``, ``2 ms``) is understood.
+    """
+    import difflib
+    import re
+
+    for key, value in pairs.items():
+        base, unit = _key_unit(str(key))
+        k = _norm_key(base)
+        if len(k) > 40:
+            continue
+        kind = None
+        if k in RATE_KEYS:
+            kind = "rate"
+        elif k in STEP_KEYS:
+            kind = "step"
+        elif len(k) >= 6:
+            if difflib.get_close_matches(k, RATE_KEYS, n=1, cutoff=0.85):
+                kind = "rate"
+            elif difflib.get_close_matches(k, STEP_KEYS, n=1, cutoff=0.85):
+                kind = "step"
+        if kind is None:
+            continue
+        m = re.match(r"^\s*\"?(" + _NUMBER + r")\s*([A-Za-zµμ/]+(?:/s)?)?", str(value))
+        if not m:
+            continue
+        try:
+            x = float(m.group(1).replace(",", "."))
+        except ValueError:
+            continue
+        u = (m.group(2) or unit or "").strip().lower()
+        if not (x > 0) or x != x or x == float("inf"):
+            continue
+        if kind == "rate":
+            f = _RATE_UNITS.get(u, 1.0 if not u else None) if u not in _STEP_UNITS else None
+            if f is None:
+                continue
+            return float(f"{x * f:.12g}"), str(key)
+        f = _STEP_UNITS.get(u, 1.0 if not u else None)
+        if f is None:
+            continue
+        return float(f"{1.0 / (x * f):.12g}"), str(key)
+    return None
+
+
+def unit_likeness(fields: Sequence[str]) -> float:
+    """Share of the non-empty fields that read as units (``N``, ``[N]``, ``(mm/s)``, ``g``, ``-``)."""
+    from .units import is_known_unit
+
+    vals = [f.strip().strip("\"'").strip() for f in fields]
+    vals = [v for v in vals if v]
+    if not vals:
+        return 0.0
+    hits = 0
+    for v in vals:
+        inner = v[1:-1].strip() if len(v) >= 2 and v[0] in "[(" and v[-1] in "])" else v
+        if inner in ("-", "1", "%") or is_known_unit(inner) or (v != inner and len(inner) <= 8):
+            hits += 1
+    return hits / len(vals)

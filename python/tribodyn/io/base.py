@@ -565,8 +565,8 @@ class Recording:
         for start in range(0, self._n, block):
             yield self._read(names, start, min(start + block, self._n))
 
-    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, int]]]:
-        """(file descriptor, byte offset of sample 0 of each role's channel), or None.
+    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, Any]]]:
+        """(file descriptor, byte offset of sample 0 of each role's channel, or its ``_core.Extents``), or None.
 
         Not None only when every channel asked for is stored as one
         contiguous, 8-byte aligned run of little-endian float64 samples
@@ -716,7 +716,7 @@ class Recording:
         expected: int,
         copy: bool = True,
     ) -> Iterator[Dict[str, np.ndarray]]:
-        pending: deque = deque()
+        pending: deque[Tuple[Dict[str, np.ndarray], int]] = deque()
         offset = 0  # rows of pending[0] already handed out
         buffered = 0
         total = 0

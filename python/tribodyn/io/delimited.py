@@ -58,6 +58,10 @@ import numpy as np
 
 from ._text import (
     TEXT_BLOCK_ROWS,
+    header_rate,
+    is_wide,
+    sniff_encoding,
+    unit_likeness,
     check_encoding,
     decode_header,
     default_roles,
@@ -79,6 +83,12 @@ __all__ = ["DelimitedRecording", "sniff_vendor"]
 _HEAD_LINES = 400
 _HEAD_BYTES = 1 << 20
 _TIME_VALUES = 200_000  # time values kept in total to estimate fs
+#: Largest irregularity of a time column read as uniform sampling: the 95th percentile of
+#: |step / median step - 1| over the steps (restarts and gaps excluded). Above it the file is refused
+#: unless ``resample=`` (linear interpolation) or ``fs=`` (taken as uniform) is given.
+MAX_JITTER = 0.2
+#: A time step longer than this many median steps is a gap: the recording is split there.
+GAP_FACTOR = 5.0
 _DELIMITERS: Tuple[Optional[str], ...] = ("\t", ";", ",", "|", None)
 _TIME_NAMES = (
     "time",
@@ -132,32 +142,66 @@ def _numericish(fields: Sequence[str], decimal: Optional[str]) -> bool:
     return num >= 1 and 2 * num >= len(nonempty)
 
 
-def _find_data_start(
-    lines: Sequence[str], delim: Optional[str], decimal: Optional[str]
-) -> Optional[Tuple[int, int, int]]:
-    """(index of first data line, field count, data lines that follow) or None."""
-    for i, ln in enumerate(lines):
+def _runs(lines: Sequence[str], delim: Optional[str], decimal: Optional[str]) -> List[Tuple[int, int, int]]:
+    """Every run of >= 2 consecutive mostly-numeric rows of one field count: (first index, fields, rows)."""
+    out: List[Tuple[int, int, int]] = []
+    i, n = 0, len(lines)
+    while i < n:
+        ln = lines[i]
         if not ln.strip() or ln.lstrip().startswith("#"):
+            i += 1
             continue
         f = split_fields(ln, delim)
         if not _numericish(f, decimal):
+            i += 1
             continue
         nf = len(f)
-        ok = True
         count = 1
-        for ln2 in lines[i + 1 :]:
+        j = i + 1
+        while j < n:
+            ln2 = lines[j]
             if not ln2.strip():
+                j += 1
                 continue
             f2 = split_fields(ln2, delim)
             if len(f2) == nf and _numericish(f2, decimal):
                 count += 1
-                if count > 50:
-                    break
+                j += 1
             else:
-                ok = count >= 2  # one numeric line among text lines is no table
                 break
-        if ok:
-            return i, nf, count
+        if count >= 2 or j >= n:  # one numeric line among text lines is no table (unless the file ends)
+            out.append((i, nf, count))
+        i = max(j, i + 1)
+    return out
+
+
+def _find_data_start(
+    lines: Sequence[str], delim: Optional[str], decimal: Optional[str]
+) -> Optional[Tuple[int, int, int]]:
+    """(index of the first data line, field count, rows of its run) of the data table, or None.
+
+    The data table is the longest run of rows with one numeric layout (a ``key,value`` preamble or a
+    short second table is not it); when the same layout starts earlier under the same column row (a
+    multi-block export), the table starts at that first block.
+    """
+    runs = _runs(lines, delim, decimal)
+    if not runs:
+        return None
+    best = max(runs, key=lambda r: (r[2], r[1], -r[0]))
+    same = [r for r in runs if r[1] == best[1] and r[0] < best[0]]
+    if same:
+        above = _line_above(lines, best[0])
+        for r in same:
+            if above is not None and _line_above(lines, r[0]) == above:
+                return r
+    return best
+
+
+def _line_above(lines: Sequence[str], i: int) -> Optional[str]:
+    """The nearest non-empty line above line ``i`` (None at the top)."""
+    for k in range(i - 1, -1, -1):
+        if lines[k].strip():
+            return lines[k].strip()
     return None
 
 
@@ -261,6 +305,7 @@ class DelimitedRecording(Recording):
         encoding: Optional[str] = None,
         time_column: Optional[str] = None,
         time_channel: Optional[str] = None,
+        resample: Optional[float] = None,
     ) -> None:
         super().__init__(path)
         self._block_rows = TEXT_BLOCK_ROWS
@@ -268,9 +313,18 @@ class DelimitedRecording(Recording):
             time_column = time_channel
         if encoding:
             check_encoding(encoding)
+        self._resample = None if resample is None else _check_resample(resample)
+        self._fs_given = fs is not None
+        self._mem: Optional[Dict[str, np.ndarray]] = None
         self._stat = os.stat(self.path)
+        self._data_path = self.path
+        self._tmp: Optional[str] = None
+        enc = encoding or self._detect_encoding()
+        if is_wide(enc):
+            self._transcode(enc)  # UTF-16/32: read from a UTF-8 copy (byte offsets of ASCII rows)
+            enc = "utf-8"
+        self._source_encoding = encoding or self._sniffed
         head_raw = self._read_head()
-        enc = encoding or _guess_encoding(head_raw)
         self._encoding = enc
         head = [decode_header(r, enc).rstrip("\r\n") for r in head_raw]
         if head and head[0].startswith("\ufeff"):
@@ -293,18 +347,75 @@ class DelimitedRecording(Recording):
         if decimal not in (None, ".", ","):
             raise RecordingError(f"decimal must be '.' or ',', got {decimal!r}")
         self._comment = None if vendor else "#"
-        self._analyse_head(head, delimiter, decimal, time_column)
-        self._scan(head_raw)
-        self._vendor_fixups()
-        self._setup(channels, fs, scale, units)
+        try:
+            self._analyse_head(head, delimiter, decimal, time_column)
+            self._scan(head_raw)
+            self._vendor_fixups()
+            if self._resample is not None:
+                self._load_resampled(self._resample)
+            self._setup(channels, fs, scale, units)
+        except BaseException:
+            self._close()
+            raise
+        #: Sample ranges that are separate acquisitions (no analysis window straddles two): every
+        #: segment of a text file is one (a CETR step, a block under a repeated column row, a time
+        #: restart or gap).
+        self.acquisitions: List[Tuple[int, int]] = list(self._segments)
+        if self._source_encoding not in ("utf-8", "utf-8-sig", "ascii"):
+            self.metadata["encoding"] = self._source_encoding
         if self._vendor is None:  # the vendors' duplicates (COMPEND's 'Friction Force') are by design
             self.warnings += duplicate_warnings(self._file_names, self._names, self._columns, self.roles)
 
     # ------------------------------------------------------------------ head
+    def _detect_encoding(self) -> str:
+        """:func:`~tribodyn.io._text.sniff_encoding` of the first 64 KiB (UTF-8 when it finds none)."""
+        with open(self.path, "rb") as fh:
+            probe = fh.read(1 << 16)
+        if not probe:
+            raise RecordingError(f"{self.path}: empty file")
+        enc = sniff_encoding(probe)
+        if enc is None:
+            raise RecordingError(
+                f"{self.path}: binary content, not a delimited text file (no text encoding detected; "
+                "pass encoding= if it is text)"
+            )
+        self._sniffed = enc
+        return enc
+
+    def _transcode(self, enc: str) -> None:
+        """Writes the file as UTF-8 into a private temporary file, read instead of the original."""
+        import codecs
+        import tempfile
+
+        fd, tmp = tempfile.mkstemp(prefix="tribodyn-", suffix=".txt")
+        self._tmp = tmp
+        try:
+            with open(self.path, "rb") as src, os.fdopen(fd, "wb") as dst:
+                dec = codecs.getincrementaldecoder(enc)(errors="strict")
+                while True:
+                    block = src.read(1 << 20)
+                    text = dec.decode(block, final=not block)
+                    if text:
+                        dst.write(text.lstrip("\ufeff").encode("utf-8") if dst.tell() == 0 else text.encode("utf-8"))
+                    if not block:
+                        break
+        except UnicodeDecodeError as exc:
+            self._close()
+            raise RecordingError(f"{self.path}: not valid {enc} text ({exc.reason} at byte {exc.start})") from None
+        self._data_path = tmp
+
+    def _close(self) -> None:
+        if self._tmp is not None:
+            try:
+                os.unlink(self._tmp)
+            except OSError:
+                pass
+            self._tmp = None
+
     def _read_head(self) -> List[bytes]:
         out: List[bytes] = []
         total = 0
-        with open(self.path, "rb") as fh:
+        with open(self._data_path, "rb") as fh:
             for raw in fh:
                 out.append(raw)
                 total += len(raw)
@@ -356,7 +467,7 @@ class DelimitedRecording(Recording):
             if len(f) != nf:
                 break
             sample.append(f)
-            if len(sample) >= 50:
+            if len(sample) >= 400:
                 break
         if decimal is None:
             if delim != "," and any("," in x for row in sample for x in row if is_number(x, ",")):
@@ -382,10 +493,16 @@ class DelimitedRecording(Recording):
                 len(above) >= 2
                 and same(above[-2][1])
                 and not _numericish(split_fields(above[-2][1], delim), decimal)
-                and all(len(x.strip()) <= 16 for x in split_fields(l1[1], delim))
+                and (
+                    all(len(x.strip()) <= 16 for x in split_fields(l1[1], delim))
+                    or unit_likeness(split_fields(above[-2][1], delim)) >= 0.5
+                )
                 and any(x.strip() for x in split_fields(l1[1], delim))
             ):
                 name_idx, unit_idx = above[-2][0], l1[0]
+                # names and units rows in either order: the units row is the one that reads as units
+                if unit_likeness(split_fields(above[-2][1], delim)) > unit_likeness(split_fields(l1[1], delim)):
+                    name_idx, unit_idx = unit_idx, name_idx
             else:
                 name_idx = l1[0]
         if name_idx is not None:
@@ -395,12 +512,45 @@ class DelimitedRecording(Recording):
         self._name_idx = name_idx
         self._unit_idx = unit_idx
         self._header_lines = [ln for i, ln in enumerate(head[:d0]) if i not in (name_idx, unit_idx)]
+        # NI-style exports: (time, value) column pairs sharing one time base
+        self._pair_times: List[int] = []
+        paired = _paired_columns(sample, nf, decimal)
+        if paired and name_f is not None:
+            evens = {_clean(name_f[j]).lower() for j in range(0, nf, 2)}
+            if not (len(evens) == 1 or evens <= set(_TIME_NAMES) | {"", "channel name"}):
+                paired = None  # named columns that merely increase (a position...), not pairs
+        elif paired and not paired[1]:
+            paired = None
+        if paired:
+            if not paired[1]:
+                raise RecordingError(
+                    f"{path}: (time, value) column pairs with different time bases: channels of different rates "
+                    "cannot be read as one recording; export them separately or map the channels of one rate"
+                )
+            chan = _channel_name_row(head[:d0], delim)
+            pn: List[str] = list(name_f) if name_f is not None else [""] * nf
+            for j in range(1, nf, 2):
+                nm = pn[j] if j < len(pn) else ""
+                if (not nm or nm.lower() in _GENERIC_VALUE_NAMES) and chan and (j // 2) < len(chan):
+                    pn[j] = chan[j // 2]
+            for j in range(0, nf, 2):
+                pn[j] = "Time" if j == 0 else ""
+            name_f = pn
+            self._pair_times = list(range(2, nf, 2))
+            if time_column is None:
+                time_column = "Time"
+            self.warnings.append(
+                f"read as {nf // 2} (time, value) column pairs with one time base (an NI-style export): "
+                f"channels {', '.join(repr(pn[j]) for j in range(1, nf, 2))}"
+            )
         # columns
         use: List[int] = []
         names: List[str] = []
         raw_units: List[Optional[str]] = []
         text_cols: List[str] = []
         for j in range(nf):
+            if j in self._pair_times:
+                continue
             nm = name_f[j] if name_f is not None else ""
             vals = [row[j].strip() for row in sample]
             nonempty = [v for v in vals if v]
@@ -449,9 +599,26 @@ class DelimitedRecording(Recording):
                         break
                 if k is not None:
                     break
+        self._time_guessed = False
+        if k is None and name_f is None and self._vendor is None:
+            k = _guess_time_column(sample, use, decimal)
+            self._time_guessed = k is not None
         if k is not None:
             self._time_idx = use[k]
             self._time_name = names[k]
+            if self._time_guessed:
+                self.warnings.append(
+                    f"no column names: column {names[k]!r} taken as time (it increases steadily); "
+                    "pass time_column= (--time-column) to choose another"
+                )
+        self._header_rate = header_rate(_key_values(self._header_lines, delim))
+        self._ref_step: Optional[float] = None
+        if self._time_idx is not None:
+            t = np.array([_num(r[self._time_idx], decimal) for r in sample if self._time_idx < len(r)])
+            d = np.diff(t[np.isfinite(t)])
+            d = d[d > 0]
+            if d.size:
+                self._ref_step = float(np.median(d))
 
     # ------------------------------------------------------------------ scan
     def _is_data(self, fields: List[str]) -> bool:
@@ -477,9 +644,12 @@ class DelimitedRecording(Recording):
         ntimes = 0
         # A row cut short (see _broken) is an error unless it is the file's last row: the
         # error is raised when another row follows it.
+        breaks: List[Tuple[int, str, int]] = []  # time restarts and gaps: (line, why, first sample)
+        t_prev = float("nan")
+        t_now = float("nan")
         broken: Optional[Tuple[int, int, bool]] = None  # (line number, fields, line end)
         last: Optional[Tuple[int, bytes, bool]] = None  # last data row: (line number, raw, time kept)
-        with open(path, "rb") as fh:
+        with open(self._data_path, "rb") as fh:
             for raw in fh:
                 line_off = offset
                 offset += len(raw)
@@ -498,11 +668,18 @@ class DelimitedRecording(Recording):
                 fields = split_fields(text, delim)
                 if state == "data":
                     if self._is_data(fields):
+                        if time_idx is not None:
+                            t_now = _num(fields[time_idx], decimal)
+                            why = self._time_break(t_prev, t_now)
+                            t_prev = t_now if t_now == t_now else t_prev
+                            if why:
+                                breaks.append((lineno, why, sum(b.n for b in blocks)))
+                                blocks.append(_Block(line_off, lineno, []))
                         blk = blocks[-1]
                         blk.n += 1
                         kept = time_idx is not None and ntimes < _TIME_VALUES
                         if time_idx is not None and kept:
-                            _append_time(blk.times, fields[time_idx], decimal)
+                            blk.times.append(t_now)
                             ntimes += 1
                         last = (lineno, raw, kept)
                         continue
@@ -538,9 +715,11 @@ class DelimitedRecording(Recording):
                     blk = _Block(line_off, lineno, between)
                     blk.n = 1
                     kept = time_idx is not None and ntimes < _TIME_VALUES
-                    if time_idx is not None and kept:
-                        _append_time(blk.times, fields[time_idx], decimal)
-                        ntimes += 1
+                    if time_idx is not None:
+                        t_prev = _num(fields[time_idx], decimal)
+                        if kept:
+                            blk.times.append(t_prev)
+                            ntimes += 1
                     last = (lineno, raw, kept)
                     blocks.append(blk)
                     between = []
@@ -585,23 +764,28 @@ class DelimitedRecording(Recording):
         self._n = pos
         self._segments = ranges
         self._footer = footer
-        # sampling rate from the time column
+        # sampling rate: the time column, else a rate written in the header
+        for line, why, first in breaks:
+            self.warnings.append(f"time {why} at line {line} (sample {first}): a new segment starts there")
+        self._breaks = [{"line": line, "why": why, "sample": first} for line, why, first in breaks]
+        hr = self._header_rate
         if self._time_name is not None:
             tu = normalize_unit(self._raw_units.get(self._time_name))
             factor = TIME_TO_S.get(tu.lower(), 1.0) if tu else 1.0
+            self._time_factor = factor
             f = fs_from_times([np.asarray(b.times) for b in blocks], factor)
             if f is not None:
                 self._file_fs = f
                 self._fs_source = f"median step of time column {self._time_name!r}"
-                steps = np.concatenate([np.diff(np.asarray(b.times)) for b in blocks]) * factor
-                steps = steps[np.isfinite(steps)]
-                if steps.size:
-                    off = np.abs(steps * f - 1.0) > 0.01
-                    if off.mean() > 0.05:
-                        self.warnings.append(
-                            f"irregular sampling: {100 * off.mean():.0f} % of the steps of "
-                            f"{self._time_name!r} differ from 1/fs by more than 1 %"
-                        )
+                self._check_jitter(blocks, factor, f)
+                if hr is not None and abs(hr[0] - f) > 0.01 * f:
+                    self.warnings.append(
+                        f"the header's {hr[1]!r} gives {hr[0]:g} Hz but time column {self._time_name!r} "
+                        f"steps at {f:g} Hz: the time column is used"
+                    )
+        if self._file_fs is None and hr is not None:
+            self._file_fs = hr[0]
+            self._fs_source = f"header {hr[1]!r}"
         self.metadata = {
             "header": _key_values(self._header_lines, delim),
             "delimiter": delim if delim is not None else "whitespace",
@@ -612,6 +796,46 @@ class DelimitedRecording(Recording):
             self.metadata["text_columns"] = list(self._text_cols)
         if footer:
             self.metadata["footer"] = footer[:20]
+
+    def _time_break(self, prev: float, now: float) -> str:
+        """'restarts' / 'jumps ...' when the time column goes back or leaps a gap between two rows, else ''."""
+        if not (now == now and prev == prev):
+            return ""
+        if now < prev:
+            return f"restarts ({prev:g} -> {now:g})"
+        ref = self._ref_step
+        if ref is not None and now - prev > GAP_FACTOR * ref:
+            return f"jumps {now - prev:g} (a gap of more than {GAP_FACTOR:g} steps of {ref:g})"
+        return ""
+
+    def _check_jitter(self, blocks: Sequence[_Block], factor: float, fs: float) -> None:
+        """Refuses irregular sampling above :data:`MAX_JITTER` (unless resample= or fs=), warns above 1 %."""
+        steps = np.concatenate([np.diff(np.asarray(b.times)) for b in blocks]) * factor
+        steps = steps[np.isfinite(steps)]
+        if not steps.size:
+            return
+        rel = np.abs(steps * fs - 1.0)
+        jitter = float(np.percentile(rel, 95))
+        self._jitter = jitter
+        if jitter > MAX_JITTER and self._resample is None:
+            msg = (
+                f"irregular sampling: the steps of time column {self._time_name!r} vary by {100 * jitter:.0f} % "
+                f"(95th percentile of |step x fs - 1|, fs = {fs:g} Hz from the median step; at most "
+                f"{100 * MAX_JITTER:.0f} % is read as uniform)"
+            )
+            if not self._fs_given:
+                raise RecordingError(
+                    f"{self.path}: {msg}: pass resample=HZ (--resample HZ) to interpolate every channel linearly "
+                    "onto a uniform grid, or fs= to take the rows as uniform"
+                )
+            self.warnings.append(msg + "; the rows are taken as uniform at the fs given")
+            return
+        off = rel > 0.01
+        if off.mean() > 0.05 and self._resample is None:
+            self.warnings.append(
+                f"irregular sampling: {100 * off.mean():.0f} % of the steps of {self._time_name!r} differ from "
+                f"1/fs by more than 1 % (95th percentile {100 * jitter:.1f} %, read as uniform at {fs:g} Hz)"
+            )
 
     def _broken(self, fields: List[str], raw: bytes) -> bool:
         """True for a row cut short: too few fields and either the file's unterminated last
@@ -662,30 +886,139 @@ class DelimitedRecording(Recording):
             self._default_roles = default_roles(self._file_names, names)
 
     # ---------------------------------------------------------------- reading
+    def _load_resampled(self, hz: float) -> None:
+        """Reads every column and interpolates it linearly onto a uniform grid at ``hz`` per segment."""
+        if self._time_name is None:
+            raise RecordingError(f"{self.path}: resample= needs a time column (pass time_column=)")
+        names = list(self._names)
+        parts: Dict[str, List[np.ndarray]] = {n: [] for n in names}
+        segments: List[Tuple[int, int]] = []
+        pos = 0
+        factor = getattr(self, "_time_factor", 1.0)
+        raw = {n: np.concatenate([b[n] for b in self._iter_blocks(names, 1 << 16)]) for n in names}
+        for a, b in self._segments:
+            t = raw[self._time_name][a:b] * factor
+            ok = np.isfinite(t)
+            t = t[ok]
+            if t.size < 2:
+                continue
+            if np.any(np.diff(t) <= 0):
+                order = np.argsort(t, kind="stable")
+                t = t[order]
+            else:
+                order = None
+            grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * hz + 1e-9)) + 1) / hz
+            for n in names:
+                v = raw[n][a:b][ok]
+                if order is not None:
+                    v = v[order]
+                parts[n].append(np.interp(grid, t, v) if n != self._time_name else grid / factor)
+            segments.append((pos, pos + grid.size))
+            pos += grid.size
+        if not segments:
+            raise RecordingError(f"{self.path}: no segment with two time values to resample")
+        self._mem = {n: np.concatenate(parts[n]) for n in names}
+        self.warnings.append(
+            f"resampled linearly onto a uniform grid at {hz:g} Hz from time column {self._time_name!r} "
+            f"({self._n} rows -> {pos} samples)"
+        )
+        self._n = pos
+        self._segments = segments
+        self._file_fs = hz
+        self._fs_source = f"resample={hz:g} (linear interpolation of time column {self._time_name!r})"
+
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
+        if self._mem is not None:
+            for i0 in range(0, self._n, block):
+                yield {n: self._mem[n][i0 : i0 + block].copy() for n in names}
+            return
         st = os.stat(self.path)
         if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
             raise RecordingError(f"{self.path}: file changed since it was opened")
         pos = {n: k for k, n in enumerate(self._names)}
         usecols = [self._usecols[pos[n]] for n in names]
         comment = self._comment.encode() if self._comment else None
-        with open(self.path, "rb") as fh:
+        with open(self._data_path, "rb") as fh:
             for b in self._blocks:
                 for lines, nos in iter_data_lines(fh, b.offset, b.lineno, b.n, block, self.path, comment):
                     a = parse_rows(lines, nos, self._delim, self._decimal, usecols, list(names), self.path)
                     yield {nm: a[:, c] for c, nm in enumerate(names)}
 
 
-def _append_time(times: "array[float]", s: str, decimal: str) -> None:
+def _num(s: str, decimal: str) -> float:
+    """A field as a float, NaN when it is not a number."""
     try:
-        times.append(to_float(s, decimal))
+        return to_float(s, decimal)
     except ValueError:
-        times.append(float("nan"))
+        return float("nan")
 
 
-def _guess_encoding(head_raw: List[bytes]) -> str:
+#: Names NI-style exports give the value column of a (time, value) pair.
+_GENERIC_VALUE_NAMES = ("value", "values", "y", "amplitude", "data", "channel name", "")
+
+
+def _floats(rows: Sequence[Sequence[str]], j: int, decimal: str) -> Optional[np.ndarray]:
+    """Column ``j`` of the sample rows as floats, None when any field is not a number."""
+    out = []
+    for r in rows:
+        if j >= len(r):
+            return None
+        try:
+            out.append(to_float(r[j], decimal))
+        except ValueError:
+            return None
+    return np.asarray(out, dtype=float)
+
+
+def _steady(t: np.ndarray) -> bool:
+    """Strictly increasing with steps within :data:`MAX_JITTER` of their median (a time column)."""
+    if t.size < 3:
+        return False
+    d = np.diff(t)
+    if not np.all(d > 0):
+        return False
+    return bool(np.percentile(np.abs(d / np.median(d) - 1.0), 95) <= MAX_JITTER)
+
+
+def _paired_columns(rows: Sequence[Sequence[str]], nf: int, decimal: str) -> Optional[Tuple[bool, bool]]:
+    """(True, one time base) for (time, value) column pairs: every even column steadily increasing; else None."""
+    if nf < 4 or nf % 2 or len(rows) < 3:
+        return None
+    times = [_floats(rows, j, decimal) for j in range(0, nf, 2)]
+    if any(t is None or not _steady(t) for t in times):
+        return None
+    t0 = times[0]
+    assert t0 is not None
+    values = [_floats(rows, j, decimal) for j in range(1, nf, 2)]
+    if all(v is not None and _steady(v) for v in values):
+        return None  # every column increases: no pairs to tell apart
+    same = all(t is not None and np.allclose(t, t0, rtol=1e-9, atol=1e-12) for t in times)
+    return True, same
+
+
+def _channel_name_row(lines: Sequence[str], delim: Optional[str]) -> List[str]:
+    """The non-empty fields after the key of a ``Channel name`` header row (NI exports), else []."""
+    for ln in lines:
+        f = [_clean(x) for x in split_fields(ln, delim)]
+        if f and f[0].lower().rstrip(":") in ("channel name", "channel names", "channel"):
+            return [x for x in f[1:] if x]
+    return []
+
+
+def _guess_time_column(rows: Sequence[Sequence[str]], use: Sequence[int], decimal: str) -> Optional[int]:
+    """Index (into ``use``) of the first column that increases steadily (files without column names)."""
+    for k, j in enumerate(use):
+        t = _floats(rows, j, decimal)
+        if t is not None and _steady(t):
+            return k
+    return None
+
+
+def _check_resample(x: object) -> float:
     try:
-        b"".join(head_raw).decode("utf-8")
-        return "utf-8"
-    except UnicodeDecodeError:
-        return "cp1252"
+        v = float(x)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise RecordingError(f"resample must be a rate in Hz, got {x!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise RecordingError(f"resample must be finite and > 0 Hz, got {x!r}")
+    return v

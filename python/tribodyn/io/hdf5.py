@@ -23,15 +23,27 @@ unread. The file's size, mtime and inode are taken at open and checked again
 after every read (:meth:`~tribodyn.io.base.Recording.check_unchanged`): HDF5
 returns zeros past the end of a file truncated under it, so a file changed
 while it is read is refused.
+
+Datasets stored contiguously (``dataset.id.get_offset()``) or in
+uncompressed chunks, all allocated (``get_chunk_info``), of a numeric type
+in either byte order, are read natively: ``tribodyn._core.Extents`` read
+them with ``pread`` on the recording's own duplicate of h5py's file
+descriptor (any number of threads at once) and hand them to the mapped
+windows kernel as they are. Compressed or filtered datasets, those with
+chunks never written (HDF5 gives their fill value) and files with a user
+block or another file driver are read through h5py.
 """
 
 from __future__ import annotations
 
 import math
+import os
+import sys
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 
+from .. import _core
 from ._open import closing_on_error, open_or_raise
 from .base import (
     Recording,
@@ -52,6 +64,39 @@ _H5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
 _RATE_ATTRS = ("fs", "sampling_rate", "sample_rate")
 _STEP_ATTRS = ("dt", "wf_increment")
 _UNIT_ATTRS = ("unit", "units", "unit_string")
+
+#: Read contiguous and uncompressed chunked datasets natively (False: always through h5py).
+_NATIVE = True
+
+
+def _dataset_extents(h5py: Any, d: Any) -> Optional[Any]:
+    """``_core.Extents`` of a 1-D dataset stored contiguously or in uncompressed, allocated chunks; else None."""
+    dt = d.dtype
+    if dt.kind not in "iuf" or dt.itemsize not in (1, 2, 4, 8) or (dt.kind == "f" and dt.itemsize == 2):
+        return None
+    name = f"{dt.kind}{dt.itemsize}"
+    big = dt.byteorder == ">" or (dt.byteorder == "=" and sys.byteorder == "big")
+    n = int(d.shape[0])
+    plist = d.id.get_create_plist()
+    layout = plist.get_layout()
+    if layout == h5py.h5d.CONTIGUOUS:
+        off = d.id.get_offset()
+        return None if off is None else _core.Extents.contiguous(name, big, [(n, int(off))])
+    if layout != h5py.h5d.CHUNKED or plist.get_nfilters() != 0 or d.chunks is None:
+        return None
+    clen = int(d.chunks[0])
+    count = -(-n // clen)
+    if d.id.get_num_chunks() != count:
+        return None  # chunks never written read as the fill value: h5py knows it
+    infos = sorted((d.id.get_chunk_info(i) for i in range(count)), key=lambda c: c.chunk_offset[0])
+    parts = []
+    for j, ci in enumerate(infos):
+        if ci.chunk_offset[0] != j * clen or ci.filter_mask != 0 or ci.byte_offset is None:
+            return None
+        if ci.size != clen * dt.itemsize:
+            return None
+        parts.append((min(clen, n - j * clen), int(ci.byte_offset)))
+    return _core.Extents.contiguous(name, big, parts)
 
 
 def _scalar(v: Any) -> Optional[float]:
@@ -125,10 +170,53 @@ class Hdf5Recording(Recording):
             "cannot open as HDF5 (truncated or corrupt?)",
             _H5_ERRORS,
         )
+        self._fd: Optional[int] = None
+        self._ext: Dict[str, Any] = {}
         with closing_on_error(self):
             self._open(h5py, channels, fs, scale, units, group, time_channel)
+            if _NATIVE:
+                self._open_native(h5py)
             self._identity_at_open = identity
             self.check_unchanged()
+
+    def _identity(self) -> Optional[Tuple[int, int, int, int]]:
+        """(size, mtime_ns, inode, device) of the path: a file renamed over it counts as a change, as it always
+        did for HDF5, though the native reads' descriptor would still read the file opened."""
+        try:
+            st = os.stat(self.path)
+        except OSError:
+            return None
+        return (st.st_size, st.st_mtime_ns, st.st_ino, st.st_dev)
+
+    def _open_native(self, h5py: Any) -> None:
+        """Extents of the channels stored plainly (see the module doc); all of them: reads from any thread."""
+        h5 = self._h5
+        if h5.driver != "sec2" or h5.userblock_size != 0:
+            return
+        try:
+            ext = {nm: _dataset_extents(h5py, d) for nm, d in self._dsets.items()}
+            handle = h5.id.get_vfd_handle()
+        except _H5_ERRORS:
+            return  # h5py reads it as before
+        self._ext = {nm: e for nm, e in ext.items() if e is not None and e.n >= self._n}
+        if not self._ext:
+            return
+        self._fd = os.dup(int(handle))  # the very file h5py opened, not the path's file now
+        self.mappable = True
+        if len(self._ext) == len(self._dsets):
+            self.thread_safe = True  # pread only: no h5py call per read
+
+    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, Any]]]:
+        """(descriptor, {role: ``_core.Extents``}) when every role's dataset is read natively, else None."""
+        if self._closed or self._fd is None:
+            return None
+        out: Dict[str, Any] = {}
+        for role in roles:
+            name = self.roles.get(role)
+            if name is None or name not in self._ext or self._scale[name] != 1.0:
+                return None
+            out[role] = self._ext[name]
+        return self._fd, out
 
     def _meta(self, what: str, fn: Callable[[], _T]) -> _T:
         """``fn()``, reading metadata of ``what``; h5py's errors become a RecordingError naming it."""
@@ -255,6 +343,16 @@ class Hdf5Recording(Recording):
     def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         out = {}
         for nm in names:
+            ext = self._ext.get(nm)
+            if ext is not None and self._fd is not None:
+                try:
+                    out[nm] = ext.read(self._fd, start, stop)
+                except ValueError as exc:
+                    self.check_unchanged()
+                    raise RecordingError(f"{self.path}: cannot read {nm!r}: {exc}") from None
+                continue
+            if self.thread_safe:
+                raise RecordingError(f"{self.path}: {nm!r} is not read natively")  # pragma: no cover
             try:
                 out[nm] = self._dsets[nm][start:stop]
             except _H5_ERRORS as exc:
@@ -267,6 +365,9 @@ class Hdf5Recording(Recording):
         return out
 
     def _close(self) -> None:
+        fd, self._fd = getattr(self, "_fd", None), None
+        if fd is not None:
+            os.close(fd)
         f, self._h5 = getattr(self, "_h5", None), None
         if f is not None:
             try:

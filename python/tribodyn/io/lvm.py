@@ -87,11 +87,17 @@ class LvmRecording(Recording):
         fs: Optional[float] = None,
         scale: Optional[Mapping[str, float]] = None,
         units: Optional[Mapping[str, str]] = None,
-        encoding: str = "utf-8",
+        encoding: Optional[str] = None,
+        time_column: Optional[str] = None,
+        resample: Optional[float] = None,
     ) -> None:
         super().__init__(path)
         self._block_rows = TEXT_BLOCK_ROWS
-        self._encoding = check_encoding(encoding)
+        self._encoding = check_encoding(encoding or "utf-8")
+        if resample is not None:
+            raise RecordingError(f"{path}: resample= applies to delimited text; LVM files are uniformly sampled")
+        if time_column is not None and time_column != "X_Value":
+            self.warnings.append(f"time_column={time_column!r} ignored: LVM files carry X0 and Delta_X")
         self._scan()
         self._default_roles = default_roles(self._file_names, self._names)
         self._setup(channels, fs, scale, units)
@@ -361,6 +367,23 @@ class LvmRecording(Recording):
         self._blocks = blocks
         self._n = pos
         self._segments = ranges
+        # Separate acquisitions: a segment whose X0 does not continue the previous one's time
+        # (X0 + rows x Delta_X, within half a step) is discontinuous; no analysis window straddles it.
+        acq: List[Tuple[int, int]] = []
+        pos = 0
+        prev_end: Optional[float] = None
+        step = vals[0] if dxs and vals[0] > 0 else None
+        for k, sg in enumerate(segments, 1):
+            x0 = hnum(sg, "X0", keep[0])
+            cont = k == 1 or (x0 is not None and step is not None and prev_end is not None
+                              and abs(x0 - prev_end) <= 0.5 * step) or x0 is None  # fmt: skip
+            if cont and acq:
+                acq[-1] = (acq[-1][0], pos + sg.n)
+            else:
+                acq.append((pos, pos + sg.n))
+            prev_end = None if x0 is None or step is None else x0 + sg.n * step
+            pos += sg.n
+        self.acquisitions: List[Tuple[int, int]] = acq
         self.metadata = {
             "header": dict(file_header),
             "segments_in_file": len(segments),

@@ -1,4 +1,20 @@
-"""NI TDMS files, read through npTDMS in streaming mode.
+"""NI TDMS files, read natively (tribodyn's own index and reads) or through npTDMS.
+
+The native reader (``tribodyn._core.tdms_index``, Rust) walks the segments
+once, parses every segment's metadata (incremental metadata included) and
+describes each channel as extents of one numeric type (contiguous or
+interleaved data, DAQmx raw rows, either byte order) that
+``_core.Extents.read`` and the mapped windows kernel read with ``pread``,
+from any number of threads, with the channel's scaling (linear and
+polynomial chains, DAQmx scalers). It makes the same checks as the walk
+below (a truncated or damaged file is refused, naming the segment). A file
+it does not read (strings, timestamps or booleans as data, another scale
+type, DAQmx digital lines, a data type that changes) is detected before
+any sample is read and read by npTDMS as below, with the reason in the
+recording's ``warnings``. npTDMS is the oracle the native reader is tested
+against (tests/test_tdms_native.py).
+
+Through npTDMS, in streaming mode:
 
 ``nptdms.TdmsFile.open`` reads only the metadata; samples are read per block
 with ``channel.read_data(offset, length)``, which applies the file's scaling
@@ -45,6 +61,7 @@ from typing import IO, Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import _core
 from ._open import closing_on_error, open_or_raise
 from .base import (
     Recording,
@@ -357,10 +374,223 @@ class _NptdmsLog(logging.Filter):
         return next((m for m in self.messages if any(s in m for s in _INCONSISTENT)), None)
 
 
+#: Read natively when the file allows (False: always through npTDMS).
+_NATIVE = True
+
+
+class _Fallback(Exception):
+    """The native reader does not read this file: the reason, for the warnings."""
+
+
+# Property values (TDMS type code -> struct format); 0x20 string, 0x21 boolean, 0x44 timestamp.
+_PROP_FORMATS = {1: "b", 2: "h", 3: "i", 4: "q", 5: "B", 6: "H", 7: "I", 8: "Q", 9: "f", 10: "d", 0x19: "f", 0x1A: "d"}
+_FLOAT_CODES = (9, 10, 0x19, 0x1A)
+_TDMS_EPOCH = np.datetime64("1904-01-01 00:00:00", "s")
+_FRACTIONS_PER_US = (10**-6) / 2**-64
+_DAQMX_RAW = 0xFFFFFFFF
+_RAW_SOURCE = 0xFFFFFFFF
+# Channel data types without samples for tribodyn (npTDMS dtype kind neither b, i, u nor f): skipped.
+_NOT_NUMERIC = (0x44, 0x08000C, 0x10000D, 0x20, 0)
+
+
+def _prop_value(code: int, raw: bytes, big: bool) -> Any:
+    """A property's value as npTDMS gives it (Python scalars, str, timestamps as datetime64[us])."""
+    order = ">" if big else "<"
+    if code == 0x20:
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError:
+            return raw.decode("utf-8", errors="replace")
+    if code == 0x21:
+        return bool(struct.unpack(order + "b", raw)[0])
+    if code == 0x44:
+        seconds, fractions = struct.unpack(">qQ", raw) if big else struct.unpack("<Qq", raw)[::-1]
+        return _TDMS_EPOCH + np.timedelta64(seconds, "s") + ((fractions / _FRACTIONS_PER_US) * np.timedelta64(1, "us"))
+    return struct.unpack(order + _PROP_FORMATS[code], raw)[0]
+
+
+class _NChannel:
+    """A channel of the native index, with what :meth:`TdmsRecording._open` asks of an npTDMS channel."""
+
+    def __init__(self, path: str, group: str, name: str, props: Dict[str, Any], obj: Tuple[Any, ...]) -> None:
+        self.path = path
+        self.name = name
+        self.group = group
+        self.properties = props
+        _path, _props, self.code, self.n, self.runs, self.unsupported = obj
+        self.extents: Any = None
+
+    def __len__(self) -> int:
+        return int(self.n)
+
+
+class _NGroup:
+    def __init__(self, name: str, props: Dict[str, Any]) -> None:
+        self.name = name
+        self.properties = props
+        self._channels: List[_NChannel] = []
+
+    def channels(self) -> List[_NChannel]:
+        return self._channels
+
+
+class _NFile:
+    """The native index, shaped like the parts of npTDMS's ``TdmsFile`` the reader uses."""
+
+    def __init__(self, path: str, idx: Mapping[str, Any]) -> None:
+        objects = idx["objects"]
+        self.properties: Dict[str, Any] = {}
+        groups: Dict[str, _NGroup] = {}
+        implied: List[Tuple[str, _NChannel]] = []
+        for obj in objects:
+            opath, props, _code, n, _runs, _unsupported = obj
+            comps = _path_components(opath)
+            if comps is None:
+                raise _Fallback(f"object path {opath!r} is malformed")
+            pd = {name: _prop_value(code, raw, big) for name, code, raw, big in props}
+            if not comps:
+                self.properties = pd
+            elif len(comps) == 1:
+                groups.setdefault(comps[0], _NGroup(comps[0], {})).properties = pd
+            else:
+                implied.append((comps[0], _NChannel(opath, comps[0], comps[1], pd, obj)))
+            if n > 0 and len(comps) < 2:
+                raise RecordingError(
+                    f"{path}: corrupt TDMS file: data of object {opath!r}, which is no channel of a group "
+                    "(malformed object path)"
+                )
+        # npTDMS's order: groups with a group object first, then those only named by channels.
+        for gname, c in implied:
+            if gname not in groups:
+                groups[gname] = _NGroup(gname, {})
+        for gname, c in implied:
+            groups[gname]._channels.append(c)
+        self._groups = list(groups.values())
+
+    def groups(self) -> List[_NGroup]:
+        return self._groups
+
+    def close(self) -> None:
+        pass
+
+
+def _path_components(path: str) -> Optional[List[str]]:
+    """Components of a TDMS object path ``/'group'/'channel'`` (quotes doubled inside); None when malformed."""
+    out: List[str] = []
+    i, n = 0, len(path)
+    while i < n:
+        if path[i] == "/" and i + 1 == n:
+            break  # a trailing "/" (the root object is "/"), as npTDMS reads it
+        if path[i] != "/" or path[i + 1] != "'":
+            return None
+        i += 2
+        comp = []
+        while True:
+            if i >= n:
+                return None
+            if path[i] == "'":
+                if i + 1 < n and path[i + 1] == "'":
+                    comp.append("'")
+                    i += 2
+                    continue
+                i += 1
+                break
+            comp.append(path[i])
+            i += 1
+        out.append("".join(comp))
+    return out if len(out) <= 2 else None
+
+
+def _scale_count(props: Mapping[str, Any]) -> Optional[int]:
+    """npTDMS's number of scalings of one level of properties.
+
+    NI_Number_Of_Scales, else one more than the highest n of NI_Scale[n]_Scale_Type; None without either.
+    """
+    if "NI_Number_Of_Scales" in props:
+        return int(props["NI_Number_Of_Scales"])
+    found = [k[9:].split("]")[0] for k in props if k.startswith("NI_Scale[") and k.endswith("]_Scale_Type")]
+    nums = [int(k) for k in found if k.isdigit()]
+    return max(nums) + 1 if nums else None
+
+
+def _native_scaling(where: str, levels: Sequence[Mapping[str, Any]]) -> Optional[List[Tuple[str, Any]]]:
+    """The channel's scaling chain as npTDMS would build it: None (unscaled) or a list of steps from the source.
+
+    Steps: ("raw",), ("scaler", id), ("linear", slope, intercept), ("poly", coefficients). Raises
+    RecordingError where npTDMS's path would too; :class:`_Fallback` for a scaling read only by npTDMS.
+    """
+    for props in levels:
+        try:
+            count = _scale_count(props)
+        except (TypeError, ValueError):
+            raise _Fallback("unreadable NI_Number_Of_Scales") from None
+        if not count or props.get("NI_Scaling_Status", "unscaled") == "scaled":
+            continue
+        scales: List[Tuple[Any, ...]] = []
+        for i in range(count):
+            kind = props.get(f"NI_Scale[{i}]_Scale_Type")
+
+            def prop(name: str) -> Any:
+                try:
+                    return props[name]
+                except KeyError:
+                    raise RecordingError(f"{where}: scaling property {name!r} is missing") from None
+
+            if kind is None:
+                scales.append(("scaler", i))
+            elif kind == "Linear":
+                src = props.get(f"NI_Scale[{i}]_Linear_Input_Source", _RAW_SOURCE)
+                slope = prop(f"NI_Scale[{i}]_Linear_Slope")
+                icpt = prop(f"NI_Scale[{i}]_Linear_Y_Intercept")
+                scales.append(("linear", src, slope, icpt))
+            elif kind == "Polynomial":
+                size = props.get(f"NI_Scale[{i}]_Polynomial_Coefficients_Size", 4)
+                src = props.get(f"NI_Scale[{i}]_Polynomial_Input_Source", _RAW_SOURCE)
+                try:
+                    k = int(size)
+                except (TypeError, ValueError):
+                    raise _Fallback("unreadable polynomial coefficient count") from None
+                coeffs = [prop(f"NI_Scale[{i}]_Polynomial_Coefficients[{j}]") for j in range(k)]
+                scales.append(("poly", src, coeffs))
+            elif kind == "AdvancedAPI":
+                scales.append(("noop", props.get(f"NI_Scale[{i}]_AdvancedAPI_Input_Source", _RAW_SOURCE)))
+            elif kind in ("RTD", "Strain", "Table", "Thermistor", "Thermocouple", "Add", "Subtract"):
+                raise _Fallback(f"scale type {kind!r} (read by npTDMS)")
+            else:
+                what = f"Unsupported scale type: {kind}".lower()  # as the npTDMS path words it
+                raise RecordingError(f"{where}: {what} (values cannot be scaled)")
+        steps: List[Tuple[str, Any]] = []
+        at, seen = count - 1, 0
+        while True:
+            if at == _RAW_SOURCE:
+                steps.append(("raw", None))
+                break
+            if not isinstance(at, int) or not 0 <= at < count or seen > count:
+                raise _Fallback(f"scaling input source {at!r}")
+            seen += 1
+            sc = scales[at]
+            if sc[0] == "scaler":
+                steps.append(("scaler", sc[1]))
+                break
+            if sc[0] == "linear":
+                if not all(isinstance(v, float) for v in sc[2:]):
+                    raise _Fallback("linear scaling with non-float slope or intercept")
+                steps.append(("linear", (sc[2], sc[3])))
+            elif sc[0] == "poly":
+                if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in sc[2]):
+                    raise _Fallback("polynomial scaling with non-numeric coefficients")
+                steps.append(("poly", [float(v) for v in sc[2]]))
+            at = sc[1]
+        return steps[::-1]
+    return None
+
+
 class TdmsRecording(Recording):
     """A TDMS file; see the module docstring."""
 
     # npTDMS seeks and reads one shared file object: never from two threads.
+    # Natively read files say otherwise per instance (pread, any thread;
+    # their channels go to the mapped kernel as extents).
     random_access = True
     thread_safe = False
 
@@ -378,9 +608,24 @@ class TdmsRecording(Recording):
     ) -> None:
         super().__init__(path)
         self._file: Any = None
+        self._fd: Optional[int] = None
+        self._native = False
+        identity = self._identity()  # before anything is read: a change during the opening counts too
+        if _NATIVE:
+            try:
+                self._fd = os.open(self.path, os.O_RDONLY)
+            except OSError as exc:
+                raise RecordingError(f"{self.path}: cannot open: {exc.strerror or exc}") from None
+            with closing_on_error(self):
+                reason = self._open_native(channels, fs, scale, units, group)
+                if reason is None:
+                    self._identity_at_open = identity
+                    self.check_unchanged()
+                    return
+            self._close()
+            self.warnings.append(f"TDMS read by npTDMS, not natively: {reason}")
         from nptdms import TdmsFile  # local: keeps `import tribodyn.io` light
 
-        identity = self._identity()  # before anything is read: a change during the opening counts too
         walk = _walk_segments(self.path)
         with _NptdmsLog() as log:
             # npTDMS raises assorted errors on bad metadata, hence Exception
@@ -393,6 +638,113 @@ class TdmsRecording(Recording):
             self._open(channels, fs, scale, units, group, len(walk), implied)
             self._identity_at_open = identity
             self.check_unchanged()
+
+    def _identity(self) -> Optional[Tuple[int, int, int, int]]:
+        """(size, mtime_ns, inode, device) of the path: a file renamed over it counts as a change, as it always
+        did for TDMS, though the native reader's descriptor would still read the file opened."""
+        try:
+            st = os.stat(self.path)
+        except OSError:
+            return None
+        return (st.st_size, st.st_mtime_ns, st.st_ino, st.st_dev)
+
+    def _open_native(
+        self,
+        channels: Optional[Mapping[str, Optional[str]]],
+        fs: Optional[float],
+        scale: Optional[Mapping[str, float]],
+        units: Optional[Mapping[str, str]],
+        group: Optional[str],
+    ) -> Optional[str]:
+        """Opens the file with the native index; returns why not (then nothing is kept) or None."""
+        assert self._fd is not None
+        index_fd = None
+        try:
+            index_fd = os.open(self.path + "_index", os.O_RDONLY)  # NI's .tdms_index beside the data, if any
+        except OSError:
+            pass
+        try:
+            idx = _core.tdms_index(self._fd, index_fd)
+        except ValueError as exc:
+            raise RecordingError(f"{self.path}: {exc}") from None
+        finally:
+            if index_fd is not None:
+                os.close(index_fd)
+        if idx["fallback"] is not None:
+            return str(idx["fallback"])
+        try:
+            nfile = _NFile(self.path, idx)
+            self._file = nfile
+            self._native = True
+            self._open(channels, fs, scale, units, group, int(idx["segments"]), {})
+        except _Fallback as why:
+            self._file, self._native = None, False
+            self._names, self._n = [], 0
+            return str(why)
+        for w in idx["warnings"]:
+            self.warnings.append(f"TDMS: {w}")
+        self.thread_safe = True  # pread: no shared file position
+        self.mappable = True
+        return None
+
+    def _native_dtype(self, g: Any, c: _NChannel) -> Any:
+        """The channel's dtype kind marker and its scaled extents (``c.extents``); errors as :meth:`_dtype`."""
+        where = f"{self.path}: TDMS channel '{g.name}/{c.name}'"
+        levels = (c.properties, g.properties, self._file.properties)
+        for level in levels:
+            n = level.get("NI_Number_Of_Scales")
+            try:
+                count = float(n) if n is not None else 0.0
+            except (TypeError, ValueError):
+                count = -1.0
+            if not (count.is_integer() and 0 <= count <= _MAX_SCALES):
+                raise RecordingError(f"{where}: implausible scaling property NI_Number_Of_Scales = {n!r}")
+        if c.code is None or c.n == 0:
+            return None
+        if c.code in _NOT_NUMERIC:
+            return None  # skipped, as npTDMS's dtype is not numeric
+        if c.unsupported is not None:
+            raise _Fallback(str(c.unsupported))
+        steps = _native_scaling(where, levels)
+        daqmx_raw = c.code == _DAQMX_RAW
+        if steps is None:
+            if daqmx_raw:
+                raise RecordingError(f"{where}: DAQmx raw data without scaling properties (NI_Scale[n]_...)")
+            base, ops = -1, []
+        else:
+            src, arg = steps[0]
+            if src == "raw":
+                if daqmx_raw:
+                    raise _Fallback("DAQmx raw data scaled from the raw input source")
+                base = -1
+            else:
+                if not daqmx_raw:
+                    raise _Fallback("a DAQmx scaler source for a channel that is not DAQmx raw data")
+                base = int(arg)
+            ops = [(kind, list(a) if kind == "linear" else a) for kind, a in steps[1:]]
+        ext = c.runs.get(base)
+        if ext is None:
+            raise _Fallback(f"channel '{g.name}/{c.name}' has no data for scale {base}")
+        if ops and ops[0][0] == "linear" and ext.dtype == "f4":
+            raise _Fallback("linear scaling of float32 data (npTDMS computes it in float32)")
+        if len(c.runs) > 1 and not daqmx_raw:
+            raise _Fallback("several DAQmx scalers for one channel")
+        if ext.n != c.n:
+            raise _Fallback(f"channel '{g.name}/{c.name}': {ext.n} samples in its segments, {c.n} declared")
+        c.extents = ext.scaled(ops) if ops else ext
+        return np.float64 if ops else np.dtype(ext.dtype)
+
+    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, Any]]]:
+        """(descriptor, {role: ``_core.Extents``}) for natively read files (see the module doc), else None."""
+        if not self._native or self._closed or self._fd is None:
+            return None
+        out: Dict[str, Any] = {}
+        for role in roles:
+            name = self.roles.get(role)
+            if name is None or self._scale[name] != 1.0:
+                return None
+            out[role] = self._objs[name].extents
+        return self._fd, out
 
     def _npt_messages(self, log: _NptdmsLog, what: str) -> None:
         """Turns the npTDMS log records of one call into a RecordingError (inconsistent sizes) or warnings."""
@@ -455,7 +807,7 @@ class TdmsRecording(Recording):
                 raise RecordingError(f"{self.path}: no TDMS group {group!r}; groups: {avail}")
         for g in groups:
             for c in g.channels():
-                dt = self._dtype(g, c)
+                dt = self._native_dtype(g, c) if self._native else self._dtype(g, c)
                 kind = np.dtype(dt).kind if dt is not None else "O"
                 if kind in "biuf" and len(c) > 0:
                     objs.append((g.name, c))
@@ -536,6 +888,15 @@ class TdmsRecording(Recording):
         self._setup(channels, fs, scale, units)
 
     def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        if self._native:
+            assert self._fd is not None
+            try:
+                got = {nm: self._objs[nm].extents.read(self._fd, start, stop) for nm in names}
+            except ValueError as exc:
+                self.check_unchanged()  # a changed file explains the error better
+                raise RecordingError(f"{self.path}: cannot read TDMS samples {start}:{stop}: {exc}") from None
+            self.check_unchanged()
+            return got
         out = {}
         for nm in names:
             try:
@@ -558,6 +919,9 @@ class TdmsRecording(Recording):
         f, self._file = getattr(self, "_file", None), None
         if f is not None:
             f.close()
+        fd, self._fd = getattr(self, "_fd", None), None
+        if fd is not None:
+            os.close(fd)
 
 
 def _plain(v: Any) -> Any:
@@ -565,3 +929,83 @@ def _plain(v: Any) -> Any:
     if isinstance(v, np.generic):
         return v.item() if v.dtype.kind in "biuf" else str(v)
     return v if isinstance(v, (int, float, str, bool)) or v is None else str(v)
+
+
+def _tdms_string(s: str) -> bytes:
+    b = s.encode("utf-8")
+    return struct.pack("<I", len(b)) + b
+
+
+def _tdms_props(props: Mapping[str, Any]) -> bytes:
+    out = struct.pack("<I", len(props))
+    for k, v in props.items():
+        out += _tdms_string(k)
+        if isinstance(v, str):
+            out += struct.pack("<I", 0x20) + _tdms_string(v)
+        elif isinstance(v, (int, np.integer)) and not isinstance(v, bool):
+            out += struct.pack("<Ii", 3, int(v))
+        else:
+            out += struct.pack("<Id", 10, float(v))
+    return out
+
+
+def write_daqmx_tdms(
+    path: str,
+    raw: Mapping[str, np.ndarray],
+    fs: float,
+    scaling: Mapping[str, Sequence[Tuple[str, Any]]],
+    *,
+    group: str = "tribodyn",
+    segment_samples: int = 1000,
+    units: Optional[Mapping[str, str]] = None,
+) -> None:
+    """Writes int16 channels as a DAQmx raw TDMS file (as NI-DAQmx logs: interleaved int16 rows, one format-changing
+    scaler per channel, metadata in the first segment only), for tests and benchmarks (npTDMS cannot write DAQmx).
+
+    ``scaling[name]`` is the channel's scale chain after the DAQmx scaler (scale 0): ("Linear", (slope, intercept))
+    or ("Polynomial", [c0, c1, ...]) steps, each taking the previous one as input.
+    """
+    names = list(raw)
+    arrs = [np.asarray(raw[k], dtype="<i2") for k in names]
+    n = len(arrs[0])
+    width = 2 * len(names)
+    rows = np.empty((n, len(names)), dtype="<i2")
+    for j, a in enumerate(arrs):
+        rows[:, j] = a
+    with open(path, "wb") as fh:
+        for start in range(0, n, segment_samples):
+            stop = min(start + segment_samples, n)
+            data = rows[start:stop].tobytes()
+            if start == 0 or stop - start != min(segment_samples, n):  # a shorter last segment: its own metadata
+                meta = struct.pack("<I", 2 + len(names))
+                meta += _tdms_string("/") + struct.pack("<I", _NO_DATA) + _tdms_props({"name": "daqmx"})
+                meta += _tdms_string(f"/'{group}'") + struct.pack("<I", _NO_DATA) + _tdms_props({})
+                for j, nm in enumerate(names):
+                    meta += _tdms_string(f"/'{group}'/'{nm}'") + struct.pack("<I", 0x1269)
+                    meta += struct.pack("<IIQI", _DAQMX_RAW, 1, stop - start, 1)
+                    meta += struct.pack("<IIIII", 3, 0, 2 * j, 0, 0)  # int16, buffer 0, byte offset, bitmap, id 0
+                    meta += struct.pack("<II", 1, width)
+                    steps = list(scaling.get(nm, ()))
+                    props: Dict[str, Any] = {"NI_Scaling_Status": "unscaled", "NI_Number_Of_Scales": 1 + len(steps)}
+                    for i, (kind, arg) in enumerate(steps, start=1):
+                        props[f"NI_Scale[{i}]_Scale_Type"] = kind
+                        if kind == "Linear":
+                            props[f"NI_Scale[{i}]_Linear_Slope"] = float(arg[0])
+                            props[f"NI_Scale[{i}]_Linear_Y_Intercept"] = float(arg[1])
+                            props[f"NI_Scale[{i}]_Linear_Input_Source"] = i - 1
+                        else:
+                            props[f"NI_Scale[{i}]_Polynomial_Coefficients_Size"] = len(arg)
+                            for k, c in enumerate(arg):
+                                props[f"NI_Scale[{i}]_Polynomial_Coefficients[{k}]"] = float(c)
+                            props[f"NI_Scale[{i}]_Polynomial_Input_Source"] = i - 1
+                    props["wf_increment"] = 1.0 / fs
+                    if units and nm in units:
+                        props["unit_string"] = units[nm]
+                    meta += _tdms_props(props)
+                toc = _TOC_META_DATA | (1 << 2) | (1 << 3) | _TOC_DAQMX | _TOC_INTERLEAVED
+            else:
+                meta = b""
+                toc = (1 << 3) | _TOC_DAQMX | _TOC_INTERLEAVED
+            fh.write(b"TDSm" + struct.pack("<IIQQ", toc, 4713, len(meta) + len(data), len(meta)))
+            fh.write(meta)
+            fh.write(data)

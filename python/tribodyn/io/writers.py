@@ -270,7 +270,7 @@ def save_tdms(
         with TdmsWriter(tmp) as w:
             for start in range(0, n, segment_samples):
                 stop = min(start + segment_samples, n)
-                objs: list = []
+                objs: List[Any] = []
                 if start == 0:
                     objs = [RootObject(properties={"creator": "tribodyn"}), GroupObject(group)]
                 for name, a in ch.items():

@@ -49,11 +49,31 @@ pub struct ExtOptions {
     pub segments: usize,
     /// fz is advanced by this many samples before anything else (0: none).
     pub delay: f64,
+    /// The classical COF of the raw forces ([`classical`]), when asked for.
+    pub classical: Option<Classical>,
+}
+
+/// How the classical COF of a window is taken (docs/method.md 6a).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Classical {
+    /// Least |fz - tare_z| (N) of a sample counted.
+    pub min_fn: f64,
+    /// Offsets subtracted from fy and fz first (N).
+    pub tare_y: f64,
+    pub tare_z: f64,
 }
 
 impl Default for ExtOptions {
     fn default() -> Self {
-        ExtOptions { sums: false, lag: 0, lines: [0.0; MAX_LINES], n_lines: 0, segments: 4, delay: 0.0 }
+        ExtOptions {
+            sums: false,
+            lag: 0,
+            lines: [0.0; MAX_LINES],
+            n_lines: 0,
+            segments: 4,
+            delay: 0.0,
+            classical: None,
+        }
     }
 }
 
@@ -73,6 +93,11 @@ impl ExtOptions {
         if self.n_lines > 0 && self.segments == 0 {
             return bad("the line spectra need at least one segment".into());
         }
+        if let Some(c) = self.classical {
+            if !(c.min_fn.is_finite() && c.min_fn >= 0.0 && c.tare_y.is_finite() && c.tare_z.is_finite()) {
+                return bad(format!("min_fn must be finite and >= 0 and the tares finite, got {c:?}"));
+            }
+        }
         if !self.delay.is_finite() || self.delay.abs() > 1e6 {
             return bad(format!("the delay must be finite and at most 1e6 samples, got {}", self.delay));
         }
@@ -85,56 +110,182 @@ impl ExtOptions {
     }
 }
 
+/// Lanes of the block sums: sample j of a run of samples goes to lane j mod
+/// SUM_LANES (fixed, so every CPU gives the same bits; see [`crate::windows`]).
+const SUM_LANES: usize = 4;
+/// Products summed per pass over a run (two passes keep the lanes in registers).
+const HALF: usize = PRODUCTS / 2;
+
 /// The block sums of one window: [`BLOCKS`] x [`PRODUCTS`] values, row-major.
 /// NaN for the instrument's sums when the window is shorter than 2 lag + 1.
-pub fn block_sums(fy: &[f64], fz: &[f64], lag: usize) -> Vec<f64> {
+///
+/// `means`, the window's means of (fz, fy) when the caller has them (the
+/// window's own statistics), saves a pass over the samples.
+pub fn block_sums(fy: &[f64], fz: &[f64], lag: usize, means: Option<(f64, f64)>) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { block_sums_avx2(fy, fz, lag, means) };
+        }
+    }
+    block_sums_body(fy, fz, lag, means)
+}
+
+// The same code compiled for wider vectors; no multiply-add is fused and the
+// lanes are fixed, so both variants give the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn block_sums_avx2(fy: &[f64], fz: &[f64], lag: usize, means: Option<(f64, f64)>) -> Vec<f64> {
+    block_sums_body(fy, fz, lag, means)
+}
+
+/// Sum of `x` in fixed lanes, folded in a fixed order.
+#[inline(always)]
+fn lane_sum(x: &[f64]) -> f64 {
+    let mut acc = [0.0f64; SUM_LANES];
+    let full = x.len() - x.len() % SUM_LANES;
+    for c in x[..full].chunks_exact(SUM_LANES) {
+        for k in 0..SUM_LANES {
+            acc[k] += c[k];
+        }
+    }
+    for (k, v) in x[full..].iter().enumerate() {
+        acc[k] += v;
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3])
+}
+
+/// Adds the products of `lanes` samples (z, y, w centred by the means `m`)
+/// to the lane sums `a`: the first half of [`PRODUCTS`] (`FIRST`) or the
+/// second.
+#[inline(always)]
+fn step<const FIRST: bool>(a: &mut [[f64; SUM_LANES]; HALF], z: &[f64], y: &[f64], w: &[f64], m: (f64, f64, f64)) {
+    let lanes = z.len();
+    for k in 0..lanes {
+        let (zc, yc, wc) = (z[k] - m.0, y[k] - m.1, w[k] - m.2);
+        if FIRST {
+            a[0][k] += zc;
+            a[1][k] += yc;
+            a[2][k] += wc;
+            a[3][k] += zc * zc;
+            a[4][k] += zc * yc;
+            a[5][k] += yc * yc;
+            a[6][k] += wc * zc;
+            a[7][k] += wc * yc;
+        } else {
+            let (zz, ww) = (zc * zc, wc * wc);
+            a[0][k] += ww;
+            a[1][k] += zz * zc;
+            a[2][k] += zz * yc;
+            a[3][k] += zz * zz;
+            a[4][k] += wc * zz;
+            a[5][k] += ww * zc;
+            a[6][k] += ww * yc;
+            a[7][k] += ww * zz;
+        }
+    }
+}
+
+/// Adds the products of a run of samples to `out` (lane j mod SUM_LANES, folded in a fixed order).
+#[inline(always)]
+fn run<const FIRST: bool>(z: &[f64], y: &[f64], w: &[f64], m: (f64, f64, f64), out: &mut [f64]) {
+    const L: usize = SUM_LANES;
+    let mut a = [[0.0f64; L]; HALF];
+    let n = z.len();
+    let full = n - n % L;
+    for ((zs, ys), ws) in z[..full].chunks_exact(L).zip(y[..full].chunks_exact(L)).zip(w[..full].chunks_exact(L)) {
+        step::<FIRST>(&mut a, zs, ys, ws, m);
+    }
+    step::<FIRST>(&mut a, &z[full..], &y[full..], &w[full..], m);
+    for (o, a) in out.iter_mut().zip(a) {
+        *o += (a[0] + a[2]) + (a[1] + a[3]);
+    }
+}
+
+#[inline(always)]
+fn block_sums_body(fy: &[f64], fz: &[f64], lag: usize, means: Option<(f64, f64)>) -> Vec<f64> {
     let n = fz.len();
     let mut out = vec![0.0; BLOCKS * PRODUCTS];
     if n == 0 {
         return out;
     }
     let nf = n as f64;
-    let mz = fz.iter().sum::<f64>() / nf;
-    let my = fy.iter().sum::<f64>() / nf;
     let has_w = lag >= 1 && n > 2 * lag;
-    let inst = |t: usize| if t >= lag { fz[t - lag] } else { fz[t + lag] };
-    let mw = if has_w { (0..n).map(inst).sum::<f64>() / nf } else { 0.0 };
+    let (mz, my) = means.unwrap_or_else(|| (lane_sum(fz) / nf, lane_sum(fy) / nf));
+    // w_t = fz[t + lag] for t < lag, fz[t - lag] after: the sum of w is that
+    // of fz less fz[n - lag..] plus fz[lag..2 lag].
+    let mw = if has_w { mz + (lane_sum(&fz[lag..2 * lag]) - lane_sum(&fz[n - lag..])) / nf } else { mz };
+    let means = (mz, my, mw);
     for k in 0..BLOCKS {
         let (a, b) = (k * n / BLOCKS, (k + 1) * n / BLOCKS);
-        let mut s = [0.0f64; PRODUCTS];
-        for t in a..b {
-            let z = fz[t] - mz;
-            let y = fy[t] - my;
-            let w = if has_w { inst(t) - mw } else { 0.0 };
-            let (zz, ww) = (z * z, w * w);
-            s[0] += z;
-            s[1] += y;
-            s[2] += w;
-            s[3] += zz;
-            s[4] += z * y;
-            s[5] += y * y;
-            s[6] += w * z;
-            s[7] += w * y;
-            s[8] += ww;
-            s[9] += zz * z;
-            s[10] += zz * y;
-            s[11] += zz * zz;
-            s[12] += w * zz;
-            s[13] += ww * z;
-            s[14] += ww * y;
-            s[15] += ww * zz;
+        let s = &mut out[k * PRODUCTS..(k + 1) * PRODUCTS];
+        // The block in runs where the instrument is a contiguous slice of fz.
+        let split = if has_w { lag.clamp(a, b) } else { a };
+        for (r0, r1) in [(a, split), (split, b)] {
+            if r1 <= r0 {
+                continue;
+            }
+            let w = if !has_w {
+                &fz[r0..r1]
+            } else if r0 < lag {
+                &fz[r0 + lag..r1 + lag]
+            } else {
+                &fz[r0 - lag..r1 - lag]
+            };
+            run::<true>(&fz[r0..r1], &fy[r0..r1], w, means, &mut s[..HALF]);
+            run::<false>(&fz[r0..r1], &fy[r0..r1], w, means, &mut s[HALF..]);
         }
         if !has_w {
             for j in [2, 6, 7, 8, 12, 13, 14, 15] {
                 s[j] = f64::NAN;
             }
         }
-        out[k * PRODUCTS..(k + 1) * PRODUCTS].copy_from_slice(&s);
     }
     out
 }
 
+/// The classical COF of one window (docs/method.md 6a): [mean, median] of
+/// |fy - tare_y| / |fz - tare_z| over the samples with |fz - tare_z| >=
+/// min_fn (and > 0), then the mean and the standard deviation (n in the
+/// denominator) of fz - tare_z over the window. NaN where no sample counts.
+pub fn classical(fy: &[f64], fz: &[f64], c: &Classical) -> [f64; 4] {
+    let n = fz.len();
+    if n == 0 {
+        return [f64::NAN; 4];
+    }
+    let mut r = RATIOS.with(|b| b.take());
+    r.clear();
+    let (mut sum_r, mut sum_z) = (0.0f64, 0.0f64);
+    for (&y, &z) in fy.iter().zip(fz) {
+        let zr = z - c.tare_z;
+        sum_z += zr;
+        let az = zr.abs();
+        if az >= c.min_fn && az > 0.0 {
+            let v = (y - c.tare_y).abs() / az;
+            sum_r += v;
+            r.push(v);
+        }
+    }
+    let mz = sum_z / n as f64;
+    let var = fz.iter().map(|&z| (z - c.tare_z - mz) * (z - c.tare_z - mz)).sum::<f64>() / n as f64;
+    let (mean, median) = if r.is_empty() {
+        (f64::NAN, f64::NAN)
+    } else {
+        let k = r.len();
+        let mean = sum_r / k as f64;
+        let m = k / 2;
+        let (lower, &mut hi, _) = r.select_nth_unstable_by(m, f64::total_cmp);
+        let median = if k % 2 == 1 { hi } else { 0.5 * (lower.iter().copied().fold(f64::NEG_INFINITY, f64::max) + hi) };
+        (mean, median)
+    };
+    RATIOS.with(|b| b.replace(r));
+    [mean, median, mz, var.sqrt()]
+}
+
 thread_local! {
+    /// The ratios of the window being computed on this thread ([`classical`]).
+    static RATIOS: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
     /// The Hann window of the last segment length used on this thread.
     static HANN: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
     /// The delayed fz of the window being computed on this thread.
@@ -147,6 +298,24 @@ thread_local! {
 /// N^2 up to a constant factor common to all three, which cancels in H1 and
 /// the coherence). NaN when a segment is shorter than 4 samples.
 pub fn line_spectra(fy: &[f64], fz: &[f64], opt: &ExtOptions) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { line_spectra_avx2(fy, fz, opt) };
+        }
+    }
+    line_spectra_body(fy, fz, opt)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn line_spectra_avx2(fy: &[f64], fz: &[f64], opt: &ExtOptions) -> Vec<f64> {
+    line_spectra_body(fy, fz, opt)
+}
+
+#[inline(always)]
+fn line_spectra_body(fy: &[f64], fz: &[f64], opt: &ExtOptions) -> Vec<f64> {
     let nl = opt.n_lines;
     let mut out = vec![0.0; 4 * nl];
     let n = fz.len();
@@ -158,37 +327,51 @@ pub fn line_spectra(fy: &[f64], fz: &[f64], opt: &ExtOptions) -> Vec<f64> {
         out.fill(f64::NAN);
         return out;
     }
-    HANN.with(|h| {
-        let mut h = h.borrow_mut();
-        if h.len() != m {
-            h.clear();
-            h.extend((0..m).map(|t| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * t as f64 / m as f64).cos()));
+    // The thread's Hann table moved out for the call (the loops below then
+    // run in this function, compiled for the CPU's vectors) and back after.
+    let mut h = HANN.with(|c| c.take());
+    if h.len() != m {
+        h.clear();
+        h.extend((0..m).map(|t| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * t as f64 / m as f64).cos()));
+    }
+    {
+        // Every line's Goertzel recurrence side by side (lines inner, in
+        // fixed-size arrays): independent chains the CPU runs in parallel.
+        let mut c = [0.0f64; MAX_LINES];
+        for (cj, &f) in c.iter_mut().zip(&opt.lines[..nl]) {
+            *cj = 2.0 * (2.0 * std::f64::consts::PI * f).cos();
         }
         for seg in 0..opt.segments {
             let (y, z) = (&fy[seg * m..(seg + 1) * m], &fz[seg * m..(seg + 1) * m]);
-            let my = y.iter().sum::<f64>() / m as f64;
-            let mz = z.iter().sum::<f64>() / m as f64;
-            for (j, &f) in opt.lines[..nl].iter().enumerate() {
-                let w = 2.0 * std::f64::consts::PI * f;
-                let c = 2.0 * w.cos();
-                // Goertzel: s_t = x_t + c s_{t-1} - s_{t-2}; the DFT at w is
-                // then e^{iw} s_{m-1} - s_{m-2}, up to a phase common to fy and fz.
-                let (mut y1, mut y2, mut z1, mut z2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-                for t in 0..m {
-                    let yn = h[t] * (y[t] - my) + c * y1 - y2;
-                    let zn = h[t] * (z[t] - mz) + c * z1 - z2;
-                    (y2, y1, z2, z1) = (y1, yn, z1, zn);
+            let my = lane_sum(y) / m as f64;
+            let mz = lane_sum(z) / m as f64;
+            let (mut y1, mut y2, mut z1, mut z2) =
+                ([0.0f64; MAX_LINES], [0.0f64; MAX_LINES], [0.0f64; MAX_LINES], [0.0f64; MAX_LINES]);
+            for t in 0..m {
+                let (hy, hz) = (h[t] * (y[t] - my), h[t] * (z[t] - mz));
+                for j in 0..MAX_LINES {
+                    let yn = hy + c[j] * y1[j] - y2[j];
+                    let zn = hz + c[j] * z1[j] - z2[j];
+                    y2[j] = y1[j];
+                    y1[j] = yn;
+                    z2[j] = z1[j];
+                    z1[j] = zn;
                 }
+            }
+            for (j, &f) in opt.lines[..nl].iter().enumerate() {
+                // The DFT at w is e^{iw} s_{m-1} - s_{m-2}, up to a phase common to fy and fz.
+                let w = 2.0 * std::f64::consts::PI * f;
                 let (cw, sw) = (w.cos(), w.sin());
-                let (yr, yi) = (cw * y1 - y2, sw * y1);
-                let (zr, zi) = (cw * z1 - z2, sw * z1);
+                let (yr, yi) = (cw * y1[j] - y2[j], sw * y1[j]);
+                let (zr, zi) = (cw * z1[j] - z2[j], sw * z1[j]);
                 out[4 * j] += yr * zr + yi * zi;
                 out[4 * j + 1] += yi * zr - yr * zi;
                 out[4 * j + 2] += zr * zr + zi * zi;
                 out[4 * j + 3] += yr * yr + yi * yi;
             }
         }
-    });
+    }
+    HANN.with(|c| c.replace(h));
     let s = opt.segments as f64;
     for v in out.iter_mut() {
         *v /= s;
@@ -295,11 +478,27 @@ mod tests {
         let n = 1003;
         let fz: Vec<f64> = (0..n).map(|t| (t as f64 * 0.21).sin() + 0.3 * (t as f64 * 1.7).cos()).collect();
         let fy: Vec<f64> = fz.iter().map(|z| 0.1 * z + 0.2).collect();
-        let s = block_sums(&fy, &fz, 10);
+        let s = block_sums(&fy, &fz, 10, None);
         let tot = |j: usize| (0..BLOCKS).map(|k| s[k * PRODUCTS + j]).sum::<f64>();
         assert!(tot(0).abs() < 1e-9 && tot(1).abs() < 1e-9 && tot(2).abs() < 1e-9);
         assert!((tot(4) - 0.1 * tot(3)).abs() < 1e-9 * tot(3));
-        assert!(block_sums(&fy[..15], &fz[..15], 10)[6].is_nan());
+        assert!(block_sums(&fy[..15], &fz[..15], 10, None)[6].is_nan());
+        let m = (fz.iter().sum::<f64>() / n as f64, fy.iter().sum::<f64>() / n as f64);
+        let t = block_sums(&fy, &fz, 10, Some(m));
+        assert!(s.iter().zip(&t).all(|(a, b)| (a - b).abs() <= 1e-9 * (1.0 + a.abs())));
+    }
+
+    #[test]
+    fn classical_counts_the_loaded_samples() {
+        let fz = [10.0, 10.0, 0.5, 10.0, 12.0];
+        let fy = [1.0, 1.0, 5.0, 2.0, -1.2];
+        let c = Classical { min_fn: 1.0, tare_y: 0.0, tare_z: 0.0 };
+        let [mean, median, mz, sz] = classical(&fy, &fz, &c);
+        assert!((mean - (0.1 + 0.1 + 0.2 + 0.1) / 4.0).abs() < 1e-15);
+        assert!((median - 0.1).abs() < 1e-15);
+        assert!((mz - 8.5).abs() < 1e-12 && sz > 0.0);
+        let none = classical(&fy, &fz, &Classical { min_fn: 100.0, ..c });
+        assert!(none[0].is_nan() && none[1].is_nan());
     }
 
     #[test]

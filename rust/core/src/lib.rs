@@ -10,6 +10,7 @@
 //! - [`extended`]: sums for the estimators beyond the paper, line spectra and
 //!   the fractional-delay correction (docs/method.md 3a-3e);
 //! - [`mapped`]: the same, read straight from a file's pages (memory maps).
+//! - [`tdms`]: the segment index of NI TDMS files, as extents `mapped` reads.
 //!
 //! Every public function validates what a caller controls and returns
 //! [`KernelError`] instead of panicking.
@@ -23,6 +24,7 @@ pub mod mapped;
 pub mod parallel;
 pub mod regression;
 pub mod sums;
+pub mod tdms;
 pub mod windows;
 
 pub use error::KernelError;

@@ -29,22 +29,336 @@ use std::fs::File;
 
 const F64: u64 = std::mem::size_of::<f64>() as u64;
 
-/// Where each channel's sample 0 lies in the file, in bytes; a channel's
-/// samples follow it contiguously as little-endian f64.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Where a channel's samples lie in the file.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// Sample 0 at this byte; the samples follow contiguously as little-endian f64.
+    F64(u64),
+    /// Any layout: runs of samples of one numeric type (see [`Extents`]).
+    Extents(std::sync::Arc<Extents>),
+}
+
+impl From<u64> for Source {
+    fn from(off: u64) -> Self {
+        Source::F64(off)
+    }
+}
+
+/// Where each channel's samples lie in the file.
+#[derive(Debug, Clone, PartialEq)]
 pub struct FileLayout {
-    pub fx: Option<u64>,
-    pub fy: u64,
-    pub fz: u64,
+    pub fx: Option<Source>,
+    pub fy: Source,
+    pub fz: Source,
     /// Auxiliary channel (current or shunt voltage), averaged per window.
-    pub aux: Option<u64>,
+    pub aux: Option<Source>,
     /// Samples per channel.
     pub n: usize,
 }
 
 impl FileLayout {
-    fn offsets(&self) -> [Option<u64>; 4] {
-        [self.fx, Some(self.fy), Some(self.fz), self.aux]
+    fn sources(&self) -> [Option<&Source>; 4] {
+        [self.fx.as_ref(), Some(&self.fy), Some(&self.fz), self.aux.as_ref()]
+    }
+}
+
+/// Numeric types a channel's samples may be stored as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Num {
+    I8,
+    I16,
+    I32,
+    I64,
+    U8,
+    U16,
+    U32,
+    U64,
+    F32,
+    F64,
+}
+
+impl Num {
+    /// Bytes per sample.
+    pub fn width(self) -> u64 {
+        match self {
+            Num::I8 | Num::U8 => 1,
+            Num::I16 | Num::U16 => 2,
+            Num::I32 | Num::U32 | Num::F32 => 4,
+            Num::I64 | Num::U64 | Num::F64 => 8,
+        }
+    }
+
+    /// NumPy's name of the type ("i2", "f8", ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Num::I8 => "i1",
+            Num::I16 => "i2",
+            Num::I32 => "i4",
+            Num::I64 => "i8",
+            Num::U8 => "u1",
+            Num::U16 => "u2",
+            Num::U32 => "u4",
+            Num::U64 => "u8",
+            Num::F32 => "f4",
+            Num::F64 => "f8",
+        }
+    }
+
+    /// The type of NumPy's name ("i2", "f8", ...).
+    pub fn from_name(s: &str) -> Option<Num> {
+        [Num::I8, Num::I16, Num::I32, Num::I64, Num::U8, Num::U16, Num::U32, Num::U64, Num::F32, Num::F64]
+            .into_iter()
+            .find(|n| n.name() == s)
+    }
+}
+
+/// Runs of samples of a channel: samples `start .. start + count` lie at
+/// `offset + i * stride`, inside the byte range `chunk` (the file's block
+/// that holds them with other channels' samples: read once for all
+/// channels when it is small); then, `reps` times in all, the next `count`
+/// samples lie the same way `period` bytes further (segments of equal
+/// layout one after another, as a logger writes them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Extent {
+    pub start: u64,
+    pub count: u64,
+    pub offset: u64,
+    pub stride: u64,
+    pub chunk: (u64, u64),
+    pub reps: u64,
+    pub period: u64,
+}
+
+impl Extent {
+    /// One run (`reps` 1).
+    pub fn single(count: u64, offset: u64, stride: u64, chunk: (u64, u64)) -> Self {
+        Extent { start: 0, count, offset, stride, chunk, reps: 1, period: 0 }
+    }
+
+    /// Samples in all repetitions.
+    pub fn total(&self) -> u64 {
+        self.count.saturating_mul(self.reps)
+    }
+
+    /// Offset and chunk of repetition `r`.
+    fn rep(&self, r: u64) -> (u64, (u64, u64)) {
+        let d = r * self.period;
+        (self.offset + d, (self.chunk.0 + d, self.chunk.1 + d))
+    }
+}
+
+/// Scaling applied to the samples after conversion to f64, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Op {
+    /// `x * slope + intercept`.
+    Linear { slope: f64, intercept: f64 },
+    /// `c[0] + x * (c[1] + x * (...))`, evaluated as NumPy's `polyval`
+    /// (Horner, starting from `c[last] + x * 0`); no coefficients give 0.
+    Poly(Vec<f64>),
+}
+
+/// A channel stored as extents of one numeric type and byte order, with
+/// scaling: a TDMS channel (segments, interleaved rows, DAQmx raw
+/// integers), an HDF5 dataset's chunks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Extents {
+    pub num: Num,
+    pub big_endian: bool,
+    /// In order of `start`, from 0, without gaps.
+    pub parts: Vec<Extent>,
+    pub ops: Vec<Op>,
+}
+
+/// A chunk at most this long is read whole, once for all channels.
+const SMALL_CHUNK: u64 = 1 << 20;
+
+impl Extents {
+    /// Samples of the channel.
+    pub fn len(&self) -> u64 {
+        self.parts.last().map_or(0, |e| e.start + e.total())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// One past the last byte the extents read.
+    pub fn end(&self) -> u64 {
+        let last = |e: &Extent| e.reps.saturating_sub(1).saturating_mul(e.period);
+        self.parts.iter().map(|e| e.chunk.1.max(self.part_end(e)).saturating_add(last(e))).max().unwrap_or(0)
+    }
+
+    fn part_end(&self, e: &Extent) -> u64 {
+        if e.count == 0 {
+            e.offset
+        } else {
+            e.offset.saturating_add((e.count - 1).saturating_mul(e.stride)).saturating_add(self.num.width())
+        }
+    }
+
+    /// Checks the extents are in order without gaps, lie inside their
+    /// chunks (each sample inside its row), and end by byte `size`.
+    pub fn check(&self, size: u64) -> Result<(), KernelError> {
+        let mut next = 0u64;
+        let w = self.num.width();
+        for e in &self.parts {
+            if e.start != next {
+                return Err(invalid(format!("extent at sample {} does not follow sample {next}", e.start)));
+            }
+            let outside = e.stride < w
+                || e.offset < e.chunk.0
+                || self.part_end(e) > e.chunk.1
+                || (e.stride > w && (e.offset - e.chunk.0) % e.stride + w > e.stride);
+            if e.count > 0 && outside {
+                return Err(invalid(format!("extent at byte {} lies outside its block", e.offset)));
+            }
+            let last_end =
+                e.reps.checked_sub(1).and_then(|r| r.checked_mul(e.period)).and_then(|d| e.chunk.1.checked_add(d));
+            if e.reps == 0 || last_end.is_none_or(|x| x > size) || e.chunk.0 > e.chunk.1 {
+                return Err(invalid(format!(
+                    "a channel's block {}..{} ({} times every {} bytes) runs past the file's {size} bytes",
+                    e.chunk.0, e.chunk.1, e.reps, e.period
+                )));
+            }
+            let total = e.count.checked_mul(e.reps);
+            next =
+                total.and_then(|t| e.start.checked_add(t)).ok_or_else(|| invalid("extent counts overflow".into()))?;
+        }
+        Ok(())
+    }
+
+    fn plain_f64(&self) -> bool {
+        self.num == Num::F64 && !self.big_endian && self.ops.is_empty() && cfg!(target_endian = "little")
+    }
+
+    /// Samples [a, b) as f64, scaled, into `out` (cleared first). The
+    /// extents must have passed [`Extents::check`] (for any size: a file
+    /// shorter than they say is a read error here).
+    pub fn read(
+        &self,
+        file: &File,
+        a: u64,
+        b: u64,
+        out: &mut Vec<f64>,
+        cache: &mut ByteCache,
+    ) -> Result<(), KernelError> {
+        out.clear();
+        if b <= a {
+            return Ok(());
+        }
+        if b > self.len() {
+            return Err(invalid(format!("samples {a}..{b} of a channel of {} samples", self.len())));
+        }
+        out.reserve((b - a) as usize);
+        let mut i = self.parts.partition_point(|e| e.start + e.total() <= a);
+        let mut pos = a;
+        let w = self.num.width();
+        while pos < b {
+            let e = &self.parts[i];
+            if e.count == 0 || pos >= e.start + e.total() {
+                i += 1;
+                continue;
+            }
+            let r = (pos - e.start) / e.count;
+            let s = (pos - e.start) % e.count;
+            let (offset, chunk) = e.rep(r);
+            let k = (e.count - s).min(b - pos);
+            if chunk.1 - chunk.0 <= SMALL_CHUNK {
+                let bytes = cache.get(file, chunk.0, chunk.1 - chunk.0)?;
+                let from = (offset - chunk.0 + s * e.stride) as usize;
+                decode(self.num, self.big_endian, &bytes[from..], e.stride as usize, k as usize, out);
+            } else if self.plain_f64() && e.stride == F64 {
+                let at = out.len();
+                out.resize(at + k as usize, 0.0);
+                read_f64s_into(file, offset + s * F64, &mut out[at..])?;
+            } else {
+                // Whole rows of an interleaved block (shared by its channels).
+                let col = if e.stride > w { (offset - chunk.0) % e.stride } else { 0 };
+                let lo = offset - col + s * e.stride;
+                let bytes = cache.get(file, lo, k * e.stride)?;
+                decode(self.num, self.big_endian, &bytes[col as usize..], e.stride as usize, k as usize, out);
+            }
+            pos += k;
+        }
+        for op in &self.ops {
+            match op {
+                Op::Linear { slope, intercept } => out.iter_mut().for_each(|x| *x = *x * slope + intercept),
+                Op::Poly(c) => match c.split_last() {
+                    None => out.iter_mut().for_each(|x| *x = 0.0),
+                    Some((last, rest)) => out.iter_mut().for_each(|x| {
+                        let v = *x;
+                        let mut acc = last + v * 0.0;
+                        for ci in rest.iter().rev() {
+                            acc = ci + acc * v;
+                        }
+                        *x = acc;
+                    }),
+                },
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Appends `k` values of type `num` found every `stride` bytes from `bytes[0]` to `out`.
+fn decode(num: Num, big: bool, bytes: &[u8], stride: usize, k: usize, out: &mut Vec<f64>) {
+    macro_rules! conv {
+        ($t:ty) => {{
+            const W: usize = std::mem::size_of::<$t>();
+            let get = |p: &[u8]| -> f64 {
+                let a: [u8; W] = p[..W].try_into().expect("W bytes");
+                (if big { <$t>::from_be_bytes(a) } else { <$t>::from_le_bytes(a) }) as f64
+            };
+            if stride == W {
+                out.extend(bytes[..k * W].chunks_exact(W).map(get));
+            } else {
+                out.extend((0..k).map(|j| get(&bytes[j * stride..])));
+            }
+        }};
+    }
+    match num {
+        Num::I8 => conv!(i8),
+        Num::I16 => conv!(i16),
+        Num::I32 => conv!(i32),
+        Num::I64 => conv!(i64),
+        Num::U8 => conv!(u8),
+        Num::U16 => conv!(u16),
+        Num::U32 => conv!(u32),
+        Num::U64 => conv!(u64),
+        Num::F32 => conv!(f32),
+        Num::F64 => conv!(f64),
+    }
+}
+
+/// Byte ranges read for one block of samples, kept until the next block
+/// so the channels of one chunk (interleaved rows, a small segment) read
+/// it once; their memory is reused from block to block.
+#[derive(Default, Debug)]
+pub struct ByteCache {
+    entries: Vec<(u64, u64, Vec<u8>)>,
+    used: usize,
+}
+
+impl ByteCache {
+    /// Forgets the ranges read (keeps the memory).
+    pub fn begin(&mut self) {
+        self.used = 0;
+    }
+
+    fn get(&mut self, file: &File, at: u64, len: u64) -> Result<&[u8], KernelError> {
+        if let Some(i) = self.entries[..self.used].iter().position(|e| e.0 == at && e.1 == len) {
+            return Ok(&self.entries[i].2);
+        }
+        if self.used == self.entries.len() {
+            self.entries.push((0, 0, Vec::new()));
+        }
+        let slot = &mut self.entries[self.used];
+        slot.2.resize(len as usize, 0);
+        read_bytes(file, at, &mut slot.2)?;
+        slot.0 = at;
+        slot.1 = len;
+        self.used += 1;
+        Ok(&self.entries[self.used - 1].2)
     }
 }
 
@@ -66,7 +380,7 @@ fn invalid(msg: String) -> KernelError {
 /// Checks a layout and a grid against the file (done by every entry point;
 /// public so that callers can check before they allocate for the results).
 pub fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions) -> Result<(), KernelError> {
-    if cfg!(target_endian = "big") {
+    if cfg!(target_endian = "big") && layout.sources().into_iter().flatten().any(|s| matches!(s, Source::F64(_))) {
         return Err(invalid("mapped files are read as little-endian f64: not on this machine".into()));
     }
     if grid.step == 0 || grid.block == 0 || opt.len == 0 {
@@ -85,16 +399,27 @@ pub fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions)
         }
     }
     let size = file.metadata().map_err(|e| invalid(format!("cannot read the file's length: {e}")))?.len();
-    for off in layout.offsets().into_iter().flatten() {
-        if off % F64 != 0 {
-            return Err(invalid(format!("channel offset {off} is not a multiple of 8 bytes")));
-        }
-        let end = (layout.n as u64).checked_mul(F64).and_then(|b| b.checked_add(off));
-        if end.is_none_or(|e| e > size) {
-            return Err(invalid(format!(
-                "a channel at byte {off} with {} samples runs past the file's {size} bytes",
-                layout.n
-            )));
+    for src in layout.sources().into_iter().flatten() {
+        match src {
+            Source::F64(off) => {
+                let off = *off;
+                if off % F64 != 0 {
+                    return Err(invalid(format!("channel offset {off} is not a multiple of 8 bytes")));
+                }
+                let end = (layout.n as u64).checked_mul(F64).and_then(|b| b.checked_add(off));
+                if end.is_none_or(|e| e > size) {
+                    return Err(invalid(format!(
+                        "a channel at byte {off} with {} samples runs past the file's {size} bytes",
+                        layout.n
+                    )));
+                }
+            }
+            Source::Extents(ext) => {
+                ext.check(size)?;
+                if ext.len() < layout.n as u64 {
+                    return Err(invalid(format!("a channel has {} samples, not {}", ext.len(), layout.n)));
+                }
+            }
         }
     }
     Ok(())
@@ -108,14 +433,18 @@ struct Samples {
     /// fx, fy, fz, aux; empty where the layout has no such channel.
     bufs: [Vec<f64>; 4],
     present: [bool; 4],
+    cache: ByteCache,
 }
 
 impl Samples {
     fn read(&mut self, file: &File, layout: &FileLayout, a: usize, b: usize) -> Result<(), KernelError> {
-        for (i, off) in layout.offsets().into_iter().enumerate() {
-            self.present[i] = off.is_some();
-            if let Some(off) = off {
-                read_f64s(file, off + a as u64 * F64, b - a, &mut self.bufs[i])?;
+        self.cache.begin();
+        for (i, src) in layout.sources().into_iter().enumerate() {
+            self.present[i] = src.is_some();
+            match src {
+                Some(Source::F64(off)) => read_f64s(file, off + a as u64 * F64, b - a, &mut self.bufs[i])?,
+                Some(Source::Extents(ext)) => ext.read(file, a as u64, b as u64, &mut self.bufs[i], &mut self.cache)?,
+                None => {}
             }
         }
         Ok(())
@@ -130,13 +459,24 @@ impl Samples {
 /// Reads `n` little-endian f64 from byte `at` of `file` into `buf`
 /// (resized to `n`; its memory reused). A file that ends before is an
 /// error naming the bytes missing, as is any other failed read.
-#[cfg(unix)]
 fn read_f64s(file: &File, at: u64, n: usize, buf: &mut Vec<f64>) -> Result<(), KernelError> {
-    use std::os::unix::fs::FileExt;
     buf.resize(n, 0.0);
-    // SAFETY: the byte view covers exactly the n initialised f64 of `buf`,
+    read_f64s_into(file, at, buf)
+}
+
+/// Fills `buf` with the little-endian f64 from byte `at` of `file`.
+fn read_f64s_into(file: &File, at: u64, buf: &mut [f64]) -> Result<(), KernelError> {
+    // SAFETY: the byte view covers exactly the initialised f64 of `buf`,
     // which it borrows mutably; every byte pattern is a valid f64.
-    let bytes = unsafe { std::slice::from_raw_parts_mut(buf.as_mut_ptr() as *mut u8, n * F64 as usize) };
+    let bytes = unsafe { std::slice::from_raw_parts_mut(buf.as_mut_ptr() as *mut u8, std::mem::size_of_val(buf)) };
+    read_bytes(file, at, bytes)
+}
+
+/// Fills `bytes` from byte `at` of `file` (pread: no shared file position,
+/// so any number of threads may read one file).
+#[cfg(unix)]
+pub(crate) fn read_bytes(file: &File, at: u64, bytes: &mut [u8]) -> Result<(), KernelError> {
+    use std::os::unix::fs::FileExt;
     file.read_exact_at(bytes, at).map_err(|e| {
         let end = at + bytes.len() as u64;
         if e.kind() == std::io::ErrorKind::UnexpectedEof {
@@ -148,7 +488,7 @@ fn read_f64s(file: &File, at: u64, n: usize, buf: &mut Vec<f64>) -> Result<(), K
 }
 
 #[cfg(not(unix))]
-fn read_f64s(_file: &File, _at: u64, _n: usize, _buf: &mut Vec<f64>) -> Result<(), KernelError> {
+pub(crate) fn read_bytes(_file: &File, _at: u64, _bytes: &mut [u8]) -> Result<(), KernelError> {
     Err(invalid("reading a file's samples directly needs a Unix system".into()))
 }
 
@@ -354,7 +694,7 @@ fn filtered_windows(
     let raw = |i: usize| f.raw.get(i);
     let x = usize::from(layout.fx.is_some());
     let ch = Channels {
-        fx: layout.fx.map(|_| f.forces[0].as_slice()),
+        fx: layout.fx.as_ref().map(|_| f.forces[0].as_slice()),
         fy: &f.forces[x],
         fz: &f.forces[x + 1],
         aux: raw(3),
@@ -478,7 +818,13 @@ mod tests {
         }
         let (path, file) = temp_file(&bytes);
         let row = (n * 8) as u64;
-        let layout = FileLayout { fx: Some(128), fy: 128 + row, fz: 128 + 2 * row, aux: Some(128 + 3 * row), n };
+        let layout = FileLayout {
+            fx: Some(Source::F64(128)),
+            fy: Source::F64(128 + row),
+            fz: Source::F64(128 + 2 * row),
+            aux: Some(Source::F64(128 + 3 * row)),
+            n,
+        };
         let opt = WindowOptions {
             len: 300,
             orientation: 1.0,
@@ -496,9 +842,9 @@ mod tests {
             assert_eq!(format!("{got:?}"), format!("{want:?}"), "block {block}");
         }
         // Bad layouts are errors, not panics.
-        let past = FileLayout { n: n + 1, ..layout };
+        let past = FileLayout { n: n + 1, ..layout.clone() };
         assert!(windows_stats_mapped(&file, &past, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt, 2).is_err());
-        let odd = FileLayout { fy: 129, ..layout };
+        let odd = FileLayout { fy: Source::F64(129), ..layout.clone() };
         assert!(windows_stats_mapped(&file, &odd, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt, 2).is_err());
         assert!(windows_stats_mapped(&file, &layout, &Grid { k0: 0, k1: k1 + 1, step, block: 4 }, &opt, 2).is_err());
         std::fs::remove_file(path).unwrap();
@@ -516,7 +862,13 @@ mod tests {
         }
         let (path, file) = temp_file(&bytes);
         let row = (n * 8) as u64;
-        let layout = FileLayout { fx: None, fy: 64, fz: 64 + row, aux: Some(64 + 2 * row), n };
+        let layout = FileLayout {
+            fx: None,
+            fy: Source::F64(64),
+            fz: Source::F64(64 + row),
+            aux: Some(Source::F64(64 + 2 * row)),
+            n,
+        };
         let sos: Vec<Section> = vec![[0.9997, -0.9997, 0.0, 1.0, -0.9994, 0.0]];
         let zi = crate::iir::sosfilt_zi(&sos).unwrap();
         let opt = WindowOptions {

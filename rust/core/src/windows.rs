@@ -156,6 +156,9 @@ pub struct WindowStats {
     pub ext_sums: Vec<f64>,
     /// [`extended::line_spectra`] when `opt.ext.n_lines > 0`, else empty.
     pub spec: Vec<f64>,
+    /// [`extended::classical`] of the raw forces (or of the forces when
+    /// there are no raw ones) when `opt.ext.classical` is set, else NaN.
+    pub classical: [f64; 4],
 }
 
 /// Interleaved accumulators per sum: fixed, so the order of summation (and
@@ -574,10 +577,15 @@ pub fn window_stats_then(
     }
     let mut w = window_dispatch(ch, next, opt)?;
     if opt.ext.sums {
-        w.ext_sums = extended::block_sums(ch.fy, ch.fz, opt.ext.lag);
+        let means = (w.moments.mean_x, w.moments.mean_y);
+        w.ext_sums = extended::block_sums(ch.fy, ch.fz, opt.ext.lag, Some(means));
     }
     if opt.ext.n_lines > 0 {
         w.spec = extended::line_spectra(ch.fy, ch.fz, &opt.ext);
+    }
+    if let Some(c) = &opt.ext.classical {
+        let (y, z) = ch.raw.unwrap_or((ch.fy, ch.fz));
+        w.classical = extended::classical(y, z, c);
     }
     Ok(w)
 }
@@ -670,6 +678,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
             mu_classic,
             ext_sums: Vec::new(),
             spec: Vec::new(),
+            classical: [f64::NAN; 4],
         });
     }
     let (mz0, my0, mx0) = (sz / nf, sy / nf, sx / nf);
@@ -733,6 +742,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
         mu_classic,
         ext_sums: Vec::new(),
         spec: Vec::new(),
+        classical: [f64::NAN; 4],
     })
 }
 

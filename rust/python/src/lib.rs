@@ -347,7 +347,7 @@ fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResu
 /// caller's index of sample 0 of the arrays). `threads=1` keeps the work on
 /// the calling thread.
 #[pyfunction]
-#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, columns, *, fy_raw=None, fz_raw=None, threads=None, offset=0, lag=0, lines=None, segments=4, delay=0.0))]
+#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, columns, *, fy_raw=None, fz_raw=None, threads=None, offset=0, lag=0, lines=None, segments=4, delay=0.0, classical=None))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats<'py>(
     py: Python<'py>,
@@ -370,11 +370,12 @@ fn windows_stats<'py>(
     lines: Option<Vec<f64>>,
     segments: usize,
     delay: f64,
+    classical: Option<(f64, f64, f64)>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let threads = threads_of(threads)?;
     let deadband = parse_deadband(deadband_kind, deadband)?;
     let cols = columns_of(&columns)?;
-    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay)?;
+    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay, classical)?;
     let starts: Vec<usize> = starts
         .as_slice()
         .map_err(slice_err("starts"))?
@@ -429,6 +430,7 @@ fn ext_options(
     lines: Option<&[f64]>,
     segments: usize,
     delay: f64,
+    classical: Option<(f64, f64, f64)>,
 ) -> PyResult<extended::ExtOptions> {
     let mut ext =
         extended::ExtOptions { sums: columns.iter().any(|c| c == "ext"), lag, segments, delay, ..Default::default() };
@@ -443,6 +445,14 @@ fn ext_options(
         }
         ext.lines[..lines.len()].copy_from_slice(lines);
         ext.n_lines = lines.len();
+    }
+    let wants_classical =
+        columns.iter().any(|c| matches!(c.as_str(), "mu_classical" | "mu_classical_median" | "fz_mean" | "fz_std"));
+    if wants_classical {
+        let (min_fn, tare_y, tare_z) = classical.ok_or_else(|| {
+            PyValueError::new_err("the classical COF columns need classical=(min_fn, tare_fy, tare_fz)")
+        })?;
+        ext.classical = Some(extended::Classical { min_fn, tare_y, tare_z });
     }
     ext.check().map_err(to_py)?;
     Ok(ext)
@@ -481,6 +491,10 @@ fn column(name: &str) -> Option<Column> {
         "n_b" => I(|w| w.n_b),
         "bin_count" => BinCount,
         "bin_cof" => BinCof,
+        "mu_classical" => F(|w, _| w.classical[0]),
+        "mu_classical_median" => F(|w, _| w.classical[1]),
+        "fz_mean" => F(|w, _| w.classical[2]),
+        "fz_std" => F(|w, _| w.classical[3]),
         "ext" => Column::Ext,
         "spec" => Column::Spec,
         _ => return None,
@@ -489,7 +503,7 @@ fn column(name: &str) -> Option<Column> {
 
 const COLUMN_NAMES: &str = "slope, intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z, mean_y, \
 szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min, fz_max, aux_mean, mu_classic, n, n_a, n_b, \
-bin_count, bin_cof, ext, spec";
+bin_count, bin_cof, mu_classical, mu_classical_median, fz_mean, fz_std, ext, spec";
 
 fn columns_of(names: &[String]) -> PyResult<Vec<Column>> {
     names
@@ -643,7 +657,8 @@ fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
 /// [k * step, k * step + length)) of channels stored in the open file `fd`
 /// (a file descriptor, duplicated for the call and left open) as
 /// contiguous little-endian f64 runs starting at the byte offsets
-/// `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each. The
+/// `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each, or as
+/// `Extents` (any numeric type, segments, interleaved rows, scaling). The
 /// samples are read with `pread`, `block` windows per task, on `threads`
 /// threads; the `columns` asked for, with the same results as
 /// `windows_stats` on those samples. A file that shrinks meanwhile is a
@@ -655,12 +670,12 @@ fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
 /// and the classical COF of the raw forces is added (`mu_classic`); the
 /// windows must not overlap (step >= length).
 #[pyfunction]
-#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, columns, *, block=512, sos=None, zi=None, origin=0, threads=None, lag=0, lines=None, segments=4, delay=0.0))]
+#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, columns, *, block=512, sos=None, zi=None, origin=0, threads=None, lag=0, lines=None, segments=4, delay=0.0, classical=None))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats_file<'py>(
     py: Python<'py>,
     fd: i32,
-    offsets: (Option<u64>, u64, u64, Option<u64>),
+    offsets: Offsets<'py>,
     n: usize,
     k0: usize,
     k1: usize,
@@ -680,11 +695,12 @@ fn windows_stats_file<'py>(
     lines: Option<Vec<f64>>,
     segments: usize,
     delay: f64,
+    classical: Option<(f64, f64, f64)>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let threads = threads_of(threads)?;
     let deadband = parse_deadband(deadband_kind, deadband)?;
     let cols_asked = columns_of(&columns)?;
-    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay)?;
+    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay, classical)?;
     let highpass = match (&sos, &zi) {
         (Some(s), Some(z)) => {
             let secs = sections(s)?;
@@ -703,7 +719,13 @@ fn windows_stats_file<'py>(
         _ => return Err(PyValueError::new_err("sos and zi go together")),
     };
     let file = dup_fd(fd)?;
-    let layout = mapped::FileLayout { fx: offsets.0, fy: offsets.1, fz: offsets.2, aux: offsets.3, n };
+    let layout = mapped::FileLayout {
+        fx: offsets.0.as_ref().map(source_of).transpose()?,
+        fy: source_of(&offsets.1)?,
+        fz: source_of(&offsets.2)?,
+        aux: offsets.3.as_ref().map(source_of).transpose()?,
+        n,
+    };
     let grid = mapped::Grid { k0, k1, step, block };
     let opt = WindowOptions { len: length, orientation, deadband, n_bins, ext };
     // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
@@ -726,6 +748,150 @@ fn windows_stats_file<'py>(
     })
     .map_err(to_py)?;
     cols.into_inner().unwrap_or_else(|e| e.into_inner()).into_dict(py, &columns)
+}
+
+/// `(fx, fy, fz, aux)` of `windows_stats_file`, each as [`source_of`] takes it.
+type Offsets<'py> = (Option<Bound<'py, PyAny>>, Bound<'py, PyAny>, Bound<'py, PyAny>, Option<Bound<'py, PyAny>>);
+
+/// A channel of `windows_stats_file`: a `PyExtents`, else a byte offset
+/// (contiguous little-endian f64; a negative one is an OverflowError).
+fn source_of(ob: &Bound<'_, PyAny>) -> PyResult<mapped::Source> {
+    if let Ok(e) = ob.extract::<PyRef<'_, PyExtents>>() {
+        return Ok(mapped::Source::Extents(e.inner.clone()));
+    }
+    Ok(mapped::Source::F64(ob.extract::<u64>()?))
+}
+
+/// Where a channel's samples lie in a file: runs of one numeric type and
+/// byte order (TDMS segments, interleaved rows, DAQmx raw integers, HDF5
+/// chunks), with scaling. Read with `pread` (any number of threads).
+#[pyclass(name = "Extents", module = "tribodyn._core", frozen)]
+struct PyExtents {
+    inner: std::sync::Arc<mapped::Extents>,
+}
+
+#[pymethods]
+impl PyExtents {
+    /// Extents of `dtype` (NumPy's name: "f8", "i2", ...) stored
+    /// contiguously: `parts` is a list of (sample count, byte offset).
+    #[staticmethod]
+    fn contiguous(dtype: &str, big_endian: bool, parts: Vec<(u64, u64)>) -> PyResult<Self> {
+        let num = mapped::Num::from_name(dtype)
+            .ok_or_else(|| PyValueError::new_err(format!("unknown numeric type {dtype:?}")))?;
+        let w = num.width();
+        let mut start = 0u64;
+        let mut out = Vec::with_capacity(parts.len());
+        for (count, offset) in parts {
+            let end = count.checked_mul(w).and_then(|b| b.checked_add(offset));
+            let end = end.ok_or_else(|| PyValueError::new_err("extent overflows"))?;
+            out.push(mapped::Extent { start, ..mapped::Extent::single(count, offset, w, (offset, end)) });
+            start = start.checked_add(count).ok_or_else(|| PyValueError::new_err("extent counts overflow"))?;
+        }
+        let ext = mapped::Extents { num, big_endian, parts: out, ops: Vec::new() };
+        ext.check(u64::MAX).map_err(to_py)?;
+        Ok(PyExtents { inner: std::sync::Arc::new(ext) })
+    }
+
+    /// The same samples scaled by `ops` after these' own, in order: each
+    /// ("linear", [slope, intercept]) or ("poly", [c0, c1, ...]).
+    fn scaled(&self, ops: Vec<(String, Vec<f64>)>) -> PyResult<Self> {
+        let mut ext = (*self.inner).clone();
+        for (kind, v) in ops {
+            ext.ops.push(match (kind.as_str(), v.as_slice()) {
+                ("linear", &[slope, intercept]) => mapped::Op::Linear { slope, intercept },
+                ("poly", c) => mapped::Op::Poly(c.to_vec()),
+                _ => return Err(PyValueError::new_err(format!("unknown scaling {kind:?} with {} values", v.len()))),
+            });
+        }
+        Ok(PyExtents { inner: std::sync::Arc::new(ext) })
+    }
+
+    /// Samples [start, stop) as float64 (scaled), read from the open file `fd`.
+    fn read<'py>(&self, py: Python<'py>, fd: i32, start: u64, stop: u64) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let file = dup_fd(fd)?;
+        let inner = self.inner.clone();
+        let out = py
+            .detach(move || {
+                let mut out = Vec::new();
+                let mut cache = mapped::ByteCache::default();
+                inner.read(&file, start, stop, &mut out, &mut cache).map(|_| out)
+            })
+            .map_err(to_py)?;
+        Ok(PyArray1::from_vec(py, out))
+    }
+
+    /// Samples of the channel.
+    #[getter]
+    fn n(&self) -> u64 {
+        self.inner.len()
+    }
+
+    /// NumPy's name of the stored type ("f8", "i2", ...).
+    #[getter]
+    fn dtype(&self) -> &'static str {
+        self.inner.num.name()
+    }
+
+    /// Whether the samples are stored big-endian.
+    #[getter]
+    fn big_endian(&self) -> bool {
+        self.inner.big_endian
+    }
+
+    /// Runs of samples (one per segment or chunk; consecutive ones, and
+    /// equal ones at a fixed distance, merged).
+    #[getter]
+    fn runs(&self) -> usize {
+        self.inner.parts.len()
+    }
+
+    /// Whether scaling is applied.
+    #[getter]
+    fn is_scaled(&self) -> bool {
+        !self.inner.ops.is_empty()
+    }
+
+    /// One past the last byte read.
+    #[getter]
+    fn end(&self) -> u64 {
+        self.inner.end()
+    }
+}
+
+/// The segment index of the TDMS file open as `fd` (see `tribodyn.io.tdms`),
+/// its metadata read from the `.tdms_index` open as `index_fd` if given
+/// (and it matches the data file): a dict with "segments", "warnings" (npTDMS's log, as it would say it),
+/// "fallback" (why the file is not read natively, or None) and "objects":
+/// a list of (path, properties [(name, type code, value bytes, big-endian)],
+/// data type code or None, values, {scale key: Extents} (-1 for the
+/// channel's own samples, else a DAQmx scale id), why not native or None).
+/// A damaged file is a ValueError naming the segment.
+#[pyfunction]
+#[pyo3(signature = (fd, index_fd=None))]
+fn tdms_index<'py>(py: Python<'py>, fd: i32, index_fd: Option<i32>) -> PyResult<Bound<'py, PyDict>> {
+    use pyo3::types::{PyBytes, PyList};
+    let file = dup_fd(fd)?;
+    let index = index_fd.map(dup_fd).transpose()?;
+    let idx = py.detach(|| tribodyn_core::tdms::read_index(&file, index.as_ref())).map_err(to_py)?;
+    let d = PyDict::new(py);
+    d.set_item("segments", idx.segments)?;
+    d.set_item("warnings", idx.warnings)?;
+    d.set_item("fallback", idx.fallback)?;
+    let objs = PyList::empty(py);
+    for o in idx.objects {
+        let props = PyList::empty(py);
+        for (name, code, value, big) in o.properties {
+            props.append((name, code, PyBytes::new(py, &value), big))?;
+        }
+        let runs = PyDict::new(py);
+        for (k, ext) in o.runs {
+            ext.check(u64::MAX).map_err(to_py)?; // built consistent; checked before any read trusts it
+            runs.set_item(k, PyExtents { inner: std::sync::Arc::new(ext) })?;
+        }
+        objs.append((o.path, props, o.code, o.n, runs, o.unsupported))?;
+    }
+    d.set_item("objects", objs)?;
+    Ok(d)
 }
 
 /// Sets the thread count of calls that name none (0 = all cores; at most
@@ -760,6 +926,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(linfit, m)?)?;
     m.add_function(wrap_pyfunction!(windows_stats, m)?)?;
     m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
+    m.add_function(wrap_pyfunction!(tdms_index, m)?)?;
+    m.add_class::<PyExtents>()?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     m.add_function(wrap_pyfunction!(max_threads, m)?)?;

@@ -1,0 +1,419 @@
+"""What tribometer exports need beyond the dynamic method (docs/method.md 6a-6d).
+
+* :func:`prepass`: one look at the normal and friction force before the
+  windows: whether fz carries its static level (raw forces: the classical
+  COF applies), the reference ``min_fn`` (5 % of the median |fz|), the
+  tare offsets and the motion (reciprocating when fy changes sign).
+* the classical COF per window (6a) is computed by the Rust kernel
+  (``_core`` columns ``mu_classical``, ...; ``reference.classical_windows``
+  is its NumPy reference).
+* :func:`find_strokes` and :func:`stroke_table`: the strokes of a
+  reciprocating test and the per-stroke classical COF over the central
+  ``stroke_fraction`` of each stroke (6c).
+* :func:`verdict`: whether the dynamic method applies, why not, and the
+  headline COF with the name of its estimate (6d).
+* :func:`auto_window`: window and hop chosen from the rate for slow
+  recordings (6b); :func:`from_dataframe`: a pandas DataFrame as a source.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+__all__ = [
+    "MIN_FN_FRACTION",
+    "STROKE_FRACTION",
+    "ClassicalSpec",
+    "auto_window",
+    "find_strokes",
+    "from_dataframe",
+    "prepass",
+    "stroke_table",
+    "verdict",
+]
+
+#: Default ``min_fn``: this fraction of the median |fz| of the recording (docs/method.md 6a).
+MIN_FN_FRACTION = 0.05
+#: Default central fraction of a stroke used for its COF (docs/method.md 6c).
+STROKE_FRACTION = 0.5
+#: Fewest samples of a window (docs/method.md 6b): a slower recording gets a longer window.
+MIN_WINDOW_SAMPLES = 100
+#: Below this rate (Hz) the default hop equals the window (the windows tile the recording).
+SLOW_RATE = 100.0
+#: Samples the pre-pass looks at (evenly spread over a random-access recording, else the first ones).
+PREPASS_SAMPLES = 1 << 20
+#: fy changes sign when both signs hold at least this share of the samples beyond 30 % of p95 |fy|.
+SIGN_FLIP_SHARE = 0.15
+#: Dead weight: the within-window std of fz is below this fraction of |mean fz| (median over windows).
+DEAD_WEIGHT_REL = 0.01
+#: Fewest gated windows for the dynamic method's COF.
+MIN_GATED = 3
+
+
+@dataclasses.dataclass(frozen=True)
+class ClassicalSpec:
+    """How the classical COF is computed (docs/method.md 6a).
+
+    Attributes
+    ----------
+    min_fn : float
+        Least |fz| (N) of a sample counted.
+    tare_fy, tare_fz : float
+        Offsets subtracted from fy and fz first (N).
+    """
+
+    min_fn: float
+    tare_fy: float = 0.0
+    tare_fz: float = 0.0
+
+
+def auto_window(fs: float, window: Optional[float], hop: Optional[float]) -> Tuple[float, float, str]:
+    """(window, hop, note) for a recording at ``fs`` (docs/method.md 6b).
+
+    Defaults are the paper's 2 s and 10 s. A window under
+    :data:`MIN_WINDOW_SAMPLES` samples (not given, or given under 3 samples)
+    becomes ``MIN_WINDOW_SAMPLES / fs``; below :data:`SLOW_RATE` Hz the hop
+    defaults to the window (tiling: a slow log is not thinned out). The note
+    says what was chosen ('' when nothing was).
+    """
+    notes = []
+    w = 2.0 if window is None else float(window)
+    if window is None and w * fs < MIN_WINDOW_SAMPLES:
+        w = MIN_WINDOW_SAMPLES / fs
+        notes.append(f"window {w:g} s ({MIN_WINDOW_SAMPLES} samples at {fs:g} Hz)")
+    elif window is not None and w > 0 and round(w * fs) < 3:
+        w = MIN_WINDOW_SAMPLES / fs
+        notes.append(
+            f"window {window:g} s is under 3 samples at {fs:g} Hz: window {w:g} s ({MIN_WINDOW_SAMPLES} samples)"
+        )
+    if hop is None:
+        h = w if fs < SLOW_RATE else max(10.0, w)
+        if fs < SLOW_RATE:
+            notes.append(f"hop {h:g} s = the window (a slow recording at {fs:g} Hz is tiled)")
+    else:
+        h = float(hop)
+    note = ("chosen from the rate: " + "; ".join(notes)) if notes else ""
+    return w, h, note
+
+
+def from_dataframe(
+    df: Any, channels: Optional[Mapping[str, str]], fs: Optional[float]
+) -> Tuple[Dict[str, np.ndarray], Optional[float]]:
+    """A pandas DataFrame as a mapping role -> array, and fs from its time column or index when not given.
+
+    Columns are roles (``fy``, ``fz``...) or are mapped with ``channels``
+    (role -> column). A column named ``time``/``t`` (s), a numeric index or
+    a DatetimeIndex gives fs = 1 / median step.
+    """
+    cols = {str(c): c for c in df.columns}
+    out: Dict[str, np.ndarray] = {}
+    mapping = dict(channels or {})
+    for role, col in mapping.items():
+        if col not in cols:
+            raise ValueError(f"channels: no column {col!r} in the DataFrame (columns: {', '.join(cols)})")
+        out[role] = np.asarray(df[cols[col]], dtype=float)
+    for name, col in cols.items():
+        if name in ("fx", "fy", "fz", "i", "u", "cof", "x", "v") and name not in out and name not in mapping.values():
+            out[name] = np.asarray(df[col], dtype=float)
+    if fs is None:
+        t: Optional[np.ndarray] = None
+        for name in ("time", "t", "Time", "time_s"):
+            if name in cols:
+                t = np.asarray(df[cols[name]], dtype=float)
+                break
+        if t is None:
+            idx = df.index
+            if hasattr(idx, "asi8") and str(getattr(idx, "dtype", "")).startswith("datetime64"):
+                t = np.asarray(idx.asi8, dtype=float) * 1e-9
+            elif np.issubdtype(np.asarray(idx).dtype, np.number) and not _is_range(idx):
+                t = np.asarray(idx, dtype=float)
+        if t is not None and t.size > 1:
+            d = np.diff(t)
+            d = d[np.isfinite(d) & (d > 0)]
+            if d.size:
+                fs = float(f"{1.0 / float(np.median(d)):.9g}")
+    return out, fs
+
+
+def _is_range(idx: Any) -> bool:
+    return type(idx).__name__ == "RangeIndex"
+
+
+# -- pre-pass -------------------------------------------------------------------------
+
+
+def _sample_recording(rec: Any, roles: Sequence[str], tare_n: int) -> Optional[Dict[str, np.ndarray]]:
+    """Up to PREPASS_SAMPLES samples of ``roles`` (evenly spread pieces, or the first ones) and the first tare_n."""
+    if not all(r in getattr(rec, "roles", {}) for r in roles):
+        return None
+    n = int(rec.n_samples)
+    if n <= PREPASS_SAMPLES or not getattr(rec, "random_access", False):
+        stop = min(n, max(PREPASS_SAMPLES, tare_n))
+        parts = list(rec.chunks(max(1, stop), list(roles), stop=stop))
+        return {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in roles}
+    pieces, size = 256, PREPASS_SAMPLES // 256
+    out: Dict[str, List[np.ndarray]] = {r: [] for r in roles}
+    starts = np.linspace(0, n - size, pieces).astype(np.int64)
+    if tare_n:
+        starts = np.concatenate([[0], starts])
+    for a in starts:
+        b = int(a) + (max(size, tare_n) if a == 0 else size)
+        for p in rec.chunks(b - int(a), list(roles), start=int(a), stop=min(b, n)):
+            for r in roles:
+                out[r].append(p[r])
+    return {r: np.concatenate(v) for r, v in out.items()}
+
+
+def prepass(
+    source: Any,
+    rec: Any,
+    fs: float,
+    *,
+    min_fn: Optional[float],
+    tare: Any,
+    motion: str,
+) -> Dict[str, Any]:
+    """The look at fy and fz before the windows (see the module docstring); {} when the source is a stream.
+
+    Returns a dict with ``static`` (fz carries a static level), ``spec``
+    (:class:`ClassicalSpec` or None), ``motion`` ("unidirectional" or
+    "reciprocating"), ``motion_detected`` and ``sign_flip_share``.
+    """
+    tare_s = float(tare) if isinstance(tare, (int, float)) and not isinstance(tare, bool) else 0.0
+    tare_n = int(round(tare_s * fs))
+    data: Optional[Dict[str, np.ndarray]] = None
+    if rec is not None:
+        data = _sample_recording(rec, ("fy", "fz"), tare_n)
+    elif isinstance(source, Mapping) and "fy" in source and "fz" in source:
+        data = {r: np.asarray(source[r], dtype=float) for r in ("fy", "fz")}
+    elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a and "fy" in a
+                                                            for a in source):  # fmt: skip
+        data = {r: np.concatenate([np.asarray(a[r], dtype=float) for a in source]) for r in ("fy", "fz")}
+    if data is None or data["fz"].size == 0 or data["fy"].shape != data["fz"].shape:
+        # Nothing to look at (or channels of unequal lengths, which the pipeline refuses with its own error).
+        return {"motion": "unidirectional" if motion == "auto" else motion, "motion_detected": False}
+    fy, fz = data["fy"], data["fz"]
+    ok = np.isfinite(fy) & np.isfinite(fz)
+    fy, fz = fy[ok], fz[ok]
+    out: Dict[str, Any] = {}
+    # tare offsets
+    t_fy = t_fz = 0.0
+    if isinstance(tare, Mapping):
+        t_fy, t_fz = float(tare.get("fy", 0.0)), float(tare.get("fz", 0.0))
+    elif tare_n > 0:
+        if tare_n >= fz.size:
+            raise ValueError(f"tare = {tare_s:g} s covers the whole recording")
+        t_fy, t_fz = float(np.mean(fy[:tare_n])), float(np.mean(fz[:tare_n]))
+        fy, fz = fy[tare_n:], fz[tare_n:]
+    elif tare is not None and not isinstance(tare, (int, float)):
+        raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+    fy, fz = fy - t_fy, fz - t_fz
+    med = float(np.median(fz)) if fz.size else 0.0
+    mad = float(np.median(np.abs(fz - med))) if fz.size else 0.0
+    static = bool(abs(med) > 0 and abs(med) > 3.0 * mad)
+    out["static"] = static
+    absz = float(np.median(np.abs(fz)))
+    out["median_abs_fz"] = absz
+    if static or min_fn is not None or tare is not None:
+        thr = float(min_fn) if min_fn is not None else MIN_FN_FRACTION * absz
+        if not np.isfinite(thr) or thr < 0:
+            raise ValueError(f"min_fn must be finite and >= 0, got {min_fn!r}")
+        out["spec"] = ClassicalSpec(thr, t_fy, t_fz)
+    # motion
+    p95 = float(np.percentile(np.abs(fy), 95)) if fy.size else 0.0
+    share = 0.0
+    if p95 > 0:
+        pos = float(np.mean(fy > 0.3 * p95))
+        neg = float(np.mean(fy < -0.3 * p95))
+        share = min(pos, neg)
+    out["sign_flip_share"] = share
+    if motion == "auto":
+        # Only forces with their static level tell the sliding direction: a
+        # dynamic (high-passed) fy changes sign with every oscillation.
+        out["motion"] = "reciprocating" if static and share >= SIGN_FLIP_SHARE else "unidirectional"
+        out["motion_detected"] = True
+    else:
+        out["motion"] = motion
+        out["motion_detected"] = False
+    return out
+
+
+# -- classical COF per window ---------------------------------------------------------
+
+
+# -- strokes --------------------------------------------------------------------------
+
+
+def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int, int]] = (),
+                 kind: str = "fy") -> List[Tuple[int, int, int]]:  # fmt: skip
+    """Strokes as (start, stop, direction) from a signed signal (fy, velocity or position), per acquisition.
+
+    ``kind`` "x" (position): the direction is the sign of its slope; "v" and
+    "fy": the sign of the signal itself. A direction holds until the signal
+    crosses 30 % of its p95 magnitude with the other sign (hysteresis), so
+    noise around zero does not cut strokes.
+    """
+    sig = np.asarray(direction_signal, dtype=float)
+    if kind == "x":
+        sig = np.gradient(sig)
+    n = sig.size
+    ranges = list(boundaries) or [(0, n)]
+    out: List[Tuple[int, int, int]] = []
+    for a, b in ranges:
+        seg = sig[a:b]
+        if seg.size == 0:
+            continue
+        fin = seg[np.isfinite(seg)]
+        p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
+        thr = 0.3 * p95
+        d = np.zeros(seg.size, dtype=np.int8)
+        cur = 0
+        for i, v in enumerate(seg):
+            if v > thr:
+                cur = 1
+            elif v < -thr:
+                cur = -1
+            d[i] = cur
+        # samples before the first decided direction take it
+        nz = np.flatnonzero(d)
+        if nz.size == 0:
+            out.append((a, b, 1))
+            continue
+        d[: nz[0]] = d[nz[0]]
+        cuts = np.flatnonzero(np.diff(d)) + 1
+        # The hysteresis decides a change of direction late (at 30 % of p95): the stroke starts where
+        # the signal took its new sign (the reversal), so that a stroke's central part is centred.
+        moved: List[int] = []
+        for c in cuts.tolist():
+            lo, j = (moved[-1] if moved else 0) + 1, c
+            while j > lo and seg[j - 1] * d[c] > 0:
+                j -= 1
+            moved.append(j)
+        edges = [0, *moved, seg.size]
+        for s0, s1 in zip(edges[:-1], edges[1:]):
+            if s1 - s0 >= 4:
+                out.append((a + s0, a + s1, int(d[s1 - 1])))
+    return out
+
+
+def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, int, int]], fs: float,
+                 spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None
+                 ) -> Dict[str, np.ndarray]:  # fmt: skip
+    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c)."""
+    if not (0 < fraction <= 1):
+        raise ValueError(f"stroke_fraction must be in (0, 1], got {fraction!r}")
+    spec = spec or ClassicalSpec(0.0)
+    rows: Dict[str, List[Any]] = {k: [] for k in ("stroke", "cycle", "direction", "t_start", "time", "duration",
+                                                  "mu", "mu_median", "mu_instrument", "fz_mean", "n")}  # fmt: skip
+    first_dir = strokes[0][2] if strokes else 1
+    cycle = 0
+    for k, (a, b, d) in enumerate(strokes):
+        if k and d == first_dir and strokes[k - 1][2] != d:
+            cycle += 1
+        m = b - a
+        c0 = a + int(round(m * (1 - fraction) / 2))
+        c1 = max(c0 + 1, a + int(round(m * (1 + fraction) / 2)))
+        y = np.abs(fy[c0:c1] - spec.tare_fy)
+        z = np.abs(fz[c0:c1] - spec.tare_fz)
+        keep = (z >= spec.min_fn) & (z > 0) & np.isfinite(y) & np.isfinite(z)
+        r = y[keep] / z[keep] if keep.any() else np.zeros(0)
+        rows["stroke"].append(k)
+        rows["cycle"].append(cycle)
+        rows["direction"].append(d)
+        rows["t_start"].append(a / fs)
+        rows["time"].append((a + b) / 2 / fs)
+        rows["duration"].append(m / fs)
+        rows["mu"].append(float(r.mean()) if r.size else np.nan)
+        rows["mu_median"].append(float(np.median(r)) if r.size else np.nan)
+        ci = np.abs(cof[c0:c1]) if cof is not None else np.zeros(0)
+        ci = ci[np.isfinite(ci)]
+        rows["mu_instrument"].append(float(ci.mean()) if ci.size else np.nan)
+        rows["fz_mean"].append(float(np.mean(fz[c0:c1])))
+        rows["n"].append(int(keep.sum()))
+    ints = {"stroke", "cycle", "direction", "n"}
+    return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in rows.items()}
+
+
+#: Columns of :attr:`Results.strokes` with their units and meanings (docs/method.md 6c).
+STROKE_COLUMNS: Dict[str, Tuple[str, str]] = {
+    "stroke": ("", "stroke index"),
+    "cycle": ("", "cycle number (a cycle is one stroke each way)"),
+    "direction": ("", "+1 or -1: sliding direction (sign of v, of dx/dt or of fy)"),
+    "t_start": ("s", "stroke start"),
+    "time": ("s", "stroke centre"),
+    "duration": ("s", "stroke duration"),
+    "mu": ("1", "classical COF mean |fy|/|fz| over the central stroke_fraction, |fz| >= min_fn"),
+    "mu_median": ("1", "median of |fy|/|fz| over the same samples"),
+    "mu_instrument": ("1", "mean of the instrument's COF column over the same samples"),
+    "fz_mean": ("N", "mean fz over the same samples"),
+    "n": ("samples", "samples used"),
+}
+
+
+def _stats(v: np.ndarray) -> Dict[str, Any]:
+    v = np.asarray(v, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return {"n": 0}
+    q = np.percentile(v, [5, 50, 95])
+    return {"n": int(v.size), "mean": float(v.mean()), "median": float(q[1]), "std": float(v.std()),
+            "p05": float(q[0]), "p95": float(q[2])}  # fmt: skip
+
+
+def verdict(table: Mapping[str, np.ndarray], params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarray]],
+            gated: int) -> Dict[str, Any]:  # fmt: skip
+    """Whether the dynamic method applies, the reasons, and the headline COF (docs/method.md 6d)."""
+    reasons: List[str] = []
+    motion = params.get("motion", "unidirectional")
+    fz_mean = np.asarray(table.get("fz_mean", []), dtype=float)
+    fz_std = np.asarray(table.get("fz_std", []), dtype=float)
+    good = np.isfinite(fz_mean) & np.isfinite(fz_std) & (np.abs(fz_mean) > 0)
+    static = bool(params.get("static_fz"))
+    if good.any() and static:
+        rel = float(np.median(fz_std[good] / np.abs(fz_mean[good])))
+        if rel < DEAD_WEIGHT_REL:
+            reasons.append(
+                f"dead weight: fz varies by {100 * rel:.2f} % of its mean within a window (median), under "
+                f"{100 * DEAD_WEIGHT_REL:g} %: no dynamic normal-force excitation to regress on"
+            )
+    noise = params.get("noise_z_std")
+    if good.any() and noise is not None and np.isfinite(noise) and noise > 0:
+        if float(np.median(fz_std[good])) < 2.0 * float(noise):
+            reasons.append("no dynamic normal-force excitation above the noise on fz")
+    rectified = bool(params.get("rectified"))
+    if motion == "reciprocating" and not rectified:  # a one-pass stream: fy could not be rectified
+        reasons.append(
+            "reciprocating motion: friction changes sign with the sliding direction"
+            + (" (detected from fy's sign changes)" if params.get("motion_detected") else "")
+        )
+    if gated < MIN_GATED:
+        reasons.append(f"too few gated windows ({gated} < {MIN_GATED})")
+    agree, r = params.get("orientation_agreement"), params.get("orientation_r")
+    if agree is not None and r is not None and np.isfinite(agree) and np.isfinite(r):
+        if agree < 0.9 or abs(r) < 0.2:
+            reasons.append(f"orientation uncertain (r = {r:+.2f}, {100 * agree:.0f} % of windows agree)")
+    dynamic = not reasons
+    mu = np.asarray(table.get("mu_r", []), dtype=float)[np.asarray(table.get("ok", []), dtype=bool)]
+    mu = mu[np.isfinite(mu)]
+    value: Optional[float] = None
+    estimate = None
+    if dynamic and mu.size:
+        value = float(np.median(mu))
+        estimate = (
+            "dynamic regression, direction-rectified (median mu_r of the gated stroke windows)"
+            if rectified
+            else "dynamic regression (median mu_r of the gated windows)"
+        )
+    elif strokes is not None and len(strokes.get("mu", [])) and np.isfinite(strokes["mu"]).any():
+        value = float(np.nanmedian(strokes["mu"]))
+        estimate = "per-stroke classical (median over strokes of mean |fy|/|fz|, central stroke fraction)"
+    else:
+        c = np.asarray(table.get("mu_classical", []), dtype=float)
+        c = c[np.isfinite(c)]
+        if c.size:
+            value, estimate = float(np.median(c)), "classical (median over windows of mean |fy|/|fz|)"
+    return {"dynamic_method": dynamic, "reasons": reasons, "motion": motion,
+            "cof": {"value": value, "estimate": estimate}}  # fmt: skip

@@ -1,0 +1,78 @@
+"""Every script in examples/ runs on a fresh machine: in a temporary folder, in a subprocess, within a time
+limit, without the repository's ../shared data, and writes what its docstring promises."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+SCRIPTS = sorted(EXAMPLES.glob("*.py"))
+#: Seconds for all the examples together (they run side by side).
+BUDGET = 60.0
+
+#: What each example must print and write (file names under its output folder).
+EXPECT = {
+    "analyse_a_recording.py": (["<Results: 70 windows", "95 % interval", "verdict:"], ["report.html", "windows.csv"]),
+    "operating_ranges.py": (
+        ["temperature: verdict 'optimum'", "current density: verdict 'optimum'", "°C", "A/mm²"],
+        ["cof_vs_temperature.png", "cof_vs_current_density.png"],
+    ),
+}
+
+
+def test_every_example_is_tested():
+    assert SCRIPTS, "no examples"
+    assert sorted(p.name for p in SCRIPTS) == sorted(EXPECT)
+
+
+def test_examples_use_no_shared_data():
+    for p in SCRIPTS:
+        text = p.read_text(encoding="utf-8")
+        assert "shared" not in text and "data/real" not in text, p.name  # a user's clone has no ../shared
+
+
+def test_examples_run(tmp_path):
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONWARNINGS": "error::DeprecationWarning:tribodyn"}
+    start = time.perf_counter()
+    procs = {}
+    for p in SCRIPTS:
+        cwd = tmp_path / p.stem
+        cwd.mkdir()
+        procs[p.name] = (
+            cwd,
+            subprocess.Popen(
+                [sys.executable, str(p), "out"],
+                cwd=cwd,
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                encoding="utf-8",
+            ),
+        )
+    failures = []
+    for name, (cwd, proc) in procs.items():
+        try:
+            out, err = proc.communicate(timeout=max(1.0, BUDGET * 2 - (time.perf_counter() - start)))
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            out, err = proc.communicate()
+            failures.append(f"{name}: timed out\n{err[-2000:]}")
+            continue
+        if proc.returncode != 0:
+            failures.append(f"{name}: exit status {proc.returncode}\n{err[-3000:]}")
+            continue
+        texts, files = EXPECT[name]
+        failures += [f"{name}: {t!r} not printed\n{out}" for t in texts if t not in out]
+        failures += [f"{name}: {f} not written" for f in files if not (cwd / "out" / f).is_file()]
+    elapsed = time.perf_counter() - start
+    print(f"examples: {len(procs)} scripts in {elapsed:.1f} s")
+    assert not failures, "\n\n".join(failures)
+    if elapsed > BUDGET:
+        pytest.fail(f"the examples took {elapsed:.1f} s (budget {BUDGET:.0f} s)")
