@@ -99,6 +99,7 @@ def windows_stats(
     lines: list[float] | None = None,
     segments: int = 4,
     delay: float = 0.0,
+    classical: tuple[float, float, float] | None = None,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics (docs/method.md 3-6) for windows starting at
     `starts`: a dict of the `columns` asked for, in that order, one row per
@@ -121,7 +122,9 @@ def windows_stats(
     (windows, len(lines), 4)), the cross-spectra at ``lines`` (cycles per
     sample) averaged over ``segments``; ``delay`` advances fz by that many
     samples in every window first (a fractional-delay filter; the windows
-    lose 16 samples at each end).
+    lose 16 samples at each end). ``classical`` = (min_fn, tare_fy, tare_fz)
+    gives the columns ``mu_classical``, ``mu_classical_median``, ``fz_mean``,
+    ``fz_std`` of the raw forces (docs/method.md 6a).
     """
 
 def set_threads(n: int) -> None:
@@ -188,6 +191,7 @@ def windows_stats_file(
     lines: list[float] | None = None,
     segments: int = 4,
     delay: float = 0.0,
+    classical: tuple[float, float, float] | None = None,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
     """Per-window statistics of windows k0..k1 (window k = samples
     [k * step, k * step + length)) of channels stored in the open file `fd`

@@ -352,6 +352,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         png_j = _save_figures(out, figs_j, "current_density_")
         files += png_t + png_j
         summary["files"] = files + ["summary.json", "report.html"]
+        summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
         s_t, s_j = summary["temperature_test"], summary["current_density_test"]
         verdict = verdict_lines("temperature test", s_t, res_t.params, {"temperature": s_t["operating_range"]})
@@ -415,6 +416,19 @@ def _breakpoint_rows(key: str, rng: Mapping[str, Any], val: Mapping[str, Any]) -
 _NAME_TEXT = {"temperature_test": "temperature test", "current_density_test": "current-density test"}
 #: Top-level keys of the demo's summary as words.
 _TOP_TEXT = {"tribodyn_version": "tribodyn version", "job": "job", "seed": "simulator seed"}
+
+
+def column_units() -> List[Dict[str, str]]:
+    """Name, unit and meaning of every column of ``windows.csv``, in order (``summary.json["columns"]``).
+
+    The CSV itself holds one header row of names and then numbers only, so
+    that every CSV reader and spreadsheet takes it as it is; its units are
+    here, in the Parquet schema (field metadata ``unit``) and in
+    ``Results.to_pandas().attrs["units"]``.
+    """
+    from .columns import TABLE
+
+    return [{"name": c.name, "unit": c.unit, "meaning": c.meaning} for c in TABLE]
 
 
 def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
@@ -593,6 +607,7 @@ def run_analysis(
             combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
             write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
             write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
+        summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
         for name, f in failures.items():
             verdict.append(f"{name}: not analysed: {f['error']}")

@@ -481,7 +481,7 @@ class DelimitedRecording(Recording):
         # header rows above the data
         above = [(i, ln) for i, ln in enumerate(head[:d0]) if ln.strip()]
 
-        def same(ln):
+        def same(ln: str) -> bool:
             return len(split_fields(ln, delim)) == nf
 
         name_f: Optional[List[str]] = None
