@@ -602,17 +602,28 @@ def _check_table_size(plan: Plan, total: Optional[int]) -> None:
 # -- finishing: orientation, gate, covariates, table ---------------------------------
 
 
+def _merged(st: Stats, a: str, b: str) -> float:
+    """The centred cross-product S_ab of all windows merged (within + between windows; a, b in "z", "y").
+
+    ``st`` holds per-window ``n``, ``mean_z``, ``mean_y`` and the within-window
+    sums ``szz``, ``syy``, ``syz``.
+    """
+    n = np.asarray(st["n"], dtype=float)
+    if n.sum() == 0:
+        return float("nan")
+    w = n / n.sum()
+    da = st[f"mean_{a}"] - np.sum(w * st[f"mean_{a}"])
+    db = st[f"mean_{b}"] - np.sum(w * st[f"mean_{b}"])
+    within = st["syz"] if {a, b} == {"z", "y"} else st[f"s{a}{b}"]
+    return float(np.sum(within) + np.sum(n * da * db))
+
+
 def sign_of_total_slope(st: Stats) -> float:
     """S_xy of fy on fz of all windows merged (within + between parts): its sign is the slope's.
 
     ``st`` holds per-window ``n``, ``mean_z``, ``mean_y`` and ``syz``.
     """
-    n = st["n"]
-    if n.sum() == 0:
-        return float("nan")
-    w = n / n.sum()
-    mz, my = np.sum(w * st["mean_z"]), np.sum(w * st["mean_y"])
-    return float(np.sum(st["syz"]) + np.sum(n * (st["mean_z"] - mz) * (st["mean_y"] - my)))
+    return _merged(st, "z", "y")
 
 
 def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warnings: Sequence[str] = ()) -> Results:
@@ -834,14 +845,9 @@ def _orientation_confidence(st: Stats, s: int) -> Dict[str, float]:
     agree = float(np.mean(np.sign(slope[good]) == s)) if good.any() else float("nan")
     r = float("nan")
     if "szz" in st and "syy" in st and n.sum() > 0:
-        w = n / n.sum()
-        mz, my = float(np.sum(w * st["mean_z"])), float(np.sum(w * st["mean_y"]))
-        dz, dy = st["mean_z"] - mz, st["mean_y"] - my
-        szz = np.sum(st["szz"]) + np.sum(n * dz * dz)
-        syy = np.sum(st["syy"]) + np.sum(n * dy * dy)
-        syz = np.sum(st["syz"]) + np.sum(n * dz * dy)
+        szz, syy = _merged(st, "z", "z"), _merged(st, "y", "y")
         if szz > 0 and syy > 0:
-            r = float(syz / np.sqrt(szz * syy))
+            r = _merged(st, "z", "y") / float(np.sqrt(szz * syy))
     return {"orientation_r": r, "orientation_agreement": agree}
 
 

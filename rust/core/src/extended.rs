@@ -20,6 +20,7 @@
 //! chunks or the CPU's vector width).
 
 use crate::error::KernelError;
+use crate::sums;
 use std::cell::RefCell;
 
 /// Consecutive blocks of a window for the batch-means standard errors:
@@ -140,22 +141,6 @@ unsafe fn block_sums_avx2(fy: &[f64], fz: &[f64], lag: usize, means: Option<(f64
     block_sums_body(fy, fz, lag, means)
 }
 
-/// Sum of `x` in fixed lanes, folded in a fixed order.
-#[inline(always)]
-fn lane_sum(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; SUM_LANES];
-    let full = x.len() - x.len() % SUM_LANES;
-    for c in x[..full].chunks_exact(SUM_LANES) {
-        for k in 0..SUM_LANES {
-            acc[k] += c[k];
-        }
-    }
-    for (k, v) in x[full..].iter().enumerate() {
-        acc[k] += v;
-    }
-    (acc[0] + acc[2]) + (acc[1] + acc[3])
-}
-
 /// Adds the products of `lanes` samples (z, y, w centred by the means `m`)
 /// to the lane sums `a`: the first half of [`PRODUCTS`] (`FIRST`) or the
 /// second.
@@ -212,10 +197,10 @@ fn block_sums_body(fy: &[f64], fz: &[f64], lag: usize, means: Option<(f64, f64)>
     }
     let nf = n as f64;
     let has_w = lag >= 1 && n > 2 * lag;
-    let (mz, my) = means.unwrap_or_else(|| (lane_sum(fz) / nf, lane_sum(fy) / nf));
+    let (mz, my) = means.unwrap_or_else(|| (sums::sum(fz) / nf, sums::sum(fy) / nf));
     // w_t = fz[t + lag] for t < lag, fz[t - lag] after: the sum of w is that
     // of fz less fz[n - lag..] plus fz[lag..2 lag].
-    let mw = if has_w { mz + (lane_sum(&fz[lag..2 * lag]) - lane_sum(&fz[n - lag..])) / nf } else { mz };
+    let mw = if has_w { mz + (sums::sum(&fz[lag..2 * lag]) - sums::sum(&fz[n - lag..])) / nf } else { mz };
     let means = (mz, my, mw);
     for k in 0..BLOCKS {
         let (a, b) = (k * n / BLOCKS, (k + 1) * n / BLOCKS);
@@ -343,8 +328,8 @@ fn line_spectra_body(fy: &[f64], fz: &[f64], opt: &ExtOptions) -> Vec<f64> {
         }
         for seg in 0..opt.segments {
             let (y, z) = (&fy[seg * m..(seg + 1) * m], &fz[seg * m..(seg + 1) * m]);
-            let my = lane_sum(y) / m as f64;
-            let mz = lane_sum(z) / m as f64;
+            let my = sums::sum(y) / m as f64;
+            let mz = sums::sum(z) / m as f64;
             let (mut y1, mut y2, mut z1, mut z2) =
                 ([0.0f64; MAX_LINES], [0.0f64; MAX_LINES], [0.0f64; MAX_LINES], [0.0f64; MAX_LINES]);
             for t in 0..m {
