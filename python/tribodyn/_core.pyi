@@ -27,6 +27,8 @@ __all__ = [
     "pearson",
     "set_threads",
     "tdms_index",
+    "text_parse",
+    "text_scan",
     "sosfilt_inplace",
     "sosfilt_into",
     "windows_stats",
@@ -255,3 +257,41 @@ def tdms_index(fd: int, index_fd: int | None = None) -> dict[str, Any]:
     data type code or None, values, {scale key: Extents} (-1 for the
     channel's own samples, else a DAQmx scale id), why not native or None).
     A damaged file is a ValueError naming the segment."""
+
+def text_scan(
+    fd: int,
+    start: int,
+    *,
+    delimiter: str | None,
+    decimal: str,
+    comment: str | None,
+    skip_blank: bool,
+    nf: int | None,
+    probe: int,
+    time: int | None,
+    gap: float,
+    t_prev: float,
+    keep_times: int,
+    threads: int | None = None,
+) -> dict[str, Any]:
+    """Follows the run of data rows from byte `start` of the text file open as
+    `fd` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
+    "end", "times" (float64), "breaks" [(row, line, offset, prev, now)],
+    "t_prev", "checkpoints" [(row, offset, line)] and "last" ((line, offset) or None);
+    lines are counted from the run's first (0)."""
+
+def text_parse(
+    fd: int,
+    pieces: list[tuple[int, int, int, int]],
+    usecols: list[int],
+    *,
+    delimiter: str | None,
+    decimal: str,
+    comment: str | None,
+    skip_blank: bool,
+    threads: int | None = None,
+) -> list[NDArray[np.float64]]:
+    """Parses the rows of `pieces` [(offset, line, skip, rows)] of the text
+    file open as `fd` into one float64 array per entry of `usecols`. A row that
+    cannot be read raises ValueError with args ("fields", line, got, need),
+    ("number", line, column, text bytes) or ("eof", line, rows short)."""

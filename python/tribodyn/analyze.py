@@ -37,6 +37,7 @@ channel and window); no route falls back to another.
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import os
 from collections import deque
@@ -322,6 +323,18 @@ def combine(parts: Sequence[Partial]) -> Results:
 
 
 def _analyze(source: Any, options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
+    """:func:`_analyze_body` with the call's thread count for the readers' native parses (text files)."""
+    from .threads import reading, resolve_threads
+
+    try:
+        n: Optional[int] = resolve_threads(options.get("threads"))
+    except (TypeError, ValueError):
+        n = None  # the plan says why
+    with reading(n):
+        return _analyze_body(source, options, partial)
+
+
+def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
     """:func:`analyze`'s body: ``options`` are its keyword arguments."""
     fs, temperature, current, voltage = (options.pop(k, None) for k in ("fs", "temperature", "current", "voltage"))
     extra = {k: options.pop(k, None) for k in ("motion", "min_fn", "tare", "stroke_fraction", "channels")}
@@ -1087,7 +1100,15 @@ def _run_spans(rec: Any, plan: Plan) -> Tuple[Stats, Optional[str]]:
         with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
             copy = _copies(rec)
             futures = [
-                ex.submit(_run_chunks, rec.chunks(size, start=a, stop=b, copy=copy), a, plan, bar, threads=1)
+                ex.submit(
+                    contextvars.copy_context().run,
+                    _run_chunks,
+                    rec.chunks(size, start=a, stop=b, copy=copy),
+                    a,
+                    plan,
+                    bar,
+                    threads=1,
+                )
                 for a, b in spans
             ]
             results = [f.result() for f in futures]

@@ -14,13 +14,18 @@ results never depend on the thread count.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import numbers
 import os
-from typing import Any, Optional
+from typing import Any, Iterator, Optional
 
 from . import _core
 
-__all__ = ["set_threads", "get_threads", "max_threads", "resolve_threads"]
+__all__ = ["set_threads", "get_threads", "max_threads", "resolve_threads", "read_threads"]
+
+#: The thread count of the analysis running in this context (its readers' native parses use it).
+_READ: contextvars.ContextVar[Optional[int]] = contextvars.ContextVar("tribodyn_read_threads", default=None)
 
 
 def max_threads() -> int:
@@ -67,3 +72,19 @@ def _count(value: Any, name: str, *, minimum: int) -> int:
     if not minimum <= v <= top:
         raise ValueError(f"{name} must be in [{minimum}, {top}] (4 x the {os.cpu_count()} CPUs), got {v}")
     return v
+
+
+@contextlib.contextmanager
+def reading(n: Optional[int]) -> Iterator[None]:
+    """Within the block, :func:`read_threads` is ``n`` (None: the default) in this context."""
+    token = _READ.set(n)
+    try:
+        yield
+    finally:
+        _READ.reset(token)
+
+
+def read_threads() -> int:
+    """Threads a reader's native parse uses: the running analysis's count, else :func:`resolve_threads`."""
+    n = _READ.get()
+    return n if n is not None else resolve_threads()

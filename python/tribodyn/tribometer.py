@@ -159,9 +159,12 @@ def _sample_recording(rec: Any, roles: Sequence[str], tare_n: int) -> Optional[D
     starts = np.linspace(0, n - size, pieces).astype(np.int64)
     if tare_n:
         starts = np.concatenate([[0], starts])
-    for a in starts:
-        b = int(a) + (max(size, tare_n) if a == 0 else size)
-        for p in rec.chunks(b - int(a), list(roles), start=int(a), stop=min(b, n)):
+    ranges = [(int(a), min(int(a) + (max(size, tare_n) if a == 0 else size), n)) for a in starts]
+    if hasattr(rec, "read_ranges"):
+        got = rec.read_ranges(ranges, list(roles))
+        return {r: got[r] for r in roles}
+    for a, b in ranges:
+        for p in rec.chunks(b - a, list(roles), start=a, stop=b):
             for r in roles:
                 out[r].append(p[r])
     return {r: np.concatenate(v) for r, v in out.items()}

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import codecs
 import itertools
+import os
 import warnings
-from typing import IO, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -23,6 +24,7 @@ TEXT_BLOCK_ROWS = 8192
 
 __all__ = [
     "TEXT_BLOCK_ROWS",
+    "Checkpoints",
     "check_encoding",
     "decode_header",
     "default_roles",
@@ -31,6 +33,9 @@ __all__ = [
     "incomplete_row_error",
     "is_number",
     "iter_data_lines",
+    "native_dialect",
+    "native_parse",
+    "native_scan",
     "parse_rows",
     "row_defects",
     "split_fields",
@@ -449,3 +454,120 @@ def unit_likeness(fields: Sequence[str]) -> float:
         if inner in ("-", "1", "%") or is_known_unit(inner) or (v != inner and len(inner) <= 8):
             hits += 1
     return hits / len(vals)
+
+
+# -- the native body reader (Rust, tribodyn._core.text_scan / text_parse) ---------------------
+
+
+def native_dialect(delimiter: Optional[str], decimal: str, comment: Optional[str], skip_blank: bool = True
+                   ) -> Optional[Dict[str, Any]]:  # fmt: skip
+    """The keyword arguments of the native scan and parse for this layout, or None when it has none.
+
+    The native reader handles a one-character ASCII separator or whitespace
+    runs, a decimal point or comma and an ASCII comment prefix; anything else
+    (a longer separator given by the user) is read by the Python parser.
+    """
+    if delimiter is not None and not (len(delimiter) == 1 and delimiter.isascii()):
+        return None
+    if decimal not in (".", ","):
+        return None
+    if comment is not None and not (comment and comment.isascii()):
+        return None
+    return {"delimiter": delimiter, "decimal": decimal, "comment": comment, "skip_blank": skip_blank}
+
+
+def native_scan(
+    fd: int,
+    start: int,
+    dialect: Mapping[str, Any],
+    *,
+    nf: Optional[int],
+    probe: int,
+    time: Optional[int] = None,
+    gap: float = float("nan"),
+    t_prev: float = float("nan"),
+    keep_times: int = 0,
+) -> Dict[str, Any]:
+    """The run of data rows from byte ``start`` (see ``tribodyn._core.text_scan``)."""
+    from .. import _core
+    from ..threads import read_threads
+
+    try:
+        out: Dict[str, Any] = _core.text_scan(
+            fd, start, nf=nf, probe=probe, time=time, gap=gap, t_prev=t_prev, keep_times=keep_times,
+            threads=read_threads(), **dialect,
+        )  # fmt: skip
+    except ValueError as exc:
+        raise RecordingError(str(exc)) from None
+    return out
+
+
+class Checkpoints:
+    """Where a parse of a text file's data rows may start: sorted (sample, byte offset, line) entries.
+
+    The rows from one entry to the next are consecutive data rows (blank and
+    comment lines may sit between them, the parse skips them the same way),
+    so any range of samples is read from the entry at or before its start.
+    """
+
+    def __init__(self, entries: Sequence[Tuple[int, int, int]], n: int) -> None:
+        a = np.array(sorted(entries), dtype=np.int64).reshape(-1, 3)
+        keep = np.ones(len(a), dtype=bool)
+        keep[1:] = a[1:, 0] != a[:-1, 0]  # one entry per sample (the first)
+        a = a[keep & (a[:, 0] < n)] if len(a) else a
+        self.sample, self.offset, self.line = a[:, 0], a[:, 1], a[:, 2]
+        self.limit = np.append(self.sample[1:], n)
+        self.n = n
+
+    def pieces(self, start: int, stop: int) -> List[Tuple[int, int, int, int]]:
+        """(offset, line, rows to skip, rows) covering samples ``start:stop`` in order."""
+        out: List[Tuple[int, int, int, int]] = []
+        if stop <= start:
+            return out
+        j = int(np.searchsorted(self.sample, start, side="right")) - 1
+        while j < len(self.sample) and self.sample[j] < stop:
+            s = int(self.sample[j])
+            a, b = max(start, s), min(stop, int(self.limit[j]))
+            if b > a:
+                out.append((int(self.offset[j]), int(self.line[j]), a - s, b - a))
+            j += 1
+        return out
+
+
+def native_parse(
+    path: str,
+    pieces: Sequence[Tuple[int, int, int, int]],
+    usecols: Sequence[int],
+    colnames: Sequence[str],
+    dialect: Mapping[str, Any],
+) -> List[np.ndarray]:
+    """The rows of ``pieces`` as one new float64 array per column of ``usecols``, parsed natively.
+
+    Errors are those of :func:`parse_rows` and :func:`iter_data_lines`, worded the same.
+    """
+    from .. import _core
+    from ..threads import read_threads
+
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
+    try:
+        a: List[np.ndarray] = _core.text_parse(fd, list(pieces), list(usecols), threads=read_threads(), **dialect)
+        return a
+    except ValueError as exc:
+        args = exc.args
+        if len(args) >= 3 and args[0] == "number":
+            s = bytes(args[3]).decode("latin-1")
+            raise RecordingError(
+                f"{path}: line {args[1]}: {s[:40]!r} in channel {colnames[args[2]]!r} is not a number (corrupt file?)"
+            ) from None
+        if len(args) >= 3 and args[0] == "fields":
+            raise RecordingError(
+                f"{path}: line {args[1]} has {args[2]} fields, expected at least {args[3]} (truncated or corrupt file)"
+            ) from None
+        if len(args) >= 3 and args[0] == "eof":
+            raise RecordingError(
+                f"{path}: file ended after line {args[1]}, {args[2]} data rows "
+                "short (file changed or truncated since it was opened?)"
+            ) from None
+        raise RecordingError(f"{path}: {exc}") from None
+    finally:
+        os.close(fd)

@@ -556,6 +556,28 @@ class Recording:
             self._check_open()
             return self._read_range(names, start, stop)
 
+    def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
+        """Raw samples of several ranges, concatenated (random-access formats; text files read them in one call)."""
+        parts = [self._read(names, a, b) for a, b in ranges]
+        return {n: np.concatenate([p[n] for p in parts]) if parts else np.zeros(0) for n in names}
+
+    def read_ranges(self, ranges: Sequence[Tuple[int, int]], roles: Union[None, str, Sequence[str]] = None
+                    ) -> Dict[str, np.ndarray]:  # fmt: skip
+        """Samples ``a:b`` of every ``(a, b)`` in ``ranges``, concatenated, scaled to SI (random-access formats).
+
+        Keyed as :meth:`chunks`; used to look at spread-out parts of a long
+        recording without reading all of it.
+        """
+        self._check_open()
+        if not self.random_access:
+            raise RecordingError(f"{self.path}: read_ranges needs a random-access format")
+        for a, b in ranges:
+            if not (0 <= a <= b <= self._n):
+                raise RecordingError(f"ranges must satisfy 0 <= a <= b <= {self._n}, got ({a}, {b})")
+        keys = self._keys(roles)
+        names = list(dict.fromkeys(n for _, n in keys))
+        return self._scaled(keys, self._read_ranges(names, ranges))
+
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
         """Raw (unscaled) consecutive blocks of about ``block`` rows covering the recording.
 

@@ -41,10 +41,13 @@ COMPEND pin-on-disc exports (``format='compend'``)
 Both vendor exports write every row whole: there a cut last row is refused
 (as in LVM files), not dropped.
 
-Reading is streaming: a scan pass at open reads the file line by line
-(counting rows, recording byte offsets of the blocks, keeping at most 200 000
-time values); :meth:`Recording.chunks` then parses blocks of lines
-from those offsets.
+Reading is two native passes (docs/method.md 9, "Text files"): a scan at
+open follows the runs of data rows (counting rows, recording byte offsets of
+the blocks and a checkpoint about every megabyte, keeping at most 200 000
+time values; the lines around the runs are read line by line as before);
+any range of samples is then parsed from the checkpoint before it, in
+parallel pieces, so the file is random access and memory stays flat. A
+separator of more than one character is read by the Python parser.
 """
 
 from __future__ import annotations
@@ -52,12 +55,16 @@ from __future__ import annotations
 import os
 import re
 from array import array
-from typing import Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ._text import (
     TEXT_BLOCK_ROWS,
+    Checkpoints,
+    native_dialect,
+    native_parse,
+    native_scan,
     header_rate,
     is_wide,
     sniff_encoding,
@@ -288,6 +295,10 @@ class DelimitedRecording(Recording):
 
     # Each read opens its own file handle.
     thread_safe = True
+    #: Whether the numeric body is scanned and parsed natively (Rust) when the layout allows it; the
+    #: Python parser (the reference of the differential tests) otherwise.
+    _use_native = True
+    _owned_reads = True  # every array read is new (the native parse's, a copy of the resampled)
 
     format = "delimited"
 
@@ -361,6 +372,8 @@ class DelimitedRecording(Recording):
         #: segment of a text file is one (a CETR step, a block under a repeated column row, a time
         #: restart or gap).
         self.acquisitions: List[Tuple[int, int]] = list(self._segments)
+        #: Natively read files are read at any sample (from the scan's checkpoints).
+        self.random_access = self._checkpoints is not None or self._mem is not None
         if self._source_encoding not in ("utf-8", "utf-8-sig", "ascii"):
             self.metadata["encoding"] = self._source_encoding
         if self._vendor is None:  # the vendors' duplicates (COMPEND's 'Friction Force') are by design
@@ -630,6 +643,8 @@ class DelimitedRecording(Recording):
 
     def _scan(self, head_raw: List[bytes]) -> None:
         path = self.path
+        self._native = native_dialect(self._delim, self._decimal, self._comment) if self._use_native else None
+        self._cps: List[Tuple[int, int, int]] = []
         delim, decimal = self._delim, self._decimal
         name_b = head_raw[self._name_idx].strip() if self._name_idx is not None else None
         unit_b = head_raw[self._unit_idx].strip() if self._unit_idx is not None else None
@@ -649,8 +664,26 @@ class DelimitedRecording(Recording):
         t_now = float("nan")
         broken: Optional[Tuple[int, int, bool]] = None  # (line number, fields, line end)
         last: Optional[Tuple[int, bytes, bool]] = None  # last data row: (line number, raw, time kept)
+        native = self._native
+        total = 0  # data rows so far (the next row's sample)
         with open(self._data_path, "rb") as fh:
-            for raw in fh:
+            while True:
+                if native is not None and state == "data":
+                    # The plain rows that follow, natively (the same rules, see tribodyn._core.text_scan).
+                    run = native_scan(
+                        fh.fileno(), offset, native, nf=self._nf, probe=self._usecols[0], time=time_idx,
+                        gap=GAP_FACTOR * self._ref_step if self._ref_step is not None else float("nan"),
+                        t_prev=t_prev, keep_times=max(0, _TIME_VALUES - ntimes) if time_idx is not None else 0,
+                    )  # fmt: skip
+                    if run["rows"]:
+                        total, ntimes, last = self._take_run(run, lineno + 1, blocks, breaks, total, ntimes)
+                        t_prev = run["t_prev"]
+                    offset = run["end"]
+                    lineno += run["lines"]
+                    fh.seek(offset)
+                raw = fh.readline()
+                if not raw:
+                    break
                 line_off = offset
                 offset += len(raw)
                 lineno += 1
@@ -673,10 +706,11 @@ class DelimitedRecording(Recording):
                             why = self._time_break(t_prev, t_now)
                             t_prev = t_now if t_now == t_now else t_prev
                             if why:
-                                breaks.append((lineno, why, sum(b.n for b in blocks)))
+                                breaks.append((lineno, why, total))
                                 blocks.append(_Block(line_off, lineno, []))
                         blk = blocks[-1]
                         blk.n += 1
+                        total += 1
                         kept = time_idx is not None and ntimes < _TIME_VALUES
                         if time_idx is not None and kept:
                             blk.times.append(t_now)
@@ -714,6 +748,7 @@ class DelimitedRecording(Recording):
                 if self._is_data(fields):
                     blk = _Block(line_off, lineno, between)
                     blk.n = 1
+                    total += 1
                     kept = time_idx is not None and ntimes < _TIME_VALUES
                     if time_idx is not None:
                         t_prev = _num(fields[time_idx], decimal)
@@ -760,7 +795,9 @@ class DelimitedRecording(Recording):
         ranges = []
         for b in blocks:
             ranges.append((pos, pos + b.n))
+            self._cps.append((pos, b.offset, b.lineno))
             pos += b.n
+        self._checkpoints = Checkpoints(self._cps, pos) if native is not None else None
         self._n = pos
         self._segments = ranges
         self._footer = footer
@@ -796,6 +833,36 @@ class DelimitedRecording(Recording):
             self.metadata["text_columns"] = list(self._text_cols)
         if footer:
             self.metadata["footer"] = footer[:20]
+
+    def _take_run(
+        self, run: Dict[str, Any], first_line: int, blocks: List[_Block], breaks: List[Tuple[int, str, int]],
+        total: int, ntimes: int,
+    ) -> Tuple[int, int, Tuple[int, bytes, bool]]:  # fmt: skip
+        """Adds a native run of data rows (see :func:`~tribodyn.io._text.native_scan`) to the scan's blocks.
+
+        A time restart or gap inside the run starts a new block, as it would
+        row by row. Returns the rows so far, the time values kept so far and
+        the run's last row as the scan's ``last``.
+        """
+        rows = int(run["rows"])
+        times = run["times"]
+        cuts = [0] + [int(b[0]) for b in run["breaks"]] + [rows]
+        for k in range(len(cuts) - 1):
+            if k:
+                _row, line, off, prev, now = run["breaks"][k - 1]
+                breaks.append((first_line + int(line), self._time_break(prev, now), total))
+                blocks.append(_Block(int(off), first_line + int(line), []))
+            r0, r1 = cuts[k], cuts[k + 1]
+            blk = blocks[-1]
+            blk.n += r1 - r0
+            if r0 < len(times):
+                blk.times.extend(times[r0 : min(r1, len(times))].tolist())
+            total += r1 - r0
+        base = total - rows
+        for row, off, line in run["checkpoints"]:
+            self._cps.append((base + int(row), int(off), first_line + int(line)))
+        last_line = int(run["last"][0])
+        return total, ntimes + len(times), (first_line + last_line, b"\n", rows - 1 < len(times))
 
     def _time_break(self, prev: float, now: float) -> str:
         """'restarts' / 'jumps ...' when the time column goes back or leaps a gap between two rows, else ''."""
@@ -927,10 +994,31 @@ class DelimitedRecording(Recording):
         self._file_fs = hz
         self._fs_source = f"resample={hz:g} (linear interpolation of time column {self._time_name!r})"
 
+    def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        return self._read_ranges(names, [(start, stop)])
+
+    def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
+        if self._mem is not None:
+            mem = self._mem
+            return {n: np.concatenate([mem[n][a:b] for a, b in ranges]) if ranges else np.zeros(0) for n in names}
+        assert self._checkpoints is not None, "random access is native only"
+        st = os.stat(self.path)
+        if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
+            raise RecordingError(f"{self.path}: file changed since it was opened")
+        pos = {n: k for k, n in enumerate(self._names)}
+        usecols = [self._usecols[pos[n]] for n in names]
+        pieces = [p for a, b in ranges for p in self._checkpoints.pieces(a, b)]
+        cols = native_parse(self._data_path, pieces, usecols, list(names), self._native or {})
+        return dict(zip(names, cols))
+
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
         if self._mem is not None:
             for i0 in range(0, self._n, block):
                 yield {n: self._mem[n][i0 : i0 + block].copy() for n in names}
+            return
+        if self._checkpoints is not None:
+            for i0 in range(0, self._n, block):
+                yield self._read_range(names, i0, min(i0 + block, self._n))
             return
         st = os.stat(self.path)
         if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):

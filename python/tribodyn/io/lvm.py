@@ -10,15 +10,17 @@ same column as the data they describe.
 
 How this reader behaves:
 
-* One scan pass at open reads the file line by line (nothing is kept but
-  offsets and counts) to find the segments and count their data rows. The
+* One scan pass at open finds the segments and counts their data rows
+  (nothing is kept but offsets, counts and checkpoints): the headers line
+  by line, the runs of data rows natively (docs/method.md 9, "Text
+  files"). The
   row count of the data is trusted over the ``Samples`` announced in the
   header (a warning is recorded when they differ). A blank line or a new
   segment header starts a new segment; with ``Multi_Headings No`` a segment
   holding an exact multiple k of its announced ``Samples`` is taken as k
   consecutive headerless segments (each call of LabVIEW's writer appends one).
-* ``chunks`` then seeks to each segment's first data row and parses blocks of
-  lines (:func:`numpy.loadtxt` on the block, decimal comma handled).
+* Any range of samples is then parsed natively from the checkpoint before
+  it, in parallel pieces (decimal comma handled): the file is random access.
 * fs = 1 / ``Delta_X`` (all channels must agree). Units are the
   ``Y_Unit_Label`` values; only unambiguous ones are converted (``g`` is
   left alone: in LVM files it is as often an acceleration as a force).
@@ -43,6 +45,10 @@ import numpy as np
 
 from ._text import (
     TEXT_BLOCK_ROWS,
+    Checkpoints,
+    native_dialect,
+    native_parse,
+    native_scan,
     check_encoding,
     decode_header,
     default_roles,
@@ -61,9 +67,10 @@ _END = b"***End_of_Header***"
 
 
 class _Segment:
-    __slots__ = ("announced", "header", "lineno", "n", "offset")
+    __slots__ = ("announced", "cps", "header", "lineno", "n", "offset")
 
     def __init__(self, offset: int, lineno: int, header: Dict[str, List[str]]) -> None:
+        self.cps: List[Tuple[int, int, int]] = []  # (row of the segment, byte offset, line): parse starts
         self.offset = offset
         self.lineno = lineno
         self.n = 0
@@ -76,6 +83,10 @@ class LvmRecording(Recording):
 
     # Each read opens its own file handle.
     thread_safe = True
+    #: Whether the numeric body is scanned and parsed natively (Rust); the Python parser (the
+    #: reference of the differential tests) otherwise.
+    _use_native = True
+    _owned_reads = True  # every array the native parse returns is new
 
     format = "lvm"
 
@@ -157,7 +168,23 @@ class LvmRecording(Recording):
             last_raw = b""
             last_lineno = 0
             seg: Optional[_Segment] = None
+            native = native_dialect(self._sep, decimal, None, skip_blank=False) if self._use_native else None
+            self._native = native
             while True:
+                if native is not None and state == "data":
+                    # The plain rows that follow, natively (the same rules, see tribodyn._core.text_scan).
+                    assert seg is not None
+                    run = native_scan(fh.fileno(), offset, native, nf=None, probe=0)
+                    if run["rows"]:
+                        for row, off, line in run["checkpoints"]:
+                            seg.cps.append((seg.n + int(row), int(off), lineno + 1 + int(line)))
+                        seg.n += int(run["rows"])
+                        last_lineno = lineno + 1 + int(run["last"][0])
+                        fh.seek(int(run["last"][1]))
+                        last_raw = fh.readline()
+                    offset = int(run["end"])
+                    lineno += int(run["lines"])
+                    fh.seek(offset)
                 raw = fh.readline()
                 if not raw:
                     break
@@ -367,6 +394,15 @@ class LvmRecording(Recording):
         self._blocks = blocks
         self._n = pos
         self._segments = ranges
+        cps: List[Tuple[int, int, int]] = []
+        base = 0
+        for sg in segments:
+            cps.append((base, sg.offset, sg.lineno))
+            cps += [(base + r, off, line) for r, off, line in sg.cps]
+            base += sg.n
+        self._checkpoints = Checkpoints(cps, pos) if self._native is not None else None
+        #: Natively read files are read at any sample (from the scan's checkpoints).
+        self.random_access = self._checkpoints is not None
         # Separate acquisitions: a segment whose X0 does not continue the previous one's time
         # (X0 + rows x Delta_X, within half a step) is discontinuous; no analysis window straddles it.
         acq: List[Tuple[int, int]] = []
@@ -393,7 +429,26 @@ class LvmRecording(Recording):
             self.metadata["skipped"] = skipped
 
     # ---------------------------------------------------------------- reading
+    def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        return self._read_ranges(names, [(start, stop)])
+
+    def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
+        assert self._checkpoints is not None, "random access is native only"
+        st = os.stat(self.path)
+        if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
+            raise RecordingError(f"{self.path}: file changed since it was opened")
+        pos = {n: k for k, n in enumerate(self._names)}
+        usecols = [self._usecols[pos[n]] for n in names]
+        pieces = [p for a, b in ranges for p in self._checkpoints.pieces(a, b)]
+        dialect = dict(self._native or {}, skip_blank=True)
+        cols = native_parse(self.path, pieces, usecols, list(names), dialect)
+        return dict(zip(names, cols))
+
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
+        if self._checkpoints is not None:
+            for i0 in range(0, self._n, block):
+                yield self._read_range(names, i0, min(i0 + block, self._n))
+            return
         st = os.stat(self.path)
         if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
             raise RecordingError(f"{self.path}: file changed since it was opened")

@@ -11,6 +11,7 @@
 //!   the fractional-delay correction (docs/method.md 3a-3e);
 //! - [`mapped`]: the same, read straight from a file's pages (memory maps).
 //! - [`tdms`]: the segment index of NI TDMS files, as extents `mapped` reads.
+//! - [`text`]: the numeric bodies of CSV, TSV and LVM files (scan and parse).
 //!
 //! Every public function validates what a caller controls and returns
 //! [`KernelError`] instead of panicking.
@@ -25,6 +26,7 @@ pub mod parallel;
 pub mod regression;
 pub mod sums;
 pub mod tdms;
+pub mod text;
 pub mod windows;
 
 pub use error::KernelError;

@@ -21,6 +21,7 @@ use tribodyn_core::mapped;
 use tribodyn_core::parallel;
 use tribodyn_core::regression::{self, LinFit, Moments};
 use tribodyn_core::sums;
+use tribodyn_core::text;
 use tribodyn_core::windows::{self, Deadband, WindowOptions};
 
 /// Values per window of the column "ext".
@@ -894,6 +895,120 @@ fn tdms_index<'py>(py: Python<'py>, fd: i32, index_fd: Option<i32>) -> PyResult<
     Ok(d)
 }
 
+fn dialect_of(
+    delimiter: Option<&str>,
+    decimal: &str,
+    comment: Option<&str>,
+    skip_blank: bool,
+) -> PyResult<text::Dialect> {
+    let delim = match delimiter {
+        None => None,
+        Some(d) if d.len() == 1 && d.is_ascii() => Some(d.as_bytes()[0]),
+        Some(d) => {
+            return Err(PyValueError::new_err(format!("delimiter must be one ASCII character or None, got {d:?}")))
+        }
+    };
+    let decimal = match decimal {
+        "." => b'.',
+        "," => b',',
+        d => return Err(PyValueError::new_err(format!("decimal must be '.' or ',', got {d:?}"))),
+    };
+    let comment = match comment {
+        Some(c) if c.is_empty() || !c.is_ascii() => {
+            return Err(PyValueError::new_err(format!("comment must be ASCII text or None, got {c:?}")))
+        }
+        c => c.map(|c| c.as_bytes().to_vec()),
+    };
+    Ok(text::Dialect { delim, decimal, comment, skip_blank })
+}
+
+/// Follows the run of data rows from byte `start` of the text file open as
+/// `fd` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
+/// "end", "times" (float64), "breaks" [(row, line, offset, prev, now)],
+/// "t_prev", "checkpoints" [(row, offset, line)] and "last" ((line, offset) or None);
+/// lines are counted from the run's first (0).
+#[pyfunction]
+#[pyo3(signature = (fd, start, *, delimiter, decimal, comment, skip_blank, nf, probe, time, gap, t_prev, keep_times, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn text_scan<'py>(
+    py: Python<'py>,
+    fd: i32,
+    start: u64,
+    delimiter: Option<&str>,
+    decimal: &str,
+    comment: Option<&str>,
+    skip_blank: bool,
+    nf: Option<usize>,
+    probe: usize,
+    time: Option<usize>,
+    gap: f64,
+    t_prev: f64,
+    keep_times: usize,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let dialect = dialect_of(delimiter, decimal, comment, skip_blank)?;
+    let threads = threads_of(threads)?;
+    let file = dup_fd(fd)?;
+    let spec = text::ScanSpec { dialect, nf, probe, time, gap, t_prev, keep_times };
+    let run = py.detach(|| text::scan(&file, start, &spec, threads)).map_err(to_py)?;
+    let d = PyDict::new(py);
+    d.set_item("rows", run.rows)?;
+    d.set_item("lines", run.lines)?;
+    d.set_item("end", run.end)?;
+    d.set_item("times", PyArray1::from_vec(py, run.times))?;
+    let breaks: Vec<(u64, u64, u64, f64, f64)> =
+        run.breaks.iter().map(|b| (b.row, b.line, b.offset, b.prev, b.now)).collect();
+    d.set_item("breaks", breaks)?;
+    d.set_item("t_prev", run.t_prev)?;
+    d.set_item("checkpoints", run.checkpoints)?;
+    d.set_item("last", run.last)?;
+    Ok(d)
+}
+
+/// Parses the rows of `pieces` [(offset, line, skip, rows)] of the text
+/// file open as `fd` into one float64 array per entry of `usecols`. A row that
+/// cannot be read raises ValueError with args ("fields", line, got, need),
+/// ("number", line, column, text bytes) or ("eof", line, rows short).
+#[pyfunction]
+#[pyo3(signature = (fd, pieces, usecols, *, delimiter, decimal, comment, skip_blank, threads=None))]
+#[allow(clippy::too_many_arguments)]
+fn text_parse<'py>(
+    py: Python<'py>,
+    fd: i32,
+    pieces: Vec<(u64, u64, u64, u64)>,
+    usecols: Vec<usize>,
+    delimiter: Option<&str>,
+    decimal: &str,
+    comment: Option<&str>,
+    skip_blank: bool,
+    threads: Option<i64>,
+) -> PyResult<Vec<Bound<'py, PyArray1<f64>>>> {
+    let dialect = dialect_of(delimiter, decimal, comment, skip_blank)?;
+    let threads = threads_of(threads)?;
+    let file = dup_fd(fd)?;
+    let pieces: Vec<text::Piece> =
+        pieces.into_iter().map(|(offset, line, skip, rows)| text::Piece { offset, line, skip, rows }).collect();
+    let total: u64 = pieces.iter().map(|p| p.rows).sum();
+    let total = usize::try_from(total).map_err(|_| PyValueError::new_err("too many rows"))?;
+    let mut outs: Vec<Vec<f64>> = Vec::with_capacity(usecols.len());
+    for _ in &usecols {
+        outs.push(zeros(total, "rows")?);
+    }
+    let res = py.detach(|| {
+        let mut cols: Vec<&mut [f64]> = outs.iter_mut().map(|v| v.as_mut_slice()).collect();
+        text::parse(&file, &pieces, &dialect, &usecols, &mut cols, threads)
+    });
+    match res {
+        Ok(()) => outs.into_iter().map(|v| Ok(PyArray1::from_vec(py, v))).collect(),
+        Err(text::ParseError::Fields { line, got, need }) => Err(PyValueError::new_err(("fields", line, got, need))),
+        Err(text::ParseError::Number { line, col, text }) => {
+            Err(PyValueError::new_err(("number", line, col, pyo3::types::PyBytes::new(py, &text).unbind())))
+        }
+        Err(text::ParseError::Eof { line, short }) => Err(PyValueError::new_err(("eof", line, short))),
+        Err(text::ParseError::Io(e)) => Err(to_py(e)),
+    }
+}
+
 /// Sets the thread count of calls that name none (0 = all cores; at most
 /// `max_threads()`).
 #[pyfunction]
@@ -928,6 +1043,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
     m.add_function(wrap_pyfunction!(tdms_index, m)?)?;
     m.add_class::<PyExtents>()?;
+    m.add_function(wrap_pyfunction!(text_scan, m)?)?;
+    m.add_function(wrap_pyfunction!(text_parse, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     m.add_function(wrap_pyfunction!(max_threads, m)?)?;

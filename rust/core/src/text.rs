@@ -1,0 +1,1037 @@
+//! The numeric bodies of delimited text files (CSV, TSV, LVM): a scan that
+//! follows a run of data rows, and a parse of their columns from any row
+//! (docs/method.md 9, "Text files").
+//!
+//! The Python readers sniff the header and decide, line by line, what a row
+//! is; this module repeats their rules for the plain rows of a table, fast,
+//! and stops at the first line it is not sure of (the reader then takes that
+//! line itself). Its rules are Python's, byte for byte, on lines decoded as
+//! latin-1:
+//! - a line ends at `\n`; trailing `\r` are dropped (`rstrip("\r\n")`);
+//! - fields are split at one separator byte, or at runs of whitespace
+//!   (`str.split()`, whose whitespace includes 0x1c-0x1f, 0x85 and 0xa0);
+//! - a number is a field that Python's `float` reads after `strip()`, with
+//!   the decimal comma replaced and no `_` (Rust's `f64` parser reads the
+//!   same strings: digits, one point, an exponent, `inf`/`infinity`/`nan`
+//!   in any case, a sign); an empty field is NaN;
+//! - a blank line (ASCII whitespace only) and a comment line are skipped
+//!   where the reader skips them.
+//!
+//! Both passes read with `pread` in blocks of about a megabyte and work on
+//! pieces of whole lines in parallel; results are combined in file order, so
+//! they never depend on the thread count.
+
+use crate::error::KernelError;
+use crate::parallel;
+use rayon::prelude::*;
+use std::fs::File;
+
+/// Bytes of the file one piece of the scan covers (and so the spacing of
+/// the checkpoints a parse may start from).
+pub const PIECE: usize = 1 << 20;
+
+/// How a file's fields are separated and which lines are skipped.
+#[derive(Clone, Debug)]
+pub struct Dialect {
+    /// The separator byte; None: runs of whitespace.
+    pub delim: Option<u8>,
+    /// `b'.'`, or `b','` for a decimal comma (a point is read too).
+    pub decimal: u8,
+    /// Lines that start with this (after leading whitespace) are skipped.
+    pub comment: Option<Vec<u8>>,
+    /// Blank lines are skipped (CSV); else they end a run (LVM segments).
+    pub skip_blank: bool,
+}
+
+/// Whitespace of Python's `str.strip()`/`str.split()` on latin-1 text.
+#[inline]
+fn str_ws(b: u8) -> bool {
+    matches!(b, 0x09..=0x0d | 0x1c..=0x20 | 0x85 | 0xa0)
+}
+
+/// Whitespace of Python's `bytes.strip()`.
+#[inline]
+fn bytes_ws(b: u8) -> bool {
+    matches!(b, 0x09..=0x0d | 0x20)
+}
+
+/// `s` without the leading and trailing bytes `ws` says are whitespace.
+#[inline(always)]
+fn strip(s: &[u8], ws: impl Fn(u8) -> bool) -> &[u8] {
+    let mut a = 0;
+    let mut e = s.len();
+    while a < e && ws(s[a]) {
+        a += 1;
+    }
+    while e > a && ws(s[e - 1]) {
+        e -= 1;
+    }
+    &s[a..e]
+}
+
+/// Exact powers of ten (every one up to 1e22 is a float).
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20,
+    1e21, 1e22,
+];
+
+/// The common case of [`to_float`] (a stripped field): a sign, at most 19
+/// digits with one decimal point and an exponent, whose value is m x 10^k
+/// with m <= 2^53 and |k| <= 22. Then m and 10^|k| are exact floats and one
+/// IEEE multiplication or division rounds their exact product or quotient
+/// correctly (Clinger's fast path), the value Python's `float` gives. None
+/// for everything else (the caller then asks Rust's full parser).
+#[inline(always)]
+fn fast_float(s: &[u8], decimal: u8) -> Option<f64> {
+    let n = s.len();
+    let mut i = 0;
+    let neg = match s.first()? {
+        b'-' => {
+            i = 1;
+            true
+        }
+        b'+' => {
+            i = 1;
+            false
+        }
+        _ => false,
+    };
+    let mut m: u64 = 0;
+    let mut digits = 0usize;
+    while i < n && s[i].is_ascii_digit() {
+        m = m.wrapping_mul(10).wrapping_add((s[i] - b'0') as u64);
+        digits += 1;
+        i += 1;
+    }
+    let mut frac = 0i32;
+    if i < n && (s[i] == b'.' || s[i] == decimal) {
+        i += 1;
+        while i < n && s[i].is_ascii_digit() {
+            m = m.wrapping_mul(10).wrapping_add((s[i] - b'0') as u64);
+            digits += 1;
+            frac += 1;
+            i += 1;
+        }
+    }
+    if digits == 0 || digits > 19 {
+        return None;
+    }
+    let mut k = -frac;
+    if i < n && (s[i] | 0x20) == b'e' {
+        i += 1;
+        let eneg = match s.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let e0 = i;
+        let mut e = 0i32;
+        while i < n && s[i].is_ascii_digit() && i - e0 < 4 {
+            e = e * 10 + (s[i] - b'0') as i32;
+            i += 1;
+        }
+        if i == e0 {
+            return None;
+        }
+        k += if eneg { -e } else { e };
+    }
+    if i != n || m > (1u64 << 53) || !(-22..=22).contains(&k) {
+        return None;
+    }
+    let v = if k < 0 { m as f64 / POW10[(-k) as usize] } else { m as f64 * POW10[k as usize] };
+    Some(if neg { -v } else { v })
+}
+
+/// A field as Python's `to_float` reads it; None when it is not a number
+/// (an empty field included).
+#[inline]
+pub fn to_float(field: &[u8], decimal: u8) -> Option<f64> {
+    number(strip(field, str_ws), decimal)
+}
+
+/// [`to_float`] of a field already stripped.
+#[inline(always)]
+fn number(s: &[u8], decimal: u8) -> Option<f64> {
+    if let Some(v) = fast_float(s, decimal) {
+        return Some(v);
+    }
+    if s.is_empty() || s.len() > 400 || s.contains(&b'_') {
+        return None;
+    }
+    if decimal != b'.' && s.contains(&decimal) {
+        let mut tmp = [0u8; 400];
+        let t = &mut tmp[..s.len()];
+        for (d, &c) in t.iter_mut().zip(s) {
+            *d = if c == decimal { b'.' } else { c };
+        }
+        return std::str::from_utf8(t).ok()?.parse().ok();
+    }
+    std::str::from_utf8(s).ok()?.parse().ok()
+}
+
+/// The fields of a line (without its end), as Python's `split`.
+struct Fields<'a> {
+    rest: Option<&'a [u8]>,
+    delim: Option<u8>,
+}
+
+impl<'a> Fields<'a> {
+    fn new(line: &'a [u8], delim: Option<u8>) -> Self {
+        Fields { rest: Some(line), delim }
+    }
+}
+
+impl<'a> Iterator for Fields<'a> {
+    type Item = &'a [u8];
+    #[inline]
+    fn next(&mut self) -> Option<&'a [u8]> {
+        let rest = self.rest?;
+        match self.delim {
+            Some(d) => match memchr::memchr(d, rest) {
+                Some(i) => {
+                    self.rest = Some(&rest[i + 1..]);
+                    Some(&rest[..i])
+                }
+                None => {
+                    self.rest = None;
+                    Some(rest)
+                }
+            },
+            None => {
+                let a = rest.iter().position(|&b| !str_ws(b));
+                let Some(a) = a else {
+                    self.rest = None;
+                    return None;
+                };
+                let e = rest[a..].iter().position(|&b| str_ws(b)).map_or(rest.len(), |i| a + i);
+                self.rest = Some(&rest[e..]);
+                Some(&rest[a..e])
+            }
+        }
+    }
+}
+
+/// A line's text: up to its `\n`, without trailing `\r`.
+#[inline]
+fn text_of(line: &[u8]) -> &[u8] {
+    let mut e = line.len();
+    while e > 0 && (line[e - 1] == b'\r' || line[e - 1] == b'\n') {
+        e -= 1;
+    }
+    &line[..e]
+}
+
+/// Whether byte `c` ends a field: the separator, the line end, or (for
+/// whitespace-separated files) whitespace.
+#[inline(always)]
+fn ends_field(c: u8, delim: Option<u8>) -> bool {
+    c == b'\n' || delim.map_or(str_ws(c), |d| c == d)
+}
+
+/// The common case of one field, read in place from `buf[*p..]` (a buffer
+/// whose end is a line end): a number, or nothing (NaN), between
+/// whitespace. Moves `*p` to the byte that ends the field and returns its
+/// value; None when the field is anything else (the caller then takes the
+/// line the general way, which decides).
+#[inline(always)]
+fn field_fast(buf: &[u8], p: &mut usize, delim: Option<u8>, decimal: u8) -> Option<f64> {
+    let n = buf.len();
+    let mut i = *p;
+    let skip = |c: u8| c != b'\n' && Some(c) != delim && str_ws(c);
+    while i < n && skip(buf[i]) {
+        i += 1;
+    }
+    let s = i;
+    // one pass: sign, digits, point, digits, exponent (see fast_float)
+    let neg = i < n && buf[i] == b'-';
+    if i < n && (buf[i] == b'-' || buf[i] == b'+') {
+        i += 1;
+    }
+    let mut m: u64 = 0;
+    let mut digits = 0usize;
+    while i < n && buf[i].is_ascii_digit() {
+        m = m.wrapping_mul(10).wrapping_add((buf[i] - b'0') as u64);
+        digits += 1;
+        i += 1;
+    }
+    let mut k = 0i32;
+    if i < n && (buf[i] == b'.' || (buf[i] == decimal && Some(decimal) != delim)) {
+        i += 1;
+        while i < n && buf[i].is_ascii_digit() {
+            m = m.wrapping_mul(10).wrapping_add((buf[i] - b'0') as u64);
+            digits += 1;
+            k -= 1;
+            i += 1;
+        }
+    }
+    if i < n && (buf[i] | 0x20) == b'e' && digits > 0 {
+        i += 1;
+        let eneg = i < n && buf[i] == b'-';
+        if i < n && (buf[i] == b'-' || buf[i] == b'+') {
+            i += 1;
+        }
+        let e0 = i;
+        let mut e = 0i32;
+        while i < n && buf[i].is_ascii_digit() && i - e0 < 4 {
+            e = e * 10 + (buf[i] - b'0') as i32;
+            i += 1;
+        }
+        if i == e0 {
+            return None;
+        }
+        k += if eneg { -e } else { e };
+    }
+    let e = i;
+    while i < n && skip(buf[i]) {
+        i += 1;
+    }
+    if i < n && !ends_field(buf[i], delim) {
+        return None;
+    }
+    *p = i;
+    if s == e {
+        return if delim.is_some() { Some(f64::NAN) } else { None };
+    }
+    if digits == 0 || digits > 19 || m > (1u64 << 53) || !(-22..=22).contains(&k) {
+        return None;
+    }
+    let v = if k < 0 { m as f64 / POW10[(-k) as usize] } else { m as f64 * POW10[k as usize] };
+    Some(if neg { -v } else { v })
+}
+
+/// Steps over the byte that ended a field to the next field's start; false
+/// at the line's end (no next field).
+#[inline(always)]
+fn next_field(buf: &[u8], p: &mut usize, delim: Option<u8>) -> bool {
+    match buf.get(*p) {
+        None | Some(b'\n') => false,
+        Some(_) if delim.is_some() => {
+            *p += 1;
+            true
+        }
+        Some(_) => {
+            while *p < buf.len() && buf[*p] != b'\n' && str_ws(buf[*p]) {
+                *p += 1;
+            }
+            *p < buf.len() && buf[*p] != b'\n'
+        }
+    }
+}
+
+/// Whether a line that starts with `c` may take the fast path (it is not
+/// blank, not a comment).
+#[inline(always)]
+fn plain_start(c: u8, d: &Dialect) -> bool {
+    (c.is_ascii_digit() || c == b'-' || c == b'+' || c == b'.' || Some(c) == d.delim)
+        && d.comment.as_ref().is_none_or(|k| k.first() != Some(&c))
+}
+
+/// The fast path of a scanned line at `at`: Some((next line's start, time)) for a
+/// data row whose fields are all plain, None to take the line the general way.
+#[inline(always)]
+fn scan_line_fast(buf: &[u8], at: usize, spec: &ScanSpec) -> Option<(usize, f64)> {
+    let d = &spec.dialect;
+    if !plain_start(buf[at], d) {
+        return None;
+    }
+    let last = spec.time.map_or(spec.probe, |t| t.max(spec.probe));
+    let mut p = at;
+    let mut t = f64::NAN;
+    for k in 0..=last {
+        if k > 0 && !next_field(buf, &mut p, d.delim) {
+            return None;
+        }
+        if k == spec.probe || Some(k) == spec.time {
+            let v = field_fast(buf, &mut p, d.delim, d.decimal)?;
+            if Some(k) == spec.time {
+                t = v;
+            }
+        } else {
+            while p < buf.len() && !ends_field(buf[p], d.delim) {
+                p += 1;
+            }
+        }
+    }
+    let mut fields = last + 1;
+    let nl = match d.delim {
+        Some(dl) => {
+            let i = memchr::memchr(b'\n', &buf[p..]).map_or(buf.len(), |j| p + j);
+            fields += buf[p..i].iter().filter(|&&b| b == dl).count();
+            i
+        }
+        None => {
+            let mut i = p;
+            let mut in_ws = true;
+            while i < buf.len() && buf[i] != b'\n' {
+                let w = str_ws(buf[i]);
+                fields += (in_ws && !w) as usize;
+                in_ws = w;
+                i += 1;
+            }
+            i
+        }
+    };
+    if spec.nf.is_some_and(|nf| fields != nf) {
+        return None;
+    }
+    Some(((nl + 1).min(buf.len()), t))
+}
+
+/// The fast path of a parsed line at `at`: Some(next line's start) when the
+/// first `vals.len()` fields were plain and are in `vals`, None to take the
+/// line the general way.
+#[inline(always)]
+fn parse_line_fast(buf: &[u8], at: usize, d: &Dialect, used: &[bool], vals: &mut [f64]) -> Option<usize> {
+    if !plain_start(buf[at], d) {
+        return None;
+    }
+    let mut p = at;
+    for (k, (v, &u)) in vals.iter_mut().zip(used).enumerate() {
+        if k > 0 && !next_field(buf, &mut p, d.delim) {
+            return None;
+        }
+        if u {
+            *v = field_fast(buf, &mut p, d.delim, d.decimal)?;
+        } else {
+            if d.delim.is_none() {
+                while p < buf.len() && buf[p] != b'\n' && str_ws(buf[p]) {
+                    p += 1;
+                }
+                if p >= buf.len() || buf[p] == b'\n' {
+                    return None;
+                }
+            }
+            while p < buf.len() && !ends_field(buf[p], d.delim) {
+                p += 1;
+            }
+        }
+    }
+    let nl = memchr::memchr(b'\n', &buf[p..]).map_or(buf.len(), |i| p + i + 1);
+    Some(nl)
+}
+
+enum Kind {
+    Skip,
+    Data,
+    Other,
+}
+
+impl Dialect {
+    /// Whether a line is skipped, or ends a run, before its fields are looked at.
+    fn classify(&self, text: &[u8]) -> Kind {
+        let s = strip(text, bytes_ws);
+        if s.is_empty() {
+            return if self.skip_blank { Kind::Skip } else { Kind::Other };
+        }
+        if let Some(c) = &self.comment {
+            if s.starts_with(c) {
+                return Kind::Skip;
+            }
+        }
+        if !self.skip_blank && text.iter().all(|&b| bytes_ws(b) || Some(b) == self.delim) {
+            return Kind::Other; // an LVM line of separators only is blank too
+        }
+        Kind::Data
+    }
+}
+
+/// What makes a line a data row, and what the scan records of the rows.
+#[derive(Clone, Debug)]
+pub struct ScanSpec {
+    pub dialect: Dialect,
+    /// Fields a row has (more are allowed when they are blank); None: any.
+    pub nf: Option<usize>,
+    /// This field must be a number or empty.
+    pub probe: usize,
+    /// The time column, whose restarts and gaps the scan reports.
+    pub time: Option<usize>,
+    /// A time step above this is a gap (NaN: only restarts are reported).
+    pub gap: f64,
+    /// The time of the row before the run (NaN: none).
+    pub t_prev: f64,
+    /// Time values kept, from the run's first row.
+    pub keep_times: usize,
+}
+
+/// A time restart or gap: the row where a new segment starts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Break {
+    /// Row of the run.
+    pub row: u64,
+    /// Line, counted from the run's first line (0).
+    pub line: u64,
+    /// Byte offset of the row in the file.
+    pub offset: u64,
+    pub prev: f64,
+    pub now: f64,
+}
+
+/// A run of data rows found by [`scan`].
+#[derive(Clone, Debug, Default)]
+pub struct Run {
+    /// Data rows.
+    pub rows: u64,
+    /// Lines consumed (data rows, and skipped blank and comment lines).
+    pub lines: u64,
+    /// Byte offset after the run: the line that ended it, or the file's end.
+    pub end: u64,
+    /// Time values of the first rows (NaN where a row's time is not a number).
+    pub times: Vec<f64>,
+    pub breaks: Vec<Break>,
+    /// The last finite time of the run (or the one given when none).
+    pub t_prev: f64,
+    /// (row, byte offset, line) from which a parse can start: about one per [`PIECE`].
+    pub checkpoints: Vec<(u64, u64, u64)>,
+    /// (line, byte offset) of the last data row.
+    pub last: Option<(u64, u64)>,
+}
+
+#[derive(Default)]
+struct PieceScan {
+    rows: u64,
+    lines: u64,
+    stop: Option<usize>,
+    times: Vec<f64>,
+    breaks: Vec<Break>,
+    first: Option<(u64, u64, usize, f64)>,
+    last_t: f64,
+    last: Option<(u64, usize)>,
+}
+
+fn is_break(prev: f64, now: f64, gap: f64) -> bool {
+    now < prev || now - prev > gap
+}
+
+impl PieceScan {
+    /// Counts a data row at byte `at` with time `t` (NaN: none): its break, if any, and its kept time.
+    #[inline(always)]
+    fn row(&mut self, t: f64, t_prev: &mut f64, at: usize, spec: &ScanSpec, keep: usize) {
+        if spec.time.is_some() {
+            if !t.is_nan() {
+                if t_prev.is_nan() {
+                    self.first = Some((self.rows, self.lines, at, t));
+                } else if is_break(*t_prev, t, spec.gap) {
+                    self.breaks.push(Break {
+                        row: self.rows,
+                        line: self.lines,
+                        offset: at as u64,
+                        prev: *t_prev,
+                        now: t,
+                    });
+                }
+                *t_prev = t;
+            }
+            if self.times.len() < keep {
+                self.times.push(t);
+            }
+        }
+        self.last = Some((self.lines, at));
+        self.rows += 1;
+    }
+}
+
+fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+    let mut out = PieceScan { last_t: f64::NAN, ..Default::default() };
+    let d = &spec.dialect;
+    let mut t_prev = f64::NAN;
+    let mut at = 0usize;
+    while at < buf.len() {
+        if let Some((nl, t)) = scan_line_fast(buf, at, spec) {
+            out.row(t, &mut t_prev, at, spec, keep);
+            out.lines += 1;
+            at = nl;
+            continue;
+        }
+        let nl = memchr::memchr(b'\n', &buf[at..]).map_or(buf.len(), |i| at + i + 1);
+        let text = text_of(&buf[at..nl]);
+        match d.classify(text) {
+            Kind::Skip => {}
+            Kind::Other => {
+                out.stop = Some(at);
+                return out;
+            }
+            Kind::Data => {
+                let mut n = 0usize;
+                let mut ok = true;
+                let mut t = f64::NAN;
+                for f in Fields::new(text, d.delim) {
+                    if n == spec.probe || Some(n) == spec.time {
+                        let v = strip(f, str_ws);
+                        let x = number(v, d.decimal);
+                        if n == spec.probe && !v.is_empty() && x.is_none() {
+                            ok = false;
+                            break;
+                        }
+                        if Some(n) == spec.time {
+                            t = x.unwrap_or(f64::NAN);
+                        }
+                    }
+                    if let Some(nf) = spec.nf {
+                        if n >= nf && !strip(f, str_ws).is_empty() {
+                            ok = false;
+                            break;
+                        }
+                    }
+                    n += 1;
+                }
+                if !ok || n <= spec.probe || spec.nf.is_some_and(|nf| n < nf) || spec.time.is_some_and(|j| n <= j) {
+                    out.stop = Some(at);
+                    return out;
+                }
+                out.row(t, &mut t_prev, at, spec, keep);
+            }
+        }
+        out.lines += 1;
+        at = nl;
+    }
+    out.last_t = t_prev;
+    out
+}
+
+/// Reads up to `buf.len()` bytes from byte `at` (fewer at the file's end).
+#[cfg(unix)]
+fn read_some(file: &File, at: u64, buf: &mut [u8]) -> Result<usize, KernelError> {
+    use std::os::unix::fs::FileExt;
+    let mut got = 0;
+    while got < buf.len() {
+        match file.read_at(&mut buf[got..], at + got as u64) {
+            Ok(0) => break,
+            Ok(n) => got += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(KernelError::Invalid(format!("cannot read the file at byte {at}: {e}"))),
+        }
+    }
+    Ok(got)
+}
+
+#[cfg(not(unix))]
+fn read_some(_file: &File, _at: u64, _buf: &mut [u8]) -> Result<usize, KernelError> {
+    Err(KernelError::Invalid("reading text natively needs a Unix system".into()))
+}
+
+/// Line-aligned cut points splitting `buf` (whole lines) into about `parts` pieces.
+fn cuts(buf: &[u8], parts: usize) -> Vec<usize> {
+    let mut out = vec![0];
+    for i in 1..parts {
+        let nominal = buf.len() * i / parts;
+        let from = (*out.last().unwrap_or(&0)).max(nominal);
+        if from >= buf.len() {
+            break;
+        }
+        if let Some(j) = memchr::memchr(b'\n', &buf[from..]) {
+            let c = from + j + 1;
+            if c < buf.len() && c > *out.last().unwrap_or(&0) {
+                out.push(c);
+            }
+        }
+    }
+    out.push(buf.len());
+    out
+}
+
+/// Follows the run of data rows that starts at byte `start` of `file` (the
+/// line there is its first) until a line that is not one (by `spec`'s
+/// rules; see the module doc) or the file's end. A last line without its
+/// `\n` ends the run too (it may be a row being written).
+pub fn scan(file: &File, start: u64, spec: &ScanSpec, threads: usize) -> Result<Run, KernelError> {
+    let size = file.metadata().map_err(|e| KernelError::Invalid(format!("cannot stat the file: {e}")))?.len();
+    let threads = parallel::check_threads(threads)?;
+    let mut run = Run { t_prev: spec.t_prev, end: start, ..Default::default() };
+    let mut pos = start;
+    let mut span = PIECE * threads;
+    let mut buf: Vec<u8> = Vec::new();
+    while pos < size {
+        let want = (span as u64).min(size - pos) as usize;
+        buf.resize(want, 0);
+        let got = read_some(file, pos, &mut buf)?;
+        buf.truncate(got);
+        let Some(last_nl) = memchr::memrchr(b'\n', &buf) else {
+            if pos + got as u64 >= size || got < want {
+                break; // an unterminated last line: the reader's to judge
+            }
+            span *= 2; // a line longer than the block
+            continue;
+        };
+        let whole = &buf[..last_nl + 1];
+        let cut = cuts(whole, whole.len().div_ceil(PIECE).clamp(1, 4 * threads));
+        let keep = spec.keep_times;
+        let pieces: Vec<PieceScan> = parallel::run_with(threads, || {
+            cut.par_windows(2).map(|w| scan_piece(&whole[w[0]..w[1]], spec, keep)).collect()
+        })?;
+        for (w, p) in cut.windows(2).zip(pieces) {
+            let base = pos + w[0] as u64;
+            if p.rows > 0 {
+                run.checkpoints.push((run.rows, base, run.lines));
+            }
+            if let Some((row, line, at, t)) = p.first {
+                if !run.t_prev.is_nan() && is_break(run.t_prev, t, spec.gap) {
+                    run.breaks.push(Break {
+                        row: run.rows + row,
+                        line: run.lines + line,
+                        offset: base + at as u64,
+                        prev: run.t_prev,
+                        now: t,
+                    });
+                }
+            }
+            for b in p.breaks {
+                run.breaks.push(Break {
+                    row: run.rows + b.row,
+                    line: run.lines + b.line,
+                    offset: base + b.offset,
+                    ..b
+                });
+            }
+            let room = keep.saturating_sub(run.times.len());
+            run.times.extend_from_slice(&p.times[..p.times.len().min(room)]);
+            if !p.last_t.is_nan() {
+                run.t_prev = p.last_t;
+            }
+            if let Some((line, at)) = p.last {
+                run.last = Some((run.lines + line, base + at as u64));
+            }
+            run.rows += p.rows;
+            run.lines += p.lines;
+            if let Some(stop) = p.stop {
+                run.end = base + stop as u64;
+                return Ok(run);
+            }
+        }
+        pos += whole.len() as u64;
+        run.end = pos;
+        span = PIECE * threads;
+    }
+    Ok(run)
+}
+
+/// Rows to parse: `rows` data rows after skipping `skip`, from byte
+/// `offset`, whose line has the number `line` (for messages).
+#[derive(Clone, Copy, Debug)]
+pub struct Piece {
+    pub offset: u64,
+    pub line: u64,
+    pub skip: u64,
+    pub rows: u64,
+}
+
+/// Why rows could not be parsed (the reader words the message).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParseError {
+    /// A row with fewer fields than the columns need.
+    Fields {
+        line: u64,
+        got: usize,
+        need: usize,
+    },
+    /// A field that is not a number: `col` indexes the columns asked for.
+    Number {
+        line: u64,
+        col: usize,
+        text: Vec<u8>,
+    },
+    /// The file ended `short` rows early (after line `line`).
+    Eof {
+        line: u64,
+        short: u64,
+    },
+    Io(KernelError),
+}
+
+const BLOCK: usize = 1 << 18;
+
+fn parse_piece(
+    file: &File,
+    p: &Piece,
+    d: &Dialect,
+    usecols: &[usize],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ParseError> {
+    let need = usecols.iter().max().map_or(0, |&m| m + 1);
+    // which asked column each field feeds (a field may feed several)
+    let mut feeds: Vec<Vec<usize>> = vec![Vec::new(); need];
+    for (c, &u) in usecols.iter().enumerate() {
+        feeds[u].push(c);
+    }
+    let pairs: Vec<(usize, usize)> = usecols.iter().enumerate().map(|(c, &u)| (u, c)).collect();
+    let used: Vec<bool> = (0..need).map(|k| !feeds[k].is_empty()).collect();
+    let mut vals = vec![0.0f64; need];
+    let mut buf: Vec<u8> = Vec::with_capacity(BLOCK);
+    let mut off = p.offset;
+    let mut line = p.line;
+    let mut skip = p.skip;
+    let mut r = 0usize;
+    let rows = p.rows as usize;
+    let mut eof = false;
+    while r < rows {
+        if eof && buf.is_empty() {
+            return Err(ParseError::Eof { line: line.saturating_sub(1), short: (rows - r) as u64 });
+        }
+        if !eof {
+            let have = buf.len();
+            let grow = BLOCK.max(have); // doubles while one line fills the buffer
+            buf.resize(have + grow, 0);
+            let got = read_some(file, off, &mut buf[have..]).map_err(ParseError::Io)?;
+            buf.truncate(have + got);
+            off += got as u64;
+            eof = got < grow;
+        }
+        // whole lines only (and the last line of the file)
+        let end = if eof { buf.len() } else { memchr::memrchr(b'\n', &buf).map_or(0, |i| i + 1) };
+        let view = &buf[..end];
+        let mut at = 0usize;
+        while at < end {
+            if skip > 0 && plain_start(view[at], d) {
+                // a data row to pass over (neither blank nor a comment)
+                at = memchr::memchr(b'\n', &view[at..]).map_or(end, |i| at + i + 1);
+                line += 1;
+                skip -= 1;
+                continue;
+            }
+            if skip == 0 {
+                if let Some(nl) = parse_line_fast(view, at, d, &used, &mut vals) {
+                    for &(k, c) in &pairs {
+                        outs[c][r] = vals[k];
+                    }
+                    r += 1;
+                    line += 1;
+                    at = nl;
+                    if r == rows {
+                        break;
+                    }
+                    continue;
+                }
+            }
+            let nl = memchr::memchr(b'\n', &view[at..]).map_or(end, |i| at + i + 1);
+            let text = text_of(&view[at..nl]);
+            at = nl;
+            let this = line;
+            line += 1;
+            let s = strip(text, bytes_ws);
+            if (s.is_empty() && d.skip_blank) || d.comment.as_ref().is_some_and(|c| !s.is_empty() && s.starts_with(c)) {
+                continue;
+            }
+            if skip > 0 {
+                skip -= 1;
+                continue;
+            }
+            let mut n = 0usize;
+            for f in Fields::new(text, d.delim).take(need) {
+                if !feeds[n].is_empty() {
+                    let v = strip(f, str_ws);
+                    let x = if v.is_empty() {
+                        f64::NAN
+                    } else {
+                        match number(v, d.decimal) {
+                            Some(x) => x,
+                            None => return Err(ParseError::Number { line: this, col: feeds[n][0], text: v.to_vec() }),
+                        }
+                    };
+                    for &c in &feeds[n] {
+                        outs[c][r] = x;
+                    }
+                }
+                n += 1;
+            }
+            if n < need {
+                let got = Fields::new(text, d.delim).count();
+                return Err(ParseError::Fields { line: this, got, need });
+            }
+            r += 1;
+            if r == rows {
+                break;
+            }
+        }
+        buf.drain(..at);
+    }
+    Ok(())
+}
+
+/// Parses the rows of `pieces` (in order, concatenated) into `cols`, one
+/// slice per entry of `usecols`, each as long as the pieces' rows. The
+/// first error in file order is the one returned, whatever the thread count.
+pub fn parse(
+    file: &File,
+    pieces: &[Piece],
+    d: &Dialect,
+    usecols: &[usize],
+    cols: &mut [&mut [f64]],
+    threads: usize,
+) -> Result<(), ParseError> {
+    let total: usize = pieces.iter().map(|p| p.rows as usize).sum();
+    if cols.len() != usecols.len() || cols.iter().any(|c| c.len() != total) {
+        return Err(ParseError::Io(KernelError::Invalid(format!(
+            "{} output columns for {} columns of {total} rows",
+            cols.len(),
+            usecols.len()
+        ))));
+    }
+    let threads = parallel::check_threads(threads).map_err(ParseError::Io)?;
+    let mut per: Vec<Vec<&mut [f64]>> = pieces.iter().map(|_| Vec::with_capacity(usecols.len())).collect();
+    for col in cols.iter_mut() {
+        let mut rest: &mut [f64] = col;
+        for (k, p) in pieces.iter().enumerate() {
+            let (a, b) = std::mem::take(&mut rest).split_at_mut(p.rows as usize);
+            per[k].push(a);
+            rest = b;
+        }
+    }
+    let results: Vec<Result<(), ParseError>> = parallel::run_with(threads, || {
+        pieces.par_iter().zip(per.par_iter_mut()).map(|(p, o)| parse_piece(file, p, d, usecols, o)).collect()
+    })
+    .map_err(ParseError::Io)?;
+    results.into_iter().collect()
+}
+
+/// [`parse`] into channels-first `out` (`usecols.len()` rows of the pieces' rows).
+pub fn parse_into(
+    file: &File,
+    pieces: &[Piece],
+    d: &Dialect,
+    usecols: &[usize],
+    out: &mut [f64],
+    threads: usize,
+) -> Result<(), ParseError> {
+    let total: usize = pieces.iter().map(|p| p.rows as usize).sum();
+    let mut cols: Vec<&mut [f64]> = if total == 0 { Vec::new() } else { out.chunks_mut(total).collect() };
+    if total == 0 {
+        return Ok(());
+    }
+    parse(file, pieces, d, usecols, &mut cols, threads)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    fn file_of(text: &[u8]) -> File {
+        let mut f = tempfile();
+        f.write_all(text).unwrap();
+        f
+    }
+
+    fn tempfile() -> File {
+        let dir = std::env::temp_dir();
+        for i in 0..1000u32 {
+            let p = dir.join(format!("tribodyn-text-{}-{i}", std::process::id()));
+            if let Ok(f) = std::fs::OpenOptions::new().read(true).write(true).create_new(true).open(&p) {
+                let _ = std::fs::remove_file(&p);
+                return f;
+            }
+        }
+        panic!("no temporary file");
+    }
+
+    fn csv() -> Dialect {
+        Dialect { delim: Some(b','), decimal: b'.', comment: Some(b"#".to_vec()), skip_blank: true }
+    }
+
+    fn spec(d: Dialect) -> ScanSpec {
+        ScanSpec { dialect: d, nf: Some(3), probe: 1, time: Some(0), gap: 0.5, t_prev: f64::NAN, keep_times: 10 }
+    }
+
+    #[test]
+    fn numbers_as_python_reads_them() {
+        for (s, v) in [("1.5", 1.5), (" -2e3 ", -2000.0), ("+.5", 0.5), ("5.", 5.0), ("\u{a0}1", 1.0)] {
+            let b: Vec<u8> = s.chars().map(|c| c as u32 as u8).collect();
+            assert_eq!(to_float(&b, b'.'), Some(v), "{s}");
+        }
+        assert_eq!(to_float(b"1,5", b','), Some(1.5));
+        assert_eq!(to_float(b"1.5", b','), Some(1.5));
+        for s in ["", " ", "1_0", "1,5", "0x1", ".", "e5", "1e", "abc"] {
+            assert_eq!(to_float(s.as_bytes(), b'.'), None, "{s}");
+        }
+        assert!(to_float(b"-NaN", b'.').unwrap().is_nan());
+        assert_eq!(to_float(b"iNfInItY", b'.'), Some(f64::INFINITY));
+    }
+
+    #[test]
+    fn fields_split_like_python() {
+        let f: Vec<&[u8]> = Fields::new(b"a,,b,", Some(b',')).collect();
+        assert_eq!(f, vec![&b"a"[..], b"", b"b", b""]);
+        let f: Vec<&[u8]> = Fields::new(b"  1\t 2 \x0c3 ", None).collect();
+        assert_eq!(f, vec![&b"1"[..], b"2", b"3"]);
+        assert_eq!(Fields::new(b"   ", None).count(), 0);
+        assert_eq!(Fields::new(b"", Some(b',')).count(), 1);
+    }
+
+    #[test]
+    fn scan_stops_at_other_lines_and_reports_breaks() {
+        let text = b"0,1,2\n\n# note\n0.1,1,2\r\n0.2,,3\n0.1,4,5\n1.5,4,5\nfoot,er,x\n9,9,9\n";
+        let f = file_of(text);
+        let r = scan(&f, 0, &spec(csv()), 2).unwrap();
+        assert_eq!(r.rows, 5);
+        assert_eq!(r.lines, 7);
+        assert_eq!(&text[r.end as usize..r.end as usize + 4], b"foot");
+        assert_eq!(r.times, vec![0.0, 0.1, 0.2, 0.1, 1.5]);
+        assert_eq!(r.breaks.len(), 2);
+        assert_eq!((r.breaks[0].row, r.breaks[0].line, r.breaks[0].prev, r.breaks[0].now), (3, 5, 0.2, 0.1));
+        assert_eq!((r.breaks[1].row, r.breaks[1].now), (4, 1.5));
+        assert_eq!(r.last, Some((6, 38)));
+        assert_eq!(r.checkpoints, vec![(0, 0, 0)]);
+    }
+
+    #[test]
+    fn scan_leaves_an_unterminated_last_line() {
+        let f = file_of(b"0,1,2\n1,2,3");
+        let r = scan(&f, 0, &spec(csv()), 1).unwrap();
+        assert_eq!((r.rows, r.end), (1, 6));
+    }
+
+    #[test]
+    fn scan_is_the_same_for_any_thread_count_and_piece() {
+        let mut text = Vec::new();
+        for i in 0..300_000u32 {
+            let t = if i == 150_001 { 0.0 } else { i as f64 * 1e-3 };
+            writeln!(text, "{t},{},{}", i % 7, i % 3).unwrap();
+        }
+        text.extend_from_slice(b"end\n");
+        let f = file_of(&text);
+        let a = scan(&f, 0, &spec(csv()), 1).unwrap();
+        let b = scan(&f, 0, &spec(csv()), 3).unwrap();
+        assert_eq!(a.rows, 300_000);
+        assert_eq!((a.rows, a.lines, a.end, &a.times, &a.breaks), (b.rows, b.lines, b.end, &b.times, &b.breaks));
+        assert_eq!(a.breaks.len(), 2); // the restart at 150001 and the jump back at 150002
+                                       // every checkpoint starts a parse that reads the right rows
+        let d = csv();
+        for &(row, off, line) in b.checkpoints.iter() {
+            let mut out = vec![0.0; 2];
+            parse_into(&f, &[Piece { offset: off, line: line + 1, skip: 0, rows: 1 }], &d, &[1, 2], &mut out, 1)
+                .unwrap();
+            assert_eq!(out, vec![(row % 7) as f64, (row % 3) as f64]);
+        }
+    }
+
+    #[test]
+    fn parse_reads_columns_and_names_bad_lines() {
+        let text = b"0,1,2\n\n0.1,,2.5\n0.2,x,3\n0.3,1\n";
+        let f = file_of(text);
+        let d = csv();
+        let mut out = vec![0.0; 4];
+        parse_into(&f, &[Piece { offset: 0, line: 1, skip: 0, rows: 2 }], &d, &[2, 1], &mut out, 2).unwrap();
+        assert_eq!(out[..3], [2.0, 2.5, 1.0]);
+        assert!(out[3].is_nan());
+        let mut out = vec![0.0; 1];
+        let e = parse_into(&f, &[Piece { offset: 0, line: 1, skip: 2, rows: 1 }], &d, &[1], &mut out, 1).unwrap_err();
+        assert_eq!(e, ParseError::Number { line: 4, col: 0, text: b"x".to_vec() });
+        let e = parse_into(&f, &[Piece { offset: 0, line: 1, skip: 3, rows: 1 }], &d, &[2], &mut out, 1).unwrap_err();
+        assert_eq!(e, ParseError::Fields { line: 5, got: 2, need: 3 });
+        let e = parse_into(&f, &[Piece { offset: 0, line: 1, skip: 4, rows: 1 }], &d, &[0], &mut out, 1).unwrap_err();
+        assert!(matches!(e, ParseError::Eof { short: 1, .. }));
+    }
+
+    #[test]
+    fn whitespace_and_decimal_comma() {
+        let d = Dialect { delim: None, decimal: b',', comment: None, skip_blank: true };
+        let f = file_of(b"  1,5\t2,25  \n3 4\n");
+        let mut out = vec![0.0; 4];
+        parse_into(&f, &[Piece { offset: 0, line: 1, skip: 0, rows: 2 }], &d, &[0, 1], &mut out, 1).unwrap();
+        assert_eq!(out, vec![1.5, 3.0, 2.25, 4.0]);
+    }
+}
