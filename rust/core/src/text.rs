@@ -324,10 +324,16 @@ fn next_field(buf: &[u8], p: &mut usize, delim: Option<u8>) -> bool {
     }
 }
 
-/// Whether a line that starts with `c` may take the fast path (it is not
-/// blank, not a comment).
+/// Whether the line at `at` may take the fast path: its first byte after
+/// any whitespace starts a number or is the separator (so the line is not
+/// blank and not a comment).
 #[inline(always)]
-fn plain_start(c: u8, d: &Dialect) -> bool {
+fn plain_start(buf: &[u8], at: usize, d: &Dialect) -> bool {
+    let mut i = at;
+    while i < buf.len() && buf[i] != b'\n' && str_ws(buf[i]) && Some(buf[i]) != d.delim {
+        i += 1;
+    }
+    let Some(&c) = buf.get(i) else { return false };
     (c.is_ascii_digit() || c == b'-' || c == b'+' || c == b'.' || Some(c) == d.delim)
         && d.comment.as_ref().is_none_or(|k| k.first() != Some(&c))
 }
@@ -337,7 +343,7 @@ fn plain_start(c: u8, d: &Dialect) -> bool {
 #[inline(always)]
 fn scan_line_fast(buf: &[u8], at: usize, spec: &ScanSpec) -> Option<(usize, f64)> {
     let d = &spec.dialect;
-    if !plain_start(buf[at], d) {
+    if !plain_start(buf, at, d) {
         return None;
     }
     let last = spec.time.map_or(spec.probe, |t| t.max(spec.probe));
@@ -388,7 +394,7 @@ fn scan_line_fast(buf: &[u8], at: usize, spec: &ScanSpec) -> Option<(usize, f64)
 /// line the general way.
 #[inline(always)]
 fn parse_line_fast(buf: &[u8], at: usize, d: &Dialect, used: &[bool], vals: &mut [f64]) -> Option<usize> {
-    if !plain_start(buf[at], d) {
+    if !plain_start(buf, at, d) {
         return None;
     }
     let mut p = at;
@@ -786,7 +792,7 @@ fn parse_piece(
         let view = &buf[..end];
         let mut at = 0usize;
         while at < end {
-            if skip > 0 && plain_start(view[at], d) {
+            if skip > 0 && plain_start(view, at, d) {
                 // a data row to pass over (neither blank nor a comment)
                 at = memchr::memchr(b'\n', &view[at..]).map_or(end, |i| at + i + 1);
                 line += 1;
@@ -1024,6 +1030,31 @@ mod tests {
         assert_eq!(e, ParseError::Fields { line: 5, got: 2, need: 3 });
         let e = parse_into(&f, &[Piece { offset: 0, line: 1, skip: 4, rows: 1 }], &d, &[0], &mut out, 1).unwrap_err();
         assert!(matches!(e, ParseError::Eof { short: 1, .. }));
+    }
+
+    #[test]
+    fn lines_led_by_whitespace_take_the_same_way() {
+        // a one-column file: a blank line is skipped, not a row of NaN
+        let d = Dialect { delim: Some(b','), decimal: b'.', comment: Some(b"#".to_vec()), skip_blank: true };
+        let sp = ScanSpec {
+            dialect: d.clone(),
+            nf: Some(1),
+            probe: 0,
+            time: None,
+            gap: f64::NAN,
+            t_prev: f64::NAN,
+            keep_times: 0,
+        };
+        let f = file_of(b" 1.5\n   \n  # c\n\t2\n \xa0\n");
+        let r = scan(&f, 0, &sp, 1).unwrap();
+        assert_eq!((r.rows, r.lines), (3, 5)); // "\xa0" is no blank line to Python's bytes.strip: a row (NaN)
+        let mut out = vec![0.0; 3];
+        parse_into(&f, &[Piece { offset: 0, line: 1, skip: 0, rows: 3 }], &d, &[0], &mut out, 1).unwrap();
+        assert_eq!(out[..2], [1.5, 2.0]);
+        assert!(out[2].is_nan());
+        let mut one = vec![0.0; 1];
+        parse_into(&f, &[Piece { offset: 0, line: 1, skip: 1, rows: 1 }], &d, &[0], &mut one, 1).unwrap();
+        assert_eq!(one, vec![2.0]);
     }
 
     #[test]
