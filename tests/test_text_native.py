@@ -238,3 +238,32 @@ def test_native_is_what_a_plain_file_gets(tmp_path: Path) -> None:
     with open_recording(str(q), delimiter="::") as rec:
         assert not rec.random_access and rec.n_samples == 100
     os.unlink(q)
+
+
+@pytest.mark.parametrize(
+    "content, kw",
+    [
+        # a line of tabs only is blank to Python's bytes.strip(): skipped, never a row (fuzz, kind A)
+        (b"t\tx\n0\t1\n0.001\t2\n\t\n0.002\t3\n", {"delimiter": "\t"}),
+        (b"t\tx\ty\n0\t1\t1\n0.001\t2\t2\n\t\t\t\n0.002\t3\t3\n", {"delimiter": "\t"}),
+        (b"t\tx\n0\t1\n0.001\t2\n \t \r\n0.002\t3\n0.003\t4\n", {"delimiter": "\t"}),
+        (
+            b"LabVIEW Measurement\n***End_of_Header***\nDelta_X\t1\n***End_of_Header***\nX_Value\ta\tb\tComment\n"
+            b"0\t1\t2\n1\t3\t4\n\t\t\n2\t5\t6\n",
+            {},
+        ),
+        # a short row holding a non-number: the width is reported first, as Python does (kind B)
+        (
+            b"LabVIEW Measurement\n***End_of_Header***\nDelta_X\t1\n***End_of_Header***\nX_Value\ta\tb\tComment\n"
+            b"0\t1\t2\n1\t3x4\n2\t5\t6\n",
+            {},
+        ),
+        # a number of more than 400 characters is still a number (kind C)
+        (b"t,a\n0,1\n0.001," + b"1" * 401 + b"\n0.002,3\n", {}),
+        (b"t;a\n0;1\n0,001;0," + b"0" * 500 + b"15\n0,002;3\n", {"delimiter": ";", "decimal": ","}),
+    ],
+)
+def test_fuzz_findings(tmp_path: Path, content: bytes, kw: Dict[str, Any]) -> None:
+    p = tmp_path / ("f.lvm" if content.startswith(b"LabVIEW") else "f.csv")
+    p.write_bytes(content)
+    _same(p, **kw)

@@ -161,16 +161,12 @@ fn number(s: &[u8], decimal: u8) -> Option<f64> {
     if let Some(v) = fast_float(s, decimal) {
         return Some(v);
     }
-    if s.is_empty() || s.len() > 400 || s.contains(&b'_') {
+    if s.is_empty() || s.contains(&b'_') {
         return None;
     }
     if decimal != b'.' && s.contains(&decimal) {
-        let mut tmp = [0u8; 400];
-        let t = &mut tmp[..s.len()];
-        for (d, &c) in t.iter_mut().zip(s) {
-            *d = if c == decimal { b'.' } else { c };
-        }
-        return std::str::from_utf8(t).ok()?.parse().ok();
+        let t: Vec<u8> = s.iter().map(|&c| if c == decimal { b'.' } else { c }).collect();
+        return std::str::from_utf8(&t).ok()?.parse().ok();
     }
     std::str::from_utf8(s).ok()?.parse().ok()
 }
@@ -334,6 +330,11 @@ fn plain_start(buf: &[u8], at: usize, d: &Dialect) -> bool {
         i += 1;
     }
     let Some(&c) = buf.get(i) else { return false };
+    if Some(c) == d.delim && bytes_ws(c) {
+        // a tab-separated line of tabs and spaces only is blank to Python's bytes.strip()
+        let nl = memchr::memchr(b'\n', &buf[i..]).map_or(buf.len(), |j| i + j);
+        return buf[i..nl].iter().any(|&b| !bytes_ws(b));
+    }
     (c.is_ascii_digit() || c == b'-' || c == b'+' || c == b'.' || Some(c) == d.delim)
         && d.comment.as_ref().is_none_or(|k| k.first() != Some(&c))
 }
@@ -826,6 +827,11 @@ fn parse_piece(
                 skip -= 1;
                 continue;
             }
+            // as Python's parse_rows: the row's width first, then its numbers
+            let got = Fields::new(text, d.delim).count();
+            if got < need {
+                return Err(ParseError::Fields { line: this, got, need });
+            }
             let mut n = 0usize;
             for f in Fields::new(text, d.delim).take(need) {
                 if !feeds[n].is_empty() {
@@ -843,10 +849,6 @@ fn parse_piece(
                     }
                 }
                 n += 1;
-            }
-            if n < need {
-                let got = Fields::new(text, d.delim).count();
-                return Err(ParseError::Fields { line: this, got, need });
             }
             r += 1;
             if r == rows {
@@ -949,6 +951,9 @@ mod tests {
             assert_eq!(to_float(&b, b'.'), Some(v), "{s}");
         }
         assert_eq!(to_float(b"1,5", b','), Some(1.5));
+        let long = [b"0.".as_slice(), &[b'0'; 500], b"15"].concat();
+        assert_eq!(to_float(&long, b'.'), Some(0.0)); // 1.5e-501 underflows, as in Python
+        assert_eq!(to_float(&[b'1'; 401], b','), Some(f64::INFINITY)); // long fields are numbers too
         assert_eq!(to_float(b"1.5", b','), Some(1.5));
         for s in ["", " ", "1_0", "1,5", "0x1", ".", "e5", "1e", "abc"] {
             assert_eq!(to_float(s.as_bytes(), b'.'), None, "{s}");
@@ -1055,6 +1060,26 @@ mod tests {
         let mut one = vec![0.0; 1];
         parse_into(&f, &[Piece { offset: 0, line: 1, skip: 1, rows: 1 }], &d, &[0], &mut one, 1).unwrap();
         assert_eq!(one, vec![2.0]);
+    }
+
+    #[test]
+    fn a_line_of_tabs_is_blank() {
+        let d = Dialect { delim: Some(b'\t'), decimal: b'.', comment: None, skip_blank: true };
+        let sp = ScanSpec {
+            dialect: d.clone(),
+            nf: Some(2),
+            probe: 0,
+            time: None,
+            gap: f64::NAN,
+            t_prev: f64::NAN,
+            keep_times: 0,
+        };
+        let f = file_of(b"1\t2\n\t\n \t \n\t3\n");
+        let r = scan(&f, 0, &sp, 1).unwrap();
+        assert_eq!((r.rows, r.lines), (2, 4));
+        let mut out = vec![0.0; 2];
+        parse_into(&f, &[Piece { offset: 0, line: 1, skip: 1, rows: 1 }], &d, &[0, 1], &mut out, 1).unwrap();
+        assert!(out[0].is_nan() && out[1] == 3.0);
     }
 
     #[test]
