@@ -832,8 +832,7 @@ fn parse_piece(
             if got < need {
                 return Err(ParseError::Fields { line: this, got, need });
             }
-            let mut n = 0usize;
-            for f in Fields::new(text, d.delim).take(need) {
+            for (n, f) in Fields::new(text, d.delim).take(need).enumerate() {
                 if !feeds[n].is_empty() {
                     let v = strip(f, str_ws);
                     let x = if v.is_empty() {
@@ -848,7 +847,6 @@ fn parse_piece(
                         outs[c][r] = x;
                     }
                 }
-                n += 1;
             }
             r += 1;
             if r == rows {
