@@ -276,11 +276,12 @@ def render(res: Dict[float, Dict[str, Any]], repeat: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_section(text: str) -> None:
+def write_section(text: str, section: str = SECTION) -> None:
+    """Replaces (or appends) the section of benches/RESULTS.md whose heading is ``section``."""
     old = RESULTS.read_text() if RESULTS.exists() else ""
-    if SECTION in old:
-        start = old.index(SECTION)
-        nxt = old.find("\n## ", start + len(SECTION))
+    if section in old:
+        start = old.index(section)
+        nxt = old.find("\n## ", start + len(section))
         old = old[:start] + (old[nxt + 1 :] if nxt >= 0 else "")
     RESULTS.write_text(old.rstrip("\n") + "\n\n" + text)
 

@@ -44,12 +44,10 @@ from typing import Any, Dict, List
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_formats import machine  # noqa: E402
+from bench_formats import machine, same_tables, write_section  # noqa: E402
 
 FS = 1000.0
 ROLES = ("fx", "fy", "fz", "i")
-HERE = Path(__file__).resolve().parent
-RESULTS = HERE / "RESULTS.md"
 SECTION = "## Text formats: CSV and LVM against pandas and pyarrow (issue 16)"
 LVM_HEAD_ROWS = 23  # lines before the first data row in the LVM written here
 
@@ -169,13 +167,6 @@ def measure(what: str, path: Path, repeat: int, table_out: str = "-") -> Dict[st
     return out
 
 
-def same_tables(a: str, b: str) -> bool:
-    x, y = np.load(a), np.load(b)
-    return set(x.files) == set(y.files) and all(
-        x[k].shape == y[k].shape and bool(np.all((x[k] == y[k]) | (np.isnan(x[k]) & np.isnan(y[k])))) for k in x.files
-    )
-
-
 def main(argv: List[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--hours", type=float, nargs="+", default=[1.0, 10.0])
@@ -212,7 +203,7 @@ def main(argv: List[str]) -> int:
     text = render(res, args.repeat)
     print(text)
     if full:
-        write_section(text)
+        write_section(text, SECTION)
     return 0
 
 
@@ -252,15 +243,6 @@ def render(res: Dict[float, Dict[str, Any]], repeat: int) -> str:
             f"{'yes' if r['same_table'] and res[short][f]['same_table'] else 'no'} |"
         )
     return "\n".join(lines) + "\n"
-
-
-def write_section(text: str) -> None:
-    old = RESULTS.read_text() if RESULTS.exists() else ""
-    if SECTION in old:
-        start = old.index(SECTION)
-        nxt = old.find("\n## ", start + len(SECTION))
-        old = old[:start] + (old[nxt + 1 :] if nxt >= 0 else "")
-    RESULTS.write_text(old.rstrip("\n") + "\n\n" + text)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,6 @@
-"""Shared test configuration: hypothesis profiles, and a fixture that restores the thread setting.
+"""Shared test configuration: hypothesis profiles, a fixture that restores the thread setting, and the
+simulated temperature and current-density tests with their analyses (module-scoped; a module may define
+its own under the same names, with other seeds).
 
 "ci" (loaded when the CI environment variable is set): few examples, no
 deadline, derandomized so a CI run is reproducible. "dev" otherwise: more
@@ -14,6 +16,7 @@ import pytest
 from hypothesis import settings
 
 import tribodyn as td
+from tribodyn import simulate
 
 settings.register_profile("ci", max_examples=40, deadline=None, derandomize=True)
 settings.register_profile("dev", max_examples=100, deadline=None)
@@ -30,3 +33,23 @@ def restore_threads():
     yield all_cores
     td.set_threads(0 if before == all_cores else before)
     assert td.get_threads() == before
+
+
+@pytest.fixture(scope="module")
+def temp_sim() -> simulate.Simulation:
+    return simulate.temperature_test(seed=3)
+
+
+@pytest.fixture(scope="module")
+def temp_res(temp_sim: simulate.Simulation) -> td.Results:
+    return td.analyze(temp_sim.channels, fs=temp_sim.fs, window=2.0, hop=10.0, temperature=temp_sim.temperature_log)
+
+
+@pytest.fixture(scope="module")
+def cd_sim() -> simulate.Simulation:
+    return simulate.current_density_test(seed=4)
+
+
+@pytest.fixture(scope="module")
+def cd_res(cd_sim: simulate.Simulation) -> td.Results:
+    return td.analyze(cd_sim.channels, fs=cd_sim.fs, window=2.0, hop=10.0, area_mm2=cd_sim.area_mm2)

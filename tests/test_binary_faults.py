@@ -47,6 +47,7 @@ from typing import Any, Dict, List, Tuple
 
 import numpy as np
 import pytest
+from _mutants import mutate
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.writers import save_hdf5, save_tdms
 
@@ -503,24 +504,6 @@ def test_npy_header_fuzz(tmp_path):
 
 
 # ============================================================ seeded fuzz, TDMS/HDF5
-def _mutate(data: bytes, rng: random.Random) -> Tuple[str, bytes]:
-    b = bytearray(data)
-    kind = rng.choice(["truncate", "flip", "insert", "delete"])
-    if kind == "truncate":
-        cut = rng.randrange(1, len(b))
-        return f"truncate@{cut}", bytes(b[:cut])
-    off = rng.randrange(len(b))
-    if kind == "flip":
-        bits = [(rng.randrange(len(b)), rng.randrange(8)) for _ in range(rng.randint(1, 3))]
-        for o, bit in bits:
-            b[o] ^= 1 << bit
-        return f"flip{bits}", bytes(b)
-    k = rng.randint(1, 8)
-    if kind == "insert":
-        return f"insert{k}@{off}", bytes(b[:off] + bytes(rng.randrange(256) for _ in range(k)) + b[off:])
-    return f"delete{k}@{off}", bytes(b[:off] + b[off + k :])
-
-
 def _fuzz_worker(fmt: str, workdir: str) -> None:
     """Runs the mutants of one format; prints one JSON line per mutant (before and after), then the summary."""
     ch = {k: v[:40] for k, v in _signals(40).items()}
@@ -533,7 +516,7 @@ def _fuzz_worker(fmt: str, workdir: str) -> None:
     original = base.read_bytes()
     rng = random.Random(SEED)
     for i in range(N_FUZZ):
-        what, data = _mutate(original, rng)
+        what, data = mutate(original, rng)
         path = Path(workdir) / f"m{i}.{fmt}"
         path.write_bytes(data)
         print(json.dumps({"start": i, "mutation": what}), flush=True)

@@ -31,28 +31,8 @@ def _truth_twin(res: td.Results, truth) -> td.Results:
 
 
 @pytest.fixture(scope="module")
-def temp_sim():
-    return simulate.temperature_test(seed=3)
-
-
-@pytest.fixture(scope="module")
-def temp_res(temp_sim):
-    return td.analyze(temp_sim.channels, fs=temp_sim.fs, window=2.0, hop=10.0, temperature=temp_sim.temperature_log)
-
-
-@pytest.fixture(scope="module")
 def temp_range(temp_res):
     return td.operating_range(temp_res, "temperature")
-
-
-@pytest.fixture(scope="module")
-def cd_sim():
-    return simulate.current_density_test(seed=4)
-
-
-@pytest.fixture(scope="module")
-def cd_res(cd_sim):
-    return td.analyze(cd_sim.channels, fs=cd_sim.fs, window=2.0, hop=10.0, area_mm2=cd_sim.area_mm2)
 
 
 def test_heating_breakpoints_near_the_simulated_flat_bottom(temp_range, temp_res, temp_sim):

@@ -13,26 +13,6 @@ import tribodyn as td
 from tribodyn import simulate
 
 
-@pytest.fixture(scope="module")
-def temp_sim():
-    return simulate.temperature_test(seed=3)
-
-
-@pytest.fixture(scope="module")
-def temp_res(temp_sim):
-    return td.analyze(temp_sim.channels, fs=temp_sim.fs, window=2.0, hop=10.0, temperature=temp_sim.temperature_log)
-
-
-@pytest.fixture(scope="module")
-def cd_sim():
-    return simulate.current_density_test(seed=4)
-
-
-@pytest.fixture(scope="module")
-def cd_res(cd_sim):
-    return td.analyze(cd_sim.channels, fs=cd_sim.fs, window=2.0, hop=10.0, area_mm2=cd_sim.area_mm2)
-
-
 def _median_rel_error(res, sim):
     ok = res.gated
     truth = sim.truth.mu_at(res["time"][ok])

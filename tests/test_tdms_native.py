@@ -26,6 +26,7 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import pytest
+from _mutants import mutate
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io import tdms as T
 from tribodyn.io.tdms import write_daqmx_tdms
@@ -457,24 +458,6 @@ def test_analyze_tables_equal_across_routes(tmp_path, monkeypatch):
 N_FUZZ = 120
 
 
-def _mutate(data: bytes, rng: random.Random) -> Tuple[str, bytes]:
-    b = bytearray(data)
-    kind = rng.choice(["truncate", "flip", "flip", "insert", "delete"])
-    if kind == "truncate":
-        cut = rng.randrange(1, len(b))
-        return f"truncate@{cut}", bytes(b[:cut])
-    off = rng.randrange(len(b))
-    if kind == "flip":
-        bits = [(rng.randrange(len(b)), rng.randrange(8)) for _ in range(rng.randint(1, 3))]
-        for o, bit in bits:
-            b[o] ^= 1 << bit
-        return f"flip{bits}", bytes(b)
-    k = rng.randint(1, 8)
-    if kind == "insert":
-        return f"insert{k}@{off}", bytes(b[:off] + bytes(rng.randrange(256) for _ in range(k)) + b[off:])
-    return f"delete{k}@{off}", bytes(b[:off] + b[off + k :])
-
-
 def test_fuzzed_mutants_agree(tmp_path, monkeypatch):
     src = tmp_path / "src"
     src.mkdir()
@@ -493,7 +476,7 @@ def test_fuzzed_mutants_agree(tmp_path, monkeypatch):
     for original in (base, daq, inter):
         data = original.read_bytes()
         for i in range(N_FUZZ):
-            what, mutant = _mutate(data, rng)
+            what, mutant = mutate(data, rng, ("truncate", "flip", "flip", "insert", "delete"))
             p = tmp_path / f"m_{original.stem}_{i}.tdms"
             p.write_bytes(mutant)
             try:

@@ -16,7 +16,7 @@ from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, T
 
 import numpy as np
 
-from .base import RecordingError, roles_by_name
+from .base import Recording, RecordingError, roles_by_name
 
 #: Lines parsed at once by the text readers (a block of lines costs far more
 #: memory than its numbers, so text blocks are smaller than binary ones).
@@ -25,6 +25,7 @@ TEXT_BLOCK_ROWS = 8192
 __all__ = [
     "TEXT_BLOCK_ROWS",
     "Checkpoints",
+    "TextRecording",
     "check_encoding",
     "decode_header",
     "default_roles",
@@ -571,3 +572,37 @@ def native_parse(
         raise RecordingError(f"{path}: {exc}") from None
     finally:
         os.close(fd)
+
+
+class TextRecording(Recording):
+    """What the text readers (delimited, LVM) share: reading any samples natively from the scan's checkpoints.
+
+    A reader sets :attr:`_checkpoints` and :attr:`_parse_dialect` after its
+    scan when the layout is read natively (then it is :attr:`random_access`),
+    and leaves them None otherwise (its own sequential Python parser).
+    """
+
+    # Each read opens its own file handle.
+    thread_safe = True
+    #: Whether the numeric body is scanned and parsed natively (Rust) when the layout allows it; the
+    #: Python parser (the reference of the differential tests) otherwise.
+    _use_native = True
+    _owned_reads = True  # every array read is new (the native parse's; the Python parser's are copied)
+    _checkpoints: Optional[Checkpoints] = None
+    _parse_dialect: Optional[Dict[str, Any]] = None
+    _usecols: List[int]
+
+    def _text_path(self) -> str:
+        """The file the byte offsets refer to."""
+        return self.path
+
+    def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
+        return self._read_ranges(names, [(start, stop)])
+
+    def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
+        assert self._checkpoints is not None and self._parse_dialect is not None, "random access is native only"
+        self.check_unchanged()
+        column = dict(zip(self._names, self._usecols))
+        pieces = [p for a, b in ranges for p in self._checkpoints.pieces(a, b)]
+        cols = native_parse(self._text_path(), pieces, [column[n] for n in names], list(names), self._parse_dialect)
+        return dict(zip(names, cols))

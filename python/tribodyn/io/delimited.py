@@ -62,8 +62,8 @@ import numpy as np
 from ._text import (
     TEXT_BLOCK_ROWS,
     Checkpoints,
+    TextRecording,
     native_dialect,
-    native_parse,
     native_scan,
     header_rate,
     is_wide,
@@ -82,7 +82,7 @@ from ._text import (
     split_fields,
     to_float,
 )
-from .base import Recording, RecordingError, fs_from_times
+from .base import RecordingError, fs_from_times
 from .units import GRAM_FORCE, TIME_TO_S, is_known_unit, normalize_unit
 
 __all__ = ["DelimitedRecording", "sniff_vendor"]
@@ -290,15 +290,8 @@ def _key_values(lines: Sequence[str], delim: Optional[str]) -> Dict[str, str]:
     return out
 
 
-class DelimitedRecording(Recording):
+class DelimitedRecording(TextRecording):
     """A delimited text file (generic, CETR or COMPEND); see the module docstring."""
-
-    # Each read opens its own file handle.
-    thread_safe = True
-    #: Whether the numeric body is scanned and parsed natively (Rust) when the layout allows it; the
-    #: Python parser (the reference of the differential tests) otherwise.
-    _use_native = True
-    _owned_reads = True  # every array read is new (the native parse's, a copy of the resampled)
 
     format = "delimited"
 
@@ -327,7 +320,6 @@ class DelimitedRecording(Recording):
         self._resample = None if resample is None else _check_resample(resample)
         self._fs_given = fs is not None
         self._mem: Optional[Dict[str, np.ndarray]] = None
-        self._stat = os.stat(self.path)
         self._data_path = self.path
         self._tmp: Optional[str] = None
         enc = encoding or self._detect_encoding()
@@ -372,8 +364,6 @@ class DelimitedRecording(Recording):
         #: segment of a text file is one (a CETR step, a block under a repeated column row, a time
         #: restart or gap).
         self.acquisitions: List[Tuple[int, int]] = list(self._segments)
-        #: Natively read files are read at any sample (from the scan's checkpoints).
-        self.random_access = self._checkpoints is not None or self._mem is not None
         if self._source_encoding not in ("utf-8", "utf-8-sig", "ascii"):
             self.metadata["encoding"] = self._source_encoding
         if self._vendor is None:  # the vendors' duplicates (COMPEND's 'Friction Force') are by design
@@ -797,7 +787,9 @@ class DelimitedRecording(Recording):
             ranges.append((pos, pos + b.n))
             self._cps.append((pos, b.offset, b.lineno))
             pos += b.n
-        self._checkpoints = Checkpoints(self._cps, pos) if native is not None else None
+        if native is not None:  # read at any sample from here on
+            self._checkpoints, self._parse_dialect = Checkpoints(self._cps, pos), native
+            self.random_access = True
         self._n = pos
         self._segments = ranges
         self._footer = footer
@@ -985,6 +977,7 @@ class DelimitedRecording(Recording):
         if not segments:
             raise RecordingError(f"{self.path}: no segment with two time values to resample")
         self._mem = {n: np.concatenate(parts[n]) for n in names}
+        self.random_access = True  # in memory
         self.warnings.append(
             f"resampled linearly onto a uniform grid at {hz:g} Hz from time column {self._time_name!r} "
             f"({self._n} rows -> {pos} samples)"
@@ -994,35 +987,20 @@ class DelimitedRecording(Recording):
         self._file_fs = hz
         self._fs_source = f"resample={hz:g} (linear interpolation of time column {self._time_name!r})"
 
-    def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
-        return self._read_ranges(names, [(start, stop)])
+    def _text_path(self) -> str:
+        return self._data_path  # the UTF-8 copy of a UTF-16/32 file
 
     def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
-        if self._mem is not None:
+        if self._mem is not None:  # resampled
             mem = self._mem
             return {n: np.concatenate([mem[n][a:b] for a, b in ranges]) if ranges else np.zeros(0) for n in names}
-        assert self._checkpoints is not None, "random access is native only"
-        st = os.stat(self.path)
-        if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
-            raise RecordingError(f"{self.path}: file changed since it was opened")
-        pos = {n: k for k, n in enumerate(self._names)}
-        usecols = [self._usecols[pos[n]] for n in names]
-        pieces = [p for a, b in ranges for p in self._checkpoints.pieces(a, b)]
-        cols = native_parse(self._data_path, pieces, usecols, list(names), self._native or {})
-        return dict(zip(names, cols))
+        return super()._read_ranges(names, ranges)
 
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
-        if self._mem is not None:
-            for i0 in range(0, self._n, block):
-                yield {n: self._mem[n][i0 : i0 + block].copy() for n in names}
+        if self.random_access:
+            yield from super()._iter_blocks(names, block)
             return
-        if self._checkpoints is not None:
-            for i0 in range(0, self._n, block):
-                yield self._read_range(names, i0, min(i0 + block, self._n))
-            return
-        st = os.stat(self.path)
-        if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
-            raise RecordingError(f"{self.path}: file changed since it was opened")
+        self.check_unchanged()
         pos = {n: k for k, n in enumerate(self._names)}
         usecols = [self._usecols[pos[n]] for n in names]
         comment = self._comment.encode() if self._comment else None

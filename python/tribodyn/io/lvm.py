@@ -38,7 +38,6 @@ How this reader behaves:
 from __future__ import annotations
 
 import math
-import os
 from typing import Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
@@ -46,8 +45,8 @@ import numpy as np
 from ._text import (
     TEXT_BLOCK_ROWS,
     Checkpoints,
+    TextRecording,
     native_dialect,
-    native_parse,
     native_scan,
     check_encoding,
     decode_header,
@@ -59,7 +58,7 @@ from ._text import (
     row_defects,
     to_float,
 )
-from .base import Recording, RecordingError, rate_from_step
+from .base import RecordingError, rate_from_step
 
 __all__ = ["LvmRecording"]
 
@@ -78,15 +77,8 @@ class _Segment:
         self.announced: Optional[int] = None
 
 
-class LvmRecording(Recording):
+class LvmRecording(TextRecording):
     """A LabVIEW Measurement file; see the module docstring."""
-
-    # Each read opens its own file handle.
-    thread_safe = True
-    #: Whether the numeric body is scanned and parsed natively (Rust); the Python parser (the
-    #: reference of the differential tests) otherwise.
-    _use_native = True
-    _owned_reads = True  # every array the native parse returns is new
 
     format = "lvm"
 
@@ -117,7 +109,6 @@ class LvmRecording(Recording):
     # ------------------------------------------------------------------ scan
     def _scan(self) -> None:
         path = self.path
-        self._stat = os.stat(path)
         with open(path, "rb") as fh:
             first = fh.readline()
             if not first.lstrip(b"\xef\xbb\xbf").startswith(b"LabVIEW Measurement"):
@@ -400,9 +391,10 @@ class LvmRecording(Recording):
             cps.append((base, sg.offset, sg.lineno))
             cps += [(base + r, off, line) for r, off, line in sg.cps]
             base += sg.n
-        self._checkpoints = Checkpoints(cps, pos) if self._native is not None else None
-        #: Natively read files are read at any sample (from the scan's checkpoints).
-        self.random_access = self._checkpoints is not None
+        if self._native is not None:  # the parse skips blank lines (none is inside a segment)
+            self._checkpoints = Checkpoints(cps, pos)
+            self._parse_dialect = dict(self._native, skip_blank=True)
+            self.random_access = True  # read at any sample from the checkpoints
         # Separate acquisitions: a segment whose X0 does not continue the previous one's time
         # (X0 + rows x Delta_X, within half a step) is discontinuous; no analysis window straddles it.
         acq: List[Tuple[int, int]] = []
@@ -429,29 +421,11 @@ class LvmRecording(Recording):
             self.metadata["skipped"] = skipped
 
     # ---------------------------------------------------------------- reading
-    def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
-        return self._read_ranges(names, [(start, stop)])
-
-    def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
-        assert self._checkpoints is not None, "random access is native only"
-        st = os.stat(self.path)
-        if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
-            raise RecordingError(f"{self.path}: file changed since it was opened")
-        pos = {n: k for k, n in enumerate(self._names)}
-        usecols = [self._usecols[pos[n]] for n in names]
-        pieces = [p for a, b in ranges for p in self._checkpoints.pieces(a, b)]
-        dialect = dict(self._native or {}, skip_blank=True)
-        cols = native_parse(self.path, pieces, usecols, list(names), dialect)
-        return dict(zip(names, cols))
-
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
-        if self._checkpoints is not None:
-            for i0 in range(0, self._n, block):
-                yield self._read_range(names, i0, min(i0 + block, self._n))
+        if self.random_access:
+            yield from super()._iter_blocks(names, block)
             return
-        st = os.stat(self.path)
-        if (st.st_size, st.st_mtime_ns) != (self._stat.st_size, self._stat.st_mtime_ns):
-            raise RecordingError(f"{self.path}: file changed since it was opened")
+        self.check_unchanged()
         pos = {n: k for k, n in enumerate(self._names)}
         sel = [pos[n] for n in names]
         usecols = [self._usecols[k] for k in sel]

@@ -75,27 +75,21 @@ const POW10: [f64; 23] = [
     1e21, 1e22,
 ];
 
-/// The common case of [`to_float`] (a stripped field): a sign, at most 19
-/// digits with one decimal point and an exponent, whose value is m x 10^k
-/// with m <= 2^53 and |k| <= 22. Then m and 10^|k| are exact floats and one
-/// IEEE multiplication or division rounds their exact product or quotient
-/// correctly (Clinger's fast path), the value Python's `float` gives. None
-/// for everything else (the caller then asks Rust's full parser).
+/// Reads the fast path's number grammar from `s[i..]`: a sign, digits, one
+/// decimal point (`.` or `point`), digits, an exponent of at most 4 digits.
+/// Returns where it stopped, and the value when it is m x 10^k with at most
+/// 19 digits, m <= 2^53 and |k| <= 22: then m and 10^|k| are exact floats
+/// and one IEEE multiplication or division rounds their exact product or
+/// quotient correctly (Clinger's fast path), the value Python's `float`
+/// gives. The value is None for everything else (the callers then take the
+/// general way: Rust's full parser).
 #[inline(always)]
-fn fast_float(s: &[u8], decimal: u8) -> Option<f64> {
+fn lex_number(s: &[u8], mut i: usize, point: u8) -> (usize, Option<f64>) {
     let n = s.len();
-    let mut i = 0;
-    let neg = match s.first()? {
-        b'-' => {
-            i = 1;
-            true
-        }
-        b'+' => {
-            i = 1;
-            false
-        }
-        _ => false,
-    };
+    let neg = i < n && s[i] == b'-';
+    if i < n && (s[i] == b'-' || s[i] == b'+') {
+        i += 1;
+    }
     let mut m: u64 = 0;
     let mut digits = 0usize;
     while i < n && s[i].is_ascii_digit() {
@@ -103,33 +97,22 @@ fn fast_float(s: &[u8], decimal: u8) -> Option<f64> {
         digits += 1;
         i += 1;
     }
-    let mut frac = 0i32;
-    if i < n && (s[i] == b'.' || s[i] == decimal) {
+    let mut k = 0i32;
+    if i < n && (s[i] == b'.' || s[i] == point) {
         i += 1;
         while i < n && s[i].is_ascii_digit() {
             m = m.wrapping_mul(10).wrapping_add((s[i] - b'0') as u64);
             digits += 1;
-            frac += 1;
+            k -= 1;
             i += 1;
         }
     }
-    if digits == 0 || digits > 19 {
-        return None;
-    }
-    let mut k = -frac;
-    if i < n && (s[i] | 0x20) == b'e' {
+    if i < n && (s[i] | 0x20) == b'e' && digits > 0 {
         i += 1;
-        let eneg = match s.get(i) {
-            Some(b'-') => {
-                i += 1;
-                true
-            }
-            Some(b'+') => {
-                i += 1;
-                false
-            }
-            _ => false,
-        };
+        let eneg = i < n && s[i] == b'-';
+        if i < n && (s[i] == b'-' || s[i] == b'+') {
+            i += 1;
+        }
         let e0 = i;
         let mut e = 0i32;
         while i < n && s[i].is_ascii_digit() && i - e0 < 4 {
@@ -137,15 +120,24 @@ fn fast_float(s: &[u8], decimal: u8) -> Option<f64> {
             i += 1;
         }
         if i == e0 {
-            return None;
+            return (i, None);
         }
         k += if eneg { -e } else { e };
     }
-    if i != n || m > (1u64 << 53) || !(-22..=22).contains(&k) {
-        return None;
+    if digits == 0 || digits > 19 || m > (1u64 << 53) || !(-22..=22).contains(&k) {
+        return (i, None);
     }
     let v = if k < 0 { m as f64 / POW10[(-k) as usize] } else { m as f64 * POW10[k as usize] };
-    Some(if neg { -v } else { v })
+    (i, Some(if neg { -v } else { v }))
+}
+
+/// The common case of [`to_float`] (a stripped field): [`lex_number`] of the whole field.
+#[inline(always)]
+fn fast_float(s: &[u8], decimal: u8) -> Option<f64> {
+    match lex_number(s, 0, decimal) {
+        (e, v) if e == s.len() => v,
+        _ => None,
+    }
 }
 
 /// A field as Python's `to_float` reads it; None when it is not a number
@@ -244,46 +236,8 @@ fn field_fast(buf: &[u8], p: &mut usize, delim: Option<u8>, decimal: u8) -> Opti
         i += 1;
     }
     let s = i;
-    // one pass: sign, digits, point, digits, exponent (see fast_float)
-    let neg = i < n && buf[i] == b'-';
-    if i < n && (buf[i] == b'-' || buf[i] == b'+') {
-        i += 1;
-    }
-    let mut m: u64 = 0;
-    let mut digits = 0usize;
-    while i < n && buf[i].is_ascii_digit() {
-        m = m.wrapping_mul(10).wrapping_add((buf[i] - b'0') as u64);
-        digits += 1;
-        i += 1;
-    }
-    let mut k = 0i32;
-    if i < n && (buf[i] == b'.' || (buf[i] == decimal && Some(decimal) != delim)) {
-        i += 1;
-        while i < n && buf[i].is_ascii_digit() {
-            m = m.wrapping_mul(10).wrapping_add((buf[i] - b'0') as u64);
-            digits += 1;
-            k -= 1;
-            i += 1;
-        }
-    }
-    if i < n && (buf[i] | 0x20) == b'e' && digits > 0 {
-        i += 1;
-        let eneg = i < n && buf[i] == b'-';
-        if i < n && (buf[i] == b'-' || buf[i] == b'+') {
-            i += 1;
-        }
-        let e0 = i;
-        let mut e = 0i32;
-        while i < n && buf[i].is_ascii_digit() && i - e0 < 4 {
-            e = e * 10 + (buf[i] - b'0') as i32;
-            i += 1;
-        }
-        if i == e0 {
-            return None;
-        }
-        k += if eneg { -e } else { e };
-    }
-    let e = i;
+    let (e, v) = lex_number(buf, i, if Some(decimal) == delim { b'.' } else { decimal });
+    i = e;
     while i < n && skip(buf[i]) {
         i += 1;
     }
@@ -294,11 +248,7 @@ fn field_fast(buf: &[u8], p: &mut usize, delim: Option<u8>, decimal: u8) -> Opti
     if s == e {
         return if delim.is_some() { Some(f64::NAN) } else { None };
     }
-    if digits == 0 || digits > 19 || m > (1u64 << 53) || !(-22..=22).contains(&k) {
-        return None;
-    }
-    let v = if k < 0 { m as f64 / POW10[(-k) as usize] } else { m as f64 * POW10[k as usize] };
-    Some(if neg { -v } else { v })
+    v
 }
 
 /// Steps over the byte that ended a field to the next field's start; false
@@ -667,7 +617,8 @@ pub fn scan(file: &File, start: u64, spec: &ScanSpec, threads: usize) -> Result<
         };
         let whole = &buf[..last_nl + 1];
         let cut = cuts(whole, whole.len().div_ceil(PIECE).clamp(1, 4 * threads));
-        let keep = spec.keep_times;
+        // times still wanted: a piece keeps no more (those after the first pieces are dropped anyway)
+        let keep = spec.keep_times.saturating_sub(run.times.len());
         let pieces: Vec<PieceScan> = parallel::run_with(threads, || {
             cut.par_windows(2).map(|w| scan_piece(&whole[w[0]..w[1]], spec, keep)).collect()
         })?;
@@ -695,7 +646,7 @@ pub fn scan(file: &File, start: u64, spec: &ScanSpec, threads: usize) -> Result<
                     ..b
                 });
             }
-            let room = keep.saturating_sub(run.times.len());
+            let room = spec.keep_times.saturating_sub(run.times.len());
             run.times.extend_from_slice(&p.times[..p.times.len().min(room)]);
             if !p.last_t.is_nan() {
                 run.t_prev = p.last_t;
