@@ -54,6 +54,7 @@ from .contact_loss import mark_contact_loss
 from .covariates import align_to_recording, branch, evaluate, interpolate, log_quality
 from .deadband import DeadbandSpec
 from .filters import HighPass
+from .headline import ClassicalTotals, classical_totals
 from .identify import Orientation, resolve_orientation
 from .io.base import RecordingError
 from .plan import Plan, make_plan
@@ -297,6 +298,8 @@ class Partial:
     tribo: Dict[str, Any] = dataclasses.field(default_factory=dict)
     #: The per-stroke table of a reciprocating test (the whole recording's, the same in every range).
     strokes: Optional[Dict[str, np.ndarray]] = None
+    #: The classical COF's block sums over this range (docs/method.md 6a, 6e), or None.
+    classical: Optional[ClassicalTotals] = None
 
 
 def analyze_partial(source: Any, **options: Any) -> Partial:
@@ -315,11 +318,13 @@ def combine(parts: Sequence[Partial]) -> Results:
     warnings = tuple(dict.fromkeys(w for p in parts for w in p.warnings))
     res = finish(st, parts[0].aux_role, plan, parts[0].route, warnings=warnings)
     res.params.update(parts[0].tribo)
-    if parts[0].strokes is not None:
-        res = dataclasses.replace(res, strokes=parts[0].strokes)
+    res.params["n_samples_total"] = sum(int(p.tribo.get("n_samples_total", 0)) for p in parts)
+    totals = [p.classical for p in parts if p.classical is not None]
+    res = dataclasses.replace(res, strokes=parts[0].strokes,
+                              classical=ClassicalTotals.merge(totals) if totals else None)  # fmt: skip
     if len(parts) > 1:
         res.params.update(start=0, stop=None, ranges=len(parts))
-    return res
+    return settle(res)
 
 
 def _analyze(source: Any, options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
@@ -389,11 +394,15 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
             tribo["rectified"] = True
             if not run_source:
                 raise ValueError("no stroke's central part holds 3 samples: no window to analyse")
+    tribo["n_samples_total"] = _range_samples(source, rec, plan)
+    totals = None
+    if plan.classical is not None and strokes is None:  # docs/method.md 6a, 6e: every sample in contact
+        totals = classical_totals(source, rec, plan.classical, plan.start, plan.stop)
     if partial:
         p = _partial(run_source, run_rec, run_plan)
         warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + ((window_note,) if window_note else ())
         return dataclasses.replace(p, plan=plan, warnings=tuple(dict.fromkeys(warnings)), tribo=tribo,
-                                   strokes=strokes)  # fmt: skip
+                                   strokes=strokes, classical=totals)  # fmt: skip
     res = _analyze_aligned(run_source, run_rec, run_plan, align)
     if run_rec is not rec and rec is not None:
         res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
@@ -402,9 +411,39 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
         res.params.update(start=plan.start, stop=plan.stop)
     if window_note:
         res = dataclasses.replace(res, warnings=res.warnings + (window_note,))
-    if strokes is not None:
-        res = dataclasses.replace(res, strokes=strokes)
-    return res
+    return settle(dataclasses.replace(res, strokes=strokes, classical=totals))
+
+
+def _range_samples(source: Any, rec: Any, plan: Plan) -> int:
+    """Samples in the analysed range ``plan.start``..``plan.stop`` (0 for a one-pass stream)."""
+    if rec is not None:
+        n = int(rec.n_samples)
+    elif isinstance(source, Mapping) and "fz" in source:
+        n = len(source["fz"])
+    elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a for a in source):
+        n = sum(len(a["fz"]) for a in source)
+    else:
+        return 0
+    stop = n if plan.stop is None else min(int(plan.stop), n)
+    return max(0, stop - int(plan.start))
+
+
+def settle(res: Results) -> Results:
+    """The results with the warnings of the method in use (docs/method.md 6e).
+
+    The dynamic estimator's notes (``params["dynamic_notes"]``) are dropped
+    when the headline is not the dynamic COF; a difference of the
+    instrument's COF from the headline over 0.5 % is explained in a warning.
+    """
+    from .headline import instrument_check
+
+    head = res.headline
+    notes = set(res.params.get("dynamic_notes") or ())
+    kept = [w for w in res.warnings if head.method == "dynamic" or w not in notes]
+    _, more = instrument_check(res, head)
+    out = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*kept, *more))))
+    out.__dict__["headline"] = head  # the cached headline does not depend on the warnings
+    return out
 
 
 def _is_dataframe(source: Any) -> bool:
@@ -423,6 +462,10 @@ def _tribometer_params(rec: Any, pre: Dict[str, Any], window_note: str) -> Dict[
     if spec is not None:
         out["min_fn"] = spec.min_fn
         out["tare_offsets"] = {"fy": spec.tare_fy, "fz": spec.tare_fz}
+    contact = pre.get("contact")
+    if contact is not None:
+        out["contact"] = {"rule": contact.rule, "unloaded_fraction": contact.unloaded_fraction,
+                          "excluded_fraction": contact.excluded_fraction}  # fmt: skip
     if window_note:
         out["window_note"] = window_note
     if rec is not None and getattr(rec, "roles", None) is not None:
@@ -727,6 +770,7 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     params = plan.params()
     params.update(orientation_used=s, start=plan.start, stop=plan.stop, threads=plan.threads, route=route)
     params.update(found)
+    params["dynamic_notes"] = list(notes)  # the dynamic method's own notes (settle drops them when it does not apply)
     warnings = list(warnings) + notes
     return Results(
         table=table,

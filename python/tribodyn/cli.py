@@ -583,19 +583,22 @@ def _print_demo(summary: Dict[str, Any], out: str) -> None:
 
 
 def _tribometer_lines(s: Dict[str, Any]) -> List[str]:
-    """The classical, instrument and per-stroke COF, the automatic role map and the chosen window (issue 14)."""
+    """The instrument's COF beside the headline, the strokes, the contact rule, the role map and the window."""
     out: List[str] = []
-    cl, ins, st = s.get("classical") or {}, s.get("instrument") or {}, s.get("strokes") or {}
+    ins, st = s.get("instrument_comparison") or {}, s.get("strokes") or {}
     parts = []
-    if cl.get("n"):
-        parts.append(f"classical COF median {cl['median']:.4f} (mean {cl['mean']:.4f}, {cl['n']} windows)")
-    if ins.get("n"):
-        parts.append(f"instrument COF median {ins['median']:.4f} (mean {ins['mean']:.4f})")
+    if ins.get("mean") is not None:
+        diff = ins.get("difference")
+        d = f", {100 * diff:+.2f} % from the headline" if isinstance(diff, float) and math.isfinite(diff) else ""
+        parts.append(f"instrument COF mean {ins['mean']:.4f} over {ins.get('over', 'the same samples')}{d}")
     for d in ("forward", "backward"):
         if (st.get(d) or {}).get("n"):
-            parts.append(f"{d} strokes COF median {st[d]['median']:.4f} ({st[d]['n']} strokes)")
+            parts.append(f"{d} strokes COF mean {st[d]['mean']:.4f} ({st[d]['n']} strokes)")
     if parts:
         out.append("; ".join(parts))
+    contact = s.get("contact") or {}
+    if contact.get("rule"):
+        out.append(f"contact: {contact['rule']}")
     roles = s.get("roles") or {}
     if roles and s.get("roles_source") == "automatic":
         text = "roles: " + ", ".join(f"{r} <- {n}" for r, n in roles.items())
@@ -611,18 +614,13 @@ def _tribometer_lines(s: Dict[str, Any]) -> List[str]:
 
 
 def _print_analysis(summary: Dict[str, Any], out: str) -> None:
-    for name, s in summary["recordings"].items():
-        mu = s["mu_r"]
-        text = f"{name}: {s['gated']}/{s['windows']} windows pass the gate"
-        if mu.get("n"):
-            text += f"; COF median {mu['median']:.4f} (90 % of the windows {mu['p05']:.4f} to {mu['p95']:.4f})"
-            ci = (mu.get("ci") or {}).get("median")
-            if ci:
-                text += f", 95 % interval of the median {ci[0]:.4f} to {ci[1]:.4f}"
-        print(text)
-        from ._labels import units_in_text
-        from .results import verdict_text
+    from ._labels import units_in_text
+    from .results import verdict_text
 
+    for name, s in summary["recordings"].items():
+        head = s.get("headline") or {}
+        print(f"{name}: {head.get('text', 'no headline')}")
+        print(f"  {s['gated']}/{s['windows']} windows pass the dynamic method's gate")
         verdict = verdict_text(s.get("verdict"))
         if verdict:
             print(f"  verdict: {units_in_text(verdict)}")

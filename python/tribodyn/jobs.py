@@ -431,6 +431,20 @@ def column_units() -> List[Dict[str, str]]:
     return [{"name": c.name, "unit": c.unit, "meaning": c.meaning} for c in TABLE]
 
 
+def _headline_cell(head: Mapping[str, Any]) -> str:
+    """'0.1492 (95 % interval 0.1427 to 0.1557), mean of 1801 samples, 100.0 % of the recording' or why none."""
+    if head.get("value") is None:
+        return "none: " + "; ".join(str(r) for r in head.get("reasons") or ())
+    text = f"{head['value']:.4f}"
+    if head.get("low") is not None and head.get("high") is not None:
+        text += f" (95 % interval {head['low']:.4f} to {head['high']:.4f})"
+    text += f", {head.get('statistic')} of {head.get('n')}"
+    frac = head.get("fraction_used")
+    if isinstance(frac, (int, float)):
+        text += f", {100 * frac:.1f} % of the recording's samples"
+    return text
+
+
 def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
     """A short, readable summary for the report's first table: labels in words, units as °C, A/mm², N."""
     out: Dict[str, Any] = {}
@@ -439,17 +453,19 @@ def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
             name = _NAME_TEXT.get(key, str(key))  # a recording's file name stays as it is
             mu = val["mu_r"]
             out[f"{name}: windows analysed (passed the quality gate)"] = f"{val['windows']} ({val['gated']})"
+            head = val.get("headline") or {}
+            if head:
+                out[f"{name}: COF (headline, {head.get('method')})"] = _headline_cell(head)
+                how = f"{head.get('estimate')}; interval: {head.get('interval')}"
+                out[f"{name}: how the headline is computed"] = how
             if val.get("verdict"):
                 from .results import verdict_text
 
                 out[f"{name}: verdict"] = units_in_text(verdict_text(val["verdict"]))
-            if mu.get("n"):
-                out[f"{name}: COF, median of the gated windows [5th, 95th percentile]"] = (
+            if mu.get("n") and head.get("method") == "dynamic":
+                out[f"{name}: COF of the gated windows [5th, 95th percentile]"] = (
                     f"{mu['median']:.4f} [{mu['p05']:.4f}, {mu['p95']:.4f}]"
                 )
-                ci = (mu.get("ci") or {}).get("median")
-                if ci is not None:
-                    out[f"{name}: COF median, 95 % interval"] = f"{ci[0]:.4f} to {ci[1]:.4f}"
             for rng in (val[k] for k in val if k.startswith("operating_range")):
                 if not rng:
                     continue

@@ -116,18 +116,13 @@ def unit_text(unit: str) -> str:
     return _labels.unit_text(unit)
 
 
-def _median_ci(mu: Mapping[str, Any]) -> str:
-    ci = (mu.get("ci") or {}).get("median")
-    return f" (95 % interval {ci[0]:.4f} to {ci[1]:.4f})" if ci else ""
-
-
 def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, Any],
                   ranges: Optional[Mapping[str, Any]] = None) -> List[str]:  # fmt: skip
     """The verdict of one recording in words and numbers, headline first (docs/method.md 3d, 5, 7).
 
-    1. ``summary["verdict"]`` when the summary has one; 2. the headline COF:
-    the median of mu_r over the gated windows with its 95 % bootstrap
-    interval and the estimator (``params["estimator"]``); 3. the optimum
+    1. the headline (``summary["headline"]``, :class:`tribodyn.Headline`:
+    the COF chosen by the verdict, its 95 % interval and how it is
+    computed); 2. the verdict in words; 3. the optimum
     ranges with their intervals and verdicts; 4. the quality: gated
     fraction and the main failure reasons; 5. how many reader warnings.
     """
@@ -135,18 +130,14 @@ def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, An
 
     lines: List[str] = []
     verdict = verdict_text(summary.get("verdict"))
+    head = summary.get("headline") or {}
     mu = summary.get("mu_r") or {}
-    est = params.get("estimator") or summary.get("estimator") or "ols"
     method = " (the paper's method)" if params.get("method") == "paper" else ""
-    if mu.get("n"):
-        lines.append(
-            f"{name}: COF μ = {mu['median']:.4f}{_median_ci(mu)}, the median over {mu['n']} gated windows of the "
-            f"{est} estimator{method}; 90 % of the windows between {mu['p05']:.4f} and {mu['p95']:.4f}."
-        )
-    else:
-        lines.append(f"{name}: no COF: none of the {summary.get('windows', 0)} windows passed the quality gate.")
+    lines.append(f"{name}: {head.get('text', 'no headline')}{method}")
+    if head.get("method") == "dynamic" and mu.get("n"):
+        lines[0] += f" 90 % of the gated windows lie between {mu['p05']:.4f} and {mu['p95']:.4f}."
     if verdict:
-        lines.insert(1, f"{name}: {_labels.units_in_text(verdict)}")
+        lines.append(f"{name}: {_labels.units_in_text(verdict)}")
     for by, rng in (ranges or {}).items():
         if not rng:
             continue

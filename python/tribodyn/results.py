@@ -5,12 +5,14 @@ from __future__ import annotations
 import html as _html
 import warnings as _warnings
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
 from .columns import UNITS, WINDOW_COLUMNS
 from .correlation import XcorrResult
+from .headline import ClassicalTotals, Headline
 
 __all__ = ["BinTable", "CofResult", "Results", "WINDOW_COLUMNS"]
 
@@ -188,6 +190,8 @@ class Results:
     warnings: Tuple[str, ...] = ()
     #: Per-stroke table of a reciprocating test (``tribometer.STROKE_COLUMNS``), or None (docs/method.md 6c).
     strokes: Optional[Dict[str, np.ndarray]] = None
+    #: The classical COF's sums over the whole recording (docs/method.md 6a, 6e), or None.
+    classical: Optional[ClassicalTotals] = None
 
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""
@@ -210,6 +214,7 @@ class Results:
             moments=self.moments,
             warnings=self.warnings,
             strokes=self.strokes,
+            classical=self.classical,
         )
 
     def __len__(self) -> int:
@@ -236,29 +241,33 @@ class Results:
         """Unit of each column of the table (:data:`tribodyn.columns.UNITS`; ``""`` for labels)."""
         return {c: UNITS.get(c, "") for c in self.table}
 
-    def headline(self) -> str:
-        """The verdict in one line: ``summary()["verdict"]`` when the summary has one, else the COF headline.
+    @cached_property
+    def verdict(self) -> Dict[str, Any]:
+        """Whether the dynamic method applies, why not, and the motion (``tribometer.verdict``; docs/method.md 6d)."""
+        from .tribometer import verdict
 
-        The COF headline is the median of mu_r over the gated windows with its
-        95 % interval (moving-block bootstrap, docs/method.md 3d), the
-        estimator and the gated fraction.
+        return verdict(self.table, self.params, self.strokes, int(self.gated.sum()))
+
+    @cached_property
+    def headline(self) -> Headline:
+        """The one COF to read first, chosen by the verdict (:class:`tribodyn.Headline`; docs/method.md 6e).
+
+        The dynamic COF (median mu_r of the gated windows) when the dynamic
+        method applies; else the classical COF of the whole recording
+        (unidirectional) or the per-stroke COF (reciprocating), both means.
+        ``str(res.headline)`` is its one-line text.
         """
-        s = self.summary()
-        text = verdict_text(s.get("verdict"))
-        return f"{text} {_cof_headline(s, self.params)}" if text else _cof_headline(s, self.params)
+        from .headline import choose
+
+        return choose(self, self.verdict)
 
     def __repr__(self) -> str:
         n = len(self)
         ok = np.asarray(self.table["ok"], dtype=bool) if n else np.zeros(0, dtype=bool)
-        mu = np.asarray(self.table["mu_r"], dtype=float)[ok] if n else np.zeros(0)
-        mu = mu[np.isfinite(mu)]
-        cof = f"mu_r median {np.median(mu):.4g}" if mu.size else "no gated COF"
         t = np.asarray(self.table["time"], dtype=float) if n else np.zeros(0)
         span = f", t {t.min():.6g}..{t.max():.6g} s" if n and np.isfinite(t).any() else ""
-        est = self.params.get("estimator")
-        est_text = f", estimator {est}" if est else ""
-        text = f"<Results: {n} windows, {int(ok.sum())} gated, {cof}{est_text}{span}>"
-        return text if len(text) <= 300 else text[:296] + "...>"
+        text = f"<Results: {self.headline.text} {n} windows, {int(ok.sum())} gated{span}>"
+        return text if len(text) <= 400 else text[:396] + "...>"
 
     def _repr_html_(self) -> str:
         """Jupyter's view: the verdict (or the COF headline), the counts and the first rows with units."""
@@ -284,7 +293,7 @@ class Results:
         return (
             '<div class="tribodyn-results">'
             f"<p><b>tribodyn Results</b>: {n} windows, {int(np.sum(self.table['ok']))} passed the quality gate</p>"
-            f"<p><b>{esc(self.headline())}</b></p>"
+            f"<p><b>{esc(self.headline.text)}</b></p>"
             f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>{more}</div>"
         )
 
@@ -359,12 +368,18 @@ class Results:
                 counts[key] = counts.get(key, 0) + 1
         out["gate_failures"] = counts
         out.update(self._tribometer_summary(stats))
+        head = self.headline
+        out["headline"] = head.to_dict()
+        out["verdict"]["cof"] = out["headline"]
+        from .headline import instrument_check
+
+        comparison, _ = instrument_check(self, head)
+        if comparison:
+            out["instrument_comparison"] = comparison
         return out
 
     def _tribometer_summary(self, stats: Any) -> Dict[str, Any]:
         """ "classical", "instrument", "strokes", "roles", "motion" and "verdict" (docs/method.md 6a-6d)."""
-        from .tribometer import verdict
-
         out: Dict[str, Any] = {}
         for key, col in (("classical", "mu_classical"), ("instrument", "mu_instrument")):
             v = np.asarray(self.table.get(col, []), dtype=float)
@@ -386,10 +401,10 @@ class Results:
             allm = np.asarray(st["mu"], dtype=float)
             per["all"] = dict(stats(allm[np.isfinite(allm)]))
             out["strokes"] = per
-        for key in ("roles", "roles_source", "motion", "window_note"):
+        for key in ("roles", "roles_source", "motion", "window_note", "contact"):
             if self.params.get(key) is not None:
                 out[key] = self.params[key]
-        out["verdict"] = verdict(self.table, self.params, self.strokes, int(self.gated.sum()))
+        out["verdict"] = dict(self.verdict)
         return out
 
 
@@ -407,8 +422,8 @@ def _cell_text(v: Any) -> str:
 
 
 def verdict_text(verdict: Any) -> str:
-    """``summary()["verdict"]`` in words: a text as it is; the dict form (dynamic_method, motion, reasons,
-    cof) as one sentence; "" when there is none."""
+    """``summary()["verdict"]`` in words: a text as it is; the dict form (dynamic_method, motion, reasons)
+    as one sentence, without the COF (that is the headline's, :class:`tribodyn.Headline`); "" when there is none."""
     if not verdict:
         return ""
     if isinstance(verdict, str):
@@ -425,22 +440,7 @@ def verdict_text(verdict: Any) -> str:
     reasons = [str(r) for r in verdict.get("reasons") or ()]
     if reasons:
         text += " " + "; ".join(reasons) + "."
-    cof = verdict.get("cof")
-    if isinstance(cof, Mapping) and cof.get("value") is not None and np.isfinite(cof["value"]):
-        text += f" Headline COF {float(cof['value']):.4g} from {cof.get('estimate') or 'the analysis'}."
     return text
-
-
-def _cof_headline(s: Mapping[str, Any], params: Mapping[str, Any]) -> str:
-    """'COF 0.152 (95 % interval 0.150-0.153; median of 380 gated windows of 406, corrected estimator)'."""
-    mu = s.get("mu_r") or {}
-    est = params.get("estimator") or s.get("estimator")
-    how = f", {est} estimator" if est else ""
-    if not mu.get("n"):
-        return f"No COF: none of the {s.get('windows', 0)} windows passed the quality gate{how}."
-    ci = (mu.get("ci") or {}).get("median")
-    iv = f" (95 % interval {ci[0]:.4g} to {ci[1]:.4g})" if ci else ""
-    return f"COF {mu['median']:.4g}{iv}: median of mu_r over {mu['n']} gated windows of {s.get('windows')}{how}."
 
 
 #: Resamples of :func:`bootstrap_ci` and its fixed seed (results are reproducible).

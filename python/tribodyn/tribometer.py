@@ -25,6 +25,8 @@ import numpy as np
 
 __all__ = [
     "MIN_FN_FRACTION",
+    "Contact",
+    "detect_contact",
     "STROKE_FRACTION",
     "ClassicalSpec",
     "auto_window",
@@ -142,6 +144,152 @@ def _is_range(idx: Any) -> bool:
     return type(idx).__name__ == "RangeIndex"
 
 
+# -- contact ---------------------------------------------------------------------------
+
+#: An unloaded cluster's robust spread must be under this fraction of its distance to the loaded samples.
+UNLOADED_TIGHT = 0.1
+#: Least share of the samples an unloaded cluster holds (and at least 5 samples).
+UNLOADED_MIN_SHARE = 0.005
+#: min_fn beyond an unloaded level: this many of its robust standard deviations ...
+CONTACT_SIGMAS = 6.0
+#: ... and at least this fraction of the distance between the unloaded level and the loaded median.
+CONTACT_GAP_FRACTION = 0.05
+#: Without an unloaded cluster: min_fn is 4 noise standard deviations (from sample-to-sample differences),
+#: at least this fraction of the median |fz| and at most MIN_FN_FRACTION of it.
+CONTACT_FLOOR_FRACTION = 0.01
+#: fz has a static level when at least this share of the samples beyond min_fn has one sign.
+STATIC_SIGN_SHARE = 0.95
+
+
+@dataclasses.dataclass(frozen=True)
+class Contact:
+    """Which samples are in contact, decided from the distribution of fz (docs/method.md 6a).
+
+    Attributes
+    ----------
+    min_fn : float
+        Least |fz - tare_fz| (N) of a sample in contact.
+    tare_fy, tare_fz : float
+        The unloaded level of fy and fz (median over the unloaded cluster; 0 without one).
+    unloaded_fraction : float
+        Share of the samples looked at that lie in the unloaded cluster (0 without one).
+    excluded_fraction : float
+        Share of the samples looked at that are not in contact.
+    static : bool
+        fz carries a static level (raw forces): the classical COF applies.
+    rule : str
+        How min_fn was decided, in words.
+    """
+
+    min_fn: float
+    tare_fy: float
+    tare_fz: float
+    unloaded_fraction: float
+    excluded_fraction: float
+    static: bool
+    rule: str
+
+
+def _robust_sd(v: np.ndarray) -> float:
+    """1.4826 x the median absolute deviation."""
+    return 1.4826 * float(np.median(np.abs(v - np.median(v)))) if v.size else 0.0
+
+
+def _otsu(v: np.ndarray, bins: int = 1024) -> float:
+    """Otsu's threshold of ``v``: the split of its histogram with the largest between-class variance."""
+    lo, hi = float(v.min()), float(v.max())
+    if not hi > lo:
+        return hi
+    h, edges = np.histogram(v, bins=bins, range=(lo, hi))
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    w = np.cumsum(h)[:-1].astype(float)
+    m = np.cumsum(h * centres)[:-1]
+    total, mt = float(h.sum()), float((h * centres).sum())
+    w2 = total - w
+    with np.errstate(divide="ignore", invalid="ignore"):
+        between = w * w2 * (m / w - (mt - m) / w2) ** 2
+    between[~np.isfinite(between)] = -1.0
+    return float(edges[int(np.argmax(between)) + 1])
+
+
+def _unloaded(z: np.ndarray) -> Optional[np.ndarray]:
+    """The mask of the unloaded cluster of ``z``, or None (docs/method.md 6a).
+
+    Otsu's split of fz into two classes; the class nearer zero is an
+    unloaded cluster when it holds at least UNLOADED_MIN_SHARE of the
+    samples and its robust spread is under UNLOADED_TIGHT of the distance
+    between the two classes' medians. A cluster that splits again the same
+    way (lift-off below a low load step) is narrowed to its part nearer zero.
+    """
+    n = z.size
+    idx = np.arange(n)
+    found: Optional[np.ndarray] = None
+    for _ in range(3):
+        v = z[idx]
+        if v.size < 10:
+            break
+        thr = _otsu(v)
+        low = v <= thr
+        if low.all() or not low.any():
+            break
+        a, b = idx[low], idx[~low]
+        ma, mb = float(np.median(z[a])), float(np.median(z[b]))
+        u, other = (a, mb) if abs(ma) <= abs(mb) else (b, ma)
+        mu_u = float(np.median(z[u]))
+        gap = abs(other - mu_u)
+        if u.size < max(5, UNLOADED_MIN_SHARE * n) or not gap > 0 or _robust_sd(z[u]) > UNLOADED_TIGHT * gap:
+            break
+        found, idx = u, u
+    if found is None:
+        return None
+    mask = np.zeros(n, dtype=bool)
+    mask[found] = True
+    return mask
+
+
+def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
+    """The samples in contact, from the distribution of fz (finite samples; docs/method.md 6a).
+
+    With an unloaded cluster (:func:`_unloaded`: before loading, lift-off),
+    fy and fz are tared by its medians and a sample is in contact when
+    |fz - tare| >= max(CONTACT_SIGMAS x its robust SD, CONTACT_GAP_FRACTION x
+    the distance to the loaded median). Without one (a dead weight, a load
+    ramp), there is no tare and min_fn = 4 noise SDs (robust SD of the
+    sample-to-sample differences / sqrt 2), clipped to
+    [CONTACT_FLOOR_FRACTION, MIN_FN_FRACTION] x the median |fz|.
+    """
+    fy = np.asarray(fy, dtype=float)
+    fz = np.asarray(fz, dtype=float)
+    n = fz.size
+    if n == 0:
+        return Contact(0.0, 0.0, 0.0, 0.0, 0.0, False, "no samples")
+    unl = _unloaded(fz)
+    if unl is not None:
+        t_fz = float(np.median(fz[unl]))
+        t_fy = float(np.median(fy[unl]))
+        loaded = float(np.median(fz[~unl]))
+        sd = _robust_sd(fz[unl])
+        thr = max(CONTACT_SIGMAS * sd, CONTACT_GAP_FRACTION * abs(loaded - t_fz))
+        rule = (
+            f"unloaded cluster at fz = {t_fz:.4g} N ({100 * unl.mean():.1f} % of the samples; fy there "
+            f"{t_fy:.4g} N) taken as the tare; in contact when |fz - tare| >= {thr:.4g} N"
+        )
+        static = True
+        unl_frac = float(unl.mean())
+    else:
+        t_fz = t_fy = 0.0
+        absz = float(np.median(np.abs(fz)))
+        noise = _robust_sd(np.diff(fz)) / np.sqrt(2.0) if n > 1 else 0.0
+        thr = min(max(4.0 * noise, CONTACT_FLOOR_FRACTION * absz), MIN_FN_FRACTION * absz)
+        rule = f"no unloaded cluster: in contact when |fz| >= {thr:.4g} N (4 noise SDs, within 1-5 % of median |fz|)"
+        beyond = fz[np.abs(fz) >= thr]
+        share = float(max(np.mean(beyond > 0), np.mean(beyond < 0))) if beyond.size else 0.0
+        static = bool(share >= STATIC_SIGN_SHARE and beyond.size >= 0.5 * n)
+        unl_frac = 0.0
+    excluded = float(np.mean(np.abs(fz - t_fz) < thr)) if thr > 0 else float(np.mean(fz == t_fz))
+    return Contact(float(thr), t_fy, t_fz, unl_frac, excluded, static, rule)
+
+
 # -- pre-pass -------------------------------------------------------------------------
 
 
@@ -213,15 +361,26 @@ def prepass(
         fy, fz = fy[tare_n:], fz[tare_n:]
     elif tare is not None and not isinstance(tare, (int, float)):
         raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+    contact: Optional[Contact] = None
+    if not isinstance(tare, Mapping) and tare_n == 0 and min_fn is None:
+        contact = detect_contact(fy, fz)
+        t_fy, t_fz = contact.tare_fy, contact.tare_fz
     fy, fz = fy - t_fy, fz - t_fz
     med = float(np.median(fz)) if fz.size else 0.0
     mad = float(np.median(np.abs(fz - med))) if fz.size else 0.0
-    static = bool(abs(med) > 0 and abs(med) > 3.0 * mad)
+    static = bool(abs(med) > 0 and abs(med) > 3.0 * mad) or bool(contact is not None and contact.static)
     out["static"] = static
     absz = float(np.median(np.abs(fz)))
     out["median_abs_fz"] = absz
+    if contact is not None:
+        out["contact"] = contact
     if static or min_fn is not None or tare is not None:
-        thr = float(min_fn) if min_fn is not None else MIN_FN_FRACTION * absz
+        if min_fn is not None:
+            thr = float(min_fn)
+        elif contact is not None:
+            thr = contact.min_fn
+        else:
+            thr = MIN_FN_FRACTION * absz
         if not np.isfinite(thr) or thr < 0:
             raise ValueError(f"min_fn must be finite and >= 0, got {min_fn!r}")
         out["spec"] = ClassicalSpec(thr, t_fy, t_fz)
@@ -368,7 +527,11 @@ def _stats(v: np.ndarray) -> Dict[str, Any]:
 
 def verdict(table: Mapping[str, np.ndarray], params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarray]],
             gated: int) -> Dict[str, Any]:  # fmt: skip
-    """Whether the dynamic method applies, the reasons, and the headline COF (docs/method.md 6d)."""
+    """Whether the dynamic method applies, the reasons and the motion (docs/method.md 6d).
+
+    The COF it leads to is :attr:`tribodyn.Results.headline` (``headline.choose``; docs/method.md 6e);
+    ``Results.summary()["verdict"]["cof"]`` is that headline.
+    """
     reasons: List[str] = []
     motion = params.get("motion", "unidirectional")
     fz_mean = np.asarray(table.get("fz_mean", []), dtype=float)
@@ -399,24 +562,4 @@ def verdict(table: Mapping[str, np.ndarray], params: Mapping[str, Any], strokes:
         if agree < 0.9 or abs(r) < 0.2:
             reasons.append(f"orientation uncertain (r = {r:+.2f}, {100 * agree:.0f} % of windows agree)")
     dynamic = not reasons
-    mu = np.asarray(table.get("mu_r", []), dtype=float)[np.asarray(table.get("ok", []), dtype=bool)]
-    mu = mu[np.isfinite(mu)]
-    value: Optional[float] = None
-    estimate = None
-    if dynamic and mu.size:
-        value = float(np.median(mu))
-        estimate = (
-            "dynamic regression, direction-rectified (median mu_r of the gated stroke windows)"
-            if rectified
-            else "dynamic regression (median mu_r of the gated windows)"
-        )
-    elif strokes is not None and len(strokes.get("mu", [])) and np.isfinite(strokes["mu"]).any():
-        value = float(np.nanmedian(strokes["mu"]))
-        estimate = "per-stroke classical (median over strokes of mean |fy|/|fz|, central stroke fraction)"
-    else:
-        c = np.asarray(table.get("mu_classical", []), dtype=float)
-        c = c[np.isfinite(c)]
-        if c.size:
-            value, estimate = float(np.median(c)), "classical (median over windows of mean |fy|/|fz|)"
-    return {"dynamic_method": dynamic, "reasons": reasons, "motion": motion,
-            "cof": {"value": value, "estimate": estimate}}  # fmt: skip
+    return {"dynamic_method": dynamic, "reasons": reasons, "motion": motion}

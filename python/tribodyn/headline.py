@@ -1,0 +1,522 @@
+"""The one COF a user reads first: :class:`Headline`, chosen by the verdict (docs/method.md 6e).
+
+* :class:`ClassicalTotals`: the classical COF's sums per block of the whole
+  recording (every sample in contact, tail included), read in one pass by
+  :func:`classical_totals` (docs/method.md 6a).
+* :func:`batch_mean` / :func:`ratio_mean`: a mean with its 95 % interval by
+  batch means over contiguous batches (docs/method.md 6e).
+* :func:`choose`: the headline of a :class:`tribodyn.Results`: the dynamic
+  COF when the dynamic method applies, else the classical COF of the whole
+  recording (unidirectional) or the per-stroke COF (reciprocating).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .results import Results
+
+__all__ = ["HEADLINE_METHODS", "ClassicalTotals", "Headline", "batch_mean", "choose", "classical_totals", "ratio_mean"]
+
+#: The methods a headline can come from (docs/method.md 6e).
+HEADLINE_METHODS = ("dynamic", "classical", "per-stroke")
+#: Batches of the batch-means interval (docs/method.md 6e).
+BATCHES = 32
+#: Largest block (samples) the classical pass reads at once; its blocks are the batch-means grid.
+MAX_BLOCK = 1 << 20
+#: An instrument COF that differs from the classical COF by more than this (relative) is explained in a warning.
+INSTRUMENT_TOLERANCE = 0.005
+#: Student's t quantile 0.975 for 1..40 degrees of freedom (scipy.stats.t.ppf(0.975, df); tested against it).
+_T975 = (
+    12.706205, 4.302653, 3.182446, 2.776445, 2.570582, 2.446912, 2.364624, 2.306004, 2.262157, 2.228139,
+    2.200985, 2.178813, 2.160369, 2.144787, 2.13145, 2.119905, 2.109816, 2.100922, 2.093024, 2.085963,
+    2.079614, 2.073873, 2.068658, 2.063899, 2.059539, 2.055529, 2.051831, 2.048407, 2.04523, 2.042272,
+    2.039513, 2.036933, 2.034515, 2.032245, 2.030108, 2.028094, 2.026192, 2.024394, 2.022691, 2.021075,
+)  # fmt: skip
+
+
+def t975(df: int) -> float:
+    """Student's t quantile 0.975 with ``df`` degrees of freedom (normal 1.96 beyond 40)."""
+    if df < 1:
+        return float("nan")
+    return _T975[df - 1] if df <= len(_T975) else 1.959964 + 2.4 / df
+
+
+@dataclass(frozen=True)
+class Headline:
+    """The COF of a recording that a user reads first (docs/method.md 6e).
+
+    Attributes
+    ----------
+    method : str
+        "dynamic" (regression of the dynamic forces, docs/method.md 3-5),
+        "classical" (mean |fy|/|fz| over every sample in contact, 6a) or
+        "per-stroke" (mean over cycles of the forward/backward stroke means, 6c).
+    value : float
+        The COF; NaN when the method that applies yields none (``reasons`` says why).
+    low, high : float
+        Its 95 % interval (``interval`` says how it is computed).
+    statistic : str
+        "median" (dynamic: the paper's median over gated windows) or "mean"
+        (classical and per-stroke, as instruments report).
+    n : int
+        Windows (dynamic), samples (classical) or cycles (per-stroke) behind the value.
+    fraction_used : float
+        Share of the recording's samples that the value uses.
+    reasons : tuple of str
+        Why the dynamic method does not apply, and why there is no value (with what to pass).
+    estimate : str
+        How the value is computed, in words.
+    interval : str
+        How the interval is computed, in words.
+    """
+
+    method: str
+    value: float
+    low: float
+    high: float
+    statistic: str
+    n: int
+    fraction_used: float
+    reasons: Tuple[str, ...] = ()
+    estimate: str = ""
+    interval: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """True when there is a value."""
+        return math.isfinite(self.value)
+
+    @property
+    def text(self) -> str:
+        """The headline in one line, e.g. 'COF 0.1492 (95 % interval 0.1481 to 0.1503): classical, mean ...'."""
+        if not self.ok:
+            why = "; ".join(self.reasons) if self.reasons else "nothing to compute it from"
+            return f"No {self.method} COF: {why}."
+        iv = f" (95 % interval {self.low:.4g} to {self.high:.4g})" if math.isfinite(self.low) else ""
+        return f"COF {self.value:.4g}{iv}: {self.method}, {self.estimate}."
+
+    def __str__(self) -> str:
+        return self.text
+
+    def __call__(self) -> str:
+        """``res.headline()`` was a method returning the text: it still does, with a DeprecationWarning."""
+        import warnings
+
+        warnings.warn(
+            "Results.headline is a Headline object now: use res.headline.text (or str(res.headline))",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.text
+
+    def to_dict(self) -> Dict[str, Any]:
+        """JSON-ready: NaN as None, ``text`` added."""
+
+        def num(v: float) -> Optional[float]:
+            return float(v) if math.isfinite(v) else None
+
+        return {
+            "method": self.method,
+            "value": num(self.value),
+            "low": num(self.low),
+            "high": num(self.high),
+            "statistic": self.statistic,
+            "n": int(self.n),
+            "fraction_used": num(self.fraction_used),
+            "reasons": list(self.reasons),
+            "estimate": self.estimate,
+            "interval": self.interval,
+            "text": self.text,
+        }
+
+
+# -- batch means ----------------------------------------------------------------------
+
+
+def ratio_mean(sums: np.ndarray, counts: np.ndarray, batches: int = BATCHES) -> Tuple[float, float, float, int]:
+    """(mean, low, high, batches used): sum(sums) / sum(counts) with its 95 % batch-means interval.
+
+    ``sums`` and ``counts`` are per block in time order; the blocks are
+    grouped into at most ``batches`` contiguous batches of about equal
+    size; the variance of the ratio mean is the linearised (delta-method)
+    batch-means variance B / (B - 1) * sum_g (S_g - m N_g)^2 / N^2 over the
+    B batches holding any count, and the interval is m +- t(0.975, B - 1)
+    times its root (docs/method.md 6e). No interval from fewer than 3 batches.
+    """
+    s = np.asarray(sums, dtype=float)
+    c = np.asarray(counts, dtype=float)
+    total = float(c.sum())
+    if total <= 0:
+        return float("nan"), float("nan"), float("nan"), 0
+    m = float(s.sum()) / total
+    edges = np.unique(np.linspace(0, s.size, min(batches, s.size) + 1).round().astype(np.int64))
+    sg = np.add.reduceat(s, edges[:-1])
+    cg = np.add.reduceat(c, edges[:-1])
+    keep = cg > 0
+    b = int(keep.sum())
+    if b < 3:
+        return m, float("nan"), float("nan"), b
+    z = sg[keep] - m * cg[keep]
+    se = math.sqrt(b / (b - 1) * float(np.sum(z * z))) / total
+    h = t975(b - 1) * se
+    return m, m - h, m + h, b
+
+
+def batch_mean(values: np.ndarray, batches: int = BATCHES) -> Tuple[float, float, float, int]:
+    """(mean, low, high, batches used) of ``values`` in time order (NaN dropped): :func:`ratio_mean` with counts 1."""
+    v = np.asarray(values, dtype=float)
+    fin = np.isfinite(v)
+    return ratio_mean(np.where(fin, v, 0.0), fin.astype(float), batches)
+
+
+# -- the classical COF over the whole recording -----------------------------------------
+
+
+@dataclass(frozen=True)
+class ClassicalTotals:
+    """The classical COF's sums per block of the recording (docs/method.md 6a, 6e).
+
+    Block k holds samples ``k * block`` .. ``(k + 1) * block`` of the
+    recording (the grid does not depend on the analysed range, so that the
+    ranges of :func:`tribodyn.analyze_many` add up). A sample is in contact
+    when fy and fz are finite and ``|fz - tare_fz| >= min_fn`` (and > 0).
+    """
+
+    block: int
+    ids: np.ndarray
+    count: np.ndarray
+    ratio_sum: np.ndarray
+    signed_sum: np.ndarray
+    inst_count: np.ndarray
+    inst_sum: np.ndarray
+    samples: int
+    #: The instrument's own COF column was read (a ``cof`` role).
+    instrument: bool = False
+
+    @property
+    def contact(self) -> int:
+        """Samples in contact."""
+        return int(self.count.sum())
+
+    def mean(self) -> Tuple[float, float, float, int]:
+        """:func:`ratio_mean` of the blocks."""
+        return ratio_mean(self.ratio_sum, self.count)
+
+    def instrument_mean(self) -> float:
+        n = float(self.inst_count.sum())
+        return float(self.inst_sum.sum()) / n if n > 0 else float("nan")
+
+    def signed_mean(self) -> float:
+        n = float(self.count.sum())
+        return float(self.signed_sum.sum()) / n if n > 0 else float("nan")
+
+    @staticmethod
+    def merge(parts: Sequence["ClassicalTotals"]) -> "ClassicalTotals":
+        """The totals of consecutive ranges of one recording (blocks cut by a range edge are added)."""
+        ids = np.unique(np.concatenate([p.ids for p in parts]))
+        out = {k: np.zeros(ids.size) for k in ("count", "ratio_sum", "signed_sum", "inst_count", "inst_sum")}
+        for p in parts:
+            pos = np.searchsorted(ids, p.ids)
+            for k in out:
+                np.add.at(out[k], pos, getattr(p, k))
+        return ClassicalTotals(block=parts[0].block, ids=ids, samples=sum(p.samples for p in parts),
+                               instrument=any(p.instrument for p in parts), **out)  # fmt: skip
+
+
+def block_length(n_total: int) -> int:
+    """Block length of a recording of ``n_total`` samples: about BATCHES blocks, at most MAX_BLOCK samples."""
+    return max(1, min(MAX_BLOCK, -(-int(n_total) // BATCHES)))
+
+
+def _blocks(source: Any, rec: Any, start: int, stop: Optional[int]
+            ) -> Optional[Tuple[int, Iterator[Tuple[int, Dict[str, np.ndarray]]]]]:  # fmt: skip
+    """(block length, iterator of (first sample, {fy, fz[, cof]})) of the range, or None for a one-pass stream."""
+    if rec is not None:
+        n_all = int(rec.n_samples)
+        roles = [r for r in ("fy", "fz", "cof") if r in rec.roles]
+        length = block_length(n_all)
+        hi = n_all if stop is None else min(int(stop), n_all)
+        # start on the block grid: the first chunk ends at the next grid line
+        first = min(hi, (start // length + 1) * length) if start % length else start
+
+        def rec_iter() -> Iterator[Tuple[int, Dict[str, np.ndarray]]]:
+            if first > start:
+                for piece in rec.chunks(first - start, roles, start=start, stop=first):
+                    yield start, piece
+            pos = first
+            for piece in rec.chunks(length, roles, start=first, stop=hi) if first < hi else ():
+                yield pos, piece
+                pos += len(piece["fz"])
+
+        return length, rec_iter()
+    if isinstance(source, Mapping):
+        arrays = {r: np.asarray(source[r], dtype=float) for r in ("fy", "fz", "cof") if r in source}
+    elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) for a in source):
+        keys = [r for r in ("fy", "fz", "cof") if all(r in a for a in source)]
+        arrays = {r: np.concatenate([np.asarray(a[r], dtype=float) for a in source]) for r in keys}
+    else:
+        return None
+    if "fy" not in arrays or "fz" not in arrays:
+        return None
+    n_all = arrays["fz"].size
+    length = block_length(n_all)
+    hi = n_all if stop is None else min(int(stop), n_all)
+
+    def arr_iter() -> Iterator[Tuple[int, Dict[str, np.ndarray]]]:
+        a = start
+        while a < hi:
+            b = min(hi, (a // length + 1) * length)
+            yield a, {r: v[a:b] for r, v in arrays.items()}
+            a = b
+
+    return length, arr_iter()
+
+
+def classical_totals(source: Any, rec: Any, spec: Any, start: int = 0, stop: Optional[int] = None
+                     ) -> Optional[ClassicalTotals]:  # fmt: skip
+    """The classical COF's block sums over samples ``start``..``stop`` (docs/method.md 6a, 6e); None for a stream.
+
+    Reads fy, fz (and the instrument's ``cof`` when mapped) once, in blocks
+    of :func:`block_length` samples on a grid fixed by the recording's
+    length: the sums do not depend on how the reader chunks the file.
+    """
+    got = _blocks(source, rec, int(start), stop)
+    if got is None:
+        return None
+    length, pieces = got
+    sums: Dict[int, List[float]] = {}
+    samples = 0
+    instrument = False
+    for a, piece in pieces:
+        if not len(piece["fz"]):
+            continue
+        cut = a + np.arange(len(piece["fz"]))
+        ids = cut // length
+        for k in np.unique(ids):
+            sel = slice(int(np.searchsorted(ids, k)), int(np.searchsorted(ids, k, side="right")))
+            row = _block_sums({r: v[sel] for r, v in piece.items()}, spec)
+            samples += int(row[5])
+            acc = sums.setdefault(int(k), [0.0] * 5)
+            for j in range(5):
+                acc[j] += row[j]
+        instrument = instrument or "cof" in piece
+    ids_arr = np.asarray(sorted(sums), dtype=np.int64)
+    cols = np.asarray([sums[k] for k in ids_arr.tolist()], dtype=float).reshape(-1, 5)
+    return ClassicalTotals(block=length, ids=ids_arr, count=cols[:, 0], ratio_sum=cols[:, 1],
+                           signed_sum=cols[:, 2], inst_count=cols[:, 3], inst_sum=cols[:, 4],
+                           samples=samples, instrument=instrument)  # fmt: skip
+
+
+def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]:
+    """(contact count, sum |fy|/|fz|, sum fy/fz, instrument count, instrument sum, finite samples) of one block."""
+    y = np.asarray(piece["fy"], dtype=float) - spec.tare_fy
+    z = np.asarray(piece["fz"], dtype=float) - spec.tare_fz
+    fin = np.isfinite(y) & np.isfinite(z)
+    az = np.abs(z)
+    keep = fin & (az >= spec.min_fn) & (az > 0)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        r = y[keep] / z[keep]
+    ratio = float(np.abs(r).sum())
+    signed = float(r.sum())
+    ic = isum = 0.0
+    if "cof" in piece:
+        c = np.abs(np.asarray(piece["cof"], dtype=float)[keep])
+        c = c[np.isfinite(c)]
+        ic, isum = float(c.size), float(c.sum())
+    return float(keep.sum()), ratio, signed, ic, isum, float(fin.sum())
+
+
+# -- the choice -------------------------------------------------------------------------
+
+
+def _cycle_means(strokes: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Per cycle, the mean of its forward and backward stroke means (NaN when a direction is missing)."""
+    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
+    mu = np.asarray(strokes["mu"], dtype=float)
+    d = np.asarray(strokes["direction"], dtype=np.int64)
+    out = []
+    for c in np.unique(cyc):
+        sel = cyc == c
+        fw = mu[sel & (d == 1)]
+        bw = mu[sel & (d == -1)]
+        fw, bw = fw[np.isfinite(fw)], bw[np.isfinite(bw)]
+        out.append(0.5 * (fw.mean() + bw.mean()) if fw.size and bw.size else np.nan)
+    return np.asarray(out, dtype=float)
+
+
+def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
+    """The headline of ``res``, chosen by ``verdict`` (``tribometer.verdict``; docs/method.md 6e)."""
+    total = res.params.get("n_samples_total")
+    total = int(total) if isinstance(total, (int, np.integer)) and total > 0 else 0
+    why = tuple(str(r) for r in verdict.get("reasons") or ())
+    if verdict.get("dynamic_method"):
+        return _dynamic(res, total)
+    if verdict.get("motion") == "reciprocating":
+        return _per_stroke(res, total, why)
+    return _classical(res, total, why)
+
+
+def _dynamic(res: "Results", total: int) -> Headline:
+    from .results import bootstrap_ci
+
+    ok = np.asarray(res.table["ok"], dtype=bool)
+    mu = np.asarray(res.table["mu_r"], dtype=float)
+    keep = ok & np.isfinite(mu)
+    v = mu[keep]
+    est = res.params.get("estimator") or "ols"
+    used = float(np.asarray(res.table["n"])[keep].sum())
+    frac = used / total if total else float("nan")
+    interval = "moving-block bootstrap of the median over the gated windows (docs/method.md 3d)"
+    st = res.strokes
+    if res.params.get("rectified") and st is not None and len(st.get("direction", [])):
+        # Reciprocating (docs/method.md 6e): each direction's median, then their mean (a cycle's COF); the
+        # median of the pooled two-valued set would be one direction's value.
+        d = np.asarray(st["direction"])[np.asarray(res.table["acquisition"], dtype=np.int64)[keep]]
+        meds, halves = [], []
+        for sign in (1, -1):
+            part = v[d == sign]
+            ci = bootstrap_ci(part).get("median")
+            if part.size:
+                meds.append(float(np.median(part)))
+                halves.append(0.5 * (ci[1] - ci[0]) if ci else float("nan"))
+        if len(meds) == 2:
+            m = 0.5 * (meds[0] + meds[1])
+            h = 0.5 * float(np.hypot(halves[0], halves[1]))
+            return Headline(
+                method="dynamic", value=m, low=m - h, high=m + h, statistic="median", n=int(v.size),
+                fraction_used=frac,
+                estimate=(f"mean of the forward ({meds[0]:.4g}) and backward ({meds[1]:.4g}) medians of mu_r "
+                          f"({est} estimator, direction-rectified strokes) over {v.size} gated windows of {len(res)}"),
+                interval="each direction's median by moving-block bootstrap, half-widths combined in quadrature / 2",
+            )  # fmt: skip
+    ci = bootstrap_ci(v).get("median")
+    rect = ", direction-rectified strokes" if res.params.get("rectified") else ""
+    return Headline(
+        method="dynamic",
+        value=float(np.median(v)) if v.size else float("nan"),
+        low=ci[0] if ci else float("nan"),
+        high=ci[1] if ci else float("nan"),
+        statistic="median",
+        n=int(v.size),
+        fraction_used=frac,
+        estimate=f"median of mu_r ({est} estimator{rect}) over {v.size} gated windows of {len(res)}",
+        interval=interval,
+    )
+
+
+def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
+    tot: Optional[ClassicalTotals] = res.classical
+    interval = f"batch means over up to {BATCHES} contiguous blocks of the recording (docs/method.md 6e)"
+    if tot is not None and tot.contact:
+        m, lo, hi, b = tot.mean()
+        excluded = tot.samples - tot.contact
+        return Headline(
+            method="classical",
+            value=m,
+            low=lo,
+            high=hi,
+            statistic="mean",
+            n=tot.contact,
+            fraction_used=tot.contact / total if total else float("nan"),
+            reasons=why,
+            estimate=(
+                f"mean |fy|/|fz| over the {tot.contact} samples in contact of the whole recording"
+                + (f" ({excluded} samples without contact excluded)" if excluded else "")
+            ),
+            interval=interval,
+        )
+    c = np.asarray(res.table.get("mu_classical", []), dtype=float)
+    n = np.asarray(res.table.get("n", []), dtype=float)
+    fin = np.isfinite(c)
+    if tot is None and fin.any():  # a one-pass stream: only the windows were seen
+        m, lo, hi, b = ratio_mean(np.where(fin, c * n, 0.0), np.where(fin, n, 0.0))
+        return Headline(
+            method="classical", value=m, low=lo, high=hi, statistic="mean", n=int(n[fin].sum()),
+            fraction_used=float(n[fin].sum()) / total if total else float("nan"),
+            reasons=why + ("a one-pass stream: the classical COF is the mean over the windows' samples only",),
+            estimate="sample-weighted mean of the windows' classical COF", interval=interval,
+        )  # fmt: skip
+    if res.params.get("static_fz") is False or "min_fn" not in res.params:
+        need = (
+            "fz carries no static level (high-passed or AC-coupled forces?): the classical COF needs the raw "
+            "normal force; record it DC-coupled, or pass min_fn= / --min-fn N if fz is raw"
+        )
+    else:
+        need = (
+            f"no sample has |fz| >= min_fn = {res.params.get('min_fn'):.4g} N: pass a lower min_fn= / --min-fn N "
+            "or the tare (--tare)"
+        )
+    return Headline(method="classical", value=float("nan"), low=float("nan"), high=float("nan"), statistic="mean",
+                    n=0, fraction_used=0.0, reasons=why + (need,), estimate="", interval=interval)  # fmt: skip
+
+
+def _per_stroke(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
+    st = res.strokes
+    interval = f"batch means over up to {BATCHES} contiguous groups of cycles (docs/method.md 6e)"
+    if st is None or not len(st.get("mu", [])):
+        need = "no strokes were found (a one-pass stream cannot be cut into strokes: pass arrays or a file)"
+        return Headline(method="per-stroke", value=float("nan"), low=float("nan"), high=float("nan"),
+                        statistic="mean", n=0, fraction_used=0.0, reasons=why + (need,), interval=interval)  # fmt: skip
+    cyc = _cycle_means(st)
+    m, lo, hi, b = batch_mean(cyc)
+    used = float(np.asarray(st["n"], dtype=float).sum())
+    n_cyc = int(np.isfinite(cyc).sum())
+    if not n_cyc:
+        need = "no cycle holds a forward and a backward stroke with samples in contact"
+        return Headline(method="per-stroke", value=float("nan"), low=float("nan"), high=float("nan"),
+                        statistic="mean", n=0, fraction_used=0.0, interval=interval, reasons=why + (need,))  # fmt: skip
+    return Headline(
+        method="per-stroke",
+        value=m,
+        low=lo,
+        high=hi,
+        statistic="mean",
+        n=n_cyc,
+        fraction_used=used / total if total else float("nan"),
+        reasons=why,
+        estimate=(
+            f"mean over {n_cyc} cycles of the mean of the forward and backward strokes' mean |fy|/|fz| "
+            f"(central {res.params.get('stroke_fraction', 0.5):g} of each stroke)"
+        ),
+        interval=interval,
+    )
+
+
+def instrument_check(res: "Results", head: Headline) -> Tuple[Dict[str, Any], List[str]]:
+    """The instrument's COF over the headline's samples, and a warning when it differs by over 0.5 %."""
+    out: Dict[str, Any] = {}
+    notes: List[str] = []
+    tot = res.classical
+    if head.method == "classical" and tot is not None and tot.inst_count.sum() > 0 and head.ok:
+        inst = tot.instrument_mean()
+        out = {"mean": inst, "n": int(tot.inst_count.sum()), "over": "the headline's samples"}
+    elif head.method == "per-stroke" and res.strokes is not None and head.ok:
+        st = res.strokes
+        ins = np.asarray(st.get("mu_instrument", []), dtype=float)
+        if np.isfinite(ins).any():
+            fake = dict(st)
+            fake["mu"] = ins
+            inst = float(np.nanmean(_cycle_means(fake)))
+            out = {"mean": inst, "n": int(np.isfinite(ins).sum()), "over": "the same stroke centres, per cycle"}
+    if not out or not np.isfinite(out["mean"]):
+        return {}, []
+    diff = (out["mean"] - head.value) / head.value if head.value else float("nan")
+    out["difference"] = diff
+    if np.isfinite(diff) and abs(diff) > INSTRUMENT_TOLERANCE:
+        hint = ""
+        if head.method == "classical" and tot is not None:
+            sm = tot.signed_mean()
+            if np.isfinite(sm) and abs(abs(sm) - out["mean"]) < abs(head.value - out["mean"]):
+                hint = f"; the signed mean fy/fz ({sm:.4g}) is closer: the instrument may keep the sign"
+        notes.append(
+            f"the instrument's COF column averages {out['mean']:.4g} over {out['over']}, {100 * diff:+.2f} % from "
+            f"the {head.method} COF {head.value:.4g}: the instrument may use another tare, normal-force threshold, "
+            f"filter or averaging{hint}"
+        )
+    return out, notes
