@@ -32,13 +32,13 @@ save_recording(path, channels, sim.fs, units={"Ft": "N", "Fn": "N", "Fx": "N", "
 with td.open_recording(path, channels={"fy": "Ft", "fz": "Fn", "fx": "Fx", "i": "I"}) as rec:
     res = td.analyze(rec, window=2, hop=10, area_mm2=1.0)  # area_mm2: brush tip, for the current density J
 
-# 3. Read the result: one line, the verdict, the COF with its 95 % interval.
+# 3. Read the result: the headline (the one COF to read first, chosen by the verdict) with its 95 % interval.
 print(repr(res))
+head = res.headline  # method "dynamic", "classical" or "per-stroke" (docs/method.md 6e)
+print("headline:", head.text)
+print(f"  {head.method}: {head.value:.4f} ({head.low:.4f} to {head.high:.4f}), {head.statistic} of {head.n}")
 s = res.summary()
-mu = s["mu_r"]
-lo, hi = mu["ci"]["median"]
-print(f"COF {mu['median']:.4f} (95 % interval {lo:.4f} to {hi:.4f}), median of {mu['n']} of {s['windows']} windows")
-print("verdict:", td.results.verdict_text(s.get("verdict")) or "(none)")
+print("verdict:", td.results.verdict_text(res.verdict) or "(none)")
 print("windows that failed the quality gate, by reason:", s["gate_failures"] or "none")
 
 # 4. The per-window table as a DataFrame (time index in s, units in df.attrs["units"]), a CSV and the report.

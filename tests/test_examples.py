@@ -18,7 +18,10 @@ BUDGET = 60.0
 
 #: What each example must print and write (file names under its output folder).
 EXPECT = {
-    "analyse_a_recording.py": (["<Results: 70 windows", "95 % interval", "verdict:"], ["report.html", "windows.csv"]),
+    "analyse_a_recording.py": (
+        ["<Results: dynamic COF", "70 windows", "headline: COF", "95 % interval", "verdict:"],
+        ["report.html", "windows.csv"],
+    ),
     "operating_ranges.py": (
         ["temperature: verdict 'optimum'", "current density: verdict 'optimum'", "°C", "A/mm²"],
         ["cof_vs_temperature.png", "cof_vs_current_density.png"],

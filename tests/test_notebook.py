@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import html
+
 import warnings
 
 import numpy as np
@@ -19,7 +21,7 @@ def res() -> td.Results:
 def test_repr_is_one_short_line(res):
     text = repr(res)
     assert "\n" not in text and len(text) <= 300
-    assert f"{len(res)} windows" in text and "gated" in text
+    assert f"{len(res)} windows" in text and "gated" in text and res.headline.short in text
 
 
 def test_repr_html_has_the_headline_and_first_rows(res):
@@ -27,9 +29,8 @@ def test_repr_html_has_the_headline_and_first_rows(res):
     assert "COF" in page and "95 % interval" in page
     assert page.count("<tr>") == 1 + min(len(res), 5)  # header + first rows
     assert "A/mm²" in page and "time (s)" in page
-    verdict = res.summary().get("verdict")
-    if verdict:
-        assert td.results.verdict_text(verdict)[:30] in page
+    assert html.escape(res.headline.text) in page  # the one headline (issue 21), then the verdict
+    assert html.escape(td.results.verdict_text(res.verdict)) in page
 
 
 def test_to_pandas_index_and_units(res):

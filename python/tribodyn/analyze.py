@@ -394,10 +394,11 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
             tribo["rectified"] = True
             if not run_source:
                 raise ValueError("no stroke's central part holds 3 samples: no window to analyse")
-    tribo["n_samples_total"] = _range_samples(source, rec, plan)
+    c_start, c_stop = _sample_range(source, rec, plan, partial)
+    tribo["n_samples_total"] = c_stop - c_start
     totals = None
     if plan.classical is not None and strokes is None:  # docs/method.md 6a, 6e: every sample in contact
-        totals = classical_totals(source, rec, plan.classical, plan.start, plan.stop)
+        totals = classical_totals(source, rec, plan.classical, c_start, c_stop)
     if partial:
         p = _partial(run_source, run_rec, run_plan)
         warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + ((window_note,) if window_note else ())
@@ -414,8 +415,14 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
     return settle(dataclasses.replace(res, strokes=strokes, classical=totals))
 
 
-def _range_samples(source: Any, rec: Any, plan: Plan) -> int:
-    """Samples in the analysed range ``plan.start``..``plan.stop`` (0 for a one-pass stream)."""
+def _sample_range(source: Any, rec: Any, plan: Plan, partial: bool) -> Tuple[int, int]:
+    """The samples ``(a, b)`` the headline's classical pass covers (docs/method.md 6e); (0, 0) for a stream.
+
+    The analysed range ``plan.start``..``plan.stop``; for a range of
+    :func:`tribodyn.analyze_many` (``partial``), up to the next range's
+    first window (ranges of overlapping or spaced windows partition the
+    samples), and the last one to the end of the recording.
+    """
     if rec is not None:
         n = int(rec.n_samples)
     elif isinstance(source, Mapping) and "fz" in source:
@@ -423,9 +430,13 @@ def _range_samples(source: Any, rec: Any, plan: Plan) -> int:
     elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a for a in source):
         n = sum(len(a["fz"]) for a in source)
     else:
-        return 0
+        return 0, 0
     stop = n if plan.stop is None else min(int(plan.stop), n)
-    return max(0, stop - int(plan.start))
+    if partial and plan.stop is not None:
+        nxt = int(plan.stop) - plan.length + plan.step
+        stop = n if nxt + plan.length > n else min(nxt, n)
+    start = min(int(plan.start), stop)
+    return start, stop
 
 
 def settle(res: Results) -> Results:

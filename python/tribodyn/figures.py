@@ -617,6 +617,9 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
     and the failed windows in a strip at the top; returns legend handles and the plotted COF values."""
     t = np.asarray(getattr(results, "table", results)["time"], dtype=float)
     n = t.size
+    head = getattr(results, "headline", None)
+    if head is not None and getattr(head, "method", "dynamic") != "dynamic":
+        return _classical_time_axes(ax, results, head, t)
     ok = _gated(results, n)
     handles: List[Any] = []
     tops = []
@@ -665,6 +668,42 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
     if bad.any():  # room for the strip of failed windows above the data
         lim = (lim[0], lim[1] + (lim[1] - lim[0]) * FAILED_STRIP / (1 - FAILED_STRIP) * 1.6)
         handles.append(_failed_strip(ax, t, results, bad))
+    ax.set_ylim(*lim)
+    ax.set_xlabel("Time $t$ (s)")
+    ax.set_ylabel("COF")
+    ax.grid(True, alpha=0.3)
+    return handles, tops
+
+
+def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tuple[List[Any], List[Any]]:
+    """The classical COF of every window (and the instrument's) with the headline and its 95 % interval
+    (a headline that is not the dynamic COF: docs/method.md 6e); the dynamic gate plays no part here."""
+    n = t.size
+    handles: List[Any] = []
+    tops: List[Any] = []
+    for col, label, colour, marker in (("mu_classical", "classical COF per window", "tab:blue", "o"),
+                                       ("mu_instrument", "instrument COF per window", "tab:orange", "x")):  # fmt: skip
+        v = _column(results, col, n)
+        sel = np.isfinite(v) & np.isfinite(t)
+        if not sel.any():
+            continue
+        many = int(sel.sum()) > BAND_FROM
+        (h,) = ax.plot(t[sel], v[sel], linestyle="none" if many else "-", linewidth=0.6, marker=marker,
+                       markersize=1.5 if many else 3, color=colour, alpha=0.8, label=label, zorder=3,
+                       rasterized=many)  # fmt: skip
+        handles.append(h)
+        tops.append(v[sel])
+    if getattr(head, "ok", False) and np.isfinite(t).any():
+        span = (float(np.nanmin(t)), float(np.nanmax(t)))
+        if np.isfinite(head.low) and np.isfinite(head.high):
+            band = ax.axhspan(head.low, head.high, color="black", alpha=0.12, linewidth=0, zorder=1,
+                              label="95 % interval of the headline")  # fmt: skip
+            handles.append(band)
+        (h,) = ax.plot(span, (head.value, head.value), color="black", linewidth=1.6, zorder=4,
+                       label=f"headline: {head.method} COF {head.value:.4g} ({head.statistic})")  # fmt: skip
+        handles.append(h)
+        tops.append(np.asarray([head.value]))
+    lim = _cof_limits(tops) or (0.0, 0.3)
     ax.set_ylim(*lim)
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")

@@ -101,6 +101,14 @@ class Headline:
         iv = f" (95 % interval {self.low:.4g} to {self.high:.4g})" if math.isfinite(self.low) else ""
         return f"COF {self.value:.4g}{iv}: {self.method}, {self.estimate}."
 
+    @property
+    def short(self) -> str:
+        """'classical COF 0.1492 (95 % 0.1427 to 0.1557)' or 'no classical COF' (for ``repr``)."""
+        if not self.ok:
+            return f"no {self.method} COF"
+        iv = f" (95 % {self.low:.4g} to {self.high:.4g})" if math.isfinite(self.low) else ""
+        return f"{self.method} COF {self.value:.4g}{iv}"
+
     def __str__(self) -> str:
         return self.text
 
@@ -442,7 +450,12 @@ def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
             reasons=why + ("a one-pass stream: the classical COF is the mean over the windows' samples only",),
             estimate="sample-weighted mean of the windows' classical COF", interval=interval,
         )  # fmt: skip
-    if res.params.get("static_fz") is False or "min_fn" not in res.params:
+    if "static_fz" not in res.params and "min_fn" not in res.params:
+        need = (
+            "a one-pass stream cannot be looked at before the windows: pass min_fn= (and tare= offsets) for the "
+            "classical COF of its windows"
+        )
+    elif res.params.get("static_fz") is False or "min_fn" not in res.params:
         need = (
             "fz carries no static level (high-passed or AC-coupled forces?): the classical COF needs the raw "
             "normal force; record it DC-coupled, or pass min_fn= / --min-fn N if fz is raw"

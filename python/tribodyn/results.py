@@ -266,8 +266,8 @@ class Results:
         ok = np.asarray(self.table["ok"], dtype=bool) if n else np.zeros(0, dtype=bool)
         t = np.asarray(self.table["time"], dtype=float) if n else np.zeros(0)
         span = f", t {t.min():.6g}..{t.max():.6g} s" if n and np.isfinite(t).any() else ""
-        text = f"<Results: {self.headline.text} {n} windows, {int(ok.sum())} gated{span}>"
-        return text if len(text) <= 400 else text[:396] + "...>"
+        text = f"<Results: {self.headline.short}; {n} windows, {int(ok.sum())} gated{span}>"
+        return text if len(text) <= 300 else text[:296] + "...>"
 
     def _repr_html_(self) -> str:
         """Jupyter's view: the verdict (or the COF headline), the counts and the first rows with units."""
@@ -294,6 +294,7 @@ class Results:
             '<div class="tribodyn-results">'
             f"<p><b>tribodyn Results</b>: {n} windows, {int(np.sum(self.table['ok']))} passed the quality gate</p>"
             f"<p><b>{esc(self.headline.text)}</b></p>"
+            f"<p>{esc(verdict_text(self.verdict))}</p>"
             f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(rows)}</tbody></table>{more}</div>"
         )
 

@@ -237,9 +237,13 @@ def _unloaded(z: np.ndarray) -> Optional[np.ndarray]:
         u, other = (a, mb) if abs(ma) <= abs(mb) else (b, ma)
         mu_u = float(np.median(z[u]))
         gap = abs(other - mu_u)
-        if u.size < max(5, UNLOADED_MIN_SHARE * n) or not gap > 0 or _robust_sd(z[u]) > UNLOADED_TIGHT * gap:
+        if u.size < max(5, UNLOADED_MIN_SHARE * n) or not gap > 0:
             break
-        found, idx = u, u
+        if _robust_sd(z[u]) <= UNLOADED_TIGHT * gap:
+            found = u
+        elif found is not None:
+            break
+        idx = u  # narrow: the class nearer zero may still hold a tighter cluster (lift-off below a low step)
     if found is None:
         return None
     mask = np.zeros(n, dtype=bool)
@@ -344,8 +348,13 @@ def prepass(
                                                             for a in source):  # fmt: skip
         data = {r: np.concatenate([np.asarray(a[r], dtype=float) for a in source]) for r in ("fy", "fz")}
     if data is None or data["fz"].size == 0 or data["fy"].shape != data["fz"].shape:
-        # Nothing to look at (or channels of unequal lengths, which the pipeline refuses with its own error).
-        return {"motion": "unidirectional" if motion == "auto" else motion, "motion_detected": False}
+        # Nothing to look at (or channels of unequal lengths, which the pipeline refuses with its own error);
+        # a given min_fn (and tare offsets) still define the classical COF of the windows.
+        out0: Dict[str, Any] = {"motion": "unidirectional" if motion == "auto" else motion, "motion_detected": False}
+        if min_fn is not None:
+            offsets = tare if isinstance(tare, Mapping) else {}
+            out0["spec"] = ClassicalSpec(float(min_fn), float(offsets.get("fy", 0.0)), float(offsets.get("fz", 0.0)))
+        return out0
     fy, fz = data["fy"], data["fz"]
     ok = np.isfinite(fy) & np.isfinite(fz)
     fy, fz = fy[ok], fz[ok]

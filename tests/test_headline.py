@@ -1,0 +1,200 @@
+"""The headline (issue 21, docs/method.md 6e): one COF per recording, chosen by the verdict."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import tribodyn as td
+from tribodyn import simulate
+from tribodyn.headline import HEADLINE_METHODS, Headline, batch_mean, ratio_mean, t975
+from tribodyn.io.writers import save_npy
+from tribodyn.tribometer import detect_contact
+
+pytestmark = pytest.mark.fast
+
+
+def dead_weight(n=6000, fs=100.0, mu=0.2, load=10.0, seed=0, drift=0.0):
+    """A dead-weight test: constant fz with noise, fy = mu(t) fz + noise (no dynamic normal force)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fs
+    fz = load + 0.01 * rng.standard_normal(n)
+    m = mu + drift * t / t[-1]
+    fy = m * fz + 0.01 * rng.standard_normal(n)
+    return {"fy": fy, "fz": fz}
+
+
+def test_t_quantiles_match_scipy():
+    from scipy import stats
+
+    for df in (1, 2, 5, 10, 31, 40):
+        assert abs(t975(df) - stats.t.ppf(0.975, df)) < 1e-5
+    assert abs(t975(200) - stats.t.ppf(0.975, 200)) < 2e-3
+    assert math.isnan(t975(0))
+
+
+def test_ratio_mean_is_the_pooled_ratio_and_its_interval_covers():
+    s = np.array([1.0, 2.0, 3.0, 4.0])
+    c = np.array([10.0, 10.0, 20.0, 20.0])
+    m, lo, hi, b = ratio_mean(s, c)
+    assert m == pytest.approx(10.0 / 60.0) and b == 4 and lo < m < hi
+    # coverage of the batch-means interval on AR(1) series (rho 0.9): within 0.90-0.99 over 400 series
+    rng = np.random.default_rng(3)
+    hits = 0
+    for _ in range(400):
+        e = rng.standard_normal(3200)
+        x = np.empty_like(e)
+        x[0] = e[0]
+        for k in range(1, e.size):
+            x[k] = 0.9 * x[k - 1] + e[k]
+        blocks = x.reshape(100, 32).sum(axis=1)
+        m, lo, hi, _ = ratio_mean(blocks, np.full(100, 32.0))
+        hits += lo <= 0.0 <= hi
+    assert 0.90 <= hits / 400 <= 0.99
+    assert math.isnan(batch_mean(np.array([1.0, 2.0]))[1])  # fewer than 3 batches: no interval
+
+
+def test_contact_without_an_unloaded_cluster_dead_weight_and_ramp():
+    rng = np.random.default_rng(1)
+    c = detect_contact(np.full(5000, 2.0), 10.0 + 0.01 * rng.standard_normal(5000))
+    assert c.static and c.tare_fz == 0.0 and c.unloaded_fraction == 0.0 and c.excluded_fraction == 0.0
+    assert 0.099 <= c.min_fn <= 0.5  # within 1-5 % of the median |fz|
+    ramp = np.linspace(0.0, 5.0, 5000) + 0.002 * rng.standard_normal(5000)
+    c = detect_contact(0.3 * ramp, ramp)
+    assert c.static and c.tare_fz == 0.0 and c.min_fn < 0.05 * 2.5 + 1e-12 and c.excluded_fraction < 0.02
+    hp = rng.standard_normal(5000)  # a high-passed fz: both signs
+    assert not detect_contact(hp, hp).static
+
+
+@pytest.mark.parametrize("offset", [-0.13, 0.0, 0.4])
+def test_contact_with_lift_off_takes_the_unloaded_level_as_tare(offset):
+    rng = np.random.default_rng(2)
+    n = 4000
+    loaded = np.r_[np.zeros(1500, bool), np.ones(1700, bool), np.zeros(800, bool)]
+    fz = offset + np.where(loaded, 5.0 + 0.1 * rng.standard_normal(n), 0.002 * rng.standard_normal(n))
+    fy = -0.05 + np.where(loaded, 1.0, 0.0) + 0.001 * rng.standard_normal(n)
+    c = detect_contact(fy, fz)
+    assert c.static and abs(c.tare_fz - offset) < 0.01 and abs(c.tare_fy + 0.05) < 0.01
+    assert abs(c.unloaded_fraction - 2300 / n) < 0.01 and abs(c.excluded_fraction - 2300 / n) < 0.01
+
+
+def test_contact_below_a_low_load_step_finds_the_lift_off_level():
+    rng = np.random.default_rng(4)
+    parts = [np.full(800, -0.12), np.full(1600, 0.3), np.full(1600, 0.9), np.full(800, -0.12)]
+    fz = np.concatenate(parts) + 0.002 * rng.standard_normal(4800)
+    c = detect_contact(0.1 * fz, fz)
+    assert abs(c.tare_fz + 0.12) < 0.01 and abs(c.excluded_fraction - 1600 / 4800) < 0.01
+
+
+def test_dynamic_headline_is_the_median_of_the_gated_windows(temp_sim, temp_res):
+    sim, res = temp_sim, temp_res
+    head = res.headline
+    assert isinstance(head, Headline) and head.method == "dynamic" and head.method in HEADLINE_METHODS
+    mu = res.table["mu_r"][res.gated]
+    assert head.value == pytest.approx(float(np.median(mu))) and head.statistic == "median"
+    assert head.n == int(res.gated.sum()) and head.low <= head.value <= head.high
+    used = res.table["n"][res.gated].sum() / len(sim.channels["fz"])
+    assert head.fraction_used == pytest.approx(used)
+    s = res.summary()
+    assert s["headline"] == head.to_dict() and s["verdict"]["cof"] == s["headline"]
+    assert head.text in repr(res) and head.text in res._repr_html_().replace("&#x27;", "'")
+    with pytest.warns(DeprecationWarning):
+        assert res.headline() == head.text  # the old method's call still works
+
+
+def test_classical_headline_is_the_mean_over_every_sample_tail_included():
+    data = dead_weight(n=6050, drift=0.05)  # 60.5 s: the tiles of 1 s drop nothing, windows of 2 s every 10 s do
+    res = td.analyze(data, fs=100.0, window=2, hop=10)
+    head = res.headline
+    assert head.method == "classical" and head.statistic == "mean" and not res.verdict["dynamic_method"]
+    exact = float(np.mean(np.abs(data["fy"]) / np.abs(data["fz"])))
+    assert head.value == pytest.approx(exact, rel=1e-12) and head.n == 6050 and head.fraction_used == 1.0
+    assert head.low < exact < head.high
+    windows_only = float(np.nanmean(res.table["mu_classical"]))
+    assert abs(windows_only - exact) > 1e-4  # the windows alone (20 % of the samples) would be off
+    assert not any("noise on fz" in w or "iv_lag" in w for w in res.warnings)  # dynamic notes dropped
+
+
+def test_classical_headline_is_the_same_on_every_path(tmp_path):
+    data = dead_weight(n=20011)
+    ref = td.analyze(data, fs=100.0).headline
+    p = tmp_path / "run.npy"
+    save_npy(p, data)
+    for chunk in (0.37, 3.0, None):
+        for threads in (1, 2):
+            rec = td.open_recording(p, fs=100.0, names=["fy", "fz"])
+            got = td.analyze(rec, chunk=chunk, threads=threads).headline
+            assert (got.value, got.low, got.high, got.n) == (ref.value, ref.low, ref.high, ref.n)
+    for window, hop in ((2.0, 10.0), (2.0, 1.0), (1.0, 1.0)):  # spaced, overlapping and tiled windows
+        opts = {"fs": 100.0, "names": ["fy", "fz"]}
+        many = td.analyze_many([p], split=50.0, open_options=opts, window=window, hop=hop).results[str(p)]
+        assert many.params["ranges"] > 1
+        assert many.headline.value == pytest.approx(ref.value, rel=1e-13) and many.headline.n == ref.n
+
+
+def test_a_stream_falls_back_to_the_windows_with_its_reason():
+    data = dead_weight(n=3000)
+    chunks = ({k: v[a : a + 500] for k, v in data.items()} for a in range(0, 3000, 500))
+    head = td.analyze(chunks, fs=100.0, min_fn=1.0).headline
+    assert head.method == "classical" and head.ok and any("one-pass stream" in r for r in head.reasons)
+    win = np.r_[0:200, 1000:1200, 2000:2200]  # the windows' samples (2 s every 10 s)
+    exact = float(np.mean(np.abs(data["fy"][win]) / np.abs(data["fz"][win])))
+    assert head.value == pytest.approx(exact, rel=1e-12)
+    chunks = ({k: v[a : a + 500] for k, v in data.items()} for a in range(0, 3000, 500))
+    head = td.analyze(chunks, fs=100.0).headline
+    assert not head.ok and "pass min_fn=" in head.reasons[-1]
+
+
+def test_no_static_normal_force_gives_no_value_and_says_why():
+    rng = np.random.default_rng(5)
+    fz = rng.standard_normal(5000)
+    fy = 0.2 * fz + 0.5 * rng.standard_normal(5000)  # weak correlation: the dynamic method fails its gate
+    head = td.analyze({"fy": fy, "fz": fz}, fs=100.0).headline
+    assert head.method == "classical" and not head.ok and head.to_dict()["value"] is None
+    assert "static level" in head.reasons[-1] and head.text.startswith("No classical COF")
+
+
+def test_per_stroke_headline_is_the_cycle_mean():
+    sim = simulate.reciprocating(seed=1)  # 0.12 forward, 0.10 backward, 20 cycles
+    res = td.analyze(sim.channels, fs=sim.fs)
+    head = res.headline
+    assert head.method == "per-stroke" and head.n == 20 and head.statistic == "mean"
+    assert abs(head.value - 0.110) < 0.0005 and head.low < 0.110 < head.high
+
+
+def test_instrument_difference_over_half_a_percent_is_explained():
+    data = dead_weight(n=4000)
+    data["cof"] = 1.02 * np.abs(data["fy"]) / np.abs(data["fz"])
+    res = td.analyze(data, fs=100.0)
+    comp = res.summary()["instrument_comparison"]
+    assert comp["difference"] == pytest.approx(0.02, rel=1e-9)
+    assert any("instrument's COF column averages" in w for w in res.warnings)
+    data["cof"] = np.abs(data["fy"]) / np.abs(data["fz"])
+    res = td.analyze(data, fs=100.0)
+    assert abs(res.summary()["instrument_comparison"]["difference"]) < 1e-12
+    assert not any("instrument's COF column" in w for w in res.warnings)
+
+
+def test_cli_report_and_summary_print_the_one_headline(tmp_path, capsys):
+    from tribodyn.cli import main
+
+    src = tmp_path / "pod.tsv"
+    src.write_bytes(open(td_real("pod_PPS_100N_1.tsv"), "rb").read())
+    out = tmp_path / "out"
+    assert main(["analyze", str(src), "--out", str(out)]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    summary = json.loads((out / "summary.json").read_text())
+    head = summary["recordings"]["pod.tsv"]["headline"]
+    assert head["method"] == "classical" and first == f"pod.tsv: {head['text']}"
+    html = (out / "report.html").read_text()
+    bold = html.split('<p class="headline">', 1)[1].split("</p>", 1)[0]
+    assert head["text"].replace("|", "") in bold.replace("|", "") and "mu_r" not in bold
+
+
+def td_real(name: str) -> str:
+    from pathlib import Path
+
+    return str(Path(__file__).parent / "data" / "real" / name)
