@@ -100,7 +100,7 @@ def test_dynamic_headline_is_the_median_of_the_gated_windows(temp_sim, temp_res)
     assert head.fraction_used == pytest.approx(used)
     s = res.summary()
     assert s["headline"] == head.to_dict() and s["verdict"]["cof"] == s["headline"]
-    assert head.text in repr(res) and head.text in res._repr_html_().replace("&#x27;", "'")
+    assert head.short in repr(res) and head.text in res._repr_html_().replace("&#x27;", "'")
     with pytest.warns(DeprecationWarning):
         assert res.headline() == head.text  # the old method's call still works
 

@@ -171,7 +171,7 @@ def test_cli_time_column_encoding_and_roles(tmp_path, capsys):
     assert main(["analyze", str(p), "--out", str(out), "--time-column", "zeit", "--overwrite"]) == 0
     printed = capsys.readouterr().out
     assert "fy <- Fy, fz <- Fz" in printed and "pass --map if your sliding direction is x" in printed
-    assert printed.startswith("run.csv: COF 0.2 ") and "classical, mean |fy|/|fz|" in printed
+    assert printed.startswith("run.csv: COF 0.2000 ") and "classical, mean |fy|/|fz|" in printed
 
 
 def test_batch_where_every_file_fails_writes_summary_and_exits_3(tmp_path):

@@ -44,10 +44,19 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
 
     table = results.table
     t = np.asarray(table["time"], dtype=float)
-    ok = np.asarray(table["ok"], dtype=bool)
-    mu = np.asarray(table["mu_r"], dtype=float)
-    lo = np.asarray(table.get("mu_r_low", np.full(t.size, np.nan)), dtype=float)
-    hi = np.asarray(table.get("mu_r_high", np.full(t.size, np.nan)), dtype=float)
+    head = getattr(results, "headline", None)
+    dynamic = head is None or head.method == "dynamic"
+    if dynamic:
+        ok = np.asarray(table["ok"], dtype=bool)
+        mu = np.asarray(table["mu_r"], dtype=float)
+        lo = np.asarray(table.get("mu_r_low", np.full(t.size, np.nan)), dtype=float)
+        hi = np.asarray(table.get("mu_r_high", np.full(t.size, np.nan)), dtype=float)
+        what, y_label = "gated windows", "COF mu_r"
+    else:  # the headline is the classical or per-stroke COF (docs/method.md 6e): the dynamic gate plays no part
+        mu = np.asarray(table.get("mu_classical", np.full(t.size, np.nan)), dtype=float)
+        ok = np.isfinite(mu)
+        lo = hi = np.full(t.size, np.nan)
+        what, y_label = "classical COF per window", "classical COF"
     temp = np.asarray(table.get("T", np.full(t.size, np.nan)), dtype=float)
     cur = np.asarray(table.get("J", np.full(t.size, np.nan)), dtype=float)
     good = np.flatnonzero(ok & np.isfinite(mu) & np.isfinite(t))
@@ -77,12 +86,12 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
         tools=tools,
         title=f"{name}: COF against time (zoom, pan, hover)",
         x_axis_label="time t (s)",
-        y_axis_label="COF mu_r",
+        y_axis_label=y_label,
         output_backend="canvas",
     )
     p.add_tools(hover)
     p.scatter(
-        "t", "mu", source=src, size=3, alpha=0.6, color="#222222", legend_label=f"gated windows ({int(ok.sum())})"
+        "t", "mu", source=src, size=3, alpha=0.6, color="#222222", legend_label=f"{what} ({int(ok.sum())})"
     )
     if good.size:
         v = mu[good]
@@ -115,7 +124,7 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
                 tools=tools,
                 title=f"COF against {label.split(' (')[0]}",
                 x_axis_label=label,
-                y_axis_label="COF mu_r",
+                y_axis_label=y_label,
                 y_range=p.y_range,
             )
             c.scatter(values[good], mu[good], size=3, alpha=0.5, color="#1f77b4")

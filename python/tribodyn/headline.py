@@ -98,16 +98,16 @@ class Headline:
         if not self.ok:
             why = "; ".join(self.reasons) if self.reasons else "nothing to compute it from"
             return f"No {self.method} COF: {why}."
-        iv = f" (95 % interval {self.low:.4g} to {self.high:.4g})" if math.isfinite(self.low) else ""
-        return f"COF {self.value:.4g}{iv}: {self.method}, {self.estimate}."
+        iv = f" (95 % interval {self.low:#.4g} to {self.high:#.4g})" if math.isfinite(self.low) else ""
+        return f"COF {self.value:#.4g}{iv}: {self.method}, {self.estimate}."
 
     @property
     def short(self) -> str:
         """'classical COF 0.1492 (95 % 0.1427 to 0.1557)' or 'no classical COF' (for ``repr``)."""
         if not self.ok:
             return f"no {self.method} COF"
-        iv = f" (95 % {self.low:.4g} to {self.high:.4g})" if math.isfinite(self.low) else ""
-        return f"{self.method} COF {self.value:.4g}{iv}"
+        iv = f" (95 % {self.low:#.4g} to {self.high:#.4g})" if math.isfinite(self.low) else ""
+        return f"{self.method} COF {self.value:#.4g}{iv}"
 
     def __str__(self) -> str:
         return self.text
@@ -494,7 +494,7 @@ def _per_stroke(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
         fraction_used=used / total if total else float("nan"),
         reasons=why,
         estimate=(
-            f"mean over {n_cyc} cycles of the mean of the forward and backward strokes' mean |fy|/|fz| "
+            f"mean over {n_cyc} cycle{'s' if n_cyc != 1 else ''} of the mean of the forward and backward strokes' mean |fy|/|fz| "
             f"(central {res.params.get('stroke_fraction', 0.5):g} of each stroke)"
         ),
         interval=interval,

@@ -228,7 +228,9 @@ def diagnostic_examples(
         start = int(round(float(t_start[k]) * fs)) - int(res.params.get("start") or 0)
         if start < 0:
             continue
-        ch = _read_window(source, start, n, open_options or {})
+        # the window's own length: a stroke's central part can be shorter than the plan's window (method.md 6c)
+        n_k = min(n, int(np.asarray(res["n"])[k])) if "n" in res.table else n
+        ch = _read_window(source, start, n_k, open_options or {})
         if ch is None or "fy" not in ch or "fz" not in ch or len(ch["fz"]) < 3:
             continue
         if res.params.get("highpass"):

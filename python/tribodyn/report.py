@@ -203,7 +203,7 @@ def windows_table_html(results: Any, csv_name: Optional[str] = None, *, edge_row
     n = len(table["time"])
     ok = np.asarray(table["ok"], dtype=bool)
     keep_cols = [c for c in ("time", "mu_r", "mu_r_low", "mu_r_high", "mu_ols", "c_yz", "T", "branch", "J",
-                             "mu_classic", "mu_instrument", "ok", "reasons") if c in table]  # fmt: skip
+                             "mu_classical", "mu_instrument", "ok", "reasons") if c in table]  # fmt: skip
     cols = [
         c
         for c in keep_cols
@@ -753,6 +753,10 @@ def build_named_figures(
     what = (f"{n} windows, {ok} passed the quality gate"
             + ("; line and shaded band: running median and 5-95 % of the gated windows" if many else "")
             + "; failed windows as grey ticks in the strip at the top, with their commonest reasons")  # fmt: skip
+    head = getattr(results, "headline", None)
+    if head is not None and head.method != "dynamic":  # the figure shows the classical COF (docs/method.md 6e)
+        what = (f"{n} windows: the classical COF of each and the instrument's where the file has it; black line "
+                f"and grey band: the headline ({head.method} COF, {head.statistic}) and its 95 % interval")  # fmt: skip
     if has_t:
         cap = (
             "COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator "
