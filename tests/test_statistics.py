@@ -291,3 +291,12 @@ def test_classical_cof_kernel_matches_the_reference():
     want = reference.classical_windows(fy, fz, starts, 2000, spec)
     for name in names:
         np.testing.assert_allclose(st[name], want[name], rtol=1e-10, err_msg=name)
+
+
+def test_student4_cdf_equals_scipy():
+    from scipy import special
+
+    from tribodyn.estimators import student4_cdf
+
+    t = np.r_[np.linspace(-80, 80, 20001), -np.inf, np.inf, 0.0]
+    np.testing.assert_allclose(student4_cdf(t), special.stdtr(4, t), rtol=0, atol=1e-15)
