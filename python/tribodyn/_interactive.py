@@ -90,9 +90,7 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
         output_backend="canvas",
     )
     p.add_tools(hover)
-    p.scatter(
-        "t", "mu", source=src, size=3, alpha=0.6, color="#222222", legend_label=f"{what} ({int(ok.sum())})"
-    )
+    p.scatter("t", "mu", source=src, size=3, alpha=0.6, color="#222222", legend_label=f"{what} ({int(ok.sum())})")
     if good.size:
         v = mu[good]
         q0, q1 = np.percentile(v, [0.5, 99.5])

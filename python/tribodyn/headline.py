@@ -494,8 +494,8 @@ def _per_stroke(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
         fraction_used=used / total if total else float("nan"),
         reasons=why,
         estimate=(
-            f"mean over {n_cyc} cycle{'s' if n_cyc != 1 else ''} of the mean of the forward and backward strokes' mean |fy|/|fz| "
-            f"(central {res.params.get('stroke_fraction', 0.5):g} of each stroke)"
+            f"mean over {n_cyc} cycle{'s' if n_cyc != 1 else ''} of the mean of the forward and backward "
+            f"strokes' mean |fy|/|fz| (central {res.params.get('stroke_fraction', 0.5):g} of each stroke)"
         ),
         interval=interval,
     )
