@@ -85,7 +85,7 @@ def test_cetr_classical_cof_matches_instrument(tmp_path, name):
     out = tmp_path / "out"
     assert run("analyze", DATA / name, "--out", out, "--window", "2", "--hop", "2", "--highpass", "0.1", "--quiet") == 0
     t = read_csv(out / "windows.csv")
-    classic, instrument = floats(t["mu_classic"]), floats(t["mu_instrument"])
+    classic, instrument = floats(t["mu_classical"]), floats(t["mu_instrument"])
     assert len(classic) == 2 and np.all(np.isfinite(classic))
     np.testing.assert_allclose(classic, instrument, rtol=0.02)
     summary = json.loads((out / "summary.json").read_text())
@@ -99,7 +99,7 @@ def test_pin_on_disc_classical_cof_matches_instrument(tmp_path, name):
         run("analyze", DATA / name, "--out", out, "--window", "60", "--hop", "60", "--highpass", "0.01", "--quiet") == 0
     )
     t = read_csv(out / "windows.csv")
-    classic, instrument = floats(t["mu_classic"]), floats(t["mu_instrument"])
+    classic, instrument = floats(t["mu_classical"]), floats(t["mu_instrument"])
     assert len(classic) == 30
     # The first samples of the run (|Ff| < 1 N, printed to 0.1 N) are coarse: skip window 0.
     np.testing.assert_allclose(classic[1:], instrument[1:], rtol=0.02)

@@ -367,7 +367,7 @@ def test_scale_on_a_channel_the_reader_converted_warns(tmp_path):
     assert len(warnings) == 1 and "'Fz'" in warnings[0] and "gram-force" in warnings[0], r.stderr
     # The factor replaces the reader's (equal) one: the COF is still the instrument's.
     rows = read_rows(out / "windows.csv")
-    classic = np.array([float(x["mu_classic"]) for x in rows])
+    classic = np.array([float(x["mu_classical"]) for x in rows])
     instrument = np.array([float(x["mu_instrument"]) for x in rows])
     np.testing.assert_allclose(classic, instrument, rtol=0.02)
 

@@ -309,7 +309,7 @@ def test_matrix(files, reference, fmt, config, chunk, threads):
 def test_matrix_raw_highpass(files, reference, fmt):
     """The raw (DC-coupled) path: streaming high-pass, state carried across chunks."""
     want = reference("raw", fmt, "tiled", highpass=0.1)
-    assert np.isfinite(want.table["mu_classic"]).all()  # the raw path's own column
+    assert np.isfinite(want.table["mu_classical"]).all()  # the raw path's classical column
     with _open(files, "raw", fmt) as rec:
         got = td.analyze(rec, chunk=0.7, threads=2, highpass=0.1, **CONFIGS["tiled"])
     assert_same_results(got, want, f"raw {fmt} highpass=0.1 chunk=0.7 threads=2")

@@ -76,9 +76,9 @@ def test_pipeline_matches_reference(files, mode, how):
     assert np.median(res["mu_r"]) == pytest.approx(0.12, rel=0.05)
     np.testing.assert_allclose(res["J"], bench.CURRENT / bench.AREA, rtol=0.05)
     if raw:
-        assert np.all(np.isfinite(res["mu_classic"]))
+        assert np.all(np.isfinite(res["mu_classical"]))
     else:
-        assert np.all(np.isnan(res["mu_classic"]))
+        assert np.all(np.isnan(res["mu_classical"]))
 
 
 def test_sigma_deadband_and_explicit_orientation_match_reference(files):

@@ -170,7 +170,7 @@ def analyze(
         Cut-off in Hz of a first-order Butterworth high-pass applied to raw,
         DC-coupled force channels first (streaming, state carried, "steady"
         start). None for dynamic forces as delivered by the paper's charge
-        amplifier. With it, the table also has ``mu_classic``, the classical
+        amplifier. With it, the table's ``mu_classical`` is the classical
         COF mean(|fy|/|fz|) of the raw forces.
     orientation : {+1, -1, "auto"}
         s in mu = s * slope; "auto" fixes it ONCE for the recording, as the
@@ -768,9 +768,12 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         **log_quality(log, centre),  # T_uncertainty, T_gap (docs/method.md 6)
         "i": cur,
         "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan(),
-        "mu_classic": o["mu_classic"] if "mu_classic" in o else nan(),
         "mu_instrument": o["mu_instrument"] if "mu_instrument" in o else nan(),
-        "mu_classical": o["mu_classical"] if "mu_classical" in o else nan(),
+        # one classical column (docs/method.md 6a): the contact rule's; the paper's Sec. 5 mean over fz != 0 of
+        # the raw forces with method="paper" or without a contact rule (highpass on a fz with no static level)
+        "mu_classical": o["mu_classic"]
+        if "mu_classic" in o and (plan.paper or "mu_classical" not in o)
+        else o.get("mu_classical", nan()),
         "mu_classical_median": o["mu_classical_median"] if "mu_classical_median" in o else nan(),
         "fz_mean": o["fz_mean"] if "fz_mean" in o else (nan() if plan.raw else np.asarray(moments["mean_z"])),
         "fz_std": o["fz_std"] if "fz_std" in o else _fz_std(o, plan),

@@ -144,6 +144,9 @@ class GatedMask(np.ndarray):
         return np.asarray(obj).view(np.ndarray)
 
 
+#: Old column names and the column that replaced them (``res[old]`` still works, with a DeprecationWarning).
+DEPRECATED_COLUMNS = {"mu_classic": "mu_classical"}
+
 #: Columns shown by ``Results._repr_html_`` (those present and not all-NaN), in order.
 _PREVIEW_COLUMNS = ("time", "mu_r", "mu_r_low", "mu_r_high", "mu_ols", "c_yz", "T", "J", "ok", "reasons")
 #: Rows shown by ``Results._repr_html_``.
@@ -225,6 +228,10 @@ class Results:
         return tuple(self.table)
 
     def __getitem__(self, column: str) -> np.ndarray:
+        if column not in self.table and column in DEPRECATED_COLUMNS:
+            new = DEPRECATED_COLUMNS[column]
+            _warnings.warn(f"column {column!r} is {new!r} now", DeprecationWarning, stacklevel=2)
+            column = new
         return self.table[column]
 
     def bins(self, k: int) -> BinTable:
