@@ -38,7 +38,7 @@ import tempfile
 import threading
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Dict, Iterable, Iterator, List, Optional, Set, Type, Union
+from typing import Any, Dict, Iterable, Iterator, List, Optional, Set, Tuple, Type, Union
 
 import numpy as np
 
@@ -452,12 +452,14 @@ def _cell(v: Any) -> str:
 
 
 def write_table_parquet(results: Results, path: PathLike, *, extra: Optional[Dict[str, Any]] = None) -> bool:
-    """Per-window table as Parquet (needs pyarrow). Returns False if pyarrow is missing."""
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError:
-        return False
+    """Per-window table as Parquet. Returns True (it used to return False without pyarrow, now a dependency).
+
+    Raises
+    ------
+    ImportError
+        pyarrow cannot be imported (an install that skipped tribodyn's dependencies).
+    """
+    pa, pq = pyarrow_modules()
     from .columns import UNITS
 
     cols = _columns(results, extra)
@@ -466,6 +468,17 @@ def write_table_parquet(results: Results, path: PathLike, *, extra: Optional[Dic
     table = table.cast(pa.schema([f.with_metadata({"unit": UNITS.get(f.name, "")}) for f in table.schema]))
     pq.write_table(table, str(path))
     return True
+
+
+def pyarrow_modules() -> Tuple[Any, Any]:
+    """``(pyarrow, pyarrow.parquet)``; an ImportError saying what to install when pyarrow is missing."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError as exc:
+        raise ImportError(f"writing Parquet needs pyarrow>=10, a dependency of tribodyn: pip install pyarrow ({exc})"
+                          ) from None  # fmt: skip
+    return pa, pq
 
 
 def input_provenance(paths: Iterable[PathLike]) -> List[Dict[str, Any]]:
