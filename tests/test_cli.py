@@ -187,7 +187,7 @@ def test_no_partial_outputs_after_a_forced_failure(tmp_path, monkeypatch):
     monkeypatch.setattr(report, "write_report", boom)
     out = tmp_path / "out"
     assert run("analyze", DATA / "pod_PPS_60N_1.tsv", "--out", out, "--window", "60", "--hop", "60", "--quiet") == 2
-    assert list(out.iterdir()) == []
+    assert not out.exists() and list(tmp_path.iterdir()) == []  # no folder, no staging folder (issue 21)
 
 
 def test_console_script_is_installed():

@@ -143,7 +143,11 @@ def analyze(
           apart, each from its first sample: no window straddles two;
         - a pandas DataFrame: columns named by role, or mapped with
           ``channels={"fy": "Ft", ...}``; fs from a ``time`` column or the
-          index when not given.
+          index when not given;
+        - a path (str or os.PathLike): the file is opened with
+          ``tribodyn.open_recording(path, fs=fs, channels=channels)`` (its
+          other options at their defaults; open it yourself to set them),
+          analysed and closed.
     fs : float
         Sampling rate in Hz (taken from a recording when omitted).
     window, hop : float
@@ -165,7 +169,8 @@ def analyze(
     stroke_fraction : float
         Central part of each stroke used for its COF (default 0.5).
     channels : mapping, optional
-        For a DataFrame source: role -> column.
+        For a DataFrame source: role -> column; for a path: role -> channel,
+        as ``open_recording``'s ``channels=``.
     highpass : float, optional
         Cut-off in Hz of a first-order Butterworth high-pass applied to raw,
         DC-coupled force channels first (streaming, state carried, "steady"
@@ -273,6 +278,11 @@ def analyze(
         The recording cannot be read.
     """
     options = {k: v for k, v in locals().items() if k != "source"}
+    if isinstance(source, (str, os.PathLike)):  # a file: opened as open_recording does by default
+        from .io import open_recording
+
+        with open_recording(source, fs=fs, channels=options.pop("channels")) as rec:
+            return analyze(rec, **options)
     res = _analyze(source, options, partial=False)
     assert isinstance(res, Results)
     return res

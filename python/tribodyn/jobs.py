@@ -20,7 +20,7 @@ import numpy as np
 from ._labels import fmt_interval, fmt_number, fmt_range, key_text, unit_text, units_in_text
 from .analyze import analyze
 from .identify import identify
-from .outputs import OutputSet, input_provenance, write_json, write_table_csv, write_table_parquet
+from .outputs import OutputSet, input_provenance, pyarrow_modules, write_json, write_table_csv, write_table_parquet
 from .ranges import OperatingRange, operating_range
 from .results import Results
 
@@ -138,7 +138,7 @@ def _write_set(out: OutputSet, prefix: str, res: Results, extra: Optional[Dict[s
 
 
 def _write_strokes(out: OutputSet, prefix: str, strokes: Mapping[str, np.ndarray]) -> List[str]:
-    """strokes.csv (and strokes.parquet when pyarrow is there)."""
+    """strokes.csv and strokes.parquet."""
     import csv
 
     names = [f"{prefix}strokes.csv"]
@@ -149,11 +149,7 @@ def _write_strokes(out: OutputSet, prefix: str, strokes: Mapping[str, np.ndarray
         for row in zip(*(strokes[c] for c in cols)):
             w.writerow(["" if isinstance(v, float) and v != v else repr(float(v)) if isinstance(v, float) else v
                         for v in (x.item() if hasattr(x, "item") else x for x in row)])  # fmt: skip
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError:
-        return names
+    pa, pq = pyarrow_modules()
     pq.write_table(pa.table({c: np.asarray(strokes[c]) for c in cols}), out.path(f"{prefix}strokes.parquet"))
     return names + [f"{prefix}strokes.parquet"]
 

@@ -7,7 +7,9 @@ whole set is written, swaps the folders with two renames: the previous
 ``<out>`` is renamed aside (``<out>.tribodyn-old-<pid>-<random>``), the
 staging folder is renamed to ``<out>``, and the old one is removed. So
 ``<out>`` holds either the previous set or the complete new one, never a
-mix, and never files of an earlier run beside the new ones; SIGINT and
+mix, and never files of an earlier run beside the new ones; a set that
+fails into a new ``<out>`` removes the folders it created (``<out>`` and
+missing parents): nothing is left where there was nothing. SIGINT and
 SIGTERM are held back during the two renames. A run that was killed
 (SIGKILL, power loss) leaves its staging or aside folder behind; the next
 run into the same ``<out>`` recognises them by name (and a dead process
@@ -38,7 +40,7 @@ import tempfile
 import threading
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Dict, Iterable, Iterator, List, Optional, Set, Type, Union
+from typing import Any, Dict, Iterable, Iterator, List, Optional, Set, Tuple, Type, Union
 
 import numpy as np
 
@@ -269,6 +271,7 @@ class OutputSet:
         self.overwrite = overwrite
         self.protect = [os.fspath(p) for p in protect]
         self._stage: Optional[Path] = None
+        self._made: List[Path] = []  # folders __enter__ created (the target and missing parents), outermost first
         self.written: List[Path] = []
         self.check()
 
@@ -324,15 +327,30 @@ class OutputSet:
 
     def __enter__(self) -> "OutputSet":
         parent = self.target.parent
-        parent.mkdir(parents=True, exist_ok=True)
-        self._recover()
-        self.check()
-        # The folder exists (empty if new) while the job runs, as a place holder.
-        self.target.mkdir(exist_ok=True)
-        self._stage = Path(
-            tempfile.mkdtemp(prefix=f"{_work_prefix(self.target)}.{_STAGING}-{os.getpid()}-", dir=parent)
-        )
+        self._made = [p for p in (*reversed(self.target.parents), self.target) if not os.path.lexists(p)]
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+            self._recover()
+            self.check()
+            # The folder exists (empty if new) while the job runs, as a place holder.
+            self.target.mkdir(exist_ok=True)
+            self._stage = Path(
+                tempfile.mkdtemp(prefix=f"{_work_prefix(self.target)}.{_STAGING}-{os.getpid()}-", dir=parent)
+            )
+        except BaseException:
+            self._remove_made()
+            raise
         return self
+
+    def _remove_made(self) -> None:
+        """Removes the folders :meth:`__enter__` created, innermost first, as long as they are empty: a set that
+        failed leaves nothing where there was nothing."""
+        made, self._made = self._made, []
+        for p in reversed(made):
+            try:
+                os.rmdir(p)
+            except OSError:  # not empty (another run's, or something put there meanwhile) or already gone
+                break
 
     def path(self, name: str) -> Path:
         """Where to write output ``name`` (a relative path, sub-folders allowed)."""
@@ -351,6 +369,7 @@ class OutputSet:
         stage, self._stage = self._stage, None
         if stage is None:
             return
+        published = False
         try:
             if et is None:
                 files = sorted(
@@ -361,10 +380,15 @@ class OutputSet:
                 _write_marker(stage, files)
                 _sync_tree(stage)
                 publish(stage, self.target)
+                published = True
                 self.written = [self.target / f for f in files]
         finally:
             if os.path.lexists(stage):
                 shutil.rmtree(stage, ignore_errors=True)
+            if published:
+                self._made = []
+            else:
+                self._remove_made()
 
 
 def _write_marker(stage: Path, files: List[str]) -> None:
@@ -452,12 +476,14 @@ def _cell(v: Any) -> str:
 
 
 def write_table_parquet(results: Results, path: PathLike, *, extra: Optional[Dict[str, Any]] = None) -> bool:
-    """Per-window table as Parquet (needs pyarrow). Returns False if pyarrow is missing."""
-    try:
-        import pyarrow as pa
-        import pyarrow.parquet as pq
-    except ImportError:
-        return False
+    """Per-window table as Parquet. Returns True (it used to return False without pyarrow, now a dependency).
+
+    Raises
+    ------
+    ImportError
+        pyarrow cannot be imported (an install that skipped tribodyn's dependencies).
+    """
+    pa, pq = pyarrow_modules()
     from .columns import UNITS
 
     cols = _columns(results, extra)
@@ -466,6 +492,17 @@ def write_table_parquet(results: Results, path: PathLike, *, extra: Optional[Dic
     table = table.cast(pa.schema([f.with_metadata({"unit": UNITS.get(f.name, "")}) for f in table.schema]))
     pq.write_table(table, str(path))
     return True
+
+
+def pyarrow_modules() -> Tuple[Any, Any]:
+    """``(pyarrow, pyarrow.parquet)``; an ImportError saying what to install when pyarrow is missing."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError as exc:
+        raise ImportError(f"writing Parquet needs pyarrow>=10, a dependency of tribodyn: pip install pyarrow ({exc})"
+                          ) from None  # fmt: skip
+    return pa, pq
 
 
 def input_provenance(paths: Iterable[PathLike]) -> List[Dict[str, Any]]:

@@ -11,8 +11,9 @@ from __future__ import annotations
 import codecs
 import itertools
 import os
+import re
 import warnings
-from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+from typing import IO, Any, Dict, Iterator, List, Mapping, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -359,85 +360,191 @@ def is_wide(encoding: str) -> bool:
 
 # -- sampling rates written in a header ------------------------------------------------
 
-#: Header keys that give a rate (Hz), lower case, units and punctuation removed.
-RATE_KEYS = ("sampling rate", "sampling frequency", "sample rate", "sampling freq", "scan rate", "sample frequency",
-             "data rate", "acquisition rate", "fs", "sr", "rate")  # fmt: skip
-#: Header keys that give a sampling step (s unless a unit says otherwise).
-STEP_KEYS = ("delta_x", "delta x", "interval", "sample interval", "sampling interval", "dt", "wf_increment",
-             "time step", "sampling period", "sample period", "increment", "time interval")  # fmt: skip
+
+def norm_words(text: str) -> str:
+    """``text`` lower case, accents removed, ``_ - . ' ’`` as spaces, spaces collapsed: how header keys
+    and column names are compared (``"Fréquence d'échantillonnage"`` -> ``"frequence d echantillonnage"``)."""
+    import unicodedata
+
+    t = unicodedata.normalize("NFKD", text.strip().strip("\"'").strip().lower())
+    t = "".join(c for c in t if not unicodedata.combining(c))
+    t = re.sub(r"[_\-.'\u2019`]+", " ", t)
+    return re.sub(r"\s+", " ", t).strip()
+
+
+#: Header keys that give a rate (Hz), compared after :func:`norm_words` without a unit. English first,
+#: then German, French, Spanish, Italian, Portuguese, Dutch, Swedish, Polish, Czech, Russian, Japanese,
+#: Chinese and Korean.
+RATE_KEYS = (
+    "sampling rate", "sampling frequency", "sample rate", "sampling freq", "scan rate", "sample frequency",
+    "data rate", "acquisition rate", "acquisition frequency", "sampling speed", "samples per second",
+    "fs", "sr", "rate",
+    "abtastrate", "abtastfrequenz", "samplerate", "samplingrate", "messrate", "messfrequenz", "aufnahmerate",
+    "aufzeichnungsrate", "erfassungsrate", "datenrate", "abtastung",
+    "frequence d echantillonnage", "taux d echantillonnage", "frequence d acquisition", "cadence d echantillonnage",
+    "cadence d acquisition", "frequence echantillonnage",
+    "frecuencia de muestreo", "tasa de muestreo", "velocidad de muestreo", "frecuencia de adquisicion",
+    "frequenza di campionamento", "tasso di campionamento", "frequenza campionamento",
+    "taxa de amostragem", "frequencia de amostragem",
+    "bemonsteringsfrequentie", "samplefrequentie", "samplingsfrekvens", "samplingshastighet",
+    "czestotliwosc probkowania", "vzorkovaci frekvence",
+    "частота дискретизации", "частота выборки", "частота опроса",
+    "サンプリング周波数", "サンプリングレート", "サンプリング速度", "采样频率", "采样率", "采样速率",
+    "샘플링 주파수", "샘플링 속도",
+)  # fmt: skip
+#: Header keys that give a sampling step (s unless a unit says otherwise), compared as :data:`RATE_KEYS`.
+STEP_KEYS = (
+    "delta x", "interval", "sample interval", "sampling interval", "dt", "wf increment", "time step",
+    "sampling period", "sample period", "increment", "time interval",
+    "abtastintervall", "abtastzeit", "abtastperiode", "messintervall", "zeitschritt", "schrittweite",
+    "periode d echantillonnage", "pas d echantillonnage", "intervalle d echantillonnage", "pas de temps",
+    "periodo de muestreo", "intervalo de muestreo", "paso de tiempo",
+    "periodo di campionamento", "intervallo di campionamento", "passo di campionamento",
+    "periodo de amostragem", "intervalo de amostragem",
+    "bemonsteringsinterval", "samplingsintervall", "okres probkowania",
+    "шаг дискретизации", "период дискретизации",
+    "サンプリング間隔", "サンプリング周期", "采样间隔", "采样周期", "샘플링 간격",
+)  # fmt: skip
 _RATE_UNITS = {"hz": 1.0, "khz": 1e3, "mhz": 1e6, "s/s": 1.0, "sps": 1.0, "1/s": 1.0, "/s": 1.0, "ks/s": 1e3}
 _STEP_UNITS = {"s": 1.0, "sec": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "μs": 1e-6, "ns": 1e-9, "min": 60.0}
+#: Words of a key whose value in Hz is some other frequency than the sampling rate (filters, the motion).
+_NOT_RATE_WORDS = re.compile(
+    r"filter|cut ?off|pass|grenz|eck|band|corner|nyquist|motor|drive|antrieb|rotat|dreh|speed|velocit|geschw|"
+    r"stroke|hub|osc|oszill|schwing|excit|anreg|vibra|resonan|mains|netz|line|puls|carrier|modul|trigger|display|"
+    r"anzeige|update|refresh|bildwiederhol|frame|course|recip|cycle|zyklus|period"
+)
+#: A key that is only the word "frequency" (in any of these languages): on a tribometer that is usually the
+#: stroke or rotation frequency, never read as the sampling rate.
+_BARE_FREQUENCY = {"frequency", "freq", "f", "frequenz", "frequence", "frecuencia", "frequenza", "frequencia",
+                   "frequentie", "frekvens", "czestotliwosc", "частота", "周波数", "频率", "주파수"}  # fmt: skip
+_RATE_SET = frozenset(RATE_KEYS)
+_STEP_SET = frozenset(STEP_KEYS)
+_KNOWN_NOSPACE = {k.replace(" ", ""): ("rate" if k in _RATE_SET else "step") for k in STEP_KEYS + RATE_KEYS}
 _NUMBER = r"[-+]?(?:\d+(?:[.,]\d*)?|[.,]\d+)(?:[eE][-+]?\d+)?"
+_KEY_UNIT = re.compile(r"^(.*?)\s*[\[(]([^\[\]()]{1,8})[\])]\s*$")
+_UNIT_WORDS = "|".join(re.escape(u) for u in sorted(set(_RATE_UNITS) | set(_STEP_UNITS), key=len, reverse=True))
+_KEY_TRAILING_UNIT = re.compile(r"^(.*?\S)\s*(?:/|,|\bin\b|\s)\s*(" + _UNIT_WORDS + r")\s*$", re.IGNORECASE)
+
+
+class HeaderRate(NamedTuple):
+    """A sampling rate read from a header: ``hz``, the ``key`` as written and ``how`` it was recognised:
+    ``'key'`` (a known rate or step key), ``'fuzzy'`` (a misspelling of one) or ``'unit'`` (another key
+    whose value is in Hz or S/s)."""
+
+    hz: float
+    key: str
+    how: str
 
 
 def _key_unit(key: str) -> Tuple[str, Optional[str]]:
-    """(key without a bracketed unit, the unit) from ``'Sampling rate [kHz]'``."""
-    import re
-
-    m = re.match(r"^(.*?)\s*[\[(]([^\[\]()]{1,8})[\])]\s*$", key)
+    """(key without its unit, the unit) from ``'Sampling rate [kHz]'``, ``'Abtastrate/Hz'``, ``'Rate in kHz'``."""
+    m = _KEY_UNIT.match(key)
     if m:
         return m.group(1), m.group(2).strip()
+    m = _KEY_TRAILING_UNIT.match(key.strip().rstrip(":=").strip())
+    if m:
+        return m.group(1), m.group(2)
     return key, None
 
 
 def _norm_key(key: str) -> str:
-    import re
-
-    k = key.strip().strip("\"'").strip().lower()
-    k = re.sub(r"[:=]+$", "", k).strip()
-    return re.sub(r"\s+", " ", k)
+    return norm_words(re.sub(r"\s*[:=]+\s*$", "", key.strip()))
 
 
-def header_rate(pairs: Mapping[str, str]) -> Optional[Tuple[float, str]]:
-    """(rate in Hz, the header key it comes from) from header ``key -> value`` pairs, or None.
-
-    Keys are matched without case, quotes or a bracketed unit against
-    :data:`RATE_KEYS` (a rate: ``Sampling rate [Hz]``, ``fs``; ``kHz`` and
-    ``S/s`` understood) and :data:`STEP_KEYS` (a step: ``Delta_X``,
-    ``Interval``, ``dt``, ``wf_increment``; in s unless ``ms``/``us`` is
-    written), exactly or by a fuzzy match (``difflib`` ratio >= 0.85, which
-    catches ``Sampling fequency``). The value's first number is taken, a
-    unit after it (``100 Hz``, ``2 ms``) is understood.
-    """
+def _key_kind(k: str) -> Optional[Tuple[str, str]]:
+    """("rate" or "step", "key" or "fuzzy") for a normalized key, or None."""
     import difflib
-    import re
 
+    if k in _RATE_SET:
+        return "rate", "key"
+    if k in _STEP_SET:
+        return "step", "key"
+    ns = k.replace(" ", "")
+    if ns in _KNOWN_NOSPACE:  # "SamplingRate", "Sample-Rate"
+        return _KNOWN_NOSPACE[ns], "key"
+    if len(ns) < 6:
+        return None
+    best, kind = 0.0, None
+    for cand, knd in _KNOWN_NOSPACE.items():
+        if len(cand) < 5:
+            continue
+        r = difflib.SequenceMatcher(None, ns, cand).ratio()
+        if r > best:
+            best, kind = r, knd
+    return (kind, "fuzzy") if kind is not None and best >= 0.85 else None
+
+
+def _value_number(value: str) -> Optional[Tuple[float, str]]:
+    """(the first number of a header value, the unit written after it, lower case) or None."""
+    m = re.match(r"^\s*\"?(" + _NUMBER + r")\s*([A-Za-zµμ/]+(?:/s)?)?", str(value))
+    if not m:
+        return None
+    try:
+        x = float(m.group(1).replace(",", "."))
+    except ValueError:
+        return None
+    if not (x > 0) or x == float("inf"):
+        return None
+    return x, (m.group(2) or "").strip().lower()
+
+
+def header_rate(pairs: Mapping[str, str]) -> Optional[HeaderRate]:
+    """The sampling rate a header states, from its ``key -> value`` pairs, or None.
+
+    In order of trust, the first key found of:
+
+    1. a known key (:data:`RATE_KEYS`: ``Sampling rate``, ``fs``, ``Abtastrate``, ``Fréquence
+       d'échantillonnage``...; :data:`STEP_KEYS`: ``Delta_X``, ``Interval``, ``dt``, ``Abtastintervall``...),
+       compared without case, accents, quotes, ``_``/``-``/``.``, spaces or a unit (``[kHz]``, ``(Hz)``,
+       ``/Hz``, ``in Hz``);
+    2. a misspelling of one (``difflib`` ratio >= 0.85 to the closest known key, spaces ignored:
+       ``Sampling fequency``, ``Samplig rate``);
+    3. any other key whose value is in Hz, kHz, MHz or S/s (``Messrate [Hz]: 500``, ``Erfassung: 2 kHz``),
+       unless its words name another frequency (filter, cut-off, motor, rotation, stroke, oscillation...)
+       or it is the bare word "frequency" (on a tribometer, the motion's); when several such keys disagree,
+       none is used.
+
+    The value's first number is taken; a unit after it (``100 Hz``, ``2 ms``) or in the key is understood
+    (a rate in Hz unless written otherwise, a step in s). A rate key with a time unit, or a step key with
+    a rate unit, is skipped.
+    """
+    fuzzy: Optional[HeaderRate] = None
+    by_unit: List[HeaderRate] = []
     for key, value in pairs.items():
-        base, unit = _key_unit(str(key))
+        base, key_unit = _key_unit(str(key))
         k = _norm_key(base)
-        if len(k) > 40:
+        if not k or len(k) > 40:
             continue
-        kind = None
-        if k in RATE_KEYS:
-            kind = "rate"
-        elif k in STEP_KEYS:
-            kind = "step"
-        elif len(k) >= 6:
-            if difflib.get_close_matches(k, RATE_KEYS, n=1, cutoff=0.85):
-                kind = "rate"
-            elif difflib.get_close_matches(k, STEP_KEYS, n=1, cutoff=0.85):
-                kind = "step"
-        if kind is None:
+        num = _value_number(str(value))
+        if num is None:
             continue
-        m = re.match(r"^\s*\"?(" + _NUMBER + r")\s*([A-Za-zµμ/]+(?:/s)?)?", str(value))
-        if not m:
+        x, u = num
+        u = u or (key_unit or "").strip().lower()
+        found = _key_kind(k)
+        if found is None:
+            f = _RATE_UNITS.get(u)
+            if f is not None and k not in _BARE_FREQUENCY and not _NOT_RATE_WORDS.search(k):
+                by_unit.append(HeaderRate(float(f"{x * f:.12g}"), str(key), "unit"))
             continue
-        try:
-            x = float(m.group(1).replace(",", "."))
-        except ValueError:
-            continue
-        u = (m.group(2) or unit or "").strip().lower()
-        if not (x > 0) or x != x or x == float("inf"):
-            continue
+        kind, how = found
         if kind == "rate":
             f = _RATE_UNITS.get(u, 1.0 if not u else None) if u not in _STEP_UNITS else None
             if f is None:
                 continue
-            return float(f"{x * f:.12g}"), str(key)
-        f = _STEP_UNITS.get(u, 1.0 if not u else None)
-        if f is None:
-            continue
-        return float(f"{1.0 / (x * f):.12g}"), str(key)
+            hit = HeaderRate(float(f"{x * f:.12g}"), str(key), how)
+        else:
+            f = _STEP_UNITS.get(u, 1.0 if not u else None)
+            if f is None:
+                continue
+            hit = HeaderRate(float(f"{1.0 / (x * f):.12g}"), str(key), how)
+        if how == "key":
+            return hit
+        if fuzzy is None:
+            fuzzy = hit
+    if fuzzy is not None:
+        return fuzzy
+    if by_unit and all(abs(h.hz - by_unit[0].hz) <= 1e-9 * by_unit[0].hz for h in by_unit):
+        return by_unit[0]
     return None
 
 

@@ -9,7 +9,11 @@ Generic files
     given in the names as ``Force [N]`` or ``Force (N)``. Columns holding
     text (e.g. clock times) are not channels (``metadata['text_columns']``).
     A numeric time column (named ``time``, ``t``, ``test time``,
-    ``x_value``...; or ``time_column=``) gives fs = 1 / median step.
+    ``x_value``, ``Zeit``, ``Temps``, ``Tiempo``... with or without a unit:
+    ``Zeit [s]``, ``Time (s)``, ``Zeit/ms``; or ``time_column=``) gives
+    fs = 1 / median step, else a rate stated in the header (see
+    :func:`tribodyn.io._text.header_rate`; a line may hold several
+    ``key: value`` pairs separated by tabs).
     Blank lines and lines starting with ``#`` are ignored; non-numeric lines
     after the data are a footer. The column row repeated further down starts
     a new *block* (a separate acquisition): blocks are concatenated and their
@@ -66,6 +70,7 @@ from ._text import (
     native_dialect,
     native_scan,
     header_rate,
+    norm_words,
     is_wide,
     sniff_encoding,
     unit_likeness,
@@ -97,18 +102,68 @@ MAX_JITTER = 0.2
 #: A time step longer than this many median steps is a gap: the recording is split there.
 GAP_FACTOR = 5.0
 _DELIMITERS: Tuple[Optional[str], ...] = ("\t", ";", ",", "|", None)
+#: Names of a time column, in order of preference, compared after ``norm_words`` (case, accents, ``_-.``)
+#: and without a unit (``Zeit [s]``, ``Time (s)``, ``Zeit/s``, ``Zeit in ms``, ``time_ms``).
 _TIME_NAMES = (
     "time",
     "t",
     "test time",
-    "time_s",
+    "time s",
     "elapsed time",
+    "relative time",
     "timestamp",
-    "x_value",
+    "x value",
+    "zeit",
+    "messzeit",
+    "versuchszeit",
+    "prufzeit",
+    "laufzeit",
+    "relative zeit",
+    "rel zeit",
+    "temps",
+    "temps ecoule",
+    "tiempo",
+    "tiempo transcurrido",
+    "tempo",
+    "tijd",
+    "tid",
+    "czas",
+    "aika",
+    "время",
+    "時間",
+    "経過時間",
+    "时间",
+    "시간",
     "seconds",
     "sec",
     "s",
 )
+_TIME_UNIT_SUFFIX = re.compile(
+    r"^(.*?\S)\s*(?:/|,|\bin\b|_|\s)\s*(" + "|".join(sorted(TIME_TO_S, key=len, reverse=True)) + r")\s*$",
+    re.IGNORECASE,
+)
+
+
+def _time_name(name: str) -> Optional[Tuple[str, Optional[str]]]:
+    """(the time name, the unit written in the name) when a column name names time, else None.
+
+    ``'Zeit [s]'`` -> ``('zeit', 's')``, ``'Time/ms'`` -> ``('time', 'ms')``, ``'Temps'`` -> ``('temps', None)``.
+    """
+    n = name.strip()
+    unit: Optional[str] = None
+    m = _BRACKET_UNIT.match(n)
+    if m:
+        n, unit = m.group(1), (m.group(3) if m.group(3) is not None else m.group(4)).strip() or None
+    w = norm_words(n)
+    if w in _TIME_NAMES:
+        return w, unit
+    m2 = _TIME_UNIT_SUFFIX.match(n.strip())
+    if m2 and unit is None:
+        w = norm_words(m2.group(1))
+        if w in _TIME_NAMES:
+            return w, m2.group(2)
+    return None
+
 
 _DATA_COUNT = re.compile(r"Data Count\s*=\s*(\d+)")
 _CETR_ROLES = {"fy": "Ff", "fz": "Fz", "cof": "COF"}
@@ -271,14 +326,56 @@ def _dedupe(names: List[str]) -> List[str]:
     return out
 
 
+_KV = re.compile(r"^([^=:]{1,60}?)\s*[=:]\s*(.*)$")
+
+
+def _tab_pairs(s: str) -> Optional[List[Tuple[str, str]]]:
+    """The ``key: value`` / ``key=value`` / ``key<tab>value`` pairs of a line holding several of them
+    separated by tabs (``Operator: A<tab>Sampling rate: 100``, ``Operator<tab>A<tab>Rate<tab>100``); None
+    when the line is not such a line (one pair, or a row of a table such as ``Channel name<tab>Fy<tab><tab>Fz``).
+    """
+    fields = [f.strip() for f in s.split("\t")]
+    while fields and not fields[-1]:
+        fields.pop()
+    segs = [f for f in fields if f]
+    if len(segs) < 2:
+        return None
+    kv = [_KV.match(f) for f in segs]
+    if any(m is not None and "\\" not in m.group(1) for m in kv):
+        out: List[Tuple[str, str]] = []
+        i = 0
+        while i < len(segs):
+            m = kv[i]
+            if m is not None and "\\" not in m.group(1):
+                if m.group(2).strip():
+                    out.append((m.group(1).strip(), m.group(2).strip()))
+                elif i + 1 < len(segs) and kv[i + 1] is None:  # "Key:<tab>value"
+                    out.append((m.group(1).strip(), segs[i + 1]))
+                    i += 1
+            i += 1
+        return out
+    # key<tab>value<tab>key<tab>value: an even number of fields, none empty, keys that are not numbers
+    if len(segs) >= 4 and len(segs) == len(fields) and len(segs) % 2 == 0:
+        keys, vals = segs[0::2], segs[1::2]
+        if not any(is_number(k) or is_number(k, ",") for k in keys) and any(is_number(v.split()[0]) for v in vals):
+            return list(zip(keys, vals))
+    return None
+
+
 def _key_values(lines: Sequence[str], delim: Optional[str]) -> Dict[str, str]:
-    """``key = value`` / ``key: value`` / ``key<delim>value`` header lines as a dict."""
+    """``key = value`` / ``key: value`` / ``key<delim>value`` header lines as a dict; a line holding several
+    pairs separated by tabs gives each of them (see :func:`_tab_pairs`)."""
     out: Dict[str, str] = {}
     for ln in lines:
         s = ln.strip()
         if not s:
             continue
-        m = re.match(r"^([^=:]{1,60}?)\s*[=:]\s*(.*)$", s)
+        pairs = _tab_pairs(s) if "\t" in s else None
+        if pairs is not None:
+            for k, v in pairs:
+                out.setdefault(k, v)
+            continue
+        m = _KV.match(s)
         if m and "\\" not in m.group(1):
             out.setdefault(m.group(1).strip(), m.group(2).strip())
             continue
@@ -519,8 +616,8 @@ class DelimitedRecording(TextRecording):
         self._pair_times: List[int] = []
         paired = _paired_columns(sample, nf, decimal)
         if paired and name_f is not None:
-            evens = {_clean(name_f[j]).lower() for j in range(0, nf, 2)}
-            if not (len(evens) == 1 or evens <= set(_TIME_NAMES) | {"", "channel name"}):
+            evens = {_clean(name_f[j]) for j in range(0, nf, 2)}
+            if not (len(evens) == 1 or all(not e or e.lower() == "channel name" or _time_name(e) for e in evens)):
                 paired = None  # named columns that merely increase (a position...), not pairs
         elif paired and not paired[1]:
             paired = None
@@ -590,18 +687,18 @@ class DelimitedRecording(TextRecording):
             k = hits[0]
         else:
             k = None
-            bases = [n.lower() for n in names]
-            stripped = []
-            for n in names:
-                m = _BRACKET_UNIT.match(n)
-                stripped.append((m.group(1) if m else n).strip().lower())
+            timed = [_time_name(n) for n in names]
             for cand in _TIME_NAMES:
-                for kk, (b, s) in enumerate(zip(bases, stripped)):
-                    if b == cand or s == cand:
+                for kk, tn in enumerate(timed):
+                    if tn is not None and tn[0] == cand:
                         k = kk
                         break
                 if k is not None:
                     break
+            if k is not None:
+                tn = timed[k]
+                if tn is not None and tn[1] and not self._raw_units.get(names[k]):
+                    self._raw_units[names[k]] = tn[1]  # 'Zeit/ms': the unit written in the name
         self._time_guessed = False
         if k is None and name_f is None and self._vendor is None:
             k = _guess_time_column(sample, use, decimal)
@@ -807,14 +904,19 @@ class DelimitedRecording(TextRecording):
                 self._file_fs = f
                 self._fs_source = f"median step of time column {self._time_name!r}"
                 self._check_jitter(blocks, factor, f)
-                if hr is not None and abs(hr[0] - f) > 0.01 * f:
+                if hr is not None and abs(hr.hz - f) > 0.01 * f:
                     self.warnings.append(
-                        f"the header's {hr[1]!r} gives {hr[0]:g} Hz but time column {self._time_name!r} "
+                        f"the header's {hr.key!r} gives {hr.hz:g} Hz but time column {self._time_name!r} "
                         f"steps at {f:g} Hz: the time column is used"
                     )
         if self._file_fs is None and hr is not None:
-            self._file_fs = hr[0]
-            self._fs_source = f"header {hr[1]!r}"
+            self._file_fs = hr.hz
+            self._fs_source = f"header {hr.key!r}"
+            if hr.how == "unit" and not self._fs_given:
+                self.warnings.append(
+                    f"sampling rate {hr.hz:g} Hz taken from the header's {hr.key!r} (a value in Hz under a key "
+                    "not known as a sampling rate): pass fs= (--fs) if it is another frequency"
+                )
         self.metadata = {
             "header": _key_values(self._header_lines, delim),
             "delimiter": delim if delim is not None else "whitespace",

@@ -19,7 +19,12 @@ object header gives ``OSError``, ``RuntimeError``, ``KeyError`` or
 naming the file and the object. Only attributes holding numbers or text are
 read: one of another type (a flipped type byte can turn a string into a
 variable-length sequence, which h5py crashes the process reading) is refused
-unread. The file's size, mtime and inode are taken at open and checked again
+unread. Variable-length text attributes (what h5py writes for a ``str``)
+live in the file's global heap, which libhdf5 can loop on forever when it
+is corrupt: they are read by a helper process with a time limit
+(:mod:`tribodyn.io._h5attrs`, 30 s), a file whose read does not finish or
+crashes the helper is refused, and they are never read where a number is
+looked for (a rate). The file's size, mtime and inode are taken at open and checked again
 after every read (:meth:`~tribodyn.io.base.Recording.check_unchanged`): HDF5
 returns zeros past the end of a file truncated under it, so a file changed
 while it is read is refused.
@@ -44,6 +49,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import _core
+from . import _h5attrs
 from ._open import closing_on_error, open_or_raise
 from .base import (
     Recording,
@@ -227,29 +233,83 @@ class Hdf5Recording(Recording):
         except _H5_ERRORS as exc:
             raise RecordingError(f"{self.path}: corrupt HDF5 file: cannot read {what}: {_one_line(exc)}") from None
 
-    def _attr_of(self, obj: Any, name: str, key: str, display: bool = False) -> Any:
+    def _attr_of(self, obj: Any, name: str, key: str, display: bool = False, number: bool = False) -> Any:
         """Attribute ``key`` of the object at ``name``, None when it has none.
 
         Only numbers and text are read: an attribute of another type (e.g. a
         variable-length sequence, what a flipped type byte can make of a
         string, and which h5py may crash reading) is refused, or with
-        ``display`` shown as its type without reading it.
+        ``display`` shown as its type without reading it. Variable-length
+        text comes from the helper process (:meth:`_heap_texts`); with
+        ``number`` (a number is looked for) it is not read at all: None.
         """
 
         def get() -> Any:
             if key not in obj.attrs:
                 return None
             dt = obj.attrs.get_id(key).dtype
-            if not (dt.kind in "biufSU" or self._h5py.check_string_dtype(dt) is not None):
+            text = self._h5py.check_string_dtype(dt)
+            if not (dt.kind in "biufSU" or text is not None):
                 if display:
                     return f"<HDF5 attribute of type {dt}, not shown>"
                 raise RecordingError(
                     f"{self.path}: attribute {key!r} of {name!r} is of type {dt}, neither a number nor text "
                     "(corrupt file?)"
                 )
+            if text is not None and text.length is None:  # in the global heap: see the module docstring
+                return None if number else self._heap_texts([(obj, name, key)])[0]
             return obj.attrs[key]
 
         return self._meta(f"attribute {key!r} of {name!r}", get)
+
+    def _in_heap(self, obj: Any, name: str, key: str) -> bool:
+        """Whether attribute ``key`` of ``obj`` is variable-length text (stored in the global heap)."""
+
+        def check() -> bool:
+            if key not in obj.attrs:
+                return False
+            text = self._h5py.check_string_dtype(obj.attrs.get_id(key).dtype)
+            return text is not None and text.length is None
+
+        return self._meta(f"attribute {key!r} of {name!r}", check)
+
+    def _heap_texts(self, wanted: Sequence[Tuple[Any, str, str]]) -> List[Any]:
+        """Values of the variable-length text attributes ``(obj, name, key)``: from the cache, the rest read in
+        one request to the helper process (:mod:`tribodyn.io._h5attrs`) and cached."""
+        keys = [(self._meta(f"the name of {name!r}", lambda: str(obj.name)), key) for obj, name, key in wanted]
+        todo = [(k, w) for k, w in zip(keys, wanted) if k not in self._heap]
+        if todo:
+            what = ", ".join(f"{key!r} of {name!r}" for _k, (_o, name, key) in todo[:4])
+            what += f" and {len(todo) - 4} more" if len(todo) > 4 else ""
+            try:
+                answers = _h5attrs.read_attributes(self.path, [k for k, _w in todo])
+            except TimeoutError:
+                raise RecordingError(
+                    f"{self.path}: reading the text attribute(s) {what} did not finish within "
+                    f"{_h5attrs.TIME_LIMIT:g} s (corrupt global heap?): file refused"
+                ) from None
+            except _h5attrs.HelperCrashed:
+                raise RecordingError(
+                    f"{self.path}: the HDF5 library crashed reading the text attribute(s) {what} (corrupt file?)"
+                ) from None
+            except _h5attrs.HelperUnavailable as exc:
+                self.warnings.append(f"text attributes read in this process, without a time limit: {exc}")
+                answers = []
+                for _k, (obj, _name, key) in todo:
+                    try:
+                        answers.append(("ok", obj.attrs[key]))
+                    except _H5_ERRORS as e:
+                        answers.append(("error", _one_line(e)))
+            self._heap.update(zip([k for k, _w in todo], answers))
+        out = []
+        for k, (_obj, name, key) in zip(keys, wanted):
+            status, value = self._heap[k]
+            if status != "ok":
+                raise RecordingError(
+                    f"{self.path}: corrupt HDF5 file: cannot read attribute {key!r} of {name!r}: {value}"
+                )
+            out.append(value)
+        return out
 
     def _open(
         self,
@@ -296,6 +356,13 @@ class Hdf5Recording(Recording):
         self._dsets = {k: found[k] for k in names}
         self._names = names
         self._n = n
+        # Variable-length text attributes to be read (units, the root's for the metadata): one helper request.
+        self._heap: Dict[Tuple[str, str], Tuple[str, Any]] = {}
+        root_attrs = self._meta("the attributes of '/'", lambda: list(self._h5.attrs))
+        texts = [(d, k, key) for k, d in self._dsets.items() for key in _UNIT_ATTRS if self._in_heap(d, k, key)]
+        texts += [(self._h5, "/", key) for key in root_attrs if self._in_heap(self._h5, "/", key)]
+        if texts:
+            self._heap_texts(texts)
         self._raw_units = {}
         for k, d in self._dsets.items():
             u = None
@@ -310,7 +377,7 @@ class Hdf5Recording(Recording):
             obj = d
             while True:
                 oname = self._meta(f"the name of an ancestor of {k!r}", lambda: str(obj.name))
-                r = _rate_of(lambda key: self._attr_of(obj, oname, key), oname)
+                r = _rate_of(lambda key: self._attr_of(obj, oname, key, number=True), oname)
                 if r is not None:
                     rates[k] = r
                     break
@@ -319,7 +386,7 @@ class Hdf5Recording(Recording):
                 obj = self._meta(f"the parent group of {oname!r}", lambda: obj.parent)
         if not rates:
             fs_d = self._meta("dataset '/fs'", lambda: self._h5["fs"] if "fs" in self._h5 else None)
-            if isinstance(fs_d, h5py.Dataset):
+            if isinstance(fs_d, h5py.Dataset) and fs_d.dtype.kind in "biuf" and fs_d.size == 1:  # numbers only
                 v = _scalar(self._meta("dataset '/fs'", lambda: fs_d[()]))
                 if v is not None:
                     rates = {k: (v, "dataset '/fs'") for k in self._dsets}
@@ -331,7 +398,6 @@ class Hdf5Recording(Recording):
             self._file_fs, self._fs_source = next(iter(rates.values()))
         elif time_channel is not None:
             self._fs_from_time_channel(time_channel)
-        root_attrs = self._meta("the attributes of '/'", lambda: list(self._h5.attrs))
         self.metadata = {"attributes": {k: _attr(self._attr_of(self._h5, "/", k, display=True)) for k in root_attrs}}
         if skipped:
             self.metadata["skipped"] = skipped

@@ -30,7 +30,8 @@ import mmap
 import os
 import struct
 import zipfile
-from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+import zlib
+from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Type
 
 import numpy as np
 
@@ -48,6 +49,29 @@ __all__ = ["NpyRecording", "NpzRecording"]
 
 #: Largest header accepted (numpy's own default limit for loading untrusted files).
 _MAX_HEADER = 10000
+
+#: What zipfile raises on a corrupt or unreadable member: a bad CRC or header, a corrupt compressed
+#: stream (zlib.error; bz2 and lzma raise OSError / LZMAError), an unknown compression method
+#: (NotImplementedError) or one whose module this Python lacks (RuntimeError).
+_ZIP_ERRORS: Tuple[Type[BaseException], ...] = (zipfile.BadZipFile, OSError, EOFError, zlib.error,
+                                                 NotImplementedError, RuntimeError)  # fmt: skip
+try:
+    import lzma
+
+    _ZIP_ERRORS += (lzma.LZMAError,)
+except ImportError:  # pragma: no cover - a Python built without lzma
+    pass
+_ZIP_OR_VALUE_ERRORS: Tuple[Type[BaseException], ...] = _ZIP_ERRORS + (ValueError,)
+
+
+def _member_error(path: str, member: str, exc: BaseException) -> RecordingError:
+    """The RecordingError of a member zipfile cannot read (see :data:`_ZIP_ERRORS`)."""
+    if isinstance(exc, (NotImplementedError, RuntimeError)):
+        return RecordingError(
+            f"{path}: member {member!r} uses a compression method that cannot be read ({exc}); "
+            "numpy writes stored or deflated members"
+        )
+    return RecordingError(f"{path}: corrupt member {member!r}: {exc}")
 
 
 def _read_header_3_0(fh: IO[bytes]) -> Tuple[Any, Any, Any]:
@@ -349,8 +373,8 @@ class NpzRecording(Recording):
             with self._zip.open(member) as fh:
                 shape, fortran, dtype = _read_npy_header(fh, f"{self.path}[{member}]")
                 offset = fh.tell()
-        except (zipfile.BadZipFile, OSError, EOFError) as exc:
-            raise RecordingError(f"{self.path}: corrupt member {member!r}: {exc}") from None
+        except _ZIP_ERRORS as exc:
+            raise _member_error(self.path, member, exc) from None
         return shape, fortran, dtype, offset
 
     def _load_small(self, member: str) -> np.ndarray:
@@ -358,8 +382,8 @@ class NpzRecording(Recording):
         try:
             with self._zip.open(member) as fh:
                 return np.lib.format.read_array(fh, allow_pickle=False)
-        except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
-            raise RecordingError(f"{self.path}: corrupt member {member!r}: {exc}") from None
+        except _ZIP_OR_VALUE_ERRORS as exc:
+            raise _member_error(self.path, member, exc) from None
 
     def _open(
         self,
@@ -432,9 +456,12 @@ class NpzRecording(Recording):
         try:
             for nm in names:
                 member, dtype, offset, _ = self._members[nm]
-                fh = self._zip.open(member)
-                streams[nm] = fh
-                fh.read(offset)  # skip the .npy header
+                try:
+                    fh = self._zip.open(member)
+                    streams[nm] = fh
+                    fh.read(offset)  # skip the .npy header
+                except _ZIP_ERRORS as exc:
+                    raise _member_error(self.path, member, exc) from None
             for start in range(0, self._n, block):
                 m = min(block, self._n - start)
                 out = {}
@@ -442,8 +469,8 @@ class NpzRecording(Recording):
                     dtype = self._members[nm][1]
                     try:
                         buf = streams[nm].read(m * dtype.itemsize)
-                    except (zipfile.BadZipFile, OSError, EOFError) as exc:
-                        raise RecordingError(f"{self.path}: corrupt member {nm!r}: {exc}") from None
+                    except _ZIP_ERRORS as exc:
+                        raise _member_error(self.path, nm, exc) from None
                     if len(buf) != m * dtype.itemsize:
                         raise RecordingError(f"{self.path}: member {nm!r} is truncated")
                     out[nm] = np.frombuffer(buf, dtype=dtype)

@@ -1,0 +1,81 @@
+"""Parquet outputs in every install (issue 21): pyarrow is a dependency, windows.parquet and strokes.parquet
+are written next to the CSV files and read back equal to them."""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from tribodyn import cli
+from tribodyn.outputs import write_table_parquet
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data" / "real"
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+
+def _csv_columns(path: Path) -> dict:
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    return {k: [r[k] for r in rows] for k in rows[0]}
+
+
+def _assert_same(parquet: Path, csv_path: Path) -> None:
+    table = pq.read_table(parquet)
+    text = _csv_columns(csv_path)
+    assert table.column_names == list(text)
+    assert table.num_rows == len(next(iter(text.values()))) > 0
+    for name in table.column_names:
+        values = table.column(name).to_numpy(zero_copy_only=False)
+        cells = text[name]
+        if values.dtype.kind == "f":
+            want = np.array([float(c) if c != "" else np.nan for c in cells])
+            np.testing.assert_array_equal(values, want, err_msg=name)
+        elif values.dtype.kind == "b":
+            assert [("true" if v else "false") for v in values] == cells, name
+        elif values.dtype.kind in "iu":
+            assert [str(int(v)) for v in values] == cells, name
+        else:
+            assert [str(v) for v in values] == [c.lstrip("'") for c in cells], name
+
+
+def test_pyarrow_is_a_dependency_not_only_an_extra():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
+    assert any(d.replace(" ", "").startswith("pyarrow>=") for d in meta["dependencies"])
+
+
+def test_analyze_writes_windows_parquet_equal_to_the_csv(tmp_path):
+    out = tmp_path / "pod"
+    assert cli.main(["analyze", str(DATA / "pod_PPS_60N_1.tsv"), "--out", str(out), "--quiet"]) == 0
+    assert (out / "windows.parquet").is_file()
+    _assert_same(out / "windows.parquet", out / "windows.csv")
+
+
+def test_reciprocating_writes_strokes_parquet_equal_to_the_csv(tmp_path):
+    out = tmp_path / "cetr"
+    args = ["analyze", str(DATA / "cetr_umt2_HT-2n-6-4_2_001.csv"), "--out", str(out), "--quiet",
+            "--map", "fy=Fx", "--motion", "reciprocating"]  # fmt: skip
+    assert cli.main(args) == 0
+    assert (out / "strokes.parquet").is_file() and (out / "windows.parquet").is_file()
+    _assert_same(out / "strokes.parquet", out / "strokes.csv")
+    _assert_same(out / "windows.parquet", out / "windows.csv")
+
+
+def test_a_missing_pyarrow_is_an_error_not_a_missing_file(tmp_path, monkeypatch):
+    import tribodyn as td
+
+    res = td.analyze({"fy": np.full(400, 1.0), "fz": np.full(400, 10.0)}, fs=100.0, window=2.0, hop=2.0)
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
+    with pytest.raises(ImportError, match="pip install pyarrow"):
+        write_table_parquet(res, tmp_path / "w.parquet")
+    assert not (tmp_path / "w.parquet").exists()
