@@ -66,7 +66,7 @@ def _ni_pairs(path: Path) -> None:
 def _kyowa(path: Path) -> None:
     t, fy, fz = _dead_weight()
     rows = "".join(f"{a:.4f},{b:.6f},{c:.6f}\n" for a, b, c in zip(t, fy, fz))
-    path.write_bytes(("測定器 PCD-400A\n時間,摩擦力 Fy,荷重 Fz\ns,N,N\n" + rows).encode("cp932"))
+    path.write_bytes(("測定器 PCD-400A\n時間,摩擦力,荷重\ns,N,N\n" + rows).encode("cp932"))
 
 
 def _jittery(path: Path) -> None:
