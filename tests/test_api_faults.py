@@ -8,6 +8,7 @@ objects, and valid but unusual arrays (unaligned) accepted.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import os
 
 import numpy as np
 import pytest
@@ -90,10 +91,31 @@ def test_analyze_many_client_must_be_a_client():
 
 
 def test_a_table_that_cannot_fit_is_refused_before_reading():
-    n = 2_000_000
+    # The most bins allowed (1024 on a 4096-sample window), a window every
+    # sample: about 17 kB per window, as many windows as the machine has
+    # memory in 17 kB, so the table needs about twice half of it.
+    have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    n = have // (1024 * 16) + 4096
     src = {"fy": np.zeros(n), "fz": np.zeros(n)}
     with pytest.raises(ValueError, match=r"per-window table would need about .* GiB"):
-        td.analyze(src, fs=1000.0, window=0.003, hop=0.001, n_bins=1 << 20)
+        td.analyze(src, fs=1000.0, window=4.096, hop=0.001, n_bins=1024)
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize(
+    "window, n_bins, limit",
+    [(2.0, 501, 500), (2.0, 1 << 20, 500), (0.01, 17, 16), (60.0, 1025, 1024), (60.0, 10**30, 1024)],
+)
+def test_n_bins_is_bounded_before_anything_is_read(window, n_bins, limit):
+    """At most max(16, window samples // 4) and 1024 bins (docs/method.md 4), refused by make_plan."""
+    from tribodyn.plan import make_plan
+
+    with pytest.raises(ValueError, match=rf"n_bins must be at most {limit} for a window of \d+ samples"):
+        make_plan(fs=1000.0, window=window, n_bins=n_bins)
+    assert make_plan(fs=1000.0, window=window, n_bins=limit).n_bins == limit
+    x = np.zeros(10)
+    with pytest.raises(ValueError, match="n_bins must be at most 16 for a window of 10 samples"):
+        td.identify(x, x, fs=1000.0, n_bins=17)
 
 
 @pytest.mark.parametrize("threads", [0, -1, 30000, 10**20])

@@ -420,11 +420,43 @@ def test_config_of_the_right_types_runs(rec, tmp_path):
     assert cli.main(["analyze", str(rec), "--out", str(tmp_path / "out"), "--config", str(cfg), "--quiet"]) == 0
 
 
-def test_toml_reader_imports():
-    if sys.version_info >= (3, 11):
-        import tomllib  # noqa: F401
-    else:  # pragma: no cover - Python < 3.11: the tomli dependency
-        import tomli  # noqa: F401
+def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch, capsys):
+    """--bins beyond the bound (docs/method.md 4) is refused by the plan: nothing read, nothing allocated."""
+    from tribodyn import tribometer
+
+    long = tmp_path / "long.npz"
+    n = 600_000  # 10 min at 1 kHz: the old way allocated 300 windows x 2^20 bins
+    save_npz(long, {"fy": np.zeros(n), "fz": np.ones(n)}, 1000.0, {"fy": "N", "fz": "N"})
+
+    def read(*args, **kwargs):
+        raise AssertionError("the recording was read before the options were checked")
+
+    monkeypatch.setattr(tribometer, "prepass", read)
+    assert cli.main(["analyze", str(long), "--out", str(tmp_path / "out"), "--bins", "1048576"]) == 2
+    line = error_line(capsys.readouterr().err)
+    assert "n_bins must be at most 500 for a window of 2000 samples" in line and "1048576" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_toml_config_values_keep_their_types(tmp_path, monkeypatch):
+    """The TOML reader of --config: numbers, strings, booleans and tables reach analyze with their types."""
+    from tribodyn import jobs
+
+    seen = {}
+
+    def fake_run(files, out, *, open_options, analyze_options, **kwargs):
+        seen.update(analyze_options, open_options=open_options)
+        raise cli.UserError("stop here")
+
+    rec = recording(tmp_path / "rec.npz")
+    cfg = tmp_path / "run.toml"
+    cfg.write_text('window = 1.5\nhop = 3\nbins = 8\ndeadband = "0.5sigma"\norientation = -1\n[map]\nfy = "fy"\n')
+    monkeypatch.setattr(jobs, "run_analysis", fake_run)
+    code = cli.main(["analyze", str(rec), "--out", str(tmp_path / "out"), "--config", str(cfg), "--quiet"])
+    assert code == 2, seen
+    assert seen["window"] == 1.5 and seen["hop"] == 3 and seen["n_bins"] == 8
+    assert seen["deadband"] == "0.5sigma" and seen["orientation"] == -1
+    assert seen["open_options"]["channels"] == {"fy": "fy"}
 
 
 # ------------------------------------------------------- 6. CSV formula injection

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import _core
 
-__all__ = ["as_signal", "as_channels", "positive", "check_fs", "check_int"]
+__all__ = ["as_signal", "as_channels", "positive", "check_fs", "check_int", "check_bins", "MAX_BINS", "MIN_BIN_SAMPLES"]
 
 
 def _as_float_array(x: Any, name: str) -> np.ndarray:
@@ -100,3 +100,31 @@ def check_int(value: Any, name: str, *, minimum: int) -> int:
     if v < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {v}")
     return v
+
+
+#: Most fz bins of a window (docs/method.md 4): Fig. 9 reads a COF per bin,
+#: and the table holds windows x n_bins counts and COFs (16 bytes each).
+MAX_BINS = 1024
+#: Fewest samples a bin holds on average (docs/method.md 4): a bin's COF is a
+#: mean of s fy / fz over its samples.
+MIN_BIN_SAMPLES = 4
+#: The paper's bin count (Fig. 9), allowed on any window.
+DEFAULT_BINS = 16
+
+
+def check_bins(value: Any, samples: int, name: str = "n_bins") -> int:
+    """The fz bins of a window of ``samples`` samples (docs/method.md 4), checked before anything is allocated.
+
+    At most ``max(DEFAULT_BINS, samples // MIN_BIN_SAMPLES)`` (about 4 samples
+    per bin on average, or the paper's 16) and never more than
+    :data:`MAX_BINS`; more bins leave most of them empty and cost memory and
+    time per window for nothing.
+    """
+    nb = check_int(value, name, minimum=1)
+    limit = min(MAX_BINS, max(DEFAULT_BINS, samples // MIN_BIN_SAMPLES))
+    if nb > limit:
+        raise ValueError(
+            f"{name} must be at most {limit} for a window of {samples} samples (max({DEFAULT_BINS}, samples // "
+            f"{MIN_BIN_SAMPLES}), at most {MAX_BINS}; docs/method.md 4), got {nb}"
+        )
+    return nb

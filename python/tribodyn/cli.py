@@ -202,7 +202,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--lamellas", type=int, help="number of commutator lamellas")
     a.add_argument("--orientation", type=_orientation, help="auto (default), +1 or -1")
     a.add_argument("--deadband", type=_deadband, help="deadband in N (default 0.35) or e.g. 0.7sigma")
-    a.add_argument("--bins", type=int, help="normal-force bins (default 16)")
+    a.add_argument("--bins", type=int, help="normal-force bins (default 16; at most 1024, about 4 samples each)")
     a.add_argument(
         "--gate",
         type=_gate,

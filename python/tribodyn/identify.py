@@ -7,7 +7,7 @@ from typing import Any, Dict, Optional, Union
 
 import numpy as np
 
-from ._validate import as_signal, check_fs, check_int, same_length
+from ._validate import as_signal, check_bins, check_fs, check_int, same_length
 from .correlation import xcorr
 from .deadband import DeadbandSpec, parse_deadband
 from .results import BinTable, CofResult
@@ -102,7 +102,8 @@ def identify(
         |fz| < d excluded from the bins and from mu_a, mu_b: a force in N
         (paper 0.35) or ``"0.7sigma"`` (k times the std of fz).
     n_bins : int
-        Equal-width fz bins over [min fz, max fz] (default 16).
+        Equal-width fz bins over [min fz, max fz] (default 16; at most
+        max(16, n // 4) and 1024, docs/method.md 4).
     gate : float
         Quality gate: |C_yz(0)| >= gate (default 0.85, Sec. 3.1).
     max_lag : int, optional
@@ -147,7 +148,7 @@ def identify(
     same_length(fy=fy_a, fz=fz_a, **({} if fx_a is None else {"fx": fx_a}))
     n = fz_a.size
     db = parse_deadband(deadband)
-    nb = check_int(n_bins, "n_bins", minimum=1)
+    nb = check_bins(n_bins, n)
     g = check_gate(gate)
     st = compute(fx_a, fy_a, fz_a, None, np.zeros(1, dtype=np.int64), n, db, nb)
     s = resolve_orientation(orientation, float(st["slope"][0]))

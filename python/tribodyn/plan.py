@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from typing import Any, Dict, Optional, Tuple, Union
 
-from ._validate import check_fs, check_int, positive
+from ._validate import check_bins, check_fs, check_int, positive
 from .columns import kernel_columns
 from .covariates import TimeLog, as_log, constant_or_log
 from .deadband import Deadband, DeadbandSpec, parse_deadband
@@ -262,7 +262,7 @@ def make_plan(
         length=length,
         step=step,
         deadband=parse_deadband(deadband),
-        n_bins=check_int(n_bins, "n_bins", minimum=1),
+        n_bins=check_bins(n_bins, length),
         orientation=check_orientation(orientation),
         highpass=None if highpass is None else positive(highpass, "highpass"),
         max_lag=None if max_lag is None else check_int(max_lag, "max_lag", minimum=0),
