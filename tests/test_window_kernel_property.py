@@ -51,6 +51,7 @@ import pytest
 from hypothesis import assume, currently_in_test_context, given, note
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
+from tribodyn import _core
 from tribodyn import reference as ref
 from tribodyn.columns import KERNEL_COLUMNS, kernel_columns
 from tribodyn.deadband import parse_deadband
@@ -58,7 +59,7 @@ from tribodyn.window_stats import compute
 
 TOL = 1e-9
 EPS = np.finfo(np.float64).eps
-INT_KEYS = ("n", "n_a", "n_b", "bin_count")
+INT_KEYS = ("n", "n_a", "n_b", "out_of_range", "bin_count")
 
 
 def _kernel_names():
@@ -448,6 +449,33 @@ def test_threads_give_the_same_bits(data):
     for key in a:
         assert a[key].dtype == b[key].dtype and a[key].shape == b[key].shape, key
         assert a[key].tobytes() == b[key].tobytes(), f"{key}: threads={threads} and threads=1 differ"
+
+
+@given(st.data())
+def test_forces_out_of_range(data):
+    """A force beyond _core.FORCE_LIMIT in any channel makes the windows holding it out of range on both sides.
+
+    Every statistic of those windows NaN and their counts 0 (docs/method.md 4); at the limit itself a
+    window is analysed; the other windows are untouched.
+    """
+    length, starts, n = data.draw(layouts(max_windows=6))
+    fx, fy, fz, aux, fy_raw, fz_raw = _generated(data.draw, n, 0.35)
+    channels = [fx, fy, fz, fy_raw, fz_raw]
+    which = data.draw(st.integers(0, 4))
+    at = data.draw(st.integers(0, n - 1))
+    factor = data.draw(st.sampled_from([1.0, 1.0000001, 2.0, 1e200]))
+    channels[which] = channels[which].copy()
+    channels[which][at] = data.draw(st.sampled_from([1.0, -1.0])) * factor * _core.FORCE_LIMIT
+    fx, fy, fz, fy_raw, fz_raw = channels
+    n_bins = data.draw(st.integers(1, 8))
+    with np.errstate(over="ignore"):  # the tolerances' units of a window holding 1e260 N
+        got = check(fx, fy, fz, aux, starts, length, "0.7sigma", n_bins, raw=(fy_raw, fz_raw))
+    inside = (starts <= at) & (at < starts + length) & (factor > 1.0)
+    np.testing.assert_array_equal(got["out_of_range"], inside.astype(np.int64))
+    for key in ("slope", "mean_z", "mean_y", "c_yz", "c_xy", "mu_a", "mu_b", "fz_min", "mu_classic"):
+        assert np.isnan(got[key][inside]).all(), key
+    assert (got["bin_count"][inside] == 0).all() and (got["n_a"][inside] + got["n_b"][inside] == 0).all()
+    assert (got["n"] == length).all() and np.isfinite(got["aux_mean"]).all()
 
 
 def test_no_windows():

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from typing_extensions import TypeAlias
 
 __all__ = [
+    "FORCE_LIMIT",
     "Extents",
     "Moments",
     "NonFiniteError",
@@ -38,6 +39,10 @@ __all__ = [
 ]
 
 _F64: TypeAlias = NDArray[np.float64]
+
+#: Largest |force| (N) of a window ``windows_stats`` analyses (docs/method.md 4):
+#: beyond it, or when its sums overflow, the window is out of range.
+FORCE_LIMIT: float
 
 # (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
 _FitTuple: TypeAlias = tuple[float, float, float, float, float, float, int, bool]
@@ -114,9 +119,12 @@ def windows_stats(
     of the window's standard deviation of fz). Column names: slope,
     intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z,
     mean_y, szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min,
-    fz_max, aux_mean, mu_classic (float64, shape (windows,)), n, n_a, n_b
-    (int64), bin_count (int64) and bin_cof (float64) of shape
+    fz_max, aux_mean, mu_classic (float64, shape (windows,)), n, n_a, n_b,
+    out_of_range (int64), bin_count (int64) and bin_cof (float64) of shape
     (windows, n_bins); ``tribodyn.columns`` declares which a table uses.
+    ``out_of_range`` is 1 for a window with a force beyond ``FORCE_LIMIT``
+    in magnitude (fy, fz, fx or the raw forces) or whose sums overflow:
+    every statistic of it NaN, its counts 0 (docs/method.md 4).
 
     Beyond the paper (docs/method.md 3a-3e): ``ext`` (float64, (windows, 5,
     16)), the block sums of the estimators with the instrument fz lagged by

@@ -686,12 +686,16 @@ def _merged(st: Stats, a: str, b: str) -> float:
     sums ``szz``, ``syy``, ``syz``.
     """
     n = np.asarray(st["n"], dtype=float)
+    ma, mb = st[f"mean_{a}"], st[f"mean_{b}"]
+    within = st["syz"] if {a, b} == {"z", "y"} else st[f"s{a}{b}"]
+    if "out_of_range" in st and np.any(st["out_of_range"]):  # NaN moments (docs/method.md 4): left out
+        keep = ~np.asarray(st["out_of_range"], dtype=bool)
+        n, ma, mb, within = n[keep], ma[keep], mb[keep], within[keep]
     if n.sum() == 0:
         return float("nan")
     w = n / n.sum()
-    da = st[f"mean_{a}"] - np.sum(w * st[f"mean_{a}"])
-    db = st[f"mean_{b}"] - np.sum(w * st[f"mean_{b}"])
-    within = st["syz"] if {a, b} == {"z", "y"} else st[f"s{a}{b}"]
+    da = ma - np.sum(w * ma)
+    db = mb - np.sum(w * mb)
     return float(np.sum(within) + np.sum(n * da * db))
 
 

@@ -97,7 +97,9 @@ FLOAT_COLUMNS: Tuple[str, ...] = tuple(c.name for c in TABLE if c.dtype == "floa
 #: the fit (slope, intercept, r, slope_stderr), the moments that fix the
 #: orientation of a recording (mean_z, mean_y, syz, n), the correlations,
 #: the deadband and bins (deadband, n_a, n_b, fz_min, fz_max, bin_count,
-#: bin_cof), mu_a, mu_b and the mean of the auxiliary channel.
+#: bin_cof), mu_a, mu_b, the mean of the auxiliary channel, and
+#: out_of_range (1: a force beyond ``_core.FORCE_LIMIT`` or sums that
+#: overflow, every statistic NaN; docs/method.md 4).
 KERNEL_COLUMNS: Tuple[str, ...] = (
     "slope",
     "intercept",
@@ -118,6 +120,7 @@ KERNEL_COLUMNS: Tuple[str, ...] = (
     "n",
     "n_a",
     "n_b",
+    "out_of_range",
     "bin_count",
     "bin_cof",
 )

@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, 
 
 import numpy as np
 
+from . import _core
+
 if TYPE_CHECKING:  # pragma: no cover
     from .results import Results
 
@@ -325,8 +327,8 @@ def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]
     """(contact count, sum |fy|/|fz|, sum fy/fz, instrument count, instrument sum, finite samples) of one block."""
     y = np.asarray(piece["fy"], dtype=float) - spec.tare_fy
     z = np.asarray(piece["fz"], dtype=float) - spec.tare_fz
-    fin = np.isfinite(y) & np.isfinite(z)
     az = np.abs(z)
+    fin = (np.abs(y) <= _core.FORCE_LIMIT) & (az <= _core.FORCE_LIMIT)  # finite and in range (docs/method.md 4)
     keep = fin & (az >= spec.min_fn) & (az > 0)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         r = y[keep] / z[keep]

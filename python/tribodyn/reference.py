@@ -495,7 +495,11 @@ def window_stats(
     fy/fz over the samples with |fz| >= d and fz != 0; mu_a (those with
     fz < 0), mu_b (fz > 0); the mean of ``aux``; and with ``raw`` = (fy_raw,
     fz_raw) the classical COF mean(|fy_raw| / |fz_raw|) over fz_raw != 0.
+    A window with a force beyond ``_core.FORCE_LIMIT`` in magnitude (fy, fz,
+    fx, raw) or whose second-moment sums overflow is out of range: every
+    statistic NaN, counts 0, ``out_of_range`` 1 (docs/method.md 4).
     """
+    from ._core import FORCE_LIMIT
     from .deadband import parse_deadband
 
     db = parse_deadband(deadband)
@@ -504,20 +508,33 @@ def window_stats(
     fit_keys = ("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std")
     keys: Tuple[str, ...] = fit_keys + ("sse", "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz")
     keys += ("deadband", "mu_a", "mu_b", "n_a", "n_b", "fz_min", "fz_max", "bin_count", "bin_cof", "aux_mean")
-    keys += ("mu_classic", "n")
+    keys += ("mu_classic", "n", "out_of_range")
     cols: Dict[str, Any] = {key: [] for key in keys}
 
     def put(key: str, value: Any) -> None:
         cols[key].append(value)
 
     nan = float("nan")
+    forces = [a for a in (fx, fy, fz, *(raw or ())) if a is not None]
     for s in np.asarray(starts, dtype=np.int64):
         w = slice(int(s), int(s) + n)
         y, z = np.asarray(fy[w], dtype=float), np.asarray(fz[w], dtype=float)
-        # Eqs. 6-8 from centred sums.
-        mz, my = mean(z), mean(y)
-        dz, dy = z - mz, y - my
-        szz, syy, syz = float(dz @ dz), float(dy @ dy), float(dy @ dz)
+        with np.errstate(over="ignore", invalid="ignore"):
+            # Eqs. 6-8 from centred sums.
+            mz, my = mean(z), mean(y)
+            dz, dy = z - mz, y - my
+            szz, syy, syz = float(dz @ dz), float(dy @ dy), float(dy @ dz)
+            sxx = float(np.sum(np.square(np.asarray(fx[w], dtype=float) - mean(fx[w])))) if fx is not None else 0.0
+        peak = max((float(np.abs(np.asarray(a[w], dtype=float)).max()) for a in forces), default=0.0) if n else 0.0
+        if peak > FORCE_LIMIT or not all(np.isfinite(v) for v in (szz, syy, syz, sxx)):
+            for key in keys:
+                put(key, nan)
+            cols["bin_count"][-1], cols["bin_cof"][-1] = np.zeros(nb, dtype=np.int64), np.full(nb, nan)
+            cols["n_a"][-1] = cols["n_b"][-1] = 0
+            cols["deadband"][-1] = db.value if db.kind == "force" else nan
+            cols["aux_mean"][-1] = mean(np.asarray(aux[w], dtype=float)) if aux is not None and n > 0 else nan
+            cols["n"][-1], cols["out_of_range"][-1] = n, 1
+            continue
         if szz > 0:
             e = dy - (syz / szz) * dz
             sse = max(float(e @ e - e.sum() ** 2 / n), 0.0)
@@ -593,6 +610,7 @@ def window_stats(
         else:
             put("mu_classic", nan)
         put("n", n)
+        put("out_of_range", 0)
     m = len(np.asarray(starts))
     out = {}
     for key, values in cols.items():
@@ -600,7 +618,7 @@ def window_stats(
             out[key] = np.array(values, dtype=np.int64).reshape(m, nb)
         elif key == "bin_cof":
             out[key] = np.array(values, dtype=float).reshape(m, nb)
-        elif key in ("n", "n_a", "n_b"):
+        elif key in ("n", "n_a", "n_b", "out_of_range"):
             out[key] = np.array(values, dtype=np.int64)
         else:
             out[key] = np.array(values, dtype=float)

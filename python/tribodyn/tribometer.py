@@ -23,6 +23,8 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from . import _core
+
 __all__ = [
     "MIN_FN_FRACTION",
     "Contact",
@@ -347,6 +349,10 @@ def prepass(
     elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a and "fy" in a
                                                             for a in source):  # fmt: skip
         data = {r: np.concatenate([np.asarray(a[r], dtype=float) for a in source]) for r in ("fy", "fz")}
+    if data is not None and data["fy"].shape == data["fz"].shape:
+        # Finite samples within the kernel's range (docs/method.md 4): a window holding another is out of range.
+        ok = (np.abs(data["fy"]) <= _core.FORCE_LIMIT) & (np.abs(data["fz"]) <= _core.FORCE_LIMIT)
+        data = {r: v[ok] for r, v in data.items()}
     if data is None or data["fz"].size == 0 or data["fy"].shape != data["fz"].shape:
         # Nothing to look at (or channels of unequal lengths, which the pipeline refuses with its own error);
         # a given min_fn (and tare offsets) still define the classical COF of the windows.
@@ -356,8 +362,6 @@ def prepass(
             out0["spec"] = ClassicalSpec(float(min_fn), float(offsets.get("fy", 0.0)), float(offsets.get("fz", 0.0)))
         return out0
     fy, fz = data["fy"], data["fz"]
-    ok = np.isfinite(fy) & np.isfinite(fz)
-    fy, fz = fy[ok], fz[ok]
     out: Dict[str, Any] = {}
     # tare offsets
     t_fy = t_fz = 0.0

@@ -104,7 +104,9 @@ def gate_reasons(
 ) -> np.ndarray:
     """Why each window fails the quality gate (docs/method.md 5); '' when it passes.
 
-    Reasons: the fit is degenerate (fewer than 3 samples, constant fz, no
+    Reasons: a force out of range (beyond ``_core.FORCE_LIMIT`` N in
+    magnitude, or sums that overflow: the kernel's ``out_of_range``,
+    docs/method.md 4); the fit is degenerate (fewer than 3 samples, constant fz, no
     variance of fz beyond its noise); with a number ``gate``, |C_yz(0)|
     below it (the paper's gate); with ``gate="ci"``, a 95 % interval whose
     relative half-width ``rel_ci`` exceeds ``max_rel_ci``; with ``sign``, a
@@ -115,6 +117,7 @@ def gate_reasons(
     c = np.abs(np.asarray(stats["c_yz"], dtype=float))
     mu = np.asarray(stats["mu_r"] if "mu_r" in stats else stats["slope"], dtype=float)
     degenerate = ~np.isfinite(mu)
+    out = np.asarray(stats["out_of_range"], dtype=bool) if "out_of_range" in stats else np.zeros(len(c), dtype=bool)
     low = np.zeros(len(c), dtype=bool)
     wide = np.zeros(len(c), dtype=bool)
     with np.errstate(invalid="ignore"):
@@ -134,9 +137,12 @@ def gate_reasons(
             skewed = np.isfinite(sk) & (sk != 0)
     reasons = np.full(len(c), "", dtype=object)
     # Strings only for the windows that fail (few, in a good recording).
+    empty &= ~out  # an out-of-range window counts no sample: its reason says why
     for k in np.flatnonzero(degenerate | low | wide | opposite | empty | skewed):
         why = []
-        if degenerate[k]:
+        if out[k]:
+            why.append(f"force out of range: |force| > {_core.FORCE_LIMIT:g} N or its products overflow")
+        elif degenerate[k]:
             why.append("degenerate: fewer than 3 samples, constant fz or no fz variance beyond its noise")
         elif low[k]:
             why.append(f"low correlation: |C_yz(0)| = {c[k]:.3f} < {float(gate):g}")

@@ -37,7 +37,10 @@
 //!
 //! A non-finite sample in a window is an error (the sums of pass 1 are
 //! finite exactly when every sample is, barring overflow, which is then
-//! told apart by a scan).
+//! told apart by a scan). A window with a force beyond [`FORCE_LIMIT`] in
+//! magnitude, or whose second-moment sums overflow, is out of range
+//! (docs/method.md 4): every statistic NaN, no sample counted, and
+//! [`WindowStats::out_of_range`] set, so that the caller can say why.
 
 use crate::error::KernelError;
 use crate::extended::{self, ExtOptions};
@@ -159,6 +162,9 @@ pub struct WindowStats {
     /// [`extended::classical`] of the raw forces (or of the forces when
     /// there are no raw ones) when `opt.ext.classical` is set, else NaN.
     pub classical: [f64; 4],
+    /// A force of the window beyond [`FORCE_LIMIT`] in magnitude, or its
+    /// sums overflowed: every statistic above is NaN and every count 0.
+    pub out_of_range: bool,
 }
 
 /// Interleaved accumulators per sum: fixed, so the order of summation (and
@@ -171,6 +177,16 @@ const BLOCK: usize = 128;
 const COPIES: usize = 4;
 /// Most bins a window may have.
 pub const MAX_BINS: usize = 1 << 20;
+/// Largest |force| (fy, fz, fx and the raw forces), in N, of a window the
+/// kernel analyses (docs/method.md 4). Far beyond any measured force, and
+/// low enough that nothing computed from a window overflows: the fourth
+/// powers of the estimators' block sums (1e240 a sample) and the products of
+/// two second-moment sums that the finishing step forms (1e240 n^2) stay
+/// below f64::MAX for any window under 1e30 samples (at 1e76 N the latter
+/// overflow in a 2000-sample window). A window with a larger force is out of
+/// range ([`WindowStats::out_of_range`]); so is one whose sums overflow all
+/// the same.
+pub const FORCE_LIMIT: f64 = 1e60;
 
 fn pearson_from(sab: f64, saa: f64, sbb: f64) -> f64 {
     let d = (saa * sbb).sqrt();
@@ -252,16 +268,73 @@ fn sum_min_max(z: &[f64]) -> (f64, f64, f64) {
     (t, l, h)
 }
 
-/// Pass 1: (sum fz, min fz, max fz, sum fy, sum fx, sum aux), the last two
-/// 0 without fx, aux. One loop per channel, each with its own vector of
-/// lanes (in one loop LLVM pairs the lanes of different sums and spills).
+/// What pass 1 finds: the sums of every channel (0 without fx, aux), the
+/// range of fz and the largest |force| of fy, fz and fx.
+struct Pass1 {
+    sz: f64,
+    lo: f64,
+    hi: f64,
+    sy: f64,
+    sx: f64,
+    sa: f64,
+    peak: f64,
+}
+
+/// Pass 1: sums, the fz range and the peak |force|. One loop per channel,
+/// each with its own vector of lanes (in one loop LLVM pairs the lanes of
+/// different sums and spills); the sums are those of [`channel_sum`].
 #[inline(always)]
-fn pass1(fx: Option<&[f64]>, fy: &[f64], fz: &[f64], aux: Option<&[f64]>) -> (f64, f64, f64, f64, f64, f64) {
+fn pass1(fx: Option<&[f64]>, fy: &[f64], fz: &[f64], aux: Option<&[f64]>) -> Pass1 {
     let (sz, lo, hi) = sum_min_max(fz);
-    let sy = channel_sum(fy);
-    let sx = fx.map_or(0.0, channel_sum);
+    let (sy, ylo, yhi) = sum_min_max(fy);
+    let (sx, xlo, xhi) = fx.map_or((0.0, 0.0, 0.0), sum_min_max);
     let sa = aux.map_or(0.0, channel_sum);
-    (sz, lo, hi, sy, sx, sa)
+    let peak = [lo, hi, ylo, yhi, xlo, xhi].iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    Pass1 { sz, lo, hi, sy, sx, sa, peak }
+}
+
+/// Largest |x| (0 for no sample; NaN samples are caught by the sums).
+fn peak(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+/// The statistics of an out-of-range window of `n` samples: NaN, no sample
+/// counted, the flag set.
+fn out_of_range(n: usize, opt: &WindowOptions, aux_mean: f64) -> WindowStats {
+    let nan = f64::NAN;
+    WindowStats {
+        moments: Moments {
+            n: n as u64,
+            mean_x: nan,
+            mean_y: nan,
+            sxx: nan,
+            syy: nan,
+            sxy: nan,
+            sse: nan,
+            ..Moments::default()
+        },
+        c_xy: nan,
+        c_xz: nan,
+        c_yz: nan,
+        deadband: match opt.deadband {
+            Deadband::Force(d) => d,
+            Deadband::Sigma(_) => nan,
+        },
+        mu_a: nan,
+        mu_b: nan,
+        n_a: 0,
+        n_b: 0,
+        fz_min: nan,
+        fz_max: nan,
+        bin_count: vec![0; opt.n_bins],
+        bin_cof: vec![nan; opt.n_bins],
+        aux_mean,
+        mu_classic: nan,
+        ext_sums: Vec::new(),
+        spec: Vec::new(),
+        classical: [nan; 4],
+        out_of_range: true,
+    }
 }
 
 /// Fails when `x` holds NaN or inf, given its sum: a finite sum proves
@@ -576,6 +649,14 @@ pub fn window_stats_then(
         })?;
     }
     let mut w = window_dispatch(ch, next, opt)?;
+    if w.out_of_range {
+        // The same shapes as a window in range, all NaN.
+        if opt.ext.sums {
+            w.ext_sums = vec![f64::NAN; extended::BLOCKS * extended::PRODUCTS];
+        }
+        w.spec = vec![f64::NAN; opt.ext.spec_len()];
+        return Ok(w);
+    }
     if opt.ext.sums {
         let means = (w.moments.mean_x, w.moments.mean_y);
         w.ext_sums = extended::block_sums(ch.fy, ch.fz, opt.ext.lag, Some(means));
@@ -634,7 +715,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
     }
     let nf = n as f64;
     // Pass 1: sums (means) and the fz range, all channels streamed together.
-    let (sz, lo, hi, sy, sx, sa) = pass1(ch.fx, fy, fz, ch.aux);
+    let Pass1 { sz, lo, hi, sy, sx, sa, peak: top } = pass1(ch.fx, fy, fz, ch.aux);
     check_finite("fz", fz, sz)?;
     check_finite("fy", fy, sy)?;
     if let Some(x) = ch.fx {
@@ -647,15 +728,18 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
         }
         _ => f64::NAN,
     };
-    let mu_classic = match ch.raw {
+    let (mu_classic, top) = match ch.raw {
         Some((y, z)) => {
             let (syr, szr, mean) = classic(y, z);
             check_finite("fy_raw", y, syr)?;
             check_finite("fz_raw", z, szr)?;
-            mean
+            (mean, top.max(peak(y)).max(peak(z)))
         }
-        None => f64::NAN,
+        None => (f64::NAN, top),
     };
+    if n > 0 && top > FORCE_LIMIT {
+        return Ok(out_of_range(n, opt, aux_mean));
+    }
     if n == 0 {
         return Ok(WindowStats {
             moments: Moments::default(),
@@ -679,6 +763,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
             ext_sums: Vec::new(),
             spec: Vec::new(),
             classical: [f64::NAN; 4],
+            out_of_range: false,
         });
     }
     let (mz0, my0, mx0) = (sz / nf, sy / nf, sx / nf);
@@ -692,6 +777,9 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
     let szz = t[2] - t[0] * cz;
     let syy = t[3] - t[1] * cy;
     let syz = t[4] - t[0] * cy;
+    if !(szz.is_finite() && syy.is_finite() && syz.is_finite() && t[6..].iter().all(|v| v.is_finite())) {
+        return Ok(out_of_range(n, opt, aux_mean)); // products of forces under FORCE_LIMIT, summed past f64::MAX
+    }
     let c_yz = pearson_from(syz, szz, syy);
     let (c_xy, c_xz) = if ch.fx.is_some() && n >= 2 {
         let sxx = t[6] - t[5] * cx;
@@ -743,6 +831,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
         ext_sums: Vec::new(),
         spec: Vec::new(),
         classical: [f64::NAN; 4],
+        out_of_range: false,
     })
 }
 
@@ -950,10 +1039,46 @@ mod tests {
         assert!(e.to_string().contains("fy contains NaN") && e.to_string().contains("1000"), "{e}");
         // Outside every window it does not matter.
         assert!(windows_stats(&Channels::forces(&fy, &fz), &[0, 2000], &opt).is_ok());
-        // Huge finite values overflow the sum but are not an error.
+        // Huge finite values overflow the sum but are not an error: the window is out of range.
         let big = vec![1e308; 8];
         let z: Vec<f64> = (0..8).map(|i| i as f64).collect();
-        assert!(window_stats(&Channels::forces(&big, &z), &opt).is_ok());
+        let w = window_stats(&Channels::forces(&big, &z), &opt).unwrap();
+        assert!(w.out_of_range && w.moments.n == 8 && w.moments.fit().slope.is_nan());
+    }
+
+    #[test]
+    fn forces_beyond_the_limit_make_the_window_out_of_range() {
+        let (fx, fy, fz) = rig(3000);
+        let ext = ExtOptions { sums: true, lag: 10, ..ExtOptions::default() };
+        let opt = WindowOptions { len: 1000, orientation: 1.0, deadband: Deadband::Force(0.35), n_bins: 8, ext };
+        let all = |fx: &[f64], fy: &[f64], fz: &[f64]| {
+            let ch = Channels { fx: Some(fx), fy, fz, aux: None, raw: Some((fy, fz)) };
+            windows_stats(&ch, &[0, 1000, 2000], &opt).unwrap()
+        };
+        let clean = all(&fx, &fy, &fz);
+        assert!(clean.iter().all(|w| !w.out_of_range && w.moments.fit().slope.is_finite()));
+        for (channel, value) in [(0, 1.0000001e60), (1, -2e150), (2, 1e300)] {
+            let mut ch = [fx.clone(), fy.clone(), fz.clone()];
+            ch[channel][1500] = value;
+            let got = all(&ch[0], &ch[1], &ch[2]);
+            // Only the window holding the sample, and all of it NaN with the shapes of a window in range.
+            assert!(!got[0].out_of_range && got[1].out_of_range && !got[2].out_of_range, "channel {channel}");
+            assert_eq!(format!("{:?}", (&got[0], &got[2])), format!("{:?}", (&clean[0], &clean[2]))); // NaN != NaN
+            let w = &got[1];
+            assert!(w.moments.mean_x.is_nan() && w.c_yz.is_nan() && w.mu_a.is_nan() && w.fz_max.is_nan());
+            assert_eq!((w.moments.n, w.n_a + w.n_b, w.bin_count.iter().sum::<u64>()), (1000, 0, 0));
+            assert!(w.ext_sums.len() == extended::BLOCKS * extended::PRODUCTS && w.ext_sums.iter().all(|v| v.is_nan()));
+        }
+        // A raw force alone beyond the limit (the high-pass would lose the rest in rounding).
+        let mut fz_raw = fz.clone();
+        fz_raw[500] = 1e61;
+        let ch = Channels { fx: None, fy: &fy, fz: &fz, aux: None, raw: Some((&fy, &fz_raw)) };
+        let got = windows_stats(&ch, &[0, 1000], &opt).unwrap();
+        assert!(got[0].out_of_range && !got[1].out_of_range);
+        // At the limit itself the window is analysed.
+        let mut fz_at = fz.clone();
+        fz_at[1500] = FORCE_LIMIT;
+        assert!(all(&fx, &fy, &fz_at).iter().all(|w| !w.out_of_range));
     }
 
     #[test]

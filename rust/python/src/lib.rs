@@ -490,6 +490,7 @@ fn column(name: &str) -> Option<Column> {
         "n" => I(|w| w.moments.n),
         "n_a" => I(|w| w.n_a),
         "n_b" => I(|w| w.n_b),
+        "out_of_range" => I(|w| u64::from(w.out_of_range)),
         "bin_count" => BinCount,
         "bin_cof" => BinCof,
         "mu_classical" => F(|w, _| w.classical[0]),
@@ -504,7 +505,7 @@ fn column(name: &str) -> Option<Column> {
 
 const COLUMN_NAMES: &str = "slope, intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z, mean_y, \
 szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min, fz_max, aux_mean, mu_classic, n, n_a, n_b, \
-bin_count, bin_cof, mu_classical, mu_classical_median, fz_mean, fz_std, ext, spec";
+out_of_range, bin_count, bin_cof, mu_classical, mu_classical_median, fz_mean, fz_std, ext, spec";
 
 fn columns_of(names: &[String]) -> PyResult<Vec<Column>> {
     names
@@ -1049,6 +1050,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     m.add_function(wrap_pyfunction!(max_threads, m)?)?;
     m.add("NonFiniteError", m.py().get_type::<NonFiniteError>())?;
+    m.add("FORCE_LIMIT", windows::FORCE_LIMIT)?;
     m.add_class::<PyMoments>()?;
     Ok(())
 }
