@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import glob
+import json
 import os
 import statistics
 import subprocess
@@ -69,6 +70,45 @@ def test_import_is_fast_and_lazy():
     median = statistics.median(times)
     print(f"import tribodyn: median {median:.3f} s of {[round(t, 3) for t in times]}")
     assert median < 0.3
+
+
+_NAMESPACE = """
+import json, types
+import tribodyn as td
+first = dir(td)
+# Documented submodules, reached as attributes after a plain `import tribodyn`.
+reached = [td.simulate.temperature_test, td.io.writers.save_npy, td.reference.window_stats,
+           td.results.verdict_text, td.columns.TABLE, td.plan.make_plan]
+import tribodyn.distributed, tribodyn.report  # loading more submodules changes nothing visible
+values = {n: getattr(td, n) for n in td.__all__}
+star = {}
+exec("from tribodyn import *", star)
+print(json.dumps({
+    "first": first, "after": dir(td), "all": td.__all__,
+    "modules": sorted(n for n, v in values.items() if isinstance(v, types.ModuleType)),
+    "functions": [callable(td.analyze), callable(td.identify), type(td.analyze).__name__],
+    "star": sorted(k for k in star if k != "__builtins__"),
+    "version": td.__version__,
+}))
+"""
+
+
+@pytest.mark.fast
+def test_namespace_is_all_and_its_dunders():
+    """dir(tribodyn) is __all__ plus dunder attributes, before and after loading submodules (issue 22, point 8)."""
+    out = subprocess.run([sys.executable, "-c", _NAMESPACE], capture_output=True, text=True, check=True)
+    ns = json.loads(out.stdout)
+    public = set(ns["all"])
+    for names in (ns["first"], ns["after"]):
+        assert names == sorted(names)
+        assert {n for n in names if not (n.startswith("__") and n.endswith("__"))} == public - {"__version__"}
+        assert public <= set(names)
+        assert {"__version__", "__doc__", "__all__"} <= set(names)
+    assert ns["first"] == ns["after"]
+    assert ns["modules"] == ["columns"]  # the one submodule __all__ names
+    assert ns["functions"] == [True, True, "function"]  # not shadowed by the modules analyze.py, identify.py
+    assert ns["star"] == sorted(public)
+    assert ns["version"] == PYPROJECT["project"]["version"]
 
 
 def test_python_m_tribodyn_help():
