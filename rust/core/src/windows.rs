@@ -268,29 +268,16 @@ fn sum_min_max(z: &[f64]) -> (f64, f64, f64) {
     (t, l, h)
 }
 
-/// What pass 1 finds: the sums of every channel (0 without fx, aux), the
-/// range of fz and the largest |force| of fy, fz and fx.
-struct Pass1 {
-    sz: f64,
-    lo: f64,
-    hi: f64,
-    sy: f64,
-    sx: f64,
-    sa: f64,
-    peak: f64,
-}
-
-/// Pass 1: sums, the fz range and the peak |force|. One loop per channel,
-/// each with its own vector of lanes (in one loop LLVM pairs the lanes of
-/// different sums and spills); the sums are those of [`channel_sum`].
+/// Pass 1: (sum fz, min fz, max fz, sum fy, sum fx, sum aux), the last two
+/// 0 without fx, aux. One loop per channel, each with its own vector of
+/// lanes (in one loop LLVM pairs the lanes of different sums and spills).
 #[inline(always)]
-fn pass1(fx: Option<&[f64]>, fy: &[f64], fz: &[f64], aux: Option<&[f64]>) -> Pass1 {
+fn pass1(fx: Option<&[f64]>, fy: &[f64], fz: &[f64], aux: Option<&[f64]>) -> (f64, f64, f64, f64, f64, f64) {
     let (sz, lo, hi) = sum_min_max(fz);
-    let (sy, ylo, yhi) = sum_min_max(fy);
-    let (sx, xlo, xhi) = fx.map_or((0.0, 0.0, 0.0), sum_min_max);
+    let sy = channel_sum(fy);
+    let sx = fx.map_or(0.0, channel_sum);
     let sa = aux.map_or(0.0, channel_sum);
-    let peak = [lo, hi, ylo, yhi, xlo, xhi].iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    Pass1 { sz, lo, hi, sy, sx, sa, peak }
+    (sz, lo, hi, sy, sx, sa)
 }
 
 /// Largest |x| (0 for no sample; NaN samples are caught by the sums).
@@ -715,7 +702,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
     }
     let nf = n as f64;
     // Pass 1: sums (means) and the fz range, all channels streamed together.
-    let Pass1 { sz, lo, hi, sy, sx, sa, peak: top } = pass1(ch.fx, fy, fz, ch.aux);
+    let (sz, lo, hi, sy, sx, sa) = pass1(ch.fx, fy, fz, ch.aux);
     check_finite("fz", fz, sz)?;
     check_finite("fy", fy, sy)?;
     if let Some(x) = ch.fx {
@@ -728,6 +715,8 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
         }
         _ => f64::NAN,
     };
+    // The range of fz is at hand; fy and fx are bounded after pass 2.
+    let top = if n > 0 { lo.abs().max(hi.abs()) } else { 0.0 };
     let (mu_classic, top) = match ch.raw {
         Some((y, z)) => {
             let (syr, szr, mean) = classic(y, z);
@@ -737,7 +726,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
         }
         None => (f64::NAN, top),
     };
-    if n > 0 && top > FORCE_LIMIT {
+    if top > FORCE_LIMIT {
         return Ok(out_of_range(n, opt, aux_mean));
     }
     if n == 0 {
@@ -777,8 +766,15 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
     let szz = t[2] - t[0] * cz;
     let syy = t[3] - t[1] * cy;
     let syz = t[4] - t[0] * cy;
-    if !(szz.is_finite() && syy.is_finite() && syz.is_finite() && t[6..].iter().all(|v| v.is_finite())) {
-        return Ok(out_of_range(n, opt, aux_mean)); // products of forces under FORCE_LIMIT, summed past f64::MAX
+    // |x_i| <= |m| + sqrt(sum (x_j - m)^2) for any m: a bound on fy and fx for free; a scan
+    // decides only when it comes near the limit (or the sums overflowed).
+    let beyond = |x: &[f64], m: f64, ss: f64| {
+        let bound = m.abs() + ss.sqrt();
+        (bound.is_nan() || bound > 0.5 * FORCE_LIMIT) && peak(x) > FORCE_LIMIT
+    };
+    let overflow = !(szz.is_finite() && syy.is_finite() && syz.is_finite() && t[6..].iter().all(|v| v.is_finite()));
+    if beyond(fy, my0, t[3]) || ch.fx.is_some_and(|x| beyond(x, mx0, t[6])) || overflow {
+        return Ok(out_of_range(n, opt, aux_mean)); // or products of forces under FORCE_LIMIT summed past f64::MAX
     }
     let c_yz = pearson_from(syz, szz, syy);
     let (c_xy, c_xz) = if ch.fx.is_some() && n >= 2 {
