@@ -1,5 +1,5 @@
 """Every script in examples/ runs on a fresh machine: in a temporary folder, in a subprocess, within a time
-limit, without the repository's ../shared data, and writes what its docstring promises."""
+limit, without test data or any file from outside the repository, and writes what its docstring promises."""
 
 from __future__ import annotations
 
@@ -37,7 +37,7 @@ def test_every_example_is_tested():
 def test_examples_use_no_shared_data():
     for p in SCRIPTS:
         text = p.read_text(encoding="utf-8")
-        assert "shared" not in text and "data/real" not in text, p.name  # a user's clone has no ../shared
+        assert "shared" not in text and "data/real" not in text, p.name  # a user has the package, not the tests
 
 
 def test_examples_run(tmp_path):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import glob
 import json
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -109,6 +110,20 @@ def test_namespace_is_all_and_its_dunders():
     assert ns["functions"] == [True, True, "function"]  # not shadowed by the modules analyze.py, identify.py
     assert ns["star"] == sorted(public)
     assert ns["version"] == PYPROJECT["project"]["version"]
+
+
+@pytest.mark.fast
+def test_nothing_points_outside_the_repository():
+    """Tests, docs, examples and benchmarks use the repository's files (tests/data), never the developers' ../shared."""
+    outside = re.compile(r"parents\[2\]|\.\./shared|/work/shared|[\"']shared[\"'] /|shared/data")
+    files = [ROOT / "README.md", ROOT / "CHANGELOG.md"]
+    for pattern in ("docs/**/*.md", "tests/**/*.py", "tests/**/*.md", "examples/**/*.py", "benches/**/*", ".ci/*"):
+        files += ROOT.glob(pattern)
+    me = Path(__file__).resolve()
+    hits = [f"{p.relative_to(ROOT)}:{k}" for p in files if p.is_file() and p.resolve() != me
+            for k, line in enumerate(p.read_text(encoding="utf-8", errors="replace").splitlines(), 1)
+            if outside.search(line)]  # fmt: skip
+    assert not hits, hits
 
 
 def test_python_m_tribodyn_help():

@@ -1,6 +1,6 @@
-"""Real tribometer exports of ../shared/data/real (issue 14): read, analysed, verdict and classical COF.
+"""Real tribometer exports of tests/data/real (issue 14): read, analysed, verdict and classical COF.
 
-Provenance of each file: ../shared/data/README.md (MIT-licensed sources).
+Provenance and licence of each file: tests/data/README.md (MIT-licensed sources, texts in tests/data/licences).
 """
 
 from __future__ import annotations
@@ -12,8 +12,7 @@ import pytest
 
 import tribodyn as td
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
-pytestmark = pytest.mark.skipif(not REAL.is_dir(), reason="../shared/data/real not present")
+REAL = Path(__file__).resolve().parent / "data" / "real"  # in the repository: a missing file fails, never skips
 
 
 @pytest.mark.parametrize("name", ["cetr_umt2_HT-2n-6-4_2_001.csv", "cetr_umt2_HT-2n-6-4_2_002.csv"])
@@ -50,7 +49,7 @@ def test_pin_on_disc_dead_weight_classical(name, load):
     np.testing.assert_allclose(np.nanmedian(res["fz_mean"]), load, rtol=1e-3)
 
 
-R_EFF = 2.0 / 3.0 * 4e-3  # m: the authors' effective radius (../shared/data/README.md)
+R_EFF = 2.0 / 3.0 * 4e-3  # m: the authors' effective radius (tests/data/README.md)
 
 
 @pytest.mark.parametrize("name", ["newport_motor_oil_glass_1rps5N.txt", "newport_motor_oil_glass_0-1rps0-5N.txt"])

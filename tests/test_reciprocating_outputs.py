@@ -152,10 +152,9 @@ def test_analyze_many_split_reciprocating_ranges_give_the_one_pass_windows(tmp_p
     assert res.summary()["verdict"] == one.summary()["verdict"]
 
 
-REAL = __import__("pathlib").Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+REAL = __import__("pathlib").Path(__file__).resolve().parent / "data" / "real"
 
 
-@pytest.mark.skipif(not (REAL / "cetr_umt2_HT-2n-6-4_2_001.csv").is_file(), reason="../shared/data/real not present")
 def test_analyze_many_on_a_real_cetr_file_gives_the_verdict_of_analyze():
     from tribodyn.distributed import analyze_many
 

@@ -4,7 +4,7 @@ Every TDMS file the project has or writes is opened twice, natively and
 through npTDMS (``tribodyn.io.tdms._NATIVE = False``): both must refuse it
 (a RecordingError) or both read it, with the same channels, samples (bit
 for bit), rates, units, start time and metadata. The files: the real DAQmx
-file of tests/data/real (and ../shared/data/real), the simulator's output,
+file of tests/data/real, the simulator's output,
 npTDMS's writer in several layouts (segments, incremental metadata, every
 numeric type, scaling), hand-written layouts npTDMS's writer cannot make
 (interleaved, big-endian, DAQmx raw int16 with linear and polynomial
@@ -33,11 +33,8 @@ from tribodyn.io.tdms import write_daqmx_tdms
 from tribodyn.io.writers import save_tdms
 
 HERE = Path(__file__).resolve().parent
-REAL = [
-    p
-    for d in (HERE / "data" / "real", HERE.parent.parent / "shared" / "data" / "real")
-    for p in sorted(d.glob("*.tdms"))
-]
+REAL = sorted((HERE / "data" / "real").glob("*.tdms"))
+assert REAL, "tests/data/real holds the real DAQmx TDMS file"
 
 
 def _read(path: Path, native: bool, monkeypatch: Any, **kw: Any) -> Tuple[str, Any]:
