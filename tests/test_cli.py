@@ -37,11 +37,9 @@ def leftovers(directory: Path) -> list:
     return [p.name for p in directory.iterdir() if p.name.startswith(".tribodyn-partial-")]
 
 
-@pytest.fixture(scope="module")
-def demo_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("demo")
-    assert run("demo", "--out", out, "--quiet") == 0
-    return out
+@pytest.fixture
+def demo_dir(demo_run):
+    return demo_run[0]  # the session's demo (conftest.py)
 
 
 def test_demo_writes_every_output(demo_dir):
@@ -71,9 +69,8 @@ def test_demo_report_labels_are_words_and_units_consistent(demo_dir):
     assert re.search(r"\d+\.\d to \d+\.\d °C", text)
 
 
-def test_demo_prints_a_summary(tmp_path, capsys):
-    assert run("demo", "--out", tmp_path / "d") == 0
-    out = capsys.readouterr().out
+def test_demo_prints_a_summary(demo_run):
+    out = demo_run[1]
     assert "optimum" in out and "°C" in out and "A/mm²" in out
     # Readable units and numbers rounded to the data's precision ("133.5 to 157.9 °C", not "133.521..157.892 degC").
     assert "degC" not in out and "A/mm^2" not in out
@@ -136,13 +133,10 @@ def test_several_files_and_config(tmp_path):
         assert (out / f.stem / "report.html").is_file()
 
 
-def test_simulate_then_info_and_analyze(tmp_path, capsys):
-    path = tmp_path / "sim.h5"
-    assert run("simulate", "current_density", "--out", path, "--quiet") == 0
+def test_simulate_then_info_and_analyze(cd_cli_run, capsys):
+    path, out = cd_cli_run  # simulate, then analyze --area 1 (conftest.py)
     assert run("info", path) == 0
     assert "fs" in capsys.readouterr().out
-    out = tmp_path / "out"
-    assert run("analyze", path, "--out", out, "--area", "1", "--quiet") == 0
     s = json.loads((out / "summary.json").read_text())
     rec = next(iter(s["recordings"].values()))
     assert rec["operating_range_current_density"]["optimum"] is not None

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from tribodyn import cli
 
 SHOTS = Path(os.environ.get("TRIBODYN_SCREENSHOTS", "/tmp/tribodyn-screenshots"))
 
@@ -57,12 +56,9 @@ def _check(out: Path, name: str) -> None:
     print(f"screenshot: {SHOTS / f'{name}.png'}")
 
 
-def test_analyze_report_in_chromium(tmp_path):
+def test_analyze_report_in_chromium(cd_cli_run):
     _chromium()
-    rec = tmp_path / "sim.h5"
-    assert cli.main(["simulate", "current_density", "--out", str(rec), "--quiet"]) == 0
-    out = tmp_path / "out"
-    assert cli.main(["analyze", str(rec), "--out", str(out), "--area", "1", "--quiet"]) == 0
+    out = cd_cli_run[1]  # simulate current_density, analyze --area 1 (conftest.py)
     page = (out / "report.html").read_text(encoding="utf-8")
     for fig in ("fig02_forces_representative", "fig02_forces_worst", "fig03-05_correlations", "fig06-08_phase_plots",
                 "fig09_cof_vs_normal_force", "fig12_cof_current_density_vs_time"):  # fmt: skip
@@ -72,8 +68,6 @@ def test_analyze_report_in_chromium(tmp_path):
     _check(out, "analyze")
 
 
-def test_demo_report_in_chromium(tmp_path):
+def test_demo_report_in_chromium(demo_run):
     _chromium()
-    out = tmp_path / "demo"
-    assert cli.main(["demo", "--out", str(out), "--quiet"]) == 0
-    _check(out, "demo")
+    _check(demo_run[0], "demo")  # the session's demo (conftest.py)
