@@ -11,6 +11,8 @@ import pytest
 import tribodyn as td
 from tribodyn.io import RecordingError
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 
 def _csv(tmp_path, names=("Time", "Fy", "Fz"), with_time=True, n=2000, fs=100.0):
     rng = np.random.default_rng(1)

@@ -17,6 +17,8 @@ import tribodyn as td
 from tribodyn import _core
 from tribodyn.filters import MAX_CHANNELS, MAX_ORDER
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 
 def _unaligned(a: np.ndarray) -> np.ndarray:
     """A C-contiguous float64 view of ``a`` at an odd byte offset (not aligned)."""
@@ -101,7 +103,6 @@ def test_a_table_that_cannot_fit_is_refused_before_reading():
         td.analyze(src, fs=1000.0, window=4.096, hop=0.001, n_bins=1024)
 
 
-@pytest.mark.fast
 @pytest.mark.parametrize(
     "window, n_bins, limit",
     [(2.0, 501, 500), (2.0, 1 << 20, 500), (0.01, 17, 16), (60.0, 1025, 1024), (60.0, 10**30, 1024)],

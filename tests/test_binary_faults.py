@@ -51,6 +51,8 @@ from _mutants import mutate
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.writers import save_hdf5, save_tdms
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 SEED = 20240607
 N_FUZZ = 60
 _TOC_INTERLEAVED = 1 << 5

@@ -77,6 +77,7 @@ def test_demo_prints_a_summary(demo_run):
     assert re.search(r"optimum \d+\.\d to \d+\.\d °C", out), out
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name", ["cetr_umt2_HT-2n-6-4_2_001.csv", "cetr_umt2_HT-2n-6-4_2_002.csv"])
 def test_cetr_classical_cof_matches_instrument(tmp_path, name):
     out = tmp_path / "out"
@@ -142,6 +143,7 @@ def test_simulate_then_info_and_analyze(cd_cli_run, capsys):
     assert rec["operating_range_current_density"]["optimum"] is not None
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -167,6 +169,7 @@ def test_user_errors_one_line_exit_2(tmp_path, capsys, args, message):
     assert not out.exists() or not any(out.iterdir())
 
 
+@pytest.mark.fast
 def test_debug_shows_the_traceback(tmp_path):
     with pytest.raises(Exception):
         cli.main(["analyze", "nope.tdms", "--out", str(tmp_path / "o"), "--debug"])
@@ -184,6 +187,7 @@ def test_no_partial_outputs_after_a_forced_failure(tmp_path, monkeypatch):
     assert not out.exists() and list(tmp_path.iterdir()) == []  # no folder, no staging folder (issue 21)
 
 
+@pytest.mark.fast
 def test_console_script_is_installed():
     exe = shutil.which("tribodyn")
     assert exe is not None

@@ -274,6 +274,7 @@ def test_folders_never_replaced_even_with_overwrite(tmp_path, monkeypatch, capsy
 
 
 # --------------------------------------------- 2. unusable --out, full disk, read-only
+@pytest.mark.fast
 def test_out_naming_a_file(tmp_path, rec, capsys):
     f = tmp_path / "results"
     f.write_text("a file")
@@ -319,6 +320,7 @@ def ft_fn(tmp_path) -> Path:
     return recording(tmp_path / "ftfn.npz", names=("Ft", "Nf"))
 
 
+@pytest.mark.fast
 def test_map_unknown_role_lists_the_valid_ones(ft_fn, tmp_path):
     out = tmp_path / "out"
     r = tribodyn("analyze", ft_fn, "--out", out, "--map", "fy=Ft,fn=Nf")
@@ -378,6 +380,7 @@ def test_scale_on_an_si_channel_does_not_warn(rec, tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ 5. config
+@pytest.mark.fast
 def test_config_value_of_the_wrong_type_subprocess(rec, tmp_path):
     cfg = tmp_path / "run.toml"
     cfg.write_text('gate = "0.5"\n')
@@ -387,6 +390,7 @@ def test_config_value_of_the_wrong_type_subprocess(rec, tmp_path):
     assert "gate" in line and "a number" in line and '"ci"' in line and "'0.5'" in line
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "text, key, expected",
     [
@@ -420,6 +424,7 @@ def test_config_of_the_right_types_runs(rec, tmp_path):
     assert cli.main(["analyze", str(rec), "--out", str(tmp_path / "out"), "--config", str(cfg), "--quiet"]) == 0
 
 
+@pytest.mark.fast
 def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch, capsys):
     """--bins beyond the bound (docs/method.md 4) is refused by the plan: nothing read, nothing allocated."""
     from tribodyn import tribometer
@@ -438,6 +443,7 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.fast
 def test_toml_config_values_keep_their_types(tmp_path, monkeypatch):
     """The TOML reader of --config: numbers, strings, booleans and tables reach analyze with their types."""
     from tribodyn import jobs

@@ -31,6 +31,8 @@ from hypothesis.extra.numpy import arrays
 from tribodyn import _core
 from tribodyn import reference as ref
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 EPS = np.finfo(np.float64).eps
 
 # Unit-scale samples; the tests scale and offset them. Subnormals excluded:

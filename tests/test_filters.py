@@ -21,6 +21,8 @@ from hypothesis.extra.numpy import arrays
 from scipy import signal
 from tribodyn import reference as ref
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 finite = st.floats(-1e6, 1e6, allow_nan=False, allow_subnormal=False)
 
 

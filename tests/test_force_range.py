@@ -18,6 +18,8 @@ import tribodyn as td
 from tribodyn import _core
 from tribodyn.io.writers import save_npy
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 FS = 1000.0
 N = 20_000  # ten 2 s windows
 SPIKE = 5_000  # in window 2
@@ -45,7 +47,6 @@ def _analyze(channels, route, tmp_path, **kw):
         return td.analyze(channels, fs=FS, window=2, hop=2, **kw)
 
 
-@pytest.mark.fast
 @pytest.mark.parametrize("value", [1e300, -1e160, 1.0000001 * _core.FORCE_LIMIT])
 @pytest.mark.parametrize("role", ["fy", "fz", "fx"])
 @pytest.mark.parametrize("route", ["arrays", "npy", "paper"])
@@ -82,7 +83,6 @@ def test_raw_forces_through_the_high_pass(tmp_path, role):
     assert np.isnan(got["mu_r"][bad]).all() and (got["ok"][:2]).all()
 
 
-@pytest.mark.fast
 @pytest.mark.parametrize("estimator", ["corrected", "ols", "iv", "deming"])
 def test_forces_up_to_the_limit_are_analysed_exactly(tmp_path, estimator):
     """The whole chain is scale-invariant up to the limit: the same COF, no overflow, no window lost."""

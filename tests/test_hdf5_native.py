@@ -18,6 +18,8 @@ import pytest
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io import hdf5 as H
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 h5py = pytest.importorskip("h5py")
 
 

@@ -11,6 +11,8 @@ from tribodyn.cli import main
 from tribodyn.io import RecordingError
 from tribodyn.io._text import header_rate
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 FS = 50.0
 
 

@@ -15,6 +15,8 @@ import tribodyn as td
 from tribodyn import _core
 from tribodyn import reference as ref
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 X = np.linspace(0.0, 1.0, 10) ** 2
 Y = np.cos(np.arange(10.0))
 

@@ -21,6 +21,8 @@ import tribodyn.io
 from tribodyn.io import ChannelInfo, Recording, RecordingError, open_recording
 from tribodyn.io.writers import atomic_write, save_hdf5, save_npy, save_npz, save_tdms, sha256_file
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 REAL = Path(__file__).parent / "data" / "real"
 G0 = 9.80665e-3  # gram-force in N
 

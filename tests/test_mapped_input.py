@@ -215,6 +215,7 @@ def test_mapped_path_other_settings_use_the_streaming_path(data, npy, file_calls
     assert_same(got, td.analyze(_mapping(data), fs=FS, hop=3.0, max_lag=5, threads=2, **KW))
 
 
+@pytest.mark.fast
 @settings(max_examples=25, deadline=None)
 @given(
     length=st.integers(3, 4000),

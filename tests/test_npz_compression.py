@@ -14,6 +14,8 @@ import tribodyn as td
 from tribodyn.cli import main
 from tribodyn.io import RecordingError
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 
 def _npz_with_method(path, method):
     """A numpy .npz whose members claim compression ``method`` in the local and central headers."""

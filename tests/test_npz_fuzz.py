@@ -8,6 +8,9 @@ import numpy as np
 
 import tribodyn as td
 from tribodyn.io.writers import save_npz
+import pytest
+
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 
 def test_npz_mutants_are_refused_or_read_like_np_load(tmp_path):

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover
@@ -94,7 +96,6 @@ print(json.dumps({
 """
 
 
-@pytest.mark.fast
 def test_namespace_is_all_and_its_dunders():
     """dir(tribodyn) is __all__ plus dunder attributes, before and after loading submodules (issue 22, point 8)."""
     out = subprocess.run([sys.executable, "-c", _NAMESPACE], capture_output=True, text=True, check=True)
@@ -112,7 +113,6 @@ def test_namespace_is_all_and_its_dunders():
     assert ns["version"] == PYPROJECT["project"]["version"]
 
 
-@pytest.mark.fast
 def test_nothing_points_outside_the_repository():
     """Tests, docs, examples and benchmarks use the repository's files (tests/data), never the developers' ../shared."""
     outside = re.compile(r"parents\[2\]|\.\./shared|/work/shared|[\"']shared[\"'] /|shared/data")

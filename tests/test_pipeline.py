@@ -19,6 +19,7 @@ def _median_rel_error(res, sim):
     return float(np.median(np.abs(res["mu_r"][ok] / truth - 1)))
 
 
+@pytest.mark.fast
 def test_temperature_test_cof_within_2_percent(temp_res, temp_sim):
     assert len(temp_res) == 406  # 4060 s, a 2 s window every 10 s
     assert temp_res.gated.mean() > 0.95
@@ -216,6 +217,7 @@ def test_analyze_bad_options(kwargs, exc, match):
         td.analyze(GOOD, **kwargs)
 
 
+@pytest.mark.fast
 def test_analyze_bad_channels():
     with pytest.raises(ValueError, match="equal lengths"):
         td.analyze({"fy": np.zeros(5000), "fz": np.zeros(4000)}, fs=1000.0)
@@ -229,6 +231,7 @@ def test_analyze_bad_channels():
         td.analyze({"fy": np.full(5000, np.nan), "fz": np.zeros(5000)}, fs=1000.0)
 
 
+@pytest.mark.fast
 def test_identify_bad_input():
     with pytest.raises(ValueError, match="equal lengths"):
         td.identify(np.zeros(10), np.zeros(11), fs=1.0)

@@ -12,6 +12,8 @@ import pytest
 
 import tribodyn as td
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 REAL = Path(__file__).resolve().parent / "data" / "real"  # in the repository: a missing file fails, never skips
 
 

@@ -9,6 +9,7 @@ import tribodyn as td
 from tribodyn import simulate
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("roles", [("fy", "fz", "v"), ("fy", "fz", "x"), ("fy", "fz")])
 def test_per_stroke_cof_within_one_percent(roles):
     sim = simulate.reciprocating(seed=7, mu_forward=0.12, mu_backward=0.09)
@@ -31,6 +32,7 @@ def test_per_stroke_cof_within_one_percent(roles):
     assert len(st["mu"]) >= sim.n_strokes - 1
 
 
+@pytest.mark.fast
 def test_motion_given_and_unidirectional_default():
     sim = simulate.reciprocating(seed=1)
     res = td.analyze({"fy": np.abs(sim.channels["fy"]), "fz": sim.channels["fz"]}, fs=sim.fs)
@@ -56,6 +58,7 @@ def test_strokes_written(tmp_path):
     assert head[:3] == ["stroke", "cycle", "direction"]
 
 
+@pytest.mark.fast
 def test_dynamic_forces_are_never_taken_for_reciprocating():
     """High-passed forces change sign with every oscillation: motion "auto" keeps them unidirectional."""
     sim = simulate.conditions(60, mu=0.1, seed=3, y_noise=0.01)

@@ -26,6 +26,8 @@ import pytest
 import tribodyn as td
 from tribodyn import reference
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 BENCH = Path(__file__).resolve().parents[1] / "benches" / "bench_pipeline.py"
 
 

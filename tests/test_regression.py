@@ -123,6 +123,7 @@ def norris_accumulators(splits):
     return a, r
 
 
+@pytest.mark.fast
 def test_norris_file_is_the_nist_original():
     assert X.size == Y.size == 36
     assert (X[0], Y[0]) == (0.2, 0.1) and (X[-1], Y[-1]) == (0.5, 0.2)
@@ -134,6 +135,7 @@ def test_norris_file_is_the_nist_original():
     assert abs((ss_res / 34).sqrt() - CERT["resid_std"]) < Decimal("1e-14")
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("impl", [td.linfit, ref.linfit], ids=["rust", "reference"])
 def test_norris_certified(impl):
     fit = impl(X, Y)
@@ -164,6 +166,7 @@ def test_norris_certified_accumulated(splits):
         assert max(err.values()) <= 1e-12, (splits, err)
 
 
+@pytest.mark.fast
 def test_norris_merged_in_any_grouping():
     parts = [(X[a:b], Y[a:b]) for a, b in [(0, 5), (5, 6), (6, 6), (6, 20), (20, 36)]]
     accs = [td.LinFitAccumulator().update(x, y) for x, y in parts]
@@ -173,6 +176,7 @@ def test_norris_merged_in_any_grouping():
         assert max(rel_errors(acc.result(), CERT).values()) <= 1e-12
 
 
+@pytest.mark.fast
 def test_norris_shifted_by_1e6():
     xs = X + SHIFT  # rounded: each x moves by up to ulp(1e6)/2
     exact = exact_fit(xs, Y)  # the least squares of the data as received
@@ -447,6 +451,7 @@ def test_linfit_matches_scipy_linregress(x, slope, sigma, seed):
 # -- degenerate input, the accumulator's interface -----------------------------------
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "x, y",
     [
@@ -468,6 +473,7 @@ def test_degenerate_gives_nan_and_warns(x, y):
         assert acc.result().degenerate
 
 
+@pytest.mark.fast
 def test_constant_y_is_a_flat_line_not_degenerate():
     x = np.arange(10.0)
     with warnings.catch_warnings():
@@ -477,6 +483,7 @@ def test_constant_y_is_a_flat_line_not_degenerate():
     assert fit.resid_std == 0.0 and fit.slope_stderr == 0.0 and not fit.degenerate
 
 
+@pytest.mark.fast
 def test_exact_line():
     x = np.linspace(-3.0, 7.0, 101)
     fit = td.linfit(x, 2.5 * x - 1.0)
@@ -484,6 +491,7 @@ def test_exact_line():
     assert fit.resid_std < 1e-14 and fit.slope_stderr < 1e-14
 
 
+@pytest.mark.fast
 def test_accumulator_interface():
     rng = np.random.default_rng(2)
     x, y = rng.standard_normal(100), rng.standard_normal(100)

@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 from tribodyn import simulate
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 FS = 1000.0
 N0 = simulate.PRELOAD_N
 

@@ -45,6 +45,7 @@ def test_default_estimator_is_unbiased_under_fz_noise(snr):
     assert np.mean(res["attenuation_p"] < 0.05) > 0.9
 
 
+@pytest.mark.fast
 def test_every_estimator_on_one_recording():
     sim = simulate.conditions(200, mu=MU, seed=12, snr_z=10, y_noise=0.01)
     sz = sim.truth.params["noise_z_std"]
@@ -170,6 +171,7 @@ def test_ripple_shows_in_h1_at_the_lamella_frequency():
 # -- the paper's preset --------------------------------------------------------------
 
 
+@pytest.mark.fast
 def test_method_paper_reproduces_the_tables_before_issue_12():
     want = np.load(Path(__file__).parent / "data" / "paper" / "paper_tables.npz")
     sim = simulate.current_density_test(seed=3)

@@ -32,6 +32,8 @@ from tribodyn.io import tdms as T
 from tribodyn.io.tdms import write_daqmx_tdms
 from tribodyn.io.writers import save_tdms
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 HERE = Path(__file__).resolve().parent
 REAL = sorted((HERE / "data" / "real").glob("*.tdms"))
 assert REAL, "tests/data/real holds the real DAQmx TDMS file"

@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 from tribodyn.io import RecordingError, detect_format, open_recording
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 REAL = Path(__file__).parent / "data" / "real"
 N = 12
 T = [f"{k * 0.001:.3f}" for k in range(N)]

@@ -140,6 +140,7 @@ def _mutate(text: bytes, rng: np.random.Generator) -> bytes:
 DIALECTS = [(",", "."), (";", ","), ("\t", "."), ("\t", ","), (None, "."), ("|", ".")]
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("k", range(len(DIALECTS)))
 def test_native_equals_python_on_clean_and_quirky_tables(tmp_path: Path, k: int) -> None:
     delim, decimal = DIALECTS[k]
@@ -167,6 +168,7 @@ def test_native_equals_python_on_damaged_files(tmp_path: Path) -> None:
     assert kinds["ok"] and kinds["error"], kinds  # both outcomes were exercised
 
 
+@pytest.mark.fast
 def test_native_errors_name_the_line(tmp_path: Path) -> None:
     p = tmp_path / "bad.csv"
     rows = [f"{i / 1000:.3f},{i},{i},{i}" for i in range(5000)]
@@ -179,6 +181,7 @@ def test_native_errors_name_the_line(tmp_path: Path) -> None:
     assert kind == "error" and "line 3212" in msg
 
 
+@pytest.mark.fast
 def test_native_lvm_equals_python(tmp_path: Path) -> None:
     rng = np.random.default_rng(3)
     for j, decimal in enumerate((".", ",", ".")):
@@ -227,6 +230,7 @@ def test_thread_count_does_not_change_the_result(tmp_path: Path) -> None:
     assert seen[0] == py
 
 
+@pytest.mark.fast
 def test_native_is_what_a_plain_file_gets(tmp_path: Path) -> None:
     p = tmp_path / "plain.csv"
     p.write_text("time,fx,fy,fz\n" + "".join(f"{i / 1000:.3f},1,2,3\n" for i in range(100)))
@@ -240,6 +244,7 @@ def test_native_is_what_a_plain_file_gets(tmp_path: Path) -> None:
     os.unlink(q)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "content, kw",
     [

@@ -24,6 +24,7 @@ def _rows(t, fy, fz, sep=","):
     return "".join(f"{a:.6f}{sep}{b:.6f}{sep}{c:.6f}\n" for a, b, c in zip(t, fy, fz))
 
 
+@pytest.mark.fast
 def test_key_value_preamble_is_not_the_table(tmp_path):
     t, fy, fz = _table()
     p = tmp_path / "pre.csv"
@@ -34,6 +35,7 @@ def test_key_value_preamble_is_not_the_table(tmp_path):
     np.testing.assert_allclose(rec.read(["fy"])["fy"], np.round(fy, 6))
 
 
+@pytest.mark.fast
 def test_second_short_table_after_the_data_is_a_footer_not_the_table(tmp_path):
     t, fy, fz = _table()
     p = tmp_path / "two.csv"
@@ -42,6 +44,7 @@ def test_second_short_table_after_the_data_is_a_footer_not_the_table(tmp_path):
     assert rec.n_samples == 400
 
 
+@pytest.mark.fast
 def test_units_row_above_names_row(tmp_path):
     t, fy, fz = _table()
     p = tmp_path / "units.csv"
@@ -52,6 +55,7 @@ def test_units_row_above_names_row(tmp_path):
     assert rec.roles["fy"] == "Friction force" and rec.roles["fz"] == "Normal force"
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("enc", ["utf-16", "utf-16-le", "cp932", "latin-1", "utf-8-sig"])
 def test_encodings_detected(tmp_path, enc):
     t, fy, fz = _table()
@@ -68,6 +72,7 @@ def test_encodings_detected(tmp_path, enc):
     rec.close()
 
 
+@pytest.mark.fast
 def test_encoding_override(tmp_path):
     t, fy, fz = _table()
     p = tmp_path / "o.csv"
@@ -76,6 +81,7 @@ def test_encoding_override(tmp_path):
     assert rec.channel_names[0] == "Kraft µ"
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "line,fs",
     [
@@ -97,6 +103,7 @@ def test_header_rate_keys(tmp_path, line, fs):
     assert "header" in rec.info()["fs_source"] if "fs_source" in rec.info() else True
 
 
+@pytest.mark.fast
 def test_ni_paired_time_value_columns(tmp_path):
     t, fy, fz = _table(fs=2000.0)
     p = tmp_path / "ni.csv"
@@ -109,6 +116,7 @@ def test_ni_paired_time_value_columns(tmp_path):
     np.testing.assert_allclose(rec.read(["fz"])["fz"], np.round(fz, 6))
 
 
+@pytest.mark.fast
 def test_time_restart_splits_segments_and_windows(tmp_path):
     t, fy, fz = _table(n=600)
     t = np.concatenate([t[:300], t[:300]])  # the clock restarts
@@ -124,6 +132,7 @@ def test_time_restart_splits_segments_and_windows(tmp_path):
     assert any("restarts" in w for w in res.warnings)
 
 
+@pytest.mark.fast
 def test_gap_splits_segments(tmp_path):
     t, fy, fz = _table(n=400)
     t[200:] += 30.0
@@ -133,6 +142,7 @@ def test_gap_splits_segments(tmp_path):
     assert rec.segments == [(0, 200), (200, 400)]
 
 
+@pytest.mark.fast
 def test_jitter_refused_with_the_jitter_and_resample_reads_it(tmp_path):
     rng = np.random.default_rng(3)
     steps = 0.02 * (1 + 0.3 * rng.uniform(-1, 1, 400))
@@ -184,6 +194,7 @@ def test_batch_where_every_file_fails_writes_summary_and_exits_3(tmp_path):
     assert set(s["failures"]) == {"a.csv", "b.csv"} and s["recordings"] == {}
 
 
+@pytest.mark.fast
 def test_dataframe_source_with_time_column_and_channels():
     pd = pytest.importorskip("pandas")
     t, fy, fz = _table(n=1000, fs=100.0)

@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 import tribodyn as td
 
+pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
+
 N_THREADS = 8
 
 

@@ -254,6 +254,7 @@ def _generated(draw, n, d):
 # -- Properties ---------------------------------------------------------------------
 
 
+@pytest.mark.fast
 def test_keys():
     """The reference covers every statistic the kernel delivers by default, and the kernel those."""
     fz = np.linspace(-2, 3, 40)
@@ -266,6 +267,7 @@ def test_keys():
     assert "window_stats" in ref.__all__
 
 
+@pytest.mark.fast
 @given(st.data())
 def test_random_windows(data):
     """Any layout of windows, any forces, fx/aux/raw present or not, both deadband kinds."""
@@ -332,6 +334,7 @@ def test_degenerate_windows(data):
         assert np.isnan(got["c_xz"]).all()  # fx is constant too
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("length", [1, 2])
 def test_shorter_than_three(length):
     """Fewer than 3 samples: NaN fit; with 1 sample no sigma deadband and no Pearson at all."""
@@ -478,12 +481,14 @@ def test_forces_out_of_range(data):
     assert (got["n"] == length).all() and np.isfinite(got["aux_mean"]).all()
 
 
+@pytest.mark.fast
 def test_no_windows():
     """No start: every column has zero rows (bins: shape (0, n_bins))."""
     fz = np.linspace(-1.0, 1.0, 10)
     check(fz, fz, fz, fz, np.zeros(0, dtype=np.int64), 3, 0.35, 4, raw=(fz, fz))
 
 
+@pytest.mark.fast
 def test_bad_starts_are_refused():
     """A window past the end, or a negative start, is a ValueError, not a crash."""
     fz = np.linspace(-1, 1, 10)
