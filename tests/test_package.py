@@ -126,6 +126,27 @@ def test_nothing_points_outside_the_repository():
     assert not hits, hits
 
 
+def test_architecture_names_files_and_functions_that_exist():
+    """docs/architecture.md (linked from the README) names real files and real functions: renames must update it."""
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    assert "docs/architecture.md" in (ROOT / "README.md").read_text(encoding="utf-8")
+    where = {"": ROOT / "python" / "tribodyn", "rust/": ROOT, "tests/": ROOT, "docs/": ROOT}
+    rust = ROOT / "rust" / "core" / "src"
+    missing = []
+    for name in sorted(set(re.findall(r"`([\w/.]+\.(?:py|pyi|rs|md))`", text))):
+        if name in ("method.md", "conftest.py"):
+            name = {"method.md": "docs/method.md", "conftest.py": "tests/conftest.py"}[name]
+        base = next(v for k, v in sorted(where.items(), reverse=True) if name.startswith(k))
+        path = rust / name if name.endswith(".rs") and "/" not in name else base / name
+        if not path.is_file():
+            missing.append(name)
+    assert not missing, missing
+    files = [*(ROOT / "python" / "tribodyn").rglob("*.py"), *(ROOT / "rust").rglob("*.rs")]
+    source = "\n".join(p.read_text(encoding="utf-8") for p in files)
+    named = set(re.findall(r"`(\w+)\(", text)) | {"make_plan", "choose_route", "gate_reasons", "build_named_figures"}
+    assert [f for f in sorted(named) if f"def {f}(" not in source and f"fn {f}(" not in source] == []
+
+
 def test_python_m_tribodyn_help():
     r = subprocess.run([sys.executable, "-m", "tribodyn", "--help"], capture_output=True, text=True)
     assert r.returncode == 0 and "usage: tribodyn" in r.stdout and "--quiet" in r.stdout
