@@ -13,6 +13,7 @@ import csv
 import errno
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -82,11 +83,20 @@ def rec(tmp_path) -> Path:
     return recording(tmp_path / "rec.npz")
 
 
+@pytest.fixture(scope="module")
+def previous_set(tmp_path_factory) -> Path:
+    """A previous set written once for the module (in-process), from a recording like ``rec``."""
+    where = tmp_path_factory.mktemp("previous")
+    out = where / "out"
+    assert cli.main(["analyze", str(recording(where / "rec.npz")), "--out", str(out), "--quiet", *WINDOWS]) == 0
+    return out
+
+
 @pytest.fixture
-def previous(tmp_path, rec) -> Path:
-    """An output folder holding a previous set (written in-process: fast)."""
+def previous(tmp_path, rec, previous_set) -> Path:
+    """An output folder holding a previous set: a copy of the module's, which the test may change."""
     out = tmp_path / "out"
-    assert cli.main(["analyze", str(rec), "--out", str(out), "--quiet", *WINDOWS]) == 0
+    shutil.copytree(previous_set, out, symlinks=True)
     return out
 
 
