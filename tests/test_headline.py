@@ -198,3 +198,14 @@ def td_real(name: str) -> str:
     from pathlib import Path
 
     return str(Path(__file__).parent / "data" / "real" / name)
+
+
+def test_many_recordings_have_one_headline_row_each(tmp_path):
+    a, b = tmp_path / "a.npy", tmp_path / "b.npy"
+    save_npy(a, dead_weight(n=3000, mu=0.2))
+    save_npy(b, dead_weight(n=3000, mu=0.3, seed=1))
+    many = td.analyze_many([a, b], open_options={"fs": 100.0, "names": ["fy", "fz"]})
+    rows = many.headlines
+    assert list(rows["recording"]) == [str(a), str(b)] and list(rows["method"]) == ["classical"] * 2
+    np.testing.assert_allclose(rows["value"], [0.2, 0.3], atol=2e-3)
+    assert rows["value"][1] == many.results[str(b)].headline.value
