@@ -209,3 +209,17 @@ def test_many_recordings_have_one_headline_row_each(tmp_path):
     assert list(rows["recording"]) == [str(a), str(b)] and list(rows["method"]) == ["classical"] * 2
     np.testing.assert_allclose(rows["value"], [0.2, 0.3], atol=2e-3)
     assert rows["value"][1] == many.results[str(b)].headline.value
+
+
+def test_an_unloaded_fy_that_differs_before_and_after_the_contact_is_flagged():
+    rng = np.random.default_rng(6)
+    loaded = np.r_[np.zeros(1000, bool), np.ones(2000, bool), np.zeros(1000, bool)]
+    fz = np.where(loaded, 5.0, 0.0) + 0.002 * rng.standard_normal(4000)
+    drag = np.r_[np.full(1000, 0.3), np.zeros(2000), np.full(1000, -0.5)]  # turning before, stopped after
+    fy = np.where(loaded, 0.3 + 0.5, 0.0) + drag + 0.001 * rng.standard_normal(4000)
+    res = td.analyze({"fy": fy, "fz": fz}, fs=100.0)
+    head = res.headline
+    assert res.params["tare_offsets"]["fy"] == pytest.approx(0.3, abs=0.01)  # the unloaded level before the contact
+    assert head.value == pytest.approx(0.5 / 5.0, rel=0.01)
+    assert any("differs before the contact" in r for r in head.reasons)
+    assert any("differs before the contact" in w for w in res.warnings)

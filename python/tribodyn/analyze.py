@@ -404,6 +404,8 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
             tribo["rectified"] = True
             if not run_source:
                 raise ValueError("no stroke's central part holds 3 samples: no window to analyse")
+    contact = pre.get("contact")
+    own = tuple(w for w in (window_note, contact.note if contact is not None else "") if w)  # the analysis's notes
     c_start, c_stop = _sample_range(source, rec, plan, partial)
     tribo["n_samples_total"] = c_stop - c_start
     totals = None
@@ -411,7 +413,7 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
         totals = classical_totals(source, rec, plan.classical, c_start, c_stop)
     if partial:
         p = _partial(run_source, run_rec, run_plan)
-        warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + ((window_note,) if window_note else ())
+        warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + own
         return dataclasses.replace(p, plan=plan, warnings=tuple(dict.fromkeys(warnings)), tribo=tribo,
                                    strokes=strokes, classical=totals)  # fmt: skip
     res = _analyze_aligned(run_source, run_rec, run_plan, align)
@@ -420,8 +422,8 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
     res.params.update(tribo)
     if run_plan is not plan:
         res.params.update(start=plan.start, stop=plan.stop)
-    if window_note:
-        res = dataclasses.replace(res, warnings=res.warnings + (window_note,))
+    if own:
+        res = dataclasses.replace(res, warnings=res.warnings + own)
     return settle(dataclasses.replace(res, strokes=strokes, classical=totals))
 
 
@@ -486,7 +488,7 @@ def _tribometer_params(rec: Any, pre: Dict[str, Any], window_note: str) -> Dict[
     contact = pre.get("contact")
     if contact is not None:
         out["contact"] = {"rule": contact.rule, "unloaded_fraction": contact.unloaded_fraction,
-                          "excluded_fraction": contact.excluded_fraction}  # fmt: skip
+                          "excluded_fraction": contact.excluded_fraction, "note": contact.note}  # fmt: skip
     if window_note:
         out["window_note"] = window_note
     if rec is not None and getattr(rec, "roles", None) is not None:

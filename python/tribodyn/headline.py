@@ -421,6 +421,9 @@ def _dynamic(res: "Results", total: int) -> Headline:
 def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
     tot: Optional[ClassicalTotals] = res.classical
     interval = f"batch means over up to {BATCHES} contiguous blocks of the recording (docs/method.md 6e)"
+    note = (res.params.get("contact") or {}).get("note")
+    if note:  # the tare from the unloaded samples is uncertain (docs/method.md 6a)
+        why = why + (str(note),)
     if tot is not None and tot.contact:
         m, lo, hi, b = tot.mean()
         excluded = tot.samples - tot.contact

@@ -157,6 +157,8 @@ CONTACT_GAP_FRACTION = 0.05
 #: Without an unloaded cluster: min_fn is 4 noise standard deviations (from sample-to-sample differences),
 #: at least this fraction of the median |fz| and at most MIN_FN_FRACTION of it.
 CONTACT_FLOOR_FRACTION = 0.01
+#: The unloaded fy before and after the contact may differ by this fraction of the friction force without a warning.
+FY_TARE_SPREAD = 0.1
 #: fz has a static level when at least this share of the samples beyond min_fn has one sign.
 STATIC_SIGN_SHARE = 0.95
 
@@ -188,6 +190,8 @@ class Contact:
     excluded_fraction: float
     static: bool
     rule: str
+    #: A warning about the tare ('' when none): the unloaded fy differs before and after the contact.
+    note: str = ""
 
 
 def _robust_sd(v: np.ndarray) -> float:
@@ -268,16 +272,34 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
     if n == 0:
         return Contact(0.0, 0.0, 0.0, 0.0, 0.0, False, "no samples")
     unl = _unloaded(fz)
+    note = ""
     if unl is not None:
-        t_fz = float(np.median(fz[unl]))
-        t_fy = float(np.median(fy[unl]))
+        loaded_idx = np.flatnonzero(~unl)
+        before = unl.copy()
+        before[loaded_idx[0] :] = False  # the unloaded samples before the first loaded one (as tare= S takes them)
+        after = unl.copy()
+        after[: loaded_idx[-1] + 1] = False
+        ref = before if before.sum() >= 5 else unl
+        t_fz = float(np.median(fz[ref]))
+        t_fy = float(np.median(fy[ref]))
         loaded = float(np.median(fz[~unl]))
         sd = _robust_sd(fz[unl])
         thr = max(CONTACT_SIGMAS * sd, CONTACT_GAP_FRACTION * abs(loaded - t_fz))
+        where = "before the first contact" if ref is before else "of the whole recording"
         rule = (
             f"unloaded cluster at fz = {t_fz:.4g} N ({100 * unl.mean():.1f} % of the samples; fy there "
-            f"{t_fy:.4g} N) taken as the tare; in contact when |fz - tare| >= {thr:.4g} N"
+            f"{t_fy:.4g} N), its median {where} taken as the tare; in contact when |fz - tare| >= {thr:.4g} N"
         )
+        if ref is before and after.sum() >= 5:
+            fy_after = float(np.median(fy[after]))
+            friction = abs(float(np.median(fy[~unl])) - t_fy)
+            if abs(fy_after - t_fy) > FY_TARE_SPREAD * max(friction, 1e-300):
+                note = (
+                    f"the unloaded fy differs before the contact ({t_fy:.4g} N) and after it ({fy_after:.4g} N) by "
+                    f"{abs(fy_after - t_fy):.4g} N, {100 * abs(fy_after - t_fy) / max(friction, 1e-300):.0f} % of the "
+                    "friction force: the tare is taken before the contact (drag while sliding unloaded, or sensor "
+                    "drift?); pass --tare fy=N,fz=N (tare=) if another offset is right"
+                )
         static = True
         unl_frac = float(unl.mean())
     else:
@@ -291,7 +313,7 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
         static = bool(share >= STATIC_SIGN_SHARE and beyond.size >= 0.5 * n)
         unl_frac = 0.0
     excluded = float(np.mean(np.abs(fz - t_fz) < thr)) if thr > 0 else float(np.mean(fz == t_fz))
-    return Contact(float(thr), t_fy, t_fz, unl_frac, excluded, static, rule)
+    return Contact(float(thr), t_fy, t_fz, unl_frac, excluded, static, rule, note)
 
 
 # -- pre-pass -------------------------------------------------------------------------
@@ -393,7 +415,11 @@ def prepass(
         if not np.isfinite(thr) or thr < 0:
             raise ValueError(f"min_fn must be finite and >= 0, got {min_fn!r}")
         out["spec"] = ClassicalSpec(thr, t_fy, t_fz)
-    # motion
+    # motion, from the samples in contact only (unloaded fy is an offset or drag, not friction)
+    if "spec" in out:
+        touching = np.abs(fz) >= out["spec"].min_fn
+        if touching.any():
+            fy = fy[touching]
     p95 = float(np.percentile(np.abs(fy), 95)) if fy.size else 0.0
     share = 0.0
     if p95 > 0:
