@@ -272,14 +272,14 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
         fin = seg[np.isfinite(seg)]
         p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
         thr = 0.3 * p95
-        d = np.zeros(seg.size, dtype=np.int8)
-        cur = 0
-        for i, v in enumerate(seg):
-            if v > thr:
-                cur = 1
-            elif v < -thr:
-                cur = -1
-            d[i] = cur
+        # The direction of the last crossing of +-thr (0 before the first): a forward fill of the crossings.
+        raw = np.zeros(seg.size, dtype=np.int8)
+        with np.errstate(invalid="ignore"):
+            raw[seg > thr] = 1
+            raw[seg < -thr] = -1
+        last = np.where(raw != 0, np.arange(seg.size), 0)
+        np.maximum.accumulate(last, out=last)
+        d = raw[last]
         # samples before the first decided direction take it
         nz = np.flatnonzero(d)
         if nz.size == 0:
@@ -290,15 +290,17 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
         # The hysteresis decides a change of direction late (at 30 % of p95): the stroke starts where
         # the signal took its new sign (the reversal), so that a stroke's central part is centred.
         moved: List[int] = []
+        sign = np.sign(np.nan_to_num(seg, nan=0.0)).astype(np.int8).tolist()  # plain ints: a fast loop
+        dirs = d.tolist()
         for c in cuts.tolist():
             lo, j = (moved[-1] if moved else 0) + 1, c
-            while j > lo and seg[j - 1] * d[c] > 0:
+            while j > lo and sign[j - 1] == dirs[c]:
                 j -= 1
             moved.append(j)
         edges = [0, *moved, seg.size]
         for s0, s1 in zip(edges[:-1], edges[1:]):
             if s1 - s0 >= 4:
-                out.append((a + s0, a + s1, int(d[s1 - 1])))
+                out.append((a + s0, a + s1, dirs[s1 - 1]))
     return out
 
 
