@@ -109,8 +109,11 @@ def from_dataframe(
     a DatetimeIndex gives fs = 1 / median step.
     """
     cols = {str(c): c for c in df.columns}
+    from .io.base import one_role_per_channel
+
     out: Dict[str, np.ndarray] = {}
     mapping = dict(channels or {})
+    one_role_per_channel(mapping, "channels")
     for role, col in mapping.items():
         if col not in cols:
             raise ValueError(f"channels: no column {col!r} in the DataFrame (columns: {', '.join(cols)})")

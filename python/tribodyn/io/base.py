@@ -43,6 +43,7 @@ __all__ = [
     "ChannelInfo",
     "Recording",
     "RecordingError",
+    "one_role_per_channel",
     "resolve_name",
     "roles_by_name",
 ]
@@ -156,6 +157,18 @@ def roles_by_name(names: Sequence[str]) -> Dict[str, str]:
         if len(hits) == 1:
             out[role] = hits[0]
     return out
+
+
+def one_role_per_channel(roles: Mapping[str, str], what: str) -> None:
+    """Raises :class:`RecordingError` (a ValueError) when ``roles`` binds one channel to two roles."""
+    seen: Dict[str, str] = {}
+    for role, name in roles.items():
+        if name in seen:
+            raise RecordingError(
+                f"{what}: channel {name!r} is bound to both {seen[name]!r} and {role!r}; "
+                "a channel carries one role: map each role to its own channel"
+            )
+        seen[name] = role
 
 
 def resolve_name(
@@ -296,6 +309,7 @@ class Recording:
             raise RecordingError(f"{self.path}: no readable channel in this {self.format} file")
         # roles
         roles: Dict[str, str] = dict(self._default_roles)
+        given: Dict[str, str] = {}
         if channels is not None:
             if not isinstance(channels, Mapping):
                 raise RecordingError("channels must be a mapping role -> channel name")
@@ -303,8 +317,15 @@ class Recording:
                 if name is None:
                     roles.pop(role, None)
                 else:
-                    roles[str(role)] = self._resolve(str(name), what=f"channel for role {role!r}")
+                    given[str(role)] = self._resolve(str(name), what=f"channel for role {role!r}")
+            one_role_per_channel(given, "channels")
+            # A channel the caller binds is taken from the default role that had it (--map fy=Fx on a
+            # file whose names gave fx <- Fx must not leave fx and fy on one channel).
+            roles = {r: n for r, n in roles.items() if r in given or n not in given.values()}
+            roles.update(given)
         self.roles: Dict[str, str] = roles
+        #: Roles the caller bound (the rest come from the format's or the evidence's default map).
+        self.roles_given: Dict[str, str] = given
         # sampling rate
         if fs is not None:
             try:
