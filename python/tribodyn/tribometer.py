@@ -31,6 +31,7 @@ __all__ = [
     "find_strokes",
     "from_dataframe",
     "prepass",
+    "sample_channels",
     "stroke_table",
     "verdict",
 ]
@@ -152,25 +153,46 @@ def _sample_recording(rec: Any, roles: Sequence[str], tare_n: int) -> Optional[D
     """Up to PREPASS_SAMPLES samples of ``roles`` (evenly spread pieces, or the first ones) and the first tare_n."""
     if not all(r in getattr(rec, "roles", {}) for r in roles):
         return None
+    return sample_channels(rec, roles, tare_n)[0]
+
+
+def sample_channels(rec: Any, keys: Sequence[str], tare_n: int = 0, limit: Optional[int] = None
+                    ) -> Tuple[Dict[str, np.ndarray], List[Tuple[int, int]]]:  # fmt: skip
+    """The pre-pass sample of a recording: up to ``limit`` (default :data:`PREPASS_SAMPLES`) samples of
+    ``keys`` (roles or channel names), as 256 evenly spread pieces of a random-access recording longer
+    than that, else its first samples; with ``tare_n``, the first tare_n samples as well.
+
+    Returns the arrays and the (start, stop) of each contiguous run of samples within them (a piece,
+    or a segment of the recording), so that strokes are never found across two.
+    """
     n = int(rec.n_samples)
-    if n <= PREPASS_SAMPLES or not getattr(rec, "random_access", False):
-        stop = min(n, max(PREPASS_SAMPLES, tare_n))
-        parts = list(rec.chunks(max(1, stop), list(roles), stop=stop))
-        return {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in roles}
-    pieces, size = 256, PREPASS_SAMPLES // 256
-    out: Dict[str, List[np.ndarray]] = {r: [] for r in roles}
+    keys = list(keys)
+    limit = PREPASS_SAMPLES if limit is None else int(limit)
+    if n <= limit or not getattr(rec, "random_access", False):
+        stop = min(n, max(limit, tare_n))
+        parts = list(rec.chunks(max(1, stop), keys, stop=stop))
+        data = {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in keys}
+        segments = [(a, min(b, stop)) for a, b in (getattr(rec, "segments", None) or [(0, n)]) if a < stop]
+        return data, segments or [(0, stop)]
+    pieces, size = 256, max(1, limit // 256)
     starts = np.linspace(0, n - size, pieces).astype(np.int64)
     if tare_n:
         starts = np.concatenate([[0], starts])
     ranges = [(int(a), min(int(a) + (max(size, tare_n) if a == 0 else size), n)) for a in starts]
-    if hasattr(rec, "read_ranges"):
-        got = rec.read_ranges(ranges, list(roles))
-        return {r: got[r] for r in roles}
+    bounds: List[Tuple[int, int]] = []
+    at = 0
     for a, b in ranges:
-        for p in rec.chunks(b - a, list(roles), start=a, stop=b):
-            for r in roles:
+        bounds.append((at, at + b - a))
+        at += b - a
+    if hasattr(rec, "read_ranges"):
+        got = rec.read_ranges(ranges, keys)
+        return {r: got[r] for r in keys}, bounds
+    out: Dict[str, List[np.ndarray]] = {r: [] for r in keys}
+    for a, b in ranges:
+        for p in rec.chunks(b - a, keys, start=a, stop=b):
+            for r in keys:
                 out[r].append(p[r])
-    return {r: np.concatenate(v) for r, v in out.items()}
+    return {r: np.concatenate(v) for r, v in out.items()}, bounds
 
 
 def prepass(
