@@ -492,10 +492,11 @@ def _tribometer_params(rec: Any, pre: Dict[str, Any], window_note: str) -> Dict[
     if window_note:
         out["window_note"] = window_note
     if rec is not None and getattr(rec, "roles", None) is not None:
-        roles = dict(rec.roles)
-        out["roles"] = roles
-        defaults = getattr(rec, "_default_roles", None)
-        out["roles_source"] = "automatic" if defaults is not None and roles == dict(defaults) else "given"
+        out["roles"] = dict(rec.roles)
+        out["roles_source"] = getattr(rec, "roles_source", "given")
+        choice = getattr(rec, "role_choice", None)
+        if choice is not None:  # docs/method.md 6e
+            out["roles_evidence"] = choice.as_dict()
     return out
 
 

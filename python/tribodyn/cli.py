@@ -34,8 +34,9 @@ EXIT_USER_ERROR = 2
 EXIT_SOME_FAILED = 3
 
 
-#: Roles --map may name (tribodyn.io.base.KNOWN_ROLES, kept here so the CLI starts fast).
-ROLES = ("fx", "fy", "fz", "i", "u", "cof")
+#: Roles --map may name (tribodyn.io.base.KNOWN_ROLES and the stroke roles x position, v velocity of
+#: docs/method.md 6c, kept here so the CLI starts fast).
+ROLES = ("fx", "fy", "fz", "i", "u", "cof", "x", "v")
 
 #: Unknown roles that are common names of a valid one (for the error message).
 _ROLE_GUESSES = {
@@ -170,7 +171,8 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument(
         "--map",
         action="append",
-        help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof; any case); may be repeated",
+        help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof, x position, v velocity; any case); "
+        "may be repeated",
     )
     a.add_argument(
         "--scale",
@@ -600,14 +602,15 @@ def _tribometer_lines(s: Dict[str, Any]) -> List[str]:
     if contact.get("rule"):
         out.append(f"contact: {contact['rule']}")
     roles = s.get("roles") or {}
-    if roles and s.get("roles_source") == "automatic":
-        text = "roles: " + ", ".join(f"{r} <- {n}" for r, n in roles.items())
-        names = {str(n).split("/")[-1].split("[")[0].strip().lower() for n in roles.values()}
-        if "fy" in names or "fx" in roles:
-            text += "; pass --map if your sliding direction is x (--map fy=Fx)"
-        else:
-            text += " (automatic; --map ROLE=CHANNEL to change)"
-        out.append(text)
+    source = s.get("roles_source")
+    if roles and source in ("automatic", "partly given"):
+        # The friction channel with its evidence when it was chosen among several (docs/method.md 6f).
+        ev = s.get("roles_evidence") or {}
+        shown = [
+            f"{r} <- {ev['text']}" if r == "fy" and ev.get("text") and ev.get("rule") != "names" else f"{r} <- {n}"
+            for r, n in roles.items()
+        ]
+        out.append(f"roles: {', '.join(shown)} ({source}; --map ROLE=CHANNEL to change)")
     if s.get("window_note"):
         out.append(str(s["window_note"]))
     return out
@@ -858,6 +861,9 @@ def _print_info(info: Dict[str, Any]) -> None:
             role = f"role {c['role']}" if c.get("role") else ""
             note = c.get("note") or ""
             print(f"    {str(c.get('name')):<{w}}  {unit:<8} {role:<8} {note}".rstrip())
+    ev = info.get("roles_evidence") or {}
+    if ev.get("text") and ev.get("rule") != "names":
+        print(f"  friction:      fy <- {ev['text']}")
     meta = info.get("metadata") or {}
     if meta:
         print(f"  metadata ({len(meta)}):")

@@ -409,7 +409,7 @@ class Results:
             allm = np.asarray(st["mu"], dtype=float)
             per["all"] = dict(stats(allm[np.isfinite(allm)]))
             out["strokes"] = per
-        for key in ("roles", "roles_source", "motion", "window_note", "contact"):
+        for key in ("roles", "roles_source", "roles_evidence", "motion", "window_note", "contact"):
             if self.params.get(key) is not None:
                 out[key] = self.params[key]
         out["verdict"] = dict(self.verdict)

@@ -33,6 +33,7 @@ __all__ = [
     "find_strokes",
     "from_dataframe",
     "prepass",
+    "sample_channels",
     "stroke_table",
     "verdict",
 ]
@@ -111,8 +112,11 @@ def from_dataframe(
     a DatetimeIndex gives fs = 1 / median step.
     """
     cols = {str(c): c for c in df.columns}
+    from .io.base import one_role_per_channel
+
     out: Dict[str, np.ndarray] = {}
     mapping = dict(channels or {})
+    one_role_per_channel(mapping, "channels")
     for role, col in mapping.items():
         if col not in cols:
             raise ValueError(f"channels: no column {col!r} in the DataFrame (columns: {', '.join(cols)})")
@@ -323,25 +327,46 @@ def _sample_recording(rec: Any, roles: Sequence[str], tare_n: int) -> Optional[D
     """Up to PREPASS_SAMPLES samples of ``roles`` (evenly spread pieces, or the first ones) and the first tare_n."""
     if not all(r in getattr(rec, "roles", {}) for r in roles):
         return None
+    return sample_channels(rec, roles, tare_n)[0]
+
+
+def sample_channels(rec: Any, keys: Sequence[str], tare_n: int = 0, limit: Optional[int] = None
+                    ) -> Tuple[Dict[str, np.ndarray], List[Tuple[int, int]]]:  # fmt: skip
+    """The pre-pass sample of a recording: up to ``limit`` (default :data:`PREPASS_SAMPLES`) samples of
+    ``keys`` (roles or channel names), as 256 evenly spread pieces of a random-access recording longer
+    than that, else its first samples; with ``tare_n``, the first tare_n samples as well.
+
+    Returns the arrays and the (start, stop) of each contiguous run of samples within them (a piece,
+    or a segment of the recording), so that strokes are never found across two.
+    """
     n = int(rec.n_samples)
-    if n <= PREPASS_SAMPLES or not getattr(rec, "random_access", False):
-        stop = min(n, max(PREPASS_SAMPLES, tare_n))
-        parts = list(rec.chunks(max(1, stop), list(roles), stop=stop))
-        return {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in roles}
-    pieces, size = 256, PREPASS_SAMPLES // 256
-    out: Dict[str, List[np.ndarray]] = {r: [] for r in roles}
+    keys = list(keys)
+    limit = PREPASS_SAMPLES if limit is None else int(limit)
+    if n <= limit or not getattr(rec, "random_access", False):
+        stop = min(n, max(limit, tare_n))
+        parts = list(rec.chunks(max(1, stop), keys, stop=stop))
+        data = {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in keys}
+        segments = [(a, min(b, stop)) for a, b in (getattr(rec, "segments", None) or [(0, n)]) if a < stop]
+        return data, segments or [(0, stop)]
+    pieces, size = 256, max(1, limit // 256)
     starts = np.linspace(0, n - size, pieces).astype(np.int64)
     if tare_n:
         starts = np.concatenate([[0], starts])
     ranges = [(int(a), min(int(a) + (max(size, tare_n) if a == 0 else size), n)) for a in starts]
-    if hasattr(rec, "read_ranges"):
-        got = rec.read_ranges(ranges, list(roles))
-        return {r: got[r] for r in roles}
+    bounds: List[Tuple[int, int]] = []
+    at = 0
     for a, b in ranges:
-        for p in rec.chunks(b - a, list(roles), start=a, stop=b):
-            for r in roles:
+        bounds.append((at, at + b - a))
+        at += b - a
+    if hasattr(rec, "read_ranges"):
+        got = rec.read_ranges(ranges, keys)
+        return {r: got[r] for r in keys}, bounds
+    out: Dict[str, List[np.ndarray]] = {r: [] for r in keys}
+    for a, b in ranges:
+        for p in rec.chunks(b - a, keys, start=a, stop=b):
+            for r in keys:
                 out[r].append(p[r])
-    return {r: np.concatenate(v) for r, v in out.items()}
+    return {r: np.concatenate(v) for r, v in out.items()}, bounds
 
 
 def prepass(
@@ -466,14 +491,14 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
         fin = seg[np.isfinite(seg)]
         p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
         thr = 0.3 * p95
-        d = np.zeros(seg.size, dtype=np.int8)
-        cur = 0
-        for i, v in enumerate(seg):
-            if v > thr:
-                cur = 1
-            elif v < -thr:
-                cur = -1
-            d[i] = cur
+        # The direction of the last crossing of +-thr (0 before the first): a forward fill of the crossings.
+        raw = np.zeros(seg.size, dtype=np.int8)
+        with np.errstate(invalid="ignore"):
+            raw[seg > thr] = 1
+            raw[seg < -thr] = -1
+        last = np.where(raw != 0, np.arange(seg.size), 0)
+        np.maximum.accumulate(last, out=last)
+        d = raw[last]
         # samples before the first decided direction take it
         nz = np.flatnonzero(d)
         if nz.size == 0:
@@ -484,15 +509,17 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
         # The hysteresis decides a change of direction late (at 30 % of p95): the stroke starts where
         # the signal took its new sign (the reversal), so that a stroke's central part is centred.
         moved: List[int] = []
+        sign = np.sign(np.nan_to_num(seg, nan=0.0)).astype(np.int8).tolist()  # plain ints: a fast loop
+        dirs = d.tolist()
         for c in cuts.tolist():
             lo, j = (moved[-1] if moved else 0) + 1, c
-            while j > lo and seg[j - 1] * d[c] > 0:
+            while j > lo and sign[j - 1] == dirs[c]:
                 j -= 1
             moved.append(j)
         edges = [0, *moved, seg.size]
         for s0, s1 in zip(edges[:-1], edges[1:]):
             if s1 - s0 >= 4:
-                out.append((a + s0, a + s1, int(d[s1 - 1])))
+                out.append((a + s0, a + s1, dirs[s1 - 1]))
     return out
 
 
