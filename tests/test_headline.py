@@ -223,3 +223,12 @@ def test_an_unloaded_fy_that_differs_before_and_after_the_contact_is_flagged():
     assert head.value == pytest.approx(0.5 / 5.0, rel=0.01)
     assert any("differs before the contact" in r for r in head.reasons)
     assert any("differs before the contact" in w for w in res.warnings)
+
+
+def test_every_recordings_headline_is_bold_in_the_report():
+    from tribodyn.report import HeadlineLine, _verdict_item, verdict_lines
+
+    res = td.analyze(dead_weight(n=3000), fs=100.0)
+    lines = verdict_lines("b.csv", res.summary(), res.params)
+    assert isinstance(lines[0], HeadlineLine) and lines[0] == f"b.csv: {res.headline.text}"
+    assert _verdict_item(lines[0]).startswith("<b>b.csv: COF ") and not _verdict_item(lines[1]).startswith("<b>")

@@ -116,6 +116,16 @@ def unit_text(unit: str) -> str:
     return _labels.unit_text(unit)
 
 
+class HeadlineLine(str):
+    """A verdict line that is a recording's headline (docs/method.md 6e): the report sets it in bold."""
+
+
+def _verdict_item(line: str) -> str:
+    """A verdict line as HTML: a recording's headline (:class:`HeadlineLine`) in bold."""
+    text = html.escape(line)
+    return f"<b>{text}</b>" if isinstance(line, HeadlineLine) else text
+
+
 def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, Any],
                   ranges: Optional[Mapping[str, Any]] = None) -> List[str]:  # fmt: skip
     """The verdict of one recording in words and numbers, headline first (docs/method.md 3d, 5, 7).
@@ -133,9 +143,11 @@ def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, An
     head = summary.get("headline") or {}
     mu = summary.get("mu_r") or {}
     method = " (the paper's method)" if params.get("method") == "paper" else ""
-    lines.append(f"{name}: {head.get('text', 'no headline')}{method}")
+    lines.append(HeadlineLine(f"{name}: {head.get('text', 'no headline')}{method}"))
     if head.get("method") == "dynamic" and mu.get("n"):
-        lines[0] += f" 90 % of the gated windows lie between {mu['p05']:.4f} and {mu['p95']:.4f}."
+        lines[0] = HeadlineLine(
+            f"{lines[0]} 90 % of the gated windows lie between {mu['p05']:.4f} and {mu['p95']:.4f}."
+        )
     if verdict:
         lines.append(f"{name}: {_labels.units_in_text(verdict)}")
     for by, rng in (ranges or {}).items():
@@ -538,8 +550,8 @@ def write_report(
         first, rest = verdict[0], verdict[1:]
         out.append('<div class="verdict" id="verdict"><h2 style="margin-top:0">Verdict</h2>')
         out.append(f'<p class="headline">{html.escape(first)}</p>')
-        if rest:
-            out.append("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in rest) + "</ul>")
+        if rest:  # the headline of every further recording in bold too (one headline per recording)
+            out.append("<ul>" + "".join(f"<li>{_verdict_item(x)}</li>" for x in rest) + "</ul>")
         out.append("</div>")
     if inputs is not None:
         out.append('<h2 id="inputs">Inputs</h2>')
