@@ -78,6 +78,7 @@ def test_demo_prints_a_summary(tmp_path, capsys):
     # Readable units and numbers rounded to the data's precision ("133.5 to 157.9 °C", not "133.521..157.892 degC").
     assert "degC" not in out and "A/mm^2" not in out
     assert re.search(r"optimum \d+\.\d to \d+\.\d °C", out), out
+    assert re.search(r"^temperature test: COF 0\.\d{4} \(95 % interval .*\): dynamic, median of mu_r", out, re.M), out
 
 
 @pytest.mark.parametrize("name", ["cetr_umt2_HT-2n-6-4_2_001.csv", "cetr_umt2_HT-2n-6-4_2_002.csv"])

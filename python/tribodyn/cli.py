@@ -569,10 +569,10 @@ def _print_demo(summary: Dict[str, Any], out: str) -> None:
         s = summary[key]
         mu = s["mu_r"]
         rng = s["operating_range"] or {}
-        line = (
-            f"{label}: {s['gated']}/{s['windows']} windows pass the gate; "
-            f"COF {mu['p05']:.3f} to {mu['p95']:.3f} (median {mu['median']:.3f})"
-        )
+        print(f"{label}: {(s.get('headline') or {}).get('text', 'no headline')}")
+        line = f"  {s['gated']}/{s['windows']} windows pass the gate"
+        if mu.get("n"):
+            line += f"; 90 % of them between {mu['p05']:.3f} and {mu['p95']:.3f}"
         unit = unit_text(rng.get("unit"))
         if rng.get("optimum"):
             lo, hi = rng["optimum"]
