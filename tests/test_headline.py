@@ -232,3 +232,23 @@ def test_every_recordings_headline_is_bold_in_the_report():
     lines = verdict_lines("b.csv", res.summary(), res.params)
     assert isinstance(lines[0], HeadlineLine) and lines[0] == f"b.csv: {res.headline.text}"
     assert _verdict_item(lines[0]).startswith("<b>b.csv: COF ") and not _verdict_item(lines[1]).startswith("<b>")
+
+
+def test_a_dynamic_headline_does_not_read_the_file_again(tmp_path, temp_sim, monkeypatch):
+    import sys
+
+    from tribodyn import headline as hl
+
+    p = tmp_path / "dyn.npy"
+    save_npy(p, {k: temp_sim.channels[k] for k in ("fy", "fz")})
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return hl.classical_totals(*args, **kwargs)
+
+    monkeypatch.setattr(sys.modules["tribodyn.analyze"], "classical_totals", counted)
+    res = td.analyze(td.open_recording(p, fs=temp_sim.fs, names=["fy", "fz"]))
+    assert res.headline.method == "dynamic" and res.classical is None and not calls
+    res = td.analyze(dead_weight(n=3000), fs=100.0)
+    assert res.headline.method == "classical" and res.classical is not None and calls == [1]

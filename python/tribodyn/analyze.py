@@ -43,7 +43,7 @@ import os
 from collections import deque
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Deque, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -409,9 +409,14 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
     c_start, c_stop = _sample_range(source, rec, plan, partial)
     tribo["n_samples_total"] = c_stop - c_start
     totals = None
-    if plan.classical is not None and strokes is None:  # docs/method.md 6a, 6e: every sample in contact
-        totals = classical_totals(source, rec, plan.classical, c_start, c_stop)
-    if partial:
+
+    def classical_pass() -> Optional[ClassicalTotals]:  # docs/method.md 6a, 6e: every sample in contact
+        if plan.classical is None or strokes is not None:
+            return None
+        return classical_totals(source, rec, plan.classical, c_start, c_stop)
+
+    if partial:  # the ranges are combined elsewhere, without the file: the sums are taken here
+        totals = classical_pass()
         p = _partial(run_source, run_rec, run_plan)
         warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + own
         return dataclasses.replace(p, plan=plan, warnings=tuple(dict.fromkeys(warnings)), tribo=tribo,
@@ -424,7 +429,7 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
         res.params.update(start=plan.start, stop=plan.stop)
     if own:
         res = dataclasses.replace(res, warnings=res.warnings + own)
-    return settle(dataclasses.replace(res, strokes=strokes, classical=totals))
+    return settle(dataclasses.replace(res, strokes=strokes), classical_pass)
 
 
 def _sample_range(source: Any, rec: Any, plan: Plan, partial: bool) -> Tuple[int, int]:
@@ -451,15 +456,21 @@ def _sample_range(source: Any, rec: Any, plan: Plan, partial: bool) -> Tuple[int
     return start, stop
 
 
-def settle(res: Results) -> Results:
-    """The results with the warnings of the method in use (docs/method.md 6e).
+def settle(res: Results, classical: Optional[Callable[[], Optional[ClassicalTotals]]] = None) -> Results:
+    """The results with their headline's sums and the warnings of the method in use (docs/method.md 6e).
 
-    The dynamic estimator's notes (``params["dynamic_notes"]``) are dropped
+    ``classical`` reads the classical COF's sums over the whole recording;
+    it is called only when the verdict makes the classical COF the headline
+    (a recording whose headline is the dynamic COF is not read again). The
+    dynamic estimator's notes (``params["dynamic_notes"]``) are dropped
     when the headline is not the dynamic COF; a difference of the
     instrument's COF from the headline over 0.5 % is explained in a warning.
     """
     from .headline import instrument_check
 
+    v = res.verdict
+    if classical is not None and res.classical is None and not v["dynamic_method"] and v["motion"] != "reciprocating":
+        res = dataclasses.replace(res, classical=classical())
     head = res.headline
     notes = set(res.params.get("dynamic_notes") or ())
     kept = [w for w in res.warnings if head.method == "dynamic" or w not in notes]
