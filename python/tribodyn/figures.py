@@ -1144,6 +1144,63 @@ def strokes_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
     return fig
 
 
+def friction_loops(loops: Sequence[Mapping[str, Any]], *, title: Optional[str] = None) -> Figure:
+    """Friction loops: the friction force against the position over whole cycles (docs/method.md 6c).
+
+    Parameters
+    ----------
+    loops : sequence of mappings
+        Each with ``x`` (m), ``fy`` (N) of one cycle, ``label`` and ``energy`` (J, the loop's area).
+    title : str, optional
+        Figure title.
+    """
+    fig, axes = _figure(1, 1, figsize=(7.5, 5.0))
+    ax = axes[0, 0]
+    fig.suptitle(title or "Friction loops")
+    if not loops:
+        _no_data(ax, "no whole cycle with a position channel")
+        return fig
+    for k, lp in enumerate(loops):
+        x = 1e3 * np.asarray(lp["x"], dtype=float)
+        ax.plot(x, np.asarray(lp["fy"], dtype=float), linewidth=1.0, color=f"C{k}",
+                label=f"{lp['label']}: loop area {float(lp['energy']) * 1e3:.4g} mJ")  # fmt: skip
+    ax.axhline(0.0, color="0.6", linewidth=0.6)
+    ax.set_xlabel("position $x$ (mm)")
+    ax.set_ylabel("friction force $F_y$ (N)")
+    ax.grid(True, alpha=0.3)
+    _legend_above(ax, ncol=1)
+    return fig
+
+
+def energy_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
+    """The energy dissipated per cycle (the friction loop's area) and the energy COF against cycle (6c)."""
+    fig, axes = _figure(1, 1, figsize=(10.0, 4.6))
+    ax = axes[0, 0]
+    fig.suptitle(title or "Energy dissipated per cycle")
+    cy = getattr(results, "cycles", None)
+    if cy is None or not np.isfinite(np.asarray(cy["energy"], dtype=float)).any():
+        _no_data(ax, "no whole cycle with a position channel")
+        return fig
+    c = np.asarray(cy["cycle"], dtype=float)
+    e = np.asarray(cy["energy"], dtype=float)
+    m = np.asarray(cy["mu_energy"], dtype=float)
+    keep = np.isfinite(e)
+    (h1,) = ax.plot(c[keep], 1e3 * e[keep], marker="o", markersize=3, linewidth=0.8, color="tab:red",
+                    label="energy per cycle (loop area)")  # fmt: skip
+    ax.set_xlabel("cycle (one stroke each way)")
+    ax.set_ylabel("energy per cycle (mJ)", color="tab:red")
+    ax2 = ax.twinx()
+    (h2,) = ax2.plot(c[keep], m[keep], marker="s", markersize=3, linestyle="none", color="tab:blue",
+                     label="energy COF: energy / (F_n x distance)")  # fmt: skip
+    ax2.set_ylabel("energy COF", color="tab:blue")
+    lims = _cof_limits([m[keep]])
+    if lims is not None:
+        ax2.set_ylim(*lims)
+    ax.grid(True, alpha=0.3)
+    _legend_above(ax, [h1, h2], ncol=2)
+    return fig
+
+
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:
     """Saves ``fig`` as PNG atomically: a temporary file in the same directory, then ``os.replace``.
 

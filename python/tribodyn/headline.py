@@ -344,18 +344,10 @@ def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]
 
 
 def _cycle_means(strokes: Mapping[str, np.ndarray]) -> np.ndarray:
-    """Per cycle, the mean of its forward and backward stroke means (NaN when a direction is missing)."""
-    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
-    mu = np.asarray(strokes["mu"], dtype=float)
-    d = np.asarray(strokes["direction"], dtype=np.int64)
-    out = []
-    for c in np.unique(cyc):
-        sel = cyc == c
-        fw = mu[sel & (d == 1)]
-        bw = mu[sel & (d == -1)]
-        fw, bw = fw[np.isfinite(fw)], bw[np.isfinite(bw)]
-        out.append(0.5 * (fw.mean() + bw.mean()) if fw.size and bw.size else np.nan)
-    return np.asarray(out, dtype=float)
+    """Per cycle, ``mu_cycle``: the mean of its forward and backward stroke means (``tribometer.cycle_table``)."""
+    from .tribometer import cycle_table
+
+    return cycle_table(strokes)["mu_cycle"]
 
 
 def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:

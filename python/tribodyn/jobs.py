@@ -161,12 +161,41 @@ def _figures(
     opr_j: Optional[OperatingRange],
     example: Optional[Dict[str, Any]] = None,
     examples: Sequence[Dict[str, Any]] = (),
+    loops: Sequence[Dict[str, Any]] = (),
 ) -> List[Tuple[str, str, Any]]:
     """(file name, caption, Figure) of every figure, named after the paper's figures."""
     from .report import build_named_figures
 
     exs = list(examples) + ([example] if example is not None else [])
-    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, examples=exs)
+    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, examples=exs, loops=loops)
+
+
+def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
+                  ) -> List[Dict[str, Any]]:  # fmt: skip
+    """fy and x of the first, a middle and the last whole cycle with an energy, for the friction loops (6c).
+
+    ``source`` is a recording path or a dict of channel arrays; only those
+    cycles' samples are read again.
+    """
+    cy = res.cycles
+    if cy is None:
+        return []
+    whole = np.flatnonzero(np.isfinite(np.asarray(cy["energy"], dtype=float)))
+    if whole.size == 0:
+        return []
+    picks = list(dict.fromkeys(int(whole[i]) for i in (0, whole.size // 2, whole.size - 1)))
+    names = {1: ("only",), 2: ("first", "last"), 3: ("first", "middle", "last")}[len(picks)]
+    total = int(res.params.get("n_samples_total") or 0)
+    out = []
+    for k, name in zip(picks, names):
+        a, b = int(cy["start"][k]), int(cy["stop"][k])
+        b = min(b + 1, total) if total else b  # the next cycle's first sample closes the loop
+        ch = _read_window(source, a, b - a, open_options or {}, roles=("fy", "x"))
+        if ch is None or "x" not in ch or "fy" not in ch:
+            return []
+        out.append({"x": ch["x"], "fy": ch["fy"], "energy": float(cy["energy"][k]),
+                    "label": f"{name} whole cycle (no. {int(cy['cycle'][k])})"})  # fmt: skip
+    return out
 
 
 def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str) -> List[str]:
@@ -255,8 +284,8 @@ def diagnostic_examples(
     return out
 
 
-def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any]) -> Optional[Dict[str, np.ndarray]]:
-    roles = ("fx", "fy", "fz")
+def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any],
+                 roles: Sequence[str] = ("fx", "fy", "fz")) -> Optional[Dict[str, np.ndarray]]:  # fmt: skip
     if isinstance(source, Mapping):
         return {r: np.asarray(source[r][start : start + n], dtype=float) for r in roles if r in source}
     from .io import open_recording
@@ -581,10 +610,11 @@ def run_analysis(
             files = _write_set(out, prefix, res)
             try:
                 examples = diagnostic_examples(str(p), res, open_options)
+                loops = loop_examples(str(p), res, open_options)
             except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
-                examples = []
+                examples, loops = [], []
                 res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
-            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, examples=examples)
+            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
             files += pngs
             rec_sum = {

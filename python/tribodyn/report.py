@@ -744,8 +744,12 @@ def build_named_figures(
     opr_current: Any = None,
     examples: Sequence[Mapping[str, Any]] = (),
     temperature_log: Any = None,
+    loops: Sequence[Mapping[str, Any]] = (),
 ) -> List[Tuple[str, str, Figure]]:
     """:func:`build_report_figures` with a file name per figure, after the paper's figure it corresponds to.
+
+    ``loops`` (a reciprocating test with a position channel: ``x``, ``fy``,
+    ``label`` and ``energy`` of whole cycles) add the friction-loop figure.
 
     Each example window (a dict as ``example`` there, plus ``label``, e.g.
     "representative gated window", and ``tag`` for the file name) gives
@@ -800,6 +804,16 @@ def build_named_figures(
                    np.asarray(strokes.get("mu_instrument", [np.nan]), dtype=float)).any() else "")
                + "; docs/method.md 6c.")  # fmt: skip
         out.append(("strokes_cof_vs_cycle", cap, _figs.strokes_vs_cycle(results)))
+    cycles = getattr(results, "cycles", None)
+    if cycles is not None and np.isfinite(np.asarray(cycles["energy"], dtype=float)).any():
+        if loops:
+            cap = ("Friction loops: the friction force against the position over the first, a middle and the last "
+                   "whole cycle; the area inside a loop is the energy friction dissipates in that cycle "
+                   "(docs/method.md 6c).")  # fmt: skip
+            out.append(("friction_loops", cap, _figs.friction_loops(loops)))
+        cap = ("Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, energy / "
+               "(mean F_n x sliding distance), against cycle number (docs/method.md 6c).")  # fmt: skip
+        out.append(("energy_vs_cycle", cap, _figs.energy_vs_cycle(results)))
     return out
 
 

@@ -248,6 +248,27 @@ class Results:
         """Unit of each column of the table (:data:`tribodyn.columns.UNITS`; ``""`` for labels)."""
         return {c: UNITS.get(c, "") for c in self.table}
 
+    @property
+    def cycles(self) -> Any:
+        """One row per cycle of a reciprocating test, a ``pandas.DataFrame`` (None without strokes).
+
+        Columns :data:`tribodyn.tribometer.CYCLE_COLUMNS` (units in
+        ``df.attrs["units"]``): the forward, backward and cycle COF, the
+        offset, and with a position channel ``x`` the energy dissipated (the
+        friction loop's area), the sliding distance, the energy COF and the
+        slip amplitude (docs/method.md 6c). The per-stroke headline is the
+        mean of ``mu_cycle``.
+        """
+        if self.strokes is None or not len(self.strokes.get("mu", [])):
+            return None
+        import pandas as pd
+
+        from .tribometer import CYCLE_COLUMNS, cycle_table
+
+        df = pd.DataFrame(cycle_table(self.strokes))
+        df.attrs["units"] = {k: u for k, (u, _) in CYCLE_COLUMNS.items()}
+        return df
+
     @cached_property
     def verdict(self) -> Dict[str, Any]:
         """Whether the dynamic method applies, why not, and the motion (``tribometer.verdict``; docs/method.md 6d)."""

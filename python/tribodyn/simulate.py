@@ -1338,6 +1338,10 @@ class ReciprocatingSimulation:
         The true COF in the +x and -x directions.
     n_strokes : int
         Strokes simulated (two per cycle).
+    energy_per_cycle : float
+        The energy friction dissipates in one whole cycle (J): the noise-free friction's loop area.
+    offset : float
+        The load-cell offset added to fy (N).
     """
 
     channels: dict[str, np.ndarray]
@@ -1345,6 +1349,8 @@ class ReciprocatingSimulation:
     mu_forward: float
     mu_backward: float
     n_strokes: int
+    energy_per_cycle: float = float("nan")
+    offset: float = 0.0
 
 
 def reciprocating(
@@ -1359,6 +1365,7 @@ def reciprocating(
     normal_force: float = 10.0,
     noise: float = 0.02,
     fz_dynamic: float = 0.0,
+    offset: float = 0.0,
 ) -> ReciprocatingSimulation:
     """A reciprocating test (docs/method.md 6c): sinusoidal position x = L/2 sin(2 pi f t), dead-weight fz.
 
@@ -1366,7 +1373,8 @@ def reciprocating(
     the reversals by tanh(v / 5 % of the peak speed); fy and fz carry Gaussian noise of ``noise`` N.
     ``fz_dynamic`` > 0 adds a dynamic part to the normal force (the friction follows it):
     ``fz_dynamic (sin(2 pi 37 t) + 0.5 sin(2 pi 61 t + 1))`` N, for the direction-rectified
-    regression (docs/method.md 6c).
+    regression (docs/method.md 6c). ``offset`` (N) is a load-cell offset added to fy; the result's
+    ``energy_per_cycle`` is the noise-free friction's loop area (J).
     """
     rng = np.random.default_rng(seed)
     n = int(round(cycles / frequency * fs))
@@ -1378,6 +1386,12 @@ def reciprocating(
     mu = np.where(v > 0, mu_forward, mu_backward)
     load = normal_force + fz_dynamic * (np.sin(2 * np.pi * 37.0 * t) + 0.5 * np.sin(2 * np.pi * 61.0 * t + 1.0))
     fz = load + noise * rng.standard_normal(n)
-    fy = np.tanh(v / (0.05 * vmax)) * mu * load + noise * rng.standard_normal(n)
+    fy = np.tanh(v / (0.05 * vmax)) * mu * load + offset + noise * rng.standard_normal(n)
+    # the loop area of the noise-free friction over one period, finely sampled (a dead weight: load constant)
+    tf = np.linspace(0.0, 1.0 / frequency, 200_001)
+    vf = 0.5 * stroke_length * w * np.cos(w * tf)
+    ff = np.tanh(vf / (0.05 * vmax)) * np.where(vf > 0, mu_forward, mu_backward) * normal_force
+    p = ff * vf
+    energy = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(tf)))  # the trapezoid rule
     return ReciprocatingSimulation({"fy": fy, "fz": fz, "x": x, "v": v}, float(fs), mu_forward, mu_backward,
-                                   2 * cycles)  # fmt: skip
+                                   2 * cycles, energy, float(offset))  # fmt: skip

@@ -28,7 +28,9 @@ __all__ = [
     "Contact",
     "detect_contact",
     "STROKE_FRACTION",
+    "CYCLE_COLUMNS",
     "ClassicalSpec",
+    "cycle_table",
     "auto_window",
     "find_strokes",
     "from_dataframe",
@@ -524,14 +526,14 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
 
 
 def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, int, int]], fs: float,
-                 spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None
-                 ) -> Dict[str, np.ndarray]:  # fmt: skip
-    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c)."""
+                 spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None,
+                 x: Optional[np.ndarray] = None) -> Dict[str, np.ndarray]:  # fmt: skip
+    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c);
+    with a position ``x`` (m), the work of friction over the whole stroke and its sliding distance (6c)."""
     if not (0 < fraction <= 1):
         raise ValueError(f"stroke_fraction must be in (0, 1], got {fraction!r}")
     spec = spec or ClassicalSpec(0.0)
-    rows: Dict[str, List[Any]] = {k: [] for k in ("stroke", "cycle", "direction", "t_start", "time", "duration",
-                                                  "mu", "mu_median", "mu_instrument", "fz_mean", "n")}  # fmt: skip
+    rows: Dict[str, List[Any]] = {k: [] for k in STROKE_COLUMNS}
     first_dir = strokes[0][2] if strokes else 1
     cycle = 0
     for k, (a, b, d) in enumerate(strokes):
@@ -557,8 +559,97 @@ def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, in
         rows["mu_instrument"].append(float(ci.mean()) if ci.size else np.nan)
         rows["fz_mean"].append(float(np.mean(fz[c0:c1])))
         rows["n"].append(int(keep.sum()))
-    ints = {"stroke", "cycle", "direction", "n"}
+        rows["start"].append(a)
+        rows["stop"].append(b)
+        work, dist, span = _stroke_work(fy, fz, x, a, b, spec) if x is not None else (np.nan, np.nan, np.nan)
+        rows["work"].append(work)
+        rows["distance"].append(dist)
+        rows["x_span"].append(span)
+        rows["fz_stroke"].append(float(np.nanmean(fz[a:b] - spec.tare_fz)))
+    ints = {"stroke", "cycle", "direction", "n", "start", "stop"}
     return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in rows.items()}
+
+
+def _stroke_work(fy: np.ndarray, fz: np.ndarray, x: np.ndarray, a: int, b: int, spec: ClassicalSpec
+                 ) -> Tuple[float, float, float]:  # fmt: skip
+    """(work of friction sum fy dx (J), sliding distance sum |dx| (m), max x - min x (m)) over samples a..b.
+
+    Trapezoids from sample a to sample b (the next stroke's first), so the
+    strokes of a cycle add up to the whole loop (docs/method.md 6c); fy is
+    tared, but a constant offset cancels over a closed loop anyway.
+    """
+    hi = min(b + 1, len(x))
+    xs = np.asarray(x[a:hi], dtype=float)
+    ys = np.asarray(fy[a:hi], dtype=float) - spec.tare_fy
+    if xs.size < 2:
+        return float("nan"), float("nan"), float("nan")
+    dx = np.diff(xs)
+    work = float(np.nansum(0.5 * (ys[1:] + ys[:-1]) * dx))
+    return work, float(np.nansum(np.abs(dx))), float(np.nanmax(xs) - np.nanmin(xs))
+
+
+#: A cycle is whole (its loop closed) when it slides at least this fraction of twice its peak-to-peak position.
+WHOLE_CYCLE = 0.9
+
+#: Columns of :attr:`Results.cycles` with their units and meanings (docs/method.md 6c).
+CYCLE_COLUMNS: Dict[str, Tuple[str, str]] = {
+    "cycle": ("", "cycle number (one stroke each way)"),
+    "t": ("s", "cycle centre"),
+    "mu_forward": ("1", "per-stroke COF of the cycle's forward stroke(s) (direction +1; their mean)"),
+    "mu_backward": ("1", "the same of the backward stroke(s) (direction -1)"),
+    "mu_cycle": ("1", "(mu_forward + mu_backward) / 2: a load-cell offset cancels; the headline is its mean"),
+    "offset": ("1", "(mu_forward - mu_backward) / 2: a load-cell offset (or a direction-dependent COF) over fz"),
+    "energy": ("J", "energy dissipated: the friction loop's area, sum of fy dx over a whole cycle (with a position x)"),
+    "distance": ("m", "sliding distance of the cycle, sum of |dx|"),
+    "mu_energy": ("1", "energy COF: energy / (mean fz x distance)"),
+    "slip_amplitude": ("m", "half the peak-to-peak position in the cycle"),
+    "start": ("samples", "first sample of the cycle"),
+    "stop": ("samples", "sample after the cycle"),
+}
+
+
+def cycle_table(strokes: Mapping[str, np.ndarray]) -> Dict[str, np.ndarray]:
+    """One row per cycle of a reciprocating test (:data:`CYCLE_COLUMNS`; docs/method.md 6c).
+
+    A cycle is one stroke each way (``strokes["cycle"]``); ``mu_cycle`` is NaN
+    unless the cycle holds both directions with a COF; the energy columns
+    are NaN without a position channel or unless both directions are there.
+    """
+    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
+    d = np.asarray(strokes["direction"], dtype=np.int64)
+    cols: Dict[str, List[float]] = {k: [] for k in CYCLE_COLUMNS}
+    for c in np.unique(cyc):
+        sel = cyc == c
+        both = bool(np.any(sel & (d == 1)) and np.any(sel & (d == -1)))
+        means = []
+        for sign in (1, -1):
+            m = np.asarray(strokes["mu"], dtype=float)[sel & (d == sign)]
+            m = m[np.isfinite(m)]
+            means.append(float(m.mean()) if m.size else np.nan)
+        work = np.asarray(strokes.get("work", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        dist = np.asarray(strokes.get("distance", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        span = np.asarray(strokes.get("x_span", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        fz = np.asarray(strokes.get("fz_stroke", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        # a whole cycle closes its loop: it slides about twice its peak-to-peak (a first or last part-stroke
+        # does not); only a whole cycle has an energy
+        whole = both and np.isfinite(dist).all() and float(dist.sum()) >= WHOLE_CYCLE * 2.0 * float(np.max(span))
+        energy = abs(float(work.sum())) if whole and np.isfinite(work).all() else np.nan
+        distance = float(dist.sum()) if whole else np.nan
+        fz_mean = float(np.mean(np.abs(fz))) if np.isfinite(fz).all() else np.nan
+        cols["cycle"].append(float(c))
+        cols["t"].append(float(np.mean(np.asarray(strokes["time"], dtype=float)[sel])))
+        cols["mu_forward"].append(means[0])
+        cols["mu_backward"].append(means[1])
+        cols["mu_cycle"].append(0.5 * (means[0] + means[1]))
+        cols["offset"].append(0.5 * (means[0] - means[1]))
+        cols["energy"].append(energy)
+        cols["distance"].append(distance)
+        cols["mu_energy"].append(energy / (fz_mean * distance) if distance and fz_mean else np.nan)
+        cols["slip_amplitude"].append(0.5 * float(np.max(span)) if whole else np.nan)
+        cols["start"].append(float(np.asarray(strokes.get("start", [0]))[sel].min()) if "start" in strokes else 0.0)
+        cols["stop"].append(float(np.asarray(strokes.get("stop", [0]))[sel].max()) if "stop" in strokes else 0.0)
+    ints = {"cycle", "start", "stop"}
+    return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in cols.items()}
 
 
 #: Columns of :attr:`Results.strokes` with their units and meanings (docs/method.md 6c).
@@ -574,6 +665,12 @@ STROKE_COLUMNS: Dict[str, Tuple[str, str]] = {
     "mu_instrument": ("1", "mean of the instrument's COF column over the same samples"),
     "fz_mean": ("N", "mean fz over the same samples"),
     "n": ("samples", "samples used"),
+    "start": ("samples", "first sample of the stroke"),
+    "stop": ("samples", "sample after the stroke"),
+    "work": ("J", "work of friction over the whole stroke, sum of (fy - tare) dx (with a position x; 6c)"),
+    "distance": ("m", "sliding distance of the stroke, sum of |dx| (with a position x)"),
+    "x_span": ("m", "max x - min x over the stroke (with a position x)"),
+    "fz_stroke": ("N", "mean fz - tare over the whole stroke"),
 }
 
 

@@ -69,6 +69,9 @@ _ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {
     "i": ("i", "current"),
     "u": ("u", "voltage"),
     "cof": ("cof", "mu", "friction coefficient", "coefficient of friction"),
+    # a bare "x" or "v" is not taken (CETR's X is a constant radius): --map x=CHANNEL
+    "x": ("position", "displacement"),
+    "v": ("velocity", "sliding velocity"),
 }
 
 
