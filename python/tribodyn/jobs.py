@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -198,20 +198,32 @@ def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, An
     return out
 
 
-def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str) -> List[str]:
-    from .figures import save_figure
+def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str
+                  ) -> List[Tuple[str, str, bytes]]:  # fmt: skip
+    """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
+    triples; the report embeds the same PNG bytes (no figure is drawn or encoded twice)."""
+    from .figures import png_bytes
+    from .io.writers import atomic_write
 
-    names = []
-    for stem, _caption, fig in figs:
+    saved = []
+    for stem, caption, fig in figs:
         name = f"figures/{prefix}{stem}.png"
-        save_figure(fig, out.path(name))
-        names.append(name)
-    return names
+        data = png_bytes(fig)
+        atomic_write(out.path(name), _bytes_writer(data))
+        saved.append((name, caption, data))
+    return saved
 
 
-def _captioned(figs: Sequence[Tuple[str, str, Any]], files: Sequence[str]) -> List[Tuple[str, Any]]:
-    """(caption naming the PNG file, Figure) pairs for the report."""
-    return [(f"{cap} [{Path(f).name}]", fig) for (_, cap, fig), f in zip(figs, files)]
+def _bytes_writer(data: bytes) -> Callable[[str], None]:
+    def write(tmp: str) -> None:
+        Path(tmp).write_bytes(data)
+
+    return write
+
+
+def _captioned(saved: Sequence[Tuple[str, str, bytes]]) -> List[Tuple[str, bytes]]:
+    """(caption naming the PNG file, PNG bytes) pairs for the report."""
+    return [(f"{cap} [{Path(name).name}]", data) for name, cap, data in saved]
 
 
 def pick_windows(res: Results) -> Dict[str, int]:
@@ -377,7 +389,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
         png_t = _save_figures(out, figs_t, "temperature_")
         png_j = _save_figures(out, figs_j, "current_density_")
-        files += png_t + png_j
+        files += [name for name, _, _ in png_t + png_j]
         summary["files"] = files + ["summary.json", "report.html"]
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
@@ -389,8 +401,8 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
             title="tribodyn demo: the paper's rig, simulated",
             summary=_flat_summary(summary),
             params={"temperature test": res_t.params, "current-density test": res_j.params},
-            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(figs_t, png_t)]
-            + [(f"Current-density test: {c}", f) for c, f in _captioned(figs_j, png_j)],
+            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(png_t)]
+            + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
             verdict=verdict,
             inputs=[],
             sections=_report_extras(res_t, "temperature test", "temperature_windows.csv")
@@ -616,7 +628,7 @@ def run_analysis(
                 res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
             figs = _figures(res, opr_t=opr_t, opr_j=opr_j, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
-            files += pngs
+            files += [name for name, _, _ in pngs]
             rec_sum = {
                 **res.summary(),
                 "operating_range_temperature": range_summary(opr_t),
@@ -629,7 +641,7 @@ def run_analysis(
                       "current_density": rec_sum["operating_range_current_density"]}  # fmt: skip
             lines = verdict_lines(p.name, rec_sum, res.params, ranges)
             extras = _report_extras(res, p.name, f"{prefix}windows.csv")
-            captioned = _captioned(figs, pngs)
+            captioned = _captioned(pngs)
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
                 write_report(
