@@ -283,6 +283,12 @@ def test_bad_input_is_refused(kwargs, error, message):
         td.compare(**kwargs)
 
 
+def test_identical_values_say_so():
+    c = td.compare([head(0.12, float("nan")), head(0.12, float("nan")), head(0.12, float("nan"))])
+    assert c.low == c.high == c.mean == 0.12
+    assert any("identical" in n for n in c.notes)
+
+
 def test_a_test_without_a_cof_is_refused():
     empty = Headline(method="classical", value=float("nan"), low=float("nan"), high=float("nan"), statistic="mean",
                      n=0, fraction_used=0.0, reasons=("no sample has |fz| >= min_fn",))  # fmt: skip

@@ -625,6 +625,8 @@ def compare(
             "interval comes from the spread of their values alone and tau is not separated from it"
         )
     sd = float(np.std(y, ddof=1))
+    if sd == 0:
+        notes.append("the tests' values are identical: the intervals from their spread have zero width")
     pred = prediction(y)
     prec = precision(y.tolist(), grp) if grp is not None else None
     if prec is not None:

@@ -87,7 +87,8 @@ def read_tests(folders: Sequence[str]) -> Tuple[List[SourceTest], List[str], Lis
                 f'{path} is not the summary of tribodyn analyze (no "recordings"; the demo\'s output cannot be '
                 "compared): analyse the recordings with tribodyn analyze FILES --out DIR"
             )
-        for name, f in (data.get("failures") or {}).items():
+        failures = data.get("failures")
+        for name, f in (failures if isinstance(failures, dict) else {}).items():
             err = f.get("error") if isinstance(f, dict) else f
             warnings.append(f"{folder}: {name} failed in the analysis ({err}): not compared")
         if not recs:
@@ -104,8 +105,9 @@ def read_tests(folders: Sequence[str]) -> Tuple[List[SourceTest], List[str], Lis
                 raise ValueError(f"{path}: recording {name}: {exc}") from None
             meta = rec.get("meta") if isinstance(rec.get("meta"), dict) else {}
             tests.append(SourceTest(folder=str(folder), recording=str(name), headline=h, meta=meta))
-            sha = next((i.get("sha256") for i in data.get("inputs") or () if isinstance(i, dict)
-                        and i.get("file") == name and i.get("sha256")), None)  # fmt: skip
+            listed = data.get("inputs") if isinstance(data.get("inputs"), list) else []
+            sha = next((i.get("sha256") for i in listed if isinstance(i, dict) and i.get("file") == name
+                        and i.get("sha256")), None)  # fmt: skip
             here = f"{folder}: {name}"
             if sha in digests:
                 warnings.append(f"{here} is the same recording (SHA-256) as {digests[sha]}: one test counted twice")
