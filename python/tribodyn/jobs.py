@@ -22,6 +22,7 @@ from .analyze import analyze
 from .identify import identify
 from .outputs import OutputSet, input_provenance, pyarrow_modules, write_json, write_table_csv, write_table_parquet
 from .ranges import OperatingRange, operating_range
+from .record import Meta, metadata, record_html, summary_meta
 from .results import Results
 
 __all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
@@ -546,6 +547,7 @@ def run_analysis(
     split: Optional[float] = None,
     overwrite: bool = False,
     protect: Sequence[Any] = (),
+    meta: Optional[Meta] = None,
 ) -> Dict[str, Any]:
     """Analyses recording files and writes the outputs into ``out_dir``.
 
@@ -561,6 +563,10 @@ def run_analysis(
     :class:`~tribodyn.outputs.OutputSet`): a folder holding anything but a
     previous output set is refused unless ``overwrite``; a folder holding
     an input file, or one of the files ``protect`` names, always.
+
+    ``meta`` is the test record (:func:`tribodyn.record.parse_meta`,
+    docs/method.md 10c): each recording's ``summary["recordings"][name]["meta"]``,
+    ``metadata.json`` and the report's "Test record" section.
     """
     from . import __version__
     from .distributed import analyze_many, expand_paths
@@ -569,6 +575,7 @@ def run_analysis(
     open_options = dict(open_options or {})
     opts = dict(analyze_options or {})
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
+    meta = meta or Meta()
     if not paths:
         raise ValueError("no input file given")
     files = expand_paths(paths)
@@ -636,6 +643,7 @@ def run_analysis(
                 "params": res.params,
                 "files": files,
             }
+            rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
             summary["recordings"][p.name] = rec_sum
             ranges = {"temperature": rec_sum["operating_range_temperature"],
                       "current_density": rec_sum["operating_range_current_density"]}  # fmt: skip
@@ -655,6 +663,7 @@ def run_analysis(
                     inputs=[inputs[p.name]],
                     sections=_report_extras(res, p.name, "windows.csv"),
                     head_html=_bokeh_head(),
+                    record_html=record_html(meta, {p.name: rec_sum["headline"]}),
                 )
             verdict += lines
             sections += extras
@@ -665,6 +674,8 @@ def run_analysis(
             write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
+        heads = {n: r["headline"] for n, r in summary["recordings"].items()}
+        write_json(metadata(meta, summary["inputs"], heads, __version__), out.path("metadata.json"))
         for name, f in failures.items():
             verdict.append(f"{name}: not analysed: {f['error']}")
         write_report(
@@ -682,6 +693,7 @@ def run_analysis(
             ],  # fmt: skip
             sections=sections,
             head_html=_bokeh_head(),
+            record_html=record_html(meta, heads),
         )
     return summary
 

@@ -468,6 +468,7 @@ def write_report(
     inputs: Optional[Sequence[Mapping[str, Any]]] = None,
     sections: Optional[Sequence[Tuple[str, str]]] = None,
     head_html: str = "",
+    record_html: str = "",
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -506,6 +507,8 @@ def write_report(
         Further sections (interactive views, the table of windows), after the figures.
     head_html : str
         Inline ``<script>`` added to the head (Bokeh's JavaScript; no network reference).
+    record_html : str
+        The "Test record" section's content (:func:`tribodyn.record.record_html`), after the inputs.
 
     Returns
     -------
@@ -561,6 +564,9 @@ def write_report(
     if inputs is not None:
         out.append('<h2 id="inputs">Inputs</h2>')
         out.append(inputs_table_html(inputs))
+    if record_html:
+        out.append('<h2 id="record">Test record</h2>')
+        out.append(record_html)
     if warns:
         out.append('<h2 id="warnings">Warnings</h2>')
         out.append('<p class="note">What the readers found odd in the input, and what the analysis noticed:</p>')
