@@ -1335,13 +1335,20 @@ class ReciprocatingSimulation:
     fs : float
         Sampling rate, Hz.
     mu_forward, mu_backward : float
-        The true COF in the +x and -x directions.
+        The true COF in the +x and -x directions (the kinetic plateau).
     n_strokes : int
         Strokes simulated (two per cycle).
     energy_per_cycle : float
         The energy friction dissipates in one whole cycle (J): the noise-free friction's loop area.
     offset : float
         The load-cell offset added to fy (N).
+    mu_static_forward, mu_static_backward : float
+        The static (breakaway) COF: the maximum of the noise-free friction over the load in the first
+        quarter of a forward (backward) stroke, after its motion onset (docs/method.md 6c).
+    slip_times : ndarray
+        Times (s) of the stick-slip drops in the record (empty without stick-slip).
+    slip_drops : ndarray
+        The friction force's drop (N) at each of them (docs/method.md 6g).
     """
 
     channels: dict[str, np.ndarray]
@@ -1351,6 +1358,10 @@ class ReciprocatingSimulation:
     n_strokes: int
     energy_per_cycle: float = float("nan")
     offset: float = 0.0
+    mu_static_forward: float = float("nan")
+    mu_static_backward: float = float("nan")
+    slip_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    slip_drops: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def reciprocating(
@@ -1366,6 +1377,10 @@ def reciprocating(
     noise: float = 0.02,
     fz_dynamic: float = 0.0,
     offset: float = 0.0,
+    breakaway: float = 0.0,
+    breakaway_time: float = 0.01,
+    stick_slip: float = 0.0,
+    stick_slip_period: float = 0.025,
 ) -> ReciprocatingSimulation:
     """A reciprocating test (docs/method.md 6c): sinusoidal position x = L/2 sin(2 pi f t), dead-weight fz.
 
@@ -1375,23 +1390,69 @@ def reciprocating(
     ``fz_dynamic (sin(2 pi 37 t) + 0.5 sin(2 pi 61 t + 1))`` N, for the direction-rectified
     regression (docs/method.md 6c). ``offset`` (N) is a load-cell offset added to fy; the result's
     ``energy_per_cycle`` is the noise-free friction's loop area (J).
+
+    Breakaway and stick-slip (docs/method.md 6c, 6g), with tau the time since the stroke's motion
+    onset (the last reversal, where v changed sign): the friction force is
+    ``tanh(v / 0.05 v_max) (mu(tau) load + stick_slip saw(tau))`` with
+    ``mu(tau) = mu_dir + breakaway (tau / t_b) exp(1 - tau / t_b)`` (a static peak about
+    ``breakaway`` above the plateau, ``breakaway_time`` t_b after the onset) and the saw-tooth
+    ``saw(tau) = frac(tau / P) - 1/2`` (P = ``stick_slip_period``): the force rises slowly by
+    ``stick_slip`` N over P and drops by that at once at tau = P, 2P, ... within the stroke. The
+    truth (``mu_static_*``, ``slip_times``, ``slip_drops``) comes from the noise-free friction; the
+    SNR of the stick-slip is ``20 log10(stick_slip / noise)`` dB (20 dB: ``stick_slip = 10 noise``).
     """
+    if not (breakaway >= 0 and breakaway_time > 0 and stick_slip >= 0 and stick_slip_period > 0):
+        raise ValueError("breakaway and stick_slip must be >= 0, breakaway_time and stick_slip_period > 0")
     rng = np.random.default_rng(seed)
     n = int(round(cycles / frequency * fs))
     t = np.arange(n) / fs
     w = 2 * np.pi * frequency
-    x = 0.5 * stroke_length * np.sin(w * t)
-    v = 0.5 * stroke_length * w * np.cos(w * t)
     vmax = 0.5 * stroke_length * w
-    mu = np.where(v > 0, mu_forward, mu_backward)
+    half = 0.5 / frequency  # a stroke
+
+    def friction_cof(tt: np.ndarray) -> np.ndarray:
+        """The noise-free friction force over the load (signed), and the saw-tooth's force separately."""
+        vv = vmax * np.cos(w * tt)
+        tau = np.mod(tt - 0.5 * half, half)  # reversals at (2j + 1) / (4 f)
+        mu_t = np.where(vv > 0, mu_forward, mu_backward) + breakaway * (tau / breakaway_time) * np.exp(
+            1.0 - tau / breakaway_time
+        )
+        return np.asarray(np.tanh(vv / (0.05 * vmax)) * mu_t)
+
+    def saw_force(tt: np.ndarray) -> np.ndarray:
+        vv = vmax * np.cos(w * tt)
+        tau = np.mod(tt - 0.5 * half, half)
+        return np.asarray(np.tanh(vv / (0.05 * vmax)) * stick_slip * (np.mod(tau / stick_slip_period, 1.0) - 0.5))
+
+    x = 0.5 * stroke_length * np.sin(w * t)
+    v = vmax * np.cos(w * t)
     load = normal_force + fz_dynamic * (np.sin(2 * np.pi * 37.0 * t) + 0.5 * np.sin(2 * np.pi * 61.0 * t + 1.0))
     fz = load + noise * rng.standard_normal(n)
-    fy = np.tanh(v / (0.05 * vmax)) * mu * load + offset + noise * rng.standard_normal(n)
+    fy = friction_cof(t) * load + offset + noise * rng.standard_normal(n)
+    if stick_slip > 0:
+        fy = fy + saw_force(t)
     # the loop area of the noise-free friction over one period, finely sampled (a dead weight: load constant)
     tf = np.linspace(0.0, 1.0 / frequency, 200_001)
-    vf = 0.5 * stroke_length * w * np.cos(w * tf)
-    ff = np.tanh(vf / (0.05 * vmax)) * np.where(vf > 0, mu_forward, mu_backward) * normal_force
+    vf = vmax * np.cos(w * tf)
+    ff = friction_cof(tf) * normal_force + (saw_force(tf) if stick_slip > 0 else 0.0)
     p = ff * vf
     energy = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(tf)))  # the trapezoid rule
+    # the static COF: the largest noise-free |friction| / load in the first quarter of a stroke
+    statics = []
+    for onset in (-0.5 * half, 0.5 * half):  # a forward stroke, then a backward one
+        tq = onset + np.linspace(0.0, 0.25 * half, 100_001)[1:]
+        fq = friction_cof(tq) * normal_force + (saw_force(tq) if stick_slip > 0 else 0.0)
+        statics.append(float(np.max(np.abs(fq))) / normal_force)
+    # the drops: P, 2P, ... after every onset, within its stroke and the record
+    times: list[float] = []
+    if stick_slip > 0:
+        onsets = (np.arange(-1, 2 * cycles + 1) + 0.5) * half
+        per = np.arange(1, int(np.ceil(half / stick_slip_period)) + 1) * stick_slip_period
+        per = per[per < half * (1 - 1e-9)]
+        td_all = (onsets[:, None] + per[None, :]).ravel()
+        times = sorted(float(u) for u in td_all if 0.0 < u < n / fs)
+    slip_t = np.asarray(times, dtype=float)
+    slip_d = np.abs(np.tanh(vmax * np.cos(w * slip_t) / (0.05 * vmax))) * stick_slip
     return ReciprocatingSimulation({"fy": fy, "fz": fz, "x": x, "v": v}, float(fs), mu_forward, mu_backward,
-                                   2 * cycles, energy, float(offset))  # fmt: skip
+                                   2 * cycles, energy, float(offset), statics[0], statics[1], slip_t,
+                                   slip_d)  # fmt: skip
