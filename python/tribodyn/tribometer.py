@@ -528,8 +528,11 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
 def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, int, int]], fs: float,
                  spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None,
                  x: Optional[np.ndarray] = None) -> Dict[str, np.ndarray]:  # fmt: skip
-    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c);
-    with a position ``x`` (m), the work of friction over the whole stroke and its sliding distance (6c)."""
+    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c),
+    the static (breakaway) COF before it (6c: ``stickslip.breakaway_peak``); with a position ``x`` (m), the
+    work of friction over the whole stroke and its sliding distance (6c)."""
+    from .stickslip import breakaway_peak
+
     if not (0 < fraction <= 1):
         raise ValueError(f"stroke_fraction must be in (0, 1], got {fraction!r}")
     spec = spec or ClassicalSpec(0.0)
@@ -553,6 +556,17 @@ def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, in
         rows["time"].append((a + b) / 2 / fs)
         rows["duration"].append(m / fs)
         rows["mu"].append(float(r.mean()) if r.size else np.nan)
+        # the breakaway: the first part, from the motion onset (the stroke's first sample, a reversal) to the
+        # central part; a stroke that does not follow a reversal (the first) has no onset in the record
+        peak, at = float("nan"), -1
+        if k and strokes[k - 1][1] == a and strokes[k - 1][2] != d:
+            yb = np.abs(fy[a:c0] - spec.tare_fy)
+            zb = np.abs(fz[a:c0] - spec.tare_fz)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rb = np.where((zb >= spec.min_fn) & (zb > 0), yb / zb, np.nan)
+            peak, at = breakaway_peak(rb)
+        rows["mu_static"].append(peak)
+        rows["t_static"].append(at / fs if at >= 0 else np.nan)
         rows["mu_median"].append(float(np.median(r)) if r.size else np.nan)
         ci = np.abs(cof[c0:c1]) if cof is not None else np.zeros(0)
         ci = ci[np.isfinite(ci)]
@@ -662,6 +676,8 @@ STROKE_COLUMNS: Dict[str, Tuple[str, str]] = {
     "duration": ("s", "stroke duration"),
     "mu": ("1", "classical COF mean |fy|/|fz| over the central stroke_fraction, |fz| >= min_fn"),
     "mu_median": ("1", "median of |fy|/|fz| over the same samples"),
+    "mu_static": ("1", "static (breakaway) COF: largest 5-sample mean of |fy|/|fz| before the central part (6c)"),
+    "t_static": ("s", "time from the motion onset (the stroke's start) to the breakaway peak"),
     "mu_instrument": ("1", "mean of the instrument's COF column over the same samples"),
     "fz_mean": ("N", "mean fz over the same samples"),
     "n": ("samples", "samples used"),
