@@ -643,6 +643,9 @@ def _tribometer_lines(s: Dict[str, Any]) -> List[str]:
             parts.append(f"{d} strokes COF mean {st[d]['mean']:.4f} ({st[d]['n']} strokes)")
     if parts:
         out.append("; ".join(parts))
+    slip = s.get("stick_slip") or {}
+    if slip.get("present"):  # docs/method.md 6g: said only when present
+        out.append(str(slip["verdict"]))
     contact = s.get("contact") or {}
     if contact.get("rule"):
         out.append(f"contact: {contact['rule']}")

@@ -571,6 +571,7 @@ def run_analysis(
     from . import __version__
     from .distributed import analyze_many, expand_paths
     from .report import verdict_lines, write_report
+    from .stickslip import stick_slip
 
     open_options = dict(open_options or {})
     opts = dict(analyze_options or {})
@@ -633,6 +634,11 @@ def run_analysis(
             except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
                 examples, loops = [], []
                 res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+            try:  # docs/method.md 6g: fy and fz read again; only a test with a static fz is searched
+                slip: Optional[Dict[str, Any]] = stick_slip(str(p), res, open_options=open_options).to_dict()
+            except (OSError, ValueError) as exc:
+                slip = None
+                res = dataclasses.replace(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
             figs = _figures(res, opr_t=opr_t, opr_j=opr_j, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
             files += [name for name, _, _ in pngs]
@@ -642,12 +648,15 @@ def run_analysis(
                 "operating_range_current_density": range_summary(opr_j),
                 "params": res.params,
                 "files": files,
+                "stick_slip": slip,
             }
             rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
             summary["recordings"][p.name] = rec_sum
             ranges = {"temperature": rec_sum["operating_range_temperature"],
                       "current_density": rec_sum["operating_range_current_density"]}  # fmt: skip
             lines = verdict_lines(p.name, rec_sum, res.params, ranges)
+            if slip and slip["present"]:
+                lines.append(f"{p.name}: {slip['verdict']}")
             extras = _report_extras(res, p.name, f"{prefix}windows.csv")
             captioned = _captioned(pngs)
             if not single:
