@@ -30,6 +30,10 @@ EXPECT = {
         ["mean COF", "95 % interval", "over 8 tests (per-stroke means)", "repeatability s_r", "Mandel's h"],
         ["compare.png", "compare.csv"],
     ),
+    "stick_slip.py": (
+        ["forward strokes: static COF", "kinetic COF", "stick-slip present: 158 events", "Hz"],
+        ["strokes.csv", "stick_slip.png"],
+    ),
 }
 
 
