@@ -886,7 +886,7 @@ def _opr_of(results: Any, opr: Any, by: str) -> Any:
     try:
         from .ranges import operating_range
 
-        return operating_range(results, by=by)  # type: ignore[arg-type]
+        return operating_range(results, by=by)
     except (ValueError, KeyError, TypeError):
         return None
 

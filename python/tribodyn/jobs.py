@@ -116,7 +116,7 @@ def _truth_breakpoints(res: Results, truth: Any, by: str) -> Optional[Dict[str, 
 
 def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
     try:
-        return operating_range(res, by, **kw)  # type: ignore[arg-type]
+        return operating_range(res, by, **kw)
     except ValueError:
         return None
 

@@ -645,7 +645,7 @@ def _range_or_none(results: Any, opr: Any, by: str) -> Any:
     try:
         from .ranges import operating_range
 
-        return operating_range(results, by=by)  # type: ignore[arg-type]
+        return operating_range(results, by=by)
     except ValueError:
         return None
 
