@@ -845,10 +845,13 @@ def operating_range(
         cov = raw
     keep = may & np.isfinite(cov) & np.isfinite(mu)
     if not keep.any():
-        windows = "quality-gated window" if which == "dynamic" else "window with a classical COF"
-        raise ValueError(f"no {windows} has a {by.replace('_', ' ')}"
-                         + (" > 0" if cv.log and np.isfinite(raw).any() else "")
-                         + f" (did analyze get {cv.needs}?)")  # fmt: skip
+        what = by.replace("_", " ") + (" > 0" if cv.log and np.isfinite(raw).any() else "")
+        if not np.isfinite(cov).any():
+            raise ValueError(f"no window has a {what} (did analyze get {cv.needs}?)")
+        if which == "dynamic":
+            raise ValueError(f"no quality-gated window has a {what} (the dynamic COF; cof='classical' fits the "
+                             "classical COF of each window)")  # fmt: skip
+        raise ValueError(f"no window with a classical COF has a {what}")
     span = float(np.max(np.abs(cov[keep])))
     resolution = cv.resolution if cv.resolution is not None else RELATIVE_RESOLUTION * span
     if bin_width is not None:
