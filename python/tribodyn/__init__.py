@@ -23,6 +23,7 @@ from .ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating
 from .covariates import align_log
 from .io import Recording, RecordingError, open_recording
 from .distributed import ManyResults, analyze_many
+from .compare import Comparison, Precision, Replicate, compare
 
 try:
     __version__ = _version("tribodyn")
@@ -65,4 +66,8 @@ __all__ = [
     "RecordingError",
     "analyze_many",
     "ManyResults",
+    "compare",
+    "Comparison",
+    "Precision",
+    "Replicate",
 ]

@@ -1,8 +1,9 @@
 """The ``tribodyn`` command line.
 
 Sub-commands: ``demo`` (simulate the paper's tests, analyse, report),
-``analyze`` (your recordings), ``info`` (what a file holds) and ``simulate``
-(write a simulated recording). User errors (bad options, config values,
+``analyze`` (your recordings), ``compare`` (replicate tests: the outputs of
+``analyze``), ``info`` (what a file holds) and ``simulate`` (write a
+simulated recording). User errors (bad options, config values,
 paths, unreadable inputs, an unusable output folder, a full disk or a
 read-only file system) print one line on stderr and exit with status 2 (no
 traceback unless ``--debug``); a bug exits with status 1 and a traceback.
@@ -258,6 +259,29 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
+    a.add_argument(
+        "--meta",
+        action="append",
+        metavar="KEY=VALUE",
+        help="test record field (materials, counterpart, load, speed, stroke, distance, temperature, humidity, "
+        "lubricant, duration, operator, or your own key); may be repeated (docs/method.md 10c)",
+    )
+
+    c = sub.add_parser("compare", parents=[common], help="compare replicate tests (output folders of analyze)")
+    c.add_argument("folders", nargs="+", metavar="OUT_DIR", help="output folders of tribodyn analyze (or summary.json)")
+    c.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
+    c.add_argument("--labels", help="test names, comma-separated: one per test (recording) or one per OUT_DIR")
+    c.add_argument(
+        "--groups",
+        help="groups (laboratories, days), comma-separated, one per test or per OUT_DIR: adds the ISO 5725 "
+        "repeatability and reproducibility",
+    )
+    c.add_argument(
+        "--allow-mixed",
+        action="store_true",
+        help="compare headlines of different methods (a dynamic median and a classical mean differ)",
+    )
+    c.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
 
     i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of files")
     i.add_argument("files", nargs="+", metavar="FILE", help="recordings, directories or glob patterns")
@@ -315,6 +339,7 @@ _CONFIG_KEYS: Dict[str, str] = {
     "max_lag": _INTEGER,
     "chunk": _NUMBER,
     "threads": _INTEGER,
+    "meta": "a table of field = text or number (the test record, docs/method.md 10c)",
 }
 
 
@@ -385,6 +410,15 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
         if not (isinstance(v, dict) and all(isinstance(x, str) for x in v.values())):
             raise bad()
         return {_covariate_name(str(k), f"{where}: covariates"): path for k, path in v.items()}
+    if key == "meta":
+        if not isinstance(v, dict):
+            raise bad()
+        from .record import parse_meta
+
+        try:
+            return parse_meta(v, f"{where}: [meta]")
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     if key == "map":
         if isinstance(v, str):
             return _role_map(_kv(v, "map"), f"{where}: map")
@@ -488,6 +522,17 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
         raise UserError(f"--rpm must be a finite number > 0, got {rpm!r}")
     if lamellas is not None and lamellas < 1:
         raise UserError(f"--lamellas must be at least 1, got {lamellas!r}")
+    if cfg.get("meta") or ns.meta:
+        from .record import Meta, merge, parse_meta
+
+        pairs = [tuple(t.split("=", 1)) if "=" in t else (t, None) for t in ns.meta or ()]
+        bad = [k for k, v in pairs if v is None]
+        if bad:
+            raise UserError(f"--meta takes KEY=VALUE, got {bad[0]!r}")
+        try:
+            opts["meta"] = merge(cfg.get("meta") or Meta(), parse_meta(pairs, "--meta"))
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     logs: Dict[str, str] = dict(cfg.get("covariates") or {})
     for text in ns.covariate or ():  # repeated --covariate options add up; a later name wins
         name, path = _covariate_option(text)
@@ -700,6 +745,7 @@ def _run(ns: argparse.Namespace) -> int:
         from .outputs import OutputSet
 
         open_opts, opts, protect = _analysis_options(ns)
+        meta = opts.pop("meta", None)
         files = expand_paths(ns.files)
         _check_regular(files)
         OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
@@ -728,6 +774,7 @@ def _run(ns: argparse.Namespace) -> int:
                 split=ns.split,
                 overwrite=ns.overwrite,
                 protect=protect,
+                meta=meta,
             )
         except ValueError as exc:
             if _MISSING_CHANNELS in str(exc):
@@ -752,6 +799,10 @@ def _run(ns: argparse.Namespace) -> int:
                 err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
             print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
         return EXIT_SOME_FAILED if summary.get("failures") else 0
+    if ns.command == "compare":
+        from .compare_job import cli_compare
+
+        return cli_compare(ns)
     if ns.command == "info":
         return _run_info(ns)
     if ns.command == "simulate":
@@ -986,6 +1037,7 @@ def _one_line(msg: str) -> str:
 def _cli_words(msg: str) -> str:
     """A library message in the CLI's terms (its options instead of Python keywords)."""
     msg = msg.replace("pass fs=... (Hz)", "give --fs HZ").replace("; pass fs=", "; give --fs HZ")
+    msg = msg.replace("pass allow_mixed=True", "pass --allow-mixed")
     return msg.replace("pass overwrite=True", "pass --overwrite")
 
 

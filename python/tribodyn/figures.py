@@ -1294,6 +1294,15 @@ def energy_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
     return fig
 
 
+def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
+    """``fig`` rendered once as PNG bytes (no timestamp or software in its metadata, so the bytes repeat)."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+    return buf.getvalue()
+
+
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:
     """Saves ``fig`` as PNG atomically: a temporary file in the same directory, then ``os.replace``.
 

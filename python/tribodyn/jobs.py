@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from .analyze import analyze
 from .identify import identify
 from .outputs import OutputSet, input_provenance, pyarrow_modules, write_json, write_table_csv, write_table_parquet
 from .ranges import OperatingRange, operating_range
+from .record import Meta, metadata, record_html, summary_meta
 from .results import Results
 
 __all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
@@ -200,20 +201,32 @@ def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, An
     return out
 
 
-def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str) -> List[str]:
-    from .figures import save_figure
+def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str
+                  ) -> List[Tuple[str, str, bytes]]:  # fmt: skip
+    """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
+    triples; the report embeds the same PNG bytes (no figure is drawn or encoded twice)."""
+    from .figures import png_bytes
+    from .io.writers import atomic_write
 
-    names = []
-    for stem, _caption, fig in figs:
+    saved = []
+    for stem, caption, fig in figs:
         name = f"figures/{prefix}{stem}.png"
-        save_figure(fig, out.path(name))
-        names.append(name)
-    return names
+        data = png_bytes(fig)
+        atomic_write(out.path(name), _bytes_writer(data))
+        saved.append((name, caption, data))
+    return saved
 
 
-def _captioned(figs: Sequence[Tuple[str, str, Any]], files: Sequence[str]) -> List[Tuple[str, Any]]:
-    """(caption naming the PNG file, Figure) pairs for the report."""
-    return [(f"{cap} [{Path(f).name}]", fig) for (_, cap, fig), f in zip(figs, files)]
+def _bytes_writer(data: bytes) -> Callable[[str], None]:
+    def write(tmp: str) -> None:
+        Path(tmp).write_bytes(data)
+
+    return write
+
+
+def _captioned(saved: Sequence[Tuple[str, str, bytes]]) -> List[Tuple[str, bytes]]:
+    """(caption naming the PNG file, PNG bytes) pairs for the report."""
+    return [(f"{cap} [{Path(name).name}]", data) for name, cap, data in saved]
 
 
 def pick_windows(res: Results) -> Dict[str, int]:
@@ -379,7 +392,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
         png_t = _save_figures(out, figs_t, "temperature_")
         png_j = _save_figures(out, figs_j, "current_density_")
-        files += png_t + png_j
+        files += [name for name, _, _ in png_t + png_j]
         summary["files"] = files + ["summary.json", "report.html"]
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
@@ -391,16 +404,16 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
             title="tribodyn demo: the paper's rig, simulated",
             summary=_flat_summary(summary),
             params={"temperature test": res_t.params, "current-density test": res_j.params},
-            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(figs_t, png_t)]
-            + [(f"Current-density test: {c}", f) for c, f in _captioned(figs_j, png_j)],
+            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(png_t)]
+            + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
             verdict=verdict,
             inputs=[],
             sections=_report_extras(res_t, "temperature test", "temperature_windows.csv")
             + _report_extras(res_j, "current-density test", "current_density_windows.csv"),
             head_html=_bokeh_head(),
             quality={
-                "temperature test": res_t.summary()["gate_failures"],
-                "current-density test": res_j.summary()["gate_failures"],
+                "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
+                "current-density test": s_j["gate_failures"],
             },
         )
     return summary
@@ -536,6 +549,7 @@ def run_analysis(
     split: Optional[float] = None,
     overwrite: bool = False,
     protect: Sequence[Any] = (),
+    meta: Optional[Meta] = None,
 ) -> Dict[str, Any]:
     """Analyses recording files and writes the outputs into ``out_dir``.
 
@@ -551,6 +565,10 @@ def run_analysis(
     :class:`~tribodyn.outputs.OutputSet`): a folder holding anything but a
     previous output set is refused unless ``overwrite``; a folder holding
     an input file, or one of the files ``protect`` names, always.
+
+    ``meta`` is the test record (:func:`tribodyn.record.parse_meta`,
+    docs/method.md 10c): each recording's ``summary["recordings"][name]["meta"]``,
+    ``metadata.json`` and the report's "Test record" section.
     """
     from . import __version__
     from .distributed import analyze_many, expand_paths
@@ -560,6 +578,7 @@ def run_analysis(
     opts = dict(analyze_options or {})
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
     cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
+    meta = meta or Meta()
     if not paths:
         raise ValueError("no input file given")
     files = expand_paths(paths)
@@ -623,7 +642,7 @@ def run_analysis(
                 res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
             figs = _figures(res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
-            files += pngs
+            files += [name for name, _, _ in pngs]
             rec_sum = {
                 **res.summary(),
                 "operating_range_temperature": range_summary(opr_t),
@@ -632,13 +651,14 @@ def run_analysis(
                 "params": res.params,
                 "files": files,
             }
+            rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
             summary["recordings"][p.name] = rec_sum
             ranges = {"temperature": rec_sum["operating_range_temperature"],
                       "current_density": rec_sum["operating_range_current_density"],
                       "speed": rec_sum["operating_range_speed"]}  # fmt: skip
             lines = verdict_lines(p.name, rec_sum, res.params, ranges)
             extras = _report_extras(res, p.name, f"{prefix}windows.csv")
-            captioned = _captioned(figs, pngs)
+            captioned = _captioned(pngs)
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
                 write_report(
@@ -652,6 +672,7 @@ def run_analysis(
                     inputs=[inputs[p.name]],
                     sections=_report_extras(res, p.name, "windows.csv"),
                     head_html=_bokeh_head(),
+                    record_html=record_html(meta, {p.name: rec_sum["headline"]}),
                 )
             verdict += lines
             sections += extras
@@ -662,6 +683,8 @@ def run_analysis(
             write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
+        heads = {n: r["headline"] for n, r in summary["recordings"].items()}
+        write_json(metadata(meta, summary["inputs"], heads, __version__), out.path("metadata.json"))
         for name, f in failures.items():
             verdict.append(f"{name}: not analysed: {f['error']}")
         write_report(
@@ -670,7 +693,7 @@ def run_analysis(
             summary=_flat_summary(summary["recordings"]),
             params={p.name: r.params for p, r in runs},
             figures=all_figs,
-            quality={p.name: r.summary()["gate_failures"] for p, r in runs},
+            quality={p.name: summary["recordings"][p.name]["gate_failures"] for p, _ in runs},
             verdict=verdict,
             inputs=list(inputs.values())
             + [
@@ -679,6 +702,7 @@ def run_analysis(
             ],  # fmt: skip
             sections=sections,
             head_html=_bokeh_head(),
+            record_html=record_html(meta, heads),
         )
     return summary
 

@@ -44,7 +44,9 @@ __all__ = [
     "write_results_report",
 ]
 
-FigureList = Union[Mapping[str, Figure], Sequence[Tuple[str, Figure]]]
+FigureList = Union[Mapping[str, Union[Figure, bytes]], Sequence[Tuple[str, Union[Figure, bytes]]]]
+#: The first bytes of every PNG file.
+_PNG = b"\x89PNG\r\n\x1a\n"
 
 #: Resolution of the embedded PNGs (dots per inch).
 REPORT_DPI = 110
@@ -392,13 +394,16 @@ def _columns_table(table: Any, max_rows: int) -> str:
     return f'<div class="scroll"><table>\n{head}\n{body}\n</table></div>{note}'
 
 
-def _png_base64(fig: Figure, dpi: int) -> str:
+def _png_base64(fig: Union[Figure, bytes], dpi: int) -> str:
+    """A Figure rendered at ``dpi``, or PNG bytes rendered before (the files' own), as base64."""
+    if isinstance(fig, (bytes, bytearray)):
+        return base64.b64encode(bytes(fig)).decode("ascii")
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Figure]]:
+def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Union[Figure, bytes]]]:
     if figures is None:
         return []
     items = list(figures.items()) if isinstance(figures, Mapping) else list(figures)
@@ -407,8 +412,8 @@ def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Figure]]:
         if not (isinstance(item, (tuple, list)) and len(item) == 2):
             raise TypeError("figures must be a dict caption -> Figure or a list of (caption, Figure) pairs")
         caption, fig = item
-        if not hasattr(fig, "savefig"):
-            raise TypeError(f"figure {caption!r} is not a matplotlib Figure (got {type(fig).__name__})")
+        if not (hasattr(fig, "savefig") or (isinstance(fig, (bytes, bytearray)) and bytes(fig[:8]) == _PNG)):
+            raise TypeError(f"figure {caption!r} is not a matplotlib Figure or PNG bytes (got {type(fig).__name__})")
         out.append((str(caption), fig))
     return out
 
@@ -463,6 +468,7 @@ def write_report(
     inputs: Optional[Sequence[Mapping[str, Any]]] = None,
     sections: Optional[Sequence[Tuple[str, str]]] = None,
     head_html: str = "",
+    record_html: str = "",
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -501,6 +507,8 @@ def write_report(
         Further sections (interactive views, the table of windows), after the figures.
     head_html : str
         Inline ``<script>`` added to the head (Bokeh's JavaScript; no network reference).
+    record_html : str
+        The "Test record" section's content (:func:`tribodyn.record.record_html`), after the inputs.
 
     Returns
     -------
@@ -556,6 +564,9 @@ def write_report(
     if inputs is not None:
         out.append('<h2 id="inputs">Inputs</h2>')
         out.append(inputs_table_html(inputs))
+    if record_html:
+        out.append('<h2 id="record">Test record</h2>')
+        out.append(record_html)
     if warns:
         out.append('<h2 id="warnings">Warnings</h2>')
         out.append('<p class="note">What the readers found odd in the input, and what the analysis noticed:</p>')

@@ -377,7 +377,13 @@ def choose_roles(rec: Any, channels: Optional[Mapping[str, Optional[str]]]) -> O
     kind = "v" if "v" in roles else ("x" if "x" in roles else None)
     mchan = roles[kind] if kind else None
     keys = [*names, fz, *([mchan] if mchan else [])]
-    data, bounds = sample_channels(rec, keys, limit=ROLE_SAMPLES)
+    try:
+        data, bounds = sample_channels(rec, keys, limit=ROLE_SAMPLES)
+    except RecordingError as exc:
+        # A damaged body: opening still works (``tribodyn info`` lists the channels) and the read that
+        # needs the damaged rows fails with their line; the map stays the names' and says why.
+        rec.warnings.append(f"the friction channel could not be chosen from the data ({exc}): the names decide")
+        return None
     forces = {n: data[n] for n in names}
     preferred = roles.get("fy") if roles.get("fy") in names else None
     choice = decide(forces, data[fz], motion=data[mchan] if mchan else None, motion_kind=kind or "x",
