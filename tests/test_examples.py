@@ -26,6 +26,17 @@ EXPECT = {
         ["temperature: verdict 'optimum'", "current density: verdict 'optimum'", "°C", "A/mm²"],
         ["cof_vs_temperature.png", "cof_vs_current_density.png"],
     ),
+    "stribeck_curve.py": (
+        [
+            "headline: COF",
+            "speed: verdict 'optimum'",
+            "lower breakpoint",
+            "95 % interval",
+            "(inside the optimum)",
+            "from the speed log: optimum",
+        ],
+        ["stribeck_curve.png"],
+    ),
     "compare_replicates.py": (
         ["mean COF", "95 % interval", "over 8 tests (per-stroke means)", "repeatability s_r", "Mandel's h"],
         ["compare.png", "compare.csv"],

@@ -78,7 +78,7 @@ MAPPED_BLOCK = 1 << 15
 #: Fewest windows per concurrently read span.
 _MIN_SPAN_WINDOWS = 64
 #: Roles the pipeline reads from a source.
-_ROLES = ("fx", "fy", "fz", "i", "u", "cof")
+_ROLES = ("fx", "fy", "fz", "i", "u", "cof", "v")
 
 Stats = Dict[str, np.ndarray]
 
@@ -100,6 +100,7 @@ def analyze(
     voltage: Any = None,
     shunt_ohm: Optional[float] = None,
     area_mm2: Optional[float] = None,
+    covariates: Optional[Mapping[str, Any]] = None,
     chunk: Optional[float] = None,
     progress: bool = False,
     deadband: DeadbandSpec = 0.35,
@@ -193,6 +194,14 @@ def analyze(
         Shunt resistance R: i = u / R.
     area_mm2 : float, optional
         Contact area; J = i / area_mm2 in A/mm^2.
+    covariates : mapping of str -> (t_s, values) or float, optional
+        Other logs, interpolated linearly at each window centre (NaN
+        outside the log; absolute times aligned as ``temperature``'s):
+        ``{"speed": (t, v)}`` fills the ``speed`` column (m/s, its
+        magnitude; it replaces the mean |v| of a velocity channel ``v``),
+        any other name a column of that name after the declared ones
+        (docs/method.md 7a). Each may be the covariate of
+        :func:`tribodyn.operating_range` (``by=NAME``).
     chunk : float, optional
         Seconds per chunk when reading a mapping or a recording (default
         131072 samples, about 2 min at 1 kHz, for a recording; a mapping is
@@ -352,6 +361,7 @@ def _analyze(source: Any, options: Dict[str, Any], partial: bool) -> Union[Resul
 def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
     """:func:`analyze`'s body: ``options`` are its keyword arguments."""
     fs, temperature, current, voltage = (options.pop(k, None) for k in ("fs", "temperature", "current", "voltage"))
+    logs = options.pop("covariates", None)
     extra = {k: options.pop(k, None) for k in ("motion", "min_fn", "tare", "stroke_fraction", "channels")}
     align = options.get("align")
     if _is_dataframe(source):
@@ -382,7 +392,9 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
             align_to_recording(x, rec, nm)
             for x, nm in ((temperature, "temperature"), (current, "current"), (voltage, "voltage"))
         )
-    plan = make_plan(fs=fs, temperature=temperature, current=current, voltage=voltage, **options)
+        if isinstance(logs, Mapping):
+            logs = {k: align_to_recording(x, rec, f"covariates[{k!r}]") for k, x in logs.items()}
+    plan = make_plan(fs=fs, temperature=temperature, current=current, voltage=voltage, covariates=logs, **options)
     from .tribometer import prepass
 
     pre = prepass(source, rec, plan.fs, min_fn=extra["min_fn"], tare=extra["tare"], motion=motion)
@@ -512,7 +524,7 @@ def _tribometer_params(rec: Any, pre: Dict[str, Any], window_note: str) -> Dict[
 
 
 #: Roles read for a reciprocating test: the pipeline's and the direction's (velocity, position).
-_STROKE_ROLES = (*_ROLES, "v", "x")
+_STROKE_ROLES = (*_ROLES, "x")
 #: A window straddles a direction change when the direction signal, times the stroke's direction, falls
 #: below -REVERSAL_SHARE x its p95 magnitude in it (docs/method.md 6c).
 REVERSAL_SHARE = 0.05
@@ -772,6 +784,8 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     elif cov.voltage is not None:
         cur = evaluate(cov.voltage, centre) / cov.shunt_ohm
     log = cov.temperature
+    cov_notes: List[str] = []  # not the dynamic method's: kept whichever COF is the headline
+    speed, extra = _covariate_columns(o, cov, centre, cov_notes)
     if "stroke_reversal" in o and np.any(o["stroke_reversal"]):  # docs/method.md 6c
         reasons = np.asarray(reasons, dtype=object).copy()
         for k in np.flatnonzero(o["stroke_reversal"]):
@@ -793,6 +807,7 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         **log_quality(log, centre),  # T_uncertainty, T_gap (docs/method.md 6)
         "i": cur,
         "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan(),
+        "speed": speed,
         "mu_instrument": o["mu_instrument"] if "mu_instrument" in o else nan(),
         # one classical column (docs/method.md 6a): the contact rule's; the paper's Sec. 5 mean over fz != 0 of
         # the raw forces with method="paper" or without a contact rule (highpass on a fz with no static level)
@@ -806,11 +821,12 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         "acquisition": o.get("acquisition", np.zeros(len(centre), dtype=np.int64)),
     }
     table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
+    table.update(extra)  # the other covariate logs, after the declared columns (docs/method.md 7a)
     params = plan.params()
     params.update(orientation_used=s, start=plan.start, stop=plan.stop, threads=plan.threads, route=route)
     params.update(found)
     params["dynamic_notes"] = list(notes)  # the dynamic method's own notes (settle drops them when it does not apply)
-    warnings = list(warnings) + notes
+    warnings = list(warnings) + notes + cov_notes
     return Results(
         table=table,
         bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
@@ -822,6 +838,22 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         moments=moments,
         warnings=tuple(dict.fromkeys(str(w) for w in warnings)),
     )
+
+
+def _covariate_columns(o: Stats, cov: Any, centre: np.ndarray, notes: List[str]
+                       ) -> Tuple[np.ndarray, Dict[str, np.ndarray]]:  # fmt: skip
+    """The ``speed`` column and the other covariate logs' columns at the window centres (docs/method.md 7a).
+
+    The speed is the kernel's mean |v| of a velocity channel, unless a speed
+    log is given: that log's magnitude then (said in a note when both exist).
+    """
+    logs = dict(cov.logs)
+    speed = np.asarray(o["speed"], dtype=float) if "speed" in o else np.full(len(centre), np.nan)
+    if "speed" in logs:
+        if "speed" in o:
+            notes.append("the speed log given replaces the mean |v| of the velocity channel v in the speed column")
+        speed = np.abs(evaluate(logs.pop("speed"), centre))
+    return speed, {name: evaluate(log, centre) for name, log in logs.items()}
 
 
 #: Normal quantile 0.975: the paper's intervals (mu_r +- 1.96 OLS standard errors).
@@ -978,6 +1010,8 @@ def _kernel(
     st["start"] = absolute.astype(np.int64)
     if "cof" in ch:
         st["mu_instrument"] = _window_means(ch["cof"], rel, plan.length)
+    if "v" in ch:  # the speed column, mean |v| (docs/method.md 7a)
+        st["speed"] = _window_means(ch["v"], rel, plan.length)
     if plan.max_lag is not None:
         st["skew"] = _skews(ch["fy"], ch["fz"], rel, plan.length, plan.max_lag, threads)
     return st  # fmt: skip
@@ -992,14 +1026,30 @@ def _non_finite(exc: Exception, plan: Plan, aux_role: Optional[str]) -> ValueErr
     return ValueError(f"{role} contains NaN or inf {where} {sample} (t = {sample / plan.fs:g} s{tail})")
 
 
+#: Samples of windows :func:`_window_means` copies at once.
+_MEANS_BATCH = 1 << 18
+
+
 def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
-    """Mean of |x| per window, NaN samples skipped (an instrument's COF column)."""
+    """Mean of |x| per window, NaN samples skipped (an instrument's COF column, a velocity).
+
+    Windows are summed a batch at a time (rows of a sliding view: the same
+    pairwise sums as one window's ``mean``, so the value does not depend on
+    the chunk); a window holding NaN is averaged over its finite samples alone.
+    """
     out = np.full(len(rel), np.nan)
-    for k, s in enumerate(rel):
-        v = np.abs(x[s : s + length])
-        v = v[np.isfinite(v)]
-        if v.size:
-            out[k] = v.mean()
+    if len(rel) == 0 or len(x) < length:
+        return out
+    rows = np.lib.stride_tricks.sliding_window_view(x, length)
+    batch = max(1, _MEANS_BATCH // length)
+    for a in range(0, len(rel), batch):
+        w = np.abs(rows[rel[a : a + batch]])
+        fin = np.isfinite(w).all(axis=1)
+        out[a : a + batch][fin] = w[fin].sum(axis=1) / length
+        for k in np.flatnonzero(~fin):
+            v = w[k][np.isfinite(w[k])]
+            if v.size:
+                out[a + k] = v.mean()
     return out
 
 
@@ -1086,7 +1136,8 @@ def _mapped_layout(rec: Any, plan: Plan) -> Optional[Tuple[int, Dict[str, Any], 
     if not getattr(rec, "mappable", False) or plan.max_lag is not None or plan.progress:
         return None
     roles = rec.roles
-    if "cof" in roles or not {"fy", "fz"} <= set(roles):
+    # The kernel reads forces and one auxiliary channel; an instrument's COF and a velocity are averaged in Python.
+    if "cof" in roles or "v" in roles or not {"fy", "fz"} <= set(roles):
         return None
     if plan.raw and plan.step < plan.length:
         return None  # the mapped filter needs windows that do not overlap

@@ -97,6 +97,27 @@ def _role_map(pairs: Mapping[Any, Any], where: str) -> Dict[str, str]:
     return out
 
 
+def _covariate_name(name: str, where: str) -> str:
+    """A covariate log's name, checked (an identifier; not temperature, current or voltage: their own options)."""
+    name = name.strip()
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+        raise UserError(f"{where}: a covariate name must be letters, digits and _, got {name!r}")
+    if name == "temperature":
+        raise UserError(f"{where}: give the temperature log with --temperature FILE (it gets branches and checks)")
+    if name in ("current", "voltage"):
+        role = {"current": "i", "voltage": "u"}[name]
+        raise UserError(f"{where}: the {name} comes from a channel (--map {role}=CHANNEL), not from a covariate log")
+    return name
+
+
+def _covariate_option(text: str) -> Tuple[str, str]:
+    """--covariate NAME=FILE as (name, file)."""
+    name, sep, path = text.partition("=")
+    if not sep or not path.strip():
+        raise UserError(f"--covariate takes NAME=FILE (e.g. speed=speed.csv), got {text!r}")
+    return _covariate_name(name, "--covariate"), path.strip()
+
+
 def _orientation(text: str) -> Any:
     if text == "auto":
         return "auto"
@@ -199,6 +220,13 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--hop", type=float, help="window start spacing in s (default 10; = window tiles)")
     a.add_argument("--highpass", type=float, help="high-pass raw DC-coupled forces at HZ first (e.g. 0.1)")
     a.add_argument("--temperature", help="temperature log file: two columns, time in s and degC")
+    a.add_argument(
+        "--covariate",
+        action="append",
+        metavar="NAME=FILE",
+        help="another log file (two columns: time in s, value) interpolated at each window into the column NAME, "
+        "e.g. speed=speed.csv (m/s: the Stribeck curve); may be repeated",
+    )
     a.add_argument("--area", type=float, help="contact area in mm^2 (for the current density)")
     a.add_argument("--shunt", type=float, help="shunt resistance in ohm (current = u / R)")
     a.add_argument("--rpm", type=float, help="rotating speed")
@@ -293,6 +321,7 @@ _CONFIG_KEYS: Dict[str, str] = {
     "hop": _NUMBER,
     "highpass": _NUMBER,
     "temperature": _TEXT,
+    "covariates": 'a table of name = "log file"',
     "area": _NUMBER,
     "shunt": _NUMBER,
     "rpm": _NUMBER,
@@ -377,6 +406,10 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
         if isinstance(v, str):
             return _deadband(v)
         raise bad()
+    if key == "covariates":
+        if not (isinstance(v, dict) and all(isinstance(x, str) for x in v.values())):
+            raise bad()
+        return {_covariate_name(str(k), f"{where}: covariates"): path for k, path in v.items()}
     if key == "meta":
         if not isinstance(v, dict):
             raise bad()
@@ -500,12 +533,20 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
             opts["meta"] = merge(cfg.get("meta") or Meta(), parse_meta(pairs, "--meta"))
         except ValueError as exc:
             raise UserError(str(exc)) from None
-    protect = [p for p in (ns.config, get("temperature")) if p]
-    if get("temperature"):
+    logs: Dict[str, str] = dict(cfg.get("covariates") or {})
+    for text in ns.covariate or ():  # repeated --covariate options add up; a later name wins
+        name, path = _covariate_option(text)
+        logs[name] = path
+    protect = [p for p in (ns.config, get("temperature"), *logs.values()) if p]
+    if get("temperature") or logs:
         from .jobs import read_log
 
-        opts["temperature"] = read_log(get("temperature"))
-        opts["temperature_file"] = str(get("temperature"))  # named in the report's inputs (not an analysis option)
+        if get("temperature"):
+            opts["temperature"] = read_log(get("temperature"))
+            opts["temperature_file"] = str(get("temperature"))  # named in the report's inputs (not an analysis option)
+        if logs:  # docs/method.md 7a
+            opts["covariates"] = {name: read_log(path) for name, path in logs.items()}
+            opts["covariate_files"] = dict(logs)  # named in the report's inputs (not an analysis option)
     return open_opts, opts, protect
 
 
@@ -677,7 +718,7 @@ def _print_analysis(summary: Dict[str, Any], out: str) -> None:
             print(f"  verdict: {units_in_text(verdict)}")
         for line in _tribometer_lines(s):
             print(f"  {line}")
-        for key in ("operating_range_temperature", "operating_range_current_density"):
+        for key in ("operating_range_temperature", "operating_range_current_density", "operating_range_speed"):
             rng = s.get(key) or {}
             if rng.get("optimum"):
                 from ._labels import fmt_range

@@ -76,6 +76,12 @@ TABLE: Tuple[Column, ...] = (
     Column("T_gap", "", "in a log gap where T changed faster than covariates.MAX_RATE (docs/method.md 6)", "bool"),
     Column("i", "A", "mean current"),
     Column("J", "A/mm^2", "mean current density"),
+    Column(
+        "speed",
+        "m/s",
+        "mean sliding speed: mean |v| of the velocity channel v in the window, or a speed log at the window centre "
+        "(docs/method.md 7a)",
+    ),
     Column("mu_instrument", "1", "mean of the instrument's own COF column ('cof' channel), if any"),
     Column("mu_classical", "1", "classical COF: mean |fy|/|fz| of the raw forces in contact (docs/method.md 6a)"),
     Column("mu_classical_median", "1", "median |fy|/|fz| over the same samples (docs/method.md 6a)"),

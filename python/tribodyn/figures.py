@@ -14,6 +14,7 @@ function                                 paper figure
 :func:`cof_vs_temperature`               Fig. 11, COF vs temperature (hysteresis)
 :func:`cof_and_current_density_vs_time`  Fig. 12, COF and current density vs time
 :func:`cof_vs_current_density`           Sec. 4.2, COF vs J, optimum, instability onset
+:func:`stribeck_curve`                   COF vs sliding speed (log axis), regimes (7a)
 :func:`save_figure`                      atomic PNG
 =======================================  ==============================================
 
@@ -47,6 +48,7 @@ __all__ = [
     "cof_vs_temperature",
     "cof_and_current_density_vs_time",
     "cof_vs_current_density",
+    "stribeck_curve",
     "strokes_vs_cycle",
     "save_figure",
 ]
@@ -886,7 +888,7 @@ def _opr_of(results: Any, opr: Any, by: str) -> Any:
     try:
         from .ranges import operating_range
 
-        return operating_range(results, by=by)  # type: ignore[arg-type]
+        return operating_range(results, by=by)
     except (ValueError, KeyError, TypeError):
         return None
 
@@ -1079,6 +1081,97 @@ def cof_vs_current_density(results: Any, opr: Any = None, *, title: Optional[str
         branches=False,
         title=title or "COF against current density (cf. paper Sec. 4.2, Fig. 12)",
     )
+
+
+# --------------------------------------------------------------------------
+# Stribeck curve: COF against sliding speed, regimes (docs/method.md 7a)
+# --------------------------------------------------------------------------
+#: The regimes a Stribeck fit's walls and flat bottom stand for, with their shading (docs/method.md 7a).
+STRIBECK_REGIMES = (
+    ("boundary and mixed", "the COF falls with speed", "tab:orange"),
+    ("lowest COF", "mixed, towards a full film", "tab:green"),
+    ("hydrodynamic", "the COF rises with speed", "tab:blue"),
+)
+_COF_LABEL = {"dynamic": r"COF $\mu_r$ (dynamic)", "classical": r"COF $\mu$ (classical, mean |fy|/|fz|)"}
+
+
+def stribeck_curve(results: Any, opr: Any = None, *, by: str = "speed", title: Optional[str] = None) -> Figure:
+    """COF against sliding speed on a log axis, with the fit and the lubrication regimes (docs/method.md 7a).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze` with a ``speed`` column (a velocity
+        channel ``v`` or ``covariates={"speed": ...}``).
+    opr : OperatingRange, optional
+        ``operating_range(results, by="speed")``: the COF it fitted (dynamic
+        or classical) is drawn per window, with the bathtub fit, its 95 %
+        band, the breakpoints with their intervals and the binned medians.
+        Computed with the defaults when omitted (skipped if impossible).
+    by : str
+        The covariate when ``opr`` is omitted (default "speed"; "load" for
+        a traction curve against the normal load).
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The regimes are shaded where the fit finds them (:data:`STRIBECK_REGIMES`):
+        below the lower breakpoint boundary and mixed lubrication (the COF
+        falls with speed; a straight wall cannot split the boundary plateau
+        from the mixed fall), between the breakpoints the lowest COF, above
+        the upper one hydrodynamic lubrication (the COF rises again). They
+        name the fitted walls, not a measured film thickness.
+    """
+    fig, axes = _figure(1, 1, figsize=(8.5, 6.0))
+    ax = axes[0, 0]
+    fig.suptitle(title or "Stribeck curve: COF against sliding speed")
+    if opr is None:
+        try:
+            from .ranges import operating_range
+
+            opr = operating_range(results, by=by)
+        except (ValueError, KeyError, TypeError) as exc:
+            _no_data(ax, f"no Stribeck curve: {exc}"[:120])
+            return fig
+    table = getattr(results, "table", results)
+    n = len(np.asarray(table["time"]))
+    raw = _column(results, opr.column, n)
+    x = np.abs(raw) if opr.by == "load" else raw
+    mu = _column(results, "mu_r" if opr.cof == "dynamic" else "mu_classical", n)
+    used = (_gated(results, n) if opr.cof == "dynamic" else np.ones(n, dtype=bool)) & np.isfinite(mu) & np.isfinite(x)
+    if opr.log:
+        used &= x > 0
+        ax.set_xscale("log")
+    unit = {"m/s": "m/s", "N": "N"}.get(opr.unit, opr.unit)
+    ax.set_xlabel(f"{opr.by.replace('_', ' ').capitalize()}" + (f" ({unit})" if unit else ""))
+    ax.set_ylabel(_COF_LABEL.get(opr.cof, "COF"))
+    if not used.any():
+        _no_data(ax, f"no window with a COF and a {opr.by.replace('_', ' ')}")
+        return fig
+    f = opr.fits.get("all") if getattr(opr, "fits", None) else None
+    lo_x, hi_x = float(x[used].min()), float(x[used].max())
+    if f is not None and f.verdict in ("optimum", "optimum at the edge of the tested range"):
+        edges = [lo_x, f.lower if f.lower is not None else None, f.upper if f.upper is not None else None, hi_x]
+        spans = ((edges[0], edges[1]), (edges[1] or lo_x, edges[2] or hi_x), (edges[2], edges[3]))
+        for (a, b), (name, what, colour) in zip(spans, STRIBECK_REGIMES):
+            if a is None or b is None or not b > a:
+                continue
+            ax.axvspan(a, b, color=colour, alpha=0.07, zorder=0, label=f"{name}: {what}")
+    ax.plot(x[used], mu[used], linestyle="none", marker="o", markersize=3.5, color="tab:blue", alpha=0.4,
+            label=f"windows ({int(used.sum())})")  # fmt: skip
+    c = opr.curves.get("all") if getattr(opr, "curves", None) else None
+    if c is not None and np.isfinite(c.median).any():
+        per = "decade" if opr.log else unit
+        ax.plot(c.centres, c.median, "s", color="black", markersize=5,
+                label=f"binned median ({_fmt(opr.bin_width, '.3g')} {per} bins)")  # fmt: skip
+    _draw_fit(ax, opr, unit, False)
+    lim = _cof_limits([mu[used]])
+    if lim is not None:
+        ax.set_ylim(*lim)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend_above(ax, ncol=2)
+    return fig
 
 
 # --------------------------------------------------------------------------

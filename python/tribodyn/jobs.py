@@ -117,7 +117,7 @@ def _truth_breakpoints(res: Results, truth: Any, by: str) -> Optional[Dict[str, 
 
 def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
     try:
-        return operating_range(res, by, **kw)  # type: ignore[arg-type]
+        return operating_range(res, by, **kw)
     except ValueError:
         return None
 
@@ -160,6 +160,7 @@ def _figures(
     *,
     opr_t: Optional[OperatingRange],
     opr_j: Optional[OperatingRange],
+    opr_v: Optional[OperatingRange] = None,
     example: Optional[Dict[str, Any]] = None,
     examples: Sequence[Dict[str, Any]] = (),
     loops: Sequence[Dict[str, Any]] = (),
@@ -168,7 +169,8 @@ def _figures(
     from .report import build_named_figures
 
     exs = list(examples) + ([example] if example is not None else [])
-    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, examples=exs, loops=loops)
+    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, opr_speed=opr_v, examples=exs,
+                               loops=loops)  # fmt: skip
 
 
 def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
@@ -576,6 +578,7 @@ def run_analysis(
     open_options = dict(open_options or {})
     opts = dict(analyze_options or {})
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
+    cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
     meta = meta or Meta()
     if not paths:
         raise ValueError("no input file given")
@@ -618,7 +621,9 @@ def run_analysis(
     inputs = {i["file"]: i for i in summary["inputs"]}
     for p, res in runs:
         inputs[p.name]["channels"] = _channel_map(p, open_options)
-        inputs[p.name]["logs"] = [f"temperature: {Path(log_file).name}"] if log_file else []
+        inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
+            f"{name}: {Path(f).name}" for name, f in cov_files.items()
+        ]
     with output as out:
         all_figs = []
         verdict: List[str] = []
@@ -627,6 +632,8 @@ def run_analysis(
             prefix = "" if single else f"{label}/"
             opr_t = _try_range(res, "temperature")
             opr_j = _try_range(res, "current_density")
+            has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
+            opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
             files = _write_set(out, prefix, res)
             try:
                 examples = diagnostic_examples(str(p), res, open_options)
@@ -639,13 +646,14 @@ def run_analysis(
             except (OSError, ValueError) as exc:
                 slip = None
                 res = dataclasses.replace(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
-            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, examples=examples, loops=loops)
+            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
             files += [name for name, _, _ in pngs]
             rec_sum = {
                 **res.summary(),
                 "operating_range_temperature": range_summary(opr_t),
                 "operating_range_current_density": range_summary(opr_j),
+                "operating_range_speed": range_summary(opr_v),
                 "params": res.params,
                 "files": files,
                 "stick_slip": slip,
@@ -653,7 +661,8 @@ def run_analysis(
             rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
             summary["recordings"][p.name] = rec_sum
             ranges = {"temperature": rec_sum["operating_range_temperature"],
-                      "current_density": rec_sum["operating_range_current_density"]}  # fmt: skip
+                      "current_density": rec_sum["operating_range_current_density"],
+                      "speed": rec_sum["operating_range_speed"]}  # fmt: skip
             lines = verdict_lines(p.name, rec_sum, res.params, ranges)
             if slip and slip["present"]:
                 lines.append(f"{p.name}: {slip['verdict']}")

@@ -650,13 +650,13 @@ def _finite_any(results: Any, column: str) -> bool:
 def _range_or_none(results: Any, opr: Any, by: str) -> Any:
     if opr is not None:
         return opr
-    column = "T" if by == "temperature" else "J"
+    column = {"temperature": "T", "current_density": "J"}.get(by, by)
     if not _finite_any(results, column):
         return None
     try:
         from .ranges import operating_range
 
-        return operating_range(results, by=by)  # type: ignore[arg-type]
+        return operating_range(results, by=by)
     except ValueError:
         return None
 
@@ -664,7 +664,7 @@ def _range_or_none(results: Any, opr: Any, by: str) -> Any:
 def _opr_caption(opr: Any) -> str:
     if opr is None:
         return "No operating range (no quality-gated window with this covariate)."
-    unit = "°C" if opr.by == "temperature" else "A/mm²"
+    unit = unit_text(opr.unit)
     if getattr(opr, "method", "binned") == "segmented":
         return _segmented_caption(opr, unit)
     parts = []
@@ -756,11 +756,14 @@ def build_named_figures(
     examples: Sequence[Mapping[str, Any]] = (),
     temperature_log: Any = None,
     loops: Sequence[Mapping[str, Any]] = (),
+    opr_speed: Any = None,
 ) -> List[Tuple[str, str, Figure]]:
     """:func:`build_report_figures` with a file name per figure, after the paper's figure it corresponds to.
 
     ``loops`` (a reciprocating test with a position channel: ``x``, ``fy``,
     ``label`` and ``energy`` of whole cycles) add the friction-loop figure.
+    A ``speed`` column with data adds ``stribeck_curve`` (``opr_speed``, or
+    ``operating_range(results, "speed")``; docs/method.md 7a).
 
     Each example window (a dict as ``example`` there, plus ``label``, e.g.
     "representative gated window", and ``tag`` for the file name) gives
@@ -803,6 +806,11 @@ def build_named_figures(
         opr = _range_or_none(results, opr_current, "current_density")
         cap = f"COF against current density with binned medians. {_opr_caption(opr)} Cf. paper Sec. 4.2."
         out.append(("sec4-2_cof_vs_current_density", cap, _figs.cof_vs_current_density(results, opr)))
+    if _finite_any(results, "speed"):
+        opr = _range_or_none(results, opr_speed, "speed")
+        cap = ("Stribeck curve: COF of each window against its mean sliding speed (log axis), the bathtub fit on "
+               f"log speed and the regimes its walls stand for (docs/method.md 7a). {_opr_caption(opr)}")  # fmt: skip
+        out.append(("stribeck_curve", cap, _figs.stribeck_curve(results, opr)))
     if not (has_t or has_j):
         out.append(("cof_vs_time", f"COF against time ({what}); no temperature or current density was given.",
                     _figs.cof_vs_time(results)))  # fmt: skip

@@ -147,7 +147,10 @@ from scipy.interpolate import PchipInterpolator
 __all__ = [
     "N_LAMELLAS",
     "ReciprocatingSimulation",
+    "StribeckModel",
+    "StribeckSimulation",
     "reciprocating",
+    "stribeck_sweep",
     "PRELOAD_N",
     "RPM",
     "TEMPERATURE_PATH",
@@ -1456,3 +1459,210 @@ def reciprocating(
     return ReciprocatingSimulation({"fy": fy, "fz": fz, "x": x, "v": v}, float(fs), mu_forward, mu_backward,
                                    2 * cycles, energy, float(offset), statics[0], statics[1], slip_t,
                                    slip_d)  # fmt: skip
+
+
+# --------------------------------------------------------------------------
+# Stribeck curve: a speed sweep under a dead weight (docs/method.md 7a)
+# --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StribeckModel:
+    """The COF against sliding speed of :func:`stribeck_sweep` (docs/method.md 7a).
+
+    ``mu(v) = mu_c + (mu_s - mu_c) exp(-(v / v_s)^2) + k v`` for the sliding
+    speed ``v >= 0`` (m/s): the boundary COF ``mu_s`` at low speed, falling
+    around the Stribeck speed ``v_s`` towards ``mu_c`` as a lubricant film
+    builds up (mixed lubrication), and a viscous rise ``k v`` once the film
+    carries the load (hydrodynamic lubrication).
+
+    Attributes
+    ----------
+    mu_s : float
+        Boundary (static-limit) COF, ``mu(0)``.
+    mu_c : float
+        The COF the film would leave without viscous losses (below ``mu_s``).
+    v_s : float
+        Stribeck speed, m/s.
+    k : float
+        Viscous slope, COF per m/s (>= 0).
+    """
+
+    mu_s: float = 0.15
+    mu_c: float = 0.06
+    v_s: float = 0.01
+    k: float = 0.05
+
+    def mu(self, v: Any) -> np.ndarray:
+        """The COF at sliding speeds ``v`` (m/s; the magnitude is used)."""
+        v = np.abs(np.asarray(v, dtype=np.float64))
+        out: np.ndarray = self.mu_c + (self.mu_s - self.mu_c) * np.exp(-((v / self.v_s) ** 2)) + self.k * v
+        return out
+
+    @property
+    def v_min(self) -> float:
+        """Speed of the lowest COF (m/s): the mixed-to-hydrodynamic transition; inf when ``k = 0``.
+
+        Where ``d mu / d v = 0``: ``2 (mu_s - mu_c) (v / v_s^2) exp(-(v / v_s)^2) = k``, the root
+        beyond ``v_s / sqrt 2`` (where the fall is steepest), found by bisection.
+        """
+        if self.k <= 0:
+            return math.inf
+        a = self.mu_s - self.mu_c
+
+        def slope(v: float) -> float:
+            return self.k - 2.0 * a * v / self.v_s**2 * math.exp(-((v / self.v_s) ** 2))
+
+        lo = self.v_s / math.sqrt(2.0)
+        if slope(lo) >= 0:  # the viscous rise outweighs the fall everywhere: the minimum is at rest
+            return 0.0
+        hi = lo
+        while slope(hi) < 0:
+            hi *= 2.0
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if slope(mid) < 0 else (lo, mid)
+        return 0.5 * (lo + hi)
+
+    @property
+    def mu_min(self) -> float:
+        """The lowest COF, ``mu(v_min)``."""
+        return float(self.mu(self.v_min)) if math.isfinite(self.v_min) else self.mu_c
+
+    @property
+    def v_boundary(self) -> float:
+        """End of the boundary regime (m/s): where the COF has fallen by 10 % of ``mu_s - mu_c``.
+
+        ``exp(-(v / v_s)^2) = 0.9``, so ``v = v_s sqrt(ln(10 / 9))`` (the viscous term aside).
+        """
+        return self.v_s * math.sqrt(math.log(10.0 / 9.0))
+
+
+@dataclass(frozen=True)
+class StribeckSimulation:
+    """A simulated Stribeck test: :func:`stribeck_sweep`.
+
+    Attributes
+    ----------
+    channels : dict of str -> ndarray
+        ``fy`` (friction, N), ``fz`` (normal force, N), ``v`` (measured sliding velocity, m/s).
+    fs : float
+        Sampling rate, Hz.
+    model : StribeckModel
+        The true COF against speed.
+    speed_log : (t_s, v_m_s)
+        The set speed once a second, as a test controller logs it (for ``covariates={"speed": ...}``).
+    t, speed, mu : ndarray
+        Truth on a ``TRUTH_DT`` grid: the set speed and the model's COF there.
+    normal_force : float
+        The dead weight, N.
+    params : dict
+        Every setting of the simulation.
+    """
+
+    channels: dict[str, np.ndarray]
+    fs: float
+    model: StribeckModel
+    speed_log: tuple[np.ndarray, np.ndarray]
+    t: np.ndarray
+    speed: np.ndarray
+    mu: np.ndarray
+    normal_force: float
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def mu_at(self, times: Any) -> np.ndarray:
+        """The model's COF at ``times`` (s), from the set speed there; NaN outside the test."""
+        out: np.ndarray = np.interp(np.asarray(times, dtype=float), self.t, self.mu, left=np.nan, right=np.nan)
+        return out
+
+    def speed_at(self, times: Any) -> np.ndarray:
+        """The set speed (m/s) at ``times`` (s); NaN outside the test."""
+        out: np.ndarray = np.interp(np.asarray(times, dtype=float), self.t, self.speed, left=np.nan, right=np.nan)
+        return out
+
+
+def _set_speed(t: np.ndarray, duration: float, lo: float, hi: float, steps: int) -> np.ndarray:
+    """Log-uniform speed: a continuous ramp (``steps = 0``) or ``steps`` equal dwells, lowest first."""
+    frac = np.clip(t / duration, 0.0, 1.0)
+    if steps:
+        frac = np.minimum(np.floor(frac * steps), steps - 1) / max(steps - 1, 1)
+    out: np.ndarray = lo * (hi / lo) ** frac
+    return out
+
+
+def stribeck_sweep(
+    *,
+    seed: int = 0,
+    fs: float = 100.0,
+    duration: float = 600.0,
+    speeds: tuple[float, float] = (1e-3, 1.0),
+    steps: int = 0,
+    normal_force: float = 10.0,
+    model: StribeckModel | None = None,
+    noise: float = 0.02,
+    speed_noise: float = 0.005,
+    scatter: float = 0.002,
+) -> StribeckSimulation:
+    """A pin-on-disc test under a dead weight whose sliding speed sweeps decades (docs/method.md 7a).
+
+    The set speed rises log-uniformly from ``speeds[0]`` to ``speeds[1]`` (m/s) over ``duration``
+    seconds: continuously (``steps=0``) or in ``steps`` equal dwells. The friction force is
+    ``fy = (mu(v) + e(t)) W + n_y`` with the dead weight ``W = normal_force`` (N), the COF ``mu(v)``
+    of ``model`` (:class:`StribeckModel`, default ``mu_s = 0.15, mu_c = 0.06, v_s = 0.01 m/s,
+    k = 0.05 s/m``: minimum 0.0614 at 0.0262 m/s), ``e(t)`` a slow COF scatter (white noise through a
+    1st-order Butterworth low-pass at 0.1 Hz, std ``scatter``) and ``n_y`` white sensor noise of
+    ``noise`` N; ``fz = W + n_z`` (the same noise). The measured velocity is the set speed times
+    ``1 + speed_noise * white``. The COF follows the speed at once (no film dynamics).
+    Deterministic for a seed; 60 000 samples by default.
+
+    Raises
+    ------
+    ValueError
+        A non-finite or out-of-range setting (speeds must satisfy 0 < lo < hi; steps 0 or >= 2).
+    """
+    m = StribeckModel() if model is None else model
+    fs_v = _cond_number("fs", fs)
+    dur = _cond_number("duration", duration)
+    if not (fs_v > 0 and dur > 0):
+        raise ValueError(f"fs and duration must be > 0, got fs={fs!r}, duration={duration!r}")
+    try:
+        lo, hi = (float(s) for s in speeds)
+    except (TypeError, ValueError):
+        raise ValueError(f"speeds must be (lowest, highest) in m/s, got {speeds!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise ValueError(f"speeds must satisfy 0 < lowest < highest, got {speeds!r}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps == 1 or steps < 0:
+        raise ValueError(f"steps must be 0 (a continuous ramp) or an integer >= 2, got {steps!r}")
+    w = _cond_number("normal_force", normal_force)
+    if not w > 0:
+        raise ValueError(f"normal_force must be > 0, got {normal_force!r}")
+    noise, speed_noise, scatter = (_cond_number(name, value, nonneg=True) for name, value in (
+        ("noise", noise), ("speed_noise", speed_noise), ("scatter", scatter)))  # fmt: skip
+    for name in ("mu_s", "mu_c", "v_s", "k"):
+        _cond_number(f"model.{name}", getattr(m, name), nonneg=True)
+    if not (m.v_s > 0 and m.mu_s >= m.mu_c):
+        raise ValueError(f"the model needs v_s > 0 and mu_s >= mu_c, got {m!r}")
+    n = int(round(dur * fs_v))
+    if n < 2:
+        raise ValueError(f"duration * fs must give >= 2 samples, got {n}")
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 24]))
+    t = np.arange(n) / fs_v
+    v_set = _set_speed(t, dur, lo, hi, int(steps))
+    e = rng.standard_normal(n)
+    if scatter > 0:
+        sos = signal.butter(1, min(0.1, 0.4 * fs_v), "lowpass", fs=fs_v, output="sos")
+        e = signal.sosfilt(sos, e)
+        e = scatter * (e - e.mean()) / e.std()
+    else:
+        e = np.zeros(n)
+    fy = (m.mu(v_set) + e) * w + noise * rng.standard_normal(n)
+    fz = w + noise * rng.standard_normal(n)
+    v = v_set * (1.0 + speed_noise * rng.standard_normal(n))
+    tg = np.arange(0.0, n / fs_v + 0.5 * TRUTH_DT, TRUTH_DT)
+    sg = _set_speed(tg, dur, lo, hi, int(steps))
+    log_t = np.arange(0.0, n / fs_v, 1.0)
+    params = dict(seed=int(seed), fs=fs_v, duration=dur, speeds=(lo, hi), steps=int(steps), normal_force=w,
+                  noise=float(noise), speed_noise=float(speed_noise), scatter=float(scatter), mu_s=m.mu_s,
+                  mu_c=m.mu_c, v_s=m.v_s, k=m.k, v_min=m.v_min, mu_min=m.mu_min, v_boundary=m.v_boundary)  # fmt: skip
+    return StribeckSimulation(
+        {"fy": fy, "fz": fz, "v": v}, fs_v, m, (log_t, _set_speed(log_t, dur, lo, hi, int(steps))), tg, sg,
+        m.mu(sg), w, params,
+    )  # fmt: skip
