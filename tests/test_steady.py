@@ -2,14 +2,23 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 import pytest
 
+import tribodyn as td
 from tribodyn import simulate
+from tribodyn.steady import DELTA, VERDICTS, fit_steady, steady_series
 
-DELTA = 0.02  # docs/method.md 6g
+#: Windows of the simulated tests: tiled, 10 s (120 windows in the default 1200 s test).
+WIN = dict(window=10.0, hop=10.0)
+
+
+def analysed(**kw):
+    sim = simulate.running_in(**kw)
+    return sim, td.analyze(sim.channels, fs=sim.fs, **WIN)
 
 
 # -- the simulator's truth ---------------------------------------------------------------
@@ -47,3 +56,121 @@ def test_simulator_flat_drift_and_bad_options():
         simulate.running_in(t_steady=-1.0)
     with pytest.raises(ValueError, match="fs"):
         simulate.running_in(fs=0.0)
+
+
+# -- coverage against the truth ------------------------------------------------------------
+
+
+def test_t_steady_and_steady_cof_within_their_intervals_in_18_of_20_tests():
+    hits_t = hits_c = 0
+    for seed in range(20):
+        sim, res = analysed(seed=seed)
+        ss = td.steady_state(res)
+        assert ss.verdict == "steady state reached", ss.text
+        assert ss.model == "exponential" and ss.method == "classical"
+        hits_t += ss.t_steady_low <= sim.t_steady <= ss.t_steady_high
+        hits_c += ss.cof_low <= sim.mu_ss <= ss.cof_high
+        assert abs(ss.t_steady - sim.t_steady) < 40.0  # rmse 8 s (docs/method.md 6g)
+        assert abs(ss.cof_initial - sim.mu_0) < 0.01
+    assert hits_t >= 18 and hits_c >= 18, (hits_t, hits_c)
+
+
+def test_a_linear_running_in_is_fitted_by_the_ramp():
+    hits = 0
+    for seed in range(5):
+        sim, res = analysed(seed=100 + seed, shape="linear", t_steady=400.0)
+        ss = td.steady_state(res)
+        assert ss.ok and ss.model == "linear", ss.text
+        hits += ss.t_steady_low <= sim.t_steady <= ss.t_steady_high
+    assert hits >= 4
+
+
+@pytest.mark.fast
+def test_a_flat_test_is_steady_from_the_first_point():
+    sim, res = analysed(seed=5, t_steady=0.0)
+    ss = td.steady_state(res)
+    assert ss.verdict == "steady state reached" and ss.model == "flat"
+    assert ss.t_steady == ss.t0 == ss.t_steady_low == 0.0  # the first window's start
+    assert ss.cof_low <= sim.mu_ss <= ss.cof_high
+    assert ss.cof_initial == ss.cof and ss.n_steady == ss.n == 120
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize(
+    "kw, why",
+    [
+        (dict(t_steady=3000.0), "leaving"),  # still running in at the end of a 1200 s test
+        (dict(drift=2e-5), "still drifts"),  # a plateau that keeps rising
+        (dict(seed=1, drift=2e-5), "still drifts"),  # a rise that hides the transient from the slope
+    ],
+)
+def test_a_still_drifting_test_has_no_steady_state(kw, why):
+    _, res = analysed(**kw)
+    ss = td.steady_state(res)
+    assert ss.verdict == "no steady state" and not ss.ok
+    assert any(why in r for r in ss.reasons), ss.reasons
+    assert math.isnan(ss.t_steady) and math.isnan(ss.cof) and math.isfinite(ss.cof_initial)
+    assert ss.text.startswith("no steady state: ")
+
+
+@pytest.mark.fast
+def test_a_short_test_is_too_short():
+    _, res = analysed(duration=80.0)
+    ss = td.steady_state(res)
+    assert ss.verdict == "too short" and ss.n == 8
+    assert "at least 10" in ss.reasons[0]
+    assert math.isnan(ss.t_steady) and math.isnan(ss.cof) and math.isnan(ss.cof_initial)
+
+
+# -- the series of each headline method -------------------------------------------------------
+
+
+@pytest.mark.fast
+def test_per_stroke_series_is_one_point_per_cycle():
+    r = simulate.reciprocating(cycles=30, seed=2, mu_forward=0.12, mu_backward=0.10)
+    res = td.analyze(r.channels, fs=r.fs)
+    assert res.headline.method == "per-stroke"
+    t, v, t0, method, _ = steady_series(res)
+    assert method == "per-stroke" and t.size == v.size and t0 == 0.0
+    assert np.isfinite(v).sum() == 30  # a cycle with one direction only (the last, cut) is NaN, dropped
+    ss = td.steady_state(res)
+    assert ss.ok and abs(ss.cof - 0.11) < 0.002
+
+
+@pytest.mark.fast
+def test_dynamic_series_is_the_gated_mu_r():
+    ch = {k: np.concatenate([c[k] for c in simulate.continuous(60.0, seed=3)]) for k in ("fx", "fy", "fz")}
+    res = td.analyze(ch, fs=1000.0, window=2.0, hop=2.0)
+    assert res.headline.method == "dynamic"
+    t, v, _, _, what = steady_series(res)
+    ok = np.asarray(res.table["ok"], bool)
+    assert what == "mu_r of the gated windows" and np.array_equal(v, res.table["mu_r"][ok])
+    ss = td.steady_state(res)
+    assert ss.ok and ss.model == "flat" and abs(ss.cof - 0.12) < 0.002
+
+
+# -- the result object ----------------------------------------------------------------------
+
+
+@pytest.mark.fast
+def test_result_is_json_ready_and_repeats():
+    _, res = analysed(seed=4, duration=600.0, t_steady=150.0)
+    a, b = td.steady_state(res, n_boot=100), td.steady_state(res, n_boot=100)
+    assert a.t_steady_high == b.t_steady_high and a.cof_low == b.cof_low  # seeded
+    d = json.loads(json.dumps(a.to_dict()))
+    assert d["verdict"] in VERDICTS and d["text"] == a.text and d["interval"] and d["estimate"]
+    assert "time" not in d and a.time.size == a.values.size == a.fitted.size == a.n
+    assert a.text.startswith("steady state from t = ") and "running-in COF" in a.text
+
+
+@pytest.mark.fast
+def test_fit_steady_arguments():
+    t = np.arange(20.0)
+    with pytest.raises(ValueError, match="differ in length"):
+        fit_steady(t, t[:-1])
+    with pytest.raises(ValueError, match="n_boot"):
+        fit_steady(t, t, n_boot=10)
+    y = np.full(20, 0.2)
+    y[[3, 7]] = np.nan  # non-finite points are dropped
+    ss = fit_steady(t, y + 1e-4 * np.random.default_rng(0).standard_normal(20), n_boot=100)
+    assert ss.n == 18 and ss.ok and ss.model == "flat"

@@ -24,6 +24,7 @@ from .covariates import align_log
 from .io import Recording, RecordingError, open_recording
 from .distributed import ManyResults, analyze_many
 from .compare import Comparison, Precision, Replicate, compare
+from .steady import SteadyState, steady_state
 
 try:
     __version__ = _version("tribodyn")
@@ -70,4 +71,6 @@ __all__ = [
     "Comparison",
     "Precision",
     "Replicate",
+    "steady_state",
+    "SteadyState",
 ]
