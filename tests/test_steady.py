@@ -174,3 +174,49 @@ def test_fit_steady_arguments():
     y[[3, 7]] = np.nan  # non-finite points are dropped
     ss = fit_steady(t, y + 1e-4 * np.random.default_rng(0).standard_normal(20), n_boot=100)
     assert ss.n == 18 and ss.ok and ss.model == "flat"
+
+
+# -- the CLI and the figure -----------------------------------------------------------------
+
+
+def test_cli_steady_state_prints_writes_and_shades(tmp_path, capsys):
+    from tribodyn.cli import main
+    from tribodyn.io.writers import save_recording
+
+    sim = simulate.running_in(seed=3, duration=600.0, t_steady=150.0)
+    path = tmp_path / "run.npz"
+    save_recording(str(path), sim.channels, sim.fs, units={"fy": "N", "fz": "N"})
+    out = tmp_path / "out"
+    assert main(["analyze", str(path), "--out", str(out), "--window", "10", "--hop", "10", "--steady-state"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("run.npz: COF") and lines[1].startswith("  steady state from t = ")
+    rec = json.loads((out / "summary.json").read_text())["recordings"]["run.npz"]
+    ss = rec["steady_state"]
+    assert ss["verdict"] == "steady state reached" and ss["t_steady_low"] <= 150.0 <= ss["t_steady_high"]
+    assert "steady_state" not in rec["params"]
+    assert "steady state from t = " in (out / "report.html").read_text(encoding="utf-8")
+    # without the flag: nothing computed
+    assert main(["analyze", str(path), "--out", str(out), "--window", "10", "--hop", "10", "-q"]) == 0
+    assert "steady_state" not in json.loads((out / "summary.json").read_text())["recordings"]["run.npz"]
+
+
+@pytest.mark.fast
+def test_cof_figure_shades_the_running_in():
+    import dataclasses
+
+    from matplotlib.patches import Rectangle
+
+    from tribodyn import figures
+
+    _, res = analysed(seed=3, duration=600.0, t_steady=150.0)
+    ss = td.steady_state(res, n_boot=100)
+
+    def spans(r):
+        fig = figures.cof_vs_time(r)
+        return [p for p in fig.axes[0].patches if isinstance(p, Rectangle) and "running-in" in str(p.get_label())]
+
+    assert spans(res) == []
+    shaded = spans(dataclasses.replace(res, params={**res.params, "steady_state": ss.to_dict()}))
+    assert len(shaded) == 1
+    x0, x1 = shaded[0].get_x(), shaded[0].get_x() + shaded[0].get_width()
+    assert x0 == pytest.approx(0.0) and x1 == pytest.approx(ss.t_steady)
