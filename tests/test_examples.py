@@ -22,6 +22,17 @@ EXPECT = {
         ["<Results: dynamic COF", "70 windows", "headline: COF", "95 % interval", "verdict:"],
         ["report.html", "windows.csv"],
     ),
+    "running_in.py": (
+        [
+            "steady state from t = ",
+            "verdict: steady state reached",
+            "truth: t_steady = 300 s",
+            "the truth lies in both 95 % intervals",
+            "a test still running in at its end: no steady state",
+            "an 80 s test: too short",
+        ],
+        ["cof_vs_time.png", "steady_state.json"],
+    ),
     "operating_ranges.py": (
         ["temperature: verdict 'optimum'", "current density: verdict 'optimum'", "°C", "A/mm²"],
         ["cof_vs_temperature.png", "cof_vs_current_density.png"],

@@ -25,6 +25,7 @@ from .io import Recording, RecordingError, open_recording
 from .distributed import ManyResults, analyze_many
 from .compare import Comparison, Precision, Replicate, compare
 from .stickslip import StickSlip, stick_slip
+from .steady import SteadyState, steady_state
 
 try:
     __version__ = _version("tribodyn")
@@ -73,4 +74,6 @@ __all__ = [
     "Replicate",
     "stick_slip",
     "StickSlip",
+    "steady_state",
+    "SteadyState",
 ]

@@ -260,6 +260,11 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
     a.add_argument(
+        "--steady-state",
+        action="store_true",
+        help="also where the running-in ends and the steady-state COF (docs/method.md 6h)",
+    )
+    a.add_argument(
         "--meta",
         action="append",
         metavar="KEY=VALUE",
@@ -712,6 +717,8 @@ def _print_analysis(summary: Dict[str, Any], out: str) -> None:
     for name, s in summary["recordings"].items():
         head = s.get("headline") or {}
         print(f"{name}: {head.get('text', 'no headline')}")
+        if s.get("steady_state"):
+            print(f"  {s['steady_state']['text']}")
         print(f"  {s['gated']}/{s['windows']} windows pass the dynamic method's gate")
         verdict = verdict_text(s.get("verdict"))
         if verdict:
@@ -778,6 +785,7 @@ def _run(ns: argparse.Namespace) -> int:
                 overwrite=ns.overwrite,
                 protect=protect,
                 meta=meta,
+                steady_state=ns.steady_state,
             )
         except ValueError as exc:
             if _MISSING_CHANNELS in str(exc):

@@ -674,7 +674,18 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")
     ax.grid(True, alpha=0.3)
-    return handles, tops
+    return handles + _running_in(ax, results), tops
+
+
+def _running_in(ax: Axes, results: Any) -> List[Any]:
+    """A light band from the first window to t_steady when ``results.params["steady_state"]`` (a
+    :meth:`tribodyn.SteadyState.to_dict`) says the steady state is reached (docs/method.md 6h)."""
+    ss = (getattr(results, "params", None) or {}).get("steady_state") or {}
+    t0, ts = ss.get("t0"), ss.get("t_steady")
+    if ss.get("verdict") != "steady state reached" or t0 is None or ts is None or not ts > t0:
+        return []
+    return [ax.axvspan(t0, ts, color="tab:orange", alpha=0.12, linewidth=0, zorder=0.5,
+                       label=f"running-in (to t = {ts:.4g} s)")]  # fmt: skip
 
 
 def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tuple[List[Any], List[Any]]:
@@ -710,7 +721,7 @@ def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tu
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")
     ax.grid(True, alpha=0.3)
-    return handles, tops
+    return handles + _running_in(ax, results), tops
 
 
 def _cof_and_covariate_vs_time(

@@ -550,6 +550,7 @@ def run_analysis(
     overwrite: bool = False,
     protect: Sequence[Any] = (),
     meta: Optional[Meta] = None,
+    steady_state: bool = False,
 ) -> Dict[str, Any]:
     """Analyses recording files and writes the outputs into ``out_dir``.
 
@@ -569,6 +570,11 @@ def run_analysis(
     ``meta`` is the test record (:func:`tribodyn.record.parse_meta`,
     docs/method.md 10c): each recording's ``summary["recordings"][name]["meta"]``,
     ``metadata.json`` and the report's "Test record" section.
+
+    ``steady_state``: also where each recording's running-in ends
+    (:func:`tribodyn.steady_state`, docs/method.md 6h): its ``steady_state``
+    entry in the summary, a verdict line, and the running-in shaded on the
+    COF-against-time figure.
     """
     from . import __version__
     from .distributed import analyze_many, expand_paths
@@ -646,11 +652,15 @@ def run_analysis(
             except (OSError, ValueError) as exc:
                 slip = None
                 res = dataclasses.replace(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
-            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
+            steady = _steady_state(res) if steady_state else None
+            # the figures read the steady state from their Results' params (docs/method.md 6h)
+            fig_res = dataclasses.replace(res, params={**res.params, "steady_state": steady}) if steady else res
+            figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
             files += [name for name, _, _ in pngs]
             rec_sum = {
                 **res.summary(),
+                **({"steady_state": steady} if steady else {}),
                 "operating_range_temperature": range_summary(opr_t),
                 "operating_range_current_density": range_summary(opr_j),
                 "operating_range_speed": range_summary(opr_v),
@@ -664,6 +674,8 @@ def run_analysis(
                       "current_density": rec_sum["operating_range_current_density"],
                       "speed": rec_sum["operating_range_speed"]}  # fmt: skip
             lines = verdict_lines(p.name, rec_sum, res.params, ranges)
+            if steady:  # right after the headline
+                lines.insert(1, f"{p.name}: {steady['text']}.")
             if slip and slip["present"]:
                 lines.append(f"{p.name}: {slip['verdict']}")
             extras = _report_extras(res, p.name, f"{prefix}windows.csv")
@@ -714,6 +726,13 @@ def run_analysis(
             record_html=record_html(meta, heads),
         )
     return summary
+
+
+def _steady_state(res: Results) -> Dict[str, Any]:
+    """:func:`tribodyn.steady_state` of ``res`` as JSON (docs/method.md 6h)."""
+    from .steady import steady_state
+
+    return steady_state(res).to_dict()
 
 
 def _channel_map(path: Path, open_options: Mapping[str, Any]) -> Dict[str, str]:

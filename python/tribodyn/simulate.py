@@ -151,6 +151,9 @@ __all__ = [
     "StribeckSimulation",
     "reciprocating",
     "stribeck_sweep",
+    "RunningInSimulation",
+    "running_in",
+    "STEADY_DELTA",
     "PRELOAD_N",
     "RPM",
     "TEMPERATURE_PATH",
@@ -1666,3 +1669,113 @@ def stribeck_sweep(
         {"fy": fy, "fz": fz, "v": v}, fs_v, m, (log_t, _set_speed(log_t, dur, lo, hi, int(steps))), tg, sg,
         m.mu(sg), w, params,
     )  # fmt: skip
+
+
+#: Share of the running-in transient left at ``t_steady`` (docs/method.md 6h): t_steady is the first time after
+#: which |mu(t) - mu_ss| <= STEADY_DELTA |mu_0 - mu_ss|.
+STEADY_DELTA: float = 0.02
+RUNNING_IN_SHAPES = ("exponential", "linear")
+
+
+@dataclass(frozen=True, eq=False)
+class RunningInSimulation:
+    """A simulated dead-weight test with running-in: :func:`running_in`.
+
+    Attributes
+    ----------
+    channels : dict of str -> ndarray
+        ``fy`` (friction force, N, positive) and ``fz`` (normal force, N).
+    fs : float
+        Sampling rate, Hz.
+    t_steady : float
+        The true end of the running-in (s from the start): the first time after which the transient
+        ``|mu(t) - mu_ss|`` stays within :data:`STEADY_DELTA` (2 %) of its initial size ``|mu_0 - mu_ss|``;
+        0 for a flat test; NaN when there is no steady state (``drift`` != 0).
+    mu_0, mu_ss : float
+        The COF at t = 0 and the plateau (the process mean of the COF once steady).
+    shape : str
+        "exponential" or "linear" (the transient's form).
+    drift : float
+        COF change per second added over the whole test (0: the COF settles).
+    reached : bool
+        True when the steady state is reached within the test (no drift and t_steady < duration).
+    """
+
+    channels: dict[str, np.ndarray]
+    fs: float
+    t_steady: float
+    mu_0: float
+    mu_ss: float
+    shape: str
+    drift: float
+    duration: float
+
+    @property
+    def reached(self) -> bool:
+        return self.drift == 0.0 and self.t_steady < self.duration
+
+    def mu_at(self, times: Any) -> np.ndarray:
+        """The deterministic COF (transient and drift, without the wander) at ``times`` (s)."""
+        t = np.asarray(times, dtype=float)
+        return self.mu_ss + (self.mu_0 - self.mu_ss) * _transient(t, self.t_steady, self.shape) + self.drift * t
+
+
+def _transient(t: np.ndarray, t_steady: float, shape: str) -> np.ndarray:
+    """The running-in transient's share g(t) (g(0) = 1, g(t_steady) = STEADY_DELTA, g -> 0)."""
+    if t_steady <= 0:
+        return np.asarray(np.where(t <= 0, 1.0, 0.0))
+    if shape == "exponential":  # g = exp(-t / tau), tau = t_steady / ln(1 / delta)
+        return np.asarray(np.exp(-np.maximum(t, 0.0) * math.log(1.0 / STEADY_DELTA) / t_steady))
+    # linear: from 1 at t = 0 to 0 at t_end = t_steady / (1 - delta)
+    return np.asarray(np.clip(1.0 - np.maximum(t, 0.0) * (1.0 - STEADY_DELTA) / t_steady, 0.0, 1.0))
+
+
+def running_in(
+    *,
+    seed: int = 0,
+    fs: float = 50.0,
+    duration: float = 1200.0,
+    mu_0: float = 0.30,
+    mu_ss: float = 0.15,
+    t_steady: float = 300.0,
+    shape: str = "exponential",
+    drift: float = 0.0,
+    normal_force: float = 10.0,
+    noise: float = 0.02,
+    wander: float = 0.002,
+    wander_time: float = 20.0,
+) -> RunningInSimulation:
+    """A dead-weight (classical) test whose COF runs in from ``mu_0`` to ``mu_ss`` (docs/method.md 6h).
+
+    ``mu(t) = mu_ss + (mu_0 - mu_ss) g(t) + drift t + w(t)`` with the transient
+    ``g(t) = exp(-t ln(50) / t_steady)`` ("exponential") or ``max(0, 1 - 0.98 t / t_steady)``
+    ("linear", reaching mu_ss at t_steady / 0.98), so that in both t_steady is the first time after which
+    ``|mu(t) - mu_ss| <= 0.02 |mu_0 - mu_ss|`` (:data:`STEADY_DELTA`); ``t_steady = 0`` is a flat test.
+    ``w(t)`` is the COF's own wander, a stationary Gauss-Markov (Ornstein-Uhlenbeck) process of standard
+    deviation ``wander`` and correlation time ``wander_time`` s, so the per-window COF is autocorrelated as on a
+    real tribometer. The load is a dead weight: ``fz = normal_force + e_z``, ``fy = mu(t) normal_force + e_y``,
+    with white Gaussian noise of ``noise`` N on both; contact from the first sample.
+    """
+    if shape not in RUNNING_IN_SHAPES:
+        raise ValueError(f"shape must be one of {RUNNING_IN_SHAPES}, got {shape!r}")
+    for name, v in (("fs", fs), ("duration", duration), ("normal_force", normal_force)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+    for name, v in (("t_steady", t_steady), ("noise", noise), ("wander", wander), ("wander_time", wander_time)):
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+    rng = np.random.default_rng(seed)
+    n = int(round(duration * fs))
+    t = np.arange(n) / fs
+    if wander > 0 and wander_time > 0:
+        rho = math.exp(-1.0 / (fs * wander_time))
+        e = rng.standard_normal(n) * wander * math.sqrt(1.0 - rho * rho)
+        w = signal.lfilter([1.0], [1.0, -rho], e, zi=[rho * wander * rng.standard_normal()])[0]
+    else:
+        w = wander * rng.standard_normal(n)
+    mu = mu_ss + (mu_0 - mu_ss) * _transient(t, t_steady, shape) + drift * t + w
+    fz = normal_force + noise * rng.standard_normal(n)
+    fy = mu * normal_force + noise * rng.standard_normal(n)
+    truth = float(t_steady) if drift == 0.0 else float("nan")
+    return RunningInSimulation({"fy": fy, "fz": fz}, float(fs), truth, float(mu_0), float(mu_ss), shape,
+                               float(drift), float(n / fs))  # fmt: skip
