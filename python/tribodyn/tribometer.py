@@ -52,6 +52,8 @@ SLOW_RATE = 100.0
 PREPASS_SAMPLES = 1 << 20
 #: fy changes sign when both signs hold at least this share of the samples beyond 30 % of p95 |fy|.
 SIGN_FLIP_SHARE = 0.15
+#: Reciprocating needs the median |fy| of each sign at least this many noise SDs (sample-to-sample differences).
+RECIPROCATING_SNR = 5.0
 #: Dead weight: the within-window std of fz is below this fraction of |mean fz| (median over windows).
 DEAD_WEIGHT_REL = 0.01
 #: Fewest gated windows for the dynamic method's COF.
@@ -454,10 +456,17 @@ def prepass(
         neg = float(np.mean(fy < -0.3 * p95))
         share = min(pos, neg)
     out["sign_flip_share"] = share
+    # Both directions' friction must stand out of the noise: a friction near zero (a tare that takes
+    # most of it, a lubricated contact) changes sign with the noise alone.
+    noise = _robust_sd(np.diff(fy)) / np.sqrt(2.0) if fy.size > 1 else 0.0
+    sides = [float(np.median(np.abs(fy[sel]))) if sel.any() else 0.0 for sel in (fy > 0, fy < 0)]
+    snr = min(sides) / noise if noise > 0 else np.inf
+    out["sign_snr"] = float(snr)
     if motion == "auto":
         # Only forces with their static level tell the sliding direction: a
         # dynamic (high-passed) fy changes sign with every oscillation.
-        out["motion"] = "reciprocating" if static and share >= SIGN_FLIP_SHARE else "unidirectional"
+        recip = static and share >= SIGN_FLIP_SHARE and snr >= RECIPROCATING_SNR
+        out["motion"] = "reciprocating" if recip else "unidirectional"
         out["motion_detected"] = True
     else:
         out["motion"] = motion
