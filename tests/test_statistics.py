@@ -14,7 +14,7 @@ import pytest
 
 import tribodyn
 from tribodyn import _core, reference, simulate
-from tribodyn.estimators import BLOCKS, PRODUCTS, line_frequencies, slopes
+from tribodyn.estimators import BLOCKS, PRODUCTS, Z975, gate_precision, line_frequencies, slopes
 
 MU = 0.1
 
@@ -121,6 +121,44 @@ def test_ci_gate_keeps_good_windows_with_fy_noise():
     assert paper.gated.mean() < 0.6  # the |C_yz| gate rejects most of these good windows
 
 
+def test_ci_gate_does_not_select_by_the_windows_error():
+    """Issue 23: under a low-frequency fy disturbance the gate judged each window's half-width against its own
+    mu_r and kept over-estimated windows with too short intervals (pooled coverage 0.878, headline +0.60 % on
+    these seeds); the expected half-width against the recording's COF keeps neither (measured 0.962, +0.19 %)."""
+    kept = covered = 0
+    heads = []
+    for seed in range(30, 34):
+        sim = simulate.conditions(800, mu=MU, seed=seed, y_noise=0.01, drift=0.05)
+        res = _run(sim, n_lamellas=None)
+        ok = res.gated
+        kept += int(ok.sum())
+        covered += int(np.sum((res["mu_r_low"][ok] <= MU) & (MU <= res["mu_r_high"][ok])))
+        heads.append(res.headline.value)
+        assert res.params["gate_cof"] == pytest.approx(np.median(res["mu_r"][np.isfinite(res["mu_r"])]))
+    assert kept >= 150
+    assert 0.92 <= covered / kept <= 0.98
+    assert abs(np.mean(heads) / MU - 1) <= 0.005
+
+
+def test_gate_precision_ignores_the_windows_own_slope_and_se_noise():
+    rng = np.random.default_rng(3)
+    mu = 0.1 + 0.004 * rng.standard_normal(200)
+    se_w = 0.003 * (1 + rng.random(200))
+    se = se_w * np.sqrt(rng.chisquare(4, 200) / 4)
+    rel, scale, ref = gate_precision(mu, se, se_w)
+    assert ref == np.median(mu)
+    assert scale == pytest.approx(1.0, abs=0.15)  # white residuals: batch means agree with se_white
+    bumped, se2 = mu.copy(), se.copy()
+    bumped[7] *= 1.5  # a window's own error ...
+    se2[7] *= 0.2  # ... and the sampling noise of its own standard error
+    rel2, _, _ = gate_precision(bumped, se2, se_w)
+    assert rel2[7] == pytest.approx(rel[7], rel=0.02)  # only through the recording's medians (1 of 200)
+    np.testing.assert_allclose(rel, Z975 * scale * se_w / ref)
+    # Autocorrelated residuals: the ratio R carries batch means' inflation to every window.
+    _, scale3, _ = gate_precision(mu, 3 * se, se_w)
+    assert scale3 == pytest.approx(3 * scale)
+
+
 # -- force dependence ----------------------------------------------------------------
 
 
@@ -140,7 +178,9 @@ def test_dmu_dfn_recovers_the_dependence(beta):
 @pytest.mark.parametrize("delay", [0.5, 3.0])
 def test_delay_is_measured_and_corrected(delay):
     sim = simulate.conditions(200, mu=MU, seed=17, delay=delay, y_noise=0.01)
-    plain = _run(sim)
+    # A 3-sample delay leaves windows about +-10.3 % precise, which fails the default gate (+-10 %); without a
+    # gated window the dynamic notes leave the warnings (docs/method.md 6e), so the gate is widened here.
+    plain = _run(sim, max_rel_ci=0.2)
     assert plain.params["skew_median"] == pytest.approx(delay, abs=0.05)
     assert any("fz lags fy" in w for w in plain.warnings)
     aligned = _run(sim, align="auto")
@@ -300,3 +340,13 @@ def test_student4_cdf_equals_scipy():
 
     t = np.r_[np.linspace(-80, 80, 20001), -np.inf, np.inf, 0.0]
     np.testing.assert_allclose(student4_cdf(t), special.stdtr(4, t), rtol=0, atol=1e-15)
+
+
+def test_quantile_constants_equal_scipy():
+    from scipy import stats
+
+    from tribodyn.estimators import CHI2_4_MEDIAN, T975
+
+    assert CHI2_4_MEDIAN == pytest.approx(stats.chi2.ppf(0.5, 4), rel=1e-15)
+    assert Z975 == pytest.approx(stats.norm.ppf(0.975), rel=1e-15)
+    assert T975 == pytest.approx(stats.t.ppf(0.975, 4), rel=1e-15)

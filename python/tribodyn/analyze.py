@@ -218,13 +218,15 @@ def analyze(
         standard errors, no alignment), the tables of tribodyn 0.2.
     gate : float or "ci", optional
         Quality gate (docs/method.md 5): "ci" (default) keeps a window when
-        the 95 % interval of mu_r is at most +-``max_rel_ci`` of it; a
+        its expected 95 % half-width (its white-noise standard error times
+        the recording's batch-means ratio) is at most +-``max_rel_ci`` of
+        the recording's median COF; a
         number g is the paper's |C_yz(0)| >= g (0.85 with
         ``method="paper"``). With either, a window whose slope has the sign
         opposite to the recording's orientation fails.
     max_rel_ci : float, optional
-        Largest relative half-width of the 95 % interval for gate "ci"
-        (default 0.1).
+        Largest expected half-width of the 95 % interval, relative to the
+        recording's median COF, for gate "ci" (default 0.1).
     align : {None, "auto"}
         "auto": measure the delay of fz behind fy from the cross-spectral
         phase at the rig's lines (needs ``rpm``), and when it exceeds 0.05
@@ -825,7 +827,7 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     returns the columns that replace or join them. ``found`` gets what the
     recording revealed (for ``params``), ``notes`` the warnings.
     """
-    from .estimators import T975, Sums, line_stats, pooled_noise, quadratic, slopes
+    from .estimators import T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes
 
     k = len(o["n"])
     mu_ols = np.array(o["mu_r"], dtype=float)
@@ -871,8 +873,8 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     mu = s * sl.slope
     se = sl.se
     a2, a2_se = quadratic(E, n, instrumented=plan.estimator != "ols")
+    rel, found["gate_se_ratio"], found["gate_cof"] = gate_precision(mu, se, sl.se_white)
     with np.errstate(invalid="ignore", divide="ignore"):
-        rel = T975 * se / np.abs(mu)
         out = {
             "mu_r": mu,
             "mu_r_stderr": se,
