@@ -834,7 +834,7 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     if plan.paper:
         se = np.asarray(o["mu_r_stderr"], dtype=float)
         out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - _Z975 * se, "mu_r_high": mu_ols + _Z975 * se}
-        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr"):
+        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
             out[name] = np.full(k, np.nan)
         if "skew" in o:
             out["skew_lag"] = o["skew"]
@@ -884,6 +884,8 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
             "attenuation_p": sl.attenuation_p,
             "dmu_dfn": s * a2,
             "dmu_dfn_stderr": a2_se,
+            "dmu_dfn_low": s * a2 - T975 * a2_se,
+            "dmu_dfn_high": s * a2 + T975 * a2_se,
             "f_y0": o["mean_y"] - sl.slope * o["mean_z"],
             "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
             "rel_ci": rel,

@@ -52,6 +52,8 @@ TABLE: Tuple[Column, ...] = (
     Column("attenuation_p", "1", "p-value of OLS = IV (small: OLS attenuated by noise on fz; docs/method.md 3b)"),
     Column("dmu_dfn", "1/N", "d mu / d Fn from the quadratic fit (docs/method.md 3e)"),
     Column("dmu_dfn_stderr", "1/N", "standard error of dmu_dfn (docs/method.md 3e)"),
+    Column("dmu_dfn_low", "1/N", "lower end of the 95 % interval of dmu_dfn (docs/method.md 3e)"),
+    Column("dmu_dfn_high", "1/N", "upper end of the 95 % interval of dmu_dfn (docs/method.md 3e)"),
     Column("f_y0", "N", "regression intercept in the measured fy frame (Eq. 7)"),
     Column("r", "1", "Pearson r of fy and fz"),
     Column("mu_a", "1", "mean s*fy/fz over fz <= -d (Sec. 3.3; docs/method.md 4)"),
