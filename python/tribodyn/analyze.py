@@ -827,7 +827,7 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     returns the columns that replace or join them. ``found`` gets what the
     recording revealed (for ``params``), ``notes`` the warnings.
     """
-    from .estimators import T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes
+    from .estimators import T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes, window_noise
 
     k = len(o["n"])
     mu_ols = np.array(o["mu_r"], dtype=float)
@@ -836,6 +836,8 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
         out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - _Z975 * se, "mu_r_high": mu_ols + _Z975 * se}
         for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
             out[name] = np.full(k, np.nan)
+        out["noise_z_var"] = np.full(k, np.nan)
+        out["mu_r_dnoise"] = np.zeros(k)  # OLS shares no estimate between windows
         if "skew" in o:
             out["skew_lag"] = o["skew"]
         return out
@@ -878,6 +880,8 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
         out = {
             "mu_r": mu,
             "mu_r_stderr": se,
+            "noise_z_var": window_noise(E, n),
+            "mu_r_dnoise": s * sl.dnoise,
             "mu_r_low": mu - T975 * se,
             "mu_r_high": mu + T975 * se,
             "mu_ols": mu_ols,

@@ -40,6 +40,7 @@ __all__ = [
     "Slopes",
     "slopes",
     "pooled_noise",
+    "window_noise",
     "gate_precision",
     "quadratic",
     "line_stats",
@@ -135,6 +136,11 @@ class Slopes:
         sigma_z^2 (N^2) used by ``"corrected"`` (NaN otherwise).
     instrument_r : ndarray
         Pearson r of the instrument and fz per window (its strength).
+    dnoise : ndarray
+        d b / d sigma_z^2 = b n / D (1/N^2) for ``"corrected"`` with the noise
+        measured from the recording (one estimate, whose error moves every
+        window together; ``summary()`` draws it anew, docs/method.md 3d);
+        0 otherwise.
     se_white : ndarray
         The chosen estimator's standard error if the residuals were white:
         s_e sqrt(S_hh) / |D| with s_e^2 = (S_yy - S_zy^2 / S_zz) / (n - 2)
@@ -152,20 +158,30 @@ class Slopes:
     noise_z: float
     instrument_r: np.ndarray
     se_white: np.ndarray
+    dnoise: np.ndarray
+
+
+def window_noise(E: "np.ndarray | Sums", n: np.ndarray) -> np.ndarray:
+    """Each window's measurement of sigma_z^2, (S_zz - S_zy / b_iv) / n (N^2; docs/method.md 3c).
+
+    The part of fz's variance the instrument does not share with fy; NaN
+    where the instrument gives no slope.
+    """
+    S = _sums(E)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        b_iv = _p(S, "wy", True) / _p(S, "wz", True)
+        s2: np.ndarray = (_p(S, "zz", True) - _p(S, "zy", True) / b_iv) / np.asarray(n, dtype=float)
+    return np.where(np.isfinite(s2), s2, np.nan)
 
 
 def pooled_noise(E: "np.ndarray | Sums", n: np.ndarray) -> Tuple[float, float]:
     """sigma_z^2 of the noise on fz measured from the recording, and its standard error (docs/method.md 3c).
 
-    Per window (S_zz - S_zy / b_iv) / n: the part of fz's variance the
-    instrument does not share with fy; the median over windows (robust to
-    windows where the instrument is weak), clipped at 0. Its standard error
-    is that of a median, sqrt(pi / 2) * 1.4826 MAD / sqrt(windows).
+    The median over windows of :func:`window_noise` (robust to windows
+    where the instrument is weak), clipped at 0. Its standard error is that
+    of a median, sqrt(pi / 2) * 1.4826 MAD / sqrt(windows).
     """
-    S = _sums(E)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        b_iv = _p(S, "wy", True) / _p(S, "wz", True)
-        s2 = (_p(S, "zz", True) - _p(S, "zy", True) / b_iv) / np.asarray(n, dtype=float)
+    s2 = window_noise(E, n)
     s2 = s2[np.isfinite(s2)]
     if s2.size == 0:
         return float("nan"), float("nan")
@@ -217,6 +233,7 @@ def slopes(
     noise_z = float("nan")
     with np.errstate(invalid="ignore", divide="ignore"):
         se_w = np.sqrt(s_e2 / szz)
+    dnoise = np.zeros(len(nf))
     if estimator == "ols":
         b, se = b_ols, se_ols
     elif estimator == "iv":
@@ -234,15 +251,18 @@ def slopes(
             D = np.where(D > 0, D, np.nan)
             b = szy / D
             u = _p(S, "zy") - b[:, None] * (_p(S, "zz") - nk * s2)
-            se = np.sqrt(_bm_se(u, D) ** 2 + (b * nf / D) ** 2 * (s2_se if np.isfinite(s2_se) else 0.0) ** 2)
+            s2_se = s2_se if np.isfinite(s2_se) else 0.0
+            se = np.sqrt(_bm_se(u, D) ** 2 + (b * nf / D) ** 2 * s2_se**2)
             se_w = np.sqrt(s_e2 * szz) / D
+            if noise is None and s2_se > 0:  # measured here (a weak instrument's fallback passes (0, 0))
+                dnoise = b * nf / D
     else:
         if noise is None:
             raise ValueError("estimator='deming' needs noise=(sigma_y, sigma_z) or a quiet record (docs/method.md 3c)")
         b, se = _deming(S, nk, float(noise[0]) ** 2 / float(noise[1]) ** 2)
     return Slopes(
         ols=b_ols, ols_se=se_ols, iv=b_iv, iv_se=se_iv, slope=b, se=se, attenuation_p=p, noise_z=noise_z,
-        instrument_r=r_inst, se_white=se_w,
+        instrument_r=r_inst, se_white=se_w, dnoise=dnoise,
     )  # fmt: skip
 
 
