@@ -132,17 +132,21 @@ def intervals(recordings: int, seconds: float, seed: int = 1000) -> list:
                 fin = np.isfinite(dlo) & np.isfinite(dhi)
                 cnt["dmu"] += int(fin.sum())
                 cnt["dmu_covered"] += int(np.sum((dlo[fin] <= truth) & (truth <= dhi[fin])))
+        if kw.get("beta"):  # mu_r is then the incremental COF d Ft / d Fn, not MU (docs/method.md 3e)
+            for key in ("bias", "head", "ci_median", "ci_mean"):
+                acc[key] = []
+            cnt.update(covered=0, gated_covered=0)
         rows.append(
             dict(
                 case=name,
                 recordings=recordings,
                 windows=cnt["windows"] / recordings,
-                bias=float(np.mean(acc["bias"])),
-                coverage=cnt["covered"] / max(cnt["windows"], 1),
+                bias=float(np.mean(acc["bias"])) if acc["bias"] else float("nan"),
+                coverage=cnt["covered"] / cnt["windows"] if cnt["windows"] and acc["bias"] else float("nan"),
                 kept=cnt["gated"] / max(cnt["windows"], 1),
                 headline=float(np.mean(acc["head"])) if acc["head"] else float("nan"),
                 dynamic=int(np.sum(acc["dynamic"])),
-                gated_coverage=cnt["gated_covered"] / max(cnt["gated"], 1),
+                gated_coverage=cnt["gated_covered"] / cnt["gated"] if cnt["gated"] and acc["bias"] else float("nan"),
                 ci_median=float(np.mean(acc["ci_median"])) if acc["ci_median"] else float("nan"),
                 ci_mean=float(np.mean(acc["ci_mean"])) if acc["ci_mean"] else float("nan"),
                 summaries=len(acc["ci_median"]),
