@@ -227,13 +227,15 @@ def analyze(
         standard errors, no alignment), the tables of tribodyn 0.2.
     gate : float or "ci", optional
         Quality gate (docs/method.md 5): "ci" (default) keeps a window when
-        the 95 % interval of mu_r is at most +-``max_rel_ci`` of it; a
+        its expected 95 % half-width (its white-noise standard error times
+        the recording's batch-means ratio) is at most +-``max_rel_ci`` of
+        the recording's median COF; a
         number g is the paper's |C_yz(0)| >= g (0.85 with
         ``method="paper"``). With either, a window whose slope has the sign
         opposite to the recording's orientation fails.
     max_rel_ci : float, optional
-        Largest relative half-width of the 95 % interval for gate "ci"
-        (default 0.1).
+        Largest expected half-width of the 95 % interval, relative to the
+        recording's median COF, for gate "ci" (default 0.1).
     align : {None, "auto"}
         "auto": measure the delay of fz behind fy from the cross-spectral
         phase at the rig's lines (needs ``rpm``), and when it exceeds 0.05
@@ -872,15 +874,17 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     returns the columns that replace or join them. ``found`` gets what the
     recording revealed (for ``params``), ``notes`` the warnings.
     """
-    from .estimators import T975, Sums, line_stats, pooled_noise, quadratic, slopes
+    from .estimators import T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes, window_noise
 
     k = len(o["n"])
     mu_ols = np.array(o["mu_r"], dtype=float)
     if plan.paper:
         se = np.asarray(o["mu_r_stderr"], dtype=float)
         out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - _Z975 * se, "mu_r_high": mu_ols + _Z975 * se}
-        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr"):
+        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
             out[name] = np.full(k, np.nan)
+        out["noise_z_var"] = np.full(k, np.nan)
+        out["mu_r_dnoise"] = np.zeros(k)  # OLS shares no estimate between windows
         if "skew" in o:
             out["skew_lag"] = o["skew"]
         return out
@@ -918,17 +922,21 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     mu = s * sl.slope
     se = sl.se
     a2, a2_se = quadratic(E, n, instrumented=plan.estimator != "ols")
+    rel, found["gate_se_ratio"], found["gate_cof"] = gate_precision(mu, se, sl.se_white)
     with np.errstate(invalid="ignore", divide="ignore"):
-        rel = T975 * se / np.abs(mu)
         out = {
             "mu_r": mu,
             "mu_r_stderr": se,
+            "noise_z_var": window_noise(E, n),
+            "mu_r_dnoise": s * sl.dnoise,
             "mu_r_low": mu - T975 * se,
             "mu_r_high": mu + T975 * se,
             "mu_ols": mu_ols,
             "attenuation_p": sl.attenuation_p,
             "dmu_dfn": s * a2,
             "dmu_dfn_stderr": a2_se,
+            "dmu_dfn_low": s * a2 - T975 * a2_se,
+            "dmu_dfn_high": s * a2 + T975 * a2_se,
             "f_y0": o["mean_y"] - sl.slope * o["mean_z"],
             "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
             "rel_ci": rel,

@@ -240,7 +240,10 @@ def _parser() -> argparse.ArgumentParser:
         help="quality gate: ci (default: the 95 %% interval's width) or a |C_yz(0)| threshold such as 0.85",
     )
     a.add_argument(
-        "--max-rel-ci", type=float, help="gate ci: largest relative half-width of the 95 %% interval (default 0.1)"
+        "--max-rel-ci",
+        type=float,
+        help="gate ci: largest expected half-width of the 95 %% interval, relative to the recording's COF "
+        "(default 0.1)",
     )
     a.add_argument(
         "--estimator",

@@ -363,7 +363,7 @@ def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
 
 
 def _dynamic(res: "Results", total: int) -> Headline:
-    from .results import bootstrap_ci
+    from .results import bootstrap_ci, noise_resample
 
     ok = np.asarray(res.table["ok"], dtype=bool)
     mu = np.asarray(res.table["mu_r"], dtype=float)
@@ -381,7 +381,9 @@ def _dynamic(res: "Results", total: int) -> Headline:
         meds, halves = [], []
         for sign in (1, -1):
             part = v[d == sign]
-            ci = bootstrap_ci(part).get("median")
+            sel = keep.copy()
+            sel[keep] = d == sign
+            ci = bootstrap_ci(part, noise=noise_resample(res.table, sel)).get("median")
             if part.size:
                 meds.append(float(np.median(part)))
                 halves.append(0.5 * (ci[1] - ci[0]) if ci else float("nan"))
@@ -395,7 +397,8 @@ def _dynamic(res: "Results", total: int) -> Headline:
                           f"({est} estimator, direction-rectified strokes) over {v.size} gated windows of {len(res)}"),
                 interval="each direction's median by moving-block bootstrap, half-widths combined in quadrature / 2",
             )  # fmt: skip
-    ci = bootstrap_ci(v).get("median")
+    # the recording's fz-noise estimate is drawn anew in each resample (docs/method.md 3d)
+    ci = bootstrap_ci(v, noise=noise_resample(res.table, keep)).get("median")
     rect = ", direction-rectified strokes" if res.params.get("rectified") else ""
     return Headline(
         method="dynamic",

@@ -152,7 +152,7 @@ class Plan:
     method: str = ""
     #: Slope estimator (docs/method.md 3a-3c): "corrected", "iv", "ols" or "deming".
     estimator: str = "ols"
-    #: Largest relative half-width of the 95 % interval for gate "ci".
+    #: Largest expected half-width of the 95 % interval, relative to the recording's COF, for gate "ci".
     max_rel_ci: float = 0.1
     #: "auto" (estimate and correct the fz delay) or None.
     align: Optional[str] = None
@@ -323,7 +323,7 @@ def make_plan(
 
 #: Segments averaged per window for the line cross-spectra (docs/method.md 3e).
 LINE_SEGMENTS = 4
-#: Default largest relative half-width of the 95 % interval (gate "ci"; docs/method.md 5).
+#: Default largest expected relative half-width of the 95 % interval (gate "ci"; docs/method.md 5).
 MAX_REL_CI = 0.1
 
 
