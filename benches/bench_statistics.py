@@ -12,6 +12,21 @@ tiling it) is analysed with each estimator; over its windows:
 Run: ``python benches/bench_statistics.py [--seconds 800] [--markdown]``;
 the table in docs/method.md 3f is its ``--markdown`` output.
 
+``--intervals`` instead measures what issue 23 asked of the default
+analysis over many recordings (``--recordings``, seeds 1000 ``--seed`` on, each
+``--seconds`` long; 2 s windows tiling it): for each case of
+:data:`INTERVAL_CASES`, over all windows the bias of mu_r and the coverage
+of its 95 % interval; the fraction the "ci" gate keeps, the headline's
+bias (mean over recordings of the median of the gated windows, minus the
+truth) and the gated windows' coverage; the fraction of recordings whose
+``summary()`` 95 % interval of the median (the headline's interval) and of
+the mean hold the truth; and the coverage of the interval of ``dmu_dfn``
+(``dmu_dfn_low``/``dmu_dfn_high``; in a version without them,
+``dmu_dfn`` +- 1.96 ``dmu_dfn_stderr``). Then the window-by-window error
+of the gated COF on the temperature test with 0.05 N white noise on fy
+(docs/method.md 5). The tables in docs/method.md 3f are its ``--markdown``
+output, run once with this version and once with the one before.
+
 ``--pipeline HOURS`` instead times ``analyze`` end to end on a recording of
 that many hours (1 kHz, fx, fy, fz, i, float64 ``.npy`` written by
 ``bench_pipeline.write_recording``; 2 s windows tiling it), in one process:
@@ -41,6 +56,15 @@ CONDITIONS = [
     ("fy low-frequency disturbance 0.05 N", dict(snr_z=40.0, y_noise=0.01, drift=0.05)),
 ]
 ESTIMATORS = ("corrected", "iv", "ols", "deming")
+#: The cases of ``--intervals`` (issue 23): fz noise, a low-frequency fy disturbance, a force dependence.
+INTERVAL_CASES = [
+    ("SNR_z 40 dB", dict(snr_z=40.0, y_noise=0.02)),
+    ("SNR_z 20 dB", dict(snr_z=20.0, y_noise=0.02)),
+    ("SNR_z 10 dB", dict(snr_z=10.0, y_noise=0.02)),
+    ("SNR_z 6 dB", dict(snr_z=6.0, y_noise=0.02)),
+    ("fy low-frequency disturbance 0.05 N", dict(snr_z=40.0, y_noise=0.01, drift=0.05)),
+    ("d mu/d Fn = 0.01 /N, SNR_z 10 dB", dict(snr_z=10.0, y_noise=0.02, beta=0.1)),
+]
 
 
 def run(seconds: float, seed: int = 1) -> list:
@@ -66,6 +90,123 @@ def run(seconds: float, seed: int = 1) -> list:
                 )
             )
     return rows
+
+
+def _within(lo: float, hi: float) -> bool:
+    return bool(lo <= MU <= hi)
+
+
+def intervals(recordings: int, seconds: float, seed: int = 1000) -> list:
+    """One row per case of :data:`INTERVAL_CASES` over ``recordings`` simulated recordings (docs/method.md 3f)."""
+    rows = []
+    for name, kw in INTERVAL_CASES:
+        acc: dict = {k: [] for k in ("bias", "head", "ci_median", "ci_mean", "dynamic")}
+        cnt = dict(windows=0, covered=0, gated=0, gated_covered=0, dmu=0, dmu_covered=0)
+        dmu_kind = ""
+        for r in range(recordings):
+            sim = simulate.conditions(seconds, mu=MU, seed=seed + r, **kw)
+            res = tribodyn.analyze(dict(sim.channels), fs=sim.fs, window=2.0, hop=2.0, rpm=sim.rpm, threads=1)
+            mu, lo, hi, ok = res["mu_r"], res["mu_r_low"], res["mu_r_high"], res.gated
+            good = np.isfinite(mu)
+            cover = (lo <= MU) & (MU <= hi)
+            acc["bias"].append(float(np.mean(mu[good]) / MU - 1))
+            cnt["windows"] += int(good.sum())
+            cnt["covered"] += int(cover[good].sum())
+            cnt["gated"] += int(ok.sum())
+            cnt["gated_covered"] += int(cover[ok].sum())
+            head = res.headline
+            acc["dynamic"].append(head.method == "dynamic")
+            ci = res.summary()["mu_r"].get("ci", {})
+            if head.method == "dynamic":
+                acc["head"].append(head.value / MU - 1)
+            if ci:
+                acc["ci_median"].append(_within(*ci["median"]))
+                acc["ci_mean"].append(_within(*ci["mean"]))
+            truth = sim.truth.params["dmu_dfn"]
+            if truth != 0.0:
+                if "dmu_dfn_low" in res.table:
+                    dlo, dhi, dmu_kind = res["dmu_dfn_low"], res["dmu_dfn_high"], "t(0.975, 4) se"
+                else:
+                    d, dse = res["dmu_dfn"], res["dmu_dfn_stderr"]
+                    dlo, dhi, dmu_kind = d - 1.959964 * dse, d + 1.959964 * dse, "1.96 se"
+                fin = np.isfinite(dlo) & np.isfinite(dhi)
+                cnt["dmu"] += int(fin.sum())
+                cnt["dmu_covered"] += int(np.sum((dlo[fin] <= truth) & (truth <= dhi[fin])))
+        if kw.get("beta"):  # mu_r is then the incremental COF d Ft / d Fn, not MU (docs/method.md 3e)
+            for key in ("bias", "head", "ci_median", "ci_mean"):
+                acc[key] = []
+            cnt.update(covered=0, gated_covered=0)
+        rows.append(
+            dict(
+                case=name,
+                recordings=recordings,
+                windows=cnt["windows"] / recordings,
+                bias=float(np.mean(acc["bias"])) if acc["bias"] else float("nan"),
+                coverage=cnt["covered"] / cnt["windows"] if cnt["windows"] and acc["bias"] else float("nan"),
+                kept=cnt["gated"] / max(cnt["windows"], 1),
+                headline=float(np.mean(acc["head"])) if acc["head"] else float("nan"),
+                dynamic=int(np.sum(acc["dynamic"])),
+                gated_coverage=cnt["gated_covered"] / cnt["gated"] if cnt["gated"] and acc["bias"] else float("nan"),
+                ci_median=float(np.mean(acc["ci_median"])) if acc["ci_median"] else float("nan"),
+                ci_mean=float(np.mean(acc["ci_mean"])) if acc["ci_mean"] else float("nan"),
+                summaries=len(acc["ci_median"]),
+                dmu=cnt["dmu_covered"] / cnt["dmu"] if cnt["dmu"] else float("nan"),
+                dmu_kind=dmu_kind,
+            )
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
+def gate_accuracy(seed: int = 0, noise: float = 0.05) -> dict:
+    """The gated COF window by window on the temperature test with white noise on fy (docs/method.md 5)."""
+    sim = simulate.temperature_test(seed=seed)
+    ch = dict(sim.channels)
+    ch["fy"] = ch["fy"] + np.random.default_rng(5).normal(0.0, noise, ch["fy"].size)
+    res = tribodyn.analyze(ch, fs=sim.fs, rpm=sim.rpm, n_lamellas=sim.n_lamellas, threads=1)
+    truth = sim.truth.mu_at(res["time"])
+    ok = res.gated
+    err = res["mu_r"][ok] / truth[ok] - 1
+    return dict(
+        windows=len(res),
+        kept=int(ok.sum()),
+        median=float(np.median(err)),
+        median_abs=float(np.median(np.abs(err))),
+        p95_abs=float(np.percentile(np.abs(err), 95)),
+        coverage=float(np.mean((res["mu_r_low"][ok] <= truth[ok]) & (truth[ok] <= res["mu_r_high"][ok]))),
+        paper_kept=float(tribodyn.analyze(ch, fs=sim.fs, method="paper", threads=1).gated.mean()),
+    )
+
+
+def _pct(x: float) -> str:
+    return "n/a" if not np.isfinite(x) else f"{100 * x:+.2f} %"
+
+
+def _frac(x: float) -> str:
+    return "n/a" if not np.isfinite(x) else f"{x:.3f}"
+
+
+def print_intervals(rows: list, acc: dict) -> None:
+    print(
+        "| case | recordings | windows each | all windows: bias | all windows: coverage | gate keeps | "
+        "headline (gated median) bias | gated coverage | summary() median CI coverage | summary() mean CI coverage | "
+        "dmu_dfn coverage |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        dmu = "" if not np.isfinite(r["dmu"]) else f"{r['dmu']:.3f} ({r['dmu_kind']})"
+        dyn = "" if r["dynamic"] == r["recordings"] else f" ({r['dynamic']} dynamic)"
+        print(
+            f"| {r['case']} | {r['recordings']} | {r['windows']:.0f} | {_pct(r['bias'])} | {_frac(r['coverage'])} | "
+            f"{_frac(r['kept'])} | {_pct(r['headline'])}{dyn} | {_frac(r['gated_coverage'])} | "
+            f"{_frac(r['ci_median'])} | {_frac(r['ci_mean'])} | {dmu} |"
+        )
+    print(
+        f"\nTemperature test, 0.05 N white noise on fy: the gate keeps {acc['kept']} of {acc['windows']} windows "
+        f"(|C_yz| gate: {100 * acc['paper_kept']:.0f} %); gated error against the truth: median {_pct(acc['median'])}, "
+        f"median |error| {100 * acc['median_abs']:.2f} %, 95th percentile of |error| {100 * acc['p95_abs']:.2f} %; "
+        f"coverage {acc['coverage']:.3f}."
+    )
 
 
 def pipeline(hours: float, repeats: int) -> None:
@@ -108,9 +249,22 @@ def main() -> None:
     ap.add_argument("--markdown", action="store_true", help="print the table of docs/method.md 3f")
     ap.add_argument("--pipeline", type=float, metavar="HOURS", help="time analyze end to end on HOURS of data instead")
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--intervals", action="store_true", help="the issue-23 table: gate, summary and dmu_dfn intervals")
+    ap.add_argument("--recordings", type=int, default=200, help="recordings per case of --intervals")
     args = ap.parse_args()
     if args.pipeline:
         pipeline(args.pipeline, args.repeats)
+        return
+    if args.intervals:
+        t0 = time.perf_counter()
+        first = 1000 * args.seed  # seeds 1000, 1001, ... with the default --seed 1
+        rows = intervals(args.recordings, args.seconds, seed=first)
+        acc = gate_accuracy()
+        if args.markdown:
+            print_intervals(rows, acc)
+        else:
+            print(acc)
+        print(f"\n({time.perf_counter() - t0:.0f} s, seeds from {first}, {args.seconds:g} s per recording)")
         return
     t0 = time.perf_counter()
     rows = run(args.seconds, args.seed)

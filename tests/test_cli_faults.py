@@ -29,7 +29,7 @@ from tribodyn.io.writers import save_npz
 DATA = Path(__file__).parent / "data" / "real"
 CETR = DATA / "cetr_umt2_HT-2n-6-4_2_001.csv"
 WINDOWS = ["--window", "1", "--hop", "1"]
-ROLES_TEXT = "fx, fy, fz, i, u, cof"
+ROLES_TEXT = "fx, fy, fz, i, u, cof, x, v"
 
 
 def tribodyn(*args, cwd=None) -> subprocess.CompletedProcess:

@@ -198,3 +198,57 @@ def td_real(name: str) -> str:
     from pathlib import Path
 
     return str(Path(__file__).parent / "data" / "real" / name)
+
+
+def test_many_recordings_have_one_headline_row_each(tmp_path):
+    a, b = tmp_path / "a.npy", tmp_path / "b.npy"
+    save_npy(a, dead_weight(n=3000, mu=0.2))
+    save_npy(b, dead_weight(n=3000, mu=0.3, seed=1))
+    many = td.analyze_many([a, b], open_options={"fs": 100.0, "names": ["fy", "fz"]})
+    rows = many.headlines
+    assert list(rows["recording"]) == [str(a), str(b)] and list(rows["method"]) == ["classical"] * 2
+    np.testing.assert_allclose(rows["value"], [0.2, 0.3], atol=2e-3)
+    assert rows["value"][1] == many.results[str(b)].headline.value
+
+
+def test_an_unloaded_fy_that_differs_before_and_after_the_contact_is_flagged():
+    rng = np.random.default_rng(6)
+    loaded = np.r_[np.zeros(1000, bool), np.ones(2000, bool), np.zeros(1000, bool)]
+    fz = np.where(loaded, 5.0, 0.0) + 0.002 * rng.standard_normal(4000)
+    drag = np.r_[np.full(1000, 0.3), np.zeros(2000), np.full(1000, -0.5)]  # turning before, stopped after
+    fy = np.where(loaded, 0.3 + 0.5, 0.0) + drag + 0.001 * rng.standard_normal(4000)
+    res = td.analyze({"fy": fy, "fz": fz}, fs=100.0)
+    head = res.headline
+    assert res.params["tare_offsets"]["fy"] == pytest.approx(0.3, abs=0.01)  # the unloaded level before the contact
+    assert head.value == pytest.approx(0.5 / 5.0, rel=0.01)
+    assert any("differs before the contact" in r for r in head.reasons)
+    assert any("differs before the contact" in w for w in res.warnings)
+
+
+def test_every_recordings_headline_is_bold_in_the_report():
+    from tribodyn.report import HeadlineLine, _verdict_item, verdict_lines
+
+    res = td.analyze(dead_weight(n=3000), fs=100.0)
+    lines = verdict_lines("b.csv", res.summary(), res.params)
+    assert isinstance(lines[0], HeadlineLine) and lines[0] == f"b.csv: {res.headline.text}"
+    assert _verdict_item(lines[0]).startswith("<b>b.csv: COF ") and not _verdict_item(lines[1]).startswith("<b>")
+
+
+def test_a_dynamic_headline_does_not_read_the_file_again(tmp_path, temp_sim, monkeypatch):
+    import sys
+
+    from tribodyn import headline as hl
+
+    p = tmp_path / "dyn.npy"
+    save_npy(p, {k: temp_sim.channels[k] for k in ("fy", "fz")})
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return hl.classical_totals(*args, **kwargs)
+
+    monkeypatch.setattr(sys.modules["tribodyn.analyze"], "classical_totals", counted)
+    res = td.analyze(td.open_recording(p, fs=temp_sim.fs, names=["fy", "fz"]))
+    assert res.headline.method == "dynamic" and res.classical is None and not calls
+    res = td.analyze(dead_weight(n=3000), fs=100.0)
+    assert res.headline.method == "classical" and res.classical is not None and calls == [1]

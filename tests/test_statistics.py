@@ -14,7 +14,7 @@ import pytest
 
 import tribodyn
 from tribodyn import _core, reference, simulate
-from tribodyn.estimators import BLOCKS, PRODUCTS, line_frequencies, slopes
+from tribodyn.estimators import BLOCKS, PRODUCTS, Z975, gate_precision, line_frequencies, slopes
 
 MU = 0.1
 
@@ -85,6 +85,72 @@ def test_summary_has_bootstrap_intervals():
     assert s["mu_r"]["ci"]["mean"][0] < s["mu_r"]["ci"]["mean"][1]
 
 
+@pytest.mark.parametrize("snr", [6.0, 20.0])
+def test_summary_intervals_cover_between_recordings(snr):
+    """Issue 23: the recording-wide fz-noise estimate moves every window together; the window bootstrap
+    alone covered 0.85-0.90 here, with half-widths 0.85 of the spread between recordings. Drawing the
+    estimate anew in each resample: measured 0.95-1.0, half-widths 1.21 of the spread (docs/method.md 3f)."""
+    cover = {"median": 0, "mean": 0}
+    widths, medians = [], []
+    for seed in range(40, 80):
+        sim = simulate.conditions(200, mu=MU, seed=seed, snr_z=snr, y_noise=0.02)
+        res = _run(sim, n_lamellas=None, threads=1)
+        ci = res.summary()["mu_r"]["ci"]
+        for key in cover:
+            cover[key] += int(ci[key][0] <= MU <= ci[key][1])
+        assert (res.headline.low, res.headline.high) == ci["median"]
+        widths.append((ci["median"][1] - ci["median"][0]) / (2 * 1.96))
+        medians.append(res.headline.value)
+    assert cover["median"] / 40 >= 0.92 and cover["mean"] / 40 >= 0.92, cover
+    assert 0.9 <= np.mean(widths) / np.std(medians) <= 1.5
+
+
+def test_bootstrap_draws_the_noise_estimate_anew():
+    from tribodyn.results import NoiseResample, bootstrap_ci, noise_resample
+
+    rng = np.random.default_rng(4)
+    var = 0.01 + 0.002 * rng.standard_normal(300)  # every window's measurement of sigma_z^2
+    keep = np.ones(300, dtype=bool)
+    keep[::3] = False  # windows that failed the gate still measure the noise
+    v = np.full(200, MU)
+    assert bootstrap_ci(v)["median"] == (MU, MU)  # identical windows: nothing to resample ...
+    noise = NoiseResample(var=var, index=np.flatnonzero(keep), dnoise=np.full(200, 0.5))
+    lo, hi = bootstrap_ci(v, noise=noise)["median"]
+    # ... but the noise estimate's error moves all of them: half-width about 1.96 * 0.5 * se(median(var))
+    se = np.sqrt(np.pi / 2) * 0.002 / np.sqrt(300)
+    assert lo < MU < hi
+    assert 0.5 * (hi - lo) == pytest.approx(1.96 * 0.5 * se, rel=0.35)
+    assert bootstrap_ci(v, noise=noise) == bootstrap_ci(v, noise=noise)  # fixed seed
+    with pytest.raises(ValueError, match="one value per window"):
+        bootstrap_ci(v[:-1], noise=noise)
+    with pytest.raises(ValueError, match="point into"):
+        bootstrap_ci(v, noise=NoiseResample(var=var[:100], index=noise.index, dnoise=noise.dnoise))
+    # Only the corrected estimator measuring the noise depends on it.
+    sim = simulate.conditions(60, mu=MU, seed=41, snr_z=10.0, y_noise=0.02)
+    res = _run(sim)
+    ok = res.gated
+    assert noise_resample(res.table, ok) is not None
+    assert np.median(res["noise_z_var"]) == pytest.approx(res.params["noise_z_std"] ** 2, rel=1e-12)
+    for kw in (dict(estimator="ols"), dict(estimator="iv"), dict(noise=(0.02, 0.05)), dict(method="paper")):
+        other = _run(sim, **kw)
+        assert noise_resample(other.table, other.gated) is None, kw
+        assert not np.any(other["mu_r_dnoise"]), kw
+
+
+def test_t_quantile_equals_scipy():
+    from scipy import stats
+
+    from tribodyn.results import t_quantile
+
+    for df in (1, 2):
+        assert t_quantile(0.975, df) == pytest.approx(stats.t.ppf(0.975, df), rel=1e-12)
+    tolerance = {3: (2e-3, 1e-2), 4: (5e-4, 3e-3), 8: (2e-5, 1e-4), 20: (1e-6, 1e-5), 100: (1e-9, 1e-8)}
+    for df, (tol, tol_tail) in tolerance.items():
+        for p in (0.95, 0.975, 0.995):
+            rel = tol_tail if p > 0.975 else tol
+            assert t_quantile(p, df) == pytest.approx(stats.t.ppf(p, df), rel=rel), (p, df)
+
+
 # -- the gate -----------------------------------------------------------------------
 
 
@@ -122,6 +188,44 @@ def test_ci_gate_keeps_good_windows_with_fy_noise():
     assert paper.gated.mean() < 0.6  # the |C_yz| gate rejects most of these good windows
 
 
+def test_ci_gate_does_not_select_by_the_windows_error():
+    """Issue 23: under a low-frequency fy disturbance the gate judged each window's half-width against its own
+    mu_r and kept over-estimated windows with too short intervals (pooled coverage 0.878, headline +0.60 % on
+    these seeds); the expected half-width against the recording's COF keeps neither (measured 0.962, +0.19 %)."""
+    kept = covered = 0
+    heads = []
+    for seed in range(30, 34):
+        sim = simulate.conditions(800, mu=MU, seed=seed, y_noise=0.01, drift=0.05)
+        res = _run(sim, n_lamellas=None)
+        ok = res.gated
+        kept += int(ok.sum())
+        covered += int(np.sum((res["mu_r_low"][ok] <= MU) & (MU <= res["mu_r_high"][ok])))
+        heads.append(res.headline.value)
+        assert res.params["gate_cof"] == pytest.approx(np.median(res["mu_r"][np.isfinite(res["mu_r"])]))
+    assert kept >= 150
+    assert 0.92 <= covered / kept <= 0.98
+    assert abs(np.mean(heads) / MU - 1) <= 0.005
+
+
+def test_gate_precision_ignores_the_windows_own_slope_and_se_noise():
+    rng = np.random.default_rng(3)
+    mu = 0.1 + 0.004 * rng.standard_normal(200)
+    se_w = 0.003 * (1 + rng.random(200))
+    se = se_w * np.sqrt(rng.chisquare(4, 200) / 4)
+    rel, scale, ref = gate_precision(mu, se, se_w)
+    assert ref == np.median(mu)
+    assert scale == pytest.approx(1.0, abs=0.15)  # white residuals: batch means agree with se_white
+    bumped, se2 = mu.copy(), se.copy()
+    bumped[7] *= 1.5  # a window's own error ...
+    se2[7] *= 0.2  # ... and the sampling noise of its own standard error
+    rel2, _, _ = gate_precision(bumped, se2, se_w)
+    assert rel2[7] == pytest.approx(rel[7], rel=0.02)  # only through the recording's medians (1 of 200)
+    np.testing.assert_allclose(rel, Z975 * scale * se_w / ref)
+    # Autocorrelated residuals: the ratio R carries batch means' inflation to every window.
+    _, scale3, _ = gate_precision(mu, 3 * se, se_w)
+    assert scale3 == pytest.approx(3 * scale)
+
+
 # -- force dependence ----------------------------------------------------------------
 
 
@@ -135,13 +239,32 @@ def test_dmu_dfn_recovers_the_dependence(beta):
     assert 0.67 < np.nanmedian(res["dmu_dfn_stderr"]) / spread < 1.5
 
 
+@pytest.mark.parametrize(
+    "case", [dict(beta=0.1, y_noise=0.02), dict(beta=0.1, y_noise=0.02, snr_z=10.0), dict(beta=0.1, y_noise=0.05)]
+)
+def test_dmu_dfn_interval_coverage(case):
+    """Issue 23: dmu_dfn +- t(0.975, 4) se holds the truth in 92-98 % of the windows (1.96 se: 0.87-0.89)."""
+    sim = simulate.conditions(800, mu=MU, seed=19, **case)
+    res = _run(sim)
+    truth = sim.truth.params["dmu_dfn"]
+    lo, hi = res["dmu_dfn_low"], res["dmu_dfn_high"]
+    good = np.isfinite(lo)
+    assert good.sum() >= 390
+    np.testing.assert_allclose(0.5 * (lo + hi)[good], res["dmu_dfn"][good], rtol=1e-12)
+    assert 0.92 <= np.mean((lo[good] <= truth) & (truth <= hi[good])) <= 0.98
+    paper = _run(sim, method="paper")
+    assert np.isnan(paper["dmu_dfn_low"]).all() and np.isnan(paper["dmu_dfn_high"]).all()
+
+
 # -- skew and alignment --------------------------------------------------------------
 
 
 @pytest.mark.parametrize("delay", [0.5, 3.0])
 def test_delay_is_measured_and_corrected(delay):
     sim = simulate.conditions(200, mu=MU, seed=17, delay=delay, y_noise=0.01)
-    plain = _run(sim)
+    # A 3-sample delay leaves windows about +-10.3 % precise, which fails the default gate (+-10 %); without a
+    # gated window the dynamic notes leave the warnings (docs/method.md 6e), so the gate is widened here.
+    plain = _run(sim, max_rel_ci=0.2)
     assert plain.params["skew_median"] == pytest.approx(delay, abs=0.05)
     assert any("fz lags fy" in w for w in plain.warnings)
     aligned = _run(sim, align="auto")
@@ -302,3 +425,13 @@ def test_student4_cdf_equals_scipy():
 
     t = np.r_[np.linspace(-80, 80, 20001), -np.inf, np.inf, 0.0]
     np.testing.assert_allclose(student4_cdf(t), special.stdtr(4, t), rtol=0, atol=1e-15)
+
+
+def test_quantile_constants_equal_scipy():
+    from scipy import stats
+
+    from tribodyn.estimators import CHI2_4_MEDIAN, T975
+
+    assert CHI2_4_MEDIAN == pytest.approx(stats.chi2.ppf(0.5, 4), rel=1e-15)
+    assert Z975 == pytest.approx(stats.norm.ppf(0.975), rel=1e-15)
+    assert T975 == pytest.approx(stats.t.ppf(0.975, 4), rel=1e-15)

@@ -180,7 +180,8 @@ def test_cli_time_column_encoding_and_roles(tmp_path, capsys):
     assert abs(r["classical"]["median"] - 0.2) < 0.01
     assert main(["analyze", str(p), "--out", str(out), "--time-column", "zeit", "--overwrite"]) == 0
     printed = capsys.readouterr().out
-    assert "fy <- Fy, fz <- Fz" in printed and "pass --map if your sliding direction is x" in printed
+    # Fx = Fy / 2: Fy carries the friction (docs/method.md 6f), said with its evidence.
+    assert "fy <- Fy (|Ft|/|Fn| 0.20, CV" in printed and "; Fx 0.10" in printed and "(automatic; --map" in printed
     assert printed.startswith("run.csv: COF 0.2000 ") and "classical, mean |fy|/|fz|" in printed
 
 

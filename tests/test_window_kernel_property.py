@@ -318,7 +318,11 @@ def test_degenerate_windows(data):
         fy[:] = value
         fx[:] = data.draw(force)
     if which == "two_values":
-        fz = np.where(np.arange(n) % 2 == 0, value, data.draw(force))
+        other = data.draw(force)
+        # Two values a few ulps apart make fz constant but for rounding: its S_zz and Pearson coefficients are
+        # then rounding noise on both sides (hypothesis found 50 and 50 - 1 ulp), not a property to compare.
+        assume(value == other or abs(value - other) > 1e-9 * max(abs(value), abs(other)))
+        fz = np.where(np.arange(n) % 2 == 0, value, other)
     starts = np.arange(m) * length
     deadband = data.draw(deadbands)
     n_bins = data.draw(st.integers(1, 8))

@@ -17,9 +17,10 @@ How the modules fit together: docs/architecture.md.
 import importlib as _importlib
 import typing as _typing
 
-# analyze and identify share their names with their modules: loading a submodule
+# analyze, identify and compare share their names with their modules: loading a submodule
 # sets the package's attribute of that name, so the functions are bound first.
 from .analyze import analyze
+from .compare import compare
 from .identify import identify
 
 #: Public name -> the module (relative) it comes from, imported on first use.
@@ -55,6 +56,13 @@ _LAZY = {
     "RecordingError": "io",
     "analyze_many": "distributed",
     "ManyResults": "distributed",
+    "Comparison": "compare",
+    "Precision": "compare",
+    "Replicate": "compare",
+    "stick_slip": "stickslip",
+    "StickSlip": "stickslip",
+    "steady_state": "steady",
+    "SteadyState": "steady",
 }
 
 __all__ = [
@@ -93,10 +101,19 @@ __all__ = [
     "RecordingError",
     "analyze_many",
     "ManyResults",
+    "compare",
+    "Comparison",
+    "Precision",
+    "Replicate",
+    "stick_slip",
+    "StickSlip",
+    "steady_state",
+    "SteadyState",
 ]
 
 if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
     from . import columns
+    from .compare import Comparison, Precision, Replicate
     from .correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
     from .covariates import align_log
     from .deadband import Deadband, parse_deadband
@@ -105,6 +122,8 @@ if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
     from .io import Recording, RecordingError, open_recording
     from .ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating_range
     from .regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit
+    from .steady import SteadyState, steady_state
+    from .stickslip import StickSlip, stick_slip
     from .results import WINDOW_COLUMNS, BinTable, CofResult, Results
     from .threads import get_threads, max_threads, set_threads
 

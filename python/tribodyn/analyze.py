@@ -43,7 +43,7 @@ import os
 from collections import deque
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Deque, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -78,7 +78,7 @@ MAPPED_BLOCK = 1 << 15
 #: Fewest windows per concurrently read span.
 _MIN_SPAN_WINDOWS = 64
 #: Roles the pipeline reads from a source.
-_ROLES = ("fx", "fy", "fz", "i", "u", "cof")
+_ROLES = ("fx", "fy", "fz", "i", "u", "cof", "v")
 
 Stats = Dict[str, np.ndarray]
 
@@ -100,6 +100,7 @@ def analyze(
     voltage: Any = None,
     shunt_ohm: Optional[float] = None,
     area_mm2: Optional[float] = None,
+    covariates: Optional[Mapping[str, Any]] = None,
     chunk: Optional[float] = None,
     progress: bool = False,
     deadband: DeadbandSpec = 0.35,
@@ -193,6 +194,14 @@ def analyze(
         Shunt resistance R: i = u / R.
     area_mm2 : float, optional
         Contact area; J = i / area_mm2 in A/mm^2.
+    covariates : mapping of str -> (t_s, values) or float, optional
+        Other logs, interpolated linearly at each window centre (NaN
+        outside the log; absolute times aligned as ``temperature``'s):
+        ``{"speed": (t, v)}`` fills the ``speed`` column (m/s, its
+        magnitude; it replaces the mean |v| of a velocity channel ``v``),
+        any other name a column of that name after the declared ones
+        (docs/method.md 7a). Each may be the covariate of
+        :func:`tribodyn.operating_range` (``by=NAME``).
     chunk : float, optional
         Seconds per chunk when reading a mapping or a recording (default
         131072 samples, about 2 min at 1 kHz, for a recording; a mapping is
@@ -218,13 +227,15 @@ def analyze(
         standard errors, no alignment), the tables of tribodyn 0.2.
     gate : float or "ci", optional
         Quality gate (docs/method.md 5): "ci" (default) keeps a window when
-        the 95 % interval of mu_r is at most +-``max_rel_ci`` of it; a
+        its expected 95 % half-width (its white-noise standard error times
+        the recording's batch-means ratio) is at most +-``max_rel_ci`` of
+        the recording's median COF; a
         number g is the paper's |C_yz(0)| >= g (0.85 with
         ``method="paper"``). With either, a window whose slope has the sign
         opposite to the recording's orientation fails.
     max_rel_ci : float, optional
-        Largest relative half-width of the 95 % interval for gate "ci"
-        (default 0.1).
+        Largest expected half-width of the 95 % interval, relative to the
+        recording's median COF, for gate "ci" (default 0.1).
     align : {None, "auto"}
         "auto": measure the delay of fz behind fy from the cross-spectral
         phase at the rig's lines (needs ``rpm``), and when it exceeds 0.05
@@ -352,6 +363,7 @@ def _analyze(source: Any, options: Dict[str, Any], partial: bool) -> Union[Resul
 def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
     """:func:`analyze`'s body: ``options`` are its keyword arguments."""
     fs, temperature, current, voltage = (options.pop(k, None) for k in ("fs", "temperature", "current", "voltage"))
+    logs = options.pop("covariates", None)
     extra = {k: options.pop(k, None) for k in ("motion", "min_fn", "tare", "stroke_fraction", "channels")}
     align = options.get("align")
     if _is_dataframe(source):
@@ -382,7 +394,9 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
             align_to_recording(x, rec, nm)
             for x, nm in ((temperature, "temperature"), (current, "current"), (voltage, "voltage"))
         )
-    plan = make_plan(fs=fs, temperature=temperature, current=current, voltage=voltage, **options)
+        if isinstance(logs, Mapping):
+            logs = {k: align_to_recording(x, rec, f"covariates[{k!r}]") for k, x in logs.items()}
+    plan = make_plan(fs=fs, temperature=temperature, current=current, voltage=voltage, covariates=logs, **options)
     from .tribometer import prepass
 
     pre = prepass(source, rec, plan.fs, min_fn=extra["min_fn"], tare=extra["tare"], motion=motion)
@@ -404,14 +418,21 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
             tribo["rectified"] = True
             if not run_source:
                 raise ValueError("no stroke's central part holds 3 samples: no window to analyse")
+    contact = pre.get("contact")
+    own = tuple(w for w in (window_note, contact.note if contact is not None else "") if w)  # the analysis's notes
     c_start, c_stop = _sample_range(source, rec, plan, partial)
     tribo["n_samples_total"] = c_stop - c_start
     totals = None
-    if plan.classical is not None and strokes is None:  # docs/method.md 6a, 6e: every sample in contact
-        totals = classical_totals(source, rec, plan.classical, c_start, c_stop)
-    if partial:
+
+    def classical_pass() -> Optional[ClassicalTotals]:  # docs/method.md 6a, 6e: every sample in contact
+        if plan.classical is None or strokes is not None:
+            return None
+        return classical_totals(source, rec, plan.classical, c_start, c_stop)
+
+    if partial:  # the ranges are combined elsewhere, without the file: the sums are taken here
+        totals = classical_pass()
         p = _partial(run_source, run_rec, run_plan)
-        warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + ((window_note,) if window_note else ())
+        warnings = p.warnings + tuple(getattr(rec, "warnings", ())) + own
         return dataclasses.replace(p, plan=plan, warnings=tuple(dict.fromkeys(warnings)), tribo=tribo,
                                    strokes=strokes, classical=totals)  # fmt: skip
     res = _analyze_aligned(run_source, run_rec, run_plan, align)
@@ -420,9 +441,9 @@ def _analyze_body(source: Any, options: Dict[str, Any], partial: bool) -> Union[
     res.params.update(tribo)
     if run_plan is not plan:
         res.params.update(start=plan.start, stop=plan.stop)
-    if window_note:
-        res = dataclasses.replace(res, warnings=res.warnings + (window_note,))
-    return settle(dataclasses.replace(res, strokes=strokes, classical=totals))
+    if own:
+        res = dataclasses.replace(res, warnings=res.warnings + own)
+    return settle(dataclasses.replace(res, strokes=strokes), classical_pass)
 
 
 def _sample_range(source: Any, rec: Any, plan: Plan, partial: bool) -> Tuple[int, int]:
@@ -449,15 +470,21 @@ def _sample_range(source: Any, rec: Any, plan: Plan, partial: bool) -> Tuple[int
     return start, stop
 
 
-def settle(res: Results) -> Results:
-    """The results with the warnings of the method in use (docs/method.md 6e).
+def settle(res: Results, classical: Optional[Callable[[], Optional[ClassicalTotals]]] = None) -> Results:
+    """The results with their headline's sums and the warnings of the method in use (docs/method.md 6e).
 
-    The dynamic estimator's notes (``params["dynamic_notes"]``) are dropped
+    ``classical`` reads the classical COF's sums over the whole recording;
+    it is called only when the verdict makes the classical COF the headline
+    (a recording whose headline is the dynamic COF is not read again). The
+    dynamic estimator's notes (``params["dynamic_notes"]``) are dropped
     when the headline is not the dynamic COF; a difference of the
     instrument's COF from the headline over 0.5 % is explained in a warning.
     """
     from .headline import instrument_check
 
+    v = res.verdict
+    if classical is not None and res.classical is None and not v["dynamic_method"] and v["motion"] != "reciprocating":
+        res = dataclasses.replace(res, classical=classical())
     head = res.headline
     notes = set(res.params.get("dynamic_notes") or ())
     kept = [w for w in res.warnings if head.method == "dynamic" or w not in notes]
@@ -486,19 +513,20 @@ def _tribometer_params(rec: Any, pre: Dict[str, Any], window_note: str) -> Dict[
     contact = pre.get("contact")
     if contact is not None:
         out["contact"] = {"rule": contact.rule, "unloaded_fraction": contact.unloaded_fraction,
-                          "excluded_fraction": contact.excluded_fraction}  # fmt: skip
+                          "excluded_fraction": contact.excluded_fraction, "note": contact.note}  # fmt: skip
     if window_note:
         out["window_note"] = window_note
     if rec is not None and getattr(rec, "roles", None) is not None:
-        roles = dict(rec.roles)
-        out["roles"] = roles
-        defaults = getattr(rec, "_default_roles", None)
-        out["roles_source"] = "automatic" if defaults is not None and roles == dict(defaults) else "given"
+        out["roles"] = dict(rec.roles)
+        out["roles_source"] = getattr(rec, "roles_source", "given")
+        choice = getattr(rec, "role_choice", None)
+        if choice is not None:  # docs/method.md 6e
+            out["roles_evidence"] = choice.as_dict()
     return out
 
 
 #: Roles read for a reciprocating test: the pipeline's and the direction's (velocity, position).
-_STROKE_ROLES = (*_ROLES, "v", "x")
+_STROKE_ROLES = (*_ROLES, "x")
 #: A window straddles a direction change when the direction signal, times the stroke's direction, falls
 #: below -REVERSAL_SHARE x its p95 magnitude in it (docs/method.md 6c).
 REVERSAL_SHARE = 0.05
@@ -536,7 +564,8 @@ def _strokes(source: Any, rec: Any, plan: Plan, fraction: float, partition: bool
         return None
     kind, sig = ("v", data["v"]) if "v" in data else (("x", data["x"]) if "x" in data else ("fy", data["fy"]))
     strokes = find_strokes(sig, boundaries=bounds, kind=kind)
-    table = stroke_table(data["fy"], data["fz"], strokes, plan.fs, plan.classical, fraction, data.get("cof"))
+    table = stroke_table(data["fy"], data["fz"], strokes, plan.fs, plan.classical, fraction, data.get("cof"),
+                         data.get("x"))  # fmt: skip
     # The windows: each stroke's central part, fy rectified.
     dsig = np.gradient(np.asarray(sig, dtype=float)) if kind == "x" else np.asarray(sig, dtype=float)
     fin = np.abs(dsig[np.isfinite(dsig)])
@@ -761,6 +790,8 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
     elif cov.voltage is not None:
         cur = evaluate(cov.voltage, centre) / cov.shunt_ohm
     log = cov.temperature
+    cov_notes: List[str] = []  # not the dynamic method's: kept whichever COF is the headline
+    speed, extra = _covariate_columns(o, cov, centre, cov_notes)
     if "stroke_reversal" in o and np.any(o["stroke_reversal"]):  # docs/method.md 6c
         reasons = np.asarray(reasons, dtype=object).copy()
         for k in np.flatnonzero(o["stroke_reversal"]):
@@ -782,6 +813,7 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         **log_quality(log, centre),  # T_uncertainty, T_gap (docs/method.md 6)
         "i": cur,
         "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan(),
+        "speed": speed,
         "mu_instrument": o["mu_instrument"] if "mu_instrument" in o else nan(),
         # one classical column (docs/method.md 6a): the contact rule's; the paper's Sec. 5 mean over fz != 0 of
         # the raw forces with method="paper" or without a contact rule (highpass on a fz with no static level)
@@ -795,11 +827,12 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         "acquisition": o.get("acquisition", np.zeros(len(centre), dtype=np.int64)),
     }
     table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
+    table.update(extra)  # the other covariate logs, after the declared columns (docs/method.md 7a)
     params = plan.params()
     params.update(orientation_used=s, start=plan.start, stop=plan.stop, threads=plan.threads, route=route)
     params.update(found)
     params["dynamic_notes"] = list(notes)  # the dynamic method's own notes (settle drops them when it does not apply)
-    warnings = list(warnings) + notes
+    warnings = list(warnings) + notes + cov_notes
     return Results(
         table=table,
         bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
@@ -811,6 +844,22 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, route: str = "", warn
         moments=moments,
         warnings=tuple(dict.fromkeys(str(w) for w in warnings)),
     )
+
+
+def _covariate_columns(o: Stats, cov: Any, centre: np.ndarray, notes: List[str]
+                       ) -> Tuple[np.ndarray, Dict[str, np.ndarray]]:  # fmt: skip
+    """The ``speed`` column and the other covariate logs' columns at the window centres (docs/method.md 7a).
+
+    The speed is the kernel's mean |v| of a velocity channel, unless a speed
+    log is given: that log's magnitude then (said in a note when both exist).
+    """
+    logs = dict(cov.logs)
+    speed = np.asarray(o["speed"], dtype=float) if "speed" in o else np.full(len(centre), np.nan)
+    if "speed" in logs:
+        if "speed" in o:
+            notes.append("the speed log given replaces the mean |v| of the velocity channel v in the speed column")
+        speed = np.abs(evaluate(logs.pop("speed"), centre))
+    return speed, {name: evaluate(log, centre) for name, log in logs.items()}
 
 
 #: Normal quantile 0.975: the paper's intervals (mu_r +- 1.96 OLS standard errors).
@@ -829,15 +878,17 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     returns the columns that replace or join them. ``found`` gets what the
     recording revealed (for ``params``), ``notes`` the warnings.
     """
-    from .estimators import T975, Sums, line_stats, pooled_noise, quadratic, slopes
+    from .estimators import T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes, window_noise
 
     k = len(o["n"])
     mu_ols = np.array(o["mu_r"], dtype=float)
     if plan.paper:
         se = np.asarray(o["mu_r_stderr"], dtype=float)
         out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - _Z975 * se, "mu_r_high": mu_ols + _Z975 * se}
-        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr"):
+        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
             out[name] = np.full(k, np.nan)
+        out["noise_z_var"] = np.full(k, np.nan)
+        out["mu_r_dnoise"] = np.zeros(k)  # OLS shares no estimate between windows
         if "skew" in o:
             out["skew_lag"] = o["skew"]
         return out
@@ -875,17 +926,21 @@ def _statistics(o: Stats, plan: Plan, s: int, found: Dict[str, Any], notes: List
     mu = s * sl.slope
     se = sl.se
     a2, a2_se = quadratic(E, n, instrumented=plan.estimator != "ols")
+    rel, found["gate_se_ratio"], found["gate_cof"] = gate_precision(mu, se, sl.se_white)
     with np.errstate(invalid="ignore", divide="ignore"):
-        rel = T975 * se / np.abs(mu)
         out = {
             "mu_r": mu,
             "mu_r_stderr": se,
+            "noise_z_var": window_noise(E, n),
+            "mu_r_dnoise": s * sl.dnoise,
             "mu_r_low": mu - T975 * se,
             "mu_r_high": mu + T975 * se,
             "mu_ols": mu_ols,
             "attenuation_p": sl.attenuation_p,
             "dmu_dfn": s * a2,
             "dmu_dfn_stderr": a2_se,
+            "dmu_dfn_low": s * a2 - T975 * a2_se,
+            "dmu_dfn_high": s * a2 + T975 * a2_se,
             "f_y0": o["mean_y"] - sl.slope * o["mean_z"],
             "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
             "rel_ci": rel,
@@ -967,6 +1022,8 @@ def _kernel(
     st["start"] = absolute.astype(np.int64)
     if "cof" in ch:
         st["mu_instrument"] = _window_means(ch["cof"], rel, plan.length)
+    if "v" in ch:  # the speed column, mean |v| (docs/method.md 7a)
+        st["speed"] = _window_means(ch["v"], rel, plan.length)
     if plan.max_lag is not None:
         st["skew"] = _skews(ch["fy"], ch["fz"], rel, plan.length, plan.max_lag, threads)
     return st  # fmt: skip
@@ -981,14 +1038,30 @@ def _non_finite(exc: Exception, plan: Plan, aux_role: Optional[str]) -> ValueErr
     return ValueError(f"{role} contains NaN or inf {where} {sample} (t = {sample / plan.fs:g} s{tail})")
 
 
+#: Samples of windows :func:`_window_means` copies at once.
+_MEANS_BATCH = 1 << 18
+
+
 def _window_means(x: np.ndarray, rel: np.ndarray, length: int) -> np.ndarray:
-    """Mean of |x| per window, NaN samples skipped (an instrument's COF column)."""
+    """Mean of |x| per window, NaN samples skipped (an instrument's COF column, a velocity).
+
+    Windows are summed a batch at a time (rows of a sliding view: the same
+    pairwise sums as one window's ``mean``, so the value does not depend on
+    the chunk); a window holding NaN is averaged over its finite samples alone.
+    """
     out = np.full(len(rel), np.nan)
-    for k, s in enumerate(rel):
-        v = np.abs(x[s : s + length])
-        v = v[np.isfinite(v)]
-        if v.size:
-            out[k] = v.mean()
+    if len(rel) == 0 or len(x) < length:
+        return out
+    rows = np.lib.stride_tricks.sliding_window_view(x, length)
+    batch = max(1, _MEANS_BATCH // length)
+    for a in range(0, len(rel), batch):
+        w = np.abs(rows[rel[a : a + batch]])
+        fin = np.isfinite(w).all(axis=1)
+        out[a : a + batch][fin] = w[fin].sum(axis=1) / length
+        for k in np.flatnonzero(~fin):
+            v = w[k][np.isfinite(w[k])]
+            if v.size:
+                out[a + k] = v.mean()
     return out
 
 
@@ -1075,7 +1148,8 @@ def _mapped_layout(rec: Any, plan: Plan) -> Optional[Tuple[int, Dict[str, Any], 
     if not getattr(rec, "mappable", False) or plan.max_lag is not None or plan.progress:
         return None
     roles = rec.roles
-    if "cof" in roles or not {"fy", "fz"} <= set(roles):
+    # The kernel reads forces and one auxiliary channel; an instrument's COF and a velocity are averaged in Python.
+    if "cof" in roles or "v" in roles or not {"fy", "fz"} <= set(roles):
         return None
     if plan.raw and plan.step < plan.length:
         return None  # the mapped filter needs windows that do not overlap

@@ -1,8 +1,9 @@
 """The ``tribodyn`` command line.
 
 Sub-commands: ``demo`` (simulate the paper's tests, analyse, report),
-``analyze`` (your recordings), ``info`` (what a file holds) and ``simulate``
-(write a simulated recording). User errors (bad options, config values,
+``analyze`` (your recordings), ``compare`` (replicate tests: the outputs of
+``analyze``), ``info`` (what a file holds) and ``simulate`` (write a
+simulated recording). User errors (bad options, config values,
 paths, unreadable inputs, an unusable output folder, a full disk or a
 read-only file system) print one line on stderr and exit with status 2 (no
 traceback unless ``--debug``); a bug exits with status 1 and a traceback.
@@ -34,8 +35,9 @@ EXIT_USER_ERROR = 2
 EXIT_SOME_FAILED = 3
 
 
-#: Roles --map may name (tribodyn.io.base.KNOWN_ROLES, kept here so the CLI starts fast).
-ROLES = ("fx", "fy", "fz", "i", "u", "cof")
+#: Roles --map may name (tribodyn.io.base.KNOWN_ROLES and the stroke roles x position, v velocity of
+#: docs/method.md 6c, kept here so the CLI starts fast).
+ROLES = ("fx", "fy", "fz", "i", "u", "cof", "x", "v")
 
 #: Unknown roles that are common names of a valid one (for the error message).
 _ROLE_GUESSES = {
@@ -93,6 +95,27 @@ def _role_map(pairs: Mapping[Any, Any], where: str) -> Dict[str, str]:
             raise UserError(f"{where}: role {role} needs a channel name ({role}=CHANNEL)")
         out[role] = name.strip()
     return out
+
+
+def _covariate_name(name: str, where: str) -> str:
+    """A covariate log's name, checked (an identifier; not temperature, current or voltage: their own options)."""
+    name = name.strip()
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+        raise UserError(f"{where}: a covariate name must be letters, digits and _, got {name!r}")
+    if name == "temperature":
+        raise UserError(f"{where}: give the temperature log with --temperature FILE (it gets branches and checks)")
+    if name in ("current", "voltage"):
+        role = {"current": "i", "voltage": "u"}[name]
+        raise UserError(f"{where}: the {name} comes from a channel (--map {role}=CHANNEL), not from a covariate log")
+    return name
+
+
+def _covariate_option(text: str) -> Tuple[str, str]:
+    """--covariate NAME=FILE as (name, file)."""
+    name, sep, path = text.partition("=")
+    if not sep or not path.strip():
+        raise UserError(f"--covariate takes NAME=FILE (e.g. speed=speed.csv), got {text!r}")
+    return _covariate_name(name, "--covariate"), path.strip()
 
 
 def _orientation(text: str) -> Any:
@@ -170,7 +193,8 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument(
         "--map",
         action="append",
-        help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof; any case); may be repeated",
+        help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof, x position, v velocity; any case); "
+        "may be repeated",
     )
     a.add_argument(
         "--scale",
@@ -196,6 +220,13 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--hop", type=float, help="window start spacing in s (default 10; = window tiles)")
     a.add_argument("--highpass", type=float, help="high-pass raw DC-coupled forces at HZ first (e.g. 0.1)")
     a.add_argument("--temperature", help="temperature log file: two columns, time in s and degC")
+    a.add_argument(
+        "--covariate",
+        action="append",
+        metavar="NAME=FILE",
+        help="another log file (two columns: time in s, value) interpolated at each window into the column NAME, "
+        "e.g. speed=speed.csv (m/s: the Stribeck curve); may be repeated",
+    )
     a.add_argument("--area", type=float, help="contact area in mm^2 (for the current density)")
     a.add_argument("--shunt", type=float, help="shunt resistance in ohm (current = u / R)")
     a.add_argument("--rpm", type=float, help="rotating speed")
@@ -209,7 +240,10 @@ def _parser() -> argparse.ArgumentParser:
         help="quality gate: ci (default: the 95 %% interval's width) or a |C_yz(0)| threshold such as 0.85",
     )
     a.add_argument(
-        "--max-rel-ci", type=float, help="gate ci: largest relative half-width of the 95 %% interval (default 0.1)"
+        "--max-rel-ci",
+        type=float,
+        help="gate ci: largest expected half-width of the 95 %% interval, relative to the recording's COF "
+        "(default 0.1)",
     )
     a.add_argument(
         "--estimator",
@@ -228,6 +262,34 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
+    a.add_argument(
+        "--steady-state",
+        action="store_true",
+        help="also where the running-in ends and the steady-state COF (docs/method.md 6h)",
+    )
+    a.add_argument(
+        "--meta",
+        action="append",
+        metavar="KEY=VALUE",
+        help="test record field (materials, counterpart, load, speed, stroke, distance, temperature, humidity, "
+        "lubricant, duration, operator, or your own key); may be repeated (docs/method.md 10c)",
+    )
+
+    c = sub.add_parser("compare", parents=[common], help="compare replicate tests (output folders of analyze)")
+    c.add_argument("folders", nargs="+", metavar="OUT_DIR", help="output folders of tribodyn analyze (or summary.json)")
+    c.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
+    c.add_argument("--labels", help="test names, comma-separated: one per test (recording) or one per OUT_DIR")
+    c.add_argument(
+        "--groups",
+        help="groups (laboratories, days), comma-separated, one per test or per OUT_DIR: adds the ISO 5725 "
+        "repeatability and reproducibility",
+    )
+    c.add_argument(
+        "--allow-mixed",
+        action="store_true",
+        help="compare headlines of different methods (a dynamic median and a classical mean differ)",
+    )
+    c.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
 
     i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of files")
     i.add_argument("files", nargs="+", metavar="FILE", help="recordings, directories or glob patterns")
@@ -267,6 +329,7 @@ _CONFIG_KEYS: Dict[str, str] = {
     "hop": _NUMBER,
     "highpass": _NUMBER,
     "temperature": _TEXT,
+    "covariates": 'a table of name = "log file"',
     "area": _NUMBER,
     "shunt": _NUMBER,
     "rpm": _NUMBER,
@@ -284,6 +347,7 @@ _CONFIG_KEYS: Dict[str, str] = {
     "max_lag": _INTEGER,
     "chunk": _NUMBER,
     "threads": _INTEGER,
+    "meta": "a table of field = text or number (the test record, docs/method.md 10c)",
 }
 
 
@@ -350,6 +414,19 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
         if isinstance(v, str):
             return _deadband(v)
         raise bad()
+    if key == "covariates":
+        if not (isinstance(v, dict) and all(isinstance(x, str) for x in v.values())):
+            raise bad()
+        return {_covariate_name(str(k), f"{where}: covariates"): path for k, path in v.items()}
+    if key == "meta":
+        if not isinstance(v, dict):
+            raise bad()
+        from .record import parse_meta
+
+        try:
+            return parse_meta(v, f"{where}: [meta]")
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     if key == "map":
         if isinstance(v, str):
             return _role_map(_kv(v, "map"), f"{where}: map")
@@ -453,12 +530,31 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
         raise UserError(f"--rpm must be a finite number > 0, got {rpm!r}")
     if lamellas is not None and lamellas < 1:
         raise UserError(f"--lamellas must be at least 1, got {lamellas!r}")
-    protect = [p for p in (ns.config, get("temperature")) if p]
-    if get("temperature"):
+    if cfg.get("meta") or ns.meta:
+        from .record import Meta, merge, parse_meta
+
+        pairs = [tuple(t.split("=", 1)) if "=" in t else (t, None) for t in ns.meta or ()]
+        bad = [k for k, v in pairs if v is None]
+        if bad:
+            raise UserError(f"--meta takes KEY=VALUE, got {bad[0]!r}")
+        try:
+            opts["meta"] = merge(cfg.get("meta") or Meta(), parse_meta(pairs, "--meta"))
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    logs: Dict[str, str] = dict(cfg.get("covariates") or {})
+    for text in ns.covariate or ():  # repeated --covariate options add up; a later name wins
+        name, path = _covariate_option(text)
+        logs[name] = path
+    protect = [p for p in (ns.config, get("temperature"), *logs.values()) if p]
+    if get("temperature") or logs:
         from .jobs import read_log
 
-        opts["temperature"] = read_log(get("temperature"))
-        opts["temperature_file"] = str(get("temperature"))  # named in the report's inputs (not an analysis option)
+        if get("temperature"):
+            opts["temperature"] = read_log(get("temperature"))
+            opts["temperature_file"] = str(get("temperature"))  # named in the report's inputs (not an analysis option)
+        if logs:  # docs/method.md 7a
+            opts["covariates"] = {name: read_log(path) for name, path in logs.items()}
+            opts["covariate_files"] = dict(logs)  # named in the report's inputs (not an analysis option)
     return open_opts, opts, protect
 
 
@@ -567,10 +663,10 @@ def _print_demo(summary: Dict[str, Any], out: str) -> None:
         s = summary[key]
         mu = s["mu_r"]
         rng = s["operating_range"] or {}
-        line = (
-            f"{label}: {s['gated']}/{s['windows']} windows pass the gate; "
-            f"COF {mu['p05']:.3f} to {mu['p95']:.3f} (median {mu['median']:.3f})"
-        )
+        print(f"{label}: {(s.get('headline') or {}).get('text', 'no headline')}")
+        line = f"  {s['gated']}/{s['windows']} windows pass the gate"
+        if mu.get("n"):
+            line += f"; 90 % of them between {mu['p05']:.3f} and {mu['p95']:.3f}"
         unit = unit_text(rng.get("unit"))
         if rng.get("optimum"):
             lo, hi = rng["optimum"]
@@ -596,18 +692,22 @@ def _tribometer_lines(s: Dict[str, Any]) -> List[str]:
             parts.append(f"{d} strokes COF mean {st[d]['mean']:.4f} ({st[d]['n']} strokes)")
     if parts:
         out.append("; ".join(parts))
+    slip = s.get("stick_slip") or {}
+    if slip.get("present"):  # docs/method.md 6g: said only when present
+        out.append(str(slip["verdict"]))
     contact = s.get("contact") or {}
     if contact.get("rule"):
         out.append(f"contact: {contact['rule']}")
     roles = s.get("roles") or {}
-    if roles and s.get("roles_source") == "automatic":
-        text = "roles: " + ", ".join(f"{r} <- {n}" for r, n in roles.items())
-        names = {str(n).split("/")[-1].split("[")[0].strip().lower() for n in roles.values()}
-        if "fy" in names or "fx" in roles:
-            text += "; pass --map if your sliding direction is x (--map fy=Fx)"
-        else:
-            text += " (automatic; --map ROLE=CHANNEL to change)"
-        out.append(text)
+    source = s.get("roles_source")
+    if roles and source in ("automatic", "partly given"):
+        # The friction channel with its evidence when it was chosen among several (docs/method.md 6f).
+        ev = s.get("roles_evidence") or {}
+        shown = [
+            f"{r} <- {ev['text']}" if r == "fy" and ev.get("text") and ev.get("rule") != "names" else f"{r} <- {n}"
+            for r, n in roles.items()
+        ]
+        out.append(f"roles: {', '.join(shown)} ({source}; --map ROLE=CHANNEL to change)")
     if s.get("window_note"):
         out.append(str(s["window_note"]))
     return out
@@ -620,13 +720,15 @@ def _print_analysis(summary: Dict[str, Any], out: str) -> None:
     for name, s in summary["recordings"].items():
         head = s.get("headline") or {}
         print(f"{name}: {head.get('text', 'no headline')}")
+        if s.get("steady_state"):
+            print(f"  {s['steady_state']['text']}")
         print(f"  {s['gated']}/{s['windows']} windows pass the dynamic method's gate")
         verdict = verdict_text(s.get("verdict"))
         if verdict:
             print(f"  verdict: {units_in_text(verdict)}")
         for line in _tribometer_lines(s):
             print(f"  {line}")
-        for key in ("operating_range_temperature", "operating_range_current_density"):
+        for key in ("operating_range_temperature", "operating_range_current_density", "operating_range_speed"):
             rng = s.get(key) or {}
             if rng.get("optimum"):
                 from ._labels import fmt_range
@@ -656,6 +758,7 @@ def _run(ns: argparse.Namespace) -> int:
         from .outputs import OutputSet
 
         open_opts, opts, protect = _analysis_options(ns)
+        meta = opts.pop("meta", None)
         files = expand_paths(ns.files)
         _check_regular(files)
         OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
@@ -684,6 +787,8 @@ def _run(ns: argparse.Namespace) -> int:
                 split=ns.split,
                 overwrite=ns.overwrite,
                 protect=protect,
+                meta=meta,
+                steady_state=ns.steady_state,
             )
         except ValueError as exc:
             if _MISSING_CHANNELS in str(exc):
@@ -708,6 +813,10 @@ def _run(ns: argparse.Namespace) -> int:
                 err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
             print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
         return EXIT_SOME_FAILED if summary.get("failures") else 0
+    if ns.command == "compare":
+        from .compare_job import cli_compare
+
+        return cli_compare(ns)
     if ns.command == "info":
         return _run_info(ns)
     if ns.command == "simulate":
@@ -858,6 +967,9 @@ def _print_info(info: Dict[str, Any]) -> None:
             role = f"role {c['role']}" if c.get("role") else ""
             note = c.get("note") or ""
             print(f"    {str(c.get('name')):<{w}}  {unit:<8} {role:<8} {note}".rstrip())
+    ev = info.get("roles_evidence") or {}
+    if ev.get("text") and ev.get("rule") != "names":
+        print(f"  friction:      fy <- {ev['text']}")
     meta = info.get("metadata") or {}
     if meta:
         print(f"  metadata ({len(meta)}):")
@@ -939,6 +1051,7 @@ def _one_line(msg: str) -> str:
 def _cli_words(msg: str) -> str:
     """A library message in the CLI's terms (its options instead of Python keywords)."""
     msg = msg.replace("pass fs=... (Hz)", "give --fs HZ").replace("; pass fs=", "; give --fs HZ")
+    msg = msg.replace("pass allow_mixed=True", "pass --allow-mixed")
     return msg.replace("pass overwrite=True", "pass --overwrite")
 
 

@@ -49,9 +49,18 @@ TABLE: Tuple[Column, ...] = (
     Column("mu_r_low", "1", "lower end of the 95 % interval of mu_r (docs/method.md 3d)"),
     Column("mu_r_high", "1", "upper end of the 95 % interval of mu_r (docs/method.md 3d)"),
     Column("mu_ols", "1", "COF by least squares, the paper's Eq. 8 (docs/method.md 3a)"),
+    Column("noise_z_var", "N^2", "the window's measurement of the fz noise variance sigma_z^2 (docs/method.md 3c)"),
+    Column(
+        "mu_r_dnoise",
+        "1/N^2",
+        "d mu_r / d sigma_z^2: how mu_r moves with the recording's fz-noise estimate (0 unless measured; "
+        "docs/method.md 3c, 3d)",
+    ),
     Column("attenuation_p", "1", "p-value of OLS = IV (small: OLS attenuated by noise on fz; docs/method.md 3b)"),
     Column("dmu_dfn", "1/N", "d mu / d Fn from the quadratic fit (docs/method.md 3e)"),
     Column("dmu_dfn_stderr", "1/N", "standard error of dmu_dfn (docs/method.md 3e)"),
+    Column("dmu_dfn_low", "1/N", "lower end of the 95 % interval of dmu_dfn (docs/method.md 3e)"),
+    Column("dmu_dfn_high", "1/N", "upper end of the 95 % interval of dmu_dfn (docs/method.md 3e)"),
     Column("f_y0", "N", "regression intercept in the measured fy frame (Eq. 7)"),
     Column("r", "1", "Pearson r of fy and fz"),
     Column("mu_a", "1", "mean s*fy/fz over fz <= -d (Sec. 3.3; docs/method.md 4)"),
@@ -76,6 +85,12 @@ TABLE: Tuple[Column, ...] = (
     Column("T_gap", "", "in a log gap where T changed faster than covariates.MAX_RATE (docs/method.md 6)", "bool"),
     Column("i", "A", "mean current"),
     Column("J", "A/mm^2", "mean current density"),
+    Column(
+        "speed",
+        "m/s",
+        "mean sliding speed: mean |v| of the velocity channel v in the window, or a speed log at the window centre "
+        "(docs/method.md 7a)",
+    ),
     Column("mu_instrument", "1", "mean of the instrument's own COF column ('cof' channel), if any"),
     Column("mu_classical", "1", "classical COF: mean |fy|/|fz| of the raw forces in contact (docs/method.md 6a)"),
     Column("mu_classical_median", "1", "median |fy|/|fz| over the same samples (docs/method.md 6a)"),

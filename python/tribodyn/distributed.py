@@ -78,6 +78,23 @@ class ManyResults:
             out[col] = np.concatenate([self.results[n].table[col] for n in names])
         return out
 
+    @property
+    def headlines(self) -> Dict[str, np.ndarray]:
+        """One row per recording: its headline (:class:`tribodyn.Headline`, docs/method.md 6e), in input order.
+
+        Columns ``recording``, ``method``, ``value``, ``low``, ``high``,
+        ``statistic``, ``n`` and ``fraction_used``; a failed recording is
+        not a row (see :attr:`failures`).
+        """
+        heads = [(name, r.headline) for name, r in self.results.items()]
+        cols: Dict[str, np.ndarray] = {"recording": np.asarray([n for n, _ in heads], dtype=str)}
+        for key in ("method", "statistic"):
+            cols[key] = np.asarray([getattr(h, key) for _, h in heads], dtype=str)
+        for key in ("value", "low", "high", "fraction_used"):
+            cols[key] = np.asarray([getattr(h, key) for _, h in heads], dtype=float)
+        cols["n"] = np.asarray([h.n for _, h in heads], dtype=np.int64)
+        return cols
+
     def to_pandas(self) -> Any:
         """The combined table as a ``pandas.DataFrame``."""
         import pandas as pd

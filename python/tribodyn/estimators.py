@@ -40,6 +40,8 @@ __all__ = [
     "Slopes",
     "slopes",
     "pooled_noise",
+    "window_noise",
+    "gate_precision",
     "quadratic",
     "line_stats",
     "line_frequencies",
@@ -55,6 +57,11 @@ _I = {name: k for k, name in enumerate(PRODUCTS)}
 ESTIMATORS = ("corrected", "iv", "ols", "deming")
 #: Student's t quantile 0.975 with BLOCKS - 1 = 4 degrees of freedom (scipy.stats.t.ppf(0.975, 4)).
 T975 = 2.7764451051977987
+#: Normal quantile 0.975 (scipy.stats.norm.ppf(0.975)).
+Z975 = 1.959963984540054
+#: Median of chi^2 with BLOCKS - 1 = 4 degrees of freedom (scipy.stats.chi2.ppf(0.5, 4)): a batch-means
+#: variance over 5 blocks is var(b) chi^2_4 / 4 (docs/method.md 5).
+CHI2_4_MEDIAN = 3.3566939800333224
 
 
 def student4_cdf(t: np.ndarray) -> np.ndarray:
@@ -129,6 +136,16 @@ class Slopes:
         sigma_z^2 (N^2) used by ``"corrected"`` (NaN otherwise).
     instrument_r : ndarray
         Pearson r of the instrument and fz per window (its strength).
+    dnoise : ndarray
+        d b / d sigma_z^2 = b n / D (1/N^2) for ``"corrected"`` with the noise
+        measured from the recording (one estimate, whose error moves every
+        window together; ``summary()`` draws it anew, docs/method.md 3d);
+        0 otherwise.
+    se_white : ndarray
+        The chosen estimator's standard error if the residuals were white:
+        s_e sqrt(S_hh) / |D| with s_e^2 = (S_yy - S_zy^2 / S_zz) / (n - 2)
+        (n - 2 degrees of freedom, so nearly free of sampling noise; the
+        precision the gate judges, docs/method.md 5).
     """
 
     ols: np.ndarray
@@ -140,20 +157,31 @@ class Slopes:
     attenuation_p: np.ndarray
     noise_z: float
     instrument_r: np.ndarray
+    se_white: np.ndarray
+    dnoise: np.ndarray
+
+
+def window_noise(E: "np.ndarray | Sums", n: np.ndarray) -> np.ndarray:
+    """Each window's measurement of sigma_z^2, (S_zz - S_zy / b_iv) / n (N^2; docs/method.md 3c).
+
+    The part of fz's variance the instrument does not share with fy; NaN
+    where the instrument gives no slope.
+    """
+    S = _sums(E)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        b_iv = _p(S, "wy", True) / _p(S, "wz", True)
+        s2: np.ndarray = (_p(S, "zz", True) - _p(S, "zy", True) / b_iv) / np.asarray(n, dtype=float)
+    return np.where(np.isfinite(s2), s2, np.nan)
 
 
 def pooled_noise(E: "np.ndarray | Sums", n: np.ndarray) -> Tuple[float, float]:
     """sigma_z^2 of the noise on fz measured from the recording, and its standard error (docs/method.md 3c).
 
-    Per window (S_zz - S_zy / b_iv) / n: the part of fz's variance the
-    instrument does not share with fy; the median over windows (robust to
-    windows where the instrument is weak), clipped at 0. Its standard error
-    is that of a median, sqrt(pi / 2) * 1.4826 MAD / sqrt(windows).
+    The median over windows of :func:`window_noise` (robust to windows
+    where the instrument is weak), clipped at 0. Its standard error is that
+    of a median, sqrt(pi / 2) * 1.4826 MAD / sqrt(windows).
     """
-    S = _sums(E)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        b_iv = _p(S, "wy", True) / _p(S, "wz", True)
-        s2 = (_p(S, "zz", True) - _p(S, "zy", True) / b_iv) / np.asarray(n, dtype=float)
+    s2 = window_noise(E, n)
     s2 = s2[np.isfinite(s2)]
     if s2.size == 0:
         return float("nan"), float("nan")
@@ -190,8 +218,9 @@ def slopes(
     S = _sums(E)
     nk = block_sizes(n)
     nf = np.asarray(n, dtype=float)
-    szz, szy, swz, swy, sww = (_p(S, k, True) for k in ("zz", "zy", "wz", "wy", "ww"))
+    szz, szy, syy, swz, swy, sww = (_p(S, k, True) for k in ("zz", "zy", "yy", "wz", "wy", "ww"))
     with np.errstate(invalid="ignore", divide="ignore"):
+        s_e2 = np.maximum(syy - szy * szy / szz, 0.0) / (nf - 2.0)  # OLS residual variance, docs/method.md 5
         b_ols = szy / szz
         u_ols = _p(S, "zy") - b_ols[:, None] * _p(S, "zz")
         b_iv = swy / swz
@@ -202,10 +231,15 @@ def slopes(
         t = (b_iv - b_ols) / np.sqrt(BLOCKS / (BLOCKS - 1) * np.sum(phi * phi, axis=1))
     p = 2.0 * student4_cdf(-np.abs(t))  # two-sided Student t, B - 1 = 4 degrees of freedom
     noise_z = float("nan")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        se_w = np.sqrt(s_e2 / szz)
+    dnoise = np.zeros(len(nf))
     if estimator == "ols":
         b, se = b_ols, se_ols
     elif estimator == "iv":
         b, se = b_iv, se_iv
+        with np.errstate(invalid="ignore", divide="ignore"):
+            se_w = np.sqrt(s_e2 * sww) / np.abs(swz)
     elif estimator == "corrected":
         if noise is not None:
             s2, s2_se = float(noise[1]) ** 2, 0.0
@@ -217,15 +251,46 @@ def slopes(
             D = np.where(D > 0, D, np.nan)
             b = szy / D
             u = _p(S, "zy") - b[:, None] * (_p(S, "zz") - nk * s2)
-            se = np.sqrt(_bm_se(u, D) ** 2 + (b * nf / D) ** 2 * (s2_se if np.isfinite(s2_se) else 0.0) ** 2)
+            s2_se = s2_se if np.isfinite(s2_se) else 0.0
+            se = np.sqrt(_bm_se(u, D) ** 2 + (b * nf / D) ** 2 * s2_se**2)
+            se_w = np.sqrt(s_e2 * szz) / D
+            if noise is None and s2_se > 0:  # measured here (a weak instrument's fallback passes (0, 0))
+                dnoise = b * nf / D
     else:
         if noise is None:
             raise ValueError("estimator='deming' needs noise=(sigma_y, sigma_z) or a quiet record (docs/method.md 3c)")
         b, se = _deming(S, nk, float(noise[0]) ** 2 / float(noise[1]) ** 2)
     return Slopes(
         ols=b_ols, ols_se=se_ols, iv=b_iv, iv_se=se_iv, slope=b, se=se, attenuation_p=p, noise_z=noise_z,
-        instrument_r=r_inst,
+        instrument_r=r_inst, se_white=se_w, dnoise=dnoise,
     )  # fmt: skip
+
+
+def gate_precision(mu: np.ndarray, se: np.ndarray, se_white: np.ndarray) -> Tuple[np.ndarray, float, float]:
+    """The relative half-width the "ci" gate judges, per window, and what it is made of (docs/method.md 5).
+
+    rel = Z975 R se_white / |mu_ref|: the window's white-noise standard
+    error ``se_white`` (:class:`Slopes`), scaled by the recording's ratio R
+    of batch-means to white-noise standard errors (R^2 = median over
+    windows of (se / se_white)^2, divided by median(chi^2_4) / 4 = 0.839,
+    the median of a batch-means variance over its expectation), against the
+    recording's robust COF mu_ref = median of the finite ``mu``. Neither
+    the window's own slope nor the sampling noise of its 4-degree-of-freedom
+    ``se`` enters, so passing does not select windows whose error is
+    positive or whose interval is too short. Returns (rel, R, mu_ref); rel
+    is NaN where it cannot be formed (the window then fails the gate).
+    """
+    mu = np.asarray(mu, dtype=float)
+    se_w = np.asarray(se_white, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        q2 = (np.asarray(se, dtype=float) / se_w) ** 2
+    q2 = q2[np.isfinite(q2)]
+    fin = mu[np.isfinite(mu)]
+    scale = float(np.sqrt(np.median(q2) * 4.0 / CHI2_4_MEDIAN)) if q2.size else float("nan")
+    ref = float(np.median(fin)) if fin.size else float("nan")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel: np.ndarray = Z975 * scale * se_w / abs(ref)
+    return np.where(np.isfinite(rel), rel, np.nan), scale, ref
 
 
 def _deming_slope(szz: np.ndarray, syy: np.ndarray, szy: np.ndarray, delta: float) -> np.ndarray:

@@ -14,6 +14,7 @@ function                                 paper figure
 :func:`cof_vs_temperature`               Fig. 11, COF vs temperature (hysteresis)
 :func:`cof_and_current_density_vs_time`  Fig. 12, COF and current density vs time
 :func:`cof_vs_current_density`           Sec. 4.2, COF vs J, optimum, instability onset
+:func:`stribeck_curve`                   COF vs sliding speed (log axis), regimes (7a)
 :func:`save_figure`                      atomic PNG
 =======================================  ==============================================
 
@@ -47,6 +48,7 @@ __all__ = [
     "cof_vs_temperature",
     "cof_and_current_density_vs_time",
     "cof_vs_current_density",
+    "stribeck_curve",
     "strokes_vs_cycle",
     "save_figure",
 ]
@@ -672,7 +674,18 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")
     ax.grid(True, alpha=0.3)
-    return handles, tops
+    return handles + _running_in(ax, results), tops
+
+
+def _running_in(ax: Axes, results: Any) -> List[Any]:
+    """A light band from the first window to t_steady when ``results.params["steady_state"]`` (a
+    :meth:`tribodyn.SteadyState.to_dict`) says the steady state is reached (docs/method.md 6h)."""
+    ss = (getattr(results, "params", None) or {}).get("steady_state") or {}
+    t0, ts = ss.get("t0"), ss.get("t_steady")
+    if ss.get("verdict") != "steady state reached" or t0 is None or ts is None or not ts > t0:
+        return []
+    return [ax.axvspan(t0, ts, color="tab:orange", alpha=0.12, linewidth=0, zorder=0.5,
+                       label=f"running-in (to t = {ts:.4g} s)")]  # fmt: skip
 
 
 def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tuple[List[Any], List[Any]]:
@@ -708,7 +721,7 @@ def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tu
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")
     ax.grid(True, alpha=0.3)
-    return handles, tops
+    return handles + _running_in(ax, results), tops
 
 
 def _cof_and_covariate_vs_time(
@@ -886,7 +899,7 @@ def _opr_of(results: Any, opr: Any, by: str) -> Any:
     try:
         from .ranges import operating_range
 
-        return operating_range(results, by=by)  # type: ignore[arg-type]
+        return operating_range(results, by=by)
     except (ValueError, KeyError, TypeError):
         return None
 
@@ -1082,6 +1095,97 @@ def cof_vs_current_density(results: Any, opr: Any = None, *, title: Optional[str
 
 
 # --------------------------------------------------------------------------
+# Stribeck curve: COF against sliding speed, regimes (docs/method.md 7a)
+# --------------------------------------------------------------------------
+#: The regimes a Stribeck fit's walls and flat bottom stand for, with their shading (docs/method.md 7a).
+STRIBECK_REGIMES = (
+    ("boundary and mixed", "the COF falls with speed", "tab:orange"),
+    ("lowest COF", "mixed, towards a full film", "tab:green"),
+    ("hydrodynamic", "the COF rises with speed", "tab:blue"),
+)
+_COF_LABEL = {"dynamic": r"COF $\mu_r$ (dynamic)", "classical": r"COF $\mu$ (classical, mean |fy|/|fz|)"}
+
+
+def stribeck_curve(results: Any, opr: Any = None, *, by: str = "speed", title: Optional[str] = None) -> Figure:
+    """COF against sliding speed on a log axis, with the fit and the lubrication regimes (docs/method.md 7a).
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`tribodyn.analyze` with a ``speed`` column (a velocity
+        channel ``v`` or ``covariates={"speed": ...}``).
+    opr : OperatingRange, optional
+        ``operating_range(results, by="speed")``: the COF it fitted (dynamic
+        or classical) is drawn per window, with the bathtub fit, its 95 %
+        band, the breakpoints with their intervals and the binned medians.
+        Computed with the defaults when omitted (skipped if impossible).
+    by : str
+        The covariate when ``opr`` is omitted (default "speed"; "load" for
+        a traction curve against the normal load).
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The regimes are shaded where the fit finds them (:data:`STRIBECK_REGIMES`):
+        below the lower breakpoint boundary and mixed lubrication (the COF
+        falls with speed; a straight wall cannot split the boundary plateau
+        from the mixed fall), between the breakpoints the lowest COF, above
+        the upper one hydrodynamic lubrication (the COF rises again). They
+        name the fitted walls, not a measured film thickness.
+    """
+    fig, axes = _figure(1, 1, figsize=(8.5, 6.0))
+    ax = axes[0, 0]
+    fig.suptitle(title or "Stribeck curve: COF against sliding speed")
+    if opr is None:
+        try:
+            from .ranges import operating_range
+
+            opr = operating_range(results, by=by)
+        except (ValueError, KeyError, TypeError) as exc:
+            _no_data(ax, f"no Stribeck curve: {exc}"[:120])
+            return fig
+    table = getattr(results, "table", results)
+    n = len(np.asarray(table["time"]))
+    raw = _column(results, opr.column, n)
+    x = np.abs(raw) if opr.by == "load" else raw
+    mu = _column(results, "mu_r" if opr.cof == "dynamic" else "mu_classical", n)
+    used = (_gated(results, n) if opr.cof == "dynamic" else np.ones(n, dtype=bool)) & np.isfinite(mu) & np.isfinite(x)
+    if opr.log:
+        used &= x > 0
+        ax.set_xscale("log")
+    unit = {"m/s": "m/s", "N": "N"}.get(opr.unit, opr.unit)
+    ax.set_xlabel(f"{opr.by.replace('_', ' ').capitalize()}" + (f" ({unit})" if unit else ""))
+    ax.set_ylabel(_COF_LABEL.get(opr.cof, "COF"))
+    if not used.any():
+        _no_data(ax, f"no window with a COF and a {opr.by.replace('_', ' ')}")
+        return fig
+    f = opr.fits.get("all") if getattr(opr, "fits", None) else None
+    lo_x, hi_x = float(x[used].min()), float(x[used].max())
+    if f is not None and f.verdict in ("optimum", "optimum at the edge of the tested range"):
+        edges = [lo_x, f.lower if f.lower is not None else None, f.upper if f.upper is not None else None, hi_x]
+        spans = ((edges[0], edges[1]), (edges[1] or lo_x, edges[2] or hi_x), (edges[2], edges[3]))
+        for (a, b), (name, what, colour) in zip(spans, STRIBECK_REGIMES):
+            if a is None or b is None or not b > a:
+                continue
+            ax.axvspan(a, b, color=colour, alpha=0.07, zorder=0, label=f"{name}: {what}")
+    ax.plot(x[used], mu[used], linestyle="none", marker="o", markersize=3.5, color="tab:blue", alpha=0.4,
+            label=f"windows ({int(used.sum())})")  # fmt: skip
+    c = opr.curves.get("all") if getattr(opr, "curves", None) else None
+    if c is not None and np.isfinite(c.median).any():
+        per = "decade" if opr.log else unit
+        ax.plot(c.centres, c.median, "s", color="black", markersize=5,
+                label=f"binned median ({_fmt(opr.bin_width, '.3g')} {per} bins)")  # fmt: skip
+    _draw_fit(ax, opr, unit, False)
+    lim = _cof_limits([mu[used]])
+    if lim is not None:
+        ax.set_ylim(*lim)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend_above(ax, ncol=2)
+    return fig
+
+
+# --------------------------------------------------------------------------
 # saving
 # --------------------------------------------------------------------------
 # --------------------------------------------------------------------------
@@ -1142,6 +1246,72 @@ def strokes_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
     ax.grid(True, alpha=0.3)
     _legend_above(ax, ncol=4)
     return fig
+
+
+def friction_loops(loops: Sequence[Mapping[str, Any]], *, title: Optional[str] = None) -> Figure:
+    """Friction loops: the friction force against the position over whole cycles (docs/method.md 6c).
+
+    Parameters
+    ----------
+    loops : sequence of mappings
+        Each with ``x`` (m), ``fy`` (N) of one cycle, ``label`` and ``energy`` (J, the loop's area).
+    title : str, optional
+        Figure title.
+    """
+    fig, axes = _figure(1, 1, figsize=(7.5, 5.0))
+    ax = axes[0, 0]
+    fig.suptitle(title or "Friction loops")
+    if not loops:
+        _no_data(ax, "no whole cycle with a position channel")
+        return fig
+    for k, lp in enumerate(loops):
+        x = 1e3 * np.asarray(lp["x"], dtype=float)
+        ax.plot(x, np.asarray(lp["fy"], dtype=float), linewidth=1.0, color=f"C{k}",
+                label=f"{lp['label']}: loop area {float(lp['energy']) * 1e3:.4g} mJ")  # fmt: skip
+    ax.axhline(0.0, color="0.6", linewidth=0.6)
+    ax.set_xlabel("position $x$ (mm)")
+    ax.set_ylabel("friction force $F_y$ (N)")
+    ax.grid(True, alpha=0.3)
+    _legend_above(ax, ncol=1)
+    return fig
+
+
+def energy_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
+    """The energy dissipated per cycle (the friction loop's area) and the energy COF against cycle (6c)."""
+    fig, axes = _figure(1, 1, figsize=(10.0, 4.6))
+    ax = axes[0, 0]
+    fig.suptitle(title or "Energy dissipated per cycle")
+    cy = getattr(results, "cycles", None)
+    if cy is None or not np.isfinite(np.asarray(cy["energy"], dtype=float)).any():
+        _no_data(ax, "no whole cycle with a position channel")
+        return fig
+    c = np.asarray(cy["cycle"], dtype=float)
+    e = np.asarray(cy["energy"], dtype=float)
+    m = np.asarray(cy["mu_energy"], dtype=float)
+    keep = np.isfinite(e)
+    (h1,) = ax.plot(c[keep], 1e3 * e[keep], marker="o", markersize=3, linewidth=0.8, color="tab:red",
+                    label="energy per cycle (loop area)")  # fmt: skip
+    ax.set_xlabel("cycle (one stroke each way)")
+    ax.set_ylabel("energy per cycle (mJ)", color="tab:red")
+    ax2 = ax.twinx()
+    (h2,) = ax2.plot(c[keep], m[keep], marker="s", markersize=3, linestyle="none", color="tab:blue",
+                     label="energy COF: energy / (F_n x distance)")  # fmt: skip
+    ax2.set_ylabel("energy COF", color="tab:blue")
+    lims = _cof_limits([m[keep]])
+    if lims is not None:
+        ax2.set_ylim(*lims)
+    ax.grid(True, alpha=0.3)
+    _legend_above(ax, [h1, h2], ncol=2)
+    return fig
+
+
+def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
+    """``fig`` rendered once as PNG bytes (no timestamp or software in its metadata, so the bytes repeat)."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+    return buf.getvalue()
 
 
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:

@@ -346,18 +346,10 @@ def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]
 
 
 def _cycle_means(strokes: Mapping[str, np.ndarray]) -> np.ndarray:
-    """Per cycle, the mean of its forward and backward stroke means (NaN when a direction is missing)."""
-    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
-    mu = np.asarray(strokes["mu"], dtype=float)
-    d = np.asarray(strokes["direction"], dtype=np.int64)
-    out = []
-    for c in np.unique(cyc):
-        sel = cyc == c
-        fw = mu[sel & (d == 1)]
-        bw = mu[sel & (d == -1)]
-        fw, bw = fw[np.isfinite(fw)], bw[np.isfinite(bw)]
-        out.append(0.5 * (fw.mean() + bw.mean()) if fw.size and bw.size else np.nan)
-    return np.asarray(out, dtype=float)
+    """Per cycle, ``mu_cycle``: the mean of its forward and backward stroke means (``tribometer.cycle_table``)."""
+    from .tribometer import cycle_table
+
+    return cycle_table(strokes)["mu_cycle"]
 
 
 def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
@@ -373,7 +365,7 @@ def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
 
 
 def _dynamic(res: "Results", total: int) -> Headline:
-    from .results import bootstrap_ci
+    from .results import bootstrap_ci, noise_resample
 
     ok = np.asarray(res.table["ok"], dtype=bool)
     mu = np.asarray(res.table["mu_r"], dtype=float)
@@ -391,7 +383,9 @@ def _dynamic(res: "Results", total: int) -> Headline:
         meds, halves = [], []
         for sign in (1, -1):
             part = v[d == sign]
-            ci = bootstrap_ci(part).get("median")
+            sel = keep.copy()
+            sel[keep] = d == sign
+            ci = bootstrap_ci(part, noise=noise_resample(res.table, sel)).get("median")
             if part.size:
                 meds.append(float(np.median(part)))
                 halves.append(0.5 * (ci[1] - ci[0]) if ci else float("nan"))
@@ -405,7 +399,8 @@ def _dynamic(res: "Results", total: int) -> Headline:
                           f"({est} estimator, direction-rectified strokes) over {v.size} gated windows of {len(res)}"),
                 interval="each direction's median by moving-block bootstrap, half-widths combined in quadrature / 2",
             )  # fmt: skip
-    ci = bootstrap_ci(v).get("median")
+    # the recording's fz-noise estimate is drawn anew in each resample (docs/method.md 3d)
+    ci = bootstrap_ci(v, noise=noise_resample(res.table, keep)).get("median")
     rect = ", direction-rectified strokes" if res.params.get("rectified") else ""
     return Headline(
         method="dynamic",
@@ -423,6 +418,9 @@ def _dynamic(res: "Results", total: int) -> Headline:
 def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
     tot: Optional[ClassicalTotals] = res.classical
     interval = f"batch means over up to {BATCHES} contiguous blocks of the recording (docs/method.md 6e)"
+    note = (res.params.get("contact") or {}).get("note")
+    if note:  # the tare from the unloaded samples is uncertain (docs/method.md 6a)
+        why = why + (str(note),)
     if tot is not None and tot.contact:
         m, lo, hi, b = tot.mean()
         excluded = tot.samples - tot.contact

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from .analyze import analyze
 from .identify import identify
 from .outputs import OutputSet, input_provenance, pyarrow_modules, write_json, write_table_csv, write_table_parquet
 from .ranges import OperatingRange, operating_range
+from .record import Meta, metadata, record_html, summary_meta
 from .results import Results
 
 __all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
@@ -116,7 +117,7 @@ def _truth_breakpoints(res: Results, truth: Any, by: str) -> Optional[Dict[str, 
 
 def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
     try:
-        return operating_range(res, by, **kw)  # type: ignore[arg-type]
+        return operating_range(res, by, **kw)
     except ValueError:
         return None
 
@@ -159,30 +160,73 @@ def _figures(
     *,
     opr_t: Optional[OperatingRange],
     opr_j: Optional[OperatingRange],
+    opr_v: Optional[OperatingRange] = None,
     example: Optional[Dict[str, Any]] = None,
     examples: Sequence[Dict[str, Any]] = (),
+    loops: Sequence[Dict[str, Any]] = (),
 ) -> List[Tuple[str, str, Any]]:
     """(file name, caption, Figure) of every figure, named after the paper's figures."""
     from .report import build_named_figures
 
     exs = list(examples) + ([example] if example is not None else [])
-    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, examples=exs)
+    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, opr_speed=opr_v, examples=exs,
+                               loops=loops)  # fmt: skip
 
 
-def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str) -> List[str]:
-    from .figures import save_figure
+def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
+                  ) -> List[Dict[str, Any]]:  # fmt: skip
+    """fy and x of the first, a middle and the last whole cycle with an energy, for the friction loops (6c).
 
-    names = []
-    for stem, _caption, fig in figs:
+    ``source`` is a recording path or a dict of channel arrays; only those
+    cycles' samples are read again.
+    """
+    cy = res.cycles
+    if cy is None:
+        return []
+    whole = np.flatnonzero(np.isfinite(np.asarray(cy["energy"], dtype=float)))
+    if whole.size == 0:
+        return []
+    picks = list(dict.fromkeys(int(whole[i]) for i in (0, whole.size // 2, whole.size - 1)))
+    names = {1: ("only",), 2: ("first", "last"), 3: ("first", "middle", "last")}[len(picks)]
+    total = int(res.params.get("n_samples_total") or 0)
+    out = []
+    for k, name in zip(picks, names):
+        a, b = int(cy["start"][k]), int(cy["stop"][k])
+        b = min(b + 1, total) if total else b  # the next cycle's first sample closes the loop
+        ch = _read_window(source, a, b - a, open_options or {}, roles=("fy", "x"))
+        if ch is None or "x" not in ch or "fy" not in ch:
+            return []
+        out.append({"x": ch["x"], "fy": ch["fy"], "energy": float(cy["energy"][k]),
+                    "label": f"{name} whole cycle (no. {int(cy['cycle'][k])})"})  # fmt: skip
+    return out
+
+
+def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str
+                  ) -> List[Tuple[str, str, bytes]]:  # fmt: skip
+    """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
+    triples; the report embeds the same PNG bytes (no figure is drawn or encoded twice)."""
+    from .figures import png_bytes
+    from .io.writers import atomic_write
+
+    saved = []
+    for stem, caption, fig in figs:
         name = f"figures/{prefix}{stem}.png"
-        save_figure(fig, out.path(name))
-        names.append(name)
-    return names
+        data = png_bytes(fig)
+        atomic_write(out.path(name), _bytes_writer(data))
+        saved.append((name, caption, data))
+    return saved
 
 
-def _captioned(figs: Sequence[Tuple[str, str, Any]], files: Sequence[str]) -> List[Tuple[str, Any]]:
-    """(caption naming the PNG file, Figure) pairs for the report."""
-    return [(f"{cap} [{Path(f).name}]", fig) for (_, cap, fig), f in zip(figs, files)]
+def _bytes_writer(data: bytes) -> Callable[[str], None]:
+    def write(tmp: str) -> None:
+        Path(tmp).write_bytes(data)
+
+    return write
+
+
+def _captioned(saved: Sequence[Tuple[str, str, bytes]]) -> List[Tuple[str, bytes]]:
+    """(caption naming the PNG file, PNG bytes) pairs for the report."""
+    return [(f"{cap} [{Path(name).name}]", data) for name, cap, data in saved]
 
 
 def pick_windows(res: Results) -> Dict[str, int]:
@@ -255,8 +299,8 @@ def diagnostic_examples(
     return out
 
 
-def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any]) -> Optional[Dict[str, np.ndarray]]:
-    roles = ("fx", "fy", "fz")
+def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any],
+                 roles: Sequence[str] = ("fx", "fy", "fz")) -> Optional[Dict[str, np.ndarray]]:  # fmt: skip
     if isinstance(source, Mapping):
         return {r: np.asarray(source[r][start : start + n], dtype=float) for r in roles if r in source}
     from .io import open_recording
@@ -348,7 +392,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
         png_t = _save_figures(out, figs_t, "temperature_")
         png_j = _save_figures(out, figs_j, "current_density_")
-        files += png_t + png_j
+        files += [name for name, _, _ in png_t + png_j]
         summary["files"] = files + ["summary.json", "report.html"]
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
@@ -360,16 +404,16 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
             title="tribodyn demo: the paper's rig, simulated",
             summary=_flat_summary(summary),
             params={"temperature test": res_t.params, "current-density test": res_j.params},
-            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(figs_t, png_t)]
-            + [(f"Current-density test: {c}", f) for c, f in _captioned(figs_j, png_j)],
+            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(png_t)]
+            + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
             verdict=verdict,
             inputs=[],
             sections=_report_extras(res_t, "temperature test", "temperature_windows.csv")
             + _report_extras(res_j, "current-density test", "current_density_windows.csv"),
             head_html=_bokeh_head(),
             quality={
-                "temperature test": res_t.summary()["gate_failures"],
-                "current-density test": res_j.summary()["gate_failures"],
+                "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
+                "current-density test": s_j["gate_failures"],
             },
         )
     return summary
@@ -505,6 +549,8 @@ def run_analysis(
     split: Optional[float] = None,
     overwrite: bool = False,
     protect: Sequence[Any] = (),
+    meta: Optional[Meta] = None,
+    steady_state: bool = False,
 ) -> Dict[str, Any]:
     """Analyses recording files and writes the outputs into ``out_dir``.
 
@@ -520,14 +566,26 @@ def run_analysis(
     :class:`~tribodyn.outputs.OutputSet`): a folder holding anything but a
     previous output set is refused unless ``overwrite``; a folder holding
     an input file, or one of the files ``protect`` names, always.
+
+    ``meta`` is the test record (:func:`tribodyn.record.parse_meta`,
+    docs/method.md 10c): each recording's ``summary["recordings"][name]["meta"]``,
+    ``metadata.json`` and the report's "Test record" section.
+
+    ``steady_state``: also where each recording's running-in ends
+    (:func:`tribodyn.steady_state`, docs/method.md 6h): its ``steady_state``
+    entry in the summary, a verdict line, and the running-in shaded on the
+    COF-against-time figure.
     """
     from . import __version__
     from .distributed import analyze_many, expand_paths
     from .report import verdict_lines, write_report
+    from .stickslip import stick_slip
 
     open_options = dict(open_options or {})
     opts = dict(analyze_options or {})
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
+    cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
+    meta = meta or Meta()
     if not paths:
         raise ValueError("no input file given")
     files = expand_paths(paths)
@@ -569,7 +627,9 @@ def run_analysis(
     inputs = {i["file"]: i for i in summary["inputs"]}
     for p, res in runs:
         inputs[p.name]["channels"] = _channel_map(p, open_options)
-        inputs[p.name]["logs"] = [f"temperature: {Path(log_file).name}"] if log_file else []
+        inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
+            f"{name}: {Path(f).name}" for name, f in cov_files.items()
+        ]
     with output as out:
         all_figs = []
         verdict: List[str] = []
@@ -578,28 +638,48 @@ def run_analysis(
             prefix = "" if single else f"{label}/"
             opr_t = _try_range(res, "temperature")
             opr_j = _try_range(res, "current_density")
+            has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
+            opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
             files = _write_set(out, prefix, res)
             try:
                 examples = diagnostic_examples(str(p), res, open_options)
+                loops = loop_examples(str(p), res, open_options)
             except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
-                examples = []
+                examples, loops = [], []
                 res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
-            figs = _figures(res, opr_t=opr_t, opr_j=opr_j, examples=examples)
+            try:  # docs/method.md 6g: fy and fz read again; only a test with a static fz is searched
+                slip: Optional[Dict[str, Any]] = stick_slip(str(p), res, open_options=open_options).to_dict()
+            except (OSError, ValueError) as exc:
+                slip = None
+                res = dataclasses.replace(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
+            steady = _steady_state(res) if steady_state else None
+            # the figures read the steady state from their Results' params (docs/method.md 6h)
+            fig_res = dataclasses.replace(res, params={**res.params, "steady_state": steady}) if steady else res
+            figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
-            files += pngs
+            files += [name for name, _, _ in pngs]
             rec_sum = {
                 **res.summary(),
+                **({"steady_state": steady} if steady else {}),
                 "operating_range_temperature": range_summary(opr_t),
                 "operating_range_current_density": range_summary(opr_j),
+                "operating_range_speed": range_summary(opr_v),
                 "params": res.params,
                 "files": files,
+                "stick_slip": slip,
             }
+            rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
             summary["recordings"][p.name] = rec_sum
             ranges = {"temperature": rec_sum["operating_range_temperature"],
-                      "current_density": rec_sum["operating_range_current_density"]}  # fmt: skip
+                      "current_density": rec_sum["operating_range_current_density"],
+                      "speed": rec_sum["operating_range_speed"]}  # fmt: skip
             lines = verdict_lines(p.name, rec_sum, res.params, ranges)
+            if steady:  # right after the headline
+                lines.insert(1, f"{p.name}: {steady['text']}.")
+            if slip and slip["present"]:
+                lines.append(f"{p.name}: {slip['verdict']}")
             extras = _report_extras(res, p.name, f"{prefix}windows.csv")
-            captioned = _captioned(figs, pngs)
+            captioned = _captioned(pngs)
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
                 write_report(
@@ -613,6 +693,7 @@ def run_analysis(
                     inputs=[inputs[p.name]],
                     sections=_report_extras(res, p.name, "windows.csv"),
                     head_html=_bokeh_head(),
+                    record_html=record_html(meta, {p.name: rec_sum["headline"]}),
                 )
             verdict += lines
             sections += extras
@@ -623,6 +704,8 @@ def run_analysis(
             write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
+        heads = {n: r["headline"] for n, r in summary["recordings"].items()}
+        write_json(metadata(meta, summary["inputs"], heads, __version__), out.path("metadata.json"))
         for name, f in failures.items():
             verdict.append(f"{name}: not analysed: {f['error']}")
         write_report(
@@ -631,7 +714,7 @@ def run_analysis(
             summary=_flat_summary(summary["recordings"]),
             params={p.name: r.params for p, r in runs},
             figures=all_figs,
-            quality={p.name: r.summary()["gate_failures"] for p, r in runs},
+            quality={p.name: summary["recordings"][p.name]["gate_failures"] for p, _ in runs},
             verdict=verdict,
             inputs=list(inputs.values())
             + [
@@ -640,8 +723,16 @@ def run_analysis(
             ],  # fmt: skip
             sections=sections,
             head_html=_bokeh_head(),
+            record_html=record_html(meta, heads),
         )
     return summary
+
+
+def _steady_state(res: Results) -> Dict[str, Any]:
+    """:func:`tribodyn.steady_state` of ``res`` as JSON (docs/method.md 6h)."""
+    from .steady import steady_state
+
+    return steady_state(res).to_dict()
 
 
 def _channel_map(path: Path, open_options: Mapping[str, Any]) -> Dict[str, str]:

@@ -8,10 +8,11 @@ changes while a recording is read.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
+from typing import Any, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
-from typing import Any, Dict, Optional, Tuple, Union
 
 from ._validate import check_bins, check_fs, check_int, positive
 from .columns import kernel_columns
@@ -20,7 +21,7 @@ from .deadband import Deadband, DeadbandSpec, parse_deadband
 from .identify import Orientation, check_gate
 from .threads import resolve_threads
 
-__all__ = ["Covariates", "Plan", "make_plan", "check_orientation"]
+__all__ = ["Covariates", "Plan", "make_plan", "check_orientation", "check_covariate_logs"]
 
 
 def check_orientation(orientation: Any) -> Union[int, str]:
@@ -47,6 +48,11 @@ class Covariates:
         Shunt resistance R (i = u / R), needed with a voltage.
     area_mm2 : float or None
         Contact area: J = i / area_mm2 in A/mm^2.
+    logs : tuple of (name, (t_s, values))
+        Other covariate logs by name (``analyze(covariates=...)``), each
+        interpolated at the window centres into the table: ``speed`` (m/s)
+        into the declared column, any other name into a column of its own
+        after the declared ones (docs/method.md 7a).
     """
 
     temperature: Optional[TimeLog] = None
@@ -54,6 +60,40 @@ class Covariates:
     voltage: Optional[TimeLog] = None
     shunt_ohm: Optional[float] = None
     area_mm2: Optional[float] = None
+    logs: Tuple[Tuple[str, TimeLog], ...] = ()
+
+
+#: Names a covariate log may not take: the options that have their own meaning (docs/method.md 7a).
+_OWN_OPTION = {"temperature": "temperature=", "current": "current=", "voltage": "voltage="}
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+
+
+def check_covariate_logs(covariates: Any) -> Tuple[Tuple[str, TimeLog], ...]:
+    """``analyze(covariates=...)`` checked: a mapping of name -> (t_s, values) log or constant (docs/method.md 7a).
+
+    A name is an identifier that is not a column of the table (``speed``
+    excepted: its log fills that column) nor ``temperature``, ``current`` or
+    ``voltage`` (their options interpolate, branch and check their logs).
+    """
+    from .columns import UNITS
+
+    if covariates is None:
+        return ()
+    if not isinstance(covariates, Mapping):
+        raise TypeError(f"covariates must be a mapping of name -> (t_s, values), got {type(covariates).__name__}")
+    out = []
+    for name, log in covariates.items():
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise ValueError(f"covariates: a name must be an identifier (letters, digits, _), got {name!r}")
+        if name in _OWN_OPTION:
+            raise ValueError(f"covariates: give the {name} log as {_OWN_OPTION[name]} (it has its own treatment)")
+        if name in UNITS and name != "speed":
+            raise ValueError(f"covariates: {name!r} is a column of the table; name the log otherwise")
+        found = constant_or_log(log, f"covariates[{name!r}]")
+        if found is None:
+            raise ValueError(f"covariates[{name!r}] is None: give a (t_s, values) log or a number")
+        out.append((name, found))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -112,7 +152,7 @@ class Plan:
     method: str = ""
     #: Slope estimator (docs/method.md 3a-3c): "corrected", "iv", "ols" or "deming".
     estimator: str = "ols"
-    #: Largest relative half-width of the 95 % interval for gate "ci".
+    #: Largest expected half-width of the 95 % interval, relative to the recording's COF, for gate "ci".
     max_rel_ci: float = 0.1
     #: "auto" (estimate and correct the fz delay) or None.
     align: Optional[str] = None
@@ -185,6 +225,7 @@ class Plan:
             shunt_ohm=cov.shunt_ohm,
             chunk_samples=self.chunk,
             temperature_log_points=None if cov.temperature is None else int(cov.temperature[0].size),
+            covariate_logs={k: int(v[0].size) for k, v in cov.logs} or None,
         )
 
 
@@ -200,6 +241,7 @@ def make_plan(
     voltage: Any = None,
     shunt_ohm: Any = None,
     area_mm2: Any = None,
+    covariates: Any = None,
     chunk: Any = None,
     progress: bool = False,
     deadband: DeadbandSpec = 0.35,
@@ -246,6 +288,7 @@ def make_plan(
         voltage=constant_or_log(voltage, "voltage"),
         shunt_ohm=shunt,
         area_mm2=None if area_mm2 is None else positive(area_mm2, "area_mm2"),
+        logs=check_covariate_logs(covariates),
     )
     origin = check_int(start, "start", minimum=0)
     end = None if stop is None else check_int(stop, "stop", minimum=0)
@@ -280,7 +323,7 @@ def make_plan(
 
 #: Segments averaged per window for the line cross-spectra (docs/method.md 3e).
 LINE_SEGMENTS = 4
-#: Default largest relative half-width of the 95 % interval (gate "ci"; docs/method.md 5).
+#: Default largest expected relative half-width of the 95 % interval (gate "ci"; docs/method.md 5).
 MAX_REL_CI = 0.1
 
 

@@ -1,5 +1,14 @@
-"""Operating ranges: COF against temperature or current density
-(docs/method.md section 7, paper Secs. 4.1-4.2).
+"""Operating ranges: COF against temperature, current density or any covariate
+(docs/method.md sections 7 and 7a, paper Secs. 4.1-4.2).
+
+The covariate (``by``) is a column of the per-window table or the name of
+a role or log: "temperature" (``T``), "current_density" (``J``), "current"
+(``i``), "speed" (``speed``, m/s, fitted on a log axis: a Stribeck curve),
+"load" (|``fz_mean``|, N) or a covariate log given to
+:func:`tribodyn.analyze`. The COF fitted is the one the headline uses
+(``cof="auto"``): the dynamic ``mu_r`` of the gated windows, or the
+classical ``mu_classical`` of each window when the dynamic method does not
+apply (a dead weight).
 
 ``method="segmented"`` (the default) fits a continuous, flat-bottomed
 piecewise-linear curve ("bathtub") to the COF of the usable windows against
@@ -29,9 +38,10 @@ Both methods return the binned curves (``curves``), drawn as points.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Dict, Literal, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Literal, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -41,11 +51,11 @@ from .segmented import Fit, Selection, bootstrap_indices, fit_bathtub, fit_famil
 
 __all__ = ["RangeCurve", "OperatingRange", "BranchFit", "Hysteresis", "operating_range", "VERDICTS"]
 
-By = Literal["temperature", "current_density"]
+#: A covariate: a column of the table or the name of a role or log (docs/method.md 7a).
+By = str
 Method = Literal["segmented", "binned"]
-_COLUMN = {"temperature": "T", "current_density": "J"}
-_DEFAULT_WIDTH = {"temperature": 5.0, "current_density": 0.5}
-_UNIT = {"temperature": "degC", "current_density": "A/mm^2"}
+#: The COF fitted: the headline's ("auto"), the dynamic mu_r or the classical per-window COF.
+Cof = Literal["auto", "dynamic", "classical"]
 _BRANCHES = {"heating": 1, "cooling": -1}
 
 #: The verdicts of :func:`operating_range` (docs/method.md 7).
@@ -58,9 +68,101 @@ VERDICTS = (
 )
 #: Fewest usable windows a fit needs (5 parameters and walls of 3 windows).
 MIN_WINDOWS = 10
+#: The constant-covariate threshold of a covariate without its own, relative to its largest |value|.
+RELATIVE_RESOLUTION = 0.01
+
+
+@dataclass(frozen=True)
+class Covariate:
+    """What :func:`operating_range` fits against (docs/method.md 7a).
+
+    Attributes
+    ----------
+    by : str
+        The name reported (``OperatingRange.by``).
+    column : str
+        The table column read.
+    unit : str
+    log : bool
+        Fitted on a log10 axis (breakpoints and intervals reported in the column's unit).
+    magnitude : bool
+        The column's absolute value (a load from a signed fz).
+    width : float or None
+        Default bin width of the binned curves, in fit units (decades when ``log``); None: a tenth of the range.
+    resolution : float or None
+        Spread below which the covariate is constant, in fit units; None: :data:`RELATIVE_RESOLUTION`.
+    needs : str
+        What analyze needs to fill the column (for the error saying it is empty).
+    """
+
+    by: str
+    column: str
+    unit: str
+    log: bool = False
+    magnitude: bool = False
+    width: Optional[float] = None
+    resolution: Optional[float] = None
+    needs: str = ""
+
+    def inverse(self, x: Any) -> Any:
+        """A value in fit units in the column's unit (10**x on a log axis); None stays None."""
+        if x is None or not self.log:
+            return x
+        return 10.0 ** float(x)
+
+
+_KNOWN = (
+    Covariate("temperature", "T", "degC", width=5.0, resolution=1.0, needs="a temperature log"),
+    Covariate("current_density", "J", "A/mm^2", width=0.5, resolution=0.05, needs="a current and area_mm2"),
+    Covariate("current", "i", "A", width=0.5, resolution=0.05, needs="a current (channel i, u or current=)"),
+    Covariate(
+        "speed", "speed", "m/s", log=True, width=0.25, resolution=0.05, needs="a velocity channel v or a speed log"
+    ),
+    Covariate("load", "fz_mean", "N", magnitude=True, needs="forces with their static level (fz_mean)"),
+)
 #: Below this spread (max - min over the usable windows) the covariate
-#: counts as constant: 1 degC, 0.05 A/mm^2.
-RESOLUTION = {"temperature": 1.0, "current_density": 0.05}
+#: counts as constant: 1 degC, 0.05 A/mm^2, 0.05 A; for speed 0.05 decades
+#: of its log axis (a factor 1.12). Other covariates: 1 % of their largest
+#: magnitude (:data:`RELATIVE_RESOLUTION`).
+RESOLUTION = {c.by: c.resolution for c in _KNOWN if c.resolution is not None}
+#: Names of the known covariates and of their roles and columns (docs/method.md 7a).
+_ALIASES: Dict[str, Covariate] = {
+    **{c.by: c for c in _KNOWN},
+    **{c.column: c for c in _KNOWN if c.column != "fz_mean"},
+    "v": _KNOWN[3], "velocity": _KNOWN[3], "sliding_speed": _KNOWN[3],
+    "normal_load": _KNOWN[4], "fz": _KNOWN[4], "fn": _KNOWN[4],
+}  # fmt: skip
+
+
+def covariate(results: Results, by: str, log: Optional[bool] = None) -> Covariate:
+    """The covariate ``by`` names in ``results`` (docs/method.md 7a): a known name or role, else a float column.
+
+    A known name (:data:`_ALIASES`: temperature, current_density, current,
+    speed, load and their roles and columns) comes first unless the table
+    has a covariate log of that name; then any float column of the table.
+    ``log`` overrides the axis (default: log for speed only).
+    """
+    from .columns import UNITS
+
+    if not isinstance(by, str):
+        raise TypeError(f"by must be a column or covariate name (a string), got {type(by).__name__}")
+    table = results.table
+    spec = _ALIASES.get(by) if by in _ALIASES and not (by in table and by not in UNITS) else None
+    if spec is None:
+        if by not in table or np.asarray(table[by]).dtype.kind != "f":
+            known = ", ".join(c.by for c in _KNOWN)
+            logs = [k for k in table if k not in UNITS]
+            more = f", the covariate logs {', '.join(logs)}" if logs else ""
+            raise ValueError(f"by must be {known}{more} or a numeric column of the table (e.g. fz_std), got {by!r}")
+        spec = Covariate(by, by, UNITS.get(by, ""), needs=f"the column {by}")
+    if log is not None:
+        if not isinstance(log, (bool, np.bool_)):
+            raise TypeError(f"log must be True, False or None, got {log!r}")
+        if bool(log) != spec.log:
+            spec = dataclasses.replace(spec, log=bool(log), width=None, resolution=None)
+    return spec
+
+
 #: Level of the F-tests that choose the model (docs/method.md 7).
 ALPHA = 0.01
 Interval = Tuple[float, float]
@@ -225,6 +327,17 @@ class OperatingRange:
         the highest covariate below it without contact loss and it.
     n_boot, seed : int
         Bootstrap resamples and the generator's seed.
+    column : str
+        The table column fitted against (``T``, ``J``, ``speed``, ...).
+    log : bool
+        Fitted on a log10 axis of the covariate (speed): breakpoints,
+        intervals, the onset, ``x_range`` and ``grid`` are in the column's
+        unit, wall slopes in COF per decade, ``bin_width`` in decades; an
+        absent wall's interval starts at 0 instead of -inf.
+    cof : str
+        The COF fitted: "dynamic" (``mu_r`` of the gated windows, weighted
+        by ``mu_r_stderr``) or "classical" (``mu_classical`` of each
+        window, equal weights; docs/method.md 7a).
     """
 
     by: str
@@ -253,6 +366,9 @@ class OperatingRange:
     instability_ci: Optional[Interval] = None
     n_boot: int = 0
     seed: int = 0
+    column: str = ""
+    log: bool = False
+    cof: str = "dynamic"
 
     def to_dict(self) -> Dict[str, Any]:
         """The JSON-ready essentials (for ``summary.json`` and the report)."""
@@ -278,6 +394,9 @@ class OperatingRange:
             "bin_width": self.bin_width,
             "tol": self.tol,
             "rise": self.rise,
+            "column": self.column,
+            "scale": "log" if self.log else "linear",
+            "cof": self.cof,
         }
         for name, f in self.fits.items():
             if name == "all":
@@ -353,9 +472,10 @@ def _onset(f: Fit, rise: float, x_max: float) -> float:
 
 
 def _excluded(
-    results: Results, by: str, cov: np.ndarray, mu: np.ndarray, se: np.ndarray
-) -> Tuple[np.ndarray, Dict[str, int]]:
-    ok = results.gated
+    results: Results, by: str, cov: np.ndarray, mu: np.ndarray, se: np.ndarray, ok: np.ndarray,
+    nonpositive: Optional[np.ndarray] = None, gate: str = "gate",
+) -> Tuple[np.ndarray, Dict[str, int]]:  # fmt: skip
+    """Usable windows and the others counted by reason; ``ok`` the windows the COF allows (``gate`` names the rest)."""
     reasons = np.asarray(results["reasons"]).astype(str)
     lost = np.char.find(reasons, _CONTACT_LOSS) >= 0
     gap = np.asarray(results.table.get("T_gap", np.zeros(len(ok), dtype=bool)), dtype=bool)
@@ -363,9 +483,10 @@ def _excluded(
         gap = np.zeros(len(ok), dtype=bool)
     has = np.isfinite(cov)
     counts = {
-        "no covariate": int((~has).sum()),
+        "no covariate": int((~has).sum()) - (0 if nonpositive is None else int(nonpositive.sum())),
+        "covariate <= 0 (log axis)": 0 if nonpositive is None else int(nonpositive.sum()),
         "contact loss": int((has & lost).sum()),
-        "gate": int((has & ~ok & ~lost).sum()),
+        gate: int((has & ~ok & ~lost).sum()),
         "temperature log gap": int((has & ok & gap).sum()),
     }
     usable = has & ok & ~gap
@@ -374,16 +495,16 @@ def _excluded(
     return usable & ~bad, {k: v for k, v in counts.items() if v}
 
 
-def _explain(verdict: str, by: str, unit: str, f: Fit, sel: Optional[Selection], n: int, rng: Interval) -> str:
-    what = by.replace("_", " ")
+def _explain(verdict: str, cv: Covariate, resolution: float, f: Fit, sel: Optional[Selection], n: int,
+             rng: Interval) -> str:  # fmt: skip
+    """The verdict in one sentence; ``f``'s breakpoints and ``rng`` in the column's unit."""
+    what, unit = cv.by.replace("_", " "), cv.unit
     span = f"{rng[0]:.4g}-{rng[1]:.4g} {unit}"
     if verdict == "too few windows":
         return f"Only {n} usable windows (at least {MIN_WINDOWS} are needed), so no range is fitted."
     if verdict == "covariate constant":
-        return (
-            f"The {what} only spans {span} (less than {RESOLUTION[by]:g} {unit}), so the COF's dependence on it "
-            "cannot be identified."
-        )
+        less = f"a factor {10.0**resolution:.3g}" if cv.log else f"{resolution:.3g} {unit}"
+        return f"The {what} only spans {span} (less than {less}), so the COF's dependence on it cannot be identified."
     p = sel.p_flat if sel is not None else float("nan")
     if verdict == "no dependence":
         return (
@@ -409,23 +530,54 @@ def _explain(verdict: str, by: str, unit: str, f: Fit, sel: Optional[Selection],
 
 
 def _branch_fit(
-    name: str, by: str, x: np.ndarray, y: np.ndarray, se: np.ndarray, boot: Sequence[np.ndarray], rise: float
-) -> Tuple[BranchFit, Dict[str, np.ndarray]]:
-    """The fit of one branch and its bootstrap draws (``boot``: resampled positions into x)."""
-    unit = _UNIT[by]
+    name: str, cv: Covariate, resolution: float, x: np.ndarray, y: np.ndarray, se: np.ndarray,
+    boot: Sequence[np.ndarray], rise: float,
+) -> Tuple[BranchFit, Dict[str, np.ndarray]]:  # fmt: skip
+    """The fit of one branch and its bootstrap draws (``boot``: resampled positions into x; x in fit units)."""
+    bf, draws = _branch_fit_units(name, cv, resolution, x, y, se, boot, rise)
+    return _in_column_units(bf, cv), draws
+
+
+def _in_column_units(bf: BranchFit, cv: Covariate) -> BranchFit:
+    """A fit on a log axis with its covariate values in the column's unit (docs/method.md 7a)."""
+    if not cv.log:
+        return bf
+    inv: Callable[[Any], Any] = cv.inverse
+
+    def pair(p: Any) -> Any:
+        return None if p is None else (inv(p[0]), inv(p[1]))
+
+    return dataclasses.replace(
+        bf, optimum=pair(bf.optimum),
+        optimum_ci=None if bf.optimum_ci is None else (pair(bf.optimum_ci[0]), pair(bf.optimum_ci[1])),
+        lower=inv(bf.lower), lower_ci=pair(bf.lower_ci), upper=inv(bf.upper), upper_ci=pair(bf.upper_ci),
+        onset=inv(bf.onset), onset_ci=pair(bf.onset_ci), x_range=pair(bf.x_range), grid=10.0**bf.grid,
+    )  # fmt: skip
+
+
+def _branch_fit_units(
+    name: str, cv: Covariate, resolution: float, x: np.ndarray, y: np.ndarray, se: np.ndarray,
+    boot: Sequence[np.ndarray], rise: float,
+) -> Tuple[BranchFit, Dict[str, np.ndarray]]:  # fmt: skip
     n = len(x)
     grid = np.linspace(float(x.min()), float(x.max()), 121) if n else np.zeros(0)
     rng: Interval = (float(x.min()), float(x.max())) if n else (math.nan, math.nan)
     nan_draws: Dict[str, np.ndarray] = {}
     empty = np.full(len(grid), np.nan)
     sel: Optional[Selection] = None
-    if n < MIN_WINDOWS or not (rng[1] - rng[0] >= RESOLUTION[by]):
+    shown: Interval = (cv.inverse(rng[0]), cv.inverse(rng[1])) if n else rng
+
+    def explain(verdict: str, f: Fit, sel: Optional[Selection]) -> str:
+        g = dataclasses.replace(f, b_lo=cv.inverse(f.b_lo), b_hi=cv.inverse(f.b_hi))
+        return _explain(verdict, cv, resolution, g, sel, n, shown)
+
+    if n < MIN_WINDOWS or not (rng[1] - rng[0] >= resolution):
         verdict = "too few windows" if n < MIN_WINDOWS else "covariate constant"
         w = 1.0 / np.maximum(se, 1e-12) ** 2 if n else np.zeros(0)
         m = float(np.sum(w * y) / np.sum(w)) if n else math.nan
         f = Fit("flat", m, 0.0, 0.0, math.nan, math.nan, math.nan)
         bf = BranchFit(
-            name, verdict, _explain(verdict, by, unit, f, None, n, rng), n, "flat", None, None, None, None, None,
+            name, verdict, explain(verdict, f, None), n, "flat", None, None, None, None, None,
             None, m, None, None, None, 0.0, 0.0, False, False, math.nan, math.nan, rng, grid,
             np.full(len(grid), m), empty, empty,
         )  # fmt: skip
@@ -473,7 +625,7 @@ def _branch_fit(
     bf = BranchFit(
         branch=name,
         verdict=verdict,
-        explanation=_explain(verdict, by, unit, f, sel, n, rng),
+        explanation=explain(verdict, f, sel),
         n_windows=n,
         family=f.family,
         optimum=optimum,
@@ -544,6 +696,45 @@ def _binned_curves(
     return curves
 
 
+def _curve_in_column_units(c: RangeCurve, cv: Covariate) -> RangeCurve:
+    """A binned curve of a log axis with its edges, centres, optimum and onset in the column's unit."""
+    if not cv.log:
+        return c
+    opt = None if c.optimum is None else (cv.inverse(c.optimum[0]), cv.inverse(c.optimum[1]))
+    return dataclasses.replace(c, edges=10.0**c.edges, centres=10.0**c.centres, optimum=opt,
+                               onset=cv.inverse(c.onset))  # fmt: skip
+
+
+def _cof_of(results: Results, cof: str) -> Tuple[str, np.ndarray, np.ndarray, np.ndarray]:
+    """(which, COF, standard error, windows that may enter) of the COF fitted (docs/method.md 7a).
+
+    "dynamic": mu_r of the windows that passed the quality gate, with its
+    standard error. "classical": mu_classical of every window but those
+    straddling a stroke reversal or losing contact, without a per-window
+    standard error (zeros: equal weights, the scatter between windows is
+    tau^2). "auto": "classical" when the headline is not the dynamic COF
+    and some window has a classical COF, else "dynamic".
+    """
+    if cof not in ("auto", "dynamic", "classical"):
+        raise ValueError(f"cof must be 'auto', 'dynamic' or 'classical', got {cof!r}")
+    classical = np.asarray(results.table.get("mu_classical", np.full(len(results), np.nan)), dtype=float)
+    which = cof
+    if cof == "auto":
+        dynamic = results.headline.method == "dynamic" or not np.isfinite(classical).any()
+        which = "dynamic" if dynamic else "classical"
+    if which == "dynamic":
+        return which, np.asarray(results["mu_r"], dtype=float), np.asarray(results["mu_r_stderr"], dtype=float), \
+            np.asarray(results.gated, dtype=bool)  # fmt: skip
+    if not np.isfinite(classical).any():
+        raise ValueError(
+            "no window has a classical COF (mu_classical: forces with their static level, docs/method.md 6a); "
+            "fit the dynamic COF with cof='dynamic'"
+        )
+    reasons = np.asarray(results["reasons"]).astype(str)
+    ok = (np.char.find(reasons, "stroke reversal") < 0) & (np.char.find(reasons, _CONTACT_LOSS) < 0)
+    return which, classical, np.zeros(len(classical)), ok
+
+
 def operating_range(
     results: Results,
     by: By = "temperature",
@@ -557,15 +748,24 @@ def operating_range(
     n_boot: int = 400,
     seed: int = 0,
     block: Optional[int] = None,
+    log: Optional[bool] = None,
+    cof: Cof = "auto",
 ) -> OperatingRange:
-    """Optimum covariate range of the COF, with 95 % intervals and a verdict (docs/method.md 7).
+    """Optimum covariate range of the COF, with 95 % intervals and a verdict (docs/method.md 7, 7a).
 
     Parameters
     ----------
     results : Results
-        From :func:`tribodyn.analyze`, with ``T`` (a temperature log) or
-        ``J`` (a current and ``area_mm2``) filled in.
-    by : {"temperature", "current_density"}
+        From :func:`tribodyn.analyze`, with the covariate's column filled
+        in: ``T`` (a temperature log), ``J`` (a current and ``area_mm2``),
+        ``speed`` (a velocity channel ``v`` or a speed log), ``fz_mean``
+        (forces with their static level) or a covariate log.
+    by : str
+        The covariate: "temperature", "current_density", "current",
+        "speed" (also "v", "velocity", "sliding_speed"), "load" (also
+        "normal_load", "fz", "fn": |fz_mean| in N), the name of a covariate
+        log given to :func:`tribodyn.analyze`, or any numeric column of the
+        table (e.g. "T", "J", "speed", "fz_std"). Default "temperature".
     method : {"segmented", "binned"}
         "segmented" (default): the weighted bathtub fit with block-bootstrap
         intervals (docs/method.md 7). "binned": the earlier binned medians
@@ -575,8 +775,9 @@ def operating_range(
         None: all usable windows together). Every branch is fitted anyway
         (``fits``), with the hysteresis between them.
     bin_width : float, optional
-        Covariate bin width of the binned curves (default 5 degC or 0.5
-        A/mm^2). Bins are aligned centred on multiples of the width.
+        Covariate bin width of the binned curves (default 5 degC, 0.5
+        A/mm^2, 0.5 A, 0.25 decades of speed, else a tenth of the range; in
+        decades on a log axis). Bins are aligned centred on multiples of the width.
     tol : float
         "binned": relative tolerance above the minimum COF that still counts
         as optimum (default 0.15).
@@ -592,6 +793,15 @@ def operating_range(
         Seed of the bootstrap (default 0: results repeat exactly).
     block : int, optional
         Bootstrap block length in windows (default ``max(3, ceil(n^(1/3)))``).
+    log : bool, optional
+        Fit on a log10 axis of the covariate (default: True for speed, a
+        Stribeck curve spanning decades; False otherwise). Windows whose
+        covariate is <= 0 are then left out.
+    cof : {"auto", "dynamic", "classical"}
+        The COF fitted (docs/method.md 7a): "auto" (default) the headline's
+        method: the dynamic ``mu_r`` of the gated windows when the dynamic
+        method applies, else the classical ``mu_classical`` of each window
+        (equal weights).
 
     Returns
     -------
@@ -600,21 +810,22 @@ def operating_range(
     Raises
     ------
     ValueError
-        Unknown ``by``, ``method`` or ``branch``, bad widths/tolerances, or
-        no gated window with a finite covariate.
+        Unknown ``by``, ``method``, ``branch`` or ``cof``, bad
+        widths/tolerances, or no usable window with a finite covariate.
     """
     if not isinstance(results, Results):
         raise TypeError(f"results must be the Results of tribodyn.analyze, got {type(results).__name__}")
-    if by not in _COLUMN:
-        raise ValueError(f"by must be 'temperature' or 'current_density', got {by!r}")
+    cv = covariate(results, by, log)
+    by = cv.by
     if method not in ("segmented", "binned"):
         raise ValueError(f"method must be 'segmented' or 'binned', got {method!r}")
     if branch is not None and branch not in _BRANCHES:
         raise ValueError(f"branch must be None, 'heating' or 'cooling', got {branch!r}")
     if branch is not None and by != "temperature":
-        raise ValueError("branch applies to by='temperature' only (current density has no heating/cooling branches)")
-    width = _DEFAULT_WIDTH[by] if bin_width is None else float(bin_width)
-    if not (np.isfinite(width) and width > 0):
+        raise ValueError(f"branch applies to by='temperature' only ({by.replace('_', ' ')} has no heating/cooling "
+                         "branches)")  # fmt: skip
+    if bin_width is not None and not (isinstance(bin_width, (int, float, np.number)) and np.isfinite(bin_width)
+                                      and bin_width > 0):  # fmt: skip
         raise ValueError(f"bin_width must be > 0, got {bin_width!r}")
     if not (tol >= 0 and rise > 0 and min_count >= 1):
         raise ValueError("tol must be >= 0, rise > 0 and min_count >= 1")
@@ -622,18 +833,39 @@ def operating_range(
         raise ValueError(f"n_boot must be an integer in [0, 100000], got {n_boot!r}")
     if block is not None and not (isinstance(block, (int, np.integer)) and block >= 1):
         raise ValueError(f"block must be an integer >= 1, got {block!r}")
-    cov = np.asarray(results[_COLUMN[by]], dtype=float)
-    mu = np.asarray(results["mu_r"], dtype=float)
-    keep = results.gated & np.isfinite(cov) & np.isfinite(mu)
+    which, mu, se, may = _cof_of(results, cof)
+    raw = np.asarray(results[cv.column], dtype=float)
+    raw = np.abs(raw) if cv.magnitude else raw
+    nonpositive = None
+    if cv.log:
+        nonpositive = np.isfinite(raw) & (raw <= 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cov = np.where(raw > 0, np.log10(np.where(raw > 0, raw, 1.0)), np.nan)
+    else:
+        cov = raw
+    keep = may & np.isfinite(cov) & np.isfinite(mu)
     if not keep.any():
-        what = "a temperature log" if by == "temperature" else "a current and area_mm2"
-        raise ValueError(f"no quality-gated window has a {by.replace('_', ' ')} (did analyze get {what}?)")
+        what = by.replace("_", " ") + (" > 0" if cv.log and np.isfinite(raw).any() else "")
+        if not np.isfinite(cov).any():
+            raise ValueError(f"no window has a {what} (did analyze get {cv.needs}?)")
+        if which == "dynamic":
+            raise ValueError(f"no quality-gated window has a {what} (the dynamic COF; cof='classical' fits the "
+                             "classical COF of each window)")  # fmt: skip
+        raise ValueError(f"no window with a classical COF has a {what}")
+    span = float(np.max(np.abs(cov[keep])))
+    resolution = cv.resolution if cv.resolution is not None else RELATIVE_RESOLUTION * span
+    if bin_width is not None:
+        width = float(bin_width)
+    elif cv.width is not None:
+        width = cv.width
+    else:
+        width = float(np.ptp(cov[keep])) / 10 or max(span, 1.0) * RELATIVE_RESOLUTION
     br_all = np.asarray(results["branch"]) if "branch" in results.table else np.zeros(len(cov), dtype=np.int8)
     curves = _binned_curves(cov, mu, keep, by, br_all, width, tol, rise, min_count)
-    instability, instability_ci = _instability(results, cov)
+    instability, instability_ci = _instability(results, raw)
     common: Dict[str, Any] = dict(
-        by=by, unit=_UNIT[by], bin_width=width, tol=tol, rise=rise, curves=curves, branch=branch,
-        instability=instability, instability_ci=instability_ci,
+        by=by, unit=cv.unit, bin_width=width, tol=tol, rise=rise, branch=branch, instability=instability,
+        instability_ci=instability_ci, column=cv.column, log=cv.log, cof=which,
     )  # fmt: skip
     if method == "binned":
         c = curves[branch or "all"] if (branch or "all") in curves else curves["all"]
@@ -641,16 +873,19 @@ def operating_range(
         verdict = "too few windows" if c.optimum is None else (
             "optimum at the edge of the tested range" if c.optimum[0] <= edges[0] or c.optimum[1] >= edges[-1]
             else "optimum")  # fmt: skip
+        c = _curve_in_column_units(c, cv)
+        per = "decade" if cv.log else cv.unit
         return OperatingRange(
             optimum=c.optimum, mu_min=c.mu_min, onset=c.onset, method="binned", verdict=verdict,
-            explanation=(f"Binned medians ({width:g} {_UNIT[by]} bins): the optimum is the run of bins within "
+            explanation=(f"Binned medians ({width:g} {per} bins): the optimum is the run of bins within "
                          f"{100 * tol:g} % of the lowest median; no intervals (method='binned')."),
-            edge_lower=c.optimum is not None and c.optimum[0] <= edges[0],
-            edge_upper=c.optimum is not None and c.optimum[1] >= edges[-1],
-            n_windows=int(keep.sum()), **common,
+            edge_lower=c.optimum is not None and c.optimum[0] <= c.edges[0],
+            edge_upper=c.optimum is not None and c.optimum[1] >= c.edges[-1],
+            n_windows=int(keep.sum()), curves={k: _curve_in_column_units(v, cv) for k, v in curves.items()},
+            **common,
         )  # fmt: skip
-    se = np.asarray(results["mu_r_stderr"], dtype=float)
-    usable, excluded = _excluded(results, by, cov, mu, se)
+    usable, excluded = _excluded(results, by, cov, mu, se, may, nonpositive,
+                                 "gate" if which == "dynamic" else "stroke reversal")  # fmt: skip
     pos = np.flatnonzero(usable)  # time order: the table's
     x, y, s = cov[pos], mu[pos], se[pos]
     br = br_all[pos]
@@ -665,7 +900,7 @@ def operating_range(
         # Positions in the branch's own arrays for each resampled window of the whole series.
         where = np.cumsum(member) - 1
         sub = [where[idx[member[idx]]] for idx in boot]
-        fits[name], draws[name] = _branch_fit(name, by, x[member], y[member], s[member], sub, rise)
+        fits[name], draws[name] = _branch_fit(name, cv, resolution, x[member], y[member], s[member], sub, rise)
     hysteresis = None
     if "heating" in fits and "cooling" in fits:
         hysteresis = _hysteresis(fits, draws)
@@ -676,7 +911,8 @@ def operating_range(
         optimum=f.optimum, mu_min=f.mu_min, onset=f.onset, method="segmented", verdict=f.verdict,
         explanation=f.explanation, optimum_ci=f.optimum_ci, mu_min_ci=f.mu_min_ci, onset_ci=f.onset_ci,
         edge_lower=f.edge_lower, edge_upper=f.edge_upper, fits=fits, hysteresis=hysteresis,
-        n_windows=len(pos), excluded=excluded, n_boot=int(n_boot), seed=int(seed), **common,
+        n_windows=len(pos), excluded=excluded, n_boot=int(n_boot), seed=int(seed),
+        curves={k: _curve_in_column_units(v, cv) for k, v in curves.items()}, **common,
     )  # fmt: skip
 
 

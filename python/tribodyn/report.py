@@ -44,7 +44,9 @@ __all__ = [
     "write_results_report",
 ]
 
-FigureList = Union[Mapping[str, Figure], Sequence[Tuple[str, Figure]]]
+FigureList = Union[Mapping[str, Union[Figure, bytes]], Sequence[Tuple[str, Union[Figure, bytes]]]]
+#: The first bytes of every PNG file.
+_PNG = b"\x89PNG\r\n\x1a\n"
 
 #: Resolution of the embedded PNGs (dots per inch).
 REPORT_DPI = 110
@@ -116,6 +118,16 @@ def unit_text(unit: str) -> str:
     return _labels.unit_text(unit)
 
 
+class HeadlineLine(str):
+    """A verdict line that is a recording's headline (docs/method.md 6e): the report sets it in bold."""
+
+
+def _verdict_item(line: str) -> str:
+    """A verdict line as HTML: a recording's headline (:class:`HeadlineLine`) in bold."""
+    text = html.escape(line)
+    return f"<b>{text}</b>" if isinstance(line, HeadlineLine) else text
+
+
 def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, Any],
                   ranges: Optional[Mapping[str, Any]] = None) -> List[str]:  # fmt: skip
     """The verdict of one recording in words and numbers, headline first (docs/method.md 3d, 5, 7).
@@ -133,9 +145,11 @@ def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, An
     head = summary.get("headline") or {}
     mu = summary.get("mu_r") or {}
     method = " (the paper's method)" if params.get("method") == "paper" else ""
-    lines.append(f"{name}: {head.get('text', 'no headline')}{method}")
+    lines.append(HeadlineLine(f"{name}: {head.get('text', 'no headline')}{method}"))
     if head.get("method") == "dynamic" and mu.get("n"):
-        lines[0] += f" 90 % of the gated windows lie between {mu['p05']:.4f} and {mu['p95']:.4f}."
+        lines[0] = HeadlineLine(
+            f"{lines[0]} 90 % of the gated windows lie between {mu['p05']:.4f} and {mu['p95']:.4f}."
+        )
     if verdict:
         lines.append(f"{name}: {_labels.units_in_text(verdict)}")
     for by, rng in (ranges or {}).items():
@@ -380,13 +394,16 @@ def _columns_table(table: Any, max_rows: int) -> str:
     return f'<div class="scroll"><table>\n{head}\n{body}\n</table></div>{note}'
 
 
-def _png_base64(fig: Figure, dpi: int) -> str:
+def _png_base64(fig: Union[Figure, bytes], dpi: int) -> str:
+    """A Figure rendered at ``dpi``, or PNG bytes rendered before (the files' own), as base64."""
+    if isinstance(fig, (bytes, bytearray)):
+        return base64.b64encode(bytes(fig)).decode("ascii")
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Figure]]:
+def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Union[Figure, bytes]]]:
     if figures is None:
         return []
     items = list(figures.items()) if isinstance(figures, Mapping) else list(figures)
@@ -395,8 +412,8 @@ def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Figure]]:
         if not (isinstance(item, (tuple, list)) and len(item) == 2):
             raise TypeError("figures must be a dict caption -> Figure or a list of (caption, Figure) pairs")
         caption, fig = item
-        if not hasattr(fig, "savefig"):
-            raise TypeError(f"figure {caption!r} is not a matplotlib Figure (got {type(fig).__name__})")
+        if not (hasattr(fig, "savefig") or (isinstance(fig, (bytes, bytearray)) and bytes(fig[:8]) == _PNG)):
+            raise TypeError(f"figure {caption!r} is not a matplotlib Figure or PNG bytes (got {type(fig).__name__})")
         out.append((str(caption), fig))
     return out
 
@@ -451,6 +468,7 @@ def write_report(
     inputs: Optional[Sequence[Mapping[str, Any]]] = None,
     sections: Optional[Sequence[Tuple[str, str]]] = None,
     head_html: str = "",
+    record_html: str = "",
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -489,6 +507,8 @@ def write_report(
         Further sections (interactive views, the table of windows), after the figures.
     head_html : str
         Inline ``<script>`` added to the head (Bokeh's JavaScript; no network reference).
+    record_html : str
+        The "Test record" section's content (:func:`tribodyn.record.record_html`), after the inputs.
 
     Returns
     -------
@@ -538,12 +558,15 @@ def write_report(
         first, rest = verdict[0], verdict[1:]
         out.append('<div class="verdict" id="verdict"><h2 style="margin-top:0">Verdict</h2>')
         out.append(f'<p class="headline">{html.escape(first)}</p>')
-        if rest:
-            out.append("<ul>" + "".join(f"<li>{html.escape(x)}</li>" for x in rest) + "</ul>")
+        if rest:  # the headline of every further recording in bold too (one headline per recording)
+            out.append("<ul>" + "".join(f"<li>{_verdict_item(x)}</li>" for x in rest) + "</ul>")
         out.append("</div>")
     if inputs is not None:
         out.append('<h2 id="inputs">Inputs</h2>')
         out.append(inputs_table_html(inputs))
+    if record_html:
+        out.append('<h2 id="record">Test record</h2>')
+        out.append(record_html)
     if warns:
         out.append('<h2 id="warnings">Warnings</h2>')
         out.append('<p class="note">What the readers found odd in the input, and what the analysis noticed:</p>')
@@ -627,13 +650,13 @@ def _finite_any(results: Any, column: str) -> bool:
 def _range_or_none(results: Any, opr: Any, by: str) -> Any:
     if opr is not None:
         return opr
-    column = "T" if by == "temperature" else "J"
+    column = {"temperature": "T", "current_density": "J"}.get(by, by)
     if not _finite_any(results, column):
         return None
     try:
         from .ranges import operating_range
 
-        return operating_range(results, by=by)  # type: ignore[arg-type]
+        return operating_range(results, by=by)
     except ValueError:
         return None
 
@@ -641,7 +664,7 @@ def _range_or_none(results: Any, opr: Any, by: str) -> Any:
 def _opr_caption(opr: Any) -> str:
     if opr is None:
         return "No operating range (no quality-gated window with this covariate)."
-    unit = "°C" if opr.by == "temperature" else "A/mm²"
+    unit = unit_text(opr.unit)
     if getattr(opr, "method", "binned") == "segmented":
         return _segmented_caption(opr, unit)
     parts = []
@@ -732,8 +755,15 @@ def build_named_figures(
     opr_current: Any = None,
     examples: Sequence[Mapping[str, Any]] = (),
     temperature_log: Any = None,
+    loops: Sequence[Mapping[str, Any]] = (),
+    opr_speed: Any = None,
 ) -> List[Tuple[str, str, Figure]]:
     """:func:`build_report_figures` with a file name per figure, after the paper's figure it corresponds to.
+
+    ``loops`` (a reciprocating test with a position channel: ``x``, ``fy``,
+    ``label`` and ``energy`` of whole cycles) add the friction-loop figure.
+    A ``speed`` column with data adds ``stribeck_curve`` (``opr_speed``, or
+    ``operating_range(results, "speed")``; docs/method.md 7a).
 
     Each example window (a dict as ``example`` there, plus ``label``, e.g.
     "representative gated window", and ``tag`` for the file name) gives
@@ -776,6 +806,11 @@ def build_named_figures(
         opr = _range_or_none(results, opr_current, "current_density")
         cap = f"COF against current density with binned medians. {_opr_caption(opr)} Cf. paper Sec. 4.2."
         out.append(("sec4-2_cof_vs_current_density", cap, _figs.cof_vs_current_density(results, opr)))
+    if _finite_any(results, "speed"):
+        opr = _range_or_none(results, opr_speed, "speed")
+        cap = ("Stribeck curve: COF of each window against its mean sliding speed (log axis), the bathtub fit on "
+               f"log speed and the regimes its walls stand for (docs/method.md 7a). {_opr_caption(opr)}")  # fmt: skip
+        out.append(("stribeck_curve", cap, _figs.stribeck_curve(results, opr)))
     if not (has_t or has_j):
         out.append(("cof_vs_time", f"COF against time ({what}); no temperature or current density was given.",
                     _figs.cof_vs_time(results)))  # fmt: skip
@@ -788,6 +823,16 @@ def build_named_figures(
                    np.asarray(strokes.get("mu_instrument", [np.nan]), dtype=float)).any() else "")
                + "; docs/method.md 6c.")  # fmt: skip
         out.append(("strokes_cof_vs_cycle", cap, _figs.strokes_vs_cycle(results)))
+    cycles = getattr(results, "cycles", None)
+    if cycles is not None and np.isfinite(np.asarray(cycles["energy"], dtype=float)).any():
+        if loops:
+            cap = ("Friction loops: the friction force against the position over the first, a middle and the last "
+                   "whole cycle; the area inside a loop is the energy friction dissipates in that cycle "
+                   "(docs/method.md 6c).")  # fmt: skip
+            out.append(("friction_loops", cap, _figs.friction_loops(loops)))
+        cap = ("Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, energy / "
+               "(mean F_n x sliding distance), against cycle number (docs/method.md 6c).")  # fmt: skip
+        out.append(("energy_vs_cycle", cap, _figs.energy_vs_cycle(results)))
     return out
 
 

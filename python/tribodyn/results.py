@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import html as _html
+import math
 import warnings as _warnings
 from dataclasses import dataclass, field
 from functools import cached_property
+from statistics import NormalDist
 from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
@@ -248,6 +250,27 @@ class Results:
         """Unit of each column of the table (:data:`tribodyn.columns.UNITS`; ``""`` for labels)."""
         return {c: UNITS.get(c, "") for c in self.table}
 
+    @property
+    def cycles(self) -> Any:
+        """One row per cycle of a reciprocating test, a ``pandas.DataFrame`` (None without strokes).
+
+        Columns :data:`tribodyn.tribometer.CYCLE_COLUMNS` (units in
+        ``df.attrs["units"]``): the forward, backward and cycle COF, the
+        offset, and with a position channel ``x`` the energy dissipated (the
+        friction loop's area), the sliding distance, the energy COF and the
+        slip amplitude (docs/method.md 6c). The per-stroke headline is the
+        mean of ``mu_cycle``.
+        """
+        if self.strokes is None or not len(self.strokes.get("mu", [])):
+            return None
+        import pandas as pd
+
+        from .tribometer import CYCLE_COLUMNS, cycle_table
+
+        df = pd.DataFrame(cycle_table(self.strokes))
+        df.attrs["units"] = {k: u for k, (u, _) in CYCLE_COLUMNS.items()}
+        return df
+
     @cached_property
     def verdict(self) -> Dict[str, Any]:
         """Whether the dynamic method applies, why not, and the motion (``tribometer.verdict``; docs/method.md 6d)."""
@@ -331,9 +354,13 @@ class Results:
         """
         ok = np.asarray(self.table["ok"], dtype=bool)
         mu = np.asarray(self.table["mu_r"])[ok]
-        mu = mu[np.isfinite(mu)]
+        fin = np.isfinite(mu)
+        keep = ok.copy()
+        keep[ok] = fin
+        noise = noise_resample(self.table, keep)
+        mu = mu[fin]
 
-        def stats(v: np.ndarray) -> Mapping[str, Any]:
+        def stats(v: np.ndarray, noise: Optional[NoiseResample] = None) -> Mapping[str, Any]:
             if v.size == 0:
                 return {"n": 0}
             q = np.percentile(v, [5, 25, 50, 75, 95])
@@ -348,7 +375,7 @@ class Results:
                 "p75": float(q[3]),
                 "p95": float(q[4]),
                 "max": float(v.max()),
-                "ci": bootstrap_ci(v),
+                "ci": bootstrap_ci(v, noise=noise),
             }
 
         out: Dict[str, Any] = {
@@ -356,7 +383,7 @@ class Results:
             "gated": int(ok.sum()),
             "gate_pass_fraction": float(ok.mean()) if len(self) else float("nan"),
             "orientation": self.orientation,
-            "mu_r": stats(mu),
+            "mu_r": stats(mu, noise),
             "warnings": list(self.warnings),
         }
         for col in ("mu_a", "mu_b", "force_dependence", "dmu_dfn"):
@@ -409,7 +436,7 @@ class Results:
             allm = np.asarray(st["mu"], dtype=float)
             per["all"] = dict(stats(allm[np.isfinite(allm)]))
             out["strokes"] = per
-        for key in ("roles", "roles_source", "motion", "window_note", "contact"):
+        for key in ("roles", "roles_source", "roles_evidence", "motion", "window_note", "contact"):
             if self.params.get(key) is not None:
                 out[key] = self.params[key]
         out["verdict"] = dict(self.verdict)
@@ -456,33 +483,126 @@ BOOTSTRAP_RESAMPLES = 999
 BOOTSTRAP_SEED = 20061136
 
 
-def bootstrap_ci(v: np.ndarray, level: float = 0.95) -> Dict[str, Tuple[float, float]]:
+@dataclass(frozen=True)
+class NoiseResample:
+    """What :func:`bootstrap_ci` needs to draw the recording's fz-noise estimate anew (docs/method.md 3d).
+
+    Attributes
+    ----------
+    var : ndarray
+        Every window's measurement of sigma_z^2 (column ``noise_z_var``, N^2), in time order.
+    index : ndarray of int64
+        The positions in ``var`` of the windows whose values are bootstrapped, increasing.
+    dnoise : ndarray
+        d value / d sigma_z^2 of those windows (column ``mu_r_dnoise``, 1/N^2).
+    """
+
+    var: np.ndarray
+    index: np.ndarray
+    dnoise: np.ndarray
+
+
+def noise_resample(table: Mapping[str, np.ndarray], keep: np.ndarray) -> Optional[NoiseResample]:
+    """The :class:`NoiseResample` of the windows ``keep`` (a mask over the table's rows), or None when
+    mu_r does not depend on a noise estimate of the recording (``mu_r_dnoise`` 0: OLS, IV, Deming, a
+    given ``noise``, the paper's method; docs/method.md 3c, 3d)."""
+    if "noise_z_var" not in table or "mu_r_dnoise" not in table:
+        return None
+    keep = np.asarray(keep, dtype=bool)
+    dn = np.asarray(table["mu_r_dnoise"], dtype=float)[keep]
+    dn = np.where(np.isfinite(dn), dn, 0.0)
+    var = np.asarray(table["noise_z_var"], dtype=float)
+    if not np.any(dn != 0) or not np.isfinite(var).any():
+        return None
+    return NoiseResample(var=var, index=np.flatnonzero(keep), dnoise=dn)
+
+
+def t_quantile(p: float, df: int) -> float:
+    """Student's t quantile: exact for 1 and 2 degrees of freedom, else the Cornish-Fisher expansion in
+    1/df to the 4th order (Abramowitz and Stegun 26.7.5; at p = 0.975 within 0.12 % at df = 3 and 1e-5
+    at df >= 8; at p = 0.995 within 0.8 % at df = 3)."""
+    if df == 1:
+        return math.tan(math.pi * (p - 0.5))
+    if df == 2:
+        return (2.0 * p - 1.0) / math.sqrt(2.0 * p * (1.0 - p))
+    z = NormalDist().inv_cdf(p)
+    g1 = (z**3 + z) / 4
+    g2 = (5 * z**5 + 16 * z**3 + 3 * z) / 96
+    g3 = (3 * z**7 + 19 * z**5 + 17 * z**3 - 15 * z) / 384
+    g4 = (79 * z**9 + 776 * z**7 + 1482 * z**5 - 1920 * z**3 - 945 * z) / 92160
+    return float(z + g1 / df + g2 / df**2 + g3 / df**3 + g4 / df**4)
+
+
+def _blocks(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Moving-block resamples of n windows: (BOOTSTRAP_RESAMPLES, n) indices, blocks of ceil(n^(1/3))."""
+    ell = int(np.ceil(n ** (1.0 / 3.0)))
+    starts = rng.integers(0, n - ell + 1, size=(BOOTSTRAP_RESAMPLES, -(-n // ell)))
+    idx: np.ndarray = (starts[:, :, None] + np.arange(ell)[None, None, :]).reshape(BOOTSTRAP_RESAMPLES, -1)[:, :n]
+    return idx
+
+
+def bootstrap_ci(
+    v: np.ndarray, level: float = 0.95, *, noise: Optional[NoiseResample] = None
+) -> Dict[str, Tuple[float, float]]:
     """95 % intervals of the median, mean, p05 and p95 of ``v`` (windows in time order; docs/method.md 3d).
 
     Moving-block bootstrap (Kuensch 1989): blocks of l = ceil(n^(1/3))
     consecutive windows, drawn with replacement until n windows, 999
-    resamples with a fixed seed; percentile intervals. Neighbouring windows
-    are correlated (the temperature or the contact changes slowly), which
-    blocks keep. Empty for fewer than 3 windows.
+    resamples with a fixed seed. Neighbouring windows are correlated (the
+    temperature or the contact changes slowly), which blocks keep.
+    Expanded percentile intervals: the percentiles a and 1 - a with
+    a = Phi(-sqrt(b / (b - 1)) t(1 - (1 - level) / 2, b - 1)), b the number
+    of blocks (the percentile interval is too short for few independent
+    blocks; Hesterberg 2015, with blocks for observations).
+
+    With ``noise`` (``v`` depends on the recording's fz-noise estimate
+    sigma^2, the median of every window's measurement), the blocks are drawn
+    over all the recording's windows; each resample re-estimates sigma^2*
+    as the median of its windows' ``noise.var`` (clipped at 0) and takes its
+    windows among ``noise.index``, moved by ``noise.dnoise`` (sigma^2* -
+    sigma^2). So the interval carries the error of the noise estimate, which
+    moves every window together, and its correlation with the windows' own
+    errors. Empty for fewer than 3 windows.
     """
     v = np.asarray(v, dtype=float)
     n = v.size
     if n < 3:
         return {}
-    ell = int(np.ceil(n ** (1.0 / 3.0)))
-    nblocks = -(-n // ell)
     rng = np.random.default_rng(BOOTSTRAP_SEED)
-    starts = rng.integers(0, n - ell + 1, size=(BOOTSTRAP_RESAMPLES, nblocks))
-    idx = (starts[:, :, None] + np.arange(ell)[None, None, :]).reshape(BOOTSTRAP_RESAMPLES, -1)[:, :n]
-    r = v[idx]
-    a = (1.0 - level) / 2.0 * 100.0
+    if noise is None:
+        r = v[_blocks(rng, n)]
+        stats = (np.median(r, axis=1), r.mean(axis=1), np.percentile(r, 5, axis=1), np.percentile(r, 95, axis=1))
+    else:
+        var = np.asarray(noise.var, dtype=float)
+        index = np.asarray(noise.index, dtype=np.int64)
+        dn = np.asarray(noise.dnoise, dtype=float)
+        if index.shape != v.shape or dn.shape != v.shape:
+            raise ValueError(f"noise.index and noise.dnoise must have one value per window ({n})")
+        if var.ndim != 1 or (index.size and (index.min() < 0 or index.max() >= var.size)):
+            raise ValueError("noise.index must point into noise.var")
+        fin = np.isfinite(var)
+        used = max(float(np.median(var[fin])), 0.0) if fin.any() else float("nan")
+        idx = _blocks(rng, var.size)
+        pos = np.full(var.size, -1, dtype=np.int64)
+        pos[index] = np.arange(n)
+        p = pos[idx]
+        with np.errstate(invalid="ignore"), _warnings.catch_warnings():
+            _warnings.simplefilter("ignore", RuntimeWarning)  # a resample without any of v's windows is NaN
+            delta = np.maximum(np.nanmedian(var[idx], axis=1), 0.0) - used
+            r = np.where(p >= 0, v[p] + dn[p] * delta[:, None], np.nan)
+            stats = (
+                np.nanmedian(r, axis=1),
+                np.nanmean(r, axis=1),
+                np.nanpercentile(r, 5, axis=1),
+                np.nanpercentile(r, 95, axis=1),
+            )
+    b = -(-n // int(np.ceil(n ** (1.0 / 3.0))))
+    a = 100.0 * NormalDist().cdf(-math.sqrt(b / (b - 1)) * t_quantile(1.0 - (1.0 - level) / 2.0, b - 1))
     out: Dict[str, Tuple[float, float]] = {}
-    for name, values in (
-        ("median", np.median(r, axis=1)),
-        ("mean", r.mean(axis=1)),
-        ("p05", np.percentile(r, 5, axis=1)),
-        ("p95", np.percentile(r, 95, axis=1)),
-    ):
+    for name, values in zip(("median", "mean", "p05", "p95"), stats):
+        values = values[np.isfinite(values)]
+        if values.size == 0:
+            continue
         lo, hi = np.percentile(values, [a, 100.0 - a])
         out[name] = (float(lo), float(hi))
     return out

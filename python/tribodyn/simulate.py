@@ -147,7 +147,13 @@ from scipy.interpolate import PchipInterpolator
 __all__ = [
     "N_LAMELLAS",
     "ReciprocatingSimulation",
+    "StribeckModel",
+    "StribeckSimulation",
     "reciprocating",
+    "stribeck_sweep",
+    "RunningInSimulation",
+    "running_in",
+    "STEADY_DELTA",
     "PRELOAD_N",
     "RPM",
     "TEMPERATURE_PATH",
@@ -1335,9 +1341,20 @@ class ReciprocatingSimulation:
     fs : float
         Sampling rate, Hz.
     mu_forward, mu_backward : float
-        The true COF in the +x and -x directions.
+        The true COF in the +x and -x directions (the kinetic plateau).
     n_strokes : int
         Strokes simulated (two per cycle).
+    energy_per_cycle : float
+        The energy friction dissipates in one whole cycle (J): the noise-free friction's loop area.
+    offset : float
+        The load-cell offset added to fy (N).
+    mu_static_forward, mu_static_backward : float
+        The static (breakaway) COF: the maximum of the noise-free friction over the load in the first
+        quarter of a forward (backward) stroke, after its motion onset (docs/method.md 6c).
+    slip_times : ndarray
+        Times (s) of the stick-slip drops in the record (empty without stick-slip).
+    slip_drops : ndarray
+        The friction force's drop (N) at each of them (docs/method.md 6g).
     """
 
     channels: dict[str, np.ndarray]
@@ -1345,6 +1362,12 @@ class ReciprocatingSimulation:
     mu_forward: float
     mu_backward: float
     n_strokes: int
+    energy_per_cycle: float = float("nan")
+    offset: float = 0.0
+    mu_static_forward: float = float("nan")
+    mu_static_backward: float = float("nan")
+    slip_times: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    slip_drops: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
 def reciprocating(
@@ -1359,6 +1382,11 @@ def reciprocating(
     normal_force: float = 10.0,
     noise: float = 0.02,
     fz_dynamic: float = 0.0,
+    offset: float = 0.0,
+    breakaway: float = 0.0,
+    breakaway_time: float = 0.01,
+    stick_slip: float = 0.0,
+    stick_slip_period: float = 0.025,
 ) -> ReciprocatingSimulation:
     """A reciprocating test (docs/method.md 6c): sinusoidal position x = L/2 sin(2 pi f t), dead-weight fz.
 
@@ -1366,18 +1394,388 @@ def reciprocating(
     the reversals by tanh(v / 5 % of the peak speed); fy and fz carry Gaussian noise of ``noise`` N.
     ``fz_dynamic`` > 0 adds a dynamic part to the normal force (the friction follows it):
     ``fz_dynamic (sin(2 pi 37 t) + 0.5 sin(2 pi 61 t + 1))`` N, for the direction-rectified
-    regression (docs/method.md 6c).
+    regression (docs/method.md 6c). ``offset`` (N) is a load-cell offset added to fy; the result's
+    ``energy_per_cycle`` is the noise-free friction's loop area (J).
+
+    Breakaway and stick-slip (docs/method.md 6c, 6g), with tau the time since the stroke's motion
+    onset (the last reversal, where v changed sign): the friction force is
+    ``tanh(v / 0.05 v_max) (mu(tau) load + stick_slip saw(tau))`` with
+    ``mu(tau) = mu_dir + breakaway (tau / t_b) exp(1 - tau / t_b)`` (a static peak about
+    ``breakaway`` above the plateau, ``breakaway_time`` t_b after the onset) and the saw-tooth
+    ``saw(tau) = frac(tau / P) - 1/2`` (P = ``stick_slip_period``): the force rises slowly by
+    ``stick_slip`` N over P and drops by that at once at tau = P, 2P, ... within the stroke. The
+    truth (``mu_static_*``, ``slip_times``, ``slip_drops``) comes from the noise-free friction; the
+    SNR of the stick-slip is ``20 log10(stick_slip / noise)`` dB (20 dB: ``stick_slip = 10 noise``).
     """
+    if not (breakaway >= 0 and breakaway_time > 0 and stick_slip >= 0 and stick_slip_period > 0):
+        raise ValueError("breakaway and stick_slip must be >= 0, breakaway_time and stick_slip_period > 0")
     rng = np.random.default_rng(seed)
     n = int(round(cycles / frequency * fs))
     t = np.arange(n) / fs
     w = 2 * np.pi * frequency
-    x = 0.5 * stroke_length * np.sin(w * t)
-    v = 0.5 * stroke_length * w * np.cos(w * t)
     vmax = 0.5 * stroke_length * w
-    mu = np.where(v > 0, mu_forward, mu_backward)
+    half = 0.5 / frequency  # a stroke
+
+    def friction_cof(tt: np.ndarray) -> np.ndarray:
+        """The noise-free friction force over the load (signed), and the saw-tooth's force separately."""
+        vv = vmax * np.cos(w * tt)
+        tau = np.mod(tt - 0.5 * half, half)  # reversals at (2j + 1) / (4 f)
+        mu_t = np.where(vv > 0, mu_forward, mu_backward) + breakaway * (tau / breakaway_time) * np.exp(
+            1.0 - tau / breakaway_time
+        )
+        return np.asarray(np.tanh(vv / (0.05 * vmax)) * mu_t)
+
+    def saw_force(tt: np.ndarray) -> np.ndarray:
+        vv = vmax * np.cos(w * tt)
+        tau = np.mod(tt - 0.5 * half, half)
+        return np.asarray(np.tanh(vv / (0.05 * vmax)) * stick_slip * (np.mod(tau / stick_slip_period, 1.0) - 0.5))
+
+    x = 0.5 * stroke_length * np.sin(w * t)
+    v = vmax * np.cos(w * t)
     load = normal_force + fz_dynamic * (np.sin(2 * np.pi * 37.0 * t) + 0.5 * np.sin(2 * np.pi * 61.0 * t + 1.0))
     fz = load + noise * rng.standard_normal(n)
-    fy = np.tanh(v / (0.05 * vmax)) * mu * load + noise * rng.standard_normal(n)
+    fy = friction_cof(t) * load + offset + noise * rng.standard_normal(n)
+    if stick_slip > 0:
+        fy = fy + saw_force(t)
+    # the loop area of the noise-free friction over one period, finely sampled (a dead weight: load constant)
+    tf = np.linspace(0.0, 1.0 / frequency, 200_001)
+    vf = vmax * np.cos(w * tf)
+    ff = friction_cof(tf) * normal_force + (saw_force(tf) if stick_slip > 0 else 0.0)
+    p = ff * vf
+    energy = float(np.sum(0.5 * (p[1:] + p[:-1]) * np.diff(tf)))  # the trapezoid rule
+    # the static COF: the largest noise-free |friction| / load in the first quarter of a stroke
+    statics = []
+    for onset in (-0.5 * half, 0.5 * half):  # a forward stroke, then a backward one
+        tq = onset + np.linspace(0.0, 0.25 * half, 100_001)[1:]
+        fq = friction_cof(tq) * normal_force + (saw_force(tq) if stick_slip > 0 else 0.0)
+        statics.append(float(np.max(np.abs(fq))) / normal_force)
+    # the drops: P, 2P, ... after every onset, within its stroke and the record
+    times: list[float] = []
+    if stick_slip > 0:
+        onsets = (np.arange(-1, 2 * cycles + 1) + 0.5) * half
+        per = np.arange(1, int(np.ceil(half / stick_slip_period)) + 1) * stick_slip_period
+        per = per[per < half * (1 - 1e-9)]
+        td_all = (onsets[:, None] + per[None, :]).ravel()
+        times = sorted(float(u) for u in td_all if 0.0 < u < n / fs)
+    slip_t = np.asarray(times, dtype=float)
+    slip_d = np.abs(np.tanh(vmax * np.cos(w * slip_t) / (0.05 * vmax))) * stick_slip
     return ReciprocatingSimulation({"fy": fy, "fz": fz, "x": x, "v": v}, float(fs), mu_forward, mu_backward,
-                                   2 * cycles)  # fmt: skip
+                                   2 * cycles, energy, float(offset), statics[0], statics[1], slip_t,
+                                   slip_d)  # fmt: skip
+
+
+# --------------------------------------------------------------------------
+# Stribeck curve: a speed sweep under a dead weight (docs/method.md 7a)
+# --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class StribeckModel:
+    """The COF against sliding speed of :func:`stribeck_sweep` (docs/method.md 7a).
+
+    ``mu(v) = mu_c + (mu_s - mu_c) exp(-(v / v_s)^2) + k v`` for the sliding
+    speed ``v >= 0`` (m/s): the boundary COF ``mu_s`` at low speed, falling
+    around the Stribeck speed ``v_s`` towards ``mu_c`` as a lubricant film
+    builds up (mixed lubrication), and a viscous rise ``k v`` once the film
+    carries the load (hydrodynamic lubrication).
+
+    Attributes
+    ----------
+    mu_s : float
+        Boundary (static-limit) COF, ``mu(0)``.
+    mu_c : float
+        The COF the film would leave without viscous losses (below ``mu_s``).
+    v_s : float
+        Stribeck speed, m/s.
+    k : float
+        Viscous slope, COF per m/s (>= 0).
+    """
+
+    mu_s: float = 0.15
+    mu_c: float = 0.06
+    v_s: float = 0.01
+    k: float = 0.05
+
+    def mu(self, v: Any) -> np.ndarray:
+        """The COF at sliding speeds ``v`` (m/s; the magnitude is used)."""
+        v = np.abs(np.asarray(v, dtype=np.float64))
+        out: np.ndarray = self.mu_c + (self.mu_s - self.mu_c) * np.exp(-((v / self.v_s) ** 2)) + self.k * v
+        return out
+
+    @property
+    def v_min(self) -> float:
+        """Speed of the lowest COF (m/s): the mixed-to-hydrodynamic transition; inf when ``k = 0``.
+
+        Where ``d mu / d v = 0``: ``2 (mu_s - mu_c) (v / v_s^2) exp(-(v / v_s)^2) = k``, the root
+        beyond ``v_s / sqrt 2`` (where the fall is steepest), found by bisection.
+        """
+        if self.k <= 0:
+            return math.inf
+        a = self.mu_s - self.mu_c
+
+        def slope(v: float) -> float:
+            return self.k - 2.0 * a * v / self.v_s**2 * math.exp(-((v / self.v_s) ** 2))
+
+        lo = self.v_s / math.sqrt(2.0)
+        if slope(lo) >= 0:  # the viscous rise outweighs the fall everywhere: the minimum is at rest
+            return 0.0
+        hi = lo
+        while slope(hi) < 0:
+            hi *= 2.0
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if slope(mid) < 0 else (lo, mid)
+        return 0.5 * (lo + hi)
+
+    @property
+    def mu_min(self) -> float:
+        """The lowest COF, ``mu(v_min)``."""
+        return float(self.mu(self.v_min)) if math.isfinite(self.v_min) else self.mu_c
+
+    @property
+    def v_boundary(self) -> float:
+        """End of the boundary regime (m/s): where the COF has fallen by 10 % of ``mu_s - mu_c``.
+
+        ``exp(-(v / v_s)^2) = 0.9``, so ``v = v_s sqrt(ln(10 / 9))`` (the viscous term aside).
+        """
+        return self.v_s * math.sqrt(math.log(10.0 / 9.0))
+
+
+@dataclass(frozen=True)
+class StribeckSimulation:
+    """A simulated Stribeck test: :func:`stribeck_sweep`.
+
+    Attributes
+    ----------
+    channels : dict of str -> ndarray
+        ``fy`` (friction, N), ``fz`` (normal force, N), ``v`` (measured sliding velocity, m/s).
+    fs : float
+        Sampling rate, Hz.
+    model : StribeckModel
+        The true COF against speed.
+    speed_log : (t_s, v_m_s)
+        The set speed once a second, as a test controller logs it (for ``covariates={"speed": ...}``).
+    t, speed, mu : ndarray
+        Truth on a ``TRUTH_DT`` grid: the set speed and the model's COF there.
+    normal_force : float
+        The dead weight, N.
+    params : dict
+        Every setting of the simulation.
+    """
+
+    channels: dict[str, np.ndarray]
+    fs: float
+    model: StribeckModel
+    speed_log: tuple[np.ndarray, np.ndarray]
+    t: np.ndarray
+    speed: np.ndarray
+    mu: np.ndarray
+    normal_force: float
+    params: Mapping[str, Any] = field(default_factory=dict)
+
+    def mu_at(self, times: Any) -> np.ndarray:
+        """The model's COF at ``times`` (s), from the set speed there; NaN outside the test."""
+        out: np.ndarray = np.interp(np.asarray(times, dtype=float), self.t, self.mu, left=np.nan, right=np.nan)
+        return out
+
+    def speed_at(self, times: Any) -> np.ndarray:
+        """The set speed (m/s) at ``times`` (s); NaN outside the test."""
+        out: np.ndarray = np.interp(np.asarray(times, dtype=float), self.t, self.speed, left=np.nan, right=np.nan)
+        return out
+
+
+def _set_speed(t: np.ndarray, duration: float, lo: float, hi: float, steps: int) -> np.ndarray:
+    """Log-uniform speed: a continuous ramp (``steps = 0``) or ``steps`` equal dwells, lowest first."""
+    frac = np.clip(t / duration, 0.0, 1.0)
+    if steps:
+        frac = np.minimum(np.floor(frac * steps), steps - 1) / max(steps - 1, 1)
+    out: np.ndarray = lo * (hi / lo) ** frac
+    return out
+
+
+def stribeck_sweep(
+    *,
+    seed: int = 0,
+    fs: float = 100.0,
+    duration: float = 600.0,
+    speeds: tuple[float, float] = (1e-3, 1.0),
+    steps: int = 0,
+    normal_force: float = 10.0,
+    model: StribeckModel | None = None,
+    noise: float = 0.02,
+    speed_noise: float = 0.005,
+    scatter: float = 0.002,
+) -> StribeckSimulation:
+    """A pin-on-disc test under a dead weight whose sliding speed sweeps decades (docs/method.md 7a).
+
+    The set speed rises log-uniformly from ``speeds[0]`` to ``speeds[1]`` (m/s) over ``duration``
+    seconds: continuously (``steps=0``) or in ``steps`` equal dwells. The friction force is
+    ``fy = (mu(v) + e(t)) W + n_y`` with the dead weight ``W = normal_force`` (N), the COF ``mu(v)``
+    of ``model`` (:class:`StribeckModel`, default ``mu_s = 0.15, mu_c = 0.06, v_s = 0.01 m/s,
+    k = 0.05 s/m``: minimum 0.0614 at 0.0262 m/s), ``e(t)`` a slow COF scatter (white noise through a
+    1st-order Butterworth low-pass at 0.1 Hz, std ``scatter``) and ``n_y`` white sensor noise of
+    ``noise`` N; ``fz = W + n_z`` (the same noise). The measured velocity is the set speed times
+    ``1 + speed_noise * white``. The COF follows the speed at once (no film dynamics).
+    Deterministic for a seed; 60 000 samples by default.
+
+    Raises
+    ------
+    ValueError
+        A non-finite or out-of-range setting (speeds must satisfy 0 < lo < hi; steps 0 or >= 2).
+    """
+    m = StribeckModel() if model is None else model
+    fs_v = _cond_number("fs", fs)
+    dur = _cond_number("duration", duration)
+    if not (fs_v > 0 and dur > 0):
+        raise ValueError(f"fs and duration must be > 0, got fs={fs!r}, duration={duration!r}")
+    try:
+        lo, hi = (float(s) for s in speeds)
+    except (TypeError, ValueError):
+        raise ValueError(f"speeds must be (lowest, highest) in m/s, got {speeds!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise ValueError(f"speeds must satisfy 0 < lowest < highest, got {speeds!r}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps == 1 or steps < 0:
+        raise ValueError(f"steps must be 0 (a continuous ramp) or an integer >= 2, got {steps!r}")
+    w = _cond_number("normal_force", normal_force)
+    if not w > 0:
+        raise ValueError(f"normal_force must be > 0, got {normal_force!r}")
+    noise, speed_noise, scatter = (_cond_number(name, value, nonneg=True) for name, value in (
+        ("noise", noise), ("speed_noise", speed_noise), ("scatter", scatter)))  # fmt: skip
+    for name in ("mu_s", "mu_c", "v_s", "k"):
+        _cond_number(f"model.{name}", getattr(m, name), nonneg=True)
+    if not (m.v_s > 0 and m.mu_s >= m.mu_c):
+        raise ValueError(f"the model needs v_s > 0 and mu_s >= mu_c, got {m!r}")
+    n = int(round(dur * fs_v))
+    if n < 2:
+        raise ValueError(f"duration * fs must give >= 2 samples, got {n}")
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 24]))
+    t = np.arange(n) / fs_v
+    v_set = _set_speed(t, dur, lo, hi, int(steps))
+    e = rng.standard_normal(n)
+    if scatter > 0:
+        sos = signal.butter(1, min(0.1, 0.4 * fs_v), "lowpass", fs=fs_v, output="sos")
+        e = signal.sosfilt(sos, e)
+        e = scatter * (e - e.mean()) / e.std()
+    else:
+        e = np.zeros(n)
+    fy = (m.mu(v_set) + e) * w + noise * rng.standard_normal(n)
+    fz = w + noise * rng.standard_normal(n)
+    v = v_set * (1.0 + speed_noise * rng.standard_normal(n))
+    tg = np.arange(0.0, n / fs_v + 0.5 * TRUTH_DT, TRUTH_DT)
+    sg = _set_speed(tg, dur, lo, hi, int(steps))
+    log_t = np.arange(0.0, n / fs_v, 1.0)
+    params = dict(seed=int(seed), fs=fs_v, duration=dur, speeds=(lo, hi), steps=int(steps), normal_force=w,
+                  noise=float(noise), speed_noise=float(speed_noise), scatter=float(scatter), mu_s=m.mu_s,
+                  mu_c=m.mu_c, v_s=m.v_s, k=m.k, v_min=m.v_min, mu_min=m.mu_min, v_boundary=m.v_boundary)  # fmt: skip
+    return StribeckSimulation(
+        {"fy": fy, "fz": fz, "v": v}, fs_v, m, (log_t, _set_speed(log_t, dur, lo, hi, int(steps))), tg, sg,
+        m.mu(sg), w, params,
+    )  # fmt: skip
+
+
+#: Share of the running-in transient left at ``t_steady`` (docs/method.md 6h): t_steady is the first time after
+#: which |mu(t) - mu_ss| <= STEADY_DELTA |mu_0 - mu_ss|.
+STEADY_DELTA: float = 0.02
+RUNNING_IN_SHAPES = ("exponential", "linear")
+
+
+@dataclass(frozen=True, eq=False)
+class RunningInSimulation:
+    """A simulated dead-weight test with running-in: :func:`running_in`.
+
+    Attributes
+    ----------
+    channels : dict of str -> ndarray
+        ``fy`` (friction force, N, positive) and ``fz`` (normal force, N).
+    fs : float
+        Sampling rate, Hz.
+    t_steady : float
+        The true end of the running-in (s from the start): the first time after which the transient
+        ``|mu(t) - mu_ss|`` stays within :data:`STEADY_DELTA` (2 %) of its initial size ``|mu_0 - mu_ss|``;
+        0 for a flat test; NaN when there is no steady state (``drift`` != 0).
+    mu_0, mu_ss : float
+        The COF at t = 0 and the plateau (the process mean of the COF once steady).
+    shape : str
+        "exponential" or "linear" (the transient's form).
+    drift : float
+        COF change per second added over the whole test (0: the COF settles).
+    reached : bool
+        True when the steady state is reached within the test (no drift and t_steady < duration).
+    """
+
+    channels: dict[str, np.ndarray]
+    fs: float
+    t_steady: float
+    mu_0: float
+    mu_ss: float
+    shape: str
+    drift: float
+    duration: float
+
+    @property
+    def reached(self) -> bool:
+        return self.drift == 0.0 and self.t_steady < self.duration
+
+    def mu_at(self, times: Any) -> np.ndarray:
+        """The deterministic COF (transient and drift, without the wander) at ``times`` (s)."""
+        t = np.asarray(times, dtype=float)
+        return self.mu_ss + (self.mu_0 - self.mu_ss) * _transient(t, self.t_steady, self.shape) + self.drift * t
+
+
+def _transient(t: np.ndarray, t_steady: float, shape: str) -> np.ndarray:
+    """The running-in transient's share g(t) (g(0) = 1, g(t_steady) = STEADY_DELTA, g -> 0)."""
+    if t_steady <= 0:
+        return np.asarray(np.where(t <= 0, 1.0, 0.0))
+    if shape == "exponential":  # g = exp(-t / tau), tau = t_steady / ln(1 / delta)
+        return np.asarray(np.exp(-np.maximum(t, 0.0) * math.log(1.0 / STEADY_DELTA) / t_steady))
+    # linear: from 1 at t = 0 to 0 at t_end = t_steady / (1 - delta)
+    return np.asarray(np.clip(1.0 - np.maximum(t, 0.0) * (1.0 - STEADY_DELTA) / t_steady, 0.0, 1.0))
+
+
+def running_in(
+    *,
+    seed: int = 0,
+    fs: float = 50.0,
+    duration: float = 1200.0,
+    mu_0: float = 0.30,
+    mu_ss: float = 0.15,
+    t_steady: float = 300.0,
+    shape: str = "exponential",
+    drift: float = 0.0,
+    normal_force: float = 10.0,
+    noise: float = 0.02,
+    wander: float = 0.002,
+    wander_time: float = 20.0,
+) -> RunningInSimulation:
+    """A dead-weight (classical) test whose COF runs in from ``mu_0`` to ``mu_ss`` (docs/method.md 6h).
+
+    ``mu(t) = mu_ss + (mu_0 - mu_ss) g(t) + drift t + w(t)`` with the transient
+    ``g(t) = exp(-t ln(50) / t_steady)`` ("exponential") or ``max(0, 1 - 0.98 t / t_steady)``
+    ("linear", reaching mu_ss at t_steady / 0.98), so that in both t_steady is the first time after which
+    ``|mu(t) - mu_ss| <= 0.02 |mu_0 - mu_ss|`` (:data:`STEADY_DELTA`); ``t_steady = 0`` is a flat test.
+    ``w(t)`` is the COF's own wander, a stationary Gauss-Markov (Ornstein-Uhlenbeck) process of standard
+    deviation ``wander`` and correlation time ``wander_time`` s, so the per-window COF is autocorrelated as on a
+    real tribometer. The load is a dead weight: ``fz = normal_force + e_z``, ``fy = mu(t) normal_force + e_y``,
+    with white Gaussian noise of ``noise`` N on both; contact from the first sample.
+    """
+    if shape not in RUNNING_IN_SHAPES:
+        raise ValueError(f"shape must be one of {RUNNING_IN_SHAPES}, got {shape!r}")
+    for name, v in (("fs", fs), ("duration", duration), ("normal_force", normal_force)):
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be a finite number > 0, got {v!r}")
+    for name, v in (("t_steady", t_steady), ("noise", noise), ("wander", wander), ("wander_time", wander_time)):
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+    rng = np.random.default_rng(seed)
+    n = int(round(duration * fs))
+    t = np.arange(n) / fs
+    if wander > 0 and wander_time > 0:
+        rho = math.exp(-1.0 / (fs * wander_time))
+        e = rng.standard_normal(n) * wander * math.sqrt(1.0 - rho * rho)
+        w = signal.lfilter([1.0], [1.0, -rho], e, zi=[rho * wander * rng.standard_normal()])[0]
+    else:
+        w = wander * rng.standard_normal(n)
+    mu = mu_ss + (mu_0 - mu_ss) * _transient(t, t_steady, shape) + drift * t + w
+    fz = normal_force + noise * rng.standard_normal(n)
+    fy = mu * normal_force + noise * rng.standard_normal(n)
+    truth = float(t_steady) if drift == 0.0 else float("nan")
+    return RunningInSimulation({"fy": fy, "fz": fz}, float(fs), truth, float(mu_0), float(mu_ss), shape,
+                               float(drift), float(n / fs))  # fmt: skip

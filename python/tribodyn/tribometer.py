@@ -30,11 +30,14 @@ __all__ = [
     "Contact",
     "detect_contact",
     "STROKE_FRACTION",
+    "CYCLE_COLUMNS",
     "ClassicalSpec",
+    "cycle_table",
     "auto_window",
     "find_strokes",
     "from_dataframe",
     "prepass",
+    "sample_channels",
     "stroke_table",
     "verdict",
 ]
@@ -51,6 +54,8 @@ SLOW_RATE = 100.0
 PREPASS_SAMPLES = 1 << 20
 #: fy changes sign when both signs hold at least this share of the samples beyond 30 % of p95 |fy|.
 SIGN_FLIP_SHARE = 0.15
+#: Reciprocating needs the median |fy| of each sign at least this many noise SDs (sample-to-sample differences).
+RECIPROCATING_SNR = 5.0
 #: Dead weight: the within-window std of fz is below this fraction of |mean fz| (median over windows).
 DEAD_WEIGHT_REL = 0.01
 #: Fewest gated windows for the dynamic method's COF.
@@ -113,8 +118,11 @@ def from_dataframe(
     a DatetimeIndex gives fs = 1 / median step.
     """
     cols = {str(c): c for c in df.columns}
+    from .io.base import one_role_per_channel
+
     out: Dict[str, np.ndarray] = {}
     mapping = dict(channels or {})
+    one_role_per_channel(mapping, "channels")
     for role, col in mapping.items():
         if col not in cols:
             raise ValueError(f"channels: no column {col!r} in the DataFrame (columns: {', '.join(cols)})")
@@ -159,6 +167,8 @@ CONTACT_GAP_FRACTION = 0.05
 #: Without an unloaded cluster: min_fn is 4 noise standard deviations (from sample-to-sample differences),
 #: at least this fraction of the median |fz| and at most MIN_FN_FRACTION of it.
 CONTACT_FLOOR_FRACTION = 0.01
+#: The unloaded fy before and after the contact may differ by this fraction of the friction force without a warning.
+FY_TARE_SPREAD = 0.1
 #: fz has a static level when at least this share of the samples beyond min_fn has one sign.
 STATIC_SIGN_SHARE = 0.95
 
@@ -190,6 +200,8 @@ class Contact:
     excluded_fraction: float
     static: bool
     rule: str
+    #: A warning about the tare ('' when none): the unloaded fy differs before and after the contact.
+    note: str = ""
 
 
 def _robust_sd(v: np.ndarray) -> float:
@@ -270,16 +282,34 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
     if n == 0:
         return Contact(0.0, 0.0, 0.0, 0.0, 0.0, False, "no samples")
     unl = _unloaded(fz)
+    note = ""
     if unl is not None:
-        t_fz = float(np.median(fz[unl]))
-        t_fy = float(np.median(fy[unl]))
+        loaded_idx = np.flatnonzero(~unl)
+        before = unl.copy()
+        before[loaded_idx[0] :] = False  # the unloaded samples before the first loaded one (as tare= S takes them)
+        after = unl.copy()
+        after[: loaded_idx[-1] + 1] = False
+        ref = before if before.sum() >= 5 else unl
+        t_fz = float(np.median(fz[ref]))
+        t_fy = float(np.median(fy[ref]))
         loaded = float(np.median(fz[~unl]))
         sd = _robust_sd(fz[unl])
         thr = max(CONTACT_SIGMAS * sd, CONTACT_GAP_FRACTION * abs(loaded - t_fz))
+        where = "before the first contact" if ref is before else "of the whole recording"
         rule = (
             f"unloaded cluster at fz = {t_fz:.4g} N ({100 * unl.mean():.1f} % of the samples; fy there "
-            f"{t_fy:.4g} N) taken as the tare; in contact when |fz - tare| >= {thr:.4g} N"
+            f"{t_fy:.4g} N), its median {where} taken as the tare; in contact when |fz - tare| >= {thr:.4g} N"
         )
+        if ref is before and after.sum() >= 5:
+            fy_after = float(np.median(fy[after]))
+            friction = abs(float(np.median(fy[~unl])) - t_fy)
+            if abs(fy_after - t_fy) > FY_TARE_SPREAD * max(friction, 1e-300):
+                note = (
+                    f"the unloaded fy differs before the contact ({t_fy:.4g} N) and after it ({fy_after:.4g} N) by "
+                    f"{abs(fy_after - t_fy):.4g} N, {100 * abs(fy_after - t_fy) / max(friction, 1e-300):.0f} % of the "
+                    "friction force: the tare is taken before the contact (drag while sliding unloaded, or sensor "
+                    "drift?); pass --tare fy=N,fz=N (tare=) if another offset is right"
+                )
         static = True
         unl_frac = float(unl.mean())
     else:
@@ -293,7 +323,7 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
         static = bool(share >= STATIC_SIGN_SHARE and beyond.size >= 0.5 * n)
         unl_frac = 0.0
     excluded = float(np.mean(np.abs(fz - t_fz) < thr)) if thr > 0 else float(np.mean(fz == t_fz))
-    return Contact(float(thr), t_fy, t_fz, unl_frac, excluded, static, rule)
+    return Contact(float(thr), t_fy, t_fz, unl_frac, excluded, static, rule, note)
 
 
 # -- pre-pass -------------------------------------------------------------------------
@@ -303,25 +333,46 @@ def _sample_recording(rec: Any, roles: Sequence[str], tare_n: int) -> Optional[D
     """Up to PREPASS_SAMPLES samples of ``roles`` (evenly spread pieces, or the first ones) and the first tare_n."""
     if not all(r in getattr(rec, "roles", {}) for r in roles):
         return None
+    return sample_channels(rec, roles, tare_n)[0]
+
+
+def sample_channels(rec: Any, keys: Sequence[str], tare_n: int = 0, limit: Optional[int] = None
+                    ) -> Tuple[Dict[str, np.ndarray], List[Tuple[int, int]]]:  # fmt: skip
+    """The pre-pass sample of a recording: up to ``limit`` (default :data:`PREPASS_SAMPLES`) samples of
+    ``keys`` (roles or channel names), as 256 evenly spread pieces of a random-access recording longer
+    than that, else its first samples; with ``tare_n``, the first tare_n samples as well.
+
+    Returns the arrays and the (start, stop) of each contiguous run of samples within them (a piece,
+    or a segment of the recording), so that strokes are never found across two.
+    """
     n = int(rec.n_samples)
-    if n <= PREPASS_SAMPLES or not getattr(rec, "random_access", False):
-        stop = min(n, max(PREPASS_SAMPLES, tare_n))
-        parts = list(rec.chunks(max(1, stop), list(roles), stop=stop))
-        return {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in roles}
-    pieces, size = 256, PREPASS_SAMPLES // 256
-    out: Dict[str, List[np.ndarray]] = {r: [] for r in roles}
+    keys = list(keys)
+    limit = PREPASS_SAMPLES if limit is None else int(limit)
+    if n <= limit or not getattr(rec, "random_access", False):
+        stop = min(n, max(limit, tare_n))
+        parts = list(rec.chunks(max(1, stop), keys, stop=stop))
+        data = {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in keys}
+        segments = [(a, min(b, stop)) for a, b in (getattr(rec, "segments", None) or [(0, n)]) if a < stop]
+        return data, segments or [(0, stop)]
+    pieces, size = 256, max(1, limit // 256)
     starts = np.linspace(0, n - size, pieces).astype(np.int64)
     if tare_n:
         starts = np.concatenate([[0], starts])
     ranges = [(int(a), min(int(a) + (max(size, tare_n) if a == 0 else size), n)) for a in starts]
-    if hasattr(rec, "read_ranges"):
-        got = rec.read_ranges(ranges, list(roles))
-        return {r: got[r] for r in roles}
+    bounds: List[Tuple[int, int]] = []
+    at = 0
     for a, b in ranges:
-        for p in rec.chunks(b - a, list(roles), start=a, stop=b):
-            for r in roles:
+        bounds.append((at, at + b - a))
+        at += b - a
+    if hasattr(rec, "read_ranges"):
+        got = rec.read_ranges(ranges, keys)
+        return {r: got[r] for r in keys}, bounds
+    out: Dict[str, List[np.ndarray]] = {r: [] for r in keys}
+    for a, b in ranges:
+        for p in rec.chunks(b - a, keys, start=a, stop=b):
+            for r in keys:
                 out[r].append(p[r])
-    return {r: np.concatenate(v) for r, v in out.items()}
+    return {r: np.concatenate(v) for r, v in out.items()}, bounds
 
 
 def prepass(
@@ -397,7 +448,11 @@ def prepass(
         if not np.isfinite(thr) or thr < 0:
             raise ValueError(f"min_fn must be finite and >= 0, got {min_fn!r}")
         out["spec"] = ClassicalSpec(thr, t_fy, t_fz)
-    # motion
+    # motion, from the samples in contact only (unloaded fy is an offset or drag, not friction)
+    if "spec" in out:
+        touching = np.abs(fz) >= out["spec"].min_fn
+        if touching.any():
+            fy = fy[touching]
     p95 = float(np.percentile(np.abs(fy), 95)) if fy.size else 0.0
     share = 0.0
     if p95 > 0:
@@ -405,10 +460,17 @@ def prepass(
         neg = float(np.mean(fy < -0.3 * p95))
         share = min(pos, neg)
     out["sign_flip_share"] = share
+    # Both directions' friction must stand out of the noise: a friction near zero (a tare that takes
+    # most of it, a lubricated contact) changes sign with the noise alone.
+    noise = _robust_sd(np.diff(fy)) / np.sqrt(2.0) if fy.size > 1 else 0.0
+    sides = [float(np.median(np.abs(fy[sel]))) if sel.any() else 0.0 for sel in (fy > 0, fy < 0)]
+    snr = min(sides) / noise if noise > 0 else np.inf
+    out["sign_snr"] = float(snr)
     if motion == "auto":
         # Only forces with their static level tell the sliding direction: a
         # dynamic (high-passed) fy changes sign with every oscillation.
-        out["motion"] = "reciprocating" if static and share >= SIGN_FLIP_SHARE else "unidirectional"
+        recip = static and share >= SIGN_FLIP_SHARE and snr >= RECIPROCATING_SNR
+        out["motion"] = "reciprocating" if recip else "unidirectional"
         out["motion_detected"] = True
     else:
         out["motion"] = motion
@@ -444,14 +506,14 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
         fin = seg[np.isfinite(seg)]
         p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
         thr = 0.3 * p95
-        d = np.zeros(seg.size, dtype=np.int8)
-        cur = 0
-        for i, v in enumerate(seg):
-            if v > thr:
-                cur = 1
-            elif v < -thr:
-                cur = -1
-            d[i] = cur
+        # The direction of the last crossing of +-thr (0 before the first): a forward fill of the crossings.
+        raw = np.zeros(seg.size, dtype=np.int8)
+        with np.errstate(invalid="ignore"):
+            raw[seg > thr] = 1
+            raw[seg < -thr] = -1
+        last = np.where(raw != 0, np.arange(seg.size), 0)
+        np.maximum.accumulate(last, out=last)
+        d = raw[last]
         # samples before the first decided direction take it
         nz = np.flatnonzero(d)
         if nz.size == 0:
@@ -462,27 +524,32 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
         # The hysteresis decides a change of direction late (at 30 % of p95): the stroke starts where
         # the signal took its new sign (the reversal), so that a stroke's central part is centred.
         moved: List[int] = []
+        sign = np.sign(np.nan_to_num(seg, nan=0.0)).astype(np.int8).tolist()  # plain ints: a fast loop
+        dirs = d.tolist()
         for c in cuts.tolist():
             lo, j = (moved[-1] if moved else 0) + 1, c
-            while j > lo and seg[j - 1] * d[c] > 0:
+            while j > lo and sign[j - 1] == dirs[c]:
                 j -= 1
             moved.append(j)
         edges = [0, *moved, seg.size]
         for s0, s1 in zip(edges[:-1], edges[1:]):
             if s1 - s0 >= 4:
-                out.append((a + s0, a + s1, int(d[s1 - 1])))
+                out.append((a + s0, a + s1, dirs[s1 - 1]))
     return out
 
 
 def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, int, int]], fs: float,
-                 spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None
-                 ) -> Dict[str, np.ndarray]:  # fmt: skip
-    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c)."""
+                 spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None,
+                 x: Optional[np.ndarray] = None) -> Dict[str, np.ndarray]:  # fmt: skip
+    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c),
+    the static (breakaway) COF before it (6c: ``stickslip.breakaway_peak``); with a position ``x`` (m), the
+    work of friction over the whole stroke and its sliding distance (6c)."""
+    from .stickslip import breakaway_peak
+
     if not (0 < fraction <= 1):
         raise ValueError(f"stroke_fraction must be in (0, 1], got {fraction!r}")
     spec = spec or ClassicalSpec(0.0)
-    rows: Dict[str, List[Any]] = {k: [] for k in ("stroke", "cycle", "direction", "t_start", "time", "duration",
-                                                  "mu", "mu_median", "mu_instrument", "fz_mean", "n")}  # fmt: skip
+    rows: Dict[str, List[Any]] = {k: [] for k in STROKE_COLUMNS}
     first_dir = strokes[0][2] if strokes else 1
     cycle = 0
     for k, (a, b, d) in enumerate(strokes):
@@ -502,14 +569,114 @@ def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, in
         rows["time"].append((a + b) / 2 / fs)
         rows["duration"].append(m / fs)
         rows["mu"].append(float(r.mean()) if r.size else np.nan)
+        # the breakaway: the first part, from the motion onset (the stroke's first sample, a reversal) to the
+        # central part; a stroke that does not follow a reversal (the first) has no onset in the record
+        peak, at = float("nan"), -1
+        if k and strokes[k - 1][1] == a and strokes[k - 1][2] != d:
+            yb = np.abs(fy[a:c0] - spec.tare_fy)
+            zb = np.abs(fz[a:c0] - spec.tare_fz)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rb = np.where((zb >= spec.min_fn) & (zb > 0), yb / zb, np.nan)
+            peak, at = breakaway_peak(rb)
+        rows["mu_static"].append(peak)
+        rows["t_static"].append(at / fs if at >= 0 else np.nan)
         rows["mu_median"].append(float(np.median(r)) if r.size else np.nan)
         ci = np.abs(cof[c0:c1]) if cof is not None else np.zeros(0)
         ci = ci[np.isfinite(ci)]
         rows["mu_instrument"].append(float(ci.mean()) if ci.size else np.nan)
         rows["fz_mean"].append(float(np.mean(fz[c0:c1])))
         rows["n"].append(int(keep.sum()))
-    ints = {"stroke", "cycle", "direction", "n"}
+        rows["start"].append(a)
+        rows["stop"].append(b)
+        work, dist, span = _stroke_work(fy, fz, x, a, b, spec) if x is not None else (np.nan, np.nan, np.nan)
+        rows["work"].append(work)
+        rows["distance"].append(dist)
+        rows["x_span"].append(span)
+        rows["fz_stroke"].append(float(np.nanmean(fz[a:b] - spec.tare_fz)))
+    ints = {"stroke", "cycle", "direction", "n", "start", "stop"}
     return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in rows.items()}
+
+
+def _stroke_work(fy: np.ndarray, fz: np.ndarray, x: np.ndarray, a: int, b: int, spec: ClassicalSpec
+                 ) -> Tuple[float, float, float]:  # fmt: skip
+    """(work of friction sum fy dx (J), sliding distance sum |dx| (m), max x - min x (m)) over samples a..b.
+
+    Trapezoids from sample a to sample b (the next stroke's first), so the
+    strokes of a cycle add up to the whole loop (docs/method.md 6c); fy is
+    tared, but a constant offset cancels over a closed loop anyway.
+    """
+    hi = min(b + 1, len(x))
+    xs = np.asarray(x[a:hi], dtype=float)
+    ys = np.asarray(fy[a:hi], dtype=float) - spec.tare_fy
+    if xs.size < 2:
+        return float("nan"), float("nan"), float("nan")
+    dx = np.diff(xs)
+    work = float(np.nansum(0.5 * (ys[1:] + ys[:-1]) * dx))
+    return work, float(np.nansum(np.abs(dx))), float(np.nanmax(xs) - np.nanmin(xs))
+
+
+#: A cycle is whole (its loop closed) when it slides at least this fraction of twice its peak-to-peak position.
+WHOLE_CYCLE = 0.9
+
+#: Columns of :attr:`Results.cycles` with their units and meanings (docs/method.md 6c).
+CYCLE_COLUMNS: Dict[str, Tuple[str, str]] = {
+    "cycle": ("", "cycle number (one stroke each way)"),
+    "t": ("s", "cycle centre"),
+    "mu_forward": ("1", "per-stroke COF of the cycle's forward stroke(s) (direction +1; their mean)"),
+    "mu_backward": ("1", "the same of the backward stroke(s) (direction -1)"),
+    "mu_cycle": ("1", "(mu_forward + mu_backward) / 2: a load-cell offset cancels; the headline is its mean"),
+    "offset": ("1", "(mu_forward - mu_backward) / 2: a load-cell offset (or a direction-dependent COF) over fz"),
+    "energy": ("J", "energy dissipated: the friction loop's area, sum of fy dx over a whole cycle (with a position x)"),
+    "distance": ("m", "sliding distance of the cycle, sum of |dx|"),
+    "mu_energy": ("1", "energy COF: energy / (mean fz x distance)"),
+    "slip_amplitude": ("m", "half the peak-to-peak position in the cycle"),
+    "start": ("samples", "first sample of the cycle"),
+    "stop": ("samples", "sample after the cycle"),
+}
+
+
+def cycle_table(strokes: Mapping[str, np.ndarray]) -> Dict[str, np.ndarray]:
+    """One row per cycle of a reciprocating test (:data:`CYCLE_COLUMNS`; docs/method.md 6c).
+
+    A cycle is one stroke each way (``strokes["cycle"]``); ``mu_cycle`` is NaN
+    unless the cycle holds both directions with a COF; the energy columns
+    are NaN without a position channel or unless both directions are there.
+    """
+    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
+    d = np.asarray(strokes["direction"], dtype=np.int64)
+    cols: Dict[str, List[float]] = {k: [] for k in CYCLE_COLUMNS}
+    for c in np.unique(cyc):
+        sel = cyc == c
+        both = bool(np.any(sel & (d == 1)) and np.any(sel & (d == -1)))
+        means = []
+        for sign in (1, -1):
+            m = np.asarray(strokes["mu"], dtype=float)[sel & (d == sign)]
+            m = m[np.isfinite(m)]
+            means.append(float(m.mean()) if m.size else np.nan)
+        work = np.asarray(strokes.get("work", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        dist = np.asarray(strokes.get("distance", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        span = np.asarray(strokes.get("x_span", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        fz = np.asarray(strokes.get("fz_stroke", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        # a whole cycle closes its loop: it slides about twice its peak-to-peak (a first or last part-stroke
+        # does not); only a whole cycle has an energy
+        whole = both and np.isfinite(dist).all() and float(dist.sum()) >= WHOLE_CYCLE * 2.0 * float(np.max(span))
+        energy = abs(float(work.sum())) if whole and np.isfinite(work).all() else np.nan
+        distance = float(dist.sum()) if whole else np.nan
+        fz_mean = float(np.mean(np.abs(fz))) if np.isfinite(fz).all() else np.nan
+        cols["cycle"].append(float(c))
+        cols["t"].append(float(np.mean(np.asarray(strokes["time"], dtype=float)[sel])))
+        cols["mu_forward"].append(means[0])
+        cols["mu_backward"].append(means[1])
+        cols["mu_cycle"].append(0.5 * (means[0] + means[1]))
+        cols["offset"].append(0.5 * (means[0] - means[1]))
+        cols["energy"].append(energy)
+        cols["distance"].append(distance)
+        cols["mu_energy"].append(energy / (fz_mean * distance) if distance and fz_mean else np.nan)
+        cols["slip_amplitude"].append(0.5 * float(np.max(span)) if whole else np.nan)
+        cols["start"].append(float(np.asarray(strokes.get("start", [0]))[sel].min()) if "start" in strokes else 0.0)
+        cols["stop"].append(float(np.asarray(strokes.get("stop", [0]))[sel].max()) if "stop" in strokes else 0.0)
+    ints = {"cycle", "start", "stop"}
+    return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in cols.items()}
 
 
 #: Columns of :attr:`Results.strokes` with their units and meanings (docs/method.md 6c).
@@ -522,9 +689,17 @@ STROKE_COLUMNS: Dict[str, Tuple[str, str]] = {
     "duration": ("s", "stroke duration"),
     "mu": ("1", "classical COF mean |fy|/|fz| over the central stroke_fraction, |fz| >= min_fn"),
     "mu_median": ("1", "median of |fy|/|fz| over the same samples"),
+    "mu_static": ("1", "static (breakaway) COF: largest 5-sample mean of |fy|/|fz| before the central part (6c)"),
+    "t_static": ("s", "time from the motion onset (the stroke's start) to the breakaway peak"),
     "mu_instrument": ("1", "mean of the instrument's COF column over the same samples"),
     "fz_mean": ("N", "mean fz over the same samples"),
     "n": ("samples", "samples used"),
+    "start": ("samples", "first sample of the stroke"),
+    "stop": ("samples", "sample after the stroke"),
+    "work": ("J", "work of friction over the whole stroke, sum of (fy - tare) dx (with a position x; 6c)"),
+    "distance": ("m", "sliding distance of the stroke, sum of |dx| (with a position x)"),
+    "x_span": ("m", "max x - min x over the stroke (with a position x)"),
+    "fz_stroke": ("N", "mean fz - tare over the whole stroke"),
 }
 
 

@@ -108,8 +108,9 @@ def gate_reasons(
     magnitude, or sums that overflow: the kernel's ``out_of_range``,
     docs/method.md 4); the fit is degenerate (fewer than 3 samples, constant fz, no
     variance of fz beyond its noise); with a number ``gate``, |C_yz(0)|
-    below it (the paper's gate); with ``gate="ci"``, a 95 % interval whose
-    relative half-width ``rel_ci`` exceeds ``max_rel_ci``; with ``sign``, a
+    below it (the paper's gate); with ``gate="ci"``, an expected 95 %
+    half-width ``rel_ci``, relative to the recording's COF, above
+    ``max_rel_ci`` (``estimators.gate_precision``); with ``sign``, a
     slope whose sign is opposite to the recording's orientation (mu_r < 0);
     the deadband excludes every sample; a channel skew (max |C_yz(j)| away
     from lag 0, with ``max_lag``). Returns an object array of str.
@@ -147,7 +148,10 @@ def gate_reasons(
         elif low[k]:
             why.append(f"low correlation: |C_yz(0)| = {c[k]:.3f} < {float(gate):g}")
         elif wide[k]:
-            why.append(f"imprecise: 95 % interval +-{100 * rel[k]:.1f} % > +-{100 * max_rel_ci:g} %")
+            why.append(
+                f"imprecise: expected 95 % interval +-{100 * rel[k]:.1f} % of the recording's COF "
+                f"> +-{100 * max_rel_ci:g} %"
+            )
         if opposite[k]:
             why.append("slope sign opposite to the recording's orientation")
         if empty[k]:

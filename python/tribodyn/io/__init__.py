@@ -224,15 +224,22 @@ def open_recording(
     kwargs = dict(options)
     if vendor is not None:
         kwargs["vendor"] = vendor
+    # The friction channel among several tangential ones is chosen by evidence (docs/method.md 6f).
+    from ..roles import choose_roles
+
+    rec: Optional[Recording] = None
     try:
-        rec: Recording = cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
+        rec = cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
+        rec.role_choice = choose_roles(rec, channels)
         return rec
-    except TypeError as exc:
-        if "unexpected keyword argument" in str(exc):
+    except BaseException as exc:
+        if rec is not None:
+            rec.close()
+        if isinstance(exc, TypeError) and "unexpected keyword argument" in str(exc):
             raise TypeError(f"open_recording: option not accepted for format {fmt!r}: {exc}") from None
+        if isinstance(exc, (OSError, EOFError, UnicodeError)):
+            raise RecordingError(f"{p}: cannot read as {fmt}: {exc}") from None
         raise
-    except (OSError, EOFError, UnicodeError) as exc:
-        raise RecordingError(f"{p}: cannot read as {fmt}: {exc}") from None
 
 
 def _check_mapping(value: Any, name: str, kinds: Tuple[type, ...], what: str) -> None:

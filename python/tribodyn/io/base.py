@@ -32,17 +32,23 @@ import os
 import threading
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from .units import si_conversion
 
+if TYPE_CHECKING:
+    from ..roles import RoleChoice
+
 __all__ = [
     "KNOWN_ROLES",
+    "TANGENTIAL_NAMES",
     "ChannelInfo",
     "Recording",
     "RecordingError",
+    "base_name",
+    "one_role_per_channel",
     "resolve_name",
     "roles_by_name",
 ]
@@ -63,7 +69,22 @@ _ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {
     "i": ("i", "current"),
     "u": ("u", "voltage"),
     "cof": ("cof", "mu", "friction coefficient", "coefficient of friction"),
+    # a bare "x" or "v" is not taken (CETR's X is a constant radius): --map x=CHANNEL
+    "x": ("position", "displacement"),
+    "v": ("velocity", "sliding velocity"),
 }
+
+
+#: Base names (see :func:`base_name`) of tangential force channels: the candidates for the friction
+#: role when the map is automatic and several compete (:mod:`tribodyn.roles`). Ft and "tangential
+#: force" are not names of a role by themselves (a lone Ft is mapped by the caller).
+TANGENTIAL_NAMES: Tuple[str, ...] = (
+    *_ROLE_ALIASES["fx"],
+    *_ROLE_ALIASES["fy"],
+    "ft",
+    "tangential force",
+    "tangential_force",
+)
 
 
 class RecordingError(ValueError):
@@ -133,7 +154,7 @@ def rate_from_step(step: float) -> float:
     return float(f"{1.0 / step:.12g}")
 
 
-def _base_name(name: str) -> str:
+def base_name(name: str) -> str:
     """Lower-case name without a group/dataset path and without a unit suffix."""
     s = name.rsplit("/", 1)[-1].strip().lower()
     for o, c in (("[", "]"), ("(", ")")):
@@ -146,16 +167,28 @@ def roles_by_name(names: Sequence[str]) -> Dict[str, str]:
     """Default role map from channel names alone (used where no vendor map applies).
 
     A role is mapped only when exactly one channel's base name (see
-    :func:`_base_name`) matches one of the role's aliases, so nothing is
+    :func:`base_name`) matches one of the role's aliases, so nothing is
     guessed when the names are ambiguous.
     """
     out: Dict[str, str] = {}
-    bases = [_base_name(n) for n in names]
+    bases = [base_name(n) for n in names]
     for role, aliases in _ROLE_ALIASES.items():
         hits = [n for n, b in zip(names, bases) if b in aliases]
         if len(hits) == 1:
             out[role] = hits[0]
     return out
+
+
+def one_role_per_channel(roles: Mapping[str, str], what: str) -> None:
+    """Raises :class:`RecordingError` (a ValueError) when ``roles`` binds one channel to two roles."""
+    seen: Dict[str, str] = {}
+    for role, name in roles.items():
+        if name in seen:
+            raise RecordingError(
+                f"{what}: channel {name!r} is bound to both {seen[name]!r} and {role!r}; "
+                "a channel carries one role: map each role to its own channel"
+            )
+        seen[name] = role
 
 
 def resolve_name(
@@ -272,6 +305,9 @@ class Recording:
         self._fs_source = ""
         self._segments: List[Tuple[int, int]] = []
         self._default_roles: Dict[str, str] = {}
+        #: How ``fy`` was bound when the map is automatic and several tangential channels compete
+        #: (:func:`tribodyn.roles.choose_roles`, run by :func:`~tribodyn.io.open_recording`); None otherwise.
+        self.role_choice: Optional["RoleChoice"] = None
         self.metadata: Dict[str, Any] = {}
         self.warnings: List[str] = []
         self._block_rows = DEFAULT_BLOCK_ROWS
@@ -296,6 +332,7 @@ class Recording:
             raise RecordingError(f"{self.path}: no readable channel in this {self.format} file")
         # roles
         roles: Dict[str, str] = dict(self._default_roles)
+        given: Dict[str, str] = {}
         if channels is not None:
             if not isinstance(channels, Mapping):
                 raise RecordingError("channels must be a mapping role -> channel name")
@@ -303,8 +340,15 @@ class Recording:
                 if name is None:
                     roles.pop(role, None)
                 else:
-                    roles[str(role)] = self._resolve(str(name), what=f"channel for role {role!r}")
+                    given[str(role)] = self._resolve(str(name), what=f"channel for role {role!r}")
+            one_role_per_channel(given, "channels")
+            # A channel the caller binds is taken from the default role that had it (--map fy=Fx on a
+            # file whose names gave fx <- Fx must not leave fx and fy on one channel).
+            roles = {r: n for r, n in roles.items() if r in given or n not in given.values()}
+            roles.update(given)
         self.roles: Dict[str, str] = roles
+        #: Roles the caller bound (the rest come from the format's or the evidence's default map).
+        self.roles_given: Dict[str, str] = given
         # sampling rate
         if fs is not None:
             try:
@@ -327,10 +371,19 @@ class Recording:
             raise RecordingError(
                 f"{self.path}: sampling rate unknown (this {self.format} file does not carry it); pass fs=... (Hz)"
             )
-        # scaling and units
+        self._scaling_args = (scale, units)
+        self._scale, self.channels = self._scaling(self.roles)
+        if not self._segments:
+            self._segments = [(0, self._n)]
+        self._identity_at_open = self._identity()
+
+    def _scaling(self, roles: Mapping[str, str]) -> Tuple[Dict[str, float], List[ChannelInfo]]:
+        """Per-channel factor to SI and the channel list under the role map ``roles`` (the keys of the
+        ``scale`` and ``units`` given at opening are roles or channels: a role's follows its channel)."""
+        scale, units = self._scaling_args
         user_scale: Dict[str, float] = {}
         for key, f in (scale or {}).items():
-            name = self._key_to_name(key, f"scale key {key!r}")
+            name = self._key_to_name(key, f"scale key {key!r}", roles)
             try:
                 fv = float(f)
             except (TypeError, ValueError):
@@ -340,13 +393,13 @@ class Recording:
             user_scale[name] = fv
         user_units: Dict[str, str] = {}
         for key, u in (units or {}).items():
-            name = self._key_to_name(key, f"units key {key!r}")
+            name = self._key_to_name(key, f"units key {key!r}", roles)
             user_units[name] = str(u)
         role_of: Dict[str, str] = {}
-        for role, name in self.roles.items():
+        for role, name in roles.items():
             role_of.setdefault(name, role)
         infos: List[ChannelInfo] = []
-        self._scale: Dict[str, float] = {}
+        factors: Dict[str, float] = {}
         for name in self._names:
             raw = self._raw_units.get(name)
             if name in user_scale:
@@ -360,12 +413,34 @@ class Recording:
             if name in user_units:
                 unit = user_units[name]
                 note = (note + "; " if note else "") + "unit given by the caller"
-            self._scale[name] = f
+            factors[name] = f
             infos.append(ChannelInfo(name, unit, role_of.get(name), raw, f, note))
-        self.channels: List[ChannelInfo] = infos
-        if not self._segments:
-            self._segments = [(0, self._n)]
-        self._identity_at_open = self._identity()
+        return factors, infos
+
+    @property
+    def roles_source(self) -> str:
+        """ "automatic" (the caller bound no role), "given" (the caller bound every role of the map) or
+        "partly given"."""
+        if not self.roles_given:
+            return "automatic"
+        return "given" if all(self.roles_given.get(r) == n for r, n in self.roles.items()) else "partly given"
+
+    @property
+    def keys_by_role(self) -> List[str]:
+        """The keys of the ``scale`` and ``units`` given at opening that name a role, not a channel."""
+        scale, units = self._scaling_args
+        return sorted({k for k in (*(scale or {}), *(units or {})) if k in self.roles})
+
+    def _rebind(self, roles: Mapping[str, str]) -> None:
+        """Replaces the role map (the automatic choice by evidence, :mod:`tribodyn.roles`); a scale or unit
+        given by role follows its role to the new channel."""
+        roles = dict(roles)
+        one_role_per_channel(roles, "role map")
+        missing = [n for n in roles.values() if n not in self._names]
+        if missing:
+            raise RecordingError(f"{self.path}: no channel {missing[0]!r} to map")
+        self._scale, self.channels = self._scaling(roles)
+        self.roles = roles
 
     def _identity(self) -> Optional[Tuple[int, int, int, int]]:
         """(size, mtime_ns, inode, device) of the file read: of the recording's own descriptor when it holds one
@@ -464,6 +539,7 @@ class Recording:
         dict
             ``path``, ``format``, ``size_bytes``, ``fs``, ``fs_source``,
             ``n_samples``, ``duration``, ``segments``, ``roles``,
+            ``roles_source``, ``roles_evidence`` (see :attr:`role_choice`),
             ``channels`` (list of dicts: name, unit, role, raw_unit, scale,
             note), ``streaming``, ``metadata``, ``warnings``.
         """
@@ -481,6 +557,8 @@ class Recording:
             "duration": self.duration,
             "segments": self.segments,
             "roles": dict(self.roles),
+            "roles_source": self.roles_source,
+            "roles_evidence": self.role_choice.as_dict() if self.role_choice is not None else None,
             "channels": [
                 {
                     "name": c.name,
@@ -515,20 +593,22 @@ class Recording:
             raise RecordingError("roles is empty: name at least one role or channel")
         return out
 
-    def _key_to_name(self, key: str, what: str = "") -> str:
+    def _key_to_name(self, key: str, what: str = "", roles: Optional[Mapping[str, str]] = None) -> str:
         """File channel of a role or channel name given by the caller.
 
-        A mapped role wins; an unmapped known role (``fx``...) only matches a
-        channel of exactly that name, never a look-alike such as ``Fx``.
+        A mapped role (of ``roles``, default the recording's map) wins; an
+        unmapped known role (``fx``...) only matches a channel of exactly that
+        name, never a look-alike such as ``Fx``.
         """
-        if key in self.roles:
-            return self.roles[key]
+        roles = self.roles if roles is None else roles
+        if key in roles:
+            return roles[key]
         try:
             if key in KNOWN_ROLES and key not in self._names:
                 raise RecordingError(key)
             return self._resolve(key)
         except RecordingError:
-            mapped = ", ".join(f"{r}={n!r}" for r, n in self.roles.items()) or "none"
+            mapped = ", ".join(f"{r}={n!r}" for r, n in roles.items()) or "none"
             avail = ", ".join(repr(n) for n in self._names)
             where = f" ({what})" if what else ""
             raise RecordingError(

@@ -1,0 +1,529 @@
+"""Breakaway (static) COF per stroke and stick-slip events (docs/method.md 6c, 6g).
+
+* :func:`breakaway_peak`: the static COF of one stroke, the largest moving
+  average of |Ft|/Fn between its motion onset and its central part
+  (``tribometer.stroke_table`` calls it for the ``mu_static`` column).
+* :func:`stick_slip`: the stick-slip events of a recording (a slow rise of
+  the friction force, then a sudden drop), their count, median amplitude
+  and frequency, as a :class:`StickSlip`. It reads fy and fz again (in
+  blocks), so :func:`tribodyn.analyze` stays as cheap as it was.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Iterator, Mapping
+from typing import Any, Callable, Dict, List, Optional, Tuple
+
+import numpy as np
+
+__all__ = [
+    "BREAKAWAY_SMOOTH",
+    "StickSlip",
+    "breakaway_peak",
+    "stick_slip",
+]
+
+#: Samples of the moving average whose maximum is the static COF (docs/method.md 6c).
+BREAKAWAY_SMOOTH = 5
+#: A drop counts when the detrended drop statistic exceeds this many noise SDs (docs/method.md 6g).
+K_SIGMA = 5.0
+#: A drop statistic above this many noise SDs (but under k) still bounds its neighbours' stick lines.
+BOUND_K = 2.5
+#: Samples averaged on each side of a drop by the drop statistic.
+SMOOTH = 5
+#: Samples a drop may take (the gap between the two averages).
+DROP_SAMPLES = 3
+#: A first difference this many robust SDs below the median is a fall (a drop), left out of the noise.
+FALL_SD = 3.5
+#: Most samples of each stick line fitted beside a drop.
+FIT_MAX = 200
+#: The common slope of the two stick lines must be positive by this many standard errors (a rise).
+RISE_T = 2.0
+#: Stick-slip is "present" from this many events on.
+MIN_EVENTS = 3
+#: Samples per block read at once (a fixed grid: the result does not depend on a reader's chunks).
+BLOCK = 1 << 20
+
+
+def breakaway_peak(ratio: np.ndarray, smooth: int = BREAKAWAY_SMOOTH) -> Tuple[float, int]:
+    """(static COF, index of the centre of its window) of |Ft|/Fn samples from a motion onset on (6c).
+
+    The largest mean of ``smooth`` consecutive samples (fewer when there are
+    fewer); a window holding a NaN (a sample out of contact) is skipped.
+    (NaN, -1) when no window is whole.
+    """
+    r = np.asarray(ratio, dtype=float)
+    w = min(int(smooth), r.size)
+    if w < 1:
+        return float("nan"), -1
+    fin = np.isfinite(r)
+    c = np.concatenate([[0.0], np.cumsum(np.where(fin, r, 0.0))])
+    n = np.concatenate([[0], np.cumsum(fin)])
+    mean = (c[w:] - c[:-w]) / w
+    whole = (n[w:] - n[:-w]) == w
+    if not whole.any():
+        return float("nan"), -1
+    mean[~whole] = -np.inf
+    k = int(np.argmax(mean))
+    return float(mean[k]), k + (w - 1) // 2
+
+
+@dataclasses.dataclass(frozen=True)
+class StickSlip:
+    """The stick-slip of a recording (:func:`stick_slip`; docs/method.md 6g).
+
+    Attributes
+    ----------
+    events : int
+        Stick-slip events: drops of the friction force larger than
+        ``threshold`` within ``drop_samples`` samples, after a rise.
+    amplitude : float
+        Median drop (N): the offset between the stick lines before and after each drop.
+    amplitude_cof : float
+        Median drop over the mean normal force beside it (COF units).
+    frequency : float
+        1 / the median interval between consecutive events of one stroke
+        (one run of contact) (Hz); NaN when no stroke holds two events.
+    rate : float
+        Events per second of the time searched (``duration``).
+    times : ndarray
+        Time of each drop (s from the recording's start).
+    drops : ndarray
+        Each event's drop (N).
+    noise : float
+        Noise SD of the friction signal (N): robust SD of its sample-to-sample differences / sqrt 2.
+    threshold : float
+        ``k`` x ``noise`` (N).
+    duration : float
+        Time searched (s): the strokes' central parts, or the samples in contact.
+    present : bool
+        At least :data:`MIN_EVENTS` events.
+    verdict : str
+        One line: "stick-slip present: N events, amplitude ..., frequency ..." or why not.
+    scope : str
+        What was searched.
+    """
+
+    events: int
+    amplitude: float
+    amplitude_cof: float
+    frequency: float
+    rate: float
+    times: np.ndarray
+    drops: np.ndarray
+    noise: float
+    threshold: float
+    duration: float
+    present: bool
+    verdict: str
+    scope: str
+
+    def __str__(self) -> str:
+        return self.verdict
+
+    def to_dict(self) -> Dict[str, Any]:
+        """JSON-ready fields (NaN as None), without the per-event ``times`` and ``drops``."""
+
+        def num(v: float) -> Optional[float]:
+            return float(v) if np.isfinite(v) else None
+
+        return {
+            "events": self.events,
+            "amplitude": num(self.amplitude),
+            "amplitude_cof": num(self.amplitude_cof),
+            "frequency": num(self.frequency),
+            "rate": num(self.rate),
+            "noise": num(self.noise),
+            "threshold": num(self.threshold),
+            "duration": num(self.duration),
+            "present": self.present,
+            "verdict": self.verdict,
+            "scope": self.scope,
+        }
+
+
+# -- reading ----------------------------------------------------------------------------------------------
+
+
+def _reader(source: Any, open_options: Optional[Mapping[str, Any]]
+            ) -> Tuple[Callable[[int, int], Dict[str, np.ndarray]], int, Callable[[], None]]:  # fmt: skip
+    """(read(a, b) -> {"fy", "fz"}, n_samples, close) for a mapping, a list of acquisitions, a recording or a path."""
+    if isinstance(source, Mapping):
+        data = {r: np.asarray(source[r], dtype=float) for r in ("fy", "fz")}
+        return (lambda a, b: {r: v[a:b] for r, v in data.items()}), int(data["fz"].size), (lambda: None)
+    if isinstance(source, (list, tuple)):
+        data = {r: np.concatenate([np.asarray(p[r], dtype=float) for p in source]) for r in ("fy", "fz")}
+        return (lambda a, b: {r: v[a:b] for r, v in data.items()}), int(data["fz"].size), (lambda: None)
+    if isinstance(source, Iterator):
+        raise ValueError("stick_slip reads the recording again: pass a mapping, a recording or a path, not a stream")
+    from .io import Recording, open_recording
+
+    rec = source if isinstance(source, Recording) else None
+    close: Callable[[], None] = lambda: None  # noqa: E731
+    if rec is None:
+        if not isinstance(source, (str, os.PathLike)):
+            raise TypeError(f"stick_slip: unsupported source {type(source).__name__}")
+        rec = open_recording(source, **dict(open_options or {}))
+        close = rec.close
+
+    def read(a: int, b: int) -> Dict[str, np.ndarray]:
+        parts = list(rec.chunks(max(1, b - a), ["fy", "fz"], start=a, stop=b))
+        return {r: np.concatenate([p[r] for p in parts]) if parts else np.zeros(0) for r in ("fy", "fz")}
+
+    return read, int(rec.n_samples), close
+
+
+# -- the friction signal ------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class _Segments:
+    """Where to search: per segment (a stroke's central part or the whole range) its bounds, sign and COF."""
+
+    start: np.ndarray  # first sample
+    stop: np.ndarray  # sample after
+    sign: np.ndarray  # friction = sign (fy - tare)
+    mu: np.ndarray  # the COF subtracted (NaN: a median per second of samples, unidirectional)
+    per_second: int  # samples of a unidirectional test's COF block
+    min_fn: float
+    tare_fy: float
+    tare_fz: float
+
+
+def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, orientation: float
+            ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """(r, fn, label, friction) over samples a..b: r = friction - mu Fn (N; NaN out of the segments or of
+    contact), Fn = |fz - tare|, label = the segment's index (-1 outside), friction = sign (fy - tare).
+
+    Subtracting mu Fn removes what the normal force explains (a dynamic load), leaving the friction's own
+    rises and drops (docs/method.md 6g).
+    """
+    n = b - a
+    fn = np.abs(fz - seg.tare_fz)
+    label = np.full(n, -1, dtype=np.int64)
+    sgn = np.zeros(n)
+    mu = np.full(n, np.nan)
+    lo = np.searchsorted(seg.stop, a, side="right")
+    hi = np.searchsorted(seg.start, b, side="left")
+    for k in range(lo, hi):
+        s0, s1 = max(int(seg.start[k]), a) - a, min(int(seg.stop[k]), b) - a
+        if s1 > s0:
+            label[s0:s1] = k
+            sgn[s0:s1] = seg.sign[k] * orientation
+            mu[s0:s1] = seg.mu[k]
+    y = sgn * (fy - seg.tare_fy)
+    with np.errstate(invalid="ignore"):
+        inside = (label >= 0) & (fn >= seg.min_fn) & (fn > 0) & np.isfinite(y)
+    if np.isnan(mu[label >= 0]).any():
+        # unidirectional: the median |Ft|/Fn of each second of the fixed grid, interpolated linearly between
+        # their centres (a step between two seconds would be a drop of the signal)
+        p = seg.per_second
+        centres, values = [], []
+        for c in range((a // p) * p, b, p):
+            s0, s1 = max(c, a) - a, min(c + p, b) - a
+            m = inside[s0:s1]
+            if m.any():
+                centres.append(0.5 * (s0 + s1 - 1))
+                values.append(float(np.median(y[s0:s1][m] / fn[s0:s1][m])))
+        if values:
+            mu = np.where(label >= 0, np.interp(np.arange(n), centres, values), np.nan)
+    r = np.where(inside, y - mu * fn, np.nan)
+    label[~inside] = -1
+    return r, fn, label, y
+
+
+# -- detection ----------------------------------------------------------------------------------------------
+
+
+@dataclasses.dataclass(frozen=True)
+class _Event:
+    index: int  # sample after the drop (global)
+    drop: float  # N
+    fn: float  # mean normal force beside it (N)
+    label: int
+
+
+def _drop_statistic(r: np.ndarray, label: np.ndarray, slope: float, drop_samples: int
+                    ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """(i, g, ok): g_i = mean(r[i-L:i]) - mean(r[i+D:i+D+L]) + slope (L + D), the fall across samples i..i+D
+    net of the stick's rise (L = :data:`SMOOTH`, D = ``drop_samples``); ok where both averages are whole and
+    in one segment (docs/method.md 6g)."""
+    n, L, D = r.size, SMOOTH, drop_samples
+    fin = np.isfinite(r)
+    c = np.concatenate([[0.0], np.cumsum(np.where(fin, r, 0.0))])
+    cnt = np.concatenate([[0], np.cumsum(fin)])
+    m = max(0, n - D - 2 * L + 1)  # positions i = L .. L + m - 1
+    i = np.arange(L, L + m)
+    a0, a1, b0, b1 = slice(0, m), slice(L, L + m), slice(L + D, L + D + m), slice(2 * L + D, 2 * L + D + m)
+    ok = ((cnt[a1] - cnt[a0]) == L) & ((cnt[b1] - cnt[b0]) == L)
+    ok &= (label[0:m] == label[L + D + L - 1 : L + D + L - 1 + m]) & (label[0:m] >= 0)
+    g = (c[a1] - c[a0] - (c[b1] - c[b0])) / L + slope * (L + D)
+    return i, g, ok
+
+
+def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int) -> Optional[Tuple[float, float]]:
+    """(noise SD, rise per sample) of the friction signal r, or None with fewer than 10 differences (6g).
+
+    Falls: first differences (within a segment) below their median by more than :data:`FALL_SD` robust
+    SDs (the drops). White noise: the robust SD of the other differences / sqrt 2. Rise and coloured noise from
+    the drop statistic g (without the rise) where neither average holds a fall: rise = -median(g) /
+    (L + D), and sqrt(L / 2) x robust SD(g) is the white-noise SD that its spread implies (coloured
+    noise spreads g more than its differences tell). The noise SD is the larger of the two.
+    """
+    L, D = SMOOTH, drop_samples
+    d = np.diff(r)
+    valid = (label[1:] == label[:-1]) & (label[1:] >= 0) & np.isfinite(d)
+    diffs = d[valid]
+    if diffs.size < 10:
+        return None
+    centre = float(np.median(diffs))
+    falls = valid & (d < centre - FALL_SD * 1.4826 * float(np.median(np.abs(diffs - centre))))
+    calm = diffs[~falls[valid]]
+    white = 1.4826 * float(np.median(np.abs(calm - np.median(calm)))) / np.sqrt(2.0)
+    i, g, ok = _drop_statistic(r, label, 0.0, D)
+    nf = np.concatenate([[0], np.cumsum(falls)])  # falls among the differences m .. : nf[m1] - nf[m0]
+    clean = ok & ((nf[i + D + L - 1] - nf[i - L]) == 0)
+    if clean.sum() < 10:
+        return white, float(np.median(calm))
+    gc = g[clean]
+    mid = float(np.median(gc))
+    coloured = 1.4826 * float(np.median(np.abs(gc - mid))) * np.sqrt(L / 2.0)
+    return max(white, coloured), -mid / (L + D)
+
+
+def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, sigma: float, slope: float,
+            k: float, drop_samples: int) -> List[_Event]:  # fmt: skip
+    """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g)."""
+    n, L, D = r.size, SMOOTH, drop_samples
+    if n < 2 * L + D or not (sigma > 0):
+        return []
+    i, g, ok = _drop_statistic(r, label, slope, D)
+    fin = np.isfinite(r)
+    # runs above BOUND_K SDs: a weaker drop still bounds its neighbours' stick lines; an event needs k SDs
+    hit = ok & (g > min(k, BOUND_K) * sigma)
+    if not (ok & (g > k * sigma)).any():
+        return []
+    idx = np.flatnonzero(hit)
+    runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+    peaks = [run[np.argmax(g[run])] for run in runs]
+    # the drop's sample (the one after it): the largest single fall among the samples the statistic saw
+    # (near a segment's edge the statistic may see a drop in one of its averages, not in its gap)
+    ats: List[int] = []
+    strong: List[bool] = []
+    for pk in peaks:
+        ci = int(i[pk])
+        falls = np.diff(r[ci - L : ci + D + L])
+        at = ci - L + 1 + int(np.nanargmin(falls)) if np.isfinite(falls).any() else ci
+        if not ats or at != ats[-1]:
+            ats.append(at)
+            strong.append(bool(g[pk] > k * sigma))
+        elif g[pk] > k * sigma:
+            strong[-1] = True
+    cands = ats
+    # segment bounds of each sample: a run of one label
+    change = np.flatnonzero(np.diff(label) != 0) + 1
+    starts = np.concatenate([[0], change])
+    stops = np.concatenate([change, [n]])
+    out: List[_Event] = []
+    edge = L + D - 1  # a drop this near a segment's edge may go unseen: no stick line reaches into it
+    for j, at in enumerate(cands):
+        if not strong[j]:
+            continue
+        s = int(np.searchsorted(starts, at, side="right") - 1)
+        # the stick lines: before the slip (at most D steps, one of them at) and after it, up to the neighbours
+        p0 = max(at - D + 1 - FIT_MAX, int(starts[s]) + edge, cands[j - 1] + D - 1 if j else 0)
+        q1 = min(at + D - 1 + FIT_MAX, int(stops[s]) - edge, cands[j + 1] - D + 1 if j + 1 < len(cands) else n)
+        t_pre = np.arange(p0, at - D + 1)
+        t_post = np.arange(at + D - 1, q1)
+        t_pre = t_pre[fin[t_pre]]
+        t_post = t_post[fin[t_post]]
+        if t_pre.size < L or t_post.size < L:  # too near an edge (or a neighbour) to measure: not counted
+            continue
+        y_pre, y_post = r[t_pre], r[t_post]
+        m_pre, m_post = t_pre.mean(), t_post.mean()
+        sxx = float(np.sum((t_pre - m_pre) ** 2) + np.sum((t_post - m_post) ** 2))
+        sxy = float(np.sum((t_pre - m_pre) * (y_pre - y_pre.mean())))
+        sxy += float(np.sum((t_post - m_post) * (y_post - y_post.mean())))
+        if sxx <= 0:
+            continue
+        b = sxy / sxx  # the common slope of the two stick lines
+        if b * np.sqrt(sxx) < RISE_T * sigma:  # no rise before (a step, or a fall): not stick-slip
+            continue
+        drop = float((y_pre.mean() - b * m_pre) - (y_post.mean() - b * m_post))  # the parallel lines' offset
+        beside = np.concatenate([fn[t_pre], fn[t_post]])
+        out.append(_Event(offset + at, drop, float(np.mean(beside)), int(label[at])))
+    return out
+
+
+def _segments(res: Any, n: int, fraction: Optional[float]) -> Tuple[_Segments, str]:
+    """The segments searched: each stroke's central part, or the analysed range in contact."""
+    p = res.params
+    fs = float(p["fs"])
+    tare = p.get("tare_offsets") or {}
+    min_fn = float(p.get("min_fn") or 0.0)
+    tare_fy, tare_fz = float(tare.get("fy", 0.0)), float(tare.get("fz", 0.0))
+    st = res.strokes
+    if st is not None and len(st.get("mu", [])):
+        frac = float(p.get("stroke_fraction", 0.5) if fraction is None else fraction)
+        if not (0 < frac <= 1):
+            raise ValueError(f"fraction must be in (0, 1], got {fraction!r}")
+        a = np.asarray(st["start"], dtype=np.int64)
+        b = np.asarray(st["stop"], dtype=np.int64)
+        m = b - a
+        c0 = a + np.round(m * (1 - frac) / 2).astype(np.int64)
+        c1 = np.maximum(c0 + 1, a + np.round(m * (1 + frac) / 2).astype(np.int64))
+        mu = np.asarray(st["mu"], dtype=float)
+        keep = np.isfinite(mu)
+        seg = _Segments(c0[keep], c1[keep], np.asarray(st["direction"], dtype=float)[keep], mu[keep],
+                        max(100, round(fs)), min_fn, tare_fy, tare_fz)  # fmt: skip
+        return seg, f"the central {frac:g} of each stroke"
+    a0 = int(p.get("start") or 0)
+    b0 = int(p["stop"]) if p.get("stop") is not None else n
+    seg = _Segments(np.array([a0]), np.array([b0]), np.array([1.0]), np.array([np.nan]), max(100, round(fs)),
+                    min_fn, tare_fy, tare_fz)  # fmt: skip
+    return seg, "the samples in contact"
+
+
+def stick_slip(
+    source: Any,
+    res: Any = None,
+    *,
+    fs: Optional[float] = None,
+    k: float = K_SIGMA,
+    drop_samples: int = DROP_SAMPLES,
+    fraction: Optional[float] = None,
+    open_options: Optional[Mapping[str, Any]] = None,
+) -> StickSlip:
+    """Stick-slip events of a recording: slow rises of the friction force, each ended by a sudden drop
+    (docs/method.md 6g).
+
+    Parameters
+    ----------
+    source : mapping, list of acquisitions, Recording or path
+        The data given to :func:`tribodyn.analyze` (fy and fz are read again, in blocks).
+    res : Results, optional
+        Its analysis (tare, ``min_fn``, strokes); None: ``tribodyn.analyze(source, fs=fs)`` first.
+    fs : float, optional
+        Sampling rate, only when ``res`` is None and the source does not carry it.
+    k : float
+        A drop counts when it exceeds k noise SDs (default 5).
+    drop_samples : int
+        Samples a drop may take (default 3).
+    fraction : float, optional
+        Reciprocating: the central part of each stroke searched (default the analysis' ``stroke_fraction``).
+    open_options : mapping, optional
+        ``open_recording`` options for a path.
+
+    Returns
+    -------
+    StickSlip
+        ``present`` with at least 3 events; ``verdict`` is its one line. Forces without their static
+        level (high-passed) are not assessed (``events`` 0, NaN amounts, the verdict says why).
+    """
+    if not (np.isfinite(k) and k > 0):
+        raise ValueError(f"k must be > 0, got {k!r}")
+    if not (isinstance(drop_samples, (int, np.integer)) and 1 <= drop_samples <= 100):
+        raise ValueError(f"drop_samples must be an int in 1..100, got {drop_samples!r}")
+    if res is None:
+        from .analyze import analyze
+
+        res = analyze(source, fs=fs)
+    fs_ = float(res.params["fs"])
+    nan = float("nan")
+    if not res.params.get("static_fz"):
+        return StickSlip(0, nan, nan, nan, nan, np.zeros(0), np.zeros(0), nan, nan, 0.0, False,
+                         "stick-slip not assessed: fz carries no static level (high-passed forces), so the "
+                         "friction force's level and sign are unknown", "nothing")  # fmt: skip
+    read, n, close = _reader(source, open_options)
+    try:
+        seg, scope = _segments(res, n, fraction)
+        lo = int(seg.start.min()) if seg.start.size else 0
+        hi = min(n, int(seg.stop.max())) if seg.stop.size else 0
+        blocks = [(a, min(a + BLOCK, hi)) for a in range((lo // BLOCK) * BLOCK, hi, BLOCK)]
+        # each block is read with a margin (whole blocks of the COF grid) so that an event near its edge
+        # is seen whole; it counts in the block holding its drop
+        margin = 2 * (SMOOTH + drop_samples) + FIT_MAX + 2
+        p = seg.per_second
+        # (one more second each side: the COF interpolated between seconds needs its neighbours)
+        spans = [
+            (a, b, max(0, ((a - margin) // p - 1) * p), min(n, (-(-(b + margin) // p) + 1) * p)) for a, b in blocks
+        ]
+        kept: Dict[Tuple[int, int], Dict[str, np.ndarray]] = {}
+
+        def fetch(ra: int, rb: int) -> Dict[str, np.ndarray]:
+            if len(spans) == 1:  # one block: read once for both passes
+                if (ra, rb) not in kept:
+                    kept[(ra, rb)] = read(ra, rb)
+                return kept[(ra, rb)]
+            return read(ra, rb)
+
+        # pass 1: the friction's sign, the noise and the rise rate (the drops must be falls: each block's
+        # statistics with its own sign, which is the recording's unless friction changes sign)
+        sigmas, slopes, signsum, used = [], [], 0.0, 0
+        for a, b, ra, rb in spans:
+            d = fetch(ra, rb)
+            own = slice(a - ra, b - ra)
+            r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], 1.0)
+            inside = label[own] >= 0
+            ysum = float(np.sum(y[own][inside]))
+            if ysum < 0:
+                r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], -1.0)
+            est = _noise(r[own], label[own], drop_samples)
+            if est is not None:
+                sigmas.append(est[0])
+                slopes.append(est[1])
+            signsum += ysum
+            used += int(inside.sum())
+        duration = used / fs_
+        if not sigmas:
+            why = f"stick-slip not assessed: fewer than 10 samples in contact in {scope}"
+            return StickSlip(0, nan, nan, nan, nan, np.zeros(0), np.zeros(0), nan, nan, duration, False, why, scope)
+        sigma = float(np.median(sigmas))
+        orientation = 1.0 if signsum >= 0 else -1.0
+        slope = float(np.median(slopes))
+        # pass 2: the events
+        events: List[_Event] = []
+        for a, b, ra, rb in spans:
+            d = fetch(ra, rb)
+            r, fn, label, _ = _signal(seg, ra, rb, d["fy"], d["fz"], orientation)
+            events += [e for e in _detect(r, fn, label, ra, sigma, slope, k, drop_samples) if a <= e.index < b]
+    finally:
+        close()
+    return _summarise(events, sigma, k, duration, fs_, scope)
+
+
+def _summarise(events: List[_Event], sigma: float, k: float, duration: float, fs: float, scope: str) -> StickSlip:
+    """The recording's numbers and verdict from its events (docs/method.md 6g)."""
+    events = sorted(events, key=lambda e: e.index)
+    times = np.array([(e.index - 0.5) / fs for e in events])
+    drops = np.array([e.drop for e in events])
+    cofs = np.array([e.drop / e.fn for e in events if e.fn > 0])
+    intervals = [
+        (b.index - a.index) / fs for a, b in zip(events[:-1], events[1:]) if a.label == b.label and b.index > a.index
+    ]
+    nan = float("nan")
+    amp = float(np.median(drops)) if drops.size else nan
+    amp_cof = float(np.median(cofs)) if cofs.size else nan
+    freq = nan
+    if intervals:  # the mean of the intervals near their median: robust to a missed event, finer than samples
+        iv = np.asarray(intervals)
+        med = float(np.median(iv))
+        freq = 1.0 / float(np.mean(iv[np.abs(iv - med) <= 0.25 * med]))
+    rate = len(events) / duration if duration > 0 else nan
+    present = len(events) >= MIN_EVENTS
+    thr = k * sigma
+    if present:
+        f_text = f"frequency {freq:.4g} Hz" if np.isfinite(freq) else "frequency unknown (no stroke holds two events)"
+        verdict = (
+            f"stick-slip present: {len(events)} events, amplitude {amp:.3g} N ({amp_cof:.3g} in COF units), "
+            f"{f_text} ({rate:.3g} events/s over {duration:.4g} s of {scope})"
+        )
+    else:
+        verdict = (
+            f"no stick-slip: {len(events)} drop{'s' if len(events) != 1 else ''} after a rise larger than "
+            f"{k:g} noise SDs ({thr:.3g} N) in {duration:.4g} s of {scope}"
+        )
+    return StickSlip(len(events), amp, amp_cof, freq, rate, times, drops, sigma, thr, duration, present, verdict,
+                     scope)  # fmt: skip

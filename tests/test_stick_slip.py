@@ -1,0 +1,186 @@
+"""Breakaway (static) COF per stroke and stick-slip events (issue 24 point 3, docs/method.md 6c, 6g),
+against the simulator's truth."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import tribodyn as td
+from tribodyn import simulate, stickslip
+
+pytestmark = pytest.mark.fast
+
+#: A drop is counted when it lies at least this many samples inside a stroke's central part (docs/method.md 6g).
+EDGE = 2 * (stickslip.SMOOTH + stickslip.DROP_SAMPLES - 1)
+
+
+def expected_events(sim, res, fraction=0.5):
+    """(drops the method must count, drops within a sample of the edge rule) from the simulator's drop times."""
+    a, b = res.strokes["start"], res.strokes["stop"]
+    m = b - a
+    c0 = a + np.round(m * (1 - fraction) / 2).astype(int)
+    c1 = a + np.round(m * (1 + fraction) / 2).astype(int)
+    j = sim.slip_times * sim.fs  # the first sample after each drop is ceil(j)
+    sure = np.zeros(j.size, bool)
+    unsure = np.zeros(j.size, bool)
+    for x0, x1 in zip(c0, c1):
+        sure |= (j >= x0 + EDGE + 1) & (j <= x1 - EDGE - 1)
+        unsure |= (np.abs(j - (x0 + EDGE)) <= 1) | (np.abs(j - (x1 - EDGE)) <= 1)
+    return sure, unsure
+
+
+@pytest.mark.parametrize(("seed", "period"), [(1, 0.0307), (2, 0.0233), (3, 0.0271)])
+def test_events_counted_exactly_at_20_db(seed, period):
+    amp, noise = 0.2, 0.02  # SNR 20 log10(0.2 / 0.02) = 20 dB
+    sim = simulate.reciprocating(seed=seed, stick_slip=amp, stick_slip_period=period, noise=noise)
+    res = td.analyze(sim.channels, fs=sim.fs)
+    ss = td.stick_slip(sim.channels, res)
+    sure, unsure = expected_events(sim, res)
+    assert not unsure.any()  # the truth is unambiguous here
+    assert ss.events == int(sure.sum()) > 100 and ss.present
+    # each event is a true drop, within a sample
+    gap = np.abs(ss.times[:, None] - sim.slip_times[sure][None, :]).min(axis=1) * sim.fs
+    assert gap.max() <= 1.0
+    assert abs(ss.amplitude / amp - 1) < 0.03
+    assert abs(ss.amplitude_cof / (amp / 10.0) - 1) < 0.03
+    assert abs(ss.frequency * period - 1) < 0.015
+    assert ss.noise == pytest.approx(noise, rel=0.1) and ss.threshold == pytest.approx(5 * ss.noise)
+    assert str(ss).startswith(f"stick-slip present: {ss.events} events, amplitude 0.")
+
+
+def test_amplitude_with_a_dynamic_load_and_a_breakaway():
+    sim = simulate.reciprocating(seed=4, stick_slip=0.2, stick_slip_period=0.0307, breakaway=0.04, fz_dynamic=1.0)
+    res = td.analyze(sim.channels, fs=sim.fs)
+    ss = td.stick_slip(sim.channels, res)
+    sure, unsure = expected_events(sim, res)
+    assert ss.events == int(sure.sum()) and not unsure.any()
+    assert abs(ss.amplitude / 0.2 - 1) < 0.03
+
+
+@pytest.mark.parametrize("kw", [{}, {"fz_dynamic": 1.0}, {"breakaway": 0.04}, {"offset": 0.2}])
+def test_no_events_on_a_smooth_reciprocating_test(kw):
+    sim = simulate.reciprocating(seed=5, **kw)
+    res = td.analyze(sim.channels, fs=sim.fs)
+    ss = td.stick_slip(sim.channels, res)
+    assert ss.events == 0 and not ss.present and ss.times.size == 0
+    assert ss.verdict.startswith("no stick-slip: 0 drops") and np.isnan(ss.amplitude)
+    assert ss.duration == pytest.approx(0.5 * 10.0, rel=0.02)  # the central halves of 10 s of strokes
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_no_events_on_a_smooth_unidirectional_test(seed):
+    sim = simulate.conditions(30, seed=seed, raw=True, y_noise=0.02, drift=0.05)
+    res = td.analyze(sim.channels, fs=sim.fs)
+    ss = td.stick_slip(sim.channels, res)
+    assert ss.events == 0 and ss.scope == "the samples in contact" and ss.duration == pytest.approx(30.0)
+
+
+def _unidirectional_saw(seed, n=20000, fs=1000.0, period=37.3, amp=0.3, noise=0.03):
+    """Sliding at constant speed from t = 0 with a saw-tooth friction: (channels, drop positions in samples)."""
+    rng = np.random.default_rng(seed)
+    k = np.arange(n)
+    saw = amp * (np.mod(k / period, 1.0) - 0.5)
+    fz = 20.0 + 2.0 * np.sin(2 * np.pi * 13.0 * k / fs) + noise * rng.standard_normal(n)
+    fy = -(0.2 * (fz - noise * rng.standard_normal(n)) + saw) + noise * rng.standard_normal(n)
+    drops = np.arange(1, int(n / period) + 1) * period
+    return {"fy": fy, "fz": fz}, drops[drops < n]
+
+
+def test_unidirectional_events_counted_exactly():
+    ch, drops = _unidirectional_saw(6)
+    res = td.analyze(ch, fs=1000.0, motion="unidirectional")
+    ss = td.stick_slip(ch, res)
+    inner = drops[(drops > EDGE + 1) & (drops < 20000 - EDGE - 1)]
+    assert ss.events == inner.size
+    assert np.abs(ss.times * 1000.0 - inner).max() <= 1.0
+    assert abs(ss.amplitude / 0.3 - 1) < 0.03 and abs(ss.frequency * 0.0373 - 1) < 0.015
+    assert abs(ss.rate - inner.size / 20.0) < 1e-9
+
+
+def test_blocks_and_a_recording_give_the_same_events(tmp_path, monkeypatch):
+    from tribodyn.io.writers import save_npz
+
+    sim = simulate.reciprocating(seed=7, cycles=8, stick_slip=0.2, stick_slip_period=0.0233)
+    res = td.analyze(sim.channels, fs=sim.fs)
+    whole = td.stick_slip(sim.channels, res)
+    p = tmp_path / "recip.npz"
+    save_npz(p, sim.channels, sim.fs)
+    monkeypatch.setattr(stickslip, "BLOCK", 700)  # blocks much shorter than the recording, edges inside strokes
+    for source in (sim.channels, str(p)):
+        parts = td.stick_slip(source, res)
+        np.testing.assert_array_equal(parts.times, whole.times)
+        np.testing.assert_allclose(parts.drops, whole.drops, rtol=1e-12)
+
+
+def test_without_results_it_analyses_first_and_bad_input_is_refused():
+    sim = simulate.reciprocating(seed=8, cycles=4, stick_slip=0.2, stick_slip_period=0.0233)
+    ss = td.stick_slip(sim.channels, fs=sim.fs)
+    assert ss.present and ss.scope == "the central 0.5 of each stroke"
+    with pytest.raises(ValueError, match="k must be"):
+        td.stick_slip(sim.channels, fs=sim.fs, k=0)
+    with pytest.raises(ValueError, match="drop_samples"):
+        td.stick_slip(sim.channels, fs=sim.fs, drop_samples=0)
+    with pytest.raises(ValueError, match="not a stream"):
+        td.stick_slip(iter([sim.channels]), td.analyze(sim.channels, fs=sim.fs))
+
+
+def test_high_passed_forces_are_not_assessed():
+    sim = simulate.conditions(10, seed=1)  # the charge amplifier's high-pass: no static level
+    ss = td.stick_slip(sim.channels, td.analyze(sim.channels, fs=sim.fs))
+    assert not ss.present and ss.events == 0 and ss.verdict.startswith("stick-slip not assessed: fz carries no")
+    assert json.loads(json.dumps(ss.to_dict()))["amplitude"] is None
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_mu_static_within_two_percent_of_the_breakaway_peak(seed):
+    sim = simulate.reciprocating(seed=seed, breakaway=0.04)
+    res = td.analyze(sim.channels, fs=sim.fs)
+    st = res.strokes
+    assert np.isnan(st["mu_static"][0])  # the first stroke starts with the record, not at a reversal
+    for d, truth, kinetic in ((1, sim.mu_static_forward, 0.12), (-1, sim.mu_static_backward, 0.10)):
+        ms = st["mu_static"][1:][st["direction"][1:] == d]
+        assert ms.size >= 19 and np.all(np.abs(ms / truth - 1) < 0.02)
+        # the kinetic COF (the central part: mu) keeps the plateau
+        assert abs(np.mean(st["mu"][1:][st["direction"][1:] == d]) / kinetic - 1) < 0.005
+    assert truth > kinetic + 0.035
+    t = st["t_static"][1:]
+    assert np.all((t > 0.005) & (t < 0.02))  # the peak about breakaway_time after the onset
+
+
+def test_mu_static_from_the_force_alone_and_with_position():
+    sim = simulate.reciprocating(seed=9, breakaway=0.04)
+    for keys in (("fy", "fz"), ("fy", "fz", "x")):
+        res = td.analyze({k: sim.channels[k] for k in keys}, fs=sim.fs)
+        ms = res.strokes["mu_static"][1:][res.strokes["direction"][1:] == 1]
+        assert np.all(np.abs(ms / sim.mu_static_forward - 1) < 0.02), keys
+
+
+def test_smooth_strokes_have_a_static_cof_near_the_kinetic_one():
+    sim = simulate.reciprocating(seed=10)
+    st = td.analyze(sim.channels, fs=sim.fs).strokes
+    excess = st["mu_static"][1:] / st["mu"][1:] - 1
+    assert np.all((excess > 0) & (excess < 0.04))  # only the noise's maximum over the first quarter
+
+
+def test_the_cli_reports_stick_slip_only_when_present(tmp_path, capsys):
+    from tribodyn.cli import main
+    from tribodyn.io.writers import save_npz
+
+    for name, kw in (("slip", {"stick_slip": 0.2, "stick_slip_period": 0.0233}), ("smooth", {})):
+        sim = simulate.reciprocating(seed=11, cycles=4, **kw)
+        p = tmp_path / f"{name}.npz"
+        save_npz(p, sim.channels, sim.fs)
+        assert main(["analyze", str(p), "--out", str(tmp_path / name)]) == 0
+        out = capsys.readouterr().out
+        summary = json.loads((tmp_path / name / "summary.json").read_text())
+        ss = summary["recordings"][f"{name}.npz"]["stick_slip"]
+        html = (tmp_path / name / "report.html").read_text()
+        if name == "slip":
+            assert ss["present"] and ss["events"] > 20
+            assert "stick-slip present:" in out and "stick-slip present:" in html
+        else:
+            assert not ss["present"] and ss["events"] == 0
+            assert "stick-slip" not in out and "stick-slip present" not in html
