@@ -25,6 +25,8 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from . import _core
+
 __all__ = [
     "FOLLOW_SHARE",
     "MIN_STROKES",
@@ -384,6 +386,8 @@ def choose_roles(rec: Any, channels: Optional[Mapping[str, Optional[str]]]) -> O
         # needs the damaged rows fails with their line; the map stays the names' and says why.
         rec.warnings.append(f"the friction channel could not be chosen from the data ({exc}): the names decide")
         return None
+    # Forces beyond the kernel's range count as missing, as in the pre-pass (docs/method.md 4).
+    data.update({n: np.where(np.abs(data[n]) <= _core.FORCE_LIMIT, data[n], np.nan) for n in (*names, fz)})
     forces = {n: data[n] for n in names}
     preferred = roles.get("fy") if roles.get("fy") in names else None
     choice = decide(forces, data[fz], motion=data[mchan] if mchan else None, motion_kind=kind or "x",
