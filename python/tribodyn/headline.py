@@ -206,8 +206,6 @@ class ClassicalTotals:
     inst_count: np.ndarray
     inst_sum: np.ndarray
     samples: int
-    #: The instrument's own COF column was read (a ``cof`` role).
-    instrument: bool = False
 
     @property
     def contact(self) -> int:
@@ -235,8 +233,7 @@ class ClassicalTotals:
             pos = np.searchsorted(ids, p.ids)
             for k in out:
                 np.add.at(out[k], pos, getattr(p, k))
-        return ClassicalTotals(block=parts[0].block, ids=ids, samples=sum(p.samples for p in parts),
-                               instrument=any(p.instrument for p in parts), **out)  # fmt: skip
+        return ClassicalTotals(block=parts[0].block, ids=ids, samples=sum(p.samples for p in parts), **out)
 
 
 def block_length(n_total: int) -> int:
@@ -302,7 +299,6 @@ def classical_totals(source: Any, rec: Any, spec: Any, start: int = 0, stop: Opt
     length, pieces = got
     sums: Dict[int, List[float]] = {}
     samples = 0
-    instrument = False
     for a, piece in pieces:
         if not len(piece["fz"]):
             continue
@@ -315,12 +311,11 @@ def classical_totals(source: Any, rec: Any, spec: Any, start: int = 0, stop: Opt
             acc = sums.setdefault(int(k), [0.0] * 5)
             for j in range(5):
                 acc[j] += row[j]
-        instrument = instrument or "cof" in piece
     ids_arr = np.asarray(sorted(sums), dtype=np.int64)
     cols = np.asarray([sums[k] for k in ids_arr.tolist()], dtype=float).reshape(-1, 5)
     return ClassicalTotals(block=length, ids=ids_arr, count=cols[:, 0], ratio_sum=cols[:, 1],
                            signed_sum=cols[:, 2], inst_count=cols[:, 3], inst_sum=cols[:, 4],
-                           samples=samples, instrument=instrument)  # fmt: skip
+                           samples=samples)  # fmt: skip
 
 
 def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]:
@@ -399,8 +394,8 @@ def _dynamic(res: "Results", total: int) -> Headline:
                           f"({est} estimator, direction-rectified strokes) over {v.size} gated windows of {len(res)}"),
                 interval="each direction's median by moving-block bootstrap, half-widths combined in quadrature / 2",
             )  # fmt: skip
-    # the recording's fz-noise estimate is drawn anew in each resample (docs/method.md 3d)
-    ci = bootstrap_ci(v, noise=noise_resample(res.table, keep)).get("median")
+    # the recording's fz-noise estimate is drawn anew in each resample (docs/method.md 3d); summary() shares it
+    ci = res.mu_r_ci.get("median")
     rect = ", direction-rectified strokes" if res.params.get("rectified") else ""
     return Headline(
         method="dynamic",
@@ -513,9 +508,7 @@ def instrument_check(res: "Results", head: Headline) -> Tuple[Dict[str, Any], Li
         st = res.strokes
         ins = np.asarray(st.get("mu_instrument", []), dtype=float)
         if np.isfinite(ins).any():
-            fake = dict(st)
-            fake["mu"] = ins
-            inst = float(np.nanmean(_cycle_means(fake)))
+            inst = float(np.nanmean(_cycle_means({**st, "mu": ins})))
             out = {"mean": inst, "n": int(np.isfinite(ins).sum()), "over": "the same stroke centres, per cycle"}
     if not out or not np.isfinite(out["mean"]):
         return {}, []

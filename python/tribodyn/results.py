@@ -271,6 +271,22 @@ class Results:
         df.attrs["units"] = {k: u for k, (u, _) in CYCLE_COLUMNS.items()}
         return df
 
+    @property
+    def _gated_mu(self) -> Tuple[np.ndarray, np.ndarray]:
+        """(mu_r of the gated windows with a finite mu_r, the mask of those windows over the table)."""
+        ok = np.asarray(self.table["ok"], dtype=bool)
+        mu = np.asarray(self.table["mu_r"], dtype=float)
+        keep = ok & np.isfinite(mu)
+        return mu[keep], keep
+
+    @cached_property
+    def mu_r_ci(self) -> Dict[str, Tuple[float, float]]:
+        """:func:`bootstrap_ci` of mu_r over the gated windows, the fz-noise estimate drawn anew in each
+        resample (docs/method.md 3d): ``summary()["mu_r"]["ci"]`` and the dynamic headline's interval,
+        computed once."""
+        mu, keep = self._gated_mu
+        return bootstrap_ci(mu, noise=noise_resample(self.table, keep))
+
     @cached_property
     def verdict(self) -> Dict[str, Any]:
         """Whether the dynamic method applies, why not, and the motion (``tribometer.verdict``; docs/method.md 6d)."""
@@ -353,14 +369,9 @@ class Results:
         order (docs/method.md 3d; :func:`bootstrap_ci`).
         """
         ok = np.asarray(self.table["ok"], dtype=bool)
-        mu = np.asarray(self.table["mu_r"])[ok]
-        fin = np.isfinite(mu)
-        keep = ok.copy()
-        keep[ok] = fin
-        noise = noise_resample(self.table, keep)
-        mu = mu[fin]
+        mu, _ = self._gated_mu
 
-        def stats(v: np.ndarray, noise: Optional[NoiseResample] = None) -> Mapping[str, Any]:
+        def stats(v: np.ndarray, ci: Optional[Dict[str, Tuple[float, float]]] = None) -> Mapping[str, Any]:
             if v.size == 0:
                 return {"n": 0}
             q = np.percentile(v, [5, 25, 50, 75, 95])
@@ -375,7 +386,7 @@ class Results:
                 "p75": float(q[3]),
                 "p95": float(q[4]),
                 "max": float(v.max()),
-                "ci": bootstrap_ci(v, noise=noise),
+                "ci": bootstrap_ci(v) if ci is None else ci,
             }
 
         out: Dict[str, Any] = {
@@ -383,7 +394,7 @@ class Results:
             "gated": int(ok.sum()),
             "gate_pass_fraction": float(ok.mean()) if len(self) else float("nan"),
             "orientation": self.orientation,
-            "mu_r": stats(mu, noise),
+            "mu_r": stats(mu, self.mu_r_ci),
             "warnings": list(self.warnings),
         }
         for col in ("mu_a", "mu_b", "force_dependence", "dmu_dfn"):

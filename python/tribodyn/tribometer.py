@@ -703,16 +703,6 @@ STROKE_COLUMNS: Dict[str, Tuple[str, str]] = {
 }
 
 
-def _stats(v: np.ndarray) -> Dict[str, Any]:
-    v = np.asarray(v, dtype=float)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return {"n": 0}
-    q = np.percentile(v, [5, 50, 95])
-    return {"n": int(v.size), "mean": float(v.mean()), "median": float(q[1]), "std": float(v.std()),
-            "p05": float(q[0]), "p95": float(q[2])}  # fmt: skip
-
-
 def verdict(table: Mapping[str, np.ndarray], params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarray]],
             gated: int) -> Dict[str, Any]:  # fmt: skip
     """Whether the dynamic method applies, the reasons and the motion (docs/method.md 6d).
