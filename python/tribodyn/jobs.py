@@ -12,6 +12,8 @@ files of an earlier run into it are gone).
 from __future__ import annotations
 
 import dataclasses
+import importlib
+import threading
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
@@ -20,7 +22,15 @@ import numpy as np
 from ._labels import fmt_interval, fmt_number, fmt_range, key_text, unit_text, units_in_text
 from .analyze import analyze
 from .identify import identify
-from .outputs import OutputSet, input_provenance, pyarrow_modules, write_json, write_table_csv, write_table_parquet
+from .outputs import (
+    Digests,
+    OutputSet,
+    input_provenance,
+    pyarrow_modules,
+    write_json,
+    write_table_csv,
+    write_table_parquet,
+)
 from .ranges import OperatingRange, operating_range
 from .record import Meta, metadata, record_html, summary_meta
 from .results import Results
@@ -205,13 +215,12 @@ def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: 
                   ) -> List[Tuple[str, str, bytes]]:  # fmt: skip
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
     triples; the report embeds the same PNG bytes (no figure is drawn or encoded twice)."""
-    from .figures import png_bytes
+    from .figures import png_bytes_all
     from .io.writers import atomic_write
 
     saved = []
-    for stem, caption, fig in figs:
+    for (stem, caption, _), data in zip(figs, png_bytes_all([f for _, _, f in figs])):
         name = f"figures/{prefix}{stem}.png"
-        data = png_bytes(fig)
         atomic_write(out.path(name), _bytes_writer(data))
         saved.append((name, caption, data))
     return saved
@@ -576,9 +585,41 @@ def run_analysis(
     entry in the summary, a verdict line, and the running-in shaded on the
     COF-against-time figure.
     """
+    from .distributed import expand_paths
+
+    if not paths:
+        raise ValueError("no input file given")
+    files = expand_paths(paths)
+    output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
+    # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
+    # another (both mostly outside the GIL or while the kernel runs without it).
+    digests = Digests(files)
+    imports = _import_in_background()
+    try:
+        return _run_analysis(files, output, digests, imports, open_options=open_options,
+                             analyze_options=analyze_options, progress=progress, client=client, split=split,
+                             meta=meta, steady_state=steady_state)  # fmt: skip
+    finally:
+        digests.cancel()
+
+
+def _run_analysis(
+    files: Sequence[str],
+    output: OutputSet,
+    digests: Digests,
+    imports: threading.Thread,
+    *,
+    open_options: Optional[Dict[str, Any]],
+    analyze_options: Optional[Dict[str, Any]],
+    progress: bool,
+    client: Any,
+    split: Optional[float],
+    meta: Optional[Meta],
+    steady_state: bool,
+) -> Dict[str, Any]:
+    """:func:`run_analysis` once the output folder is checked and the digests started."""
     from . import __version__
-    from .distributed import analyze_many, expand_paths
-    from .report import verdict_lines, write_report
+    from .distributed import analyze_many
     from .stickslip import stick_slip
 
     open_options = dict(open_options or {})
@@ -586,10 +627,6 @@ def run_analysis(
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
     cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
     meta = meta or Meta()
-    if not paths:
-        raise ValueError("no input file given")
-    files = expand_paths(paths)
-    output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
     if len(files) == 1 and client is None and split is None:
         # One file, here: read it directly (progress bar over its samples).
         from .io import open_recording
@@ -615,9 +652,12 @@ def run_analysis(
         runs = [(Path(p), r) for p, r in many.results.items()]
         failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
 
+    imports.join()  # before this thread imports any of them
+    from .report import verdict_lines, write_report
+
     summary: Dict[str, Any] = {
         "tribodyn_version": __version__,
-        "inputs": input_provenance([p for p, _ in runs]),
+        "inputs": input_provenance([p for p, _ in runs], digests),
         "open_options": open_options,
         "recordings": {},
         "failures": failures,
@@ -646,15 +686,15 @@ def run_analysis(
                 loops = loop_examples(str(p), res, open_options)
             except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
                 examples, loops = [], []
-                res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+                res = _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
             try:  # docs/method.md 6g: fy and fz read again; only a test with a static fz is searched
                 slip: Optional[Dict[str, Any]] = stick_slip(str(p), res, open_options=open_options).to_dict()
             except (OSError, ValueError) as exc:
                 slip = None
-                res = dataclasses.replace(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
+                res = _replaced(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
             steady = _steady_state(res) if steady_state else None
             # the figures read the steady state from their Results' params (docs/method.md 6h)
-            fig_res = dataclasses.replace(res, params={**res.params, "steady_state": steady}) if steady else res
+            fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
             figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
             pngs = _save_figures(out, figs, prefix)
             files += [name for name, _, _ in pngs]
@@ -726,6 +766,39 @@ def run_analysis(
             record_html=record_html(meta, heads),
         )
     return summary
+
+
+#: Modules the output step imports (figures, the interactive views, tables), imported during the analysis.
+_OUTPUT_MODULES = (
+    "matplotlib.figure", "matplotlib.backends.backend_agg", "pandas", "pyarrow", "pyarrow.parquet",
+    "bokeh.plotting", "bokeh.models", "bokeh.layouts", "bokeh.embed", "bokeh.resources",
+)  # fmt: skip
+
+
+def _import_in_background() -> threading.Thread:
+    """A started thread importing :data:`_OUTPUT_MODULES` (third-party only: the analysis imports none of them,
+    so no module is imported from two threads at once; join it before the output step)."""
+
+    def run() -> None:
+        for name in _OUTPUT_MODULES:
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001, S112 - the output step imports it again and reports what is wrong
+                continue
+
+    thread = threading.Thread(target=run, name="tribodyn-imports", daemon=True)
+    thread.start()
+    return thread
+
+
+def _replaced(res: Results, **changes: Any) -> Results:
+    """``dataclasses.replace(res, **changes)`` for new warnings or figure-only params, keeping the results
+    already computed from the rest (headline, verdict, the mu_r bootstrap): none is computed twice."""
+    out = dataclasses.replace(res, **changes)
+    for key in ("headline", "verdict", "mu_r_ci"):
+        if key in res.__dict__:
+            out.__dict__[key] = res.__dict__[key]
+    return out
 
 
 def _steady_state(res: Results) -> Dict[str, Any]:
