@@ -93,7 +93,9 @@ elif kind in ("api", "tiled"):
     out["table"] = h.hexdigest()[:16]
 else:
     raise SystemExit(f"unknown job {kind}")
-out["peak_rss_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+ru = resource.getrusage(resource.RUSAGE_SELF)
+out["peak_rss_mb"] = ru.ru_maxrss / 1024
+out["cpu"] = ru.ru_utime + ru.ru_stime
 print(json.dumps(out))
 """
 
@@ -104,8 +106,9 @@ cmd = json.loads(sys.argv[1])
 t = time.perf_counter()
 p = subprocess.run(cmd, capture_output=True, text=True)
 wall = time.perf_counter() - t
-print(json.dumps({"seconds": wall, "rc": p.returncode, "err": p.stderr[-2000:],
-                  "peak_rss_mb": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}))
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(json.dumps({"seconds": wall, "rc": p.returncode, "err": p.stderr[-2000:], "peak_rss_mb": ru.ru_maxrss / 1024,
+                  "cpu": ru.ru_utime + ru.ru_stime}))
 """
 
 API_PROCESS = (
@@ -312,13 +315,16 @@ def report(o: Dict[str, Any]) -> str:
         "",
         f"Modules the first `analyze` call imports (1 h `.npy`): {', '.join(imported) or 'none'}.",
         "",
+        "Wall time (and CPU time, user + system of the process tree, which the other jobs on the machine "
+        "disturb less):",
+        "",
         "| measurement | this build | " + ("baseline |" if has_base else "") + " runs (this build) | peak RSS |",
         "|---|---|" + ("---|" if has_base else "") + "---|---|",
     ]
     for k in sorted({k.split("|", 1)[1] for k in g if "|" in k}):
-        cells = [fmt(med(g[f"this|{k}"]))]
+        cells = [f"{fmt(med(g[f'this|{k}']))} (CPU {fmt(med(g[f'this|{k}'], 'cpu'))})"]
         if has_base:
-            cells.append(fmt(med(g[f"baseline|{k}"])))
+            cells.append(f"{fmt(med(g[f'baseline|{k}']))} (CPU {fmt(med(g[f'baseline|{k}'], 'cpu'))})")
         runs = ", ".join(fmt(r["seconds"]) for r in g[f"this|{k}"])
         rss = max(r["peak_rss_mb"] for r in g[f"this|{k}"])
         lines.append(f"| {k} | " + " | ".join(cells) + f" | {runs} | {rss:.0f} MB |")

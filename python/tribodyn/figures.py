@@ -1315,27 +1315,46 @@ def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
 
 
 def png_bytes_all(figs: Sequence[Figure], *, dpi: int = DPI) -> List[bytes]:
-    """:func:`png_bytes` of each figure, each drawn once; on Linux, a forked process draws every other one.
+    """:func:`png_bytes` of each figure, each drawn once; on Linux, a forked process draws half of them
+    (:class:`Rendering`)."""
+    return Rendering(figs, dpi=dpi).finish()
 
-    Drawing is Python bound (the GIL), so the second core is used by a
-    child process forked with the figures already built: it renders its
-    share and sends back the PNG bytes (the same bytes: the same figure,
-    the same code). When the child fails, its figures are drawn here.
+
+class Rendering:
+    """PNG bytes of figures, each drawn once, started now and collected by :meth:`finish` (issue 25).
+
+    Drawing is Python bound (the GIL), so on Linux with more than one core
+    a child process forked at once, with the figures already built, renders
+    a ``share`` of them (every figure whose index k has
+    ``round(k * share) < round((k + 1) * share)``) and sends back the PNG
+    bytes, the same bytes the parent would draw; the caller may do other
+    work meanwhile, then :meth:`finish` draws the rest here. When the child
+    fails, its figures are drawn here too.
     """
-    figs = list(figs)
-    if len(figs) < 2 or not _can_fork():
-        return [png_bytes(f, dpi=dpi) for f in figs]
-    theirs = list(range(1, len(figs), 2))
-    child = _fork_render([figs[k] for k in theirs], dpi)
-    out: Dict[int, bytes] = {}
-    try:
-        for k in range(0, len(figs), 2):
-            out[k] = png_bytes(figs[k], dpi=dpi)
-    finally:
-        got = _collect(child)
-    for k, data in zip(theirs, got if got is not None else [png_bytes(figs[k], dpi=dpi) for k in theirs]):
-        out[k] = data
-    return [out[k] for k in range(len(figs))]
+
+    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, share: float = 0.5) -> None:
+        self._figs = list(figs)
+        self._dpi = dpi
+        n = len(self._figs)
+        self._theirs = [k for k in range(n) if round(k * share) < round((k + 1) * share)] if n > 1 else []
+        self._child = _fork_render([self._figs[k] for k in self._theirs], dpi) if self._theirs and _can_fork() else None
+        if self._child is None:
+            self._theirs = []
+
+    def finish(self) -> List[bytes]:
+        """Every figure's PNG bytes, in order."""
+        out: Dict[int, bytes] = {}
+        mine = [k for k in range(len(self._figs)) if k not in set(self._theirs)]
+        try:
+            for k in mine:
+                out[k] = png_bytes(self._figs[k], dpi=self._dpi)
+        finally:
+            got = _collect(self._child)
+            self._child = None
+        if got is None or len(got) != len(self._theirs):
+            got = [png_bytes(self._figs[k], dpi=self._dpi) for k in self._theirs]
+        out.update(zip(self._theirs, got))
+        return [out[k] for k in range(len(self._figs))]
 
 
 def _can_fork() -> bool:

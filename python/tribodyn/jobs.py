@@ -11,11 +11,13 @@ files of an earlier run into it are gone).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib
+import os
 import threading
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -127,9 +129,64 @@ def _truth_breakpoints(res: Results, truth: Any, by: str) -> Optional[Dict[str, 
 
 def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
     try:
-        return operating_range(res, by, **kw)
+        with one_blas_thread():
+            return operating_range(res, by, **kw)
     except ValueError:
         return None
+
+
+@contextlib.contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Within the block, NumPy's OpenBLAS runs on one thread (found among the loaded libraries; nothing
+    changes without one). The bathtub fits' grid searches (docs/method.md 7) multiply small matrices
+    thousands of times: on a busy 2-core machine a second BLAS thread made them 6x slower (the
+    operating ranges of ``tribodyn demo``: 37 s against 6 s) and changed no number (the products split
+    by rows and columns, never along the sums)."""
+    saved = []
+    try:
+        for get, put in _openblas_threads():
+            n = int(get())
+            if n > 1:
+                put(1)
+                saved.append((put, n))
+        yield
+    finally:
+        for put, n in saved:
+            put(n)
+
+
+_BLAS: Optional[List[Tuple[Any, Any]]] = None
+
+
+def _openblas_threads() -> List[Tuple[Any, Any]]:
+    """(get_num_threads, set_num_threads) of each OpenBLAS this process has loaded (Linux; else none)."""
+    global _BLAS
+    if _BLAS is not None:
+        return _BLAS
+    found: List[Tuple[Any, Any]] = []
+    try:
+        import ctypes
+
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
+            paths = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ln.split()[-1].startswith("/")})
+        for path in paths:
+            lib = ctypes.CDLL(path, mode=os.RTLD_NOLOAD)
+            for name in ("scipy_openblas", "openblas"):
+                for suffix in ("64_", ""):
+                    get = getattr(lib, f"{name}_get_num_threads{suffix}", None)
+                    put = getattr(lib, f"{name}_set_num_threads{suffix}", None)
+                    if get is not None and put is not None:
+                        get.restype, get.argtypes = ctypes.c_int, []
+                        put.restype, put.argtypes = None, [ctypes.c_int]
+                        found.append((get, put))
+                        break
+                else:
+                    continue
+                break
+    except (OSError, AttributeError, ValueError):
+        found = []
+    _BLAS = found
+    return found
 
 
 def _example_window(channels: Mapping[str, np.ndarray], fs: float, start: int, n: int) -> Dict[str, Any]:
@@ -211,19 +268,23 @@ def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, An
     return out
 
 
-def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str
-                  ) -> List[Tuple[str, str, bytes]]:  # fmt: skip
+def _save_figures(
+    out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str, meanwhile: Optional[Callable[[], Any]] = None
+) -> Tuple[List[Tuple[str, str, bytes]], Any]:
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
-    triples; the report embeds the same PNG bytes (no figure is drawn or encoded twice)."""
-    from .figures import png_bytes_all
+    triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); and what
+    ``meanwhile()`` returns, called while a forked child draws most of the figures (``figures.Rendering``)."""
+    from .figures import Rendering
     from .io.writers import atomic_write
 
+    render = Rendering([f for _, _, f in figs], share=0.6 if meanwhile is not None else 0.5)
+    done = meanwhile() if meanwhile is not None else None
     saved = []
-    for (stem, caption, _), data in zip(figs, png_bytes_all([f for _, _, f in figs])):
+    for (stem, caption, _), data in zip(figs, render.finish()):
         name = f"figures/{prefix}{stem}.png"
         atomic_write(out.path(name), _bytes_writer(data))
         saved.append((name, caption, data))
-    return saved
+    return saved, done
 
 
 def _bytes_writer(data: bytes) -> Callable[[str], None]:
@@ -372,8 +433,9 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         n_lamellas=sim_j.n_lamellas,
         progress=progress,
     )
-    opr_t = operating_range(res_t, "temperature")
-    opr_j = operating_range(res_j, "current_density")
+    with one_blas_thread():
+        opr_t = operating_range(res_t, "temperature")
+        opr_j = operating_range(res_j, "current_density")
     summary: Dict[str, Any] = {
         "tribodyn_version": __version__,
         "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
@@ -394,14 +456,23 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         },
     }
     with output as out:
-        files = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
         ex_t = diagnostic_examples(sim_t.channels, res_t)
         ex_j = diagnostic_examples(sim_j.channels, res_j)
         figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, examples=ex_t)
         figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
-        png_t = _save_figures(out, figs_t, "temperature_")
-        png_j = _save_figures(out, figs_j, "current_density_")
-        files += [name for name, _, _ in png_t + png_j]
+
+        def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # while a child draws most figures
+            tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
+            return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
+                res_j, "current-density test", "current_density_windows.csv"
+            )
+
+        named = [(f"temperature_{s}", c, f) for s, c, f in figs_t] + [
+            (f"current_density_{s}", c, f) for s, c, f in figs_j
+        ]
+        pngs, (files, extras) = _save_figures(out, named, "", meanwhile)
+        png_t, png_j = pngs[: len(figs_t)], pngs[len(figs_t) :]
+        files += [name for name, _, _ in pngs]
         summary["files"] = files + ["summary.json", "report.html"]
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
@@ -417,8 +488,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
             + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
             verdict=verdict,
             inputs=[],
-            sections=_report_extras(res_t, "temperature test", "temperature_windows.csv")
-            + _report_extras(res_j, "current-density test", "current_density_windows.csv"),
+            sections=extras,
             head_html=_bokeh_head(),
             quality={
                 "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
@@ -680,7 +750,6 @@ def _run_analysis(
             opr_j = _try_range(res, "current_density")
             has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
             opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
-            files = _write_set(out, prefix, res)
             try:
                 examples = diagnostic_examples(str(p), res, open_options)
                 loops = loop_examples(str(p), res, open_options)
@@ -696,16 +765,22 @@ def _run_analysis(
             # the figures read the steady state from their Results' params (docs/method.md 6h)
             fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
             figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
-            pngs = _save_figures(out, figs, prefix)
-            files += [name for name, _, _ in pngs]
+            res_now = res
+
+            def meanwhile() -> Tuple[List[str], Dict[str, Any], List[Tuple[str, str]]]:  # a child draws figures
+                return (_write_set(out, prefix, res_now), res_now.summary(),
+                        _report_extras(res_now, p.name, f"{prefix}windows.csv"))  # fmt: skip
+
+            pngs, (written, res_summary, extras) = _save_figures(out, figs, prefix, meanwhile)
+            written += [name for name, _, _ in pngs]
             rec_sum = {
-                **res.summary(),
+                **res_summary,
                 **({"steady_state": steady} if steady else {}),
                 "operating_range_temperature": range_summary(opr_t),
                 "operating_range_current_density": range_summary(opr_j),
                 "operating_range_speed": range_summary(opr_v),
                 "params": res.params,
-                "files": files,
+                "files": written,
                 "stick_slip": slip,
             }
             rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
@@ -718,7 +793,6 @@ def _run_analysis(
                 lines.insert(1, f"{p.name}: {steady['text']}.")
             if slip and slip["present"]:
                 lines.append(f"{p.name}: {slip['verdict']}")
-            extras = _report_extras(res, p.name, f"{prefix}windows.csv")
             captioned = _captioned(pngs)
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
