@@ -11,7 +11,7 @@ from ._validate import as_signal, check_bins, check_fs, check_int, same_length
 from .correlation import xcorr
 from .deadband import DeadbandSpec, parse_deadband
 from .results import BinTable, CofResult
-from .window_stats import compute, gate_reasons, orient
+from .window_stats import compute, gate_reasons, make_spec, orient
 
 __all__ = ["identify", "resolve_orientation", "cross_spectra"]
 
@@ -150,7 +150,7 @@ def identify(
     db = parse_deadband(deadband)
     nb = check_bins(n_bins, n)
     g = check_gate(gate)
-    st = compute(fx_a, fy_a, fz_a, None, np.zeros(1, dtype=np.int64), n, db, nb)
+    st = compute(make_spec(n, db, nb), fy_a, fz_a, np.zeros(1, dtype=np.int64), fx=fx_a)
     s = resolve_orientation(orientation, float(st["slope"][0]))
     o = orient(st, s)
 
@@ -212,10 +212,8 @@ def _estimate(
 
     n = fz.size
     opts = check_statistics(fs, n, estimator=estimator, iv_lag=iv_lag, noise=noise, rpm=rpm)
-    st = compute(
-        None, fy, fz, None, np.zeros(1, dtype=np.int64), n, parse_deadband(0.0), 1, ["n", "ext"],
-        options=dict(lag=opts["iv_lag"]),
-    )  # fmt: skip
+    spec = make_spec(n, parse_deadband(0.0), 1, ["n", "ext"], options=dict(lag=opts["iv_lag"]))
+    st = compute(spec, fy, fz, np.zeros(1, dtype=np.int64))
     E, nn = st["ext"], st["n"]
     sl = slopes(E, nn, opts["estimator"], noise=opts["noise"])
     a2, a2_se = quadratic(E, nn, instrumented=True)
