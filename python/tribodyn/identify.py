@@ -40,7 +40,7 @@ def check_gate(gate: Any) -> float:
 
 
 def cross_spectra(
-    fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, fs: float, rpm: float, n_lamellas: int
+    fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, fs: float, *, rpm: float, n_lamellas: int
 ) -> Dict[str, Dict[str, float]]:
     """|Welch cross-spectrum| of xy, xz, yz at f0 = rpm/60 and f_l = n_lamellas f0 (docs/method.md 5).
 
@@ -180,7 +180,8 @@ def identify(
     spectra = None
     rpm, n_lamellas = o["rpm"], o["n_lamellas"]
     if rpm is not None and n_lamellas is not None and n >= 8:
-        spectra = cross_spectra(fx_a, fy_a, fz_a, fs_v, float(rpm), check_int(n_lamellas, "n_lamellas", minimum=1))
+        lamellas = check_int(n_lamellas, "n_lamellas", minimum=1)
+        spectra = cross_spectra(fx_a, fy_a, fz_a, fs_v, rpm=float(rpm), n_lamellas=lamellas)
 
     estimator = stats["estimator"]
     extra: Dict[str, float] = {}
