@@ -55,7 +55,15 @@ from tribodyn import _core
 from tribodyn import reference as ref
 from tribodyn.columns import KERNEL_COLUMNS, kernel_columns
 from tribodyn.deadband import parse_deadband
-from tribodyn.window_stats import compute
+from tribodyn.window_stats import compute as compute_spec
+from tribodyn.window_stats import make_spec
+
+
+def compute(fx, fy, fz, aux, starts, length, db, n_bins, columns=None, *, raw=None, threads=None):
+    """``window_stats.compute`` with its spec made for the call (the reference's argument order)."""
+    spec = make_spec(length, db, n_bins, columns, raw=raw is not None, threads=threads)
+    return compute_spec(spec, fy, fz, np.asarray(starts, dtype=np.int64), fx=fx, aux=aux, raw=raw)
+
 
 TOL = 1e-9
 EPS = np.finfo(np.float64).eps
