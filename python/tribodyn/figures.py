@@ -1390,18 +1390,38 @@ def _fork_render(figs: Sequence[Figure], dpi: int) -> Optional[Tuple[int, int]]:
     return pid, r
 
 
+#: Seconds the parent waits for the rendering child before it kills it and draws the figures itself.
+_CHILD_TIMEOUT = 300.0
+
+
 def _collect(child: Optional[Tuple[int, int]]) -> Optional[List[bytes]]:
     """The child's PNG bytes, or None when it failed."""
     if child is None:
         return None
     import pickle
 
+    import select
+    import signal
+    import time
+
     pid, r = child
+    chunks: List[bytes] = []
+    deadline = time.monotonic() + _CHILD_TIMEOUT
     try:
-        with os.fdopen(r, "rb") as fh:
-            data = fh.read()
+        while True:  # read until the child closes the pipe; a child that hangs is killed and its share drawn here
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([r], [], [], left)[0]:
+                os.kill(pid, signal.SIGKILL)
+                chunks = []
+                break
+            piece = os.read(r, 1 << 20)
+            if not piece:
+                break
+            chunks.append(piece)
     finally:
+        os.close(r)
         _, status = os.waitpid(pid, 0)
+    data = b"".join(chunks)
     if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):
         return None
     try:
