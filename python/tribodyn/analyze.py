@@ -33,7 +33,10 @@ from .io.base import RecordingProtocol
 from .plan import Findings, Plan, make_plan
 from .results import Results
 from .routes import concat_stats, run
+from .options import defaults
 from .strokes import stroke_windows
+from .threads import reading, resolve_threads
+from .tribometer import from_dataframe, prepass
 
 __all__ = ["analyze", "analyze_partial", "combine", "Partial"]
 
@@ -315,8 +318,6 @@ def combine(parts: Sequence[Partial]) -> Results:
 
 def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
     """:func:`_analyze_body` with the call's thread count for the readers' native parses (text files)."""
-    from .threads import reading, resolve_threads
-
     if plan is not None and not isinstance(plan, Plan):
         raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
     try:
@@ -331,8 +332,6 @@ def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[Reco
     """(source, recording or None, fs): a DataFrame as a mapping of its columns by role (``channels=``)."""
     fs, channels = options.pop("fs", None), options.pop("channels", None)
     if _is_dataframe(source):
-        from .tribometer import from_dataframe
-
         source, fs = from_dataframe(source, channels, fs)
     elif channels is not None:
         raise TypeError("channels= maps the columns of a pandas DataFrame; map a recording's with open_recording")
@@ -344,8 +343,6 @@ def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[Reco
 
 def _plan_of(given: Optional[Plan], fs: Any, rec: Optional[RecordingProtocol], options: Dict[str, Any]) -> Plan:
     """The analysis's plan: ``given`` (no other option with it), else made from ``options`` (docs/method.md 6)."""
-    from .options import defaults
-
     if given is not None:
         default = defaults()
         changed = sorted(k for k, v in options.items() if not _is_default(v, default.get(k)))
@@ -389,8 +386,6 @@ def _check_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> N
 def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], partial: bool
                   ) -> Union[Results, Partial]:  # fmt: skip
     """:func:`analyze`'s body: ``options`` are its keyword arguments (without ``plan``)."""
-    from .tribometer import prepass
-
     source, rec, fs = _as_source(source, options)
     plan = _plan_of(given, fs, rec, options)
     _check_range(source, rec, plan)
