@@ -17,8 +17,14 @@ the covariate, weighted by the windows' standard errors
 minimum COF, the walls the rise on either side (either may be absent). For
 temperature the heating and cooling branches are fitted apart (plateau
 windows, branch 0, enter both), and their difference of breakpoints is the
-hysteresis of Fig. 11. 95 % intervals come from a moving-block bootstrap
-over time with a fixed seed. The result says what it found in
+hysteresis of Fig. 11. The walls the F-tests keep are then refitted
+curved (:mod:`tribodyn.walls`: a curved onset and a flat shoulder), so a
+breakpoint is where the COF leaves its floor. 95 % intervals come from a
+moving-block bootstrap over time with a fixed seed; a breakpoint's interval
+is joined with its profile-likelihood interval, widened by the covariate's
+reading noise (the temperature log's) and moved out to the nearest tested
+covariates. The instability onset is read from the windows before contact
+loss (contact loss can lower the measured current). The result says what it found in
 ``verdict``: "optimum", "optimum at the edge of the tested range", "no
 dependence", "covariate constant" or "too few windows", with a sentence.
 
