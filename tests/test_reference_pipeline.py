@@ -96,7 +96,7 @@ def test_concurrent_spans_give_the_single_stream_table(files, monkeypatch):
     """With two threads a random-access, thread-safe recording may be read as concurrent spans (dynamic input);
     an HDF5 file read through h5py (not thread-safe) is read as one stream. Either way the table is the
     one-thread table."""
-    mod = importlib.import_module("tribodyn.analyze")
+    mod = importlib.import_module("tribodyn.routes")
     from tribodyn.plan import make_plan
 
     def plan(**kw):

@@ -63,6 +63,8 @@ _LAZY = {
     "StickSlip": "stickslip",
     "steady_state": "steady",
     "SteadyState": "steady",
+    "Plan": "plan",
+    "make_plan": "plan",
 }
 
 __all__ = [
@@ -86,6 +88,8 @@ __all__ = [
     "CofResult",
     "BinTable",
     "analyze",
+    "Plan",
+    "make_plan",
     "Results",
     "WINDOW_COLUMNS",
     "operating_range",
@@ -120,6 +124,7 @@ if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
     from .distributed import ManyResults, analyze_many
     from .filters import HighPass, butter_highpass, highpass
     from .io import Recording, RecordingError, open_recording
+    from .plan import Plan, make_plan
     from .ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating_range
     from .regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit
     from .steady import SteadyState, steady_state

@@ -161,6 +161,30 @@ def _deadband(text: str) -> Any:
         return text
 
 
+def _add_analysis_options(a: argparse.ArgumentParser) -> None:
+    """The flags of ``analyze``'s options, from their one declaration (:data:`tribodyn.options.OPTIONS`).
+
+    The channel map (``--map``), the logs read from files (``--temperature``,
+    ``--covariate``) are added by :func:`_parser` itself: their values are
+    files or lists, not the option's value.
+    """
+    from .options import OPTIONS
+
+    parse: Dict[str, Callable[[str], Any]] = {
+        "float": float, "int": int, "text": str, "orientation": _orientation, "deadband": _deadband, "gate": _gate,
+        "pair": _pair, "tare": _tare,
+    }  # fmt: skip
+    for o in OPTIONS:
+        if o.flag is None or o.cli_type in ("map", "log", "covariate"):
+            continue
+        unit = f" [{o.unit}]" if o.unit else ""
+        text = f"{o.doc}{unit}; docs/method.md {o.section}".replace("%", "%%")
+        if o.cli_type == "choice":
+            a.add_argument(o.flag, choices=list(o.choices), help=text)
+        else:
+            a.add_argument(o.flag, type=parse[o.cli_type], help=text)
+
+
 def _parser() -> argparse.ArgumentParser:
     # Global options go before or after the sub-command: the sub-commands' copies
     # default to SUPPRESS so they never overwrite a value given before it.
@@ -202,23 +226,10 @@ def _parser() -> argparse.ArgumentParser:
         help="unit factors to SI, ROLE=FACTOR,... (e.g. fz=0.00980665 for gram-force; replaces the reader's "
         "own conversion); may be repeated",
     )
-    a.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
     a.add_argument("--time-column", help="text files: the column holding time (gives fs; restarts split segments)")
     a.add_argument("--encoding", help="text files: the encoding (default: detected; e.g. cp932, utf-16, latin-1)")
     a.add_argument("--resample", type=float, help="text files with irregular time: interpolate linearly at HZ")
-    a.add_argument(
-        "--motion",
-        choices=["auto", "unidirectional", "reciprocating"],
-        help="auto (default: reciprocating when fy changes sign), unidirectional or reciprocating",
-    )
-    a.add_argument("--min-fn", type=float, help="classical COF: least |fz| in N (default 5 %% of the median |fz|)")
-    a.add_argument(
-        "--tare", type=_tare, help="classical COF: S seconds at the start without contact, or offsets fy=N,fz=N"
-    )
-    a.add_argument("--stroke-fraction", type=float, help="reciprocating: central part of each stroke (default 0.5)")
-    a.add_argument("--window", type=float, help="window length in s (default 2; slow recordings: from the rate)")
-    a.add_argument("--hop", type=float, help="window start spacing in s (default 10; = window tiles)")
-    a.add_argument("--highpass", type=float, help="high-pass raw DC-coupled forces at HZ first (e.g. 0.1)")
+    _add_analysis_options(a)
     a.add_argument("--temperature", help="temperature log file: two columns, time in s and degC")
     a.add_argument(
         "--covariate",
@@ -227,38 +238,6 @@ def _parser() -> argparse.ArgumentParser:
         help="another log file (two columns: time in s, value) interpolated at each window into the column NAME, "
         "e.g. speed=speed.csv (m/s: the Stribeck curve); may be repeated",
     )
-    a.add_argument("--area", type=float, help="contact area in mm^2 (for the current density)")
-    a.add_argument("--shunt", type=float, help="shunt resistance in ohm (current = u / R)")
-    a.add_argument("--rpm", type=float, help="rotating speed")
-    a.add_argument("--lamellas", type=int, help="number of commutator lamellas")
-    a.add_argument("--orientation", type=_orientation, help="auto (default), +1 or -1")
-    a.add_argument("--deadband", type=_deadband, help="deadband in N (default 0.35) or e.g. 0.7sigma")
-    a.add_argument("--bins", type=int, help="normal-force bins (default 16; at most 1024, about 4 samples each)")
-    a.add_argument(
-        "--gate",
-        type=_gate,
-        help="quality gate: ci (default: the 95 %% interval's width) or a |C_yz(0)| threshold such as 0.85",
-    )
-    a.add_argument(
-        "--max-rel-ci",
-        type=float,
-        help="gate ci: largest expected half-width of the 95 %% interval, relative to the recording's COF "
-        "(default 0.1)",
-    )
-    a.add_argument(
-        "--estimator",
-        choices=["corrected", "iv", "ols", "deming"],
-        help="slope estimator (default corrected; docs/method.md 3a)",
-    )
-    a.add_argument("--method", choices=["paper"], help="paper: the paper's method exactly (OLS, |C_yz| >= 0.85)")
-    a.add_argument(
-        "--align", choices=["auto"], help="auto: measure the fz delay at the rig's lines and correct it (needs --rpm)"
-    )
-    a.add_argument("--iv-lag", type=float, help="instrument lag in s (default one revolution with --rpm)")
-    a.add_argument("--noise", type=_pair, help="SY,SZ: noise standard deviations of fy and fz in N (deming needs them)")
-    a.add_argument("--max-lag", type=int, help="per-window channel-skew check up to this lag (samples)")
-    a.add_argument("--chunk", type=float, help="seconds read per chunk (memory bound; default 60)")
-    a.add_argument("--threads", type=int, help="kernel threads (default: all cores or TRIBODYN_THREADS)")
     a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
@@ -313,42 +292,25 @@ _OVERWRITE_HELP = "replace --out even when it holds files that are not a previou
 
 # Config keys: what each must be (checked like the command-line options).
 _NUMBER, _INTEGER, _TEXT = "a number", "an integer", "a string"
-_CONFIG_KEYS: Dict[str, str] = {
-    "format": _TEXT,
-    "map": 'a table of role = "channel" (or a string "fy=Ft,fz=Fn")',
-    "scale": 'a table of role = number (or a string "fz=0.00980665")',
-    "fs": _NUMBER,
-    "time_column": _TEXT,
-    "encoding": _TEXT,
-    "resample": _NUMBER,
-    "motion": _TEXT,
-    "min_fn": _NUMBER,
-    "tare": "a number of seconds or a table of offsets",
-    "stroke_fraction": _NUMBER,
-    "window": _NUMBER,
-    "hop": _NUMBER,
-    "highpass": _NUMBER,
-    "temperature": _TEXT,
-    "covariates": 'a table of name = "log file"',
-    "area": _NUMBER,
-    "shunt": _NUMBER,
-    "rpm": _NUMBER,
-    "lamellas": _INTEGER,
-    "orientation": '"auto", 1 or -1',
-    "deadband": 'a number (N) or a string such as "0.7sigma"',
-    "bins": _INTEGER,
-    "gate": 'a number (|C_yz| threshold) or "ci"',
-    "max_rel_ci": _NUMBER,
-    "estimator": _TEXT,
-    "method": _TEXT,
-    "align": _TEXT,
-    "iv_lag": _NUMBER,
-    "noise": "a list of two numbers [sigma_y, sigma_z] in N",
-    "max_lag": _INTEGER,
-    "chunk": _NUMBER,
-    "threads": _INTEGER,
-    "meta": "a table of field = text or number (the test record, docs/method.md 10c)",
-}
+
+
+def _config_keys() -> Dict[str, str]:
+    """Every ``--config`` key and what its value must be: the reading options, then the analysis's (one declaration)."""
+    from .options import OPTIONS
+
+    keys = {
+        "format": _TEXT,
+        "scale": 'a table of role = number (or a string "fz=0.00980665")',
+        "time_column": _TEXT,
+        "encoding": _TEXT,
+        "resample": _NUMBER,
+        "meta": "a table of field = text or number (the test record, docs/method.md 10c)",
+    }
+    keys.update({o.config: o.config_type for o in OPTIONS if o.config is not None})
+    return keys
+
+
+_CONFIG_KEYS: Dict[str, str] = _config_keys()
 
 
 def _toml_type(v: Any) -> str:
@@ -471,6 +433,8 @@ def _load_config(path: str) -> Dict[str, Any]:
 
 
 def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str, Any], List[Any]]:
+    from .options import OPTIONS
+
     cfg = _load_config(ns.config) if ns.config else {}
 
     def get(key: str) -> Any:
@@ -496,35 +460,11 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
         if get(key) is not None:
             open_opts[key] = get(key)
     opts: Dict[str, Any] = {}
-    for key, name in (
-        ("window", "window"),
-        ("hop", "hop"),
-        ("highpass", "highpass"),
-        ("area", "area_mm2"),
-        ("shunt", "shunt_ohm"),
-        ("rpm", "rpm"),
-        ("lamellas", "n_lamellas"),
-        ("orientation", "orientation"),
-        ("deadband", "deadband"),
-        ("bins", "n_bins"),
-        ("gate", "gate"),
-        ("max_rel_ci", "max_rel_ci"),
-        ("estimator", "estimator"),
-        ("method", "method"),
-        ("align", "align"),
-        ("iv_lag", "iv_lag"),
-        ("noise", "noise"),
-        ("max_lag", "max_lag"),
-        ("chunk", "chunk"),
-        ("threads", "threads"),
-        ("motion", "motion"),
-        ("min_fn", "min_fn"),
-        ("tare", "tare"),
-        ("stroke_fraction", "stroke_fraction"),
-    ):
-        v = get(key)
-        if v is not None:
-            opts[name] = v
+    for o in OPTIONS:  # the analysis's options by flag or config key (one declaration: tribodyn.options)
+        if o.kind == "plan" and o.config is not None:
+            v = get(o.config)
+            if v is not None:
+                opts[o.name] = v
     rpm, lamellas = opts.get("rpm"), opts.get("n_lamellas")
     if rpm is not None and not (math.isfinite(rpm) and rpm > 0):
         raise UserError(f"--rpm must be a finite number > 0, got {rpm!r}")

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
@@ -17,11 +18,19 @@ import numpy as np
 from ._validate import check_bins, check_fs, check_int, positive
 from .columns import kernel_columns
 from .covariates import TimeLog, as_log, constant_or_log
-from .deadband import Deadband, DeadbandSpec, parse_deadband
-from .identify import Orientation, check_gate
+from .deadband import Deadband, parse_deadband
+from .identify import check_gate
 from .threads import resolve_threads
 
-__all__ = ["Covariates", "Plan", "make_plan", "check_orientation", "check_covariate_logs"]
+__all__ = [
+    "Covariates",
+    "Findings",
+    "Plan",
+    "make_plan",
+    "check_orientation",
+    "check_covariate_logs",
+    "check_tribometer",
+]
 
 
 def check_orientation(orientation: Any) -> Union[int, str]:
@@ -98,7 +107,13 @@ def check_covariate_logs(covariates: Any) -> Tuple[Tuple[str, TimeLog], ...]:
 
 @dataclass(frozen=True)
 class Plan:
-    """Every setting of one analysis, checked (see :func:`tribodyn.analyze` for their meaning).
+    """Every setting of one analysis, checked once (docs/architecture.md; the options: :mod:`tribodyn.options`).
+
+    Made by :func:`make_plan` (``td.make_plan(fs=1000, window=2, ...)``),
+    with the options of :func:`tribodyn.analyze`, and frozen: nothing in a
+    plan changes while a recording is read. ``analyze(source, plan)`` runs
+    it on a source recorded at ``plan.fs``; what the pre-pass and the
+    alignment find in the data goes in :class:`Findings`, never into the plan.
 
     Attributes
     ----------
@@ -110,8 +125,8 @@ class Plan:
         The same in samples (window k is samples [k * step, k * step + length)).
     deadband : Deadband
     n_bins : int
-    gate : float
-        |C_yz(0)| threshold.
+    gate : float or "ci"
+        |C_yz(0)| threshold, or the gate on the interval's width.
     orientation : +1, -1 or "auto"
     highpass : float or None
         Cut-off of the high-pass for raw forces, Hz.
@@ -127,6 +142,15 @@ class Plan:
     start, stop : int, int or None
         Sample range of a recording analysed.
     progress : bool
+    motion : {"auto", "unidirectional", "reciprocating"}
+    min_fn : float or None
+        Classical COF: least |fz| in contact, N (None: from the data).
+    tare : float, mapping or None
+        Classical COF: seconds without contact at the start, or offsets.
+    stroke_fraction : float
+        Central part of each stroke of a reciprocating test.
+    window_note : str
+        What was chosen from the rate for window and hop ('' when nothing).
     """
 
     fs: float
@@ -161,28 +185,33 @@ class Plan:
     #: Line frequencies (cycles per sample) and the index of f0, f_l among them.
     lines: Tuple[float, ...] = ()
     line_index: Tuple[Tuple[str, int], ...] = ()
-    #: fz is advanced by this many samples in every window (set by align="auto").
-    delay: float = 0.0
     #: (sigma_y, sigma_z) of the measurement noise, N, or None.
     noise: Optional[Tuple[float, float]] = None
-    #: The classical COF's settings (``tribometer.ClassicalSpec``: min_fn, tare) or None (docs/method.md 6a).
-    classical: Optional[Any] = None
+    #: "auto", "unidirectional" or "reciprocating" (docs/method.md 6c).
+    motion: str = "auto"
+    #: Classical COF: least |fz| in contact, N; None: from the data (docs/method.md 6a).
+    min_fn: Optional[float] = None
+    #: Classical COF: seconds without contact at the start, or offsets {"fy": N, "fz": N}; None: from the data.
+    tare: Any = None
+    #: Central part of each stroke used for its COF (docs/method.md 6c).
+    stroke_fraction: float = 0.5
+    #: What was chosen from the rate for window and hop (docs/method.md 6b), '' when nothing was.
+    window_note: str = ""
 
     @property
     def paper(self) -> bool:
         """True for the paper's preset (``method="paper"``): its statistics only, exactly as before."""
         return self.method == "paper"
 
-    @property
-    def kernel_options(self) -> Dict[str, Any]:
+    def kernel_options(self, found: "Findings") -> Dict[str, Any]:
         """The options of the statistics beyond the paper for ``_core.windows_stats`` (docs/method.md 3a-3e)."""
         out: Dict[str, Any] = {}
-        if self.classical is not None:
-            c = self.classical
+        if found.classical is not None:
+            c = found.classical
             out["classical"] = (float(c.min_fn), float(c.tare_fy), float(c.tare_fz))
         if self.paper:
             return out
-        out.update(lag=self.iv_lag, lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=self.delay)
+        out.update(lag=self.iv_lag, lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=found.delay)
         return out
 
     @property
@@ -190,16 +219,19 @@ class Plan:
         """True when the forces are raw (DC-coupled) and high-passed first."""
         return self.highpass is not None
 
-    @property
-    def kernel_columns(self) -> Tuple[str, ...]:
+    def kernel_columns(self, found: "Findings") -> Tuple[str, ...]:
         """The statistics asked of the kernel per window (``tribodyn.columns``)."""
         extra: Tuple[str, ...] = () if self.paper else ("szz", "syy", "ext") + (("spec",) if self.lines else ())
-        if self.classical is not None:
+        if found.classical is not None:
             extra += ("mu_classical", "mu_classical_median", "fz_mean", "fz_std")
         return kernel_columns(self.raw) + extra
 
     def params(self) -> Dict[str, Any]:
-        """The settings for provenance (``Results.params``, ``summary.json``)."""
+        """The settings for provenance (``Results.params``, ``summary.json``).
+
+        ``motion`` and ``min_fn`` are recorded as the pre-pass resolved them
+        (``Results.params["motion"]``, ``["min_fn"]``; docs/method.md 6a, 6c).
+        """
         cov = self.covariates
         return dict(
             fs=self.fs,
@@ -226,48 +258,47 @@ class Plan:
             chunk_samples=self.chunk,
             temperature_log_points=None if cov.temperature is None else int(cov.temperature[0].size),
             covariate_logs={k: int(v[0].size) for k, v in cov.logs} or None,
+            current_log_points=None if cov.current is None else int(cov.current[0].size),
+            voltage_log_points=None if cov.voltage is None else int(cov.voltage[0].size),
+            tare=dict(self.tare) if isinstance(self.tare, Mapping) else self.tare,
+            stroke_fraction=self.stroke_fraction,
+            threads=self.threads,
+            start=self.start,
+            stop=self.stop,
+            progress=self.progress,
         )
 
 
-def make_plan(
-    *,
-    fs: Any,
-    window: Any = 2.0,
-    hop: Any = 10.0,
-    highpass: Any = None,
-    orientation: Orientation = "auto",
-    temperature: Any = None,
-    current: Any = None,
-    voltage: Any = None,
-    shunt_ohm: Any = None,
-    area_mm2: Any = None,
-    covariates: Any = None,
-    chunk: Any = None,
-    progress: bool = False,
-    deadband: DeadbandSpec = 0.35,
-    n_bins: Any = 16,
-    gate: Any = None,
-    max_lag: Any = None,
-    rpm: Any = None,
-    n_lamellas: Any = None,
-    threads: Any = None,
-    start: Any = 0,
-    stop: Any = None,
-    method: Any = None,
-    estimator: Any = None,
-    max_rel_ci: Any = None,
-    align: Any = None,
-    iv_lag: Any = None,
-    noise: Any = None,
-) -> Plan:
-    """Checks the options of :func:`tribodyn.analyze` into a :class:`Plan`.
+def make_plan(*, fs: Any, **options: Any) -> Plan:
+    """Checks the options of :func:`tribodyn.analyze` into a :class:`Plan` (``td.make_plan``).
+
+    ``fs`` is the sampling rate in Hz; ``options`` are any of
+    :data:`tribodyn.options.OPTIONS` of kind "plan" or "log" (defaults:
+    theirs). Not given, window and hop are chosen from the rate
+    (docs/method.md 6b; ``Plan.window_note`` says what was chosen).
 
     Raises
     ------
     ValueError, TypeError
-        The first bad option, named.
+        An unknown option, or the first bad one, named.
     """
+    from .options import OPTIONS
+
+    known = {o.name: o for o in OPTIONS if o.kind != "source"}
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise TypeError(f"unknown option(s) {', '.join(map(repr, unknown))}; the options are {', '.join(known)}")
+    o = {name: options.get(name, opt.default) for name, opt in known.items()}
+    return _make_plan(fs, o)
+
+
+def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
+    """:func:`make_plan` with every option present (``o``)."""
+    from .tribometer import auto_window
+
     fs_v = check_fs(fs)
+    window, hop, window_note = auto_window(fs_v, o["window"], o["hop"])
+    voltage, shunt_ohm, stop = o["voltage"], o["shunt_ohm"], o["stop"]
     w_s = positive(window, "window")
     h_s = positive(hop, "hop")
     length = int(round(w_s * fs_v))
@@ -283,42 +314,101 @@ def make_plan(
     else:
         shunt = None
     cov = Covariates(
-        temperature=None if temperature is None else as_log(temperature, "temperature"),
-        current=constant_or_log(current, "current"),
+        temperature=None if o["temperature"] is None else as_log(o["temperature"], "temperature"),
+        current=constant_or_log(o["current"], "current"),
         voltage=constant_or_log(voltage, "voltage"),
         shunt_ohm=shunt,
-        area_mm2=None if area_mm2 is None else positive(area_mm2, "area_mm2"),
-        logs=check_covariate_logs(covariates),
+        area_mm2=None if o["area_mm2"] is None else positive(o["area_mm2"], "area_mm2"),
+        logs=check_covariate_logs(o["covariates"]),
     )
-    origin = check_int(start, "start", minimum=0)
+    origin = check_int(o["start"], "start", minimum=0)
     end = None if stop is None else check_int(stop, "stop", minimum=0)
     if end is not None and end < origin:
         raise ValueError(f"stop must satisfy start <= stop, got start={origin}, stop={end}")
     stats = check_statistics(
-        fs_v, length, method=method, estimator=estimator, gate=gate, max_rel_ci=max_rel_ci, align=align,
-        iv_lag=iv_lag, noise=noise, rpm=rpm, n_lamellas=n_lamellas,
+        fs_v, length, method=o["method"], estimator=o["estimator"], gate=o["gate"], max_rel_ci=o["max_rel_ci"],
+        align=o["align"], iv_lag=o["iv_lag"], noise=o["noise"], rpm=o["rpm"], n_lamellas=o["n_lamellas"],
     )  # fmt: skip
+    highpass, max_lag, chunk = o["highpass"], o["max_lag"], o["chunk"]
     return Plan(
         fs=fs_v,
         window=w_s,
         hop=h_s,
         length=length,
         step=step,
-        deadband=parse_deadband(deadband),
-        n_bins=check_bins(n_bins, length),
-        orientation=check_orientation(orientation),
+        deadband=parse_deadband(o["deadband"]),
+        n_bins=check_bins(o["n_bins"], length),
+        orientation=check_orientation(o["orientation"]),
         highpass=None if highpass is None else positive(highpass, "highpass"),
         max_lag=None if max_lag is None else check_int(max_lag, "max_lag", minimum=0),
-        rpm=rpm,
-        n_lamellas=n_lamellas,
+        rpm=o["rpm"],
+        n_lamellas=o["n_lamellas"],
         covariates=cov,
-        threads=resolve_threads(threads),
+        threads=resolve_threads(o["threads"]),
         chunk=None if chunk is None else max(1, int(round(positive(chunk, "chunk") * fs_v))),
         start=origin,
         stop=end,
-        progress=bool(progress),
+        progress=bool(o["progress"]),
+        window_note=window_note,
         **stats,
+        **check_tribometer(o["motion"], o["min_fn"], o["tare"], o["stroke_fraction"]),
     )
+
+
+def check_tribometer(motion: Any, min_fn: Any, tare: Any, stroke_fraction: Any) -> Dict[str, Any]:
+    """The tribometer options checked (docs/method.md 6a, 6c): motion, min_fn, tare, stroke_fraction."""
+    motion = "auto" if motion is None else motion
+    if motion not in ("auto", "unidirectional", "reciprocating"):
+        raise ValueError(f"motion must be 'auto', 'unidirectional' or 'reciprocating', got {motion!r}")
+    fn = None
+    if min_fn is not None:
+        try:
+            fn = float(min_fn)
+        except (TypeError, ValueError):
+            raise TypeError(f"min_fn must be a force in N, got {min_fn!r}") from None
+        if not (np.isfinite(fn) and fn >= 0) or isinstance(min_fn, bool):
+            raise ValueError(f"min_fn must be finite and >= 0, got {min_fn!r}")
+    if isinstance(tare, Mapping):
+        bad = [
+            k
+            for k, v in tare.items()
+            if k not in ("fy", "fz") or isinstance(v, bool) or not isinstance(v, (int, float))
+        ]
+        if bad:
+            raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+        tare = MappingProxyType({str(k): float(v) for k, v in tare.items()})
+    elif tare is not None:
+        if isinstance(tare, bool) or not isinstance(tare, (int, float)):
+            raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+        if not (np.isfinite(tare) and tare >= 0):
+            raise ValueError(f"tare must be seconds >= 0, got {tare!r}")
+        tare = float(tare)
+    sf = 0.5 if stroke_fraction is None else stroke_fraction
+    try:
+        frac = float(sf)
+    except (TypeError, ValueError):
+        raise TypeError(f"stroke_fraction must be a number in (0, 1], got {stroke_fraction!r}") from None
+    if not (0 < frac <= 1):
+        raise ValueError(f"stroke_fraction must be in (0, 1], got {stroke_fraction!r}")
+    return dict(motion=motion, min_fn=fn, tare=tare, stroke_fraction=frac)
+
+
+@dataclass(frozen=True)
+class Findings:
+    """What one analysis finds in the data before the windows: kept apart from its :class:`Plan`.
+
+    Attributes
+    ----------
+    classical : ClassicalSpec or None
+        The classical COF's contact threshold and tare offsets the pre-pass
+        resolved (``tribodyn.tribometer.ClassicalSpec``; docs/method.md 6a), or None.
+    delay : float
+        Samples by which fz is advanced in every window (``align="auto"``'s
+        measurement, docs/method.md 3e); 0 otherwise.
+    """
+
+    classical: Optional[Any] = None
+    delay: float = 0.0
 
 
 #: Segments averaged per window for the line cross-spectra (docs/method.md 3e).

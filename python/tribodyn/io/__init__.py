@@ -40,7 +40,7 @@ import os
 import stat
 from typing import Any, Mapping, Optional, Tuple, Union
 
-from .base import ChannelInfo, Recording, RecordingError
+from .base import ChannelInfo, Recording, RecordingError, RecordingProtocol
 from .writers import (
     atomic_write,
     save_hdf5,
@@ -56,6 +56,7 @@ __all__ = [
     "ChannelInfo",
     "Recording",
     "RecordingError",
+    "RecordingProtocol",
     "atomic_write",
     "detect_format",
     "open_recording",

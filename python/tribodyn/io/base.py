@@ -32,7 +32,7 @@ import os
 import threading
 from collections import deque
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Protocol, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -234,6 +234,52 @@ def _as_str_list(x: Union[str, Sequence[str]]) -> List[str]:
     return [str(v) for v in x]
 
 
+class RecordingProtocol(Protocol):
+    """What the pipeline needs of a recording (docs/architecture.md): its data and its declared capabilities.
+
+    :class:`Recording` (every reader of :func:`tribodyn.io.open_recording`)
+    satisfies it. :func:`tribodyn.routes.choose_route` picks the route from
+    the capabilities (``acquisitions``, ``mappable``, ``random_access``,
+    ``thread_safe``, ``views``) before anything is read, never from a
+    format's name.
+    """
+
+    path: str
+    fs: float
+    roles: Dict[str, str]
+    warnings: List[str]
+    #: Sample ranges of separate acquisitions to window apart, or None (one acquisition).
+    acquisitions: Optional[List[Tuple[int, int]]]
+    random_access: bool
+    thread_safe: bool
+    mappable: bool
+    views: bool
+    #: How ``fy`` was bound when the role map was chosen from the data (:class:`tribodyn.roles.RoleChoice`), or None.
+    role_choice: Optional["RoleChoice"]
+
+    @property
+    def n_samples(self) -> int: ...
+
+    @property
+    def roles_source(self) -> str: ...
+
+    def chunks(
+        self,
+        size: int,
+        roles: Union[None, str, Sequence[str]] = None,
+        *,
+        start: int = 0,
+        stop: Optional[int] = None,
+        copy: bool = True,
+    ) -> Iterator[Dict[str, np.ndarray]]: ...
+
+    def read(self, roles: Union[None, str, Sequence[str]] = None) -> Dict[str, np.ndarray]: ...
+
+    def file_layout(self, roles: Sequence[str]) -> Optional[Tuple[int, Dict[str, Any]]]: ...
+
+    def check_unchanged(self) -> None: ...
+
+
 class Recording:
     """A recording file opened for reading; use :func:`tribodyn.io.open_recording`.
 
@@ -277,7 +323,7 @@ class Recording:
     streaming: bool = True
 
     # -- Capabilities, declared by each reader class. The pipeline chooses
-    # its route from these before it reads (tribodyn.analyze.choose_route),
+    # its route from these before it reads (tribodyn.routes.choose_route),
     # never from a format's name.
     #: Reads any range of samples directly (``chunks(start=, stop=)`` does
     #: not read what comes before), not only in order.
@@ -293,6 +339,10 @@ class Recording:
     #: ``chunks(copy=False)`` may hand out read-only views of the file's
     #: pages instead of copies.
     views: bool = False
+    #: Sample ranges of the separate acquisitions the pipeline windows apart
+    #: (CETR steps, time restarts, LVM segments marked discontinuous), or
+    #: None: one acquisition.
+    acquisitions: Optional[List[Tuple[int, int]]] = None
 
     def __init__(self, path: Union[str, "os.PathLike[str]"]) -> None:
         self.path: str = os.fspath(path)
