@@ -734,8 +734,8 @@ def _branch_fit_units(
         if v.size >= 20:
             # Resamples whose onset lies beyond the tested range count as +inf.
             lo_, hi_ = np.percentile(np.where(np.isinf(v), np.finfo(float).max, v), [2.5, 97.5])
-            big = np.finfo(float).max
-            onset_ci = (math.inf if lo_ >= big else float(lo_), math.inf if hi_ >= big else float(hi_))
+            # An end beyond the tested range is interpolated towards a resample without onset: inf.
+            onset_ci = (math.inf if lo_ > rng[1] else float(lo_), math.inf if hi_ > rng[1] else float(hi_))
     optimum: Optional[Interval] = None
     optimum_ci: Optional[Tuple[Interval, Interval]] = None
     if verdict != "no dependence":
