@@ -176,6 +176,7 @@ def test_stribeck_minimum_and_breakpoints_against_the_truth(sweep, res, opr):
     assert f.lower_ci[0] <= truth.lower <= f.lower_ci[1] and f.upper_ci[0] <= truth.upper <= f.upper_ci[1]
     assert abs(math.log10(f.lower / truth.lower)) < 0.1 and abs(math.log10(f.upper / truth.upper)) < 0.2
     assert opr.mu_min == pytest.approx(sweep.model.mu_min, abs=0.005)
+    assert f.mu_min_ci[0] <= f.mu_min <= f.mu_min_ci[1]  # resamples refit both walls as a pair (b_lo <= b_hi)
     assert f.grid[0] == pytest.approx(res["speed"].min()) and f.x_range[1] == pytest.approx(res["speed"].max())
     d = opr.to_dict()
     assert d["scale"] == "log" and d["cof"] == "classical" and json.dumps(d, default=str)

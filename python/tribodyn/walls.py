@@ -265,21 +265,30 @@ def bootstrap_curved(
     pick: Dict[str, np.ndarray] = {}
     a: Dict[str, np.ndarray] = {}
     for it in range(_ITER):
-        bound = np.full(B, np.inf)
-        for k in ("hi", "lo"):
-            if k not in P:
-                continue
+        score: Dict[str, np.ndarray] = {}
+        for k in P:
             SL, SLL, SLy, ok = P[k]
             with np.errstate(divide="ignore", invalid="ignore"):
                 r = SLy - m[:, None] * SL
-                score = np.where(ok & (r > 0), r * r / SLL, -np.inf)
-            if k == "lo":
-                score = np.where(sides["lo"].b[None, :] <= bound[:, None], score, -np.inf)
-            j = np.argmax(score, axis=1)
-            valid = np.isfinite(score[rows, j])
-            pick[k] = np.where(valid, j, -1)
-            if k == "hi":
-                bound = np.where(valid, sides["hi"].b[j], np.inf)
+                score[k] = np.where(ok & (r > 0), r * r / SLL, -np.inf)
+        if "lo" in P and "hi" in P:
+            # The best pair given m with b_lo <= b_hi: for each upper candidate the best lower one at or below it.
+            order = np.argsort(sides["lo"].b, kind="stable")
+            b_sorted = sides["lo"].b[order]
+            prefix = np.maximum.accumulate(score["lo"][:, order], axis=1)
+            at = np.searchsorted(b_sorted, sides["hi"].b, side="right") - 1
+            best_lo = np.where(at[None, :] >= 0, prefix[:, np.maximum(at, 0)], -np.inf)
+            j = np.argmax(score["hi"] + best_lo, axis=1)
+            total = score["hi"][rows, j] + best_lo[rows, j]
+            valid = np.isfinite(total)
+            pick["hi"] = np.where(valid, j, -1)
+            allowed = sides["lo"].b[None, :] <= sides["hi"].b[j][:, None]
+            i = np.argmax(np.where(allowed, score["lo"], -np.inf), axis=1)
+            pick["lo"] = np.where(valid, i, -1)
+        else:
+            for k in P:
+                j = np.argmax(score[k], axis=1)
+                pick[k] = np.where(np.isfinite(score[k][rows, j]), j, -1)
         if it == _ITER - 1:
             break  # the walls picked given m: their slopes are positive at this m
         # m given the walls
