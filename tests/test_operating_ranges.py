@@ -249,12 +249,12 @@ def test_curved_walls_recover_a_noise_free_bathtub():
     x = np.repeat(np.arange(2.0, 6.01, 0.5), 7) + np.tile(np.linspace(-0.01, 0.01, 7), 9)
     y = simulate.curved_bathtub(x, **simulate.CURVED_J)
     w = np.ones_like(x)
-    f, sides, _ = fit_curved(x, y, w, "both", (4.6, 5.1))  # straight-wall breakpoints as the start
+    f, sides, _ = fit_curved(x, y, w, "both", start=(4.6, 5.1))  # straight-wall breakpoints as the start
     # only the J set points carry data: the breakpoints lie between the levels that bracket the truth
     assert 4.0 < f.b_lo <= 4.5 and 4.5 <= f.b_hi < 5.0
     assert abs(f.m - 0.1) < 1e-3 and np.max(np.abs(f.predict(x) - y)) < 0.01
     # a resample drawing every window once is the data itself
-    d = bootstrap_curved(x, y, w, np.ones((1, x.size)), f, sides)
+    d = bootstrap_curved(x, y, w, np.ones((1, x.size)), fit=f, sides=sides)
     assert d["b_lo"][0] == pytest.approx(f.b_lo) and d["b_hi"][0] == pytest.approx(f.b_hi)
     assert d["m"][0] == pytest.approx(f.m, abs=1e-6)
 

@@ -679,7 +679,7 @@ def _branch_fit_units(
     sides: Dict[str, Any] = {}
     prof: Dict[str, Any] = {}
     if f.family != "flat":
-        g, sides, prof = fit_curved(x, y, sel.weights, f.family, (f.b_lo, f.b_hi))
+        g, sides, prof = fit_curved(x, y, sel.weights, f.family, start=(f.b_lo, f.b_hi))
         if np.isfinite(g.rss):
             f = g
         else:
@@ -698,7 +698,7 @@ def _branch_fit_units(
             draws["m"] = np.where(fitted, (wc @ y) / wc.sum(1), np.nan)
         curves[:] = draws["m"][:, None]
     else:
-        d = bootstrap_curved(x, y, sel.weights, counts, f, sides)
+        d = bootstrap_curved(x, y, sel.weights, counts, fit=f, sides=sides)
         draws["m"] = np.where(fitted, d["m"], np.nan)
         draws["b_lo"] = np.where(fitted, d["b_lo"], np.nan)
         draws["b_hi"] = np.where(fitted, d["b_hi"], np.nan)

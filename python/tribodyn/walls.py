@@ -148,7 +148,7 @@ def _pieces(SL: np.ndarray, SLL: np.ndarray, SLy: np.ndarray, ok: np.ndarray) ->
 
 
 def fit_curved(
-    x: np.ndarray, y: np.ndarray, w: np.ndarray, family: str, start: Tuple[float, float], min_wall: int = 3
+    x: np.ndarray, y: np.ndarray, w: np.ndarray, family: str, *, start: Tuple[float, float], min_wall: int = 3
 ) -> Tuple[CurvedFit, Dict[str, _Side], Dict[str, Tuple[np.ndarray, np.ndarray]]]:
     """The best curved-wall fit of ``family`` ("lower", "upper" or "both") with weights ``w``.
 
@@ -239,7 +239,7 @@ def profile_interval(
 
 
 def bootstrap_curved(
-    x: np.ndarray, y: np.ndarray, w: np.ndarray, counts: np.ndarray, fit: CurvedFit, sides: Dict[str, _Side],
+    x: np.ndarray, y: np.ndarray, w: np.ndarray, counts: np.ndarray, *, fit: CurvedFit, sides: Dict[str, _Side],
     min_wall: int = 3,
 ) -> Dict[str, np.ndarray]:  # fmt: skip
     """The family of ``fit`` refitted on every resample (``counts``: (B, n) windows drawn per resample).
