@@ -26,7 +26,7 @@ MAX_POSITIONAL = 5
 ALLOWED: frozenset[str] = frozenset(
     {
         # jobs.py
-        "jobs.py:run_analysis",  # 150 lines
+        "jobs.py:_run_analysis",  # 152 lines (run_analysis's body, moved there by issue 25: to split)
         # ranges.py
         "ranges.py:_curve",  # 6 positional parameters
         "ranges.py:_excluded",  # 8 positional parameters

@@ -504,3 +504,24 @@ def test_cof_vs_time_of_20000_windows_renders_fast_with_the_rolling_band():
     # Failed windows sit in the strip at the top (axes coordinates), not at a COF value such as 0.
     assert np.all(np.asarray(failed[0].get_ydata()) > 1.0 - F.FAILED_STRIP)
     assert failed[0].get_transform() != ax.transData
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork: POSIX only")
+def test_a_rendering_child_that_hangs_is_killed_and_its_share_drawn_here(monkeypatch):
+    """The CLI never hangs on its rendering child (figures.Rendering): past the timeout it is killed."""
+    import time
+
+    from tribodyn import figures
+
+    monkeypatch.setattr(figures, "_CHILD_TIMEOUT", 0.5)
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # a child that never answers
+        try:
+            time.sleep(30)
+        finally:
+            os._exit(0)
+    os.close(w)
+    t0 = time.monotonic()
+    assert figures._collect((pid, r)) is None
+    assert time.monotonic() - t0 < 10

@@ -71,6 +71,9 @@ def xcorr(x: _F64, y: _F64, max_lag: int, method: str, *, threads: int | None = 
 def xcorr_auto_method(n: int, max_lag: int) -> str:
     """The algorithm "auto" picks for (n, max_lag): "direct" or "fft"."""
 
+def row_quantiles(x: _F64, qs: list[float], *, threads: int | None = None) -> tuple[_F64, _F64]:
+    """Per row, ignoring NaN: the median and the quantiles qs (fractions), NumPy's values bit for bit."""
+
 def pearson(x: _F64, y: _F64) -> float:
     """Pearson's r, C(0) of Eq. (1)."""
 

@@ -1314,6 +1314,123 @@ def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
     return buf.getvalue()
 
 
+def png_bytes_all(figs: Sequence[Figure], *, dpi: int = DPI) -> List[bytes]:
+    """:func:`png_bytes` of each figure, each drawn once; on Linux, a forked process draws half of them
+    (:class:`Rendering`)."""
+    return Rendering(figs, dpi=dpi).finish()
+
+
+class Rendering:
+    """PNG bytes of figures, each drawn once, started now and collected by :meth:`finish` (issue 25).
+
+    Drawing is Python bound (the GIL), so on Linux with more than one core
+    a child process forked at once, with the figures already built, renders
+    a ``share`` of them (every figure whose index k has
+    ``round(k * share) < round((k + 1) * share)``) and sends back the PNG
+    bytes, the same bytes the parent would draw; the caller may do other
+    work meanwhile, then :meth:`finish` draws the rest here. When the child
+    fails, its figures are drawn here too.
+    """
+
+    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, share: float = 0.5) -> None:
+        self._figs = list(figs)
+        self._dpi = dpi
+        n = len(self._figs)
+        self._theirs = [k for k in range(n) if round(k * share) < round((k + 1) * share)] if n > 1 else []
+        self._child = _fork_render([self._figs[k] for k in self._theirs], dpi) if self._theirs and _can_fork() else None
+        if self._child is None:
+            self._theirs = []
+
+    def finish(self) -> List[bytes]:
+        """Every figure's PNG bytes, in order."""
+        out: Dict[int, bytes] = {}
+        mine = [k for k in range(len(self._figs)) if k not in set(self._theirs)]
+        try:
+            for k in mine:
+                out[k] = png_bytes(self._figs[k], dpi=self._dpi)
+        finally:
+            got = _collect(self._child)
+            self._child = None
+        if got is None or len(got) != len(self._theirs):
+            got = [png_bytes(self._figs[k], dpi=self._dpi) for k in self._theirs]
+        out.update(zip(self._theirs, got))
+        return [out[k] for k in range(len(self._figs))]
+
+
+def _can_fork() -> bool:
+    import sys
+
+    return sys.platform.startswith("linux") and hasattr(os, "fork") and (os.cpu_count() or 1) > 1
+
+
+def _fork_render(figs: Sequence[Figure], dpi: int) -> Optional[Tuple[int, int]]:
+    """(pid, read end of a pipe) of a child rendering ``figs`` to PNG, or None when fork failed."""
+    r, w = os.pipe()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # Python 3.12: fork of a threaded process
+            pid = os.fork()
+    except OSError:
+        os.close(r)
+        os.close(w)
+        return None
+    if pid == 0:  # the child: render, send, leave without running any of the parent's cleanup
+        code = 1
+        try:
+            os.close(r)
+            import pickle
+
+            data = pickle.dumps([png_bytes(f, dpi=dpi) for f in figs], protocol=pickle.HIGHEST_PROTOCOL)
+            with os.fdopen(w, "wb") as fh:
+                fh.write(data)
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(w)
+    return pid, r
+
+
+#: Seconds the parent waits for the rendering child before it kills it and draws the figures itself.
+_CHILD_TIMEOUT = 300.0
+
+
+def _collect(child: Optional[Tuple[int, int]]) -> Optional[List[bytes]]:
+    """The child's PNG bytes, or None when it failed."""
+    if child is None:
+        return None
+    import pickle
+
+    import select
+    import signal
+    import time
+
+    pid, r = child
+    chunks: List[bytes] = []
+    deadline = time.monotonic() + _CHILD_TIMEOUT
+    try:
+        while True:  # read until the child closes the pipe; a child that hangs is killed and its share drawn here
+            left = deadline - time.monotonic()
+            if left <= 0 or not select.select([r], [], [], left)[0]:
+                os.kill(pid, signal.SIGKILL)
+                chunks = []
+                break
+            piece = os.read(r, 1 << 20)
+            if not piece:
+                break
+            chunks.append(piece)
+    finally:
+        os.close(r)
+        _, status = os.waitpid(pid, 0)
+    data = b"".join(chunks)
+    if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):
+        return None
+    try:
+        got = pickle.loads(data)
+    except Exception:  # noqa: BLE001 - a truncated message: draw them here
+        return None
+    return [bytes(b) for b in got]
+
+
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:
     """Saves ``fig`` as PNG atomically: a temporary file in the same directory, then ``os.replace``.
 

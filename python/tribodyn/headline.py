@@ -440,7 +440,7 @@ def _dynamic(res: "Results", total: int) -> Headline:
             part = v[d == sign]
             sel = keep.copy()
             sel[keep] = d == sign
-            ci = bootstrap_ci(part, noise=noise_resample(res.table, sel)).get("median")
+            ci = bootstrap_ci(part, noise=noise_resample(res.table, sel), threads=res._threads).get("median")
             if part.size:
                 meds.append(float(np.median(part)))
                 halves.append(0.5 * (ci[1] - ci[0]) if ci else float("nan"))

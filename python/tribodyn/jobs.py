@@ -11,16 +11,28 @@ files of an earlier run into it are gone).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import importlib
+import os
+import threading
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ._labels import fmt_interval, fmt_number, fmt_range, key_text, unit_text, units_in_text
 from .analyze import analyze
 from .identify import identify
-from .outputs import OutputSet, input_provenance, pyarrow_modules, write_json, write_table_csv, write_table_parquet
+from .outputs import (
+    Digests,
+    OutputSet,
+    input_provenance,
+    pyarrow_modules,
+    write_json,
+    write_table_csv,
+    write_table_parquet,
+)
 from .ranges import OperatingRange, operating_range
 from .record import Meta, metadata, record_html, summary_meta
 from .results import Results
@@ -117,9 +129,64 @@ def _truth_breakpoints(res: Results, truth: Any, by: str) -> Optional[Dict[str, 
 
 def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
     try:
-        return operating_range(res, by, **kw)
+        with one_blas_thread():
+            return operating_range(res, by, **kw)
     except ValueError:
         return None
+
+
+@contextlib.contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Within the block, NumPy's OpenBLAS runs on one thread (found among the loaded libraries; nothing
+    changes without one). The bathtub fits' grid searches (docs/method.md 7) multiply small matrices
+    thousands of times: on a busy 2-core machine a second BLAS thread made them 6x slower (the
+    operating ranges of ``tribodyn demo``: 37 s against 6 s) and changed no number (the products split
+    by rows and columns, never along the sums)."""
+    saved = []
+    try:
+        for get, put in _openblas_threads():
+            n = int(get())
+            if n > 1:
+                put(1)
+                saved.append((put, n))
+        yield
+    finally:
+        for put, n in saved:
+            put(n)
+
+
+_BLAS: Optional[List[Tuple[Any, Any]]] = None
+
+
+def _openblas_threads() -> List[Tuple[Any, Any]]:
+    """(get_num_threads, set_num_threads) of each OpenBLAS this process has loaded (Linux; else none)."""
+    global _BLAS
+    if _BLAS is not None:
+        return _BLAS
+    found: List[Tuple[Any, Any]] = []
+    try:
+        import ctypes
+
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
+            paths = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ln.split()[-1].startswith("/")})
+        for path in paths:
+            lib = ctypes.CDLL(path, mode=os.RTLD_NOLOAD)
+            for name in ("scipy_openblas", "openblas"):
+                for suffix in ("64_", ""):
+                    get = getattr(lib, f"{name}_get_num_threads{suffix}", None)
+                    put = getattr(lib, f"{name}_set_num_threads{suffix}", None)
+                    if get is not None and put is not None:
+                        get.restype, get.argtypes = ctypes.c_int, []
+                        put.restype, put.argtypes = None, [ctypes.c_int]
+                        found.append((get, put))
+                        break
+                else:
+                    continue
+                break
+    except (OSError, AttributeError, ValueError):
+        found = []
+    _BLAS = found
+    return found
 
 
 def _example_window(channels: Mapping[str, np.ndarray], fs: float, start: int, n: int) -> Dict[str, Any]:
@@ -201,20 +268,23 @@ def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, An
     return out
 
 
-def _save_figures(out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str
-                  ) -> List[Tuple[str, str, bytes]]:  # fmt: skip
+def _save_figures(
+    out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str, meanwhile: Optional[Callable[[], Any]] = None
+) -> Tuple[List[Tuple[str, str, bytes]], Any]:
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
-    triples; the report embeds the same PNG bytes (no figure is drawn or encoded twice)."""
-    from .figures import png_bytes
+    triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); and what
+    ``meanwhile()`` returns, called while a forked child draws most of the figures (``figures.Rendering``)."""
+    from .figures import Rendering
     from .io.writers import atomic_write
 
+    render = Rendering([f for _, _, f in figs], share=0.6 if meanwhile is not None else 0.5)
+    done = meanwhile() if meanwhile is not None else None
     saved = []
-    for stem, caption, fig in figs:
+    for (stem, caption, _), data in zip(figs, render.finish()):
         name = f"figures/{prefix}{stem}.png"
-        data = png_bytes(fig)
         atomic_write(out.path(name), _bytes_writer(data))
         saved.append((name, caption, data))
-    return saved
+    return saved, done
 
 
 def _bytes_writer(data: bytes) -> Callable[[str], None]:
@@ -363,8 +433,9 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         n_lamellas=sim_j.n_lamellas,
         progress=progress,
     )
-    opr_t = operating_range(res_t, "temperature")
-    opr_j = operating_range(res_j, "current_density")
+    with one_blas_thread():
+        opr_t = operating_range(res_t, "temperature")
+        opr_j = operating_range(res_j, "current_density")
     summary: Dict[str, Any] = {
         "tribodyn_version": __version__,
         "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
@@ -385,14 +456,23 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         },
     }
     with output as out:
-        files = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
         ex_t = diagnostic_examples(sim_t.channels, res_t)
         ex_j = diagnostic_examples(sim_j.channels, res_j)
         figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, examples=ex_t)
         figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
-        png_t = _save_figures(out, figs_t, "temperature_")
-        png_j = _save_figures(out, figs_j, "current_density_")
-        files += [name for name, _, _ in png_t + png_j]
+
+        def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # while a child draws most figures
+            tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
+            return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
+                res_j, "current-density test", "current_density_windows.csv"
+            )
+
+        named = [(f"temperature_{s}", c, f) for s, c, f in figs_t] + [
+            (f"current_density_{s}", c, f) for s, c, f in figs_j
+        ]
+        pngs, (files, extras) = _save_figures(out, named, "", meanwhile)
+        png_t, png_j = pngs[: len(figs_t)], pngs[len(figs_t) :]
+        files += [name for name, _, _ in pngs]
         summary["files"] = files + ["summary.json", "report.html"]
         summary["columns"] = column_units()
         write_json(summary, out.path("summary.json"))
@@ -408,8 +488,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
             + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
             verdict=verdict,
             inputs=[],
-            sections=_report_extras(res_t, "temperature test", "temperature_windows.csv")
-            + _report_extras(res_j, "current-density test", "current_density_windows.csv"),
+            sections=extras,
             head_html=_bokeh_head(),
             quality={
                 "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
@@ -576,9 +655,41 @@ def run_analysis(
     entry in the summary, a verdict line, and the running-in shaded on the
     COF-against-time figure.
     """
+    from .distributed import expand_paths
+
+    if not paths:
+        raise ValueError("no input file given")
+    files = expand_paths(paths)
+    output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
+    # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
+    # another (both mostly outside the GIL or while the kernel runs without it).
+    digests = Digests(files)
+    imports = _import_in_background()
+    try:
+        return _run_analysis(files, output, digests, imports, open_options=open_options,
+                             analyze_options=analyze_options, progress=progress, client=client, split=split,
+                             meta=meta, steady_state=steady_state)  # fmt: skip
+    finally:
+        digests.cancel()
+
+
+def _run_analysis(
+    files: Sequence[str],
+    output: OutputSet,
+    digests: Digests,
+    imports: threading.Thread,
+    *,
+    open_options: Optional[Dict[str, Any]],
+    analyze_options: Optional[Dict[str, Any]],
+    progress: bool,
+    client: Any,
+    split: Optional[float],
+    meta: Optional[Meta],
+    steady_state: bool,
+) -> Dict[str, Any]:
+    """:func:`run_analysis` once the output folder is checked and the digests started."""
     from . import __version__
-    from .distributed import analyze_many, expand_paths
-    from .report import verdict_lines, write_report
+    from .distributed import analyze_many
     from .stickslip import stick_slip
 
     open_options = dict(open_options or {})
@@ -586,10 +697,6 @@ def run_analysis(
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
     cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
     meta = meta or Meta()
-    if not paths:
-        raise ValueError("no input file given")
-    files = expand_paths(paths)
-    output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
     if len(files) == 1 and client is None and split is None:
         # One file, here: read it directly (progress bar over its samples).
         from .io import open_recording
@@ -615,9 +722,12 @@ def run_analysis(
         runs = [(Path(p), r) for p, r in many.results.items()]
         failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
 
+    imports.join()  # before this thread imports any of them
+    from .report import verdict_lines, write_report
+
     summary: Dict[str, Any] = {
         "tribodyn_version": __version__,
-        "inputs": input_provenance([p for p, _ in runs]),
+        "inputs": input_provenance([p for p, _ in runs], digests),
         "open_options": open_options,
         "recordings": {},
         "failures": failures,
@@ -640,32 +750,37 @@ def run_analysis(
             opr_j = _try_range(res, "current_density")
             has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
             opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
-            files = _write_set(out, prefix, res)
             try:
                 examples = diagnostic_examples(str(p), res, open_options)
                 loops = loop_examples(str(p), res, open_options)
             except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
                 examples, loops = [], []
-                res = dataclasses.replace(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+                res = _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
             try:  # docs/method.md 6g: fy and fz read again; only a test with a static fz is searched
                 slip: Optional[Dict[str, Any]] = stick_slip(str(p), res, open_options=open_options).to_dict()
             except (OSError, ValueError) as exc:
                 slip = None
-                res = dataclasses.replace(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
+                res = _replaced(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
             steady = _steady_state(res) if steady_state else None
             # the figures read the steady state from their Results' params (docs/method.md 6h)
-            fig_res = dataclasses.replace(res, params={**res.params, "steady_state": steady}) if steady else res
+            fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
             figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
-            pngs = _save_figures(out, figs, prefix)
-            files += [name for name, _, _ in pngs]
+            res_now = res
+
+            def meanwhile() -> Tuple[List[str], Dict[str, Any], List[Tuple[str, str]]]:  # a child draws figures
+                return (_write_set(out, prefix, res_now), res_now.summary(),
+                        _report_extras(res_now, p.name, f"{prefix}windows.csv"))  # fmt: skip
+
+            pngs, (written, res_summary, extras) = _save_figures(out, figs, prefix, meanwhile)
+            written += [name for name, _, _ in pngs]
             rec_sum = {
-                **res.summary(),
+                **res_summary,
                 **({"steady_state": steady} if steady else {}),
                 "operating_range_temperature": range_summary(opr_t),
                 "operating_range_current_density": range_summary(opr_j),
                 "operating_range_speed": range_summary(opr_v),
                 "params": res.params,
-                "files": files,
+                "files": written,
                 "stick_slip": slip,
             }
             rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
@@ -678,7 +793,6 @@ def run_analysis(
                 lines.insert(1, f"{p.name}: {steady['text']}.")
             if slip and slip["present"]:
                 lines.append(f"{p.name}: {slip['verdict']}")
-            extras = _report_extras(res, p.name, f"{prefix}windows.csv")
             captioned = _captioned(pngs)
             if not single:
                 write_json(rec_sum, out.path(f"{prefix}summary.json"))
@@ -726,6 +840,39 @@ def run_analysis(
             record_html=record_html(meta, heads),
         )
     return summary
+
+
+#: Modules the output step imports (figures, the interactive views, tables), imported during the analysis.
+_OUTPUT_MODULES = (
+    "matplotlib.figure", "matplotlib.backends.backend_agg", "pandas", "pyarrow", "pyarrow.parquet",
+    "bokeh.plotting", "bokeh.models", "bokeh.layouts", "bokeh.embed", "bokeh.resources",
+)  # fmt: skip
+
+
+def _import_in_background() -> threading.Thread:
+    """A started thread importing :data:`_OUTPUT_MODULES` (third-party only: the analysis imports none of them,
+    so no module is imported from two threads at once; join it before the output step)."""
+
+    def run() -> None:
+        for name in _OUTPUT_MODULES:
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001, S112 - the output step imports it again and reports what is wrong
+                continue
+
+    thread = threading.Thread(target=run, name="tribodyn-imports", daemon=True)
+    thread.start()
+    return thread
+
+
+def _replaced(res: Results, **changes: Any) -> Results:
+    """``dataclasses.replace(res, **changes)`` for new warnings or figure-only params, keeping the results
+    already computed from the rest (headline, verdict, the mu_r bootstrap): none is computed twice."""
+    out = dataclasses.replace(res, **changes)
+    for key in ("headline", "verdict", "mu_r_ci"):
+        if key in res.__dict__:
+            out.__dict__[key] = res.__dict__[key]
+    return out
 
 
 def _steady_state(res: Results) -> Dict[str, Any]:

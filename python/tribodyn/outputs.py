@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import json
 import math
 import os
@@ -56,6 +57,7 @@ __all__ = [
     "write_table_parquet",
     "write_json",
     "sha256_file",
+    "Digests",
     "jsonable",
 ]
 
@@ -505,10 +507,61 @@ def pyarrow_modules() -> Tuple[Any, Any]:
     return pa, pq
 
 
-def input_provenance(paths: Iterable[PathLike]) -> List[Dict[str, Any]]:
-    """Name, size and SHA-256 of each input file."""
+def input_provenance(paths: Iterable[PathLike], digests: Optional["Digests"] = None) -> List[Dict[str, Any]]:
+    """Name, size and SHA-256 of each input file (``digests``: computed beforehand, e.g. during the analysis)."""
     out = []
     for p in paths:
         p = Path(p)
-        out.append({"file": p.name, "path": str(p.resolve()), "bytes": p.stat().st_size, "sha256": sha256_file(p)})
+        digest = digests.get(p) if digests is not None else sha256_file(p)
+        out.append({"file": p.name, "path": str(p.resolve()), "bytes": p.stat().st_size, "sha256": digest})
     return out
+
+
+class Digests:
+    """SHA-256 of files computed in a background thread started at once (issue 25).
+
+    File reads and ``hashlib`` release the GIL, so the digests of the
+    inputs overlap the analysis that reads the same files. :meth:`get`
+    waits for a file's digest (computing it here if the thread did not);
+    :meth:`cancel` stops the thread at its next block.
+    """
+
+    _BLOCK = 1 << 20
+
+    def __init__(self, paths: Iterable[PathLike]) -> None:
+        self._paths = [Path(p) for p in paths]
+        self._done: Dict[str, Union[str, BaseException]] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="tribodyn-sha256", daemon=True)
+        self._thread.start()
+
+    @staticmethod
+    def _key(p: PathLike) -> str:
+        return os.path.realpath(os.fspath(p))
+
+    def _run(self) -> None:
+        buf = bytearray(self._BLOCK)
+        view = memoryview(buf)
+        for p in self._paths:
+            try:
+                h = hashlib.sha256()
+                with open(p, "rb", buffering=0) as fh:
+                    while not self._stop.is_set():
+                        k = fh.readinto(buf)
+                        if not k:
+                            break
+                        h.update(view[:k])
+                if self._stop.is_set():
+                    return
+                self._done[self._key(p)] = h.hexdigest()
+            except BaseException as exc:  # noqa: BLE001 - get() computes it again and raises there
+                self._done[self._key(p)] = exc
+
+    def get(self, path: PathLike) -> str:
+        """The hex SHA-256 of ``path`` (waits for the thread)."""
+        self._thread.join()
+        got = self._done.get(self._key(path))
+        return got if isinstance(got, str) else sha256_file(path)
+
+    def cancel(self) -> None:
+        self._stop.set()

@@ -908,14 +908,16 @@ def _range_dict(opr: Any) -> Dict[str, Any]:
     return d
 
 
-def build_report_summary(results: Any, *, opr_temperature: Any = None, opr_current: Any = None) -> Dict[str, Any]:
-    """``results.summary()`` plus the optimum ranges, for :func:`write_report` (docs/method.md 7).
+def build_report_summary(results: Any, *, opr_temperature: Any = None, opr_current: Any = None,
+                         summary: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:  # fmt: skip
+    """``results.summary()`` (or ``summary``, when already computed) plus the optimum ranges, for
+    :func:`write_report` (docs/method.md 7).
 
     The operating ranges are computed with the defaults when not given and
     the covariate has data; they go under ``"operating_ranges"`` keyed by
     "temperature" / "current_density" (unit, optimum, mu_min, onset, ...).
     """
-    summary = dict(results.summary())
+    summary = dict(results.summary() if summary is None else summary)
     ranges: Dict[str, Any] = {}
     for by, opr in (("temperature", opr_temperature), ("current_density", opr_current)):
         o = _range_or_none(results, opr, by)
@@ -926,15 +928,16 @@ def build_report_summary(results: Any, *, opr_temperature: Any = None, opr_curre
     return summary
 
 
-def quality_from_results(results: Any) -> Dict[str, Any]:
+def quality_from_results(results: Any, summary: Optional[Mapping[str, Any]] = None) -> Dict[str, Any]:
     """Quality statistics of an analysis (docs/method.md 5): gate pass fraction, failure reasons, correlations.
 
     Returns windows, gated, gate_pass_fraction, the gate threshold,
     orientation, gate_failures (reason -> windows) and, over all windows,
     the median and 5th percentile of |C_yz(0)|, the medians of |C_xy(0)| and
     |C_xz(0)|, and the number of windows with a non-zero channel skew.
+    ``summary``: ``results.summary()`` when already computed.
     """
-    s = results.summary()
+    s = results.summary() if summary is None else summary
     q: Dict[str, Any] = {k: s[k] for k in ("windows", "gated", "gate_pass_fraction") if k in s}
     params = getattr(results, "params", {}) or {}
     if "gate" in params:
@@ -973,7 +976,8 @@ def write_results_report(
     figs = build_report_figures(
         results, opr_temperature=opr_t, opr_current=opr_j, example=example, temperature_log=temperature_log
     )
-    summary = build_report_summary(results, opr_temperature=opr_t, opr_current=opr_j)
+    once = results.summary()  # one summary (its bootstraps) for both sections
+    summary = build_report_summary(results, opr_temperature=opr_t, opr_current=opr_j, summary=once)
     for k in _QUALITY_KEYS:  # shown in the quality section
         summary.pop(k, None)
     tables = None
@@ -992,6 +996,6 @@ def write_results_report(
         params=dict(results.params),
         figures=figs,
         tables=tables,
-        quality=quality_from_results(results),
+        quality=quality_from_results(results, once),
         dpi=dpi,
     )

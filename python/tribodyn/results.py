@@ -13,6 +13,7 @@ from typing import Any, Dict, List, Mapping, Optional, Tuple
 import numpy as np
 
 from .columns import UNITS, WINDOW_COLUMNS
+from ._order import row_quantiles
 from .correlation import XcorrResult
 from .headline import ClassicalTotals, Headline
 
@@ -279,13 +280,19 @@ class Results:
         keep = ok & np.isfinite(mu)
         return mu[keep], keep
 
+    @property
+    def _threads(self) -> Optional[int]:
+        """The analysis's thread count (``params["threads"]``), for the bootstraps; None: the default."""
+        n = self.params.get("threads")
+        return int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1 else None
+
     @cached_property
     def mu_r_ci(self) -> Dict[str, Tuple[float, float]]:
         """:func:`bootstrap_ci` of mu_r over the gated windows, the fz-noise estimate drawn anew in each
         resample (docs/method.md 3d): ``summary()["mu_r"]["ci"]`` and the dynamic headline's interval,
         computed once."""
         mu, keep = self._gated_mu
-        return bootstrap_ci(mu, noise=noise_resample(self.table, keep))
+        return bootstrap_ci(mu, noise=noise_resample(self.table, keep), threads=self._threads)
 
     @cached_property
     def verdict(self) -> Dict[str, Any]:
@@ -386,7 +393,7 @@ class Results:
                 "p75": float(q[3]),
                 "p95": float(q[4]),
                 "max": float(v.max()),
-                "ci": bootstrap_ci(v) if ci is None else ci,
+                "ci": bootstrap_ci(v, threads=self._threads) if ci is None else ci,
             }
 
         out: Dict[str, Any] = {
@@ -546,14 +553,72 @@ def t_quantile(p: float, df: int) -> float:
 
 def _blocks(rng: np.random.Generator, n: int) -> np.ndarray:
     """Moving-block resamples of n windows: (BOOTSTRAP_RESAMPLES, n) indices, blocks of ceil(n^(1/3))."""
+    starts, ell = _block_starts(rng, n)
+    return _expand(starts, ell, n)
+
+
+def _block_starts(rng: np.random.Generator, n: int) -> Tuple[np.ndarray, int]:
+    """The first window of every block of every resample (as :func:`_blocks` draws them) and the block length."""
     ell = int(np.ceil(n ** (1.0 / 3.0)))
-    starts = rng.integers(0, n - ell + 1, size=(BOOTSTRAP_RESAMPLES, -(-n // ell)))
-    idx: np.ndarray = (starts[:, :, None] + np.arange(ell)[None, None, :]).reshape(BOOTSTRAP_RESAMPLES, -1)[:, :n]
+    return rng.integers(0, n - ell + 1, size=(BOOTSTRAP_RESAMPLES, -(-n // ell))), ell
+
+
+def _expand(starts: np.ndarray, ell: int, n: int) -> np.ndarray:
+    """The window indices of the resamples whose blocks start at ``starts`` (rows of :func:`_block_starts`)."""
+    idx: np.ndarray = (starts[:, :, None] + np.arange(ell)[None, None, :]).reshape(starts.shape[0], -1)[:, :n]
     return idx
 
 
+#: Cells (resamples x windows) :func:`bootstrap_ci` holds at once: its memory does not grow with the recording.
+_CHUNK_CELLS = 1 << 18
+
+
+def _row_chunks(rows: int, width: int) -> List[slice]:
+    step = max(1, min(rows, _CHUNK_CELLS // max(width, 1)))
+    return [slice(a, min(a + step, rows)) for a in range(0, rows, step)]
+
+
+def _resample_stats(v: np.ndarray, starts: np.ndarray, ell: int, noise: Optional[Tuple[Any, ...]]
+                    ) -> Tuple[np.ndarray, ...]:  # fmt: skip
+    """(median, mean, p05, p95) of the resamples whose blocks start at ``starts`` (see :func:`bootstrap_ci`)."""
+    if noise is None:
+        r = v[_expand(starts, ell, v.size)]
+        if np.isnan(r).any():  # NaN in v: NumPy's NaN-propagating statistics, as they always were
+            return np.median(r, axis=1), r.mean(axis=1), np.percentile(r, 5, axis=1), np.percentile(r, 95, axis=1)
+        med, (p05, p95) = row_quantiles(r, (5, 95))
+        return med, r.mean(axis=1), p05, p95
+    var, pos, dn, used = noise
+    idx = _expand(starts, ell, var.size)
+    p = pos[idx]
+    with np.errstate(invalid="ignore"), _warnings.catch_warnings():
+        _warnings.simplefilter("ignore", RuntimeWarning)  # a resample without any of v's windows is NaN
+        delta = np.maximum(row_quantiles(var[idx], ())[0], 0.0) - used
+        r = dn[p]  # v[p] + dn[p] * delta, in place (p < 0, a window not among v's: NaN)
+        r *= delta[:, None]
+        r += v[p]
+        out = p < 0
+        if out.any():
+            r[out] = np.nan
+        med, (p05, p95) = row_quantiles(r, (5, 95))
+        # without NaN, np.nanmean is np.mean (the same sums over the same count)
+        mean = np.nanmean(r, axis=1) if np.isnan(r).any() else r.mean(axis=1)
+        return med, mean, p05, p95
+
+
+def _threads(threads: Optional[int]) -> int:
+    if threads is None:
+        from .threads import resolve_threads
+
+        return resolve_threads()
+    return max(1, int(threads))
+
+
 def bootstrap_ci(
-    v: np.ndarray, level: float = 0.95, *, noise: Optional[NoiseResample] = None
+    v: np.ndarray,
+    level: float = 0.95,
+    *,
+    noise: Optional[NoiseResample] = None,
+    threads: Optional[int] = None,
 ) -> Dict[str, Tuple[float, float]]:
     """95 % intervals of the median, mean, p05 and p95 of ``v`` (windows in time order; docs/method.md 3d).
 
@@ -574,15 +639,20 @@ def bootstrap_ci(
     sigma^2). So the interval carries the error of the noise estimate, which
     moves every window together, and its correlation with the windows' own
     errors. Empty for fewer than 3 windows.
+
+    The resamples are taken a bounded chunk at a time (memory does not grow
+    with the recording), on ``threads`` threads (default: the call's
+    default, :func:`tribodyn.get_threads`); the numbers depend on neither.
     """
     v = np.asarray(v, dtype=float)
     n = v.size
     if n < 3:
         return {}
     rng = np.random.default_rng(BOOTSTRAP_SEED)
+    args: Optional[Tuple[Any, ...]] = None
     if noise is None:
-        r = v[_blocks(rng, n)]
-        stats = (np.median(r, axis=1), r.mean(axis=1), np.percentile(r, 5, axis=1), np.percentile(r, 95, axis=1))
+        starts, ell = _block_starts(rng, n)
+        width = n
     else:
         var = np.asarray(noise.var, dtype=float)
         index = np.asarray(noise.index, dtype=np.int64)
@@ -593,20 +663,21 @@ def bootstrap_ci(
             raise ValueError("noise.index must point into noise.var")
         fin = np.isfinite(var)
         used = max(float(np.median(var[fin])), 0.0) if fin.any() else float("nan")
-        idx = _blocks(rng, var.size)
+        starts, ell = _block_starts(rng, var.size)
         pos = np.full(var.size, -1, dtype=np.int64)
         pos[index] = np.arange(n)
-        p = pos[idx]
-        with np.errstate(invalid="ignore"), _warnings.catch_warnings():
-            _warnings.simplefilter("ignore", RuntimeWarning)  # a resample without any of v's windows is NaN
-            delta = np.maximum(np.nanmedian(var[idx], axis=1), 0.0) - used
-            r = np.where(p >= 0, v[p] + dn[p] * delta[:, None], np.nan)
-            stats = (
-                np.nanmedian(r, axis=1),
-                np.nanmean(r, axis=1),
-                np.nanpercentile(r, 5, axis=1),
-                np.nanpercentile(r, 95, axis=1),
-            )
+        args, width = (var, pos, dn, used), var.size
+    # A chunk of resamples at a time (every statistic is per resample: the same numbers as all at once).
+    chunks = _row_chunks(starts.shape[0], width)
+    workers = min(len(chunks), _threads(threads))
+    if workers < 2:
+        parts = [_resample_stats(v, starts[c], ell, args) for c in chunks]
+    else:  # NumPy's selections, gathers and ufuncs release the GIL
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(workers) as ex:
+            parts = list(ex.map(lambda c: _resample_stats(v, starts[c], ell, args), chunks))
+    stats = tuple(np.concatenate([p[j] for p in parts]) for j in range(4))
     b = -(-n // int(np.ceil(n ** (1.0 / 3.0))))
     a = 100.0 * NormalDist().cdf(-math.sqrt(b / (b - 1)) * t_quantile(1.0 - (1.0 - level) / 2.0, b - 1))
     out: Dict[str, Tuple[float, float]] = {}

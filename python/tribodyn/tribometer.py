@@ -23,7 +23,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _core
+from . import _core, _order
 
 __all__ = [
     "MIN_FN_FRACTION",
@@ -204,9 +204,12 @@ class Contact:
     note: str = ""
 
 
-def _robust_sd(v: np.ndarray) -> float:
-    """1.4826 x the median absolute deviation."""
-    return 1.4826 * float(np.median(np.abs(v - np.median(v)))) if v.size else 0.0
+def _robust_sd(v: np.ndarray, centre: Optional[float] = None) -> float:
+    """1.4826 x the median absolute deviation (``centre``: the median of ``v`` when already known)."""
+    if not v.size:
+        return 0.0
+    m = _order.median(v) if centre is None else centre
+    return 1.4826 * _order.median(np.abs(v - m))
 
 
 def _otsu(v: np.ndarray, bins: int = 1024) -> float:
@@ -236,32 +239,37 @@ def _unloaded(z: np.ndarray) -> Optional[np.ndarray]:
     way (lift-off below a low load step) is narrowed to its part nearer zero.
     """
     n = z.size
-    idx = np.arange(n)
-    found: Optional[np.ndarray] = None
+    # The classes are value ranges: each step keeps the values of one side of a threshold, so the
+    # samples are selected by the thresholds' conditions rather than gathered by index.
+    v = z
+    steps: List[Tuple[float, bool]] = []  # (threshold, low side) of each narrowing
+    found: Optional[List[Tuple[float, bool]]] = None
     for _ in range(3):
-        v = z[idx]
         if v.size < 10:
             break
         thr = _otsu(v)
         low = v <= thr
-        if low.all() or not low.any():
+        k = int(np.count_nonzero(low))
+        if k == v.size or k == 0:
             break
-        a, b = idx[low], idx[~low]
-        ma, mb = float(np.median(z[a])), float(np.median(z[b]))
-        u, other = (a, mb) if abs(ma) <= abs(mb) else (b, ma)
-        mu_u = float(np.median(z[u]))
+        va, vb = v[low], v[~low]
+        ma, mb = _order.median(va), _order.median(vb)
+        side = abs(ma) <= abs(mb)
+        u, other, mu_u = (va, mb, ma) if side else (vb, ma, mb)
         gap = abs(other - mu_u)
         if u.size < max(5, UNLOADED_MIN_SHARE * n) or not gap > 0:
             break
-        if _robust_sd(z[u]) <= UNLOADED_TIGHT * gap:
-            found = u
+        if _robust_sd(u, mu_u) <= UNLOADED_TIGHT * gap:
+            found = [*steps, (thr, side)]
         elif found is not None:
             break
-        idx = u  # narrow: the class nearer zero may still hold a tighter cluster (lift-off below a low step)
+        v = u  # narrow: the class nearer zero may still hold a tighter cluster (lift-off below a low step)
+        steps.append((thr, side))
     if found is None:
         return None
-    mask = np.zeros(n, dtype=bool)
-    mask[found] = True
+    mask = np.ones(n, dtype=bool)
+    for thr, side in found:
+        mask &= (z <= thr) if side else ~(z <= thr)
     return mask
 
 
@@ -290,9 +298,9 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
         after = unl.copy()
         after[: loaded_idx[-1] + 1] = False
         ref = before if before.sum() >= 5 else unl
-        t_fz = float(np.median(fz[ref]))
-        t_fy = float(np.median(fy[ref]))
-        loaded = float(np.median(fz[~unl]))
+        t_fz = _order.median(fz[ref])
+        t_fy = _order.median(fy[ref])
+        loaded = _order.median(fz[~unl])
         sd = _robust_sd(fz[unl])
         thr = max(CONTACT_SIGMAS * sd, CONTACT_GAP_FRACTION * abs(loaded - t_fz))
         where = "before the first contact" if ref is before else "of the whole recording"
@@ -301,8 +309,8 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
             f"{t_fy:.4g} N), its median {where} taken as the tare; in contact when |fz - tare| >= {thr:.4g} N"
         )
         if ref is before and after.sum() >= 5:
-            fy_after = float(np.median(fy[after]))
-            friction = abs(float(np.median(fy[~unl])) - t_fy)
+            fy_after = _order.median(fy[after])
+            friction = abs(_order.median(fy[~unl]) - t_fy)
             if abs(fy_after - t_fy) > FY_TARE_SPREAD * max(friction, 1e-300):
                 note = (
                     f"the unloaded fy differs before the contact ({t_fy:.4g} N) and after it ({fy_after:.4g} N) by "
@@ -314,7 +322,7 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
         unl_frac = float(unl.mean())
     else:
         t_fz = t_fy = 0.0
-        absz = float(np.median(np.abs(fz)))
+        absz = _order.median(np.abs(fz))
         noise = _robust_sd(np.diff(fz)) / np.sqrt(2.0) if n > 1 else 0.0
         thr = min(max(4.0 * noise, CONTACT_FLOOR_FRACTION * absz), MIN_FN_FRACTION * absz)
         rule = f"no unloaded cluster: in contact when |fz| >= {thr:.4g} N (4 noise SDs, within 1-5 % of median |fz|)"
@@ -430,11 +438,11 @@ def prepass(
         contact = detect_contact(fy, fz)
         t_fy, t_fz = contact.tare_fy, contact.tare_fz
     fy, fz = fy - t_fy, fz - t_fz
-    med = float(np.median(fz)) if fz.size else 0.0
-    mad = float(np.median(np.abs(fz - med))) if fz.size else 0.0
+    med = _order.median(fz) if fz.size else 0.0
+    mad = _order.median(np.abs(fz - med)) if fz.size else 0.0
     static = bool(abs(med) > 0 and abs(med) > 3.0 * mad) or bool(contact is not None and contact.static)
     out["static"] = static
-    absz = float(np.median(np.abs(fz)))
+    absz = _order.median(np.abs(fz))
     out["median_abs_fz"] = absz
     if contact is not None:
         out["contact"] = contact
@@ -453,7 +461,7 @@ def prepass(
         touching = np.abs(fz) >= out["spec"].min_fn
         if touching.any():
             fy = fy[touching]
-    p95 = float(np.percentile(np.abs(fy), 95)) if fy.size else 0.0
+    p95 = _order.percentile(np.abs(fy), 95) if fy.size else 0.0
     share = 0.0
     if p95 > 0:
         pos = float(np.mean(fy > 0.3 * p95))
@@ -463,7 +471,7 @@ def prepass(
     # Both directions' friction must stand out of the noise: a friction near zero (a tare that takes
     # most of it, a lubricated contact) changes sign with the noise alone.
     noise = _robust_sd(np.diff(fy)) / np.sqrt(2.0) if fy.size > 1 else 0.0
-    sides = [float(np.median(np.abs(fy[sel]))) if sel.any() else 0.0 for sel in (fy > 0, fy < 0)]
+    sides = [_order.median(np.abs(fy[sel])) if sel.any() else 0.0 for sel in (fy > 0, fy < 0)]
     snr = min(sides) / noise if noise > 0 else np.inf
     out["sign_snr"] = float(snr)
     if motion == "auto":

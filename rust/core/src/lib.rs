@@ -12,6 +12,7 @@
 //! - [`mapped`]: the same, read straight from a file's pages (memory maps).
 //! - [`tdms`]: the segment index of NI TDMS files, as extents `mapped` reads.
 //! - [`text`]: the numeric bodies of CSV, TSV and LVM files (scan and parse).
+//! - [`order`]: per-row medians and percentiles as NumPy's (the bootstrap).
 //!
 //! Every public function validates what a caller controls and returns
 //! [`KernelError`] instead of panicking.
@@ -22,6 +23,7 @@ pub mod extended;
 pub mod iir;
 mod lanes;
 pub mod mapped;
+pub mod order;
 pub mod parallel;
 pub mod regression;
 pub mod sums;

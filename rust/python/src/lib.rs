@@ -23,6 +23,7 @@ use tribodyn_core::correlation::{self, Method};
 use tribodyn_core::extended;
 use tribodyn_core::iir;
 use tribodyn_core::mapped;
+use tribodyn_core::order;
 use tribodyn_core::parallel;
 use tribodyn_core::regression::{self, LinFit, Moments};
 use tribodyn_core::sums;
@@ -269,6 +270,32 @@ fn xcorr_auto_method(n: usize, max_lag: usize) -> &'static str {
         Method::Direct => "direct",
         _ => "fft",
     }
+}
+
+/// Two float64 arrays.
+type Pair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
+
+/// Per row of a (rows, width) float64 C-order matrix, ignoring NaN: the median and the percentiles of the
+/// quantile fractions `qs`, bit for bit NumPy's nanmedian / nanpercentile (tribodyn._order.row_quantiles).
+#[pyfunction]
+#[pyo3(signature = (x, qs, *, threads=None))]
+fn row_quantiles<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray2<'py, f64>,
+    qs: Vec<f64>,
+    threads: Option<i64>,
+) -> PyResult<Pair<'py>> {
+    let threads = threads_of(threads)?;
+    c_order(x.is_c_contiguous(), "x")?;
+    let (rows, width) = (x.shape()[0], x.shape()[1]);
+    let xs = x.as_slice().map_err(slice_err("x"))?;
+    let mut med = vec![0.0; rows];
+    let mut out = vec![0.0; rows * qs.len()];
+    py.detach(|| {
+        parallel::run_with(threads, || order::row_quantiles(xs, width, &qs, &mut med, &mut out)).and_then(|r| r)
+    })
+    .map_err(to_py)?;
+    Ok((PyArray1::from_vec(py, med), PyArray1::from_vec(py, out)))
 }
 
 /// Pearson's r, C(0) of Eq. (1).
@@ -1311,6 +1338,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(xcorr, m)?)?;
     m.add_function(wrap_pyfunction!(xcorr_auto_method, m)?)?;
     m.add_function(wrap_pyfunction!(pearson, m)?)?;
+    m.add_function(wrap_pyfunction!(row_quantiles, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_inplace, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_into, m)?)?;
     m.add_function(wrap_pyfunction!(all_finite, m)?)?;

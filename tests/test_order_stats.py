@@ -1,0 +1,113 @@
+"""The fast order statistics of the pre-pass and the bootstrap are NumPy's, bit for bit (issue 25)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from tribodyn import _order
+from tribodyn import results as R
+
+pytestmark = pytest.mark.fast
+
+
+def _arrays(rng: np.random.Generator):
+    n = 1 << 16
+    t = np.arange(n)
+    yield rng.normal(size=n)
+    yield np.round(rng.normal(size=n), 2)  # ties
+    yield np.sin(t * 0.001) + 0.01 * rng.normal(size=n)  # a slow wave: the strided sample is unrepresentative
+    yield np.where(t < n // 3, 1e-3 * rng.normal(size=n), 10.0 + rng.normal(size=n))  # two clusters
+    yield np.repeat(rng.normal(size=64), 1024)  # long runs of one value
+    yield np.sort(rng.normal(size=n))[::-1].copy()
+    yield rng.normal(size=n + 1)  # odd length
+    yield rng.normal(size=100)  # short: NumPy itself
+
+
+def test_median_and_percentile_match_numpy() -> None:
+    rng = np.random.default_rng(7)
+    for x in _arrays(rng):
+        assert _order.median(x) == float(np.median(x))
+        for q in (0, 5, 37.5, 50, 95, 100):
+            assert _order.percentile(x, q) == float(np.percentile(x, q))
+
+
+def test_order_stats_falls_back_when_the_bracket_misses(monkeypatch: pytest.MonkeyPatch) -> None:
+    x = np.random.default_rng(1).normal(size=1 << 17)
+    monkeypatch.setattr(_order, "_SAMPLE", 4)  # a sample too small to bracket the ranks
+    ks = [10, 60000, 60001, 131000]
+    assert np.array_equal(_order.order_stats(x, ks), np.sort(x)[ks])
+
+
+@pytest.mark.parametrize("fn", [_order.row_quantiles, _order._row_quantiles_numpy], ids=["kernel", "numpy"])
+@pytest.mark.parametrize("width", [0, 1, 2, 7, 40, 601, 1300])
+def test_row_quantiles_match_nanmedian_and_nanpercentile(width: int, fn) -> None:
+    rng = np.random.default_rng(width)
+    for nan_share in (0.0, 0.3, 1.0):
+        x = rng.normal(size=(13, width)) * 1e3
+        x[rng.random(x.shape) < nan_share] = np.nan
+        x[0, : width // 2] = np.nan
+        qs = (5, 95, 50, 0, 100, 37.5)
+        if width > 2:
+            x[1, :3] = [np.inf, -np.inf, 0.0]
+        med, got = fn(x, qs)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            want_med = np.nanmedian(x, axis=1) if width else np.full(13, np.nan)
+            want = [np.nanpercentile(x, q, axis=1) if width else np.full(13, np.nan) for q in qs]
+        assert np.array_equal(med, want_med, equal_nan=True)
+        for a, b in zip(got, want):
+            assert np.array_equal(a, b, equal_nan=True)
+
+
+def _old_bootstrap_stats(v: np.ndarray, noise: R.NoiseResample | None) -> tuple:
+    """The statistics of the resamples as bootstrap_ci computed them before issue 25 (all at once)."""
+    rng = np.random.default_rng(R.BOOTSTRAP_SEED)
+    if noise is None:
+        r = v[R._blocks(rng, v.size)]
+        return np.median(r, axis=1), r.mean(axis=1), np.percentile(r, 5, axis=1), np.percentile(r, 95, axis=1)
+    var = noise.var
+    fin = np.isfinite(var)
+    used = max(float(np.median(var[fin])), 0.0)
+    idx = R._blocks(rng, var.size)
+    pos = np.full(var.size, -1, dtype=np.int64)
+    pos[noise.index] = np.arange(v.size)
+    p = pos[idx]
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        delta = np.maximum(np.nanmedian(var[idx], axis=1), 0.0) - used
+        r = np.where(p >= 0, v[p] + noise.dnoise[p] * delta[:, None], np.nan)
+        return (np.nanmedian(r, axis=1), np.nanmean(r, axis=1), np.nanpercentile(r, 5, axis=1),
+                np.nanpercentile(r, 95, axis=1))  # fmt: skip
+
+
+@pytest.mark.parametrize("n", [3, 50, 700])
+@pytest.mark.parametrize("gated", [1.0, 0.7])
+def test_bootstrap_statistics_unchanged_by_chunks_and_threads(n: int, gated: float, monkeypatch) -> None:
+    rng = np.random.default_rng(n)
+    total = int(n / gated)
+    v = 0.12 + 0.01 * rng.normal(size=n)
+    keep = np.sort(rng.choice(total, n, replace=False))
+    var = np.abs(rng.normal(1.0, 0.3, size=total))
+    var[rng.random(total) < 0.05] = np.nan
+    noise = R.NoiseResample(var=var, index=keep, dnoise=0.01 * rng.normal(size=n))
+    monkeypatch.setattr(R, "_CHUNK_CELLS", 3000)  # many chunks
+    for nz in (None, noise):
+        want = _old_bootstrap_stats(v, nz)
+        seen = []
+        real = R._resample_stats
+
+        def spy(*a, **k):
+            out = real(*a, **k)
+            seen.append(out)
+            return out
+
+        monkeypatch.setattr(R, "_resample_stats", spy)
+        one = R.bootstrap_ci(v, noise=nz, threads=1)
+        monkeypatch.setattr(R, "_resample_stats", real)
+        got = tuple(np.concatenate([s[j] for s in seen]) for j in range(4))
+        for a, b in zip(got, want):
+            assert np.array_equal(a, b, equal_nan=True)
+        assert R.bootstrap_ci(v, noise=nz, threads=2) == one
