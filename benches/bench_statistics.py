@@ -27,6 +27,15 @@ of the gated COF on the temperature test with 0.05 N white noise on fy
 (docs/method.md 5). The tables in docs/method.md 3f are its ``--markdown``
 output, run once with this version and once with the one before.
 
+``--ranges`` instead measures the operating ranges of issue 23 point 5
+(docs/method.md 7) over ``--recordings`` simulated tests per case (seeds
+from 100 ``--seed``): the instability onset with a current drop in
+contact loss, the breakpoints of a curved and of the paper's J bathtub,
+the temperature test's breakpoints and hysteresis at hops of 10 s and 2 s
+(and whether the heating branch's lower-edge verdict agrees between them),
+and false optima on a flat COF (:func:`ranges`). The table in
+docs/method.md 7 is its ``--markdown`` output.
+
 ``--pipeline HOURS`` instead times ``analyze`` end to end on a recording of
 that many hours (1 kHz, fx, fy, fz, i, float64 ``.npy`` written by
 ``bench_pipeline.write_recording``; 2 s windows tiling it), in one process:
@@ -158,6 +167,113 @@ def intervals(recordings: int, seconds: float, seed: int = 1000) -> list:
     return rows
 
 
+def _covers(ci, truth: float) -> bool:
+    return ci is not None and bool(ci[0] <= truth <= ci[1])
+
+
+def _range_stats(rows: list, name: str, n: int, **figs) -> dict:
+    row = dict(case=name, recordings=n, **figs)
+    rows.append(row)
+    print(row, flush=True)
+    return row
+
+
+def ranges(recordings: int, seed: int = 100, only: str = "aJTd") -> list:
+    """The operating-range cases of issue 23 point 5 over ``recordings`` simulated tests each (docs/method.md 7).
+
+    ``only``: the groups to run, "a" (instability), "J" (J bathtubs), "T" (temperature), "d" (flat COF).
+    """
+    rows: list = []
+    seeds = [seed + r for r in range(recordings)]
+    # (a) contact loss lowers the measured current (30 %): the instability onset (truth 6.5 A/mm^2)
+    on, cover, inside, lost_on = [], 0, 0, []
+    for s in seeds if "a" in only else []:
+        sim = simulate.current_density_test(seed=s, current_drop=0.3)
+        res = tribodyn.analyze(sim.channels, fs=sim.fs, window=2.0, hop=10.0, area_mm2=sim.area_mm2, threads=1)
+        opr = tribodyn.operating_range(res, "current_density")
+        truth = sim.truth.params["instability_onset"]
+        on.append(np.nan if opr.instability is None else opr.instability)
+        cover += _covers(opr.instability_ci, truth)
+        inside += opr.optimum is not None and opr.instability is not None and opr.instability <= opr.optimum[1]
+        lost_on.append(getattr(opr, "contact_loss_onset", None) or np.nan)
+    if "a" in only:
+        _range_stats(rows, "J, contact loss with a 30 % current drop: instability onset (truth 6.5)", len(seeds),
+                     mean=float(np.nanmean(on)), covered=int(cover), inside_optimum=int(inside),
+                     contact_loss_windows_onset=float(np.nanmean(lost_on)))  # fmt: skip
+    # (b) breakpoints of the J bathtubs (hop 10 s)
+    for bathtub in ("curved", "paper") if "J" in only else ():
+        acc: dict = {k: [] for k in ("lo", "hi", "lo_cov", "hi_cov", "verdict")}
+        for s in seeds:
+            sim = simulate.current_density_test(seed=s, bathtub=bathtub)
+            res = tribodyn.analyze(sim.channels, fs=sim.fs, window=2.0, hop=10.0, area_mm2=sim.area_mm2, threads=1)
+            f = tribodyn.operating_range(res, "current_density").fits["all"]
+            lo_t, hi_t = sim.truth.optimum["current_density"]
+            acc["verdict"].append(f.verdict == "optimum")
+            acc["lo"].append(np.nan if f.lower is None else f.lower - lo_t)
+            acc["hi"].append(np.nan if f.upper is None else f.upper - hi_t)
+            acc["lo_cov"].append(_covers(f.lower_ci, lo_t))
+            acc["hi_cov"].append(_covers(f.upper_ci, hi_t))
+        lo = np.asarray(acc["lo"])
+        _range_stats(rows, f"J, {bathtub} bathtub: breakpoints (truth {lo_t:g}, {hi_t:g})", len(seeds),
+                     optimum=int(np.sum(acc["verdict"])), lower_err_mean=float(np.nanmean(lo)),
+                     lower_err_max=float(np.nanmax(np.abs(lo))), lower_within_0_3=int(np.sum(np.abs(lo) <= 0.3)),
+                     lower_covered=int(np.sum(acc["lo_cov"])), upper_err_mean=float(np.nanmean(acc["hi"])),
+                     upper_covered=int(np.sum(acc["hi_cov"])))  # fmt: skip
+    # (c) the temperature test: branches, hysteresis, the lower-edge verdict at two hops
+    verdicts: dict = {}
+    for hop in (10.0, 2.0) if "T" in only else ():
+        acc = {k: [] for k in ("h_hi", "h_hi_cov", "c_hi", "c_hi_cov", "h_lo", "h_lo_cov", "hy", "hy_cov")}
+        for s in seeds:
+            sim = simulate.temperature_test(seed=s)
+            res = tribodyn.analyze(sim.channels, fs=sim.fs, window=2.0, hop=hop, temperature=sim.temperature_log,
+                                   threads=1)  # fmt: skip
+            opr = tribodyn.operating_range(res, "temperature")
+            h, c, hy = opr.fits["heating"], opr.fits["cooling"], opr.hysteresis
+            (h_lo_t, h_hi_t), (_, c_hi_t) = (sim.truth.optimum["temperature_heating"],
+                                             sim.truth.optimum["temperature_cooling"])  # fmt: skip
+            acc["h_hi"].append(np.nan if h.upper is None else h.upper - h_hi_t)
+            acc["h_hi_cov"].append(_covers(h.upper_ci, h_hi_t))
+            acc["c_hi"].append(np.nan if c.upper is None else c.upper - c_hi_t)
+            acc["c_hi_cov"].append(_covers(c.upper_ci, c_hi_t))
+            acc["h_lo"].append(np.nan if h.lower is None else h.lower - h_lo_t)
+            acc["h_lo_cov"].append(_covers(h.lower_ci, h_lo_t))
+            acc["hy"].append(np.nan if hy is None or hy.upper is None else hy.upper - (h_hi_t - c_hi_t))
+            acc["hy_cov"].append(hy is not None and _covers(hy.upper_ci, h_hi_t - c_hi_t))
+            verdicts.setdefault(s, []).append("edge" if h.edge_lower else "wall")
+        _range_stats(rows, f"T, hop {hop:g} s: heating upper (160), cooling upper (155), heating lower (135), "
+                     "hysteresis (5)", len(seeds),
+                     heat_upper_err=float(np.nanmean(acc["h_hi"])), heat_upper_covered=int(np.sum(acc["h_hi_cov"])),
+                     cool_upper_err=float(np.nanmean(acc["c_hi"])), cool_upper_covered=int(np.sum(acc["c_hi_cov"])),
+                     heat_lower_found=int(np.sum(np.isfinite(acc["h_lo"]))),
+                     heat_lower_err=float(np.nanmean(acc["h_lo"])) if np.isfinite(acc["h_lo"]).any() else np.nan,
+                     heat_lower_covered=int(np.sum(acc["h_lo_cov"])),
+                     hysteresis_err=float(np.nanmean(acc["hy"])),
+                     hysteresis_covered=int(np.sum(acc["hy_cov"])))  # fmt: skip
+    flips = sum(len(set(v)) > 1 for v in verdicts.values())
+    if "T" in only:
+        _range_stats(rows, "T, heating lower-edge verdict, hop 10 s against hop 2 s", len(seeds), flips=int(flips),
+                     walls_hop10=sum(v[0] == "wall" for v in verdicts.values()),
+                     walls_hop2=sum(v[1] == "wall" for v in verdicts.values()))  # fmt: skip
+    # (d) a flat COF on the temperature path: false optima per branch
+    false: dict = {b: [0, 0] for b in ("all", "heating", "cooling")}
+    for s in seeds if "d" in only else []:
+        sim = simulate.temperature_test(seed=s, model="flat")
+        res = tribodyn.analyze(sim.channels, fs=sim.fs, window=2.0, hop=10.0, temperature=sim.temperature_log,
+                               threads=1)  # fmt: skip
+        opr = tribodyn.operating_range(res, "temperature")
+        for b, f in opr.fits.items():
+            false[b][0] += f.verdict == "optimum"
+            false[b][1] += f.verdict != "no dependence"
+    if "d" in only:
+        _range_stats(
+            rows,
+            "T, flat COF (hop 10 s): false optima (both walls / any wall) per branch",
+            len(seeds),
+            **{f"{b}": f"{v[0]} / {v[1]}" for b, v in false.items()},
+        )
+    return rows
+
+
 def gate_accuracy(seed: int = 0, noise: float = 0.05) -> dict:
     """The gated COF window by window on the temperature test with white noise on fy (docs/method.md 5)."""
     sim = simulate.temperature_test(seed=seed)
@@ -180,6 +296,10 @@ def gate_accuracy(seed: int = 0, noise: float = 0.05) -> dict:
 
 def _pct(x: float) -> str:
     return "n/a" if not np.isfinite(x) else f"{100 * x:+.2f} %"
+
+
+def _num(x: object) -> str:
+    return f"{x:.3g}" if isinstance(x, float) else str(x)
 
 
 def _frac(x: float) -> str:
@@ -250,8 +370,20 @@ def main() -> None:
     ap.add_argument("--pipeline", type=float, metavar="HOURS", help="time analyze end to end on HOURS of data instead")
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--intervals", action="store_true", help="the issue-23 table: gate, summary and dmu_dfn intervals")
-    ap.add_argument("--recordings", type=int, default=200, help="recordings per case of --intervals")
+    ap.add_argument("--recordings", type=int, default=200, help="recordings per case of --intervals (--ranges: 20)")
+    ap.add_argument("--ranges", action="store_true", help="the issue-23 point-5 operating-range cases")
+    ap.add_argument("--only", default="aJTd", help="--ranges groups: a (instability), J, T, d (flat COF)")
     args = ap.parse_args()
+    if args.ranges:
+        t0 = time.perf_counter()
+        n = args.recordings if args.recordings != 200 else 20
+        rows = ranges(n, seed=100 * args.seed, only=args.only)
+        if args.markdown:
+            for r in rows:
+                figs = "; ".join(f"{k} {_num(v)}" for k, v in r.items() if k not in ("case", "recordings"))
+                print(f"| {r['case']} | {r['recordings']} | {figs} |")
+        print(f"\n({time.perf_counter() - t0:.0f} s, seeds from {100 * args.seed})")
+        return
     if args.pipeline:
         pipeline(args.pipeline, args.repeats)
         return

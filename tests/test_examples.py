@@ -43,7 +43,7 @@ EXPECT = {
             "speed: verdict 'optimum'",
             "lower breakpoint",
             "95 % interval",
-            "(inside the optimum)",
+            "(inside the optimum with its 95 % intervals)",
             "from the speed log: optimum",
         ],
         ["stribeck_curve.png"],

@@ -17,8 +17,14 @@ the covariate, weighted by the windows' standard errors
 minimum COF, the walls the rise on either side (either may be absent). For
 temperature the heating and cooling branches are fitted apart (plateau
 windows, branch 0, enter both), and their difference of breakpoints is the
-hysteresis of Fig. 11. 95 % intervals come from a moving-block bootstrap
-over time with a fixed seed. The result says what it found in
+hysteresis of Fig. 11. The walls the F-tests keep are then refitted
+curved (:mod:`tribodyn.walls`: a curved onset and a flat shoulder), so a
+breakpoint is where the COF leaves its floor. 95 % intervals come from a
+moving-block bootstrap over time with a fixed seed; a breakpoint's interval
+is joined with its profile-likelihood interval, widened by the covariate's
+reading noise (the temperature log's) and moved out to the nearest tested
+covariates. The instability onset is read from the windows before contact
+loss (contact loss can lower the measured current). The result says what it found in
 ``verdict``: "optimum", "optimum at the edge of the tested range", "no
 dependence", "covariate constant" or "too few windows", with a sentence.
 
@@ -47,7 +53,8 @@ import numpy as np
 
 from .contact_loss import REASON as _CONTACT_LOSS
 from .results import Results
-from .segmented import Fit, Selection, bootstrap_indices, fit_bathtub, fit_family
+from .segmented import Fit, Selection, bootstrap_indices, fit_bathtub
+from .walls import CurvedFit, bootstrap_curved, fit_curved, profile_interval
 
 __all__ = ["RangeCurve", "OperatingRange", "BranchFit", "Hysteresis", "operating_range", "VERDICTS"]
 
@@ -242,6 +249,10 @@ class BranchFit:
         Tested covariate range (usable windows).
     grid, curve, band_low, band_high : ndarray
         The fit and its 95 % pointwise bootstrap band on a grid of the range.
+    shape_lower, shape_upper : (float, float) or None
+        The curved wall's onset width ``w`` and reach ``c`` (flat beyond;
+        inf: no shoulder), in fit units (decades on a log axis); None when
+        the wall is absent (docs/method.md 7, :mod:`tribodyn.walls`).
     """
 
     branch: str
@@ -270,6 +281,8 @@ class BranchFit:
     curve: np.ndarray
     band_low: np.ndarray
     band_high: np.ndarray
+    shape_lower: Optional[Interval] = None
+    shape_upper: Optional[Interval] = None
 
 
 @dataclass(frozen=True)
@@ -323,8 +336,15 @@ class OperatingRange:
         Windows left out, by reason: "gate", "contact loss", "temperature
         log gap", "no covariate", "no COF".
     instability, instability_ci : float or None, (float, float) or None
-        Lowest covariate of a contact-loss window, and the interval between
-        the highest covariate below it without contact loss and it.
+        Instability onset: the covariate of the windows just before the
+        first contact loss (the highest of the last three without contact
+        loss), and the interval from the highest covariate held below it
+        (by more than the resolution) without contact loss up to it
+        (docs/method.md 7).
+    contact_loss_onset : float or None
+        Lowest covariate measured in a contact-loss window (what
+        ``instability`` was before issue 23): contact loss can lower the
+        measured current, so this may lie far below the onset.
     n_boot, seed : int
         Bootstrap resamples and the generator's seed.
     column : str
@@ -369,6 +389,7 @@ class OperatingRange:
     column: str = ""
     log: bool = False
     cof: str = "dynamic"
+    contact_loss_onset: Optional[float] = None
 
     def to_dict(self) -> Dict[str, Any]:
         """The JSON-ready essentials (for ``summary.json`` and the report)."""
@@ -391,6 +412,7 @@ class OperatingRange:
             "excluded": dict(self.excluded),
             "instability": self.instability,
             "instability_ci": self.instability_ci,
+            "contact_loss_onset": self.contact_loss_onset,
             "bin_width": self.bin_width,
             "tol": self.tol,
             "rise": self.rise,
@@ -463,12 +485,77 @@ def _pct(v: np.ndarray) -> Optional[Interval]:
     return float(lo), float(hi)
 
 
-def _onset(f: Fit, rise: float, x_max: float) -> float:
-    """Where the upper wall reaches (1 + rise) m; inf beyond the tested range, NaN without an upper wall."""
+#: Largest factor by which autocorrelated residuals widen the profile interval.
+MAX_INFLATION = 10.0
+
+
+def _profile_scale(x: np.ndarray, y: np.ndarray, w: np.ndarray, f: CurvedFit) -> float:
+    """Residual variance of the curved fit times the autocorrelation inflation (1 + rho) / (1 - rho).
+
+    rho is the lag-1 autocorrelation of the weighted residuals in time order
+    (neighbouring windows share a slow drift), the factor at least 1 and at
+    most :data:`MAX_INFLATION`; the fit's parameters: m and, per wall, a, b,
+    w, c (docs/method.md 7).
+    """
+    r = np.sqrt(w) * (y - f.predict(x))
+    p = 1 + 4 * ((f.family in ("lower", "both")) + (f.family in ("upper", "both")))
+    s2 = float(r @ r) / max(len(r) - p, 1)
+    rho = float(np.corrcoef(r[:-1], r[1:])[0, 1]) if len(r) > 3 and np.std(r) > 0 else 0.0
+    rho = min(max(rho, 0.0), 0.99) if np.isfinite(rho) else 0.0
+    return s2 * min((1.0 + rho) / (1.0 - rho), MAX_INFLATION)
+
+
+def _hull(ci: Optional[Interval], prof: Any, rss_min: float, scale: float) -> Optional[Interval]:
+    """The bootstrap interval joined with the profile-likelihood interval (either may be missing)."""
+    pi = profile_interval(prof, rss_min, scale) if prof is not None and np.isfinite(scale) else (math.nan, math.nan)
+    if not np.isfinite(pi[0]):
+        return ci
+    if ci is None:
+        return pi
+    return min(ci[0], pi[0]), max(ci[1], pi[1])
+
+
+#: 97.5 % quantile of the standard normal distribution.
+Z95 = 1.959963984540054
+
+
+def _widen(ci: Optional[Interval], b: float, x_noise: float) -> Optional[Interval]:
+    """Each half of ``ci`` (about the estimate ``b``) joined in quadrature with 1.96 times the covariate's noise.
+
+    The covariate is a reading (the temperature is a log interpolated
+    between readings, each with its noise): an edge found at a reading is
+    the true edge only up to that reading's error (docs/method.md 7).
+    """
+    if ci is None or not (x_noise > 0 and np.isfinite(b)):
+        return ci
+    e = (Z95 * x_noise) ** 2
+    return b - math.sqrt(max(b - ci[0], 0.0) ** 2 + e), b + math.sqrt(max(ci[1] - b, 0.0) ** 2 + e)
+
+
+def _to_data(ci: Optional[Interval], x: np.ndarray) -> Optional[Interval]:
+    """A breakpoint's interval out to the nearest tested covariates (docs/method.md 7).
+
+    Between two tested values (a current density held at steps) the COF is
+    not observed, so the data cannot place an edge inside that gap: the
+    interval's ends move out to the nearest window covariate below and above.
+    """
+    if ci is None:
+        return None
+    below, above = x[x <= ci[0]], x[x >= ci[1]]
+    return (float(below.max()) if below.size else ci[0], float(above.min()) if above.size else ci[1])
+
+
+def _onset(f: CurvedFit, rise: float, x_max: float) -> float:
+    """Where the upper wall reaches (1 + rise) m; inf beyond the tested range (or its reach), NaN without a wall."""
     if not (f.a_hi > 0 and np.isfinite(f.b_hi)):
         return math.inf if np.isfinite(f.m) else math.nan
-    x = f.b_hi + rise * abs(f.m) / f.a_hi
+    x = f.b_hi + f.rise_at(rise * abs(f.m))
     return x if x <= x_max else math.inf
+
+
+def _curved(f: Fit) -> CurvedFit:
+    """A straight-walled fit as a :class:`~tribodyn.walls.CurvedFit` (onset width 0, no reach)."""
+    return CurvedFit(f.family, f.m, f.a_lo, f.a_hi, f.b_lo, f.b_hi, f.rss)
 
 
 def _excluded(
@@ -495,7 +582,7 @@ def _excluded(
     return usable & ~bad, {k: v for k, v in counts.items() if v}
 
 
-def _explain(verdict: str, cv: Covariate, resolution: float, f: Fit, sel: Optional[Selection], n: int,
+def _explain(verdict: str, cv: Covariate, resolution: float, f: CurvedFit, sel: Optional[Selection], n: int,
              rng: Interval) -> str:  # fmt: skip
     """The verdict in one sentence; ``f``'s breakpoints and ``rng`` in the column's unit."""
     what, unit = cv.by.replace("_", " "), cv.unit
@@ -531,10 +618,11 @@ def _explain(verdict: str, cv: Covariate, resolution: float, f: Fit, sel: Option
 
 def _branch_fit(
     name: str, cv: Covariate, resolution: float, x: np.ndarray, y: np.ndarray, se: np.ndarray,
-    boot: Sequence[np.ndarray], rise: float,
+    boot: Sequence[np.ndarray], rise: float, x_noise: float = 0.0,
 ) -> Tuple[BranchFit, Dict[str, np.ndarray]]:  # fmt: skip
-    """The fit of one branch and its bootstrap draws (``boot``: resampled positions into x; x in fit units)."""
-    bf, draws = _branch_fit_units(name, cv, resolution, x, y, se, boot, rise)
+    """The fit of one branch and its bootstrap draws (``boot``: resampled positions into x; x in fit units;
+    ``x_noise``: the covariate's reading noise, standard deviation)."""
+    bf, draws = _branch_fit_units(name, cv, resolution, x, y, se, boot, rise, x_noise)
     return _in_column_units(bf, cv), draws
 
 
@@ -557,7 +645,7 @@ def _in_column_units(bf: BranchFit, cv: Covariate) -> BranchFit:
 
 def _branch_fit_units(
     name: str, cv: Covariate, resolution: float, x: np.ndarray, y: np.ndarray, se: np.ndarray,
-    boot: Sequence[np.ndarray], rise: float,
+    boot: Sequence[np.ndarray], rise: float, x_noise: float = 0.0,
 ) -> Tuple[BranchFit, Dict[str, np.ndarray]]:  # fmt: skip
     n = len(x)
     grid = np.linspace(float(x.min()), float(x.max()), 121) if n else np.zeros(0)
@@ -567,7 +655,7 @@ def _branch_fit_units(
     sel: Optional[Selection] = None
     shown: Interval = (cv.inverse(rng[0]), cv.inverse(rng[1])) if n else rng
 
-    def explain(verdict: str, f: Fit, sel: Optional[Selection]) -> str:
+    def explain(verdict: str, f: CurvedFit, sel: Optional[Selection]) -> str:
         g = dataclasses.replace(f, b_lo=cv.inverse(f.b_lo), b_hi=cv.inverse(f.b_hi))
         return _explain(verdict, cv, resolution, g, sel, n, shown)
 
@@ -575,7 +663,7 @@ def _branch_fit_units(
         verdict = "too few windows" if n < MIN_WINDOWS else "covariate constant"
         w = 1.0 / np.maximum(se, 1e-12) ** 2 if n else np.zeros(0)
         m = float(np.sum(w * y) / np.sum(w)) if n else math.nan
-        f = Fit("flat", m, 0.0, 0.0, math.nan, math.nan, math.nan)
+        f = CurvedFit("flat", m, 0.0, 0.0, math.nan, math.nan, math.nan)
         bf = BranchFit(
             name, verdict, explain(verdict, f, None), n, "flat", None, None, None, None, None,
             None, m, None, None, None, 0.0, 0.0, False, False, math.nan, math.nan, rng, grid,
@@ -583,19 +671,48 @@ def _branch_fit_units(
         )  # fmt: skip
         return bf, nan_draws
     sel = fit_bathtub(x, y, se, alpha=ALPHA)
-    f = sel.fit
-    # Bootstrap: the chosen family refitted on each resample, same weights.
+    # The family is chosen with straight walls (F-tests above); its walls
+    # are then refitted curved (tribodyn.walls): the breakpoint is where the
+    # COF leaves its floor, not where a straight line through a bent wall
+    # meets it.
+    f = _curved(sel.fit)
+    sides: Dict[str, Any] = {}
+    prof: Dict[str, Any] = {}
+    if f.family != "flat":
+        g, sides, prof = fit_curved(x, y, sel.weights, f.family, start=(f.b_lo, f.b_hi))
+        if np.isfinite(g.rss):
+            f = g
+        else:
+            sides, prof = {}, {}
+    # Bootstrap: a resample is a count per window; the chosen family refitted on each, same weights.
+    counts = np.zeros((len(boot), n))
+    for b, idx in enumerate(boot):
+        if len(idx) >= MIN_WINDOWS:
+            counts[b] = np.bincount(idx, minlength=n)
+    fitted = counts.sum(1) > 0
     draws = {k: np.full(len(boot), np.nan) for k in ("b_lo", "b_hi", "m", "onset")}
     curves = np.full((len(boot), len(grid)), np.nan)
-    for b, idx in enumerate(boot):
-        if len(idx) < MIN_WINDOWS:
-            continue
-        g = fit_family(x[idx], y[idx], sel.weights[idx], f.family)
-        if not np.isfinite(g.rss):
-            continue
-        draws["b_lo"][b], draws["b_hi"][b], draws["m"][b] = g.b_lo, g.b_hi, g.m
-        draws["onset"][b] = _onset(g, rise, rng[1])
-        curves[b] = g.predict(grid)
+    if f.family == "flat" or not sides:
+        wc = counts * sel.weights[None, :]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            draws["m"] = np.where(fitted, (wc @ y) / wc.sum(1), np.nan)
+        curves[:] = draws["m"][:, None]
+    else:
+        d = bootstrap_curved(x, y, sel.weights, counts, fit=f, sides=sides)
+        draws["m"] = np.where(fitted, d["m"], np.nan)
+        draws["b_lo"] = np.where(fitted, d["b_lo"], np.nan)
+        draws["b_hi"] = np.where(fitted, d["b_hi"], np.nan)
+
+        def at(key: str, b: int, default: float) -> float:
+            v = float(d[key][b])
+            return default if math.isnan(v) else v
+
+        for b in map(int, np.flatnonzero(np.isfinite(draws["m"]))):
+            g = CurvedFit(f.family, at("m", b, 0.0), at("a_lo", b, 0.0), at("a_hi", b, 0.0), at("b_lo", b, math.nan),
+                          at("b_hi", b, math.nan), 0.0, at("w_lo", b, 0.0), at("c_lo", b, math.inf),
+                          at("w_hi", b, 0.0), at("c_hi", b, math.inf))  # fmt: skip
+            draws["onset"][b] = _onset(g, rise, rng[1])
+            curves[b] = g.predict(grid)
     band_lo, band_hi = (np.nanpercentile(curves, q, axis=0) for q in (2.5, 97.5)) if np.isfinite(
         curves).any() else (empty, empty)  # fmt: skip
     has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
@@ -605,8 +722,11 @@ def _branch_fit_units(
         verdict = "optimum"
     else:
         verdict = "optimum at the edge of the tested range"
-    lower_ci = _pct(draws["b_lo"]) if has_lo else None
-    upper_ci = _pct(draws["b_hi"]) if has_hi else None
+    scale = _profile_scale(x, y, sel.weights, f) if prof else math.nan
+    lower_ci = _to_data(_widen(_hull(_pct(draws["b_lo"]), prof.get("lo"), f.rss, scale), f.b_lo, x_noise), x) \
+        if has_lo else None  # fmt: skip
+    upper_ci = _to_data(_widen(_hull(_pct(draws["b_hi"]), prof.get("hi"), f.rss, scale), f.b_hi, x_noise), x) \
+        if has_hi else None  # fmt: skip
     on = _onset(f, rise, rng[1])
     onset_ci = None
     if has_hi:
@@ -614,7 +734,8 @@ def _branch_fit_units(
         if v.size >= 20:
             # Resamples whose onset lies beyond the tested range count as +inf.
             lo_, hi_ = np.percentile(np.where(np.isinf(v), np.finfo(float).max, v), [2.5, 97.5])
-            onset_ci = (float(lo_), math.inf if hi_ >= np.finfo(float).max else float(hi_))
+            # An end beyond the tested range is interpolated towards a resample without onset: inf.
+            onset_ci = (math.inf if lo_ > rng[1] else float(lo_), math.inf if hi_ > rng[1] else float(hi_))
     optimum: Optional[Interval] = None
     optimum_ci: Optional[Tuple[Interval, Interval]] = None
     if verdict != "no dependence":
@@ -649,20 +770,48 @@ def _branch_fit_units(
         curve=f.predict(grid),
         band_low=band_lo,
         band_high=band_hi,
+        shape_lower=(f.w_lo, f.c_lo) if has_lo else None,
+        shape_upper=(f.w_hi, f.c_hi) if has_hi else None,
     )
     return bf, draws
 
 
-def _instability(results: Results, cov: np.ndarray) -> Tuple[Optional[float], Optional[Interval]]:
-    """Lowest covariate of a contact-loss window and the interval from the highest one below it without."""
+#: Non-lost windows just before the first contact loss whose covariate is the instability onset.
+ONSET_WINDOWS = 3
+
+
+def _instability(
+    results: Results, cov: np.ndarray, resolution: float
+) -> Tuple[Optional[float], Optional[Interval], Optional[float]]:
+    """The instability onset from the windows before contact loss, its interval and the lost windows' own onset.
+
+    Contact loss can change the covariate it is measured by (a burned-out
+    contact conducts less, so the measured current falls): the onset is the
+    highest covariate of the last :data:`ONSET_WINDOWS` windows without
+    contact loss before the first contact-loss window (in time), or that
+    window's own covariate when it is higher (contact loss only lowers the
+    measured current, so it bounds the set point from below), and its
+    interval runs from the highest covariate below it by more than the
+    resolution among the earlier windows without contact loss (the last
+    level held without losing contact) up to it, each end widened by half
+    the resolution (the covariate is a reading). The third value is the
+    lowest covariate measured in a contact-loss window (docs/method.md 7).
+    """
     reasons = np.asarray(results["reasons"]).astype(str)
     lost = (np.char.find(reasons, _CONTACT_LOSS) >= 0) & np.isfinite(cov)
     if not lost.any():
-        return None, None
-    first = float(cov[lost].min())
-    below = np.isfinite(cov) & ~lost & (cov < first)
-    lo = float(cov[below].max()) if below.any() else first
-    return first, (lo, first)
+        return None, None, None
+    own = float(cov[lost].min())
+    first = int(np.flatnonzero(lost)[0])
+    before = np.flatnonzero(np.isfinite(cov[:first]) & ~lost[:first])
+    if not before.size:
+        return own, (own, own), own
+    # Contact loss only lowers the measured current: the first lost window's covariate bounds its set point below.
+    onset = max(float(cov[before[-ONSET_WINDOWS:]].max()), float(cov[first]))
+    lower = cov[before][cov[before] < onset - resolution]
+    low = float(lower.max()) if lower.size else onset
+    # Both ends are readings of the covariate: half its resolution either way.
+    return onset, (low - 0.5 * resolution, onset + 0.5 * resolution), own
 
 
 def _binned_curves(
@@ -862,10 +1011,11 @@ def operating_range(
         width = float(np.ptp(cov[keep])) / 10 or max(span, 1.0) * RELATIVE_RESOLUTION
     br_all = np.asarray(results["branch"]) if "branch" in results.table else np.zeros(len(cov), dtype=np.int8)
     curves = _binned_curves(cov, mu, keep, by, br_all, width, tol, rise, min_count)
-    instability, instability_ci = _instability(results, raw)
+    raw_resolution = resolution if not cv.log else 0.0
+    instability, instability_ci, lost_onset = _instability(results, raw, raw_resolution)
     common: Dict[str, Any] = dict(
         by=by, unit=cv.unit, bin_width=width, tol=tol, rise=rise, branch=branch, instability=instability,
-        instability_ci=instability_ci, column=cv.column, log=cv.log, cof=which,
+        instability_ci=instability_ci, column=cv.column, log=cv.log, cof=which, contact_loss_onset=lost_onset,
     )  # fmt: skip
     if method == "binned":
         c = curves[branch or "all"] if (branch or "all") in curves else curves["all"]
@@ -890,6 +1040,7 @@ def operating_range(
     x, y, s = cov[pos], mu[pos], se[pos]
     br = br_all[pos]
     boot = bootstrap_indices(len(pos), n_boot, seed, block) if len(pos) and n_boot else np.zeros((0, 0), int)
+    x_noise = _reading_noise(results, by, pos)
     names = ["all"] + ([b for b in _BRANCHES] if by == "temperature" else [])
     fits: Dict[str, BranchFit] = {}
     draws: Dict[str, Dict[str, np.ndarray]] = {}
@@ -900,10 +1051,11 @@ def operating_range(
         # Positions in the branch's own arrays for each resampled window of the whole series.
         where = np.cumsum(member) - 1
         sub = [where[idx[member[idx]]] for idx in boot]
-        fits[name], draws[name] = _branch_fit(name, cv, resolution, x[member], y[member], s[member], sub, rise)
+        fits[name], draws[name] = _branch_fit(name, cv, resolution, x[member], y[member], s[member], sub, rise,
+                                              x_noise)  # fmt: skip
     hysteresis = None
     if "heating" in fits and "cooling" in fits:
-        hysteresis = _hysteresis(fits, draws)
+        hysteresis = _hysteresis(fits, draws, x_noise)
     f = fits[branch] if branch is not None and branch in fits else fits["all"]
     if branch is not None and branch not in fits:
         raise ValueError(f"no usable window on the {branch} branch (see the branch column: +1 heating, -1 cooling)")
@@ -916,7 +1068,18 @@ def operating_range(
     )  # fmt: skip
 
 
-def _hysteresis(fits: Dict[str, BranchFit], draws: Dict[str, Dict[str, np.ndarray]]) -> Hysteresis:
+def _reading_noise(results: Results, by: str, pos: np.ndarray) -> float:
+    """Reading noise of the covariate (standard deviation; 0 when not known): for temperature the log's, the
+    smallest ``T_uncertainty`` of the usable windows (the noise of a reading, section 6 of docs/method.md)."""
+    if by != "temperature" or "T_uncertainty" not in results.table or not len(pos):
+        return 0.0
+    u = np.asarray(results["T_uncertainty"], dtype=float)[pos]
+    return float(np.nanmin(u)) if np.isfinite(u).any() else 0.0
+
+
+def _hysteresis(
+    fits: Dict[str, BranchFit], draws: Dict[str, Dict[str, np.ndarray]], x_noise: float = 0.0
+) -> Hysteresis:
     h, c = fits["heating"], fits["cooling"]
     out: Dict[str, Any] = {}
     for side, key in (("lower", "b_lo"), ("upper", "b_hi")):
@@ -925,5 +1088,7 @@ def _hysteresis(fits: Dict[str, BranchFit], draws: Dict[str, Dict[str, np.ndarra
             out[side], out[f"{side}_ci"] = None, None
             continue
         out[side] = a - b
-        out[f"{side}_ci"] = _pct(draws["heating"][key] - draws["cooling"][key])
+        # Two edges read at different readings: their reading errors add in quadrature (sqrt(2) x_noise).
+        out[f"{side}_ci"] = _widen(_pct(draws["heating"][key] - draws["cooling"][key]), a - b,
+                                   math.sqrt(2.0) * x_noise)  # fmt: skip
     return Hysteresis(**out)

@@ -163,6 +163,8 @@ __all__ = [
     "cof_vs_current_density",
     "cof_vs_temperature",
     "conditions",
+    "curved_bathtub",
+    "CURVED_J",
     "continuous",
     "current_density_test",
     "scenario",
@@ -441,6 +443,40 @@ def cof_vs_current_density(j: Any) -> np.ndarray:
     """
     j = np.clip(np.asarray(j, dtype=np.float64), _J_KNOTS[0], _J_KNOTS[-1])
     return np.asarray(_J_CURVE(j), dtype=np.float64)
+
+
+#: The curved bathtub of ``current_density_test(bathtub="curved")`` (issue 23, point 5):
+#: flat at 0.17 below 3.0 A/mm^2, a smooth (C1) descent to the floor 0.1 at
+#: 4.3, flat to 4.8, then a wall with a curved onset (Huber, 0.5 A/mm^2)
+#: rising 0.15 per A/mm^2.
+CURVED_J = {"lo": 4.3, "hi": 4.8, "floor": 0.10, "rise_lo": 0.07, "width_lo": 1.3, "slope_hi": 0.15,
+            "width_hi": 0.5}  # fmt: skip
+
+
+def curved_bathtub(
+    x: Any,
+    lo: float,
+    hi: float,
+    *,
+    floor: float = 0.1,
+    rise_lo: float = 0.07,
+    width_lo: float = 1.0,
+    slope_hi: float = 0.15,
+    width_hi: float = 0.5,
+) -> np.ndarray:
+    """A bathtub whose walls are curved: flat below, smooth into the floor (issue 23).
+
+    ``floor`` on ``[lo, hi]``; below ``lo`` the COF rises along a smoothstep
+    ``3 u^2 - 2 u^3`` (``u = (lo - x) / width_lo`` clipped to [0, 1]) to
+    ``floor + rise_lo`` and stays there (a lower wall that is flat below
+    ``lo - width_lo``); above ``hi`` it rises as ``slope_hi *
+    huber(x - hi, width_hi)`` (quadratic over ``width_hi``, then linear).
+    The COF departs from the floor exactly at ``lo`` and ``hi``.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    u = np.clip((lo - x) / width_lo, 0.0, 1.0)
+    return np.asarray(floor + rise_lo * u * u * (3.0 - 2.0 * u) + slope_hi * _huber(x - hi, width_hi),
+                      dtype=np.float64)  # fmt: skip
 
 
 # --------------------------------------------------------------------------
@@ -764,6 +800,7 @@ def temperature_test(
     force_dependence: float = 0.0,
     skew: int = 0,
     raw: bool = False,
+    model: str = "bathtub",
 ) -> Simulation:
     """The paper's temperature test (Sec. 4.1, Fig. 10-11): 4060 s.
 
@@ -791,6 +828,10 @@ def temperature_test(
         fz delayed by ``skew`` samples relative to fy/fx (``|skew| <= fs``).
     raw : bool
         Return DC-coupled forces (no high-pass), still quantised.
+    model : {"bathtub", "flat"}
+        "bathtub" (default): the COF above. "flat": a COF of 0.1 that does
+        not depend on the temperature (the same path and log; for false
+        optima, issue 23); ``truth.optimum`` is then empty.
 
     Returns
     -------
@@ -806,7 +847,9 @@ def temperature_test(
     tg = _truth_grid(duration)
     temp = np.interp(tg, bt, bT)
     t_up = _play(temp, _T_PLAY)
-    mu = _mu_of_temperature(temp, t_up)
+    if model not in ("bathtub", "flat"):
+        raise ValueError(f"model must be 'bathtub' or 'flat', got {model!r}")
+    mu = _mu_of_temperature(temp, t_up) if model == "bathtub" else np.full(tg.shape, _T_MU_MIN)
     channels = _record_scenario(tg, mu, duration, seed, fs, orientation, force_dependence, skew, raw)
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2]))
@@ -835,11 +878,14 @@ def temperature_test(
             "temperature": (_T_LO, _T_HI),
             "temperature_heating": (_T_LO, _T_HI + _T_PLAY),
             "temperature_cooling": (_T_LO, _T_HI - _T_PLAY),
-        },
+        }
+        if model == "bathtub"
+        else {},
         force_dependence=float(force_dependence),
         skew=int(skew),
         params={
             "scenario": "temperature",
+            "model": model,
             "preload_N": PRELOAD_N,
             "mu_min": _T_MU_MIN,
             "temperature_path": TEMPERATURE_PATH,
@@ -867,6 +913,8 @@ def current_density_test(
     force_dependence: float = 0.0,
     skew: int = 0,
     raw: bool = False,
+    current_drop: float = 0.0,
+    bathtub: str = "paper",
 ) -> Simulation:
     """The paper's current-density test (Sec. 4.2, Fig. 12): 700 s, 1 mm^2 tip.
 
@@ -885,6 +933,16 @@ def current_density_test(
     ----------
     seed, fs, orientation, force_dependence, skew, raw
         As in :func:`temperature_test`.
+    current_drop : float
+        Fraction in [0, 1) by which the measured current falls while the
+        contact is lost (the burned-out contact conducts less): ``i = J A (1
+        - current_drop c(t))`` with the contact-loss level ``c``. Default 0:
+        the current is the set point throughout (issue 23: 0.3 makes the
+        contact-loss windows read about 4.55 A/mm^2 at the 6.5 step).
+    bathtub : {"paper", "curved"}
+        "paper" (default): :func:`cof_vs_current_density`. "curved":
+        :func:`curved_bathtub` with :data:`CURVED_J` (flat below 3 A/mm^2,
+        floor 4.3-4.8); ``truth.optimum`` is then (4.3, 4.8).
 
     Returns
     -------
@@ -901,9 +959,13 @@ def current_density_test(
         k = np.clip(np.floor(np.asarray(t) / _CD_STEP_S + 1e-9), 0, n_steps)
         return _CD_J0 + _CD_DJ * k
 
+    if bathtub not in ("paper", "curved"):
+        raise ValueError(f"bathtub must be 'paper' or 'curved', got {bathtub!r}")
+    if not (isinstance(current_drop, (int, float)) and 0.0 <= current_drop < 1.0):
+        raise ValueError(f"current_drop must be in [0, 1), got {current_drop!r}")
     tg = _truth_grid(duration)
     jg = j_fn(tg)
-    target = cof_vs_current_density(jg)
+    target = cof_vs_current_density(jg) if bathtub == "paper" else curved_bathtub(jg, **CURVED_J)
     a = math.exp(-TRUTH_DT / _J_TAU_S)
     mu, _ = signal.lfilter([1.0 - a], [1.0, -a], target, zi=[a * target[0]])
 
@@ -911,6 +973,8 @@ def current_density_test(
         return np.clip((t - _CD_LOSS_START) / _CD_LOSS_RAMP, 0.0, 1.0)
 
     def current_fn(t: np.ndarray) -> np.ndarray:
+        if current_drop:
+            return j_fn(t) * area * (1.0 - current_drop * loss_fn(t))
         return j_fn(t) * area
 
     channels = _record_scenario(
@@ -934,7 +998,7 @@ def current_density_test(
         temperature=temp,
         current_density=jg,
         contact_loss=((_CD_LOSS_START, duration),),
-        optimum={"current_density": _J_OPT},
+        optimum={"current_density": _J_OPT if bathtub == "paper" else (CURVED_J["lo"], CURVED_J["hi"])},
         force_dependence=float(force_dependence),
         skew=int(skew),
         params={
@@ -944,6 +1008,9 @@ def current_density_test(
             "j_steps": tuple(_CD_J0 + _CD_DJ * k for k in range(n_steps + 1)),
             "step_s": _CD_STEP_S,
             "cof_time_constant_s": _J_TAU_S,
+            "bathtub": bathtub,
+            "current_drop": float(current_drop),
+            "instability_onset": _CD_J1,
         },
     )
     return Simulation(
