@@ -389,13 +389,14 @@ def _check_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> N
 def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], partial: bool
                   ) -> Union[Results, Partial]:  # fmt: skip
     """:func:`analyze`'s body: ``options`` are its keyword arguments (without ``plan``)."""
+    from .instrument import find_lag
     from .tribometer import prepass
 
     source, rec, fs = _as_source(source, options)
     plan = _plan_of(given, fs, rec, options)
     _check_range(source, rec, plan)
     pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
-    found = Findings(classical=pre.get("spec"))
+    found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre))  # docs/method.md 3b
     tribo = _tribometer_params(rec, pre, plan.window_note)
     strokes: Optional[Dict[str, np.ndarray]] = None
     run_source, run_rec = source, rec
