@@ -252,3 +252,37 @@ def test_a_dynamic_headline_does_not_read_the_file_again(tmp_path, temp_sim, mon
     assert res.headline.method == "dynamic" and res.classical is None and not calls
     res = td.analyze(dead_weight(n=3000), fs=100.0)
     assert res.headline.method == "classical" and res.classical is not None and calls == [1]
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_classical_headline_reads_the_file_once(tmp_path, monkeypatch, threads):
+    """The main pass of a recording with a classical COF reads every sample once and keeps the sums (docs/method.md
+    6e): bitwise the totals of reading it again, whatever the chunk size, and no second read."""
+    import sys
+
+    from tribodyn import headline as hl
+    from tribodyn.tribometer import ClassicalSpec
+
+    ch = dead_weight(n=30_000)
+    p = tmp_path / "dw.npy"
+    save_npy(p, {k: ch[k] for k in ("fy", "fz")})
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return hl.classical_totals(*args, **kwargs)
+
+    monkeypatch.setattr(sys.modules["tribodyn.analyze"], "classical_totals", counted)
+    got = []
+    for chunk in (None, 7.3, 41.0):
+        with td.open_recording(p, fs=100.0, names=["fy", "fz"]) as rec:
+            res = td.analyze(rec, chunk=chunk, threads=threads)
+            assert res.headline.method == "classical" and not calls
+            spec = ClassicalSpec(
+                res.params["min_fn"], res.params["tare_offsets"]["fy"], res.params["tare_offsets"]["fz"]
+            )
+            again = hl.classical_totals(rec, rec, spec, 0, rec.n_samples)
+        for name in ("ids", "count", "ratio_sum", "signed_sum"):
+            np.testing.assert_array_equal(getattr(res.classical, name), getattr(again, name), err_msg=name)
+        got.append(res.headline.value)
+    assert got[0] == got[1] == got[2]

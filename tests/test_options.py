@@ -165,3 +165,55 @@ def test_defaults_helper() -> None:
     assert defaults()["n_bins"] == 16
     with pytest.raises(KeyError, match="no option 'bins'"):
         option("bins")
+
+
+def test_identify_has_analyze_defaults_and_takes_a_plan(channels: dict) -> None:
+    fy, fz = channels["fy"][:4000], channels["fz"][:4000]
+    sig = inspect.signature(td.identify)
+    assert "plan" in sig.parameters
+    with pytest.warns(RuntimeWarning, match="instrument .* is weak"):  # white noise: no instrument
+        one = td.identify(fy, fz, fs=FS, rpm=600.0)
+    assert one.estimator == option("estimator").default or (option("estimator").default is None
+                                                             and one.estimator in ("corrected", "ols"))  # fmt: skip
+    plan = td.make_plan(fs=FS, rpm=600.0, window=4.0)  # the instrument lag: one revolution, whatever the window
+    with pytest.warns(RuntimeWarning, match="weak"):
+        same = td.identify(fy, fz, plan=plan)
+    assert (same.mu_r, same.mu_r_stderr, same.ok, same.estimator) == (one.mu_r, one.mu_r_stderr, one.ok, one.estimator)
+    paper = td.identify(fy, fz, fs=FS, method="paper")
+    assert paper.estimator == "ols" and paper.mu_r == one.mu_ols
+    with pytest.raises(TypeError, match="unknown option.*'window'"):
+        td.identify(fy, fz, fs=FS, window=2.0)
+    with pytest.raises(TypeError, match="no other options"):
+        td.identify(fy, fz, plan=plan, n_bins=8)
+
+
+def test_analyze_many_with_a_plan_is_analyze(tmp_path: Path, channels: dict) -> None:
+    path = tmp_path / "rec.npy"
+    np.save(path, np.stack([channels[k] for k in ("fx", "fy", "fz", "i")]))
+    rec_opts = {"names": ["fx", "fy", "fz", "i"], "fs": FS}
+    plan = td.make_plan(fs=FS, hop=2.0)
+    with td.open_recording(path, **rec_opts) as rec:
+        one = td.analyze(rec, plan)
+    many = td.analyze_many([path], plan, open_options=rec_opts, split=30.0)
+    got = many.results[str(path)]
+    assert many.tasks > 1
+    for name in one.table:
+        np.testing.assert_array_equal(one.table[name], got.table[name], err_msg=name)
+    with pytest.raises(TypeError, match="no other analysis options"):
+        td.analyze_many([path], plan, open_options=rec_opts, window=3.0)
+
+
+def test_analyze_many_splits_on_the_grid_chosen_from_the_rate(tmp_path: Path) -> None:
+    """A slow recording's window and hop come from its rate (docs/method.md 6b); split ranges follow them."""
+    rng = np.random.default_rng(5)
+    n = 6000  # 10 Hz: windows of 10 s tiling the recording
+    fz = 20.0 + rng.normal(0.0, 1.0, n)
+    fy = 0.2 * fz + rng.normal(0.0, 0.05, n)
+    path = tmp_path / "slow.npy"
+    np.save(path, np.stack([fy, fz]))
+    rec_opts = {"names": ["fy", "fz"], "fs": 10.0}
+    with td.open_recording(path, **rec_opts) as rec:
+        one = td.analyze(rec)
+    got = td.analyze_many([path], open_options=rec_opts, split=60.0).results[str(path)]
+    np.testing.assert_array_equal(one["t_start"], got["t_start"])
+    np.testing.assert_array_equal(one["mu_r"], got["mu_r"])

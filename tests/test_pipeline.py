@@ -132,8 +132,8 @@ def test_identify_one_window(temp_sim):
     # The yz cross-spectrum dominates at the lamella frequency (Sec. 3.1).
     assert r.spectra["yz"]["f_l"] > r.spectra["xy"]["f_l"]
     assert set(r.correlations) == {"xy", "xz", "yz"} and r.skew == 0
-    # Orientation given explicitly flips the sign; the fit does not move.
-    r2 = td.identify(ch["fy"], ch["fz"], fs=temp_sim.fs, orientation=1)
+    # Orientation given explicitly flips the sign; the fit (same instrument lag: one revolution) does not move.
+    r2 = td.identify(ch["fy"], ch["fz"], fs=temp_sim.fs, rpm=250, orientation=1)
     assert r2.mu_r == -r.mu_r and np.isnan(r2.c_xy)
     # Sigma deadband.
     r3 = td.identify(ch["fy"], ch["fz"], fs=temp_sim.fs, deadband="0.7sigma")
@@ -170,7 +170,9 @@ def test_acquisitions_are_one_window_each(temp_sim):
     np.testing.assert_array_equal(res["acquisition"], [0, 1, 2])
     np.testing.assert_allclose(res["time"], [1.0, 11.0, 5.0])
     one = td.identify(acqs[2]["fy"], acqs[2]["fz"], fx=acqs[2]["fx"], fs=temp_sim.fs, orientation=-1)
-    assert res["mu_ols"][2] == one.mu_r  # identify's default is the paper's OLS
+    assert res["mu_ols"][2] == one.mu_ols  # the same least-squares slope of the same samples
+    paper = td.identify(acqs[2]["fy"], acqs[2]["fz"], fx=acqs[2]["fx"], fs=temp_sim.fs, orientation=-1, method="paper")
+    assert res["mu_ols"][2] == paper.mu_r  # method="paper" is the paper's OLS
 
 
 def test_threads_do_not_change_results(temp_sim):

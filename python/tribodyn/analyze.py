@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Mapping
-from typing import Any, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -415,18 +415,23 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     c_start, c_stop = _sample_range(source, rec, plan, partial)
     tribo["n_samples_total"] = c_stop - c_start
 
+    seen: List[Optional[ClassicalTotals]] = []  # the main pass's sums, when it read every sample (routes.run)
+
     def classical_pass() -> Optional[ClassicalTotals]:  # docs/method.md 6a, 6e: every sample in contact
         if found.classical is None or strokes is not None:
             return None
+        if seen and seen[-1] is not None:
+            return seen[-1]
         return classical_totals(source, rec, found.classical, c_start, c_stop)
 
+    span = (c_start, c_stop) if strokes is None else None
     if partial:  # the ranges are combined elsewhere, without the file: the sums are taken here
-        totals = classical_pass()
-        k = run(run_source, run_rec, plan, found)
+        k = run(run_source, run_rec, plan, found, span)
+        seen.append(k.classical)
         warnings = k.warnings + tuple(rec.warnings if rec is not None else ()) + own
         return Partial(k.st, k.aux_role, plan, k.route, tuple(dict.fromkeys(warnings)), tribo=tribo,
-                       strokes=strokes, classical=totals, found=found)  # fmt: skip
-    res = _analyze_aligned(run_source, run_rec, plan, found)
+                       strokes=strokes, classical=classical_pass(), found=found)  # fmt: skip
+    res = _analyze_aligned(run_source, run_rec, plan, found, span=span, seen=seen)
     if run_rec is not rec and rec is not None:
         res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
     res.params.update(tribo)
@@ -490,15 +495,20 @@ def _tribometer_params(rec: Optional[RecordingProtocol], pre: Dict[str, Any], wi
     return out
 
 
-def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings) -> Results:
-    """The analysis, with align="auto"'s second pass when the plan asks for it (docs/method.md 3e)."""
+def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
+                     span: Optional[Tuple[int, int]] = None, seen: Optional[List[Any]] = None) -> Results:  # fmt: skip
+    """The analysis, with align="auto"'s second pass when the plan asks for it (docs/method.md 3e).
+
+    ``span`` and ``seen``: the classical COF's sample range and where the
+    main pass's sums of it go (:func:`tribodyn.routes.run`).
+    """
     if plan.align == "auto":
         if not (rec is not None or isinstance(source, (Mapping, list, tuple))):
             raise ValueError(
                 "align='auto' reads the source twice (to measure the delay, then to correct it): pass a mapping of "
                 "arrays, a list of acquisitions or a recording, not a one-pass stream of chunks"
             )
-        first = _analyze_plan(source, rec, plan, found)
+        first = _analyze_plan(source, rec, plan, found, span=span, seen=seen)
         delay = float(first.params.get("skew_median", float("nan")))
         if not (np.isfinite(delay) and abs(delay) > ALIGN_MIN):
             first.params.update(align="auto", delay_samples=0.0 if not np.isfinite(delay) else delay, aligned=False)
@@ -506,10 +516,13 @@ def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, 
         res = _analyze_plan(source, rec, plan, dataclasses.replace(found, delay=delay))
         res.params.update(delay_samples=delay, aligned=True)
         return res
-    return _analyze_plan(source, rec, plan, found)
+    return _analyze_plan(source, rec, plan, found, span=span, seen=seen)
 
 
-def _analyze_plan(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings) -> Results:
-    """The windows of ``source`` on their route, finished."""
-    k = run(source, rec, plan, found)
+def _analyze_plan(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
+                  span: Optional[Tuple[int, int]] = None, seen: Optional[List[Any]] = None) -> Results:  # fmt: skip
+    """The windows of ``source`` on their route, finished (the classical COF's sums of ``span`` into ``seen``)."""
+    k = run(source, rec, plan, found, span)
+    if seen is not None:
+        seen.append(k.classical)
     return finish(k.st, k.aux_role, plan, found, route=k.route, warnings=k.warnings)

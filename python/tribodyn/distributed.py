@@ -23,6 +23,8 @@ same tasks run serially in this process.
 
 from __future__ import annotations
 
+import dataclasses
+
 import glob
 import os
 from dataclasses import dataclass, field
@@ -32,6 +34,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, 
 import numpy as np
 
 from .analyze import Partial, analyze_partial, combine
+from .plan import Plan
 from .results import Results
 
 __all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
@@ -150,17 +153,21 @@ def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float
 
 
 def range_task(
-    path: str, open_options: Dict[str, Any], options: Dict[str, Any], start: int, stop: Optional[int]
+    path: str, open_options: Dict[str, Any], options: Union[Dict[str, Any], Plan], start: int, stop: Optional[int]
 ) -> Union[Partial, RecordingFailure]:
     """The kernel's statistics of the windows of samples ``start:stop`` of one recording, not yet finished.
 
     The ranges of a recording are finished together by :func:`_combine`
     (recording-wide orientation and noise on fz, docs/method.md 3c).
+    ``options`` are analyze's options, or a :class:`~tribodyn.Plan` (this
+    range's copy of it: its ``start`` and ``stop`` are the range's).
     """
     from .io import open_recording
 
     try:
         with open_recording(path, **open_options) as rec:
+            if isinstance(options, Plan):
+                return analyze_partial(rec, dataclasses.replace(options, start=start, stop=stop))
             fs = options.get("fs") or rec.fs
             opts = {k: v for k, v in options.items() if k != "fs"}
             # The recording itself, so that analyze reads the range the
@@ -171,13 +178,22 @@ def range_task(
         return _failure(path, exc)
 
 
-def _ranges(n: int, fs: float, options: Dict[str, Any], split_s: Optional[float]) -> List[Tuple[int, Optional[int]]]:
-    """Sample ranges on the window grid, each holding whole windows: none lost, none twice."""
+def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Optional[float]
+            ) -> List[Tuple[int, Optional[int]]]:  # fmt: skip
+    """Sample ranges on the window grid, each holding whole windows: none lost, none twice.
+
+    The grid is the analysis's: the plan's, or window and hop as ``analyze``
+    chooses them from the options and the rate (docs/method.md 6b).
+    """
     if split_s is None:
         return [(0, None)]
-    window = float(options.get("window", 2.0))
-    hop = float(options.get("hop", 10.0))
-    length, step = int(round(window * fs)), int(round(hop * fs))
+    if isinstance(options, Plan):
+        length, step, hop = options.length, options.step, options.hop
+    else:
+        from .tribometer import auto_window
+
+        window, hop, _ = auto_window(fs, options.get("window"), options.get("hop"))
+        length, step = int(round(window * fs)), int(round(hop * fs))
     n_windows = 0 if n < length else (n - length) // step + 1
     per = max(1, int(split_s // hop))  # windows per range
     out: List[Tuple[int, Optional[int]]] = []
@@ -239,6 +255,7 @@ def _runner(client: Any, progress: bool) -> Callable[[Callable[..., Any], List[T
 
 def analyze_many(
     paths: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]],
+    plan: Optional[Plan] = None,
     *,
     client: Any = None,
     open_options: Optional[Dict[str, Any]] = None,
@@ -253,6 +270,9 @@ def analyze_many(
     ----------
     paths : path, directory, glob pattern, or a sequence of them
         Recording files (see :func:`tribodyn.open_recording`).
+    plan : Plan, optional
+        The analysis's settings checked once (:func:`tribodyn.make_plan`),
+        for recordings sampled at ``plan.fs``; no other analysis option with it.
     client : dask.distributed.Client, optional
         Run the tasks on this cluster (workers must reach the files at the
         same paths). None: run them here, one after the other.
@@ -282,6 +302,15 @@ def analyze_many(
     open_options = dict(open_options or {})
     options = dict(analyze_options)
     options.pop("start", None)
+    if plan is not None:
+        if not isinstance(plan, Plan):
+            raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
+        if options:
+            raise TypeError(f"analyze_many(..., plan=...) takes no other analysis options: {sorted(options)}")
+        if plan.align is not None:
+            raise ValueError("analyze_many does not align (align='auto' reads a recording twice): use analyze per file")
+        if chunk is not None:
+            plan = dataclasses.replace(plan, chunk=max(1, int(round(chunk * plan.fs))))
     if options.get("align") is not None:
         raise ValueError("analyze_many does not align (align='auto' reads a recording twice): use analyze per file")
     if split is not None and not split > 0:
@@ -289,25 +318,26 @@ def analyze_many(
     run = _runner(client, progress)
 
     if split is None:
-        plans: List[Any] = [None] * len(files)
+        plans: List[Any] = [None] * len(files)  # the files' (n_samples, fs), read only to split them
     else:
         plans = run(plan_task, [(f, open_options) for f in files])
     jobs: List[Tuple[int, Tuple[Any, ...]]] = []
     failures: Dict[str, RecordingFailure] = {}
-    for i, (f, plan) in enumerate(zip(files, plans)):
-        if isinstance(plan, RecordingFailure):
-            failures[f] = plan
+    for i, (f, head) in enumerate(zip(files, plans)):
+        if isinstance(head, RecordingFailure):
+            failures[f] = head
             continue
-        if plan is None:
+        if head is None:
             ranges: List[Tuple[int, Optional[int]]] = [(0, None)]
-            fs = None
         else:
-            n, fs = plan
+            n, fs = head
             fs = options.get("fs") or fs
-            ranges = _ranges(n, fs, options, split)
-        opts = dict(options)
-        if chunk is not None:
-            opts["chunk"] = chunk
+            ranges = _ranges(n, fs, plan if plan is not None else options, split)
+        opts: Union[Dict[str, Any], Plan]
+        if plan is not None:
+            opts = plan
+        else:
+            opts = dict(options, chunk=chunk) if chunk is not None else dict(options)
         for a, b in ranges:
             jobs.append((i, (f, open_options, opts, a, b)))
     outputs = run(range_task, [args for _, args in jobs])

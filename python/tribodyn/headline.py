@@ -325,6 +325,66 @@ def classical_totals(source: Any, rec: Any, spec: Any, start: int = 0, stop: Opt
                            samples=samples)  # fmt: skip
 
 
+class BlockSums:
+    """The classical COF's block sums taken from the main pass's chunks (docs/method.md 6e): the file read once.
+
+    Chunks of the samples ``lo``..``hi`` arrive in any size (from one reader
+    thread); each block of the grid of :func:`block_length` is summed once,
+    when its last sample has arrived, so the totals are bitwise those of
+    :func:`classical_totals` reading the file again.
+    """
+
+    def __init__(self, spec: Any, n_total: int, lo: int, hi: int) -> None:
+        self.spec, self.lo, self.hi = spec, int(lo), int(hi)
+        self.length = block_length(n_total)
+        self._pending: List[Tuple[int, Dict[str, np.ndarray]]] = []  # pieces of the block being filled
+        self._rows: Dict[int, Tuple[float, ...]] = {}
+        self._next = self.lo  # the next sample expected
+        self._broken = False
+
+    def push(self, first: int, piece: Mapping[str, np.ndarray]) -> None:
+        """Samples ``first``.. of fy, fz (raw, before any filter) and cof when present, in order."""
+        n = len(piece["fz"])
+        a, b = max(first, self.lo), min(first + n, self.hi)
+        if b <= a:
+            return
+        if a != self._next or self._broken:  # a gap (samples outside every acquisition): read again instead
+            self._broken = True
+            return
+        keys = [k for k in ("fy", "fz", "cof") if k in piece]
+        while a < b:
+            end = min(b, (a // self.length + 1) * self.length)
+            self._pending.append((a, {k: np.asarray(piece[k][a - first : end - first]) for k in keys}))
+            a = end
+            if end % self.length == 0 or end == self.hi:
+                self._close()
+        self._next = b
+
+    def _close(self) -> None:
+        if not self._pending:
+            return
+        first = self._pending[0][0]
+        keys = list(self._pending[0][1])
+        if len(self._pending) == 1:
+            block = self._pending[0][1]
+        else:
+            block = {k: np.concatenate([p[k] for _, p in self._pending]) for k in keys}
+        self._rows[first // self.length] = _block_sums(block, self.spec)
+        self._pending = []
+
+    def totals(self) -> Optional[ClassicalTotals]:
+        """The totals of every sample seen; None when the range was not seen whole."""
+        self._close()
+        if self._broken or self._next != self.hi:
+            return None
+        ids = np.asarray(sorted(self._rows), dtype=np.int64)
+        cols = np.asarray([self._rows[k][:5] for k in ids.tolist()], dtype=float).reshape(-1, 5)
+        samples = int(sum(self._rows[k][5] for k in ids.tolist()))
+        return ClassicalTotals(block=self.length, ids=ids, count=cols[:, 0], ratio_sum=cols[:, 1],
+                               signed_sum=cols[:, 2], inst_count=cols[:, 3], inst_sum=cols[:, 4],
+                               samples=samples)  # fmt: skip
+
+
 def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]:
     """(contact count, sum |fy|/|fz|, sum fy/fz, instrument count, instrument sum, finite samples) of one block."""
     y = np.asarray(piece["fy"], dtype=float) - spec.tare_fy

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import warnings
-from typing import Any, Dict, Optional, Union
+from typing import Any, Dict, Optional, Tuple, Union
 
 import numpy as np
 
 from ._validate import as_signal, check_bins, check_fs, check_int, same_length
 from .correlation import xcorr
-from .deadband import DeadbandSpec, parse_deadband
+from .deadband import parse_deadband
 from .results import BinTable, CofResult
 from .window_stats import compute, gate_reasons, orient
 
@@ -40,7 +40,7 @@ def check_gate(gate: Any) -> float:
 
 
 def cross_spectra(
-    fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, fs: float, rpm: float, n_lamellas: int
+    fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, fs: float, *, rpm: float, n_lamellas: int
 ) -> Dict[str, Dict[str, float]]:
     """|Welch cross-spectrum| of xy, xz, yz at f0 = rpm/60 and f_l = n_lamellas f0 (docs/method.md 5).
 
@@ -66,24 +66,28 @@ def cross_spectra(
     return out
 
 
+#: The options of :func:`tribodyn.analyze` that apply to one acquisition (same names, defaults and checks).
+IDENTIFY_OPTIONS = (
+    "orientation", "deadband", "n_bins", "gate", "max_lag", "rpm", "n_lamellas", "estimator", "method", "max_rel_ci",
+    "iv_lag", "noise",
+)  # fmt: skip
+
+
 def identify(
     fy: Any,
     fz: Any,
     *more: Any,
     fx: Optional[Any] = None,
     fs: Optional[float] = None,
-    orientation: Orientation = "auto",
-    deadband: DeadbandSpec = 0.35,
-    n_bins: int = 16,
-    gate: float = 0.85,
-    max_lag: Optional[int] = None,
-    rpm: Optional[float] = None,
-    n_lamellas: Optional[int] = None,
-    estimator: str = "ols",
-    iv_lag: Optional[float] = None,
-    noise: Any = None,
+    plan: Optional[Any] = None,
+    **options: Any,
 ) -> CofResult:
     """COF of one acquisition from its dynamic forces (docs/method.md 3-5).
+
+    The options are :func:`tribodyn.analyze`'s, with the same defaults
+    (declared once in :data:`tribodyn.options.OPTIONS`): those that apply to
+    one acquisition are listed below; ``method="paper"`` gives the paper's
+    (OLS, |C_yz(0)| >= 0.85).
 
     Parameters
     ----------
@@ -93,7 +97,11 @@ def identify(
         Dynamic axial force in N (None: no x correlations). The 0.2 form
         ``identify(fx, fy, fz, fs=...)`` still works with a DeprecationWarning.
     fs : float
-        Sampling rate, Hz.
+        Sampling rate, Hz (``plan.fs`` when a plan is given).
+    plan : Plan, optional
+        The options checked once (:func:`tribodyn.make_plan`); no other
+        option with it. Its ``n_bins`` is bounded again by this
+        acquisition's length.
     orientation : {+1, -1, "auto"}
         s in mu = s * slope. "auto" takes the sign of this acquisition's
         slope (it is the whole recording here; :func:`tribodyn.analyze` fixes
@@ -104,20 +112,26 @@ def identify(
     n_bins : int
         Equal-width fz bins over [min fz, max fz] (default 16; at most
         max(16, n // 4) and 1024, docs/method.md 4).
-    gate : float
-        Quality gate: |C_yz(0)| >= gate (default 0.85, Sec. 3.1).
+    gate : float or "ci"
+        Quality gate (docs/method.md 5): "ci" (default) passes when the 95 %
+        half-width is at most ``max_rel_ci`` of |mu_r|; a number g is the
+        paper's |C_yz(0)| >= g (0.85 with ``method="paper"``).
+    max_rel_ci : float
+        Largest relative half-width of gate "ci" (default 0.1).
     max_lag : int, optional
         Also compute C_xy, C_xz, C_yz for lags up to ``max_lag`` and the skew
         (lag of max |C_yz|); a non-zero skew fails the gate.
     rpm, n_lamellas : optional
         Rig data: cross-spectra at f0 and f_l (Welch); ``rpm`` also sets the
         instrument lag (one revolution).
-    estimator : {"ols", "iv", "corrected", "deming"}
-        The slope estimator (docs/method.md 3a-3c). Default "ols", the
-        paper's: one acquisition has no other windows to measure the noise
-        on fz from, so "corrected" here equals "iv" unless ``noise`` is
-        given. Every estimator but "ols" adds the batch-means standard
-        error, its 95 % interval, ``attenuation_p`` and ``dmu_dfn``.
+    estimator : {"corrected", "iv", "ols", "deming"}
+        The slope estimator (docs/method.md 3a-3c). Default "corrected", as
+        :func:`tribodyn.analyze`'s: one acquisition has no other windows to
+        measure the noise on fz from, so "corrected" here equals "iv" unless
+        ``noise`` is given. Every estimator but "ols" adds the batch-means
+        standard error, its 95 % interval, ``attenuation_p`` and ``dmu_dfn``.
+    method : {None, "paper"}
+        "paper": the paper's method exactly (OLS, |C_yz(0)| >= 0.85).
     iv_lag : float, optional
         Instrument lag in s (default: one revolution with ``rpm``, else a
         tenth of the acquisition, at least 10 samples).
@@ -139,24 +153,23 @@ def identify(
             stacklevel=2,
         )
         fx, fy, fz = fy, fz, more[0]
-    if fs is None:
-        raise TypeError("identify() missing required keyword argument 'fs' (sampling rate, Hz)")
+    fs, o = _identify_options(fs, plan, options)
     fs_v = check_fs(fs)
     fy_a = as_signal(fy, "fy", min_len=1)
     fz_a = as_signal(fz, "fz", min_len=1)
     fx_a = None if fx is None else as_signal(fx, "fx", min_len=1)
     same_length(fy=fy_a, fz=fz_a, **({} if fx_a is None else {"fx": fx_a}))
     n = fz_a.size
-    db = parse_deadband(deadband)
-    nb = check_bins(n_bins, n)
-    g = check_gate(gate)
+    db = parse_deadband(o["deadband"])
+    nb = check_bins(o["n_bins"], n)
+    stats = _statistics_options(fs_v, n, o)
     st = compute(fx_a, fy_a, fz_a, None, np.zeros(1, dtype=np.int64), n, db, nb)
-    s = resolve_orientation(orientation, float(st["slope"][0]))
-    o = orient(st, s)
+    s = resolve_orientation(o["orientation"], float(st["slope"][0]))
+    o_st = orient(st, s)
 
     correlations = skew = None
-    if max_lag is not None:
-        lag = check_int(max_lag, "max_lag", minimum=0)
+    if o["max_lag"] is not None:
+        lag = check_int(o["max_lag"], "max_lag", minimum=0)
         lag = min(lag, n - 1) if n >= 2 else 0
         correlations = {"yz": xcorr(fy_a, fz_a, max_lag=lag, fs=fs_v, check_finite=False)}
         if fx_a is not None:
@@ -165,13 +178,25 @@ def identify(
         c = correlations["yz"].c
         skew = int(correlations["yz"].lags[int(np.nanargmax(np.abs(c)))]) if np.isfinite(c).any() else None
     spectra = None
+    rpm, n_lamellas = o["rpm"], o["n_lamellas"]
     if rpm is not None and n_lamellas is not None and n >= 8:
-        spectra = cross_spectra(fx_a, fy_a, fz_a, fs_v, float(rpm), check_int(n_lamellas, "n_lamellas", minimum=1))
+        lamellas = check_int(n_lamellas, "n_lamellas", minimum=1)
+        spectra = cross_spectra(fx_a, fy_a, fz_a, fs_v, rpm=float(rpm), n_lamellas=lamellas)
 
+    estimator = stats["estimator"]
     extra: Dict[str, float] = {}
     if estimator != "ols":
-        extra = _estimate(fy_a, fz_a, fs_v, s, estimator, iv_lag, noise, rpm, o)
-    reasons = gate_reasons(o, g, None if skew is None else np.array([skew], dtype=float))[0]
+        extra = _estimate(fy_a, fz_a, s, stats, o_st)
+        if not extra:  # a weak instrument: least squares, as analyze does (docs/method.md 3b)
+            estimator = "ols"
+    rel = None
+    if stats["gate"] == "ci":  # docs/method.md 5: the 95 % half-width relative to |mu_r|
+        se = float(o_st["mu_r_stderr"][0])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rel = np.array([_T975 * se / abs(float(o_st["mu_r"][0]))])
+    skew_arr = None if skew is None else np.array([skew], dtype=float)
+    reasons = gate_reasons(o_st, stats["gate"], skew_arr, rel_ci=rel, max_rel_ci=stats.get("max_rel_ci", 0.1))[0]
+    o = o_st
     return CofResult(
         mu_r=float(o["mu_r"][0]),
         f_y0=float(o["f_y0"][0]),
@@ -202,22 +227,71 @@ def identify(
     )
 
 
-def _estimate(
-    fy: np.ndarray, fz: np.ndarray, fs: float, s: int, estimator: str, iv_lag: Any, noise: Any, rpm: Any,
-    o: Dict[str, np.ndarray],
-) -> Dict[str, float]:  # fmt: skip
-    """The slope of ``estimator`` and its statistics for one acquisition; updates ``o`` (docs/method.md 3a-3e)."""
-    from .estimators import T975, quadratic, slopes
+def _identify_options(fs: Any, plan: Any, options: Dict[str, Any]) -> Tuple[Any, Dict[str, Any]]:
+    """(fs, the options by name): from ``plan``, or ``options`` over the declared defaults (tribodyn.options)."""
+    from .options import option
+    from .plan import Plan
+
+    unknown = sorted(set(options) - set(IDENTIFY_OPTIONS))
+    if unknown:
+        raise TypeError(
+            f"identify() got unknown option(s) {', '.join(map(repr, unknown))}; its options are "
+            f"{', '.join(IDENTIFY_OPTIONS)}"
+        )
+    if plan is None:
+        if fs is None:
+            raise TypeError("identify() missing required keyword argument 'fs' (sampling rate, Hz)")
+        return fs, {name: options.get(name, option(name).default) for name in IDENTIFY_OPTIONS}
+    if not isinstance(plan, Plan):
+        raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
+    if options:
+        raise TypeError(f"identify(..., plan=...) takes no other options; make the plan with them: {sorted(options)}")
+    if fs is not None and float(fs) != plan.fs:
+        raise ValueError(f"the plan is for fs = {plan.fs:g} Hz, the forces are sampled at {float(fs):g} Hz")
+    o = {name: getattr(plan, name) for name in IDENTIFY_OPTIONS}
+    o.update(method=plan.method or None, iv_lag=plan.iv_lag / plan.fs if not plan.paper else None)
+    return plan.fs, o
+
+
+def _statistics_options(fs: float, n: int, o: Dict[str, Any]) -> Dict[str, Any]:
+    """The statistical options checked for an acquisition of ``n`` samples (``plan.check_statistics``)."""
     from .plan import check_statistics
 
+    return check_statistics(
+        fs, n, method=o["method"], estimator=o["estimator"], gate=o["gate"], max_rel_ci=o["max_rel_ci"],
+        iv_lag=o["iv_lag"], noise=o["noise"], rpm=o["rpm"], n_lamellas=o["n_lamellas"],
+    )  # fmt: skip
+
+
+#: Normal quantile 0.975 (the OLS interval's; docs/method.md 3d).
+_T975 = 1.959963984540054
+
+
+def _estimate(fy: np.ndarray, fz: np.ndarray, s: int, stats: Dict[str, Any], o: Dict[str, np.ndarray]
+              ) -> Dict[str, float]:  # fmt: skip
+    """The slope of ``stats["estimator"]`` and its statistics for one acquisition (docs/method.md 3a-3e).
+
+    Updates ``o``; {} (``o`` untouched: least squares) when "corrected" has a weak instrument and no ``noise``.
+    """
+    from .estimators import T975, quadratic, slopes
+    from .finish import WEAK_INSTRUMENT
+
     n = fz.size
-    opts = check_statistics(fs, n, estimator=estimator, iv_lag=iv_lag, noise=noise, rpm=rpm)
     st = compute(
         None, fy, fz, None, np.zeros(1, dtype=np.int64), n, parse_deadband(0.0), 1, ["n", "ext"],
-        options=dict(lag=opts["iv_lag"]),
+        options=dict(lag=stats["iv_lag"]),
     )  # fmt: skip
     E, nn = st["ext"], st["n"]
-    sl = slopes(E, nn, opts["estimator"], noise=opts["noise"])
+    sl = slopes(E, nn, stats["estimator"], noise=stats["noise"])
+    r = float(sl.instrument_r[0])
+    if stats["estimator"] == "corrected" and stats["noise"] is None and not abs(r) >= WEAK_INSTRUMENT:
+        warnings.warn(
+            f"identify: the instrument (fz lagged by {stats['iv_lag']} samples) is weak (r = {r:.2f}): mu_r is the "
+            "least-squares slope; pass rpm= (a lag of one revolution), iv_lag= or noise= (docs/method.md 3b)",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return {}
     a2, a2_se = quadratic(E, nn, instrumented=True)
     mu, se = float(s * sl.slope[0]), float(sl.se[0])
     mu_ols = float(o["mu_r"][0])

@@ -47,6 +47,7 @@ import numpy as np
 from . import _core
 from ._validate import as_signal
 from .filters import HighPass
+from .headline import BlockSums, ClassicalTotals
 from .io.base import RecordingError, RecordingProtocol
 from .plan import Findings, Plan
 from .window_stats import compute
@@ -94,6 +95,8 @@ class KernelRun:
     route: str
     #: The reader's warnings.
     warnings: Tuple[str, ...]
+    #: The classical COF's block sums taken from the chunks read (docs/method.md 6e), or None.
+    classical: Optional[ClassicalTotals] = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,39 +114,55 @@ class KernelSpec:
         return cls(plan, plan.kernel_columns(found), plan.kernel_options(found))
 
 
-def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings) -> KernelRun:
+def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
+        classical_range: Optional[Tuple[int, int]] = None) -> KernelRun:  # fmt: skip
     """The kernel's statistics of every window of ``source`` on the route :func:`choose_route` picks.
 
     ``found`` (the pre-pass's classical-COF threshold and tare, the fz
-    delay of ``align="auto"``) completes the kernel's options.
+    delay of ``align="auto"``) completes the kernel's options. With
+    ``classical_range`` and a recording whose pre-pass found the classical
+    COF's contact threshold, the chunks read also give the classical COF's
+    block sums over that range (``KernelRun.classical``): the file is read once.
     """
-    route = choose_route(source, rec, plan)
+    route = choose_route(source, rec, plan, found)
     total = _total(source, rec, plan)
     _check_table_size(plan, total)
     ks = KernelSpec.of(plan, found)
+    sums = None
+    if (
+        rec is not None
+        and found.classical is not None
+        and classical_range is not None
+        and route in ("stream", "segments")
+    ):
+        sums = BlockSums(found.classical, rec.n_samples, *classical_range)
     if route == "acquisitions":
         st, aux_role = _acquisitions(source, ks)
     elif rec is not None and route == "segments":
-        st, aux_role = _run_segments(rec, ks, rec.acquisitions or [])
+        st, aux_role = _run_segments(rec, ks, rec.acquisitions or [], sums)
     elif rec is not None and route == "mapped":
         st, aux_role = _run_mapped(rec, ks)
     elif rec is not None and route == "spans":
         st, aux_role = _run_spans(rec, ks)
     else:
-        st, aux_role = _run_stream(_chunk_source(source, rec, plan), ks, total)
+        st, aux_role = _run_stream(_chunk_source(source, rec, plan), ks, total, sums)
     if rec is not None:
         rec.check_unchanged()  # a file changed while it was read: an error, not a table of mixed data
-    return KernelRun(st, aux_role, route, tuple(rec.warnings) if rec is not None else ())
+    totals = sums.totals() if sums is not None else None
+    return KernelRun(st, aux_role, route, tuple(rec.warnings) if rec is not None else (), totals)
 
 
-def choose_route(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> str:
+def choose_route(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Optional[Findings] = None) -> str:
     """The route for this source and plan (docs/method.md 9), one of the module's five.
 
     Chosen before anything is read, from the plan and from the
     capabilities a recording declares (``acquisitions``, ``mappable``,
     ``random_access``, ``thread_safe``; see :class:`tribodyn.io.Recording`):
     a recording of several separate acquisitions analysed whole takes
-    ``"segments"`` (each windowed from its own first sample).
+    ``"segments"`` (each windowed from its own first sample). A recording
+    whose pre-pass found a classical COF (``found.classical``) is read in
+    order, every sample once (``"stream"``), so that the classical COF's
+    sums come from the same pass (docs/method.md 6e).
     """
     if isinstance(source, (list, tuple)):
         return "acquisitions"
@@ -157,6 +176,8 @@ def choose_route(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> s
     acq = rec.acquisitions
     if acq is not None and len(acq) > 1 and plan.start == 0 and plan.stop is None:
         return "segments"
+    if found is not None and found.classical is not None:
+        return "stream"
     if _mapped_layout(rec, plan) is not None:
         return "mapped"
     if not plan.raw and rec.random_access and rec.thread_safe and _spans(rec, plan) is not None:
@@ -323,8 +344,8 @@ def _check_chunk(chunk: Any, where: str) -> Dict[str, np.ndarray]:
 # -- route "segments" ----------------------------------------------------------------
 
 
-def _run_segments(rec: RecordingProtocol, ks: KernelSpec, ranges: Sequence[Tuple[int, int]]
-                  ) -> Tuple[Stats, Optional[str]]:  # fmt: skip
+def _run_segments(rec: RecordingProtocol, ks: KernelSpec, ranges: Sequence[Tuple[int, int]],
+                  sums: Optional[BlockSums] = None) -> Tuple[Stats, Optional[str]]:  # fmt: skip
     """Each separate acquisition of a recording windowed from its own first sample (no window straddles two)."""
     plan = ks.plan
     parts: List[Stats] = []
@@ -334,7 +355,7 @@ def _run_segments(rec: RecordingProtocol, ks: KernelSpec, ranges: Sequence[Tuple
         if b - a < plan.length:
             continue
         batch, aux = _run_chunks(rec.chunks(size, start=a, stop=b, copy=_copies(rec)), 0, ks, None,
-                                 threads=plan.threads)  # fmt: skip
+                                 threads=plan.threads, sums=sums, base=a)  # fmt: skip
         aux_role = aux_role or aux
         for st in batch:
             st["start"] = np.asarray(st["start"], dtype=np.int64) + a
@@ -503,19 +524,20 @@ def _total(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> Optiona
     return None
 
 
-def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int]) -> Tuple[Stats, Optional[str]]:
+def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int], sums: Optional[BlockSums] = None
+                ) -> Tuple[Stats, Optional[str]]:  # fmt: skip
     plan = ks.plan
     bar = _progress(plan.progress, total)
     try:
-        parts, aux_role = _run_chunks(chunks, plan.start, ks, bar, threads=plan.threads)
+        parts, aux_role = _run_chunks(chunks, plan.start, ks, bar, threads=plan.threads, sums=sums)
     finally:
         if bar is not None:
             bar.close()
     return concat_stats(parts), aux_role
 
 
-def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *, threads: int,
-                depth: int = 2) -> Tuple[List[Stats], Optional[str]]:  # fmt: skip
+def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *, threads: int, depth: int = 2,
+                sums: Optional[BlockSums] = None, base: int = 0) -> Tuple[List[Stats], Optional[str]]:  # fmt: skip
     """Checks, filters and windows a stream of chunks; the batches of window statistics, in order.
 
     The calling thread alone reads the chunks (so a reader that is not
@@ -524,9 +546,10 @@ def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *,
     GIL and uses ``threads`` kernel threads), chunk after chunk in order,
     at most ``depth`` chunks behind the reading: the filter state and the
     windower's tail are only ever touched by that worker. With one thread
-    everything runs on the calling thread.
+    everything runs on the calling thread. ``sums`` takes the raw chunks
+    for the classical COF (``base``: the recording's index of ``origin``).
     """
-    stage = _Stage(origin, ks, threads)
+    stage = _Stage(origin, ks, threads, sums=sums, base=base)
     if threads < 2:
         for i, raw_chunk in enumerate(chunks):
             stage.push(_check_chunk(raw_chunk, f"chunk {i}"))
@@ -554,8 +577,10 @@ def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *,
 class _Stage:
     """Filter, windower and kernel for one stream of chunks (used by one thread at a time)."""
 
-    def __init__(self, origin: int, ks: KernelSpec, threads: int) -> None:
+    def __init__(self, origin: int, ks: KernelSpec, threads: int, *, sums: Optional[BlockSums] = None,
+                 base: int = 0) -> None:  # fmt: skip
         self.origin, self.ks, self.plan, self.threads = origin, ks, ks.plan, threads
+        self.sums, self.base = sums, base
         self.parts: List[Stats] = []
         self.aux_role: Optional[str] = None
         self.windower: Optional[Windower] = None
@@ -578,6 +603,8 @@ class _Stage:
             missing = sorted(set(self.force_roles) - set(ch))
             raise ValueError(f"a chunk from sample {self.seen} on lacks channel(s) present in the first: {missing}")
         first, self.seen = self.seen, self.seen + len(ch["fz"])
+        if self.sums is not None:  # the classical COF's sums from the raw samples (docs/method.md 6e)
+            self.sums.push(self.base + first, ch)
         if self.hp is not None:
             # The filter refuses NaN/inf as it reads every sample.
             stacked = np.stack([ch[r] for r in self.force_roles])
