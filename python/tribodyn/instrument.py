@@ -21,7 +21,7 @@ STRONG = 0.5
 #: A lag is past the noise's correlation time when its IV slope differs from the reference lag's by at
 #: most this many standard errors of the difference (and so does every strong lag up to twice it).
 AGREE_T = 3.0
-#: Windows read for the profile at most (evenly spread over the recording or its acquisitions).
+#: Windows read for the profile at most (the first ones of the analysed samples, acquisition by acquisition).
 SAMPLE_WINDOWS = 64
 
 
@@ -103,28 +103,28 @@ def choose_lag(p: Optional[LagProfile], weak: float) -> Optional[int]:
 
 def sample_windows(source: Any, rec: Any, length: int, start: int = 0, stop: Optional[int] = None,
                    limit: int = SAMPLE_WINDOWS) -> List[Tuple[np.ndarray, np.ndarray]]:  # fmt: skip
-    """Up to ``limit`` windows of ``length`` samples of (fy, fz), evenly spread, never across two acquisitions.
+    """The first ``limit`` windows of ``length`` samples of (fy, fz), tiling, never across two acquisitions.
 
     ``source`` a mapping of arrays or a list of them (acquisitions), or
-    ``rec`` a random-access recording (its segments are acquisitions); [] for
-    a one-pass stream.
+    ``rec`` a recording (its segments are acquisitions); [] for a one-pass
+    stream (which cannot be read twice: the plan's default lag then).
     """
     if rec is not None:
-        if not getattr(rec, "random_access", False) or not all(r in getattr(rec, "roles", {}) for r in ("fy", "fz")):
+        if not all(r in getattr(rec, "roles", {}) for r in ("fy", "fz")):
             return []
         n_tot = int(rec.n_samples) if stop is None else min(int(stop), int(rec.n_samples))
         segs = getattr(rec, "segments", None) or [(0, n_tot)]
         ranges = _spread([(max(a, start), min(b, n_tot)) for a, b in segs], length, limit)
         if not ranges:
             return []
-        if hasattr(rec, "read_ranges"):
-            got = rec.read_ranges(ranges, ["fy", "fz"])
-            fy, fz = np.asarray(got["fy"], float), np.asarray(got["fz"], float)
-        else:
-            parts = [p for a, b in ranges for p in rec.chunks(b - a, ["fy", "fz"], start=a, stop=b)]
-            fy = np.concatenate([np.asarray(p["fy"], float) for p in parts])
-            fz = np.concatenate([np.asarray(p["fz"], float) for p in parts])
-        return [(fy[k * length : (k + 1) * length], fz[k * length : (k + 1) * length]) for k in range(len(ranges))]
+        lo, hi = ranges[0][0], ranges[-1][1]
+        if getattr(rec, "random_access", False):
+            parts = list(rec.chunks(hi - lo, ["fy", "fz"], start=lo, stop=hi))
+        else:  # from the start: the first windows only
+            parts, lo = list(rec.chunks(hi, ["fy", "fz"], stop=hi)), 0
+        fy = np.concatenate([np.asarray(p["fy"], float) for p in parts])
+        fz = np.concatenate([np.asarray(p["fz"], float) for p in parts])
+        return [(fy[a - lo : b - lo], fz[a - lo : b - lo]) for a, b in ranges]
     if isinstance(source, Mapping):
         acqs: Sequence[Any] = [source]
     elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) for a in source):
@@ -150,13 +150,14 @@ def sample_windows(source: Any, rec: Any, length: int, start: int = 0, stop: Opt
 
 
 def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[Tuple[int, int]]:
-    """Up to ``limit`` ranges of ``length`` samples tiling the (start, stop) bounds, evenly thinned."""
+    """The first ``limit`` ranges of ``length`` samples tiling the (start, stop) bounds.
+
+    The first ones, whatever the source: a mapping, a random-access or a
+    sequential recording of the same samples give the same lag.
+    """
     tiles = [(a + j * length, a + (j + 1) * length) for a, b in bounds if b - a >= length
              for j in range((b - a) // length)]  # fmt: skip
-    if len(tiles) <= limit:
-        return tiles
-    pick = np.unique(np.linspace(0, len(tiles) - 1, limit).round().astype(int))
-    return [tiles[i] for i in pick]
+    return tiles[:limit]
 
 
 def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any]) -> Optional[int]:
