@@ -396,7 +396,7 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     plan = _plan_of(given, fs, rec, options)
     _check_range(source, rec, plan)
     pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
-    found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre))  # docs/method.md 3b
+    found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # docs/method.md 3b
     tribo = _tribometer_params(rec, pre, plan.window_note)
     strokes: Optional[Dict[str, np.ndarray]] = None
     run_source, run_rec = source, rec

@@ -118,6 +118,10 @@ def sample_windows(source: Any, rec: Any, length: int, start: int = 0, stop: Opt
         if not ranges:
             return []
         lo, hi = ranges[0][0], ranges[-1][1]
+        if getattr(rec, "random_access", False) and hasattr(rec, "read_ranges"):  # as the pre-pass reads
+            got = rec.read_ranges(ranges, ["fy", "fz"])
+            fy, fz = np.asarray(got["fy"], float), np.asarray(got["fz"], float)
+            return [(fy[k * length : (k + 1) * length], fz[k * length : (k + 1) * length]) for k in range(len(ranges))]
         if getattr(rec, "random_access", False):
             parts = list(rec.chunks(hi - lo, ["fy", "fz"], start=lo, stop=hi))
         else:  # from the start: the first windows only
@@ -160,10 +164,12 @@ def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[
     return tiles[:limit]
 
 
-def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any]) -> Optional[int]:
+def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bool = False) -> Optional[int]:
     """:func:`choose_lag` on :func:`sample_windows` of the analysed samples, when the plan leaves the lag to the data.
 
-    None (the plan's default lag) with ``method="paper"``, a given ``iv_lag``
+    ``whole``: from the recording's first windows, not the plan's range
+    (the ranges of one recording, :func:`tribodyn.analyze_partial`, then share
+    one lag with the analysis of the whole). None (the plan's default lag) with ``method="paper"``, a given ``iv_lag``
     or ``rpm``, a reciprocating test, a one-pass stream or no valid lag.
     """
     from .finish import WEAK_INSTRUMENT
@@ -171,7 +177,8 @@ def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any]) -> Option
     if plan.paper or not plan.iv_lag_from_data or pre.get("motion") == "reciprocating":
         return None
     n = int(plan.length)
-    windows = (
-        sample_windows(source, rec, n, plan.start, plan.stop) if rec is not None else sample_windows(source, rec, n)
-    )
+    if rec is not None and not whole:
+        windows = sample_windows(source, rec, n, plan.start, plan.stop)
+    else:
+        windows = sample_windows(source, rec, n)
     return choose_lag(lag_profile(windows, (n - 1) // 2), WEAK_INSTRUMENT)
