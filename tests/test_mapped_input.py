@@ -159,7 +159,7 @@ def test_mapped_path_roles(data, tmp_path, file_calls, names, extra):
         layout = rec.file_layout([r for r in ("fx", "fy", "fz", "i", "u") if r in rec.roles])[1]
         got = td.analyze(rec, hop=3.0, threads=2, start=777, **extra, **KW)
     assert _mapped_ok(file_calls)
-    offsets = file_calls[0]["args"][1]
+    offsets = file_calls[0]["args"][2]
     assert offsets == (layout.get("fx"), layout["fy"], layout["fz"], layout.get("i", layout.get("u")))
     assert (offsets[0] is None) == ("fx" not in names)
     assert (offsets[3] is None) == ("i" not in names and "u" not in names)
@@ -172,7 +172,7 @@ def test_mapped_path_sigma_deadband_fixed_orientation_and_gate(data, npy, file_c
     with open_recording(npy, fs=FS, names=list(ROLES)) as rec:
         got = td.analyze(rec, threads=2, chunk=4.0, **kw)
     assert _mapped_ok(file_calls)
-    assert file_calls[0]["args"][8] == "sigma"
+    assert file_calls[0]["args"][0].deadband == ("sigma", 0.7)  # the analysis' frozen spec
     want = td.analyze(_mapping(data), fs=FS, threads=2, **kw)
     assert_same(got, want)
     assert got.orientation == 1 and got.bin_cof.shape == (len(got), 7)
@@ -406,7 +406,7 @@ def test_unaligned_npy_header_chunks_and_read(data, tmp_path):
         views = list(rec.chunks(3000, copy=False))
         np.testing.assert_array_equal(np.concatenate([c["fz"] for c in views]), a[2])
     with pytest.raises(ValueError, match="multiple of 8"):
-        _wsf(p, (None, off + 20_000 * 8, off + 2 * 20_000 * 8, None), 20_000, 0, 5, 2000, 2000, 1.0, "force", 0.35, 16)
+        _wsf(p, (None, off + 20_000 * 8, off + 2 * 20_000 * 8, None), 20_000, 0, 5, 2000, 2000, "force", 0.35, 16)
 
 
 def test_mapped_path_reads_the_opened_file_not_a_replacement(data, tmp_path):
@@ -553,13 +553,16 @@ def layout(npy):
 KERNEL = list(td.columns.KERNEL_COLUMNS)
 
 
-def _wsf(path, offsets, n, k0, k1, step, length, orientation, kind, deadband, n_bins, block=512):
+def _spec(length, kind="force", deadband=0.35, n_bins=16, columns=KERNEL, **kw):
+    return _core.WindowSpec(length, (kind, deadband), n_bins, list(columns), **kw)
+
+
+def _wsf(path, offsets, n, k0, k1, step, length, kind, deadband, n_bins, block=512):
     """``_core.windows_stats_file`` on a descriptor of ``path`` opened for the call (the table's kernel columns)."""
+    spec = _spec(length, kind, deadband, n_bins)
     fd = os.open(path, os.O_RDONLY)
     try:
-        return _core.windows_stats_file(
-            fd, offsets, n, k0, k1, step, length, orientation, kind, deadband, n_bins, KERNEL, block=block
-        )
+        return _core.windows_stats_file(spec, fd, offsets, n, (k0, k1, step), block=block)
     finally:
         os.close(fd)
 
@@ -573,12 +576,11 @@ def _offsets(lay, fx=True, aux=True):
 def test_windows_stats_file_equals_windows_stats(data, npy, layout, fx, aux, block):
     step, length, k0 = 1700, 2100, 3
     k1 = (N - length) // step + 1
-    got = _wsf(npy, _offsets(layout, fx, aux), N, k0, k1, step, length, 1.0, "force", 0.35, 16, block)
+    got = _wsf(npy, _offsets(layout, fx, aux), N, k0, k1, step, length, "force", 0.35, 16, block)
     starts = np.arange(k0, k1, dtype=np.int64) * step
     want = _core.windows_stats(
-        data[0] if fx else None, data[1], data[2], data[3] if aux else None, starts, length, 1.0, "force", 0.35, 16,
-        KERNEL,
-    )  # fmt: skip
+        _spec(length), data[0] if fx else None, data[1], data[2], data[3] if aux else None, starts
+    )
     assert sorted(got) == sorted(want)
     for key in want:
         assert got[key].dtype == want[key].dtype, key
@@ -588,16 +590,15 @@ def test_windows_stats_file_equals_windows_stats(data, npy, layout, fx, aux, blo
 
 def test_windows_stats_file_no_window(npy, layout):
     for k0, k1 in [(0, 0), (5, 3)]:
-        got = _wsf(npy, _offsets(layout), N, k0, k1, 2000, 2000, 1.0, "force", 0.35, 16)
+        got = _wsf(npy, _offsets(layout), N, k0, k1, 2000, 2000, "force", 0.35, 16)
         assert got["n"].shape == (0,) and got["bin_count"].shape == (0, 16)
 
 
 def test_windows_stats_file_errors(npy, layout, tmp_path):
     off = _offsets(layout)
-    args = (N, 0, 10, 2000, 2000, 1.0, "force", 0.35, 16)
 
     def call(path=npy, offsets=off, n=N, k0=0, k1=10, step=2000, length=2000, block=512):
-        return _wsf(path, offsets, n, k0, k1, step, length, 1.0, "force", 0.35, 16, block)
+        return _wsf(path, offsets, n, k0, k1, step, length, "force", 0.35, 16, block)
 
     assert call()["n"].shape == (10,)
     # The file holds fewer samples than n says (the last channel runs past its end).
@@ -632,12 +633,13 @@ def test_windows_stats_file_errors(npy, layout, tmp_path):
     for kw in ({"step": 0}, {"block": 0}, {"length": 0}):
         with pytest.raises(ValueError, match="at least 1"):
             call(**kw)
-    with pytest.raises(ValueError, match="deadband_kind"):
-        _wsf(npy, off, *args[:6], "bogus", 0.35, 16)
+    # The spec's settings are refused when it is made, before any file is read.
+    with pytest.raises(ValueError, match="deadband kind"):
+        _spec(2000, "bogus")
     with pytest.raises(ValueError, match='unknown kernel column "bogus"'):
-        _core.windows_stats_file(os.open(npy, os.O_RDONLY), off, *args, ["n", "bogus"])
+        _spec(2000, columns=["n", "bogus"])
     with pytest.raises(ValueError, match=r"threads must be in \[1, "):
-        _core.windows_stats_file(os.open(npy, os.O_RDONLY), off, *args, KERNEL, threads=10**6)
+        _spec(2000, threads=10**6)
     # A missing file, a directory, an empty file.
     with pytest.raises(OSError):
         call(path=tmp_path / "missing.npy")
@@ -649,11 +651,11 @@ def test_windows_stats_file_errors(npy, layout, tmp_path):
         call(path=empty)
     # Descriptors that are not open files.
     with pytest.raises(ValueError, match="file descriptor"):
-        _core.windows_stats_file(-1, off, *args, KERNEL)
+        _core.windows_stats_file(_spec(2000), -1, off, N, (0, 10, 2000))
     fd = os.open(npy, os.O_RDONLY)
     os.close(fd)
     with pytest.raises(OSError):
-        _core.windows_stats_file(fd, off, *args, KERNEL)
+        _core.windows_stats_file(_spec(2000), fd, off, N, (0, 10, 2000))
     # Negative numbers do not wrap around.
     with pytest.raises(OverflowError):
         call(n=-1)
@@ -668,9 +670,9 @@ def test_windows_stats_file_non_finite(data, tmp_path):
     with open_recording(p, fs=FS, names=list(ROLES)) as rec:
         lay = rec.file_layout(list(ROLES))[1]
     with pytest.raises(ValueError, match="NaN or inf"):
-        _wsf(p, _offsets(lay), 30_000, 0, 15, 2000, 2000, 1.0, "force", 0.35, 16, 4)
+        _wsf(p, _offsets(lay), 30_000, 0, 15, 2000, 2000, "force", 0.35, 16, 4)
     # Windows clear of it are fine (7_777 lies in window 3 only).
-    got = _wsf(p, _offsets(lay), 30_000, 4, 15, 2000, 2000, 1.0, "force", 0.35, 16, 4)
+    got = _wsf(p, _offsets(lay), 30_000, 4, 15, 2000, 2000, "force", 0.35, 16, 4)
     assert got["n"].shape == (11,)
 
 

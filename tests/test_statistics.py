@@ -340,10 +340,10 @@ def test_block_sums_and_line_spectra_match_the_reference():
     lines, _ = line_frequencies(sim.fs, sim.rpm, sim.n_lamellas)
     db = tribodyn.deadband.parse_deadband(0.35)
     for threads in (1, 2):
-        st = tribodyn.window_stats.compute(
-            None, fy, fz, None, starts, 2000, db, 16, ["n", "ext", "spec"], threads=threads,
-            options=dict(lag=240, lines=list(lines), segments=4),
-        )  # fmt: skip
+        spec = tribodyn.window_stats.make_spec(
+            2000, db, 16, ["n", "ext", "spec"], threads=threads, options=dict(lag=240, lines=list(lines), segments=4)
+        )
+        st = tribodyn.window_stats.compute(spec, fy, fz, starts)
         assert st["ext"].shape == (4, BLOCKS, len(PRODUCTS))
         for k, s0 in enumerate(starts):
             want = reference.block_sums(fy[s0 : s0 + 2000], fz[s0 : s0 + 2000], 240)
@@ -393,12 +393,11 @@ def test_identify_estimators():
 
 def test_kernel_rejects_bad_extended_options():
     x = np.zeros(100)
-    with pytest.raises(ValueError, match="line"):
-        _core.windows_stats(None, x, x, None, np.zeros(1, dtype=np.int64), 100, 1.0, "force", 0.1, 4, ["spec"],
-                            lines=[0.7])  # fmt: skip
+    with pytest.raises(ValueError, match="line"):  # refused by the spec, before any window
+        _core.WindowSpec(100, ("force", 0.1), 4, ["spec"], options=dict(lines=[0.7]))
+    spec = _core.WindowSpec(20, ("force", 0.1), 4, ["n"], options=dict(delay=0.5))
     with pytest.raises(ValueError, match="too short"):
-        _core.windows_stats(None, x, x, None, np.zeros(1, dtype=np.int64), 20, 1.0, "force", 0.1, 4, ["n"],
-                            delay=0.5)  # fmt: skip
+        _core.windows_stats(spec, None, x, x, None, np.zeros(1, dtype=np.int64))
 
 
 def test_classical_cof_kernel_matches_the_reference():
@@ -411,7 +410,7 @@ def test_classical_cof_kernel_matches_the_reference():
     db = tribodyn.deadband.parse_deadband(0.35)
     names = ["mu_classical", "mu_classical_median", "fz_mean", "fz_std"]
     st = tribodyn.window_stats.compute(
-        None, fy, fz, None, starts, 2000, db, 16, names, options=dict(classical=(2.6, 0.01, 0.02))
+        tribodyn.window_stats.make_spec(2000, db, 16, names, options=dict(classical=(2.6, 0.01, 0.02))), fy, fz, starts
     )
     want = reference.classical_windows(fy, fz, starts, 2000, spec)
     for name in names:

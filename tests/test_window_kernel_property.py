@@ -55,7 +55,15 @@ from tribodyn import _core
 from tribodyn import reference as ref
 from tribodyn.columns import KERNEL_COLUMNS, kernel_columns
 from tribodyn.deadband import parse_deadband
-from tribodyn.window_stats import compute
+from tribodyn.window_stats import compute as compute_spec
+from tribodyn.window_stats import make_spec
+
+
+def compute(fx, fy, fz, aux, starts, length, db, n_bins, columns=None, *, raw=None, threads=None):
+    """``window_stats.compute`` with its spec made for the call (the reference's argument order)."""
+    spec = make_spec(length, db, n_bins, columns, raw=raw is not None, threads=threads)
+    return compute_spec(spec, fy, fz, np.asarray(starts, dtype=np.int64), fx=fx, aux=aux, raw=raw)
+
 
 TOL = 1e-9
 EPS = np.finfo(np.float64).eps
@@ -66,7 +74,7 @@ def _kernel_names():
     """The reference's keys that the kernel can deliver (its vocabulary may shrink)."""
     fz = np.linspace(-1.0, 2.0, 8)
     names = []
-    for key in ref.window_stats(None, fz, fz, None, [0], 8, 0.35, 2):
+    for key in ref.window_stats(None, fz, fz, None, [0], length=8, deadband=0.35, n_bins=2):
         try:
             compute(None, fz, fz, None, np.array([0]), 8, parse_deadband(0.35), 2, [key])
         except ValueError as e:
@@ -171,7 +179,7 @@ def check(fx, fy, fz, aux, starts, length, deadband, n_bins, raw=None, threads=N
     db = parse_deadband(deadband)
     starts = np.asarray(starts, dtype=np.int64)
     got = compute(fx, fy, fz, aux, starts, length, db, n_bins, COMPARED, raw=raw, threads=threads)
-    want = ref.window_stats(fx, fy, fz, aux, starts, length, db, n_bins, raw=raw)
+    want = ref.window_stats(fx, fy, fz, aux, starts, length=length, deadband=db, n_bins=n_bins, raw=raw)
     if db.kind == "sigma":
         # A sample on d (to rounding) may fall on either side of it (module docs).
         z = np.abs(_windows(fz, starts, length))
@@ -258,7 +266,7 @@ def _generated(draw, n, d):
 def test_keys():
     """The reference covers every statistic the kernel delivers by default, and the kernel those."""
     fz = np.linspace(-2, 3, 40)
-    want = ref.window_stats(None, 0.1 * fz, fz, None, [0], 40, 0.35, 4)
+    want = ref.window_stats(None, 0.1 * fz, fz, None, [0], length=40, deadband=0.35, n_bins=4)
     for raw in (None, (fz, fz)):
         got = compute(None, 0.1 * fz, fz, None, np.array([0]), 40, parse_deadband(0.35), 4, raw=raw)
         assert tuple(got) == kernel_columns(raw is not None)

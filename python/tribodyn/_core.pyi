@@ -3,8 +3,10 @@
 
 The binding only converts types: array arguments must already be
 C-contiguous float64 (the Python wrappers ensure it; anything else raises
-``ValueError``, a wrong dtype ``TypeError``), kernel errors become
-``ValueError`` (a NaN or inf in a window: its subclass ``NonFiniteError``),
+``ValueError``, a wrong dtype ``TypeError``), every error is
+built in one place (kernel errors ``ValueError``, a NaN or inf in a window
+its subclass ``NonFiniteError``), the window kernels take one frozen
+``WindowSpec`` checked once,
 and the GIL is released around the kernels. ``threads=`` applies to one
 call (1 .. ``max_threads()``); None means ``get_threads()``. Check for drift
 with ``python -m mypy.stubtest tribodyn._core``.
@@ -21,6 +23,7 @@ __all__ = [
     "Extents",
     "Moments",
     "NonFiniteError",
+    "WindowSpec",
     "all_finite",
     "get_threads",
     "max_threads",
@@ -50,7 +53,14 @@ _FitTuple: TypeAlias = tuple[float, float, float, float, float, float, int, bool
 _StateTuple: TypeAlias = tuple[int, float, float, float, float, float, float, float, float]
 
 class NonFiniteError(ValueError):
-    """A sample that must be finite is NaN or inf: args (message, channel, sample, window)."""
+    """A sample that must be finite is NaN or inf: the message, and attributes channel, sample, window."""
+
+    #: The kernel's channel ("fy", "fy_raw", "aux", ...), or with a spec's naming the recording's role.
+    channel: str
+    #: The window's first sample (``window``), or the sample itself; None when not known.
+    sample: int | None
+    #: Whether ``sample`` starts the window that holds the NaN or inf.
+    window: bool
 
 def xcorr(x: _F64, y: _F64, max_lag: int, method: str, *, threads: int | None = None) -> _F64:
     """Eq. (1) for lags -max_lag..=max_lag.
@@ -85,56 +95,98 @@ def linfit(x: _F64, y: _F64, *, threads: int | None = None) -> _FitTuple:
     n, degenerate).
     """
 
+@final  # a pyo3 class: not subclassable at runtime
+class WindowSpec:
+    """The settings every window call of one analysis shares, validated and
+    converted once: window length, deadband, fz bins, the columns asked
+    for, the options beyond the paper, the high-pass of raw forces, the
+    thread count and how a NaN or inf is named. Frozen; `replace` makes a
+    variant (another length, auxiliary role or thread count)."""
+
+    def __new__(
+        cls,
+        length: int,
+        deadband: tuple[str, float],
+        n_bins: int,
+        columns: list[str],
+        *,
+        options: dict[str, Any] | None = None,
+        highpass: tuple[_F64, _F64] | None = None,
+        threads: int | None = None,
+        naming: tuple[str, float] | None = None,
+    ) -> WindowSpec:
+        """`deadband` is (kind, value): "force" (N) or "sigma" (a multiple of
+        the window's std of fz). `options`: a dict of lag, lines, segments,
+        delay, classical (see `windows_stats`). `highpass`: (sos, zi) of the
+        raw forces' filter (`windows_stats_file` only). `naming`: (the
+        auxiliary channel's role, fs): a NaN or inf is then named by role
+        and time. Every argument is checked here: a bad one is a
+        `ValueError` (an unknown option a `TypeError`)."""
+    def replace(self, *, length: int | None = None, aux: str | None = None, threads: int | None = None) -> WindowSpec:
+        """The same spec with another window `length`, auxiliary role `aux`
+        (how a NaN or inf in it is named) or thread count (a new object)."""
+    @property
+    def length(self) -> int:
+        """Samples per window."""
+    @property
+    def deadband(self) -> tuple[str, float]:
+        """(kind, value): ("force", N) or ("sigma", k)."""
+    @property
+    def n_bins(self) -> int:
+        """Equal-width fz bins per window."""
+    @property
+    def columns(self) -> list[str]:
+        """The columns asked for, in order."""
+    @property
+    def threads(self) -> int:
+        """Threads of a call."""
+    @property
+    def raw(self) -> bool:
+        """Whether the spec carries a high-pass for raw forces."""
+
 def windows_stats(
+    spec: WindowSpec,
     fx: _F64 | None,
     fy: _F64,
     fz: _F64,
     aux: _F64 | None,
     starts: NDArray[np.int64],
-    length: int,
-    orientation: float,
-    deadband_kind: str,
-    deadband: float,
-    n_bins: int,
-    columns: list[str],
     *,
-    fy_raw: _F64 | None = None,
-    fz_raw: _F64 | None = None,
-    threads: int | None = None,
+    raw: tuple[_F64, _F64] | None = None,
     offset: int = 0,
-    lag: int = 0,
-    lines: list[float] | None = None,
-    segments: int = 4,
-    delay: float = 0.0,
-    classical: tuple[float, float, float] | None = None,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
-    """Per-window statistics (docs/method.md 3-6) for windows starting at
-    `starts`: a dict of the `columns` asked for, in that order, one row per
-    window. `fy_raw`, `fz_raw` (the forces before the high-pass) define
-    `mu_classic`. A non-finite sample in a window raises `NonFiniteError`,
-    its sample counted from `offset` (the caller's index of sample 0 of the
-    arrays). `threads=1` keeps the work on the calling thread.
+    """Per-window statistics (docs/method.md 3-6) of the windows of
+    `spec.length` samples starting at `starts`: a dict of the spec's
+    columns, in that order, one row per window. `raw` = (fy, fz before the
+    high-pass) defines `mu_classic`. A non-finite sample in a window raises
+    `NonFiniteError`, its sample counted from `offset` (the caller's index
+    of sample 0 of the arrays). `spec.threads == 1` keeps the work on the
+    calling thread.
 
-    ``deadband_kind`` is "force" (``deadband`` in N) or "sigma" (a multiple
-    of the window's standard deviation of fz). Column names: slope,
-    intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z,
-    mean_y, szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min,
-    fz_max, aux_mean, mu_classic (float64, shape (windows,)), n, n_a, n_b,
-    out_of_range (int64), bin_count (int64) and bin_cof (float64) of shape
-    (windows, n_bins); ``tribodyn.columns`` declares which a table uses.
-    ``out_of_range`` is 1 for a window with a force beyond ``FORCE_LIMIT``
-    in magnitude (fy, fz, fx or the raw forces) or whose sums overflow:
-    every statistic of it NaN, its counts 0 (docs/method.md 4).
+    Column names: slope, intercept, r, slope_stderr, intercept_stderr,
+    resid_std, sse, mean_z, mean_y, szz, syy, syz, c_xy, c_xz, c_yz,
+    deadband, mu_a, mu_b, fz_min, fz_max, aux_mean, mu_classic (float64,
+    shape (windows,)), n, n_a, n_b, out_of_range (int64), bin_count (int64)
+    and bin_cof (float64) of shape (windows, n_bins); ``tribodyn.columns``
+    declares which a table uses. ``out_of_range`` is 1 for a window with a
+    force beyond ``FORCE_LIMIT`` in magnitude (fy, fz, fx or the raw
+    forces) or whose sums overflow: every statistic of it NaN, its counts 0
+    (docs/method.md 4).
 
-    Beyond the paper (docs/method.md 3a-3e): ``ext`` (float64, (windows, 5,
-    16)), the block sums of the estimators with the instrument fz lagged by
-    ``lag`` samples (``tribodyn.estimators.PRODUCTS``); ``spec`` (float64,
-    (windows, len(lines), 4)), the cross-spectra at ``lines`` (cycles per
-    sample) averaged over ``segments``; ``delay`` advances fz by that many
-    samples in every window first (a fractional-delay filter; the windows
-    lose 16 samples at each end). ``classical`` = (min_fn, tare_fy, tare_fz)
-    gives the columns ``mu_classical``, ``mu_classical_median``, ``fz_mean``,
+    Beyond the paper (docs/method.md 3a-3e), from the spec's options:
+    ``ext`` (float64, (windows, 5, 16)), the block sums of the estimators
+    with the instrument fz lagged by ``lag`` samples
+    (``tribodyn.estimators.PRODUCTS``); ``spec`` (float64, (windows,
+    len(lines), 4)), the cross-spectra at ``lines`` (cycles per sample)
+    averaged over ``segments``; ``delay`` advances fz by that many samples
+    in every window first (a fractional-delay filter; the windows lose 16
+    samples at each end). ``classical`` = (min_fn, tare_fy, tare_fz) gives
+    the columns ``mu_classical``, ``mu_classical_median``, ``fz_mean``,
     ``fz_std`` of the raw forces (docs/method.md 6a).
+
+    With the spec's ``naming`` a NaN or inf is named in the recording's
+    terms: "fy contains NaN or inf in the window starting at sample 5000
+    (t = 5 s)"; its ``channel`` is then the role.
     """
 
 def set_threads(n: int) -> None:
@@ -179,47 +231,31 @@ class Moments:
         """Rebuilds moments from `state()` (for pickling and transport)."""
 
 def windows_stats_file(
+    spec: WindowSpec,
     fd: int,
     offsets: tuple[int | Extents | None, int | Extents, int | Extents, int | Extents | None],
     n: int,
-    k0: int,
-    k1: int,
-    step: int,
-    length: int,
-    orientation: float,
-    deadband_kind: str,
-    deadband: float,
-    n_bins: int,
-    columns: list[str],
+    windows: tuple[int, int, int],
     *,
     block: int = 512,
-    sos: _F64 | None = None,
-    zi: _F64 | None = None,
     origin: int = 0,
-    threads: int | None = None,
-    lag: int = 0,
-    lines: list[float] | None = None,
-    segments: int = 4,
-    delay: float = 0.0,
-    classical: tuple[float, float, float] | None = None,
 ) -> dict[str, NDArray[np.float64] | NDArray[np.int64]]:
-    """Per-window statistics of windows k0..k1 (window k = samples
-    [k * step, k * step + length)) of channels stored in the open file `fd`
-    (a file descriptor, duplicated for the call and left open) as
-    contiguous little-endian f64 runs starting at the byte offsets
-    `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each, or as
-    `Extents` (any numeric type, segments, interleaved rows, scaling). The
-    samples are read with `pread`, `block` windows per task, on `threads`
-    threads; the `columns` asked for, with the same results as
+    """Per-window statistics of windows k0..k1 (`windows` = (k0, k1, step):
+    window k = samples [k * step, k * step + spec.length)) of channels
+    stored in the open file `fd` (a file descriptor, duplicated for the
+    call and left open) as contiguous little-endian f64 runs starting at the
+    byte offsets `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples
+    each, or as `Extents` (any numeric type, segments, interleaved rows,
+    scaling). The samples are read with `pread`, `block` windows per task,
+    on `spec.threads` threads; the spec's columns, with the same results as
     `windows_stats` on those samples. A file that shrinks meanwhile is a
     `ValueError` (a short read), never a crash.
 
-    With `sos` (and `zi`, its steady state for a unit input, one row per
-    section) the force channels are raw: they are high-passed from sample
-    `origin` on (state carried, each channel started at `zi * x[origin]`)
-    and the classical COF of the raw forces is added (`mu_classic`); the
-    windows must not overlap (step >= length). ``lag``, ``lines``,
-    ``segments``, ``delay``: as for `windows_stats`."""
+    With the spec's `highpass` (sos and zi, its steady state for a unit
+    input, one row per section) the force channels are raw: they are
+    high-passed from sample `origin` on (state carried, each channel started
+    at `zi * x[origin]`) and the classical COF of the raw forces is added
+    (`mu_classic`); the windows must not overlap (step >= length)."""
 
 @final
 class Extents:

@@ -192,7 +192,7 @@ def run_compare(
         from .figures import save_figure
 
         save_figure(fig, out.path("compare.png"))
-        _write_report(cmp, tests, inputs, warnings, fig, out.path("report.html"))
+        _write_report(cmp, tests, inputs, warnings, fig=fig, path=out.path("report.html"))
     return result
 
 
@@ -219,7 +219,7 @@ def _f(v: float, digits: int = 4) -> str:
 
 
 def _write_report(cmp: Comparison, tests: Sequence[SourceTest], inputs: Sequence[Mapping[str, Any]],
-                  warnings: Sequence[str], fig: Any, path: Path) -> None:  # fmt: skip
+                  warnings: Sequence[str], *, fig: Any, path: Path) -> None:  # fmt: skip
     """A small self-contained report.html: the verdict, the figure, the tests, the precision, the inputs."""
     import datetime as dt
 

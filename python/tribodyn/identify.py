@@ -11,7 +11,7 @@ from ._validate import as_signal, check_bins, check_fs, check_int, same_length
 from .correlation import xcorr
 from .deadband import parse_deadband
 from .results import BinTable, CofResult
-from .window_stats import compute, gate_reasons, orient
+from .window_stats import compute, gate_reasons, make_spec, orient
 
 __all__ = ["identify", "resolve_orientation", "cross_spectra"]
 
@@ -163,7 +163,7 @@ def identify(
     db = parse_deadband(o["deadband"])
     nb = check_bins(o["n_bins"], n)
     stats = _statistics_options(fs_v, n, o)
-    st = compute(fx_a, fy_a, fz_a, None, np.zeros(1, dtype=np.int64), n, db, nb)
+    st = compute(make_spec(n, db, nb), fy_a, fz_a, np.zeros(1, dtype=np.int64), fx=fx_a)
     s = resolve_orientation(o["orientation"], float(st["slope"][0]))
     o_st = orient(st, s)
 
@@ -277,10 +277,8 @@ def _estimate(fy: np.ndarray, fz: np.ndarray, s: int, stats: Dict[str, Any], o: 
     from .finish import WEAK_INSTRUMENT
 
     n = fz.size
-    st = compute(
-        None, fy, fz, None, np.zeros(1, dtype=np.int64), n, parse_deadband(0.0), 1, ["n", "ext"],
-        options=dict(lag=stats["iv_lag"]),
-    )  # fmt: skip
+    spec = make_spec(n, parse_deadband(0.0), 1, ["n", "ext"], options=dict(lag=stats["iv_lag"]))
+    st = compute(spec, fy, fz, np.zeros(1, dtype=np.int64))
     E, nn = st["ext"], st["n"]
     sl = slopes(E, nn, stats["estimator"], noise=stats["noise"])
     r = float(sl.instrument_r[0])

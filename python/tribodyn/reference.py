@@ -147,9 +147,9 @@ def _mean_pair(x: np.ndarray) -> Tuple[Any, ...]:
     return _two_sum(m0, float((x - m0).sum() / x.size))
 
 
-def _fit(
-    n: int, mx: float, my: float, sxx: float, syy: float, sxy: float, sse: float, mx_lo: float = 0.0, my_lo: float = 0.0
-) -> Tuple[Any, ...]:
+def _fit(m: Tuple[Any, ...]) -> Tuple[Any, ...]:
+    """The LinFit fields from the moments (n, mean_x, mean_y, S_xx, S_yy, S_xy, SSE, mean_x_lo, mean_y_lo)."""
+    n, mx, my, sxx, syy, sxy, sse, mx_lo, my_lo = m
     if n < 3 or not sxx > 0:
         nan = float("nan")
         return (nan, nan, nan, nan, nan, nan, n, True)
@@ -183,7 +183,7 @@ def _moments(x: np.ndarray, y: np.ndarray) -> Tuple[Any, ...]:
 def linfit(x: Any, y: Any, *, check_finite: bool = True) -> LinFit:
     """OLS of y on x from centred sums; SSE from the residuals themselves."""
     xa, ya = _pair(x, y, check_finite, 1)
-    return _result(_fit(*_moments(xa, ya)))
+    return _result(_fit(_moments(xa, ya)))
 
 
 class LinFitAccumulator:
@@ -246,7 +246,7 @@ class LinFitAccumulator:
         return out
 
     def result(self) -> LinFit:
-        return _result(_fit(*self.m))
+        return _result(_fit(self.m))
 
 
 # -- The long-recording pipeline, tiled windows (docs/method.md 3-6) -------------------
@@ -285,6 +285,7 @@ def _tile_stats(
     fz: np.ndarray,
     aux: Optional[np.ndarray],
     raw: Optional[Tuple[Any, ...]],
+    *,
     dead: Tuple[Any, ...],
     nb: int,
 ) -> Dict[str, Any]:
@@ -420,7 +421,7 @@ def analyze_tiled(
             ch = {r: filtered[j] for j, r in enumerate(roles)}
         aux = np.asarray(channels["i"][a:b], dtype=float).reshape(-1, w) if "i" in channels else None
         rows = {r: v.reshape(-1, w) for r, v in ch.items()}
-        parts.append(_tile_stats(rows.get("fx"), rows["fy"], rows["fz"], aux, raw, (db.kind, db.value), nb))
+        parts.append(_tile_stats(rows.get("fx"), rows["fy"], rows["fz"], aux, raw, dead=(db.kind, db.value), nb=nb))
     st = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     if orientation == "auto":
         # docs/method.md 0: the sign of the whole-recording slope, from the
@@ -471,12 +472,23 @@ def _pearson_from(sab: float, saa: float, sbb: float) -> float:
     return float(np.clip(sab / den, -1.0, 1.0)) if den > 0 else float("nan")
 
 
+#: The keys of :func:`window_stats`'s dict, in its order.
+_WS_FIT_KEYS = ("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std")
+_WS_KEYS: Tuple[str, ...] = (
+    _WS_FIT_KEYS
+    + ("sse", "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz")
+    + ("deadband", "mu_a", "mu_b", "n_a", "n_b", "fz_min", "fz_max", "bin_count", "bin_cof", "aux_mean")
+    + ("mu_classic", "n", "out_of_range")
+)
+
+
 def window_stats(
     fx: Optional[np.ndarray],
     fy: np.ndarray,
     fz: np.ndarray,
     aux: Optional[np.ndarray],
     starts: Any,
+    *,
     length: int,
     deadband: Any,
     n_bins: int,
@@ -499,119 +511,151 @@ def window_stats(
     fx, raw) or whose second-moment sums overflow is out of range: every
     statistic NaN, counts 0, ``out_of_range`` 1 (docs/method.md 4).
     """
-    from ._core import FORCE_LIMIT
     from .deadband import parse_deadband
 
     db = parse_deadband(deadband)
     nb = int(n_bins)
     n = int(length)
-    fit_keys = ("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std")
-    keys: Tuple[str, ...] = fit_keys + ("sse", "mean_z", "mean_y", "szz", "syy", "syz", "c_xy", "c_xz", "c_yz")
-    keys += ("deadband", "mu_a", "mu_b", "n_a", "n_b", "fz_min", "fz_max", "bin_count", "bin_cof", "aux_mean")
-    keys += ("mu_classic", "n", "out_of_range")
-    cols: Dict[str, Any] = {key: [] for key in keys}
-
-    def put(key: str, value: Any) -> None:
-        cols[key].append(value)
-
-    nan = float("nan")
+    cols: Dict[str, Any] = {key: [] for key in _WS_KEYS}
     forces = [a for a in (fx, fy, fz, *(raw or ())) if a is not None]
     for s in np.asarray(starts, dtype=np.int64):
         w = slice(int(s), int(s) + n)
-        y, z = np.asarray(fy[w], dtype=float), np.asarray(fz[w], dtype=float)
-        with np.errstate(over="ignore", invalid="ignore"):
-            # Eqs. 6-8 from centred sums.
-            mz, my = mean(z), mean(y)
-            dz, dy = z - mz, y - my
-            szz, syy, syz = float(dz @ dz), float(dy @ dy), float(dy @ dz)
-            sxx = float(np.sum(np.square(np.asarray(fx[w], dtype=float) - mean(fx[w])))) if fx is not None else 0.0
-        peak = max((float(np.abs(np.asarray(a[w], dtype=float)).max()) for a in forces), default=0.0) if n else 0.0
-        if peak > FORCE_LIMIT or not all(np.isfinite(v) for v in (szz, syy, syz, sxx)):
-            for key in keys:
-                put(key, nan)
-            cols["bin_count"][-1], cols["bin_cof"][-1] = np.zeros(nb, dtype=np.int64), np.full(nb, nan)
-            cols["n_a"][-1] = cols["n_b"][-1] = 0
-            cols["deadband"][-1] = db.value if db.kind == "force" else nan
-            cols["aux_mean"][-1] = mean(np.asarray(aux[w], dtype=float)) if aux is not None and n > 0 else nan
-            cols["n"][-1], cols["out_of_range"][-1] = n, 1
-            continue
-        if szz > 0:
-            e = dy - (syz / szz) * dz
-            sse = max(float(e @ e - e.sum() ** 2 / n), 0.0)
-        else:
-            sse = syy
-        if n >= 3 and szz > 0:
-            slope = syz / szz
-            resid_var = sse / (n - 2)
-            slope_se = np.sqrt(resid_var / szz)
-            fit = {
-                "slope": slope,
-                "intercept": my - slope * mz,
-                "r": _pearson_from(syz, szz, syy),
-                "slope_stderr": slope_se,
-                "intercept_stderr": slope_se * np.sqrt(szz / n + mz * mz),
-                "resid_std": np.sqrt(resid_var),
-            }
-        else:
-            fit = dict.fromkeys(fit_keys, nan)
-        for key, value in fit.items():
-            put(key, value)
-        for key, value in (("sse", sse), ("mean_z", mz), ("mean_y", my), ("szz", szz), ("syy", syy), ("syz", syz)):
-            put(key, value)
-        # Pearson at lag 0 (docs/method.md 5).
-        put("c_yz", _pearson_from(syz, szz, syy))
-        if fx is not None and n >= 2:
-            x = np.asarray(fx[w], dtype=float)
-            dx = x - mean(x)
-            sxx = float(dx @ dx)
-            put("c_xy", _pearson_from(float(dx @ dy), sxx, syy))
-            put("c_xz", _pearson_from(float(dx @ dz), sxx, szz))
-        else:
-            put("c_xy", nan)
-            put("c_xz", nan)
-        # Deadband and bins (docs/method.md 4).
-        if db.kind == "force":
-            d = db.value
-        else:
-            d = db.value * np.sqrt(szz / (n - 1)) if n >= 2 else nan
-        keep = (np.abs(z) >= d) & (z != 0)  # a NaN d keeps nothing
-        lo, hi = float(z.min()), float(z.max())
-        span = hi - lo
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            # n_bins / span first, as the kernel does: (z - lo) * nb / span
-            # rounds differently and moves some samples on an edge to a neighbour.
-            t = (z - lo) * (nb / span) if span > 0 else np.zeros(n)
-            ratio = y / z
-        # A tiny span can make nb / span infinite: (lo - lo) * inf is NaN, bin 0.
-        t = np.where(t >= 0, t, 0.0)
-        k = np.minimum(np.floor(t), nb - 1).astype(np.int64)
-        counts = np.zeros(nb, dtype=np.int64)
-        cof = np.full(nb, nan)
-        for j in range(nb):
-            in_bin = keep & (k == j)
-            counts[j] = in_bin.sum()
-            if counts[j]:
-                cof[j] = ratio[in_bin].mean()
-        neg, pos = keep & (z < 0), keep & (z > 0)
-        put("deadband", d)
-        put("mu_a", ratio[neg].mean() if neg.any() else nan)
-        put("mu_b", ratio[pos].mean() if pos.any() else nan)
-        put("n_a", int(neg.sum()))
-        put("n_b", int(pos.sum()))
-        put("fz_min", lo)
-        put("fz_max", hi)
-        put("bin_count", counts)
-        put("bin_cof", cof)
-        put("aux_mean", mean(np.asarray(aux[w], dtype=float)) if aux is not None and n > 0 else nan)
-        if raw is not None:
-            ay, az = np.abs(np.asarray(raw[0][w], dtype=float)), np.abs(np.asarray(raw[1][w], dtype=float))
-            nz = az > 0
-            put("mu_classic", float((ay[nz] / az[nz]).mean()) if nz.any() else nan)
-        else:
-            put("mu_classic", nan)
-        put("n", n)
-        put("out_of_range", 0)
-    m = len(np.asarray(starts))
+        row = _ws_window(fx, fy, fz, aux, raw, w=w, n=n, db=db, nb=nb, forces=forces)
+        for key in _WS_KEYS:
+            cols[key].append(row[key])
+    return _ws_arrays(cols, m=len(np.asarray(starts)), nb=nb)
+
+
+def _ws_window(
+    fx: Optional[np.ndarray],
+    fy: np.ndarray,
+    fz: np.ndarray,
+    aux: Optional[np.ndarray],
+    raw: Optional[Tuple[Any, ...]],
+    *,
+    w: slice,
+    n: int,
+    db: Any,
+    nb: int,
+    forces: Any,
+) -> Dict[str, Any]:
+    """:func:`window_stats`'s statistics of the one window ``w``."""
+    from ._core import FORCE_LIMIT
+
+    y, z = np.asarray(fy[w], dtype=float), np.asarray(fz[w], dtype=float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        # Eqs. 6-8 from centred sums.
+        mz, my = mean(z), mean(y)
+        dz, dy = z - mz, y - my
+        szz, syy, syz = float(dz @ dz), float(dy @ dy), float(dy @ dz)
+        sxx = float(np.sum(np.square(np.asarray(fx[w], dtype=float) - mean(fx[w])))) if fx is not None else 0.0
+    peak = max((float(np.abs(np.asarray(a[w], dtype=float)).max()) for a in forces), default=0.0) if n else 0.0
+    aux_mean = mean(np.asarray(aux[w], dtype=float)) if aux is not None and n > 0 else float("nan")
+    if peak > FORCE_LIMIT or not all(np.isfinite(v) for v in (szz, syy, syz, sxx)):
+        return _ws_out_of_range(n, db=db, nb=nb, aux_mean=aux_mean)
+    if szz > 0:
+        e = dy - (syz / szz) * dz
+        sse = max(float(e @ e - e.sum() ** 2 / n), 0.0)
+    else:
+        sse = syy
+    row = _ws_fit(n, mz, my, szz, syy, syz=syz, sse=sse)
+    row.update(sse=sse, mean_z=mz, mean_y=my, szz=szz, syy=syy, syz=syz)
+    # Pearson at lag 0 (docs/method.md 5).
+    row["c_yz"] = _pearson_from(syz, szz, syy)
+    if fx is not None and n >= 2:
+        x = np.asarray(fx[w], dtype=float)
+        dx = x - mean(x)
+        sxx = float(dx @ dx)
+        row["c_xy"] = _pearson_from(float(dx @ dy), sxx, syy)
+        row["c_xz"] = _pearson_from(float(dx @ dz), sxx, szz)
+    else:
+        row["c_xy"] = row["c_xz"] = float("nan")
+    # Deadband and bins (docs/method.md 4).
+    if db.kind == "force":
+        d = db.value
+    else:
+        d = db.value * np.sqrt(szz / (n - 1)) if n >= 2 else float("nan")
+    row.update(_ws_bins(y, z, d=d, n=n, nb=nb))
+    row["aux_mean"] = aux_mean
+    row["mu_classic"] = _ws_classic(raw, w) if raw is not None else float("nan")
+    row["n"] = n
+    row["out_of_range"] = 0
+    return row
+
+
+def _ws_out_of_range(n: int, *, db: Any, nb: int, aux_mean: float) -> Dict[str, Any]:
+    """:func:`window_stats`'s row of a window out of range: every statistic NaN, counts 0."""
+    nan = float("nan")
+    row: Dict[str, Any] = dict.fromkeys(_WS_KEYS, nan)
+    row["bin_count"], row["bin_cof"] = np.zeros(nb, dtype=np.int64), np.full(nb, nan)
+    row["n_a"] = row["n_b"] = 0
+    row["deadband"] = db.value if db.kind == "force" else nan
+    row["aux_mean"] = aux_mean
+    row["n"], row["out_of_range"] = n, 1
+    return row
+
+
+def _ws_fit(n: int, mz: float, my: float, szz: float, syy: float, *, syz: float, sse: float) -> Dict[str, Any]:
+    """The regression of fy on fz (Eqs. 6-8) from the window's centred sums, NaN when degenerate."""
+    if not (n >= 3 and szz > 0):
+        return dict.fromkeys(_WS_FIT_KEYS, float("nan"))
+    slope = syz / szz
+    resid_var = sse / (n - 2)
+    slope_se = np.sqrt(resid_var / szz)
+    return {
+        "slope": slope,
+        "intercept": my - slope * mz,
+        "r": _pearson_from(syz, szz, syy),
+        "slope_stderr": slope_se,
+        "intercept_stderr": slope_se * np.sqrt(szz / n + mz * mz),
+        "resid_std": np.sqrt(resid_var),
+    }
+
+
+def _ws_bins(y: np.ndarray, z: np.ndarray, *, d: float, n: int, nb: int) -> Dict[str, Any]:
+    """The deadband, fz bins, mu_a and mu_b of one window (docs/method.md 4)."""
+    nan = float("nan")
+    keep = (np.abs(z) >= d) & (z != 0)  # a NaN d keeps nothing
+    lo, hi = float(z.min()), float(z.max())
+    span = hi - lo
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        # n_bins / span first, as the kernel does: (z - lo) * nb / span
+        # rounds differently and moves some samples on an edge to a neighbour.
+        t = (z - lo) * (nb / span) if span > 0 else np.zeros(n)
+        ratio = y / z
+    # A tiny span can make nb / span infinite: (lo - lo) * inf is NaN, bin 0.
+    t = np.where(t >= 0, t, 0.0)
+    k = np.minimum(np.floor(t), nb - 1).astype(np.int64)
+    counts = np.zeros(nb, dtype=np.int64)
+    cof = np.full(nb, nan)
+    for j in range(nb):
+        in_bin = keep & (k == j)
+        counts[j] = in_bin.sum()
+        if counts[j]:
+            cof[j] = ratio[in_bin].mean()
+    neg, pos = keep & (z < 0), keep & (z > 0)
+    return {
+        "deadband": d,
+        "mu_a": ratio[neg].mean() if neg.any() else nan,
+        "mu_b": ratio[pos].mean() if pos.any() else nan,
+        "n_a": int(neg.sum()),
+        "n_b": int(pos.sum()),
+        "fz_min": lo,
+        "fz_max": hi,
+        "bin_count": counts,
+        "bin_cof": cof,
+    }
+
+
+def _ws_classic(raw: Tuple[Any, ...], w: slice) -> float:
+    """The classical COF mean(|fy_raw| / |fz_raw|) of one window over fz_raw != 0."""
+    ay, az = np.abs(np.asarray(raw[0][w], dtype=float)), np.abs(np.asarray(raw[1][w], dtype=float))
+    nz = az > 0
+    return float((ay[nz] / az[nz]).mean()) if nz.any() else float("nan")
+
+
+def _ws_arrays(cols: Dict[str, Any], *, m: int, nb: int) -> Dict[str, Any]:
+    """:func:`window_stats`'s per-window lists as arrays (the bins as (m, n_bins))."""
     out = {}
     for key, values in cols.items():
         if key == "bin_count":

@@ -28,8 +28,10 @@ returns the kernel's per-window statistics, which
     A list of separate acquisitions, one window each.
 
 The per-window table does not depend on the route, the chunk size or the
-thread count. An error of a reader or a kernel surfaces as it is (a NaN or
-inf names its channel and window); no route falls back to another.
+thread count. Every kernel call takes the analysis' one frozen
+``_core.WindowSpec`` (:class:`KernelSpec`). An error of a reader or a kernel
+surfaces as it is (the binding names a NaN or inf by its role, window and
+time); no route falls back to another.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ from .filters import HighPass
 from .headline import BlockSums, ClassicalTotals
 from .io.base import RecordingError, RecordingProtocol
 from .plan import Findings, Plan
-from .window_stats import compute
+from .window_stats import compute, make_spec
 from .windowing import Windower
 
 __all__ = [
@@ -101,17 +103,51 @@ class KernelRun:
 
 @dataclasses.dataclass(frozen=True)
 class KernelSpec:
-    """The kernel's settings for one analysis, made once from its plan and findings (docs/architecture.md)."""
+    """The kernel's settings for one analysis, made once from its plan and findings (docs/architecture.md).
+
+    ``window`` is the frozen ``_core.WindowSpec`` every kernel call of the
+    analysis takes, its settings checked and converted once; :meth:`spec`
+    gives its variants (an acquisition's own length, the auxiliary role,
+    a span's one thread), each made once.
+    """
 
     plan: Plan
     #: The statistics asked of the kernel per window (``tribodyn.columns``).
     columns: Tuple[str, ...]
     #: The options of the statistics beyond the paper (instrument lag, lines, delay, classical COF).
     options: Dict[str, Any]
+    #: The kernel's settings: the plan's window, deadband, bins, columns, options, threads, high-pass of raw forces,
+    #: and how a NaN or inf is named (role, time).
+    window: _core.WindowSpec
+    _variants: Dict[Tuple[Optional[int], Optional[str], Optional[int]], _core.WindowSpec] = dataclasses.field(
+        default_factory=dict, repr=False, compare=False
+    )
 
     @classmethod
     def of(cls, plan: Plan, found: Findings) -> "KernelSpec":
-        return cls(plan, plan.kernel_columns(found), plan.kernel_options(found))
+        columns, options = plan.kernel_columns(found), plan.kernel_options(found)
+        highpass = None
+        if plan.raw:
+            hp = HighPass(plan.fs, cutoff=_cutoff(plan))
+            highpass = (hp.sos, hp.steady_state)
+        window = make_spec(plan.length, plan.deadband, plan.n_bins, columns, options=options, threads=plan.threads,
+                           highpass=highpass, naming=("aux", plan.fs))  # fmt: skip
+        return cls(plan, columns, options, window)
+
+    def spec(self, *, length: Optional[int] = None, aux_role: Optional[str] = None,
+             threads: Optional[int] = None) -> _core.WindowSpec:  # fmt: skip
+        """``window`` for windows of ``length`` samples, an auxiliary channel ``aux_role`` and ``threads``."""
+        key = (
+            None if length == self.plan.length else length,
+            aux_role,
+            None if threads == self.plan.threads else threads,
+        )
+        if key == (None, None, None):
+            return self.window
+        got = self._variants.get(key)
+        if got is None:  # made once per variant (two threads may both make it: the same value)
+            got = self._variants[key] = self.window.replace(length=key[0], aux=key[1], threads=key[2])
+        return got
 
 
 def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
@@ -221,24 +257,9 @@ def _kernel(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray, ks
     aux = ch.get(aux_role) if aux_role else None
     raw = (ch["fy_raw"], ch["fz_raw"]) if plan.raw else None
     offset = int(absolute[0] - rel[0]) if len(rel) else 0
-    try:
-        st = compute(
-            ch.get("fx"),
-            ch["fy"],
-            ch["fz"],
-            aux,
-            rel,
-            length,
-            plan.deadband,
-            plan.n_bins,
-            ks.columns,
-            raw=raw,
-            threads=threads,
-            offset=offset,
-            options=ks.options,
-        )
-    except _core.NonFiniteError as exc:
-        raise _non_finite(exc, plan, aux_role) from None
+    # A NaN or inf comes out named by the binding: role, window and time.
+    spec = ks.spec(length=length, aux_role=aux_role, threads=threads)
+    st = compute(spec, ch["fy"], ch["fz"], rel, fx=ch.get("fx"), aux=aux, raw=raw, offset=offset)
     st["start"] = absolute.astype(np.int64)
     if "cof" in ch:
         st["mu_instrument"] = _window_means(ch["cof"], rel, length)
@@ -247,15 +268,6 @@ def _kernel(ch: Dict[str, np.ndarray], rel: np.ndarray, absolute: np.ndarray, ks
     if plan.max_lag is not None:
         st["skew"] = _skews(ch["fy"], ch["fz"], rel, length, plan.max_lag, threads=threads)
     return st  # fmt: skip
-
-
-def _non_finite(exc: Exception, plan: Plan, aux_role: Optional[str]) -> ValueError:
-    """The kernel's NaN/inf error in the recording's terms: the role, the window (or sample) and its time."""
-    _, channel, sample, window = exc.args
-    role = {"aux": aux_role or "aux"}.get(channel, str(channel).removesuffix("_raw"))
-    where = "in the window starting at sample" if window else "at sample"
-    tail = "" if window else "; the high-pass filter needs every sample"
-    return ValueError(f"{role} contains NaN or inf {where} {sample} (t = {sample / plan.fs:g} s{tail})")
 
 
 #: Samples of windows :func:`_window_means` copies at once.
@@ -410,19 +422,14 @@ def _run_mapped(rec: RecordingProtocol, ks: KernelSpec) -> Tuple[Stats, Optional
     blocks = -(-count // cap)
     blocks = -(-blocks // plan.threads) * plan.threads
     block = max(1, -(-count // blocks))
-    sos = zi = None
     if plan.raw:
-        hp = HighPass(plan.fs, cutoff=_cutoff(plan))
-        sos, zi, block = hp.sos, hp.steady_state, cap
+        block = cap  # the spec's high-pass runs one block ahead of the windows
     offsets = (layout.get("fx"), layout["fy"], layout["fz"], layout[aux] if aux else None)
     try:
-        st = _core.windows_stats_file(
-            fd, offsets, n_rec, k0, k1, plan.step, plan.length, 1.0, plan.deadband.kind, float(plan.deadband.value),
-            plan.n_bins, list(ks.columns), block=block, sos=sos, zi=zi, origin=plan.start,
-            threads=plan.threads, **ks.options,
-        )  # fmt: skip
-    except _core.NonFiniteError as exc:
-        raise _non_finite(exc, plan, aux) from None
+        st = _core.windows_stats_file(ks.spec(aux_role=aux), fd, offsets, n_rec, (k0, k1, plan.step), block=block,
+                                      origin=plan.start)  # fmt: skip
+    except _core.NonFiniteError:
+        raise  # named by the binding: role, window and time
     except ValueError as exc:
         # The kernel checks the file's length before each block: a file
         # that shrank since it was opened is the recording's error.

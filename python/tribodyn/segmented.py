@@ -95,7 +95,8 @@ def _sums(x: np.ndarray, y: np.ndarray, w: np.ndarray, glo: np.ndarray, ghi: np.
     )  # fmt: skip
 
 
-def _one_wall(S0: Any, Sy: Any, Syy: Any, S: Any, SS: Any, Sy_: Any) -> Tuple[Any, Any, Any, Any]:
+def _one_wall(S0: Any, Sy: Any, Syy: Any, *, S: Any, SS: Any, Sy_: Any) -> Tuple[Any, Any, Any, Any]:
+    """Slope, wall coefficient, RSS and determinant of one-wall fits, for every breakpoint."""
     det = S0 * SS - S * S
     with np.errstate(invalid="ignore", divide="ignore"):
         m = (SS * Sy - S * Sy_) / det
@@ -105,7 +106,7 @@ def _one_wall(S0: Any, Sy: Any, Syy: Any, S: Any, SS: Any, Sy_: Any) -> Tuple[An
 
 
 def _best(
-    x: np.ndarray, y: np.ndarray, w: np.ndarray, glo: np.ndarray, ghi: np.ndarray, family: str, min_wall: int
+    x: np.ndarray, y: np.ndarray, w: np.ndarray, glo: np.ndarray, ghi: np.ndarray, *, family: str, min_wall: int
 ) -> Fit:
     s = _sums(x, y, w, glo, ghi)
     S0, Sy, Syy = s["S0"], s["Sy"], s["Syy"]
@@ -116,7 +117,7 @@ def _best(
     if family in ("lower", "upper"):
         key = "L" if family == "lower" else "U"
         g = glo if family == "lower" else ghi
-        m, a, rss, det = _one_wall(S0, Sy, Syy, s[f"S{key}"], s[f"S{key}{key}"], s[f"S{key}y"])
+        m, a, rss, det = _one_wall(S0, Sy, Syy, S=s[f"S{key}"], SS=s[f"S{key}{key}"], Sy_=s[f"S{key}y"])
         ok = (s["nlo"] if family == "lower" else s["nhi"]) >= min_wall
         ok &= np.isfinite(rss) & (a >= 0) & (np.abs(det) > tiny * np.maximum(1.0, s[f"S{key}{key}"]))
         if not ok.any():
@@ -165,17 +166,17 @@ def _around(grid: np.ndarray, b: float) -> np.ndarray:
 def fit_family(x: np.ndarray, y: np.ndarray, w: np.ndarray, family: str, min_wall: int = 3) -> Fit:
     """The best fit of one family: a grid of :data:`_GRID` breakpoints over the range, refined once."""
     if family == "flat":
-        return _best(x, y, w, x[:1], x[:1], "flat", min_wall)
+        return _best(x, y, w, x[:1], x[:1], family="flat", min_wall=min_wall)
     lo, hi = float(x.min()), float(x.max())
     if not hi > lo:
         return _NONE
     grid = np.linspace(lo, hi, _GRID)
-    f = _best(x, y, w, grid, grid, family, min_wall)
+    f = _best(x, y, w, grid, grid, family=family, min_wall=min_wall)
     if not np.isfinite(f.rss):
         return f
     glo = _around(grid, f.b_lo) if family in ("lower", "both") else grid
     ghi = _around(grid, f.b_hi) if family in ("upper", "both") else grid
-    g = _best(x, y, w, glo, ghi, family, min_wall)
+    g = _best(x, y, w, glo, ghi, family=family, min_wall=min_wall)
     return g if g.rss <= f.rss else f
 
 

@@ -192,7 +192,7 @@ class _Segments:
     tare_fz: float
 
 
-def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, orientation: float
+def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, orientation: float
             ) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
     """(r, fn, label, friction) over samples a..b: r = friction - mu Fn (N; NaN out of the segments or of
     contact), Fn = |fz - tare|, label = the segment's index (-1 outside), friction = sign (fy - tare).
@@ -293,7 +293,7 @@ def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int) -> Optional[Tupl
     return max(white, coloured), -mid / (L + D)
 
 
-def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, sigma: float, slope: float,
+def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, sigma: float, slope: float,
             k: float, drop_samples: int) -> List[_Event]:  # fmt: skip
     """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g)."""
     n, L, D = r.size, SMOOTH, drop_samples
@@ -465,11 +465,11 @@ def stick_slip(
         for a, b, ra, rb in spans:
             d = fetch(ra, rb)
             own = slice(a - ra, b - ra)
-            r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], 1.0)
+            r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=1.0)
             inside = label[own] >= 0
             ysum = float(np.sum(y[own][inside]))
             if ysum < 0:
-                r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], -1.0)
+                r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=-1.0)
             est = _noise(r[own], label[own], drop_samples)
             if est is not None:
                 sigmas.append(est[0])
@@ -487,14 +487,18 @@ def stick_slip(
         events: List[_Event] = []
         for a, b, ra, rb in spans:
             d = fetch(ra, rb)
-            r, fn, label, _ = _signal(seg, ra, rb, d["fy"], d["fz"], orientation)
-            events += [e for e in _detect(r, fn, label, ra, sigma, slope, k, drop_samples) if a <= e.index < b]
+            r, fn, label, _ = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=orientation)
+            events += [
+                e
+                for e in _detect(r, fn, label, ra, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
+                if a <= e.index < b
+            ]
     finally:
         close()
-    return _summarise(events, sigma, k, duration, fs_, scope)
+    return _summarise(events, sigma=sigma, k=k, duration=duration, fs=fs_, scope=scope)
 
 
-def _summarise(events: List[_Event], sigma: float, k: float, duration: float, fs: float, scope: str) -> StickSlip:
+def _summarise(events: List[_Event], *, sigma: float, k: float, duration: float, fs: float, scope: str) -> StickSlip:
     """The recording's numbers and verdict from its events (docs/method.md 6g)."""
     events = sorted(events, key=lambda e: e.index)
     times = np.array([(e.index - 0.5) / fs for e in events])

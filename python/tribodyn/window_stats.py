@@ -4,9 +4,13 @@
 The Rust kernel ``_core.windows_stats`` computes, for every window, the
 regression of fy on fz, the three Pearson coefficients, the deadband, the fz
 bins and mu_a / mu_b in one task per window (GIL released, windows in
-parallel). It runs with orientation +1; the recording's orientation s is
-applied afterwards by :func:`orient`, which is exact (a sign flip), so the
-orientation can be fixed once per recording after all windows are seen.
+parallel). What every window of an analysis shares (length, deadband, bins,
+columns, options beyond the paper, threads) is one frozen
+``_core.WindowSpec``, checked and converted once (:func:`make_spec`;
+``routes.KernelSpec`` makes the analysis' one). The kernel runs with
+orientation +1; the recording's orientation s is applied afterwards by
+:func:`orient`, which is exact (a sign flip), so the orientation can be
+fixed once per recording after all windows are seen.
 """
 
 from __future__ import annotations
@@ -19,50 +23,69 @@ from . import _core
 from .columns import kernel_columns
 from .deadband import Deadband
 
-__all__ = ["compute", "orient", "gate_reasons", "COF_KEYS"]
+__all__ = ["compute", "make_spec", "orient", "gate_reasons", "COF_KEYS"]
 
 #: Quantities that change sign with the orientation s.
 COF_KEYS = ("slope", "intercept", "mu_a", "mu_b", "bin_cof")
 
 
-def compute(
-    fx: Optional[np.ndarray],
-    fy: np.ndarray,
-    fz: np.ndarray,
-    aux: Optional[np.ndarray],
-    starts: np.ndarray,
+def make_spec(
     length: int,
     deadband: Deadband,
     n_bins: int,
     columns: Optional[Sequence[str]] = None,
     *,
-    raw: Optional[Tuple[np.ndarray, np.ndarray]] = None,
-    threads: Optional[int] = None,
-    offset: int = 0,
+    raw: bool = False,
     options: Optional[Dict[str, Any]] = None,
-) -> Dict[str, np.ndarray]:
-    """Kernel statistics of windows ``[s, s + length)`` for ``s`` in ``starts`` (orientation +1).
+    threads: Optional[int] = None,
+    highpass: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+    naming: Optional[Tuple[str, float]] = None,
+) -> _core.WindowSpec:
+    """The kernel's frozen settings for windows of ``length`` samples, checked once (``_core.WindowSpec``).
 
     ``columns`` names the statistics wanted, in order (default
     :data:`tribodyn.columns.KERNEL_COLUMNS`, plus ``mu_classic`` with
-    ``raw``); the kernel returns exactly those. ``raw`` (fy, fz before the
-    high-pass) defines ``mu_classic``, the classical COF mean(|fy|/|fz|)
-    per window. A NaN or inf sample in a window raises
-    ``tribodyn._core.NonFiniteError`` (a ``ValueError``) naming the window's
-    start counted from ``offset``. ``threads`` (default: the process
-    default) never changes the results; 1 keeps the work on the calling
-    thread. ``options`` are the kernel's options of the statistics beyond
-    the paper (``Plan.kernel_options``: instrument lag, line frequencies,
-    segments, fz delay; docs/method.md 3a-3e).
+    ``raw``); the kernel returns exactly those. ``options`` are the
+    kernel's options of the statistics beyond the paper
+    (``Plan.kernel_options``: instrument lag, line frequencies, segments,
+    fz delay, classical COF; docs/method.md 3a-3e). ``threads`` (default:
+    the process default) never changes the results; 1 keeps the work on
+    the calling thread. ``highpass`` = (sos, zi) of raw forces, for the
+    file route. ``naming`` = (auxiliary role, fs): a NaN or inf is named by
+    its role and time. A bad setting is a ``ValueError`` (an unknown option
+    a ``TypeError``) here, before any window is read.
     """
-    fy_raw, fz_raw = raw if raw is not None else (None, None)
     if columns is None:
-        columns = kernel_columns(raw is not None)
-    return _core.windows_stats(
-        fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), int(length), 1.0, deadband.kind,
-        float(deadband.value), int(n_bins), list(columns), fy_raw=fy_raw, fz_raw=fz_raw, threads=threads,
-        offset=int(offset), **(options or {}),
+        columns = kernel_columns(raw)
+    return _core.WindowSpec(
+        int(length), (deadband.kind, float(deadband.value)), int(n_bins), list(columns), options=options,
+        highpass=highpass, threads=threads, naming=naming,
     )  # fmt: skip
+
+
+def compute(
+    spec: _core.WindowSpec,
+    fy: np.ndarray,
+    fz: np.ndarray,
+    starts: np.ndarray,
+    *,
+    fx: Optional[np.ndarray] = None,
+    aux: Optional[np.ndarray] = None,
+    raw: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+    offset: int = 0,
+) -> Dict[str, np.ndarray]:
+    """Kernel statistics of windows ``[s, s + spec.length)`` for ``s`` in ``starts`` (orientation +1).
+
+    Returns the spec's columns (:func:`make_spec`). ``raw`` (fy, fz before
+    the high-pass) defines ``mu_classic``, the classical COF
+    mean(|fy|/|fz|) per window. A NaN or inf sample in a window raises
+    ``tribodyn._core.NonFiniteError`` (a ``ValueError``) naming the
+    window's start counted from ``offset`` (and, with the spec's
+    ``naming``, the channel's role and the time).
+    """
+    return _core.windows_stats(
+        spec, fx, fy, fz, aux, np.ascontiguousarray(starts, dtype=np.int64), raw=raw, offset=int(offset)
+    )
 
 
 def orient(stats: Dict[str, np.ndarray], s: int, *, inplace: bool = False) -> Dict[str, np.ndarray]:

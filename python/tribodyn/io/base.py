@@ -829,13 +829,13 @@ class Recording:
         if not copy and self.views and self._can_view():
             # Views: one mapping per chunk, so a chunk never straddles two.
             return self._chunk_gen(
-                size, keys, names, self._view_blocks(names, size, start, stop), stop - start, copy=False
+                size, keys, names, self._view_blocks(names, size, start, stop), expected=stop - start, copy=False
             )
         block = max(size, self._block_rows)
         if start == 0 and stop == self._n:
-            return self._chunk_gen(size, keys, names, self._iter_blocks(names, block), self._n, copy=copy)
+            return self._chunk_gen(size, keys, names, self._iter_blocks(names, block), expected=self._n, copy=copy)
         return self._chunk_gen(
-            size, keys, names, self._range_blocks(names, block, start, stop), stop - start, copy=copy
+            size, keys, names, self._range_blocks(names, block, start, stop), expected=stop - start, copy=copy
         )
 
     def _view_blocks(self, names: Sequence[str], size: int, start: int, stop: int) -> Iterator[Dict[str, np.ndarray]]:
@@ -865,6 +865,7 @@ class Recording:
         keys: List[Tuple[str, str]],
         names: List[str],
         blocks: Iterator[Dict[str, np.ndarray]],
+        *,
         expected: int,
         copy: bool = True,
     ) -> Iterator[Dict[str, np.ndarray]]:

@@ -59,7 +59,7 @@ from __future__ import annotations
 import os
 import re
 from array import array
-from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -387,6 +387,42 @@ def _key_values(lines: Sequence[str], delim: Optional[str]) -> Dict[str, str]:
     return out
 
 
+class _ScanState:
+    """The row-by-row state of :meth:`DelimitedRecording._scan`."""
+
+    def __init__(self, between: List[str]) -> None:
+        self.blocks: List[_Block] = []
+        self.between = between  # lines since the last block (its info when a block starts)
+        self.state = "await"  # "await" a block, in "data", "between" blocks, a repeated "units" row next
+        self.offset = 0  # byte offset of the next line
+        self.lineno = 0  # line number of the last line read
+        self.ntimes = 0  # time values kept
+        self.total = 0  # data rows so far (the next row's sample)
+        # time restarts and gaps: (line, why, first sample)
+        self.breaks: List[Tuple[int, str, int]] = []
+        self.t_prev = float("nan")
+        self.t_now = float("nan")
+        # A row cut short (see _broken) is an error unless it is the file's last row: the
+        # error is raised when another row follows it.
+        self.broken: Optional[Tuple[int, int, bool]] = None  # (line number, fields, line end)
+        self.last: Optional[Tuple[int, bytes, bool]] = None  # last data row: (line number, raw, time kept)
+
+
+def _sample_rows(lines: Sequence[str], delim: Optional[str], nf: int) -> List[List[str]]:
+    """Up to 400 data rows from the data start: the fields of rows with ``nf`` fields until one has not."""
+    sample: List[List[str]] = []
+    for ln in lines:
+        if not ln.strip() or ln.lstrip().startswith("#"):
+            continue
+        f = split_fields(ln, delim)
+        if len(f) != nf:
+            break
+        sample.append(f)
+        if len(sample) >= 400:
+            break
+    return sample
+
+
 class DelimitedRecording(TextRecording):
     """A delimited text file (generic, CETR or COMPEND); see the module docstring."""
 
@@ -534,6 +570,36 @@ class DelimitedRecording(TextRecording):
         decimal: Optional[str],
         time_column: Optional[str],
     ) -> None:
+        """Reads the table's layout from the head: dialect, header rows, columns, time column, rate."""
+        delim, found = self._find_table(head, delimiter, decimal)
+        d0, nf, _ = found
+        sample = _sample_rows(head[d0:], delim, nf)
+        if decimal is None:
+            if delim != "," and any("," in x for row in sample for x in row if is_number(x, ",")):
+                decimal = ","
+            else:
+                decimal = "."
+        self._delim = delim
+        self._decimal = decimal
+        self._nf = nf
+        self._d0 = d0
+        name_f, unit_f = self._header_rows(head)
+        name_f, time_column = self._column_pairs(head, sample, name_f, time_column)
+        self._choose_columns(sample, name_f, unit_f)
+        self._find_time_column(sample, time_column, named=name_f is not None)
+        self._header_rate = header_rate(_key_values(self._header_lines, delim))
+        self._ref_step: Optional[float] = None
+        if self._time_idx is not None:
+            t = np.array([_num(r[self._time_idx], decimal) for r in sample if self._time_idx < len(r)])
+            d = np.diff(t[np.isfinite(t)])
+            d = d[d > 0]
+            if d.size:
+                self._ref_step = float(np.median(d))
+
+    def _find_table(
+        self, head: List[str], delimiter: Optional[str], decimal: Optional[str]
+    ) -> Tuple[Optional[str], Tuple[int, int, int]]:
+        """The delimiter (given, else the best candidate) and the head's data start (line, fields, rows)."""
         path = self.path
         if delimiter is not None:
             delim: Optional[str] = None if delimiter in ("whitespace", " ") else delimiter
@@ -557,28 +623,11 @@ class DelimitedRecording(TextRecording):
             if best is None:
                 raise RecordingError(f"{path}: no table of numbers found (not a delimited text recording?)")
             delim, found = best[1], best[2]
-        d0, nf, _ = found
-        # sample data rows
-        sample: List[List[str]] = []
-        for ln in head[d0:]:
-            if not ln.strip() or ln.lstrip().startswith("#"):
-                continue
-            f = split_fields(ln, delim)
-            if len(f) != nf:
-                break
-            sample.append(f)
-            if len(sample) >= 400:
-                break
-        if decimal is None:
-            if delim != "," and any("," in x for row in sample for x in row if is_number(x, ",")):
-                decimal = ","
-            else:
-                decimal = "."
-        self._delim = delim
-        self._decimal = decimal
-        self._nf = nf
-        self._d0 = d0
-        # header rows above the data
+        return delim, found
+
+    def _header_rows(self, head: List[str]) -> Tuple[Optional[List[str]], Optional[List[str]]]:
+        """The fields of the names row and of the units row above the data, if any (sets the header lines)."""
+        delim, decimal, nf, d0 = self._delim, self._decimal, self._nf, self._d0
         above = [(i, ln) for i, ln in enumerate(head[:d0]) if ln.strip()]
 
         def same(ln: str) -> bool:
@@ -612,43 +661,55 @@ class DelimitedRecording(TextRecording):
         self._name_idx = name_idx
         self._unit_idx = unit_idx
         self._header_lines = [ln for i, ln in enumerate(head[:d0]) if i not in (name_idx, unit_idx)]
-        # NI-style exports: (time, value) column pairs sharing one time base
+        return name_f, unit_f
+
+    def _column_pairs(
+        self, head: List[str], sample: List[List[str]], name_f: Optional[List[str]], time_column: Optional[str]
+    ) -> Tuple[Optional[List[str]], Optional[str]]:
+        """NI-style (time, value) column pairs sharing one time base: the names and time column read so."""
+        nf = self._nf
         self._pair_times: List[int] = []
-        paired = _paired_columns(sample, nf, decimal)
+        paired = _paired_columns(sample, nf, self._decimal)
         if paired and name_f is not None:
             evens = {_clean(name_f[j]) for j in range(0, nf, 2)}
             if not (len(evens) == 1 or all(not e or e.lower() == "channel name" or _time_name(e) for e in evens)):
                 paired = None  # named columns that merely increase (a position...), not pairs
         elif paired and not paired[1]:
             paired = None
-        if paired:
-            if not paired[1]:
-                raise RecordingError(
-                    f"{path}: (time, value) column pairs with different time bases: channels of different rates "
-                    "cannot be read as one recording; export them separately or map the channels of one rate"
-                )
-            chan = _channel_name_row(head[:d0], delim)
-            pn: List[str] = list(name_f) if name_f is not None else [""] * nf
-            for j in range(1, nf, 2):
-                nm = pn[j] if j < len(pn) else ""
-                if (not nm or nm.lower() in _GENERIC_VALUE_NAMES) and chan and (j // 2) < len(chan):
-                    pn[j] = chan[j // 2]
-            for j in range(0, nf, 2):
-                pn[j] = "Time" if j == 0 else ""
-            name_f = pn
-            self._pair_times = list(range(2, nf, 2))
-            if time_column is None:
-                time_column = "Time"
-            self.warnings.append(
-                f"read as {nf // 2} (time, value) column pairs with one time base (an NI-style export): "
-                f"channels {', '.join(repr(pn[j]) for j in range(1, nf, 2))}"
+        if not paired:
+            return name_f, time_column
+        if not paired[1]:
+            raise RecordingError(
+                f"{self.path}: (time, value) column pairs with different time bases: channels of different rates "
+                "cannot be read as one recording; export them separately or map the channels of one rate"
             )
-        # columns
+        chan = _channel_name_row(head[: self._d0], self._delim)
+        pn: List[str] = list(name_f) if name_f is not None else [""] * nf
+        for j in range(1, nf, 2):
+            nm = pn[j] if j < len(pn) else ""
+            if (not nm or nm.lower() in _GENERIC_VALUE_NAMES) and chan and (j // 2) < len(chan):
+                pn[j] = chan[j // 2]
+        for j in range(0, nf, 2):
+            pn[j] = "Time" if j == 0 else ""
+        self._pair_times = list(range(2, nf, 2))
+        if time_column is None:
+            time_column = "Time"
+        self.warnings.append(
+            f"read as {nf // 2} (time, value) column pairs with one time base (an NI-style export): "
+            f"channels {', '.join(repr(pn[j]) for j in range(1, nf, 2))}"
+        )
+        return pn, time_column
+
+    def _choose_columns(
+        self, sample: List[List[str]], name_f: Optional[List[str]], unit_f: Optional[List[str]]
+    ) -> None:
+        """The numeric columns read, their (deduplicated) names and units; text columns set aside."""
+        decimal = self._decimal
         use: List[int] = []
         names: List[str] = []
         raw_units: List[Optional[str]] = []
         text_cols: List[str] = []
-        for j in range(nf):
+        for j in range(self._nf):
             if j in self._pair_times:
                 continue
             nm = name_f[j] if name_f is not None else ""
@@ -666,7 +727,7 @@ class DelimitedRecording(TextRecording):
                 u = _unit_from_name(nm)
             raw_units.append(u or None)
         if not use:
-            raise RecordingError(f"{path}: no numeric column found")
+            raise RecordingError(f"{self.path}: no numeric column found")
         self._file_names = list(names)
         self._columns = [j + 1 for j in use]
         names = _dedupe(names)
@@ -674,7 +735,10 @@ class DelimitedRecording(TextRecording):
         self._names = names
         self._raw_units = dict(zip(names, raw_units))
         self._text_cols = text_cols
-        # time column
+
+    def _find_time_column(self, sample: List[List[str]], time_column: Optional[str], *, named: bool) -> None:
+        """The time column: the one named, else one with a time name, else (no names) one that steps steadily."""
+        names, use = self._names, self._usecols
         self._time_idx: Optional[int] = None
         self._time_name: Optional[str] = None
         if time_column is not None:
@@ -683,8 +747,8 @@ class DelimitedRecording(TextRecording):
             ]
             if not hits:
                 avail = ", ".join(repr(n) for n in names)
-                raise RecordingError(f"{path}: no time column {time_column!r}; available channels: {avail}")
-            k = hits[0]
+                raise RecordingError(f"{self.path}: no time column {time_column!r}; available channels: {avail}")
+            k: Optional[int] = hits[0]
         else:
             k = None
             timed = [_time_name(n) for n in names]
@@ -700,8 +764,8 @@ class DelimitedRecording(TextRecording):
                 if tn is not None and tn[1] and not self._raw_units.get(names[k]):
                     self._raw_units[names[k]] = tn[1]  # 'Zeit/ms': the unit written in the name
         self._time_guessed = False
-        if k is None and name_f is None and self._vendor is None:
-            k = _guess_time_column(sample, use, decimal)
+        if k is None and not named and self._vendor is None:
+            k = _guess_time_column(sample, use, self._decimal)
             self._time_guessed = k is not None
         if k is not None:
             self._time_idx = use[k]
@@ -711,14 +775,6 @@ class DelimitedRecording(TextRecording):
                     f"no column names: column {names[k]!r} taken as time (it increases steadily); "
                     "pass time_column= (--time-column) to choose another"
                 )
-        self._header_rate = header_rate(_key_values(self._header_lines, delim))
-        self._ref_step: Optional[float] = None
-        if self._time_idx is not None:
-            t = np.array([_num(r[self._time_idx], decimal) for r in sample if self._time_idx < len(r)])
-            d = np.diff(t[np.isfinite(t)])
-            d = d[d > 0]
-            if d.size:
-                self._ref_step = float(np.median(d))
 
     # ------------------------------------------------------------------ scan
     def _is_data(self, fields: List[str]) -> bool:
@@ -729,144 +785,185 @@ class DelimitedRecording(TextRecording):
         return not probe or is_number(probe, self._decimal)
 
     def _scan(self, head_raw: List[bytes]) -> None:
-        path = self.path
+        """Reads the file once: its blocks of data rows, time breaks, footer, sampling rate and metadata."""
         self._native = native_dialect(self._delim, self._decimal, self._comment) if self._use_native else None
         self._cps: List[Tuple[int, int, int]] = []
-        delim, decimal = self._delim, self._decimal
+        st = self._scan_rows(head_raw)
+        footer = self._check_last_row(st)
+        if not st.blocks:
+            raise RecordingError(f"{self.path}: no data rows")
+        self._index_blocks(st.blocks)
+        self._footer = footer
+        # sampling rate: the time column, else a rate written in the header
+        for line, why, first in st.breaks:
+            self.warnings.append(f"time {why} at line {line} (sample {first}): a new segment starts there")
+        self._breaks = [{"line": line, "why": why, "sample": first} for line, why, first in st.breaks]
+        self._find_rate(st.blocks)
+        delim = self._delim
+        self.metadata = {
+            "header": _key_values(self._header_lines, delim),
+            "delimiter": delim if delim is not None else "whitespace",
+            "decimal": self._decimal,
+            "blocks": [{"first_line": b.lineno, "rows": b.n, "info": _key_values(b.info, delim)} for b in st.blocks],
+        }
+        if self._text_cols:
+            self.metadata["text_columns"] = list(self._text_cols)
+        if footer:
+            self.metadata["footer"] = footer[:20]
+
+    def _scan_rows(self, head_raw: List[bytes]) -> _ScanState:
+        """Goes through the file's lines after the head, row by row (plain runs natively)."""
         name_b = head_raw[self._name_idx].strip() if self._name_idx is not None else None
         unit_b = head_raw[self._unit_idx].strip() if self._unit_idx is not None else None
         comment = self._comment
-        time_idx = self._time_idx
-        blocks: List[_Block] = []
-        between: List[str] = list(self._header_lines)
-        footer: List[str] = []
-        state = "await"
-        offset = 0
-        lineno = 0
-        ntimes = 0
-        # A row cut short (see _broken) is an error unless it is the file's last row: the
-        # error is raised when another row follows it.
-        breaks: List[Tuple[int, str, int]] = []  # time restarts and gaps: (line, why, first sample)
-        t_prev = float("nan")
-        t_now = float("nan")
-        broken: Optional[Tuple[int, int, bool]] = None  # (line number, fields, line end)
-        last: Optional[Tuple[int, bytes, bool]] = None  # last data row: (line number, raw, time kept)
-        native = self._native
-        total = 0  # data rows so far (the next row's sample)
+        st = _ScanState(list(self._header_lines))
         with open(self._data_path, "rb") as fh:
             while True:
-                if native is not None and state == "data":
-                    # The plain rows that follow, natively (the same rules, see tribodyn._core.text_scan).
-                    run = native_scan(
-                        fh.fileno(), offset, native, nf=self._nf, probe=self._usecols[0], time=time_idx,
-                        gap=GAP_FACTOR * self._ref_step if self._ref_step is not None else float("nan"),
-                        t_prev=t_prev, keep_times=max(0, _TIME_VALUES - ntimes) if time_idx is not None else 0,
-                    )  # fmt: skip
-                    if run["rows"]:
-                        total, ntimes, last = self._take_run(run, lineno + 1, blocks, breaks, total, ntimes)
-                        t_prev = run["t_prev"]
-                    offset = run["end"]
-                    lineno += run["lines"]
-                    fh.seek(offset)
+                if self._native is not None and st.state == "data":
+                    self._native_run(fh, st)
                 raw = fh.readline()
                 if not raw:
                     break
-                line_off = offset
-                offset += len(raw)
-                lineno += 1
-                if lineno <= self._d0:
+                line_off = st.offset
+                st.offset += len(raw)
+                st.lineno += 1
+                if st.lineno <= self._d0:
                     continue
                 s = raw.strip()
                 if not s or (comment is not None and s.startswith(comment.encode())):
                     continue
-                if broken is not None:
+                if st.broken is not None:
                     raise RecordingError(
-                        f"{path}: line {broken[0]} has {broken[1]} fields, expected {self._nf} "
+                        f"{self.path}: line {st.broken[0]} has {st.broken[1]} fields, expected {self._nf} "
                         "(truncated or corrupt file)"
                     )
-                text = raw.decode("latin-1").rstrip("\r\n")
-                fields = split_fields(text, delim)
-                if state == "data":
-                    if self._is_data(fields):
-                        if time_idx is not None:
-                            t_now = _num(fields[time_idx], decimal)
-                            why = self._time_break(t_prev, t_now)
-                            t_prev = t_now if t_now == t_now else t_prev
-                            if why:
-                                breaks.append((lineno, why, total))
-                                blocks.append(_Block(line_off, lineno, []))
-                        blk = blocks[-1]
-                        blk.n += 1
-                        total += 1
-                        kept = time_idx is not None and ntimes < _TIME_VALUES
-                        if time_idx is not None and kept:
-                            blk.times.append(t_now)
-                            ntimes += 1
-                        last = (lineno, raw, kept)
-                        continue
-                    state = "between"
-                    between = []
-                    if self._broken(fields, raw):
-                        broken = (lineno, len(fields), raw.endswith((b"\n", b"\r")))
-                    else:
-                        between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
-                    continue
-                if state == "between":
-                    if name_b is not None and s == name_b:
-                        state = "units" if unit_b is not None else "await"
-                        continue
-                    if self._is_data(fields):
-                        raise RecordingError(
-                            f"{path}: line {lineno}: data row after non-data lines without a new "
-                            "column row (corrupt file?)"
-                        )
-                    if self._broken(fields, raw):
-                        broken = (lineno, len(fields), raw.endswith((b"\n", b"\r")))
-                    else:
-                        between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
-                    continue
-                if state == "units":
-                    state = "await"
-                    if not self._is_data(fields):
-                        if s != unit_b:
-                            self.warnings.append(f"line {lineno}: units row differs from the first block's")
-                        continue
-                # await: the next data row starts a block
-                if self._is_data(fields):
-                    blk = _Block(line_off, lineno, between)
-                    blk.n = 1
-                    total += 1
-                    kept = time_idx is not None and ntimes < _TIME_VALUES
-                    if time_idx is not None:
-                        t_prev = _num(fields[time_idx], decimal)
-                        if kept:
-                            blk.times.append(t_prev)
-                            ntimes += 1
-                    last = (lineno, raw, kept)
-                    blocks.append(blk)
-                    between = []
-                    state = "data"
-                    continue
-                state = "between"
-                if self._broken(fields, raw):
-                    broken = (lineno, len(fields), raw.endswith((b"\n", b"\r")))
-                else:
-                    between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
-        if state == "between" or state == "units" or state == "await":
-            footer = between
+                fields = split_fields(raw.decode("latin-1").rstrip("\r\n"), self._delim)
+                self._scan_row(st, raw, fields, line_off=line_off, heads=(s, name_b, unit_b))
+        return st
+
+    def _native_run(self, fh: IO[bytes], st: _ScanState) -> None:
+        """The plain rows that follow, natively (the same rules, see tribodyn._core.text_scan)."""
+        assert self._native is not None
+        time_idx = self._time_idx
+        run = native_scan(
+            fh.fileno(), st.offset, self._native, nf=self._nf, probe=self._usecols[0], time=time_idx,
+            gap=GAP_FACTOR * self._ref_step if self._ref_step is not None else float("nan"),
+            t_prev=st.t_prev, keep_times=max(0, _TIME_VALUES - st.ntimes) if time_idx is not None else 0,
+        )  # fmt: skip
+        if run["rows"]:
+            st.total, st.ntimes, st.last = self._take_run(
+                run, st.lineno + 1, st.blocks, st.breaks, total=st.total, ntimes=st.ntimes
+            )
+            st.t_prev = run["t_prev"]
+        st.offset = run["end"]
+        st.lineno += run["lines"]
+        fh.seek(st.offset)
+
+    def _scan_row(
+        self,
+        st: _ScanState,
+        raw: bytes,
+        fields: List[str],
+        *,
+        line_off: int,
+        heads: Tuple[bytes, Optional[bytes], Optional[bytes]],
+    ) -> None:
+        """One non-blank row, by the scan's state: a data row, a line between blocks, a repeated head."""
+        s, name_b, unit_b = heads
+        if st.state == "data":
+            if self._is_data(fields):
+                self._data_row(st, raw, fields, line_off)
+                return
+            st.state = "between"
+            st.between = []
+            self._non_data_row(st, raw, fields)
+            return
+        if st.state == "between":
+            if name_b is not None and s == name_b:
+                st.state = "units" if unit_b is not None else "await"
+                return
+            if self._is_data(fields):
+                raise RecordingError(
+                    f"{self.path}: line {st.lineno}: data row after non-data lines without a new "
+                    "column row (corrupt file?)"
+                )
+            self._non_data_row(st, raw, fields)
+            return
+        if st.state == "units":
+            st.state = "await"
+            if not self._is_data(fields):
+                if s != unit_b:
+                    self.warnings.append(f"line {st.lineno}: units row differs from the first block's")
+                return
+        # await: the next data row starts a block
+        if self._is_data(fields):
+            self._first_row(st, raw, fields, line_off)
+            return
+        st.state = "between"
+        self._non_data_row(st, raw, fields)
+
+    def _data_row(self, st: _ScanState, raw: bytes, fields: List[str], line_off: int) -> None:
+        """A data row in a block; a time restart or gap starts a new block."""
+        time_idx = self._time_idx
+        if time_idx is not None:
+            st.t_now = _num(fields[time_idx], self._decimal)
+            why = self._time_break(st.t_prev, st.t_now)
+            st.t_prev = st.t_now if st.t_now == st.t_now else st.t_prev
+            if why:
+                st.breaks.append((st.lineno, why, st.total))
+                st.blocks.append(_Block(line_off, st.lineno, []))
+        blk = st.blocks[-1]
+        blk.n += 1
+        st.total += 1
+        kept = time_idx is not None and st.ntimes < _TIME_VALUES
+        if time_idx is not None and kept:
+            blk.times.append(st.t_now)
+            st.ntimes += 1
+        st.last = (st.lineno, raw, kept)
+
+    def _first_row(self, st: _ScanState, raw: bytes, fields: List[str], line_off: int) -> None:
+        """The first data row of a block, the lines read since the last block its info."""
+        time_idx = self._time_idx
+        blk = _Block(line_off, st.lineno, st.between)
+        blk.n = 1
+        st.total += 1
+        kept = time_idx is not None and st.ntimes < _TIME_VALUES
+        if time_idx is not None:
+            st.t_prev = _num(fields[time_idx], self._decimal)
+            if kept:
+                blk.times.append(st.t_prev)
+                st.ntimes += 1
+        st.last = (st.lineno, raw, kept)
+        st.blocks.append(blk)
+        st.between = []
+        st.state = "data"
+
+    def _non_data_row(self, st: _ScanState, raw: bytes, fields: List[str]) -> None:
+        """A line that is not data: a row cut short (kept as ``broken``) or a line between blocks."""
+        if self._broken(fields, raw):
+            st.broken = (st.lineno, len(fields), raw.endswith((b"\n", b"\r")))
+        else:
+            st.between.append(decode_header(raw, self._encoding).rstrip("\r\n"))
+
+    def _check_last_row(self, st: _ScanState) -> List[str]:
+        """Refuses or drops an incomplete last row; returns the footer (the lines after the last block)."""
+        footer: List[str] = []
+        if st.state == "between" or st.state == "units" or st.state == "await":
+            footer = st.between
         # The last row must be whole: newline-terminated (a line end is the last thing written) and
         # with every field. A vendor export always is, so it is refused; in other files the row is
         # dropped with a warning (it may be the row being written when the file was copied).
         strict = self._vendor is not None
+        broken, last, blocks = st.broken, st.last, st.blocks
         if broken is not None:
             defects = row_defects(broken[1], self._nf, broken[2])
             if strict:
-                raise incomplete_row_error(path, broken[0], defects)
+                raise incomplete_row_error(self.path, broken[0], defects)
             self.warnings.append(dropped_row_warning(broken[0], defects))
         elif last is not None and not last[1].endswith((b"\n", b"\r")):
             defects = row_defects(self._nf, self._nf, False)
             if strict:
-                raise incomplete_row_error(path, last[0], defects)
+                raise incomplete_row_error(self.path, last[0], defects)
             self.warnings.append(dropped_row_warning(last[0], defects))
             blk = blocks[-1]
             blk.n -= 1
@@ -875,8 +972,10 @@ class DelimitedRecording(TextRecording):
             if blk.n == 0:
                 blocks.pop()
                 footer = blk.info
-        if not blocks:
-            raise RecordingError(f"{path}: no data rows")
+        return footer
+
+    def _index_blocks(self, blocks: List[_Block]) -> None:
+        """The blocks as the recording's segments and checkpoints (random access when native)."""
         self._blocks = blocks
         pos = 0
         ranges = []
@@ -884,16 +983,14 @@ class DelimitedRecording(TextRecording):
             ranges.append((pos, pos + b.n))
             self._cps.append((pos, b.offset, b.lineno))
             pos += b.n
-        if native is not None:  # read at any sample from here on
-            self._checkpoints, self._parse_dialect = Checkpoints(self._cps, pos), native
+        if self._native is not None:  # read at any sample from here on
+            self._checkpoints, self._parse_dialect = Checkpoints(self._cps, pos), self._native
             self.random_access = True
         self._n = pos
         self._segments = ranges
-        self._footer = footer
-        # sampling rate: the time column, else a rate written in the header
-        for line, why, first in breaks:
-            self.warnings.append(f"time {why} at line {line} (sample {first}): a new segment starts there")
-        self._breaks = [{"line": line, "why": why, "sample": first} for line, why, first in breaks]
+
+    def _find_rate(self, blocks: List[_Block]) -> None:
+        """The sampling rate: from the time column's median step, else a rate written in the header."""
         hr = self._header_rate
         if self._time_name is not None:
             tu = normalize_unit(self._raw_units.get(self._time_name))
@@ -917,20 +1014,10 @@ class DelimitedRecording(TextRecording):
                     f"sampling rate {hr.hz:g} Hz taken from the header's {hr.key!r} (a value in Hz under a key "
                     "not known as a sampling rate): pass fs= (--fs) if it is another frequency"
                 )
-        self.metadata = {
-            "header": _key_values(self._header_lines, delim),
-            "delimiter": delim if delim is not None else "whitespace",
-            "decimal": decimal,
-            "blocks": [{"first_line": b.lineno, "rows": b.n, "info": _key_values(b.info, delim)} for b in blocks],
-        }
-        if self._text_cols:
-            self.metadata["text_columns"] = list(self._text_cols)
-        if footer:
-            self.metadata["footer"] = footer[:20]
 
     def _take_run(
         self, run: Dict[str, Any], first_line: int, blocks: List[_Block], breaks: List[Tuple[int, str, int]],
-        total: int, ntimes: int,
+        *, total: int, ntimes: int,
     ) -> Tuple[int, int, Tuple[int, bytes, bool]]:  # fmt: skip
         """Adds a native run of data rows (see :func:`~tribodyn.io._text.native_scan`) to the scan's blocks.
 
@@ -1108,8 +1195,12 @@ class DelimitedRecording(TextRecording):
         comment = self._comment.encode() if self._comment else None
         with open(self._data_path, "rb") as fh:
             for b in self._blocks:
-                for lines, nos in iter_data_lines(fh, b.offset, b.lineno, b.n, block, self.path, comment):
-                    a = parse_rows(lines, nos, self._delim, self._decimal, usecols, list(names), self.path)
+                for lines, nos in iter_data_lines(
+                    fh, b.offset, b.lineno, b.n, block=block, path=self.path, comment=comment
+                ):
+                    a = parse_rows(
+                        lines, nos, self._delim, self._decimal, usecols=usecols, colnames=list(names), path=self.path
+                    )
                     yield {nm: a[:, c] for c, nm in enumerate(names)}
 
 

@@ -179,7 +179,7 @@ class Hdf5Recording(Recording):
         self._fd: Optional[int] = None
         self._ext: Dict[str, Any] = {}
         with closing_on_error(self):
-            self._open(h5py, channels, fs, scale, units, group, time_channel)
+            self._open(h5py, channels, fs, scale, units, group=group, time_channel=time_channel)
             if _NATIVE:
                 self._open_native(h5py)
             self._identity_at_open = identity
@@ -318,6 +318,7 @@ class Hdf5Recording(Recording):
         fs: Optional[float],
         scale: Optional[Mapping[str, float]],
         units: Optional[Mapping[str, str]],
+        *,
         group: Optional[str],
         time_channel: Optional[str],
     ) -> None:

@@ -38,7 +38,7 @@ How this reader behaves:
 from __future__ import annotations
 
 import math
-from typing import Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -77,6 +77,39 @@ class _Segment:
         self.announced: Optional[int] = None
 
 
+class _LvmScan:
+    """The line-by-line state of :meth:`LvmRecording._scan`."""
+
+    def __init__(self, offset: int, lineno: int, sep: bytes) -> None:
+        self.offset = offset  # byte offset of the next line
+        self.lineno = lineno  # line number of the last line read
+        self.sep = sep
+        self.segments: List[_Segment] = []
+        self.colnames: Optional[List[str]] = None  # column row of the layout in force
+        self.cur_header: Dict[str, List[str]] = {}
+        self.state = "between"  # between | header | after_header | data
+        self.last_raw = b""
+        self.last_lineno = 0
+        self.seg: Optional[_Segment] = None
+
+
+def _hval(sg: _Segment, key: str, i: int) -> str:
+    """Field ``i`` of the segment header's ``key`` row, '' without one."""
+    v = sg.header.get(key)
+    return v[i] if v is not None and i < len(v) else ""
+
+
+def _hnum(sg: _Segment, key: str, i: int, decimal: str) -> Optional[float]:
+    """:func:`_hval` as a number, None when empty or not a number."""
+    s = _hval(sg, key, i)
+    if not s:
+        return None
+    try:
+        return to_float(s, decimal)
+    except ValueError:
+        return None
+
+
 class LvmRecording(TextRecording):
     """A LabVIEW Measurement file; see the module docstring."""
 
@@ -108,143 +141,18 @@ class LvmRecording(TextRecording):
 
     # ------------------------------------------------------------------ scan
     def _scan(self) -> None:
+        """Reads the file once: its file header, segments (headers, column rows, data rows) and layout."""
         path = self.path
         with open(path, "rb") as fh:
             first = fh.readline()
             if not first.lstrip(b"\xef\xbb\xbf").startswith(b"LabVIEW Measurement"):
                 raise RecordingError(f"{path}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)")
-            offset = len(first)
-            lineno = 1
-            # ---- file header
-            file_header: Dict[str, str] = {}
-            header_lines: List[bytes] = []
-            while True:
-                raw = fh.readline()
-                if not raw:
-                    raise RecordingError(f"{path}: truncated LVM file: no end of the file header")
-                offset += len(raw)
-                lineno += 1
-                s = raw.rstrip(b"\r\n")
-                if s.split(b"\t", 1)[0].split(b",", 1)[0].strip() == _END:
-                    break
-                header_lines.append(s)
-            sep = b"\t"
-            for s in header_lines:
-                if s.startswith(b"Separator"):
-                    val = s[len(b"Separator") + 1 :].strip().lower()
-                    if val.startswith(b"comma"):
-                        sep = b","
-                    break
-            for s in header_lines:
-                parts = s.split(sep)
-                key = decode_header(parts[0], self._encoding).strip()
-                if key:
-                    val = parts[1] if len(parts) > 1 else b""
-                    file_header[key] = decode_header(val, self._encoding).strip()
-            decimal = file_header.get("Decimal_Separator", ".") or "."
-            if decimal not in (".", ","):
-                raise RecordingError(f"{path}: unsupported Decimal_Separator {decimal!r}")
-            if decimal == "," and sep == b",":
-                raise RecordingError(f"{path}: comma used both as separator and decimal separator")
+            file_header, offset, lineno = self._file_header(fh, len(first))
             x_columns = file_header.get("X_Columns", "One")
             multi_headings = file_header.get("Multi_Headings", "Yes")
-            self._sep = sep.decode()
-            self._decimal = decimal
-
-            # ---- segments
-            segments: List[_Segment] = []
-            colnames: Optional[List[str]] = None  # column row of the layout in force
-            cur_header: Dict[str, List[str]] = {}
-            state = "between"  # between | header | after_header | data
-            last_raw = b""
-            last_lineno = 0
-            seg: Optional[_Segment] = None
-            native = native_dialect(self._sep, decimal, None, skip_blank=False) if self._use_native else None
-            self._native = native
-            while True:
-                if native is not None and state == "data":
-                    # The plain rows that follow, natively (the same rules, see tribodyn._core.text_scan).
-                    assert seg is not None
-                    run = native_scan(fh.fileno(), offset, native, nf=None, probe=0)
-                    if run["rows"]:
-                        for row, off, line in run["checkpoints"]:
-                            seg.cps.append((seg.n + int(row), int(off), lineno + 1 + int(line)))
-                        seg.n += int(run["rows"])
-                        last_lineno = lineno + 1 + int(run["last"][0])
-                        fh.seek(int(run["last"][1]))
-                        last_raw = fh.readline()
-                    offset = int(run["end"])
-                    lineno += int(run["lines"])
-                    fh.seek(offset)
-                raw = fh.readline()
-                if not raw:
-                    break
-                line_off = offset
-                offset += len(raw)
-                lineno += 1
-                s = raw.rstrip(b"\r\n")
-                first_field = s.split(sep, 1)[0].strip()
-                blank = not s.replace(sep, b"").strip()
-                if state == "data":
-                    if blank:
-                        state = "between"
-                        continue
-                    if first_field and _is_key(first_field):
-                        state = "between"  # fall through: a new header starts here
-                    else:
-                        assert seg is not None
-                        seg.n += 1
-                        last_raw, last_lineno = raw, lineno
-                        continue
-                if state == "between":
-                    if blank:
-                        continue
-                    if first_field == b"X_Value":
-                        colnames = self._column_row(s, sep)
-                        cur_header = cur_header or {}
-                        state = "after_header"
-                        continue
-                    if first_field and _is_key(first_field):
-                        cur_header = {}
-                        state = "header"
-                    else:
-                        # data resuming without a new header: same layout
-                        if colnames is None and not segments:
-                            raise RecordingError(
-                                f"{path}: line {lineno}: data before any segment header (corrupt LVM file?)"
-                            )
-                        seg = _Segment(line_off, lineno, segments[-1].header if segments else cur_header)
-                        seg.n = 1
-                        segments.append(seg)
-                        last_raw, last_lineno = raw, lineno
-                        state = "data"
-                        continue
-                if state == "header":
-                    if first_field == _END:
-                        state = "after_header"
-                        continue
-                    hfields = [decode_header(p, self._encoding).strip() for p in s.split(sep)]
-                    if hfields[0]:
-                        cur_header[hfields[0]] = hfields
-                    continue
-                if state == "after_header":
-                    if blank:
-                        continue
-                    if first_field == b"X_Value":
-                        colnames = self._column_row(s, sep)
-                        continue
-                    seg = _Segment(line_off, lineno, cur_header)
-                    seg.n = 1
-                    segments.append(seg)
-                    last_raw, last_lineno = raw, lineno
-                    state = "data"
-                    if colnames is None:
-                        colnames = self._implicit_columns(cur_header, x_columns, len(s.split(sep)), path, lineno)
-                    seg.header = dict(cur_header)
-                    seg.header["__columns__"] = list(colnames)
-                    continue
-            if state in ("header",):
-                raise RecordingError(f"{path}: truncated LVM file: a segment header has no end")
+            st = _LvmScan(offset, lineno, self._sep.encode())
+            self._scan_segments(fh, st, x_columns)
+        segments, colnames, last_raw, last_lineno = st.segments, st.colnames, st.last_raw, st.last_lineno
         if not segments:
             raise RecordingError(f"{path}: LVM file without data rows")
         for sg in segments:
@@ -257,6 +165,141 @@ class LvmRecording(TextRecording):
         tail = last_raw.decode("latin-1").rstrip("\r\n").split(self._sep)
         if len(tail) < max(self._usecols) + 1:
             raise incomplete_row_error(path, last_lineno, row_defects(len(tail), max(self._usecols) + 1, terminated))
+
+    def _file_header(self, fh: IO[bytes], offset: int) -> Tuple[Dict[str, str], int, int]:
+        """The file header after the first line: its keys, and the offset and line number of its end."""
+        path = self.path
+        lineno = 1
+        file_header: Dict[str, str] = {}
+        header_lines: List[bytes] = []
+        while True:
+            raw = fh.readline()
+            if not raw:
+                raise RecordingError(f"{path}: truncated LVM file: no end of the file header")
+            offset += len(raw)
+            lineno += 1
+            s = raw.rstrip(b"\r\n")
+            if s.split(b"\t", 1)[0].split(b",", 1)[0].strip() == _END:
+                break
+            header_lines.append(s)
+        sep = b"\t"
+        for s in header_lines:
+            if s.startswith(b"Separator"):
+                val = s[len(b"Separator") + 1 :].strip().lower()
+                if val.startswith(b"comma"):
+                    sep = b","
+                break
+        for s in header_lines:
+            parts = s.split(sep)
+            key = decode_header(parts[0], self._encoding).strip()
+            if key:
+                val = parts[1] if len(parts) > 1 else b""
+                file_header[key] = decode_header(val, self._encoding).strip()
+        decimal = file_header.get("Decimal_Separator", ".") or "."
+        if decimal not in (".", ","):
+            raise RecordingError(f"{path}: unsupported Decimal_Separator {decimal!r}")
+        if decimal == "," and sep == b",":
+            raise RecordingError(f"{path}: comma used both as separator and decimal separator")
+        self._sep = sep.decode()
+        self._decimal = decimal
+        return file_header, offset, lineno
+
+    def _scan_segments(self, fh: IO[bytes], st: _LvmScan, x_columns: str) -> None:
+        """Goes through the lines after the file header, line by line (plain data rows natively)."""
+        native = native_dialect(self._sep, self._decimal, None, skip_blank=False) if self._use_native else None
+        self._native = native
+        while True:
+            if native is not None and st.state == "data":
+                self._native_run(fh, st, native)
+            raw = fh.readline()
+            if not raw:
+                break
+            line_off = st.offset
+            st.offset += len(raw)
+            st.lineno += 1
+            self._scan_line(st, raw, line_off=line_off, x_columns=x_columns)
+        if st.state in ("header",):
+            raise RecordingError(f"{self.path}: truncated LVM file: a segment header has no end")
+
+    def _native_run(self, fh: IO[bytes], st: _LvmScan, native: Dict[str, Any]) -> None:
+        """The plain rows that follow, natively (the same rules, see tribodyn._core.text_scan)."""
+        seg = st.seg
+        assert seg is not None
+        run = native_scan(fh.fileno(), st.offset, native, nf=None, probe=0)
+        if run["rows"]:
+            for row, off, line in run["checkpoints"]:
+                seg.cps.append((seg.n + int(row), int(off), st.lineno + 1 + int(line)))
+            seg.n += int(run["rows"])
+            st.last_lineno = st.lineno + 1 + int(run["last"][0])
+            fh.seek(int(run["last"][1]))
+            st.last_raw = fh.readline()
+        st.offset = int(run["end"])
+        st.lineno += int(run["lines"])
+        fh.seek(st.offset)
+
+    def _scan_line(self, st: _LvmScan, raw: bytes, *, line_off: int, x_columns: str) -> None:
+        """One line, by the scan's state: a data row, a segment header's line, a column row."""
+        path, sep, lineno = self.path, st.sep, st.lineno
+        s = raw.rstrip(b"\r\n")
+        first_field = s.split(sep, 1)[0].strip()
+        blank = not s.replace(sep, b"").strip()
+        if st.state == "data":
+            if blank:
+                st.state = "between"
+                return
+            if first_field and _is_key(first_field):
+                st.state = "between"  # fall through: a new header starts here
+            else:
+                assert st.seg is not None
+                st.seg.n += 1
+                st.last_raw, st.last_lineno = raw, lineno
+                return
+        if st.state == "between":
+            if blank:
+                return
+            if first_field == b"X_Value":
+                st.colnames = self._column_row(s, sep)
+                st.cur_header = st.cur_header or {}
+                st.state = "after_header"
+                return
+            if first_field and _is_key(first_field):
+                st.cur_header = {}
+                st.state = "header"
+            else:
+                # data resuming without a new header: same layout
+                if st.colnames is None and not st.segments:
+                    raise RecordingError(f"{path}: line {lineno}: data before any segment header (corrupt LVM file?)")
+                seg = _Segment(line_off, lineno, st.segments[-1].header if st.segments else st.cur_header)
+                seg.n = 1
+                st.seg = seg
+                st.segments.append(seg)
+                st.last_raw, st.last_lineno = raw, lineno
+                st.state = "data"
+                return
+        if st.state == "header":
+            if first_field == _END:
+                st.state = "after_header"
+                return
+            hfields = [decode_header(p, self._encoding).strip() for p in s.split(sep)]
+            if hfields[0]:
+                st.cur_header[hfields[0]] = hfields
+            return
+        if st.state == "after_header":
+            if blank:
+                return
+            if first_field == b"X_Value":
+                st.colnames = self._column_row(s, sep)
+                return
+            seg = _Segment(line_off, lineno, st.cur_header)
+            seg.n = 1
+            st.seg = seg
+            st.segments.append(seg)
+            st.last_raw, st.last_lineno = raw, lineno
+            st.state = "data"
+            if st.colnames is None:
+                st.colnames = self._implicit_columns(st.cur_header, x_columns, len(s.split(sep)), path, lineno)
+            seg.header = dict(st.cur_header)
+            seg.header["__columns__"] = list(st.colnames)
 
     def _column_row(self, s: bytes, sep: bytes) -> List[str]:
         return [decode_header(p, self._encoding).strip() for p in s.split(sep)]
@@ -295,6 +338,29 @@ class LvmRecording(TextRecording):
         multi_headings: str,
         file_header: Dict[str, str],
     ) -> None:
+        """The channels, units, rate, segments and acquisitions from the segments' headers and rows."""
+        cols0, idx = self._channel_columns(segments)
+        keep, skipped = self._kept_channels(segments, cols0, idx)
+        self._file_names = [cols0[i] or "Untitled" for i in keep]
+        self._columns = [i + 1 for i in keep]
+        names = _dedupe(self._file_names)
+        self._usecols = keep
+        self._names = names
+        self._raw_units = {n: (_hval(segments[0], "Y_Unit_Label", i) or None) for n, i in zip(names, keep)}
+        dx0 = self._sampling_interval(segments, names, keep)
+        self._index_segments(segments, keep[0], multi_headings)
+        step = dx0 if dx0 is not None and dx0 > 0 else None
+        self.acquisitions: List[Tuple[int, int]] = self._acquisitions(segments, keep[0], step)
+        self.metadata = {
+            "header": dict(file_header),
+            "segments_in_file": len(segments),
+            "samples_announced": [_hnum(sg, "Samples", keep[0], self._decimal) for sg in segments],
+        }
+        if skipped:
+            self.metadata["skipped"] = skipped
+
+    def _channel_columns(self, segments: List[_Segment]) -> Tuple[List[str], List[int]]:
+        """The column row (the same in every segment) and its channel columns (not X_Value, not a last Comment)."""
         path = self.path
         cols0 = segments[0].header["__columns__"]
         for k, sg in enumerate(segments[1:], 2):
@@ -307,25 +373,15 @@ class LvmRecording(TextRecording):
         idx = [i for i, n in enumerate(cols0) if n != "X_Value" and not (n == "Comment" and i == len(cols0) - 1)]
         if not idx:
             raise RecordingError(f"{path}: LVM file without data channels")
+        return cols0, idx
 
-        def hval(sg: _Segment, key: str, i: int) -> str:
-            v = sg.header.get(key)
-            return v[i] if v is not None and i < len(v) else ""
-
-        def hnum(sg: _Segment, key: str, i: int) -> Optional[float]:
-            s = hval(sg, key, i)
-            if not s:
-                return None
-            try:
-                return to_float(s, self._decimal)
-            except ValueError:
-                return None
-
-        # skip channels announced empty in every segment
+    def _kept_channels(self, segments: List[_Segment], cols0: List[str], idx: List[int]) -> Tuple[List[int], List[str]]:
+        """The channel columns kept and the names of those announced empty in every segment (skipped)."""
+        path, decimal = self.path, self._decimal
         keep = []
         skipped = []
         for i in idx:
-            ann_all = [hnum(sg, "Samples", i) for sg in segments]
+            ann_all = [_hnum(sg, "Samples", i, decimal) for sg in segments]
             if all(a == 0 for a in ann_all):
                 skipped.append(cols0[i])
             else:
@@ -333,42 +389,44 @@ class LvmRecording(TextRecording):
         if not keep:
             raise RecordingError(f"{path}: every LVM channel is announced empty (Samples 0)")
         for k, sg in enumerate(segments, 1):
-            ann_by_name = {cols0[i]: hnum(sg, "Samples", i) for i in keep}
+            ann_by_name = {cols0[i]: _hnum(sg, "Samples", i, decimal) for i in keep}
             known = {v for v in ann_by_name.values() if v is not None}
             if len(known) > 1:
                 detail = ", ".join(f"{n!r}={v:g}" for n, v in ann_by_name.items() if v is not None)
                 raise RecordingError(f"{path}: unequal channel lengths in segment {k} ({detail})")
-        self._file_names = [cols0[i] or "Untitled" for i in keep]
-        self._columns = [i + 1 for i in keep]
-        names = _dedupe(self._file_names)
-        self._usecols = keep
-        self._names = names
+        return keep, skipped
+
+    def _sampling_interval(self, segments: List[_Segment], names: List[str], keep: List[int]) -> Optional[float]:
+        """The first segment's Delta_X (the same for every channel; sets the rate when > 0), None without one."""
+        decimal = self._decimal
         first = segments[0]
-        self._raw_units = {n: (hval(first, "Y_Unit_Label", i) or None) for n, i in zip(names, keep)}
-        # sampling interval
         dxs = {}
         for n, i in zip(names, keep):
-            dx = hnum(first, "Delta_X", i)
+            dx = _hnum(first, "Delta_X", i, decimal)
             if dx is not None:
                 dxs[n] = dx
-        if dxs:
-            vals = list(dxs.values())
-            if max(vals) - min(vals) > 1e-9 * max(abs(v) for v in vals):
-                detail = ", ".join(f"{n!r}: {v:g}" for n, v in dxs.items())
-                raise RecordingError(f"{path}: channels have different Delta_X ({detail})")
-            if vals[0] > 0:
-                self._file_fs = rate_from_step(vals[0])
-                self._fs_source = f"1/Delta_X ({vals[0]:g} s)"
+        if not dxs:
+            return None
+        vals = list(dxs.values())
+        if max(vals) - min(vals) > 1e-9 * max(abs(v) for v in vals):
+            detail = ", ".join(f"{n!r}: {v:g}" for n, v in dxs.items())
+            raise RecordingError(f"{self.path}: channels have different Delta_X ({detail})")
+        if vals[0] > 0:
+            self._file_fs = rate_from_step(vals[0])
+            self._fs_source = f"1/Delta_X ({vals[0]:g} s)"
         for k, sg in enumerate(segments[1:], 2):
-            dx = hnum(sg, "Delta_X", keep[0])
-            if dx is not None and dxs and abs(dx - vals[0]) > 1e-9 * abs(vals[0]):
+            dx = _hnum(sg, "Delta_X", keep[0], decimal)
+            if dx is not None and abs(dx - vals[0]) > 1e-9 * abs(vals[0]):
                 self.warnings.append(f"segment {k} has Delta_X {dx:g}, segment 1 {vals[0]:g}")
-        # segments: trust the data rows
+        return vals[0]
+
+    def _index_segments(self, segments: List[_Segment], col: int, multi_headings: str) -> None:
+        """The segments' rows as blocks, sample ranges and checkpoints: the data rows are trusted."""
         ranges: List[Tuple[int, int]] = []
         blocks: List[Tuple[int, int, int]] = []
         pos = 0
         for k, sg in enumerate(segments, 1):
-            ann_n = hnum(sg, "Samples", keep[0])
+            ann_n = _hnum(sg, "Samples", col, self._decimal)
             ok = ann_n is not None and math.isfinite(ann_n) and ann_n >= 0 and ann_n == int(ann_n)
             ann_i = int(ann_n) if ok and ann_n is not None else None
             if ann_i is not None and ann_i != sg.n:
@@ -395,14 +453,17 @@ class LvmRecording(TextRecording):
             self._checkpoints = Checkpoints(cps, pos)
             self._parse_dialect = dict(self._native, skip_blank=True)
             self.random_access = True  # read at any sample from the checkpoints
-        # Separate acquisitions: a segment whose X0 does not continue the previous one's time
-        # (X0 + rows x Delta_X, within half a step) is discontinuous; no analysis window straddles it.
+
+    def _acquisitions(self, segments: List[_Segment], col: int, step: Optional[float]) -> List[Tuple[int, int]]:
+        """Separate acquisitions: a segment whose X0 does not continue the previous one's time.
+
+        (X0 + rows x Delta_X, within half a step) is discontinuous; no analysis window straddles it.
+        """
         acq: List[Tuple[int, int]] = []
         pos = 0
         prev_end: Optional[float] = None
-        step = vals[0] if dxs and vals[0] > 0 else None
         for k, sg in enumerate(segments, 1):
-            x0 = hnum(sg, "X0", keep[0])
+            x0 = _hnum(sg, "X0", col, self._decimal)
             cont = k == 1 or (x0 is not None and step is not None and prev_end is not None
                               and abs(x0 - prev_end) <= 0.5 * step) or x0 is None  # fmt: skip
             if cont and acq:
@@ -411,14 +472,7 @@ class LvmRecording(TextRecording):
                 acq.append((pos, pos + sg.n))
             prev_end = None if x0 is None or step is None else x0 + sg.n * step
             pos += sg.n
-        self.acquisitions: List[Tuple[int, int]] = acq
-        self.metadata = {
-            "header": dict(file_header),
-            "segments_in_file": len(segments),
-            "samples_announced": [hnum(sg, "Samples", keep[0]) for sg in segments],
-        }
-        if skipped:
-            self.metadata["skipped"] = skipped
+        return acq
 
     # ---------------------------------------------------------------- reading
     def _iter_blocks(self, names: Sequence[str], block: int) -> Iterator[Dict[str, np.ndarray]]:
@@ -431,8 +485,10 @@ class LvmRecording(TextRecording):
         usecols = [self._usecols[k] for k in sel]
         with open(self.path, "rb") as fh:
             for offset, lineno, n in self._blocks:
-                for lines, nos in iter_data_lines(fh, offset, lineno, n, block, self.path):
-                    a = parse_rows(lines, nos, self._sep, self._decimal, usecols, list(names), self.path)
+                for lines, nos in iter_data_lines(fh, offset, lineno, n, block=block, path=self.path):
+                    a = parse_rows(
+                        lines, nos, self._sep, self._decimal, usecols=usecols, colnames=list(names), path=self.path
+                    )
                     yield {nm: a[:, c] for c, nm in enumerate(names)}
 
 

@@ -165,7 +165,7 @@ class NpyRecording(Recording):
         except OSError as exc:
             raise RecordingError(f"{self.path}: cannot open: {exc.strerror or exc}") from None
         try:
-            self._open_npy(channels, fs, scale, units, layout, names, time_channel)
+            self._open_npy(channels, fs, scale, units, layout=layout, names=names, time_channel=time_channel)
         except BaseException:
             self._close()
             raise
@@ -176,6 +176,7 @@ class NpyRecording(Recording):
         fs: Optional[float],
         scale: Optional[Mapping[str, float]],
         units: Optional[Mapping[str, str]],
+        *,
         layout: Optional[str],
         names: Optional[Sequence[str]],
         time_channel: Optional[str],

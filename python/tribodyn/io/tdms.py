@@ -635,7 +635,7 @@ class TdmsRecording(Recording):
         with closing_on_error(self):
             implied = _check_chunks(self.path, self._file, walk)
             self._npt_messages(log, "reading the metadata")
-            self._open(channels, fs, scale, units, group, len(walk), implied)
+            self._open(channels, fs, scale, units, group, n_segments=len(walk), implied=implied)
             self._identity_at_open = identity
             self.check_unchanged()
 
@@ -676,7 +676,7 @@ class TdmsRecording(Recording):
             nfile = _NFile(self.path, idx)
             self._file = nfile
             self._native = True
-            self._open(channels, fs, scale, units, group, int(idx["segments"]), {})
+            self._open(channels, fs, scale, units, group, n_segments=int(idx["segments"]), implied={})
         except _Fallback as why:
             self._file, self._native = None, False
             self._names, self._n = [], 0
@@ -794,6 +794,7 @@ class TdmsRecording(Recording):
         scale: Optional[Mapping[str, float]],
         units: Optional[Mapping[str, str]],
         group: Optional[str],
+        *,
         n_segments: int,
         implied: Mapping[str, int],
     ) -> None:

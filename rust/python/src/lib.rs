@@ -2,8 +2,13 @@
 //!
 //! This layer only converts types: it borrows NumPy arrays without copying
 //! (`as_slice` fails with a ValueError on a non-contiguous array; the Python
-//! wrappers make inputs contiguous float64 first), releases the GIL around
-//! every kernel, and maps [`KernelError`] to `ValueError` in one place.
+//! wrappers make inputs contiguous float64 first) and releases the GIL
+//! around every kernel. The window kernels take one frozen [`PyWindowSpec`]
+//! (`WindowSpec`: what every window of an analysis shares, checked and
+//! converted once when it is made). Every exception this module raises is
+//! built in one place, from a [`Fault`] (`From<Fault> for PyErr`): kernel
+//! errors, bad arguments, memory, descriptors, text rows; a NaN or inf in
+//! a window is named there in the recording's terms when the spec says how.
 //! Validation of user-facing options lives in the Python layer; the kernels
 //! re-check everything that could otherwise panic.
 
@@ -11,7 +16,7 @@ use numpy::{
     PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2,
     PyReadwriteArray3, PyUntypedArrayMethods,
 };
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyMemoryError, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use tribodyn_core::correlation::{self, Method};
@@ -32,18 +37,168 @@ pyo3::create_exception!(
     _core,
     NonFiniteError,
     PyValueError,
-    "A sample that must be finite is NaN or inf: args (message, channel, sample, window)."
+    "A sample that must be finite is NaN or inf: the message, and attributes channel, sample, window."
 );
 
-/// The one place kernel errors become Python exceptions: `NonFiniteError`
-/// (a `ValueError` carrying the channel and sample, for the Python layer
-/// to name the window in the recording's terms) or `ValueError`.
-fn to_py(e: KernelError) -> PyErr {
-    match e {
-        KernelError::NonFinite { channel, sample, window } => {
-            NonFiniteError::new_err((e.to_string(), channel, sample, window))
+/// Everything the binding raises: the one place an exception is built
+/// (`From<Fault> for PyErr`); no other code of this module makes one.
+enum Fault {
+    /// A kernel's refusal: `ValueError`, a NaN or inf `NonFiniteError`
+    /// in the kernel's words (channel `fy`, `fy_raw`, `aux`, ...).
+    Kernel(KernelError),
+    /// A window kernel's refusal, a NaN or inf in the recording's terms
+    /// (see [`Naming`]).
+    Window(KernelError, Naming),
+    /// A malformed argument: `ValueError`.
+    Arg(String),
+    /// An argument of the wrong kind (an unknown option): `TypeError`.
+    Type(String),
+    /// Memory the results need and cannot have: `MemoryError`, never an abort.
+    Memory(String),
+    /// A file descriptor that cannot be used: `OSError`.
+    Os(String),
+    /// A text row that cannot be read: `ValueError` with args ("fields",
+    /// line, got, need), ("number", line, column, text bytes) or ("eof",
+    /// line, rows short).
+    Parse(text::ParseError),
+}
+
+impl From<KernelError> for Fault {
+    fn from(e: KernelError) -> Self {
+        Fault::Kernel(e)
+    }
+}
+
+impl From<Fault> for PyErr {
+    fn from(f: Fault) -> PyErr {
+        match f {
+            Fault::Kernel(e) => kernel_error(e, None),
+            Fault::Window(e, naming) => kernel_error(e, Some(&naming)),
+            Fault::Arg(msg) => PyValueError::new_err(msg),
+            Fault::Type(msg) => PyTypeError::new_err(msg),
+            Fault::Memory(msg) => PyMemoryError::new_err(msg),
+            Fault::Os(msg) => PyOSError::new_err(msg),
+            Fault::Parse(text::ParseError::Fields { line, got, need }) => {
+                PyValueError::new_err(("fields", line, got, need))
+            }
+            Fault::Parse(text::ParseError::Number { line, col, text }) => {
+                PyValueError::new_err(("number", line, col, text))
+            }
+            Fault::Parse(text::ParseError::Eof { line, short }) => PyValueError::new_err(("eof", line, short)),
+            Fault::Parse(text::ParseError::Io(e)) => kernel_error(e, None),
         }
-        other => PyValueError::new_err(other.to_string()),
+    }
+}
+
+/// A kernel error as a Python exception: `NonFiniteError` (its message
+/// the one arg; attributes `channel`, `sample`, `window`: with `naming`,
+/// the channel is the recording's role and the message gives the time) or
+/// `ValueError`.
+fn kernel_error(e: KernelError, naming: Option<&Naming>) -> PyErr {
+    let (msg, channel, sample, window) = match (e, naming) {
+        (KernelError::NonFinite { channel, sample, window }, Some(n)) => {
+            let role = n.role(channel);
+            (n.non_finite(role, sample, window), role.to_owned(), sample, window)
+        }
+        (e @ KernelError::NonFinite { channel, sample, window }, None) => {
+            (e.to_string(), channel.to_owned(), sample, window)
+        }
+        (other, _) => return PyValueError::new_err(other.to_string()),
+    };
+    Python::attach(|py| {
+        let err = NonFiniteError::new_err(msg);
+        let value = err.value(py);
+        let set = value
+            .setattr("channel", channel)
+            .and_then(|()| value.setattr("sample", sample))
+            .and_then(|()| value.setattr("window", window));
+        match set {
+            Ok(()) => err,
+            Err(e) => e,
+        }
+    })
+}
+
+/// A kernel error as a Python exception (through [`Fault`]).
+fn to_py(e: KernelError) -> PyErr {
+    Fault::Kernel(e).into()
+}
+
+/// A `ValueError` (through [`Fault`]).
+fn bad(msg: impl Into<String>) -> PyErr {
+    Fault::Arg(msg.into()).into()
+}
+
+/// A `MemoryError` (through [`Fault`]).
+fn no_memory(msg: impl Into<String>) -> PyErr {
+    Fault::Memory(msg.into()).into()
+}
+
+/// An `OSError` (through [`Fault`]).
+fn os_error(msg: impl Into<String>) -> PyErr {
+    Fault::Os(msg.into()).into()
+}
+
+/// How a window call names a NaN or inf: the auxiliary channel by its role
+/// ("i" or "u"), the raw forces as the forces, and with `fs` the time.
+#[derive(Clone, Debug, PartialEq)]
+struct Naming {
+    aux: String,
+    fs: Option<f64>,
+}
+
+impl Naming {
+    fn role<'a>(&'a self, channel: &'a str) -> &'a str {
+        if channel == "aux" {
+            &self.aux
+        } else {
+            channel.strip_suffix("_raw").unwrap_or(channel)
+        }
+    }
+
+    /// "fy contains NaN or inf in the window starting at sample 5000 (t = 5 s)".
+    fn non_finite(&self, role: &str, sample: Option<usize>, window: bool) -> String {
+        let mut msg = format!("{role} contains NaN or inf");
+        let Some(s) = sample else { return msg };
+        msg += &if window { format!(" in the window starting at sample {s}") } else { format!(" at sample {s}") };
+        if let Some(fs) = self.fs {
+            let tail = if window { "" } else { "; the high-pass filter needs every sample" };
+            msg += &format!(" (t = {} s{tail})", format_g(s as f64 / fs));
+        }
+        msg
+    }
+}
+
+/// `x` as Python's `f"{x:g}"` writes it: 6 significant digits, trailing
+/// zeros dropped, an exponent below 1e-4 and from 1e6 on.
+fn format_g(x: f64) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "nan".into()
+        } else if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
+    }
+    if x == 0.0 {
+        return if x.is_sign_negative() { "-0".into() } else { "0".into() };
+    }
+    let sci = format!("{x:.5e}"); // rounded to 6 significant digits: its exponent decides
+    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
+    let exp: i32 = exp.parse().unwrap_or(0);
+    let trim = |t: &str| -> String {
+        if t.contains('.') {
+            t.trim_end_matches('0').trim_end_matches('.').to_owned()
+        } else {
+            t.to_owned()
+        }
+    };
+    if (-4..6).contains(&exp) {
+        trim(&format!("{x:.*}", (5 - exp) as usize))
+    } else {
+        let sign = if exp < 0 { '-' } else { '+' };
+        format!("{}e{sign}{:02}", trim(mantissa), exp.abs())
     }
 }
 
@@ -53,9 +208,8 @@ fn threads_of(threads: Option<i64>) -> PyResult<usize> {
     match threads {
         None => Ok(parallel::default_threads()),
         Some(t) => {
-            let n = usize::try_from(t).map_err(|_| {
-                PyValueError::new_err(format!("threads must be in [1, {}], got {t}", parallel::max_threads()))
-            })?;
+            let n = usize::try_from(t)
+                .map_err(|_| bad(format!("threads must be in [1, {}], got {t}", parallel::max_threads())))?;
             parallel::check_threads(n).map_err(to_py)
         }
     }
@@ -67,12 +221,12 @@ fn c_order(c_contiguous: bool, name: &str) -> PyResult<()> {
     if c_contiguous {
         Ok(())
     } else {
-        Err(PyValueError::new_err(format!("{name} must be a C-contiguous float64 array")))
+        Err(bad(format!("{name} must be a C-contiguous float64 array")))
     }
 }
 
 fn slice_err(name: &str) -> impl Fn(numpy::AsSliceError) -> PyErr + '_ {
-    move |_| PyValueError::new_err(format!("{name} must be a C-contiguous, aligned float64 array"))
+    move |_| bad(format!("{name} must be a C-contiguous, aligned float64 array"))
 }
 
 fn method_of(name: &str) -> PyResult<Method> {
@@ -80,7 +234,7 @@ fn method_of(name: &str) -> PyResult<Method> {
         "direct" => Ok(Method::Direct),
         "fft" => Ok(Method::Fft),
         "auto" => Ok(Method::Auto),
-        other => Err(PyValueError::new_err(format!("method must be 'direct', 'fft' or 'auto', got {other:?}"))),
+        other => Err(bad(format!("method must be 'direct', 'fft' or 'auto', got {other:?}"))),
     }
 }
 
@@ -127,7 +281,7 @@ fn pearson(py: Python<'_>, x: PyReadonlyArray1<'_, f64>, y: PyReadonlyArray1<'_,
 fn sections(sos: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<iir::Section>> {
     let a = sos.as_array();
     if a.ncols() != 6 {
-        return Err(PyValueError::new_err(format!("sos must have shape (n_sections, 6), got {:?}", a.shape())));
+        return Err(bad(format!("sos must have shape (n_sections, 6), got {:?}", a.shape())));
     }
     Ok(a.rows().into_iter().map(|r| [r[0], r[1], r[2], r[3], r[4], r[5]]).collect())
 }
@@ -148,10 +302,7 @@ fn sosfilt_inplace(
     let channels = data.as_array().nrows();
     let st_shape = state.as_array().shape().to_vec();
     if st_shape != [channels, secs.len(), 2] {
-        return Err(PyValueError::new_err(format!(
-            "state must have shape ({channels}, {}, 2), got {st_shape:?}",
-            secs.len()
-        )));
+        return Err(bad(format!("state must have shape ({channels}, {}, 2), got {st_shape:?}", secs.len())));
     }
     c_order(data.is_c_contiguous(), "data")?;
     c_order(state.is_c_contiguous(), "state")?;
@@ -191,7 +342,7 @@ fn sosfilt_into(
     let secs = sections(&sos)?;
     let channels = x.as_array().nrows();
     if out.as_array().shape() != x.as_array().shape() {
-        return Err(PyValueError::new_err(format!(
+        return Err(bad(format!(
             "out must have the shape of x {:?}, got {:?}",
             x.as_array().shape(),
             out.as_array().shape()
@@ -199,10 +350,7 @@ fn sosfilt_into(
     }
     let st_shape = state.as_array().shape().to_vec();
     if st_shape != [channels, secs.len(), 2] {
-        return Err(PyValueError::new_err(format!(
-            "state must have shape ({channels}, {}, 2), got {st_shape:?}",
-            secs.len()
-        )));
+        return Err(bad(format!("state must have shape ({channels}, {}, 2), got {st_shape:?}", secs.len())));
     }
     c_order(x.is_c_contiguous(), "x")?;
     c_order(out.is_c_contiguous(), "out")?;
@@ -340,69 +488,250 @@ fn opt_slice<'a>(a: &'a Option<PyReadonlyArray1<'_, f64>>, name: &str) -> PyResu
     a.as_ref().map(|v| v.as_slice().map_err(slice_err(name))).transpose()
 }
 
-/// Per-window statistics (docs/method.md 3-6) for windows starting at
-/// `starts`: a dict of the `columns` asked for, in that order, one row per
-/// window (see [`column`] for the names). `fy_raw`, `fz_raw` (the forces
-/// before the high-pass) define `mu_classic`. A non-finite sample in a
-/// window raises `NonFiniteError`, its sample counted from `offset` (the
-/// caller's index of sample 0 of the arrays). `threads=1` keeps the work on
-/// the calling thread.
+/// The settings every window call of one analysis shares, validated and
+/// converted once: window length, deadband, fz bins, the columns asked
+/// for, the options beyond the paper, the high-pass of raw forces, the
+/// thread count and how a NaN or inf is named. Frozen; `replace` makes a
+/// variant (another length, auxiliary role or thread count).
+#[pyclass(name = "WindowSpec", module = "tribodyn._core", frozen)]
+#[derive(Clone)]
+struct PyWindowSpec {
+    opt: WindowOptions,
+    names: Vec<String>,
+    cols: Vec<Column>,
+    threads: usize,
+    /// Second-order sections and their steady state for a unit input.
+    highpass: Option<(Vec<iir::Section>, Vec<[f64; 2]>)>,
+    naming: Option<Naming>,
+}
+
+/// The option names of `WindowSpec(options=...)`.
+const OPTION_NAMES: &str = "lag, lines, segments, delay, classical";
+
+/// One entry of `WindowSpec(options=...)`, its conversion error naming it.
+fn option<'py, T: FromPyObjectOwned<'py>>(key: &str, v: &Bound<'py, PyAny>, what: &str) -> PyResult<T> {
+    v.extract::<T>().map_err(|_| bad(format!("the kernel option {key:?} must be {what}, got {v:?}")))
+}
+
+/// The options beyond the paper from `WindowSpec(options=...)` (see [`ext_options`]).
+fn ext_of(columns: &[String], options: Option<&Bound<'_, PyDict>>) -> PyResult<extended::ExtOptions> {
+    let (mut lag, mut lines, mut segments, mut delay, mut classical) = (0, None::<Vec<f64>>, 4, 0.0, None);
+    for (k, v) in options.into_iter().flat_map(|d| d.iter()) {
+        let key: String =
+            k.extract().map_err(|_| Fault::Type(format!("a kernel option's name must be a str, got {k:?}")))?;
+        match key.as_str() {
+            "lag" => lag = option(&key, &v, "a sample count >= 0")?,
+            "lines" => lines = option(&key, &v, "a list of frequencies (cycles per sample) or None")?,
+            "segments" => segments = option(&key, &v, "a count >= 0")?,
+            "delay" => delay = option(&key, &v, "a number of samples")?,
+            "classical" => classical = option(&key, &v, "(min_fn, tare_fy, tare_fz) or None")?,
+            other => {
+                return Err(
+                    Fault::Type(format!("unknown kernel option {other:?}; the options are {OPTION_NAMES}")).into()
+                )
+            }
+        }
+    }
+    ext_options(columns, lag, lines.as_deref(), segments, delay, classical)
+}
+
+/// (sos, zi) of `WindowSpec(highpass=...)`: `zi` one row per section.
+fn highpass_of(
+    sos: &PyReadonlyArray2<'_, f64>,
+    zi: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<(Vec<iir::Section>, Vec<[f64; 2]>)> {
+    let secs = sections(sos)?;
+    let zs = zi.as_array();
+    if zs.shape() != [secs.len(), 2] {
+        return Err(bad(format!("zi must have shape ({}, 2), got {:?}", secs.len(), zs.shape())));
+    }
+    let zi: Vec<[f64; 2]> = zs.rows().into_iter().map(|r| [r[0], r[1]]).collect();
+    Ok((secs, zi))
+}
+
+fn naming_of(aux: String, fs: Option<f64>) -> PyResult<Naming> {
+    if fs.is_some_and(|f| !(f.is_finite() && f > 0.0)) {
+        return Err(bad(format!("fs must be finite and > 0, got {}", fs.unwrap_or_default())));
+    }
+    Ok(Naming { aux, fs })
+}
+
+#[pymethods]
+impl PyWindowSpec {
+    /// `deadband` is (kind, value): "force" (N) or "sigma" (a multiple of
+    /// the window's std of fz). `options`: a dict of lag, lines, segments,
+    /// delay, classical (see `windows_stats`). `highpass`: (sos, zi) of the
+    /// raw forces' filter (`windows_stats_file` only). `naming`: (the
+    /// auxiliary channel's role, fs): a NaN or inf is then named by role
+    /// and time. Every argument is checked here: a bad one is a
+    /// `ValueError` (an unknown option a `TypeError`).
+    #[new]
+    #[pyo3(signature = (length, deadband, n_bins, columns, *, options=None, highpass=None, threads=None, naming=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        length: usize,
+        deadband: (String, f64),
+        n_bins: usize,
+        columns: Vec<String>,
+        options: Option<&Bound<'_, PyDict>>,
+        highpass: Option<(PyReadonlyArray2<'_, f64>, PyReadonlyArray2<'_, f64>)>,
+        threads: Option<i64>,
+        naming: Option<(String, f64)>,
+    ) -> PyResult<Self> {
+        if length == 0 {
+            return Err(bad("the window length must be at least 1 sample"));
+        }
+        if n_bins == 0 || n_bins > windows::MAX_BINS {
+            return Err(bad(format!("n_bins must be in [1, {}], got {n_bins}", windows::MAX_BINS)));
+        }
+        let deadband = parse_deadband(&deadband.0, deadband.1)?;
+        let cols = columns_of(&columns)?;
+        let ext = ext_of(&columns, options)?;
+        let highpass = highpass.as_ref().map(|(sos, zi)| highpass_of(sos, zi)).transpose()?;
+        let naming = naming.map(|(aux, fs)| naming_of(aux, Some(fs))).transpose()?;
+        Ok(PyWindowSpec {
+            opt: WindowOptions { len: length, orientation: 1.0, deadband, n_bins, ext },
+            names: columns,
+            cols,
+            threads: threads_of(threads)?,
+            highpass,
+            naming,
+        })
+    }
+
+    /// The same spec with another window `length`, auxiliary role `aux`
+    /// (how a NaN or inf in it is named) or thread count (a new object).
+    #[pyo3(signature = (*, length=None, aux=None, threads=None))]
+    fn replace(&self, length: Option<usize>, aux: Option<String>, threads: Option<i64>) -> PyResult<Self> {
+        let mut out = self.clone();
+        if let Some(len) = length {
+            if len == 0 {
+                return Err(bad("the window length must be at least 1 sample"));
+            }
+            out.opt.len = len;
+        }
+        if let Some(aux) = aux {
+            out.naming = Some(naming_of(aux, self.naming.as_ref().and_then(|n| n.fs))?);
+        }
+        if threads.is_some() {
+            out.threads = threads_of(threads)?;
+        }
+        Ok(out)
+    }
+
+    /// Samples per window.
+    #[getter]
+    fn length(&self) -> usize {
+        self.opt.len
+    }
+
+    /// (kind, value): ("force", N) or ("sigma", k).
+    #[getter]
+    fn deadband(&self) -> (&'static str, f64) {
+        match self.opt.deadband {
+            Deadband::Force(v) => ("force", v),
+            Deadband::Sigma(v) => ("sigma", v),
+        }
+    }
+
+    /// Equal-width fz bins per window.
+    #[getter]
+    fn n_bins(&self) -> usize {
+        self.opt.n_bins
+    }
+
+    /// The columns asked for, in order.
+    #[getter]
+    fn columns(&self) -> Vec<String> {
+        self.names.clone()
+    }
+
+    /// Threads of a call.
+    #[getter]
+    fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Whether the spec carries a high-pass for raw forces.
+    #[getter]
+    fn raw(&self) -> bool {
+        self.highpass.is_some()
+    }
+
+    fn __repr__(&self) -> String {
+        let (kind, value) = self.deadband();
+        let naming = match &self.naming {
+            Some(n) => format!(", naming=({:?}, {:?})", n.aux, n.fs),
+            None => String::new(),
+        };
+        format!(
+            "WindowSpec(length={}, deadband=({kind:?}, {value:?}), n_bins={}, columns={:?}, threads={}, raw={}{naming})",
+            self.opt.len,
+            self.opt.n_bins,
+            self.names,
+            self.threads,
+            if self.highpass.is_some() { "True" } else { "False" },
+        )
+    }
+}
+
+impl PyWindowSpec {
+    /// A kernel error of a window call, named as the spec says.
+    fn fault(&self, e: KernelError) -> PyErr {
+        match &self.naming {
+            Some(n) => Fault::Window(e, n.clone()).into(),
+            None => Fault::Kernel(e).into(),
+        }
+    }
+}
+
+/// Per-window statistics (docs/method.md 3-6) of the windows of
+/// `spec.length` samples starting at `starts`: a dict of the spec's
+/// columns, in that order, one row per window (see [`column`] for the
+/// names). `raw` = (fy, fz before the high-pass) defines `mu_classic`. A
+/// non-finite sample in a window raises `NonFiniteError`, its sample
+/// counted from `offset` (the caller's index of sample 0 of the arrays).
+/// `spec.threads == 1` keeps the work on the calling thread.
 #[pyfunction]
-#[pyo3(signature = (fx, fy, fz, aux, starts, length, orientation, deadband_kind, deadband, n_bins, columns, *, fy_raw=None, fz_raw=None, threads=None, offset=0, lag=0, lines=None, segments=4, delay=0.0, classical=None))]
+#[pyo3(signature = (spec, fx, fy, fz, aux, starts, *, raw=None, offset=0))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats<'py>(
     py: Python<'py>,
+    spec: &Bound<'py, PyWindowSpec>,
     fx: Option<PyReadonlyArray1<'py, f64>>,
     fy: PyReadonlyArray1<'py, f64>,
     fz: PyReadonlyArray1<'py, f64>,
     aux: Option<PyReadonlyArray1<'py, f64>>,
     starts: PyReadonlyArray1<'py, i64>,
-    length: usize,
-    orientation: f64,
-    deadband_kind: &str,
-    deadband: f64,
-    n_bins: usize,
-    columns: Vec<String>,
-    fy_raw: Option<PyReadonlyArray1<'py, f64>>,
-    fz_raw: Option<PyReadonlyArray1<'py, f64>>,
-    threads: Option<i64>,
+    raw: Option<(PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, f64>)>,
     offset: usize,
-    lag: usize,
-    lines: Option<Vec<f64>>,
-    segments: usize,
-    delay: f64,
-    classical: Option<(f64, f64, f64)>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let threads = threads_of(threads)?;
-    let deadband = parse_deadband(deadband_kind, deadband)?;
-    let cols = columns_of(&columns)?;
-    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay, classical)?;
+    let spec = spec.get();
     let starts: Vec<usize> = starts
         .as_slice()
         .map_err(slice_err("starts"))?
         .iter()
-        .map(|&s| usize::try_from(s).map_err(|_| PyValueError::new_err(format!("window start {s} is negative"))))
+        .map(|&s| usize::try_from(s).map_err(|_| bad(format!("window start {s} is negative"))))
         .collect::<PyResult<_>>()?;
     let (fxs, auxs) = (opt_slice(&fx, "fx")?, opt_slice(&aux, "aux")?);
     let (fys, fzs) = (fy.as_slice().map_err(slice_err("fy"))?, fz.as_slice().map_err(slice_err("fz"))?);
-    let raw = match (opt_slice(&fy_raw, "fy_raw")?, opt_slice(&fz_raw, "fz_raw")?) {
-        (Some(y), Some(z)) => Some((y, z)),
-        (None, None) => None,
-        _ => return Err(PyValueError::new_err("fy_raw and fz_raw go together")),
+    let raw = match &raw {
+        Some((y, z)) => Some((y.as_slice().map_err(slice_err("fy_raw"))?, z.as_slice().map_err(slice_err("fz_raw"))?)),
+        None => None,
     };
     let ch = windows::Channels { fx: fxs, fy: fys, fz: fzs, aux: auxs, raw };
-    let opt = WindowOptions { len: length, orientation, deadband, n_bins, ext };
+    let (opt, threads) = (&spec.opt, spec.threads);
     // A few windows cost less than entering the pool.
     let stats = if starts.len() < 8 || threads == 1 {
-        py.detach(|| windows::windows_stats_serial(&ch, &starts, &opt))
+        py.detach(|| windows::windows_stats_serial(&ch, &starts, opt))
     } else {
-        py.detach(|| parallel::run_with(threads, || windows::windows_stats(&ch, &starts, &opt))).map_err(to_py)?
+        py.detach(|| parallel::run_with(threads, || windows::windows_stats(&ch, &starts, opt))).map_err(to_py)?
     }
-    .map_err(|e| to_py(e.shifted(offset)))?;
-    let mut out = Columns::new(cols, stats.len(), n_bins, ext.spec_len())?;
+    .map_err(|e| spec.fault(e.shifted(offset)))?;
+    let mut out = Columns::new(spec.cols.clone(), stats.len(), opt.n_bins, opt.ext.spec_len())?;
     out.set(0, &stats);
     drop(stats);
-    out.into_dict(py, &columns)
+    out.into_dict(py, &spec.names)
 }
 
 /// One per-window column the kernel can deliver.
@@ -438,7 +767,7 @@ fn ext_options(
     if columns.iter().any(|c| c == "spec") {
         let lines = lines.unwrap_or(&[]);
         if lines.is_empty() || lines.len() > extended::MAX_LINES {
-            return Err(PyValueError::new_err(format!(
+            return Err(bad(format!(
                 "the column 'spec' needs 1 to {} line frequencies, got {}",
                 extended::MAX_LINES,
                 lines.len()
@@ -450,9 +779,8 @@ fn ext_options(
     let wants_classical =
         columns.iter().any(|c| matches!(c.as_str(), "mu_classical" | "mu_classical_median" | "fz_mean" | "fz_std"));
     if wants_classical {
-        let (min_fn, tare_y, tare_z) = classical.ok_or_else(|| {
-            PyValueError::new_err("the classical COF columns need classical=(min_fn, tare_fy, tare_fz)")
-        })?;
+        let (min_fn, tare_y, tare_z) =
+            classical.ok_or_else(|| bad("the classical COF columns need classical=(min_fn, tare_fy, tare_fz)"))?;
         ext.classical = Some(extended::Classical { min_fn, tare_y, tare_z });
     }
     ext.check().map_err(to_py)?;
@@ -510,11 +838,7 @@ out_of_range, bin_count, bin_cof, mu_classical, mu_classical_median, fz_mean, fz
 fn columns_of(names: &[String]) -> PyResult<Vec<Column>> {
     names
         .iter()
-        .map(|n| {
-            column(n).ok_or_else(|| {
-                PyValueError::new_err(format!("unknown kernel column {n:?}; the kernel has {COLUMN_NAMES}"))
-            })
-        })
+        .map(|n| column(n).ok_or_else(|| bad(format!("unknown kernel column {n:?}; the kernel has {COLUMN_NAMES}"))))
         .collect()
 }
 
@@ -541,9 +865,7 @@ struct Columns {
 fn zeros<T: Clone + Default>(len: usize, what: &str) -> PyResult<Vec<T>> {
     let mut v = Vec::new();
     v.try_reserve_exact(len).map_err(|_| {
-        pyo3::exceptions::PyMemoryError::new_err(format!(
-            "the per-window table needs {len} values for {what}, more memory than there is"
-        ))
+        no_memory(format!("the per-window table needs {len} values for {what}, more memory than there is"))
     })?;
     v.resize(len, T::default());
     Ok(v)
@@ -551,8 +873,7 @@ fn zeros<T: Clone + Default>(len: usize, what: &str) -> PyResult<Vec<T>> {
 
 impl Columns {
     fn new(cols: Vec<Column>, rows: usize, n_bins: usize, spec: usize) -> PyResult<Self> {
-        let overflow =
-            |what: &str| pyo3::exceptions::PyMemoryError::new_err(format!("{rows} windows x {what} overflow"));
+        let overflow = |what: &str| no_memory(format!("{rows} windows x {what} overflow"));
         let bins = rows.checked_mul(n_bins).ok_or_else(|| overflow("bins"))?;
         let ext_len = rows.checked_mul(EXT_WIDTH).ok_or_else(|| overflow("block sums"))?;
         let spec_len = rows.checked_mul(spec).ok_or_else(|| overflow("line spectra"))?;
@@ -631,95 +952,58 @@ impl Columns {
 fn dup_fd(fd: i32) -> PyResult<std::fs::File> {
     use std::os::fd::BorrowedFd;
     if fd < 0 {
-        return Err(PyValueError::new_err(format!("fd must be an open file descriptor, got {fd}")));
+        return Err(bad(format!("fd must be an open file descriptor, got {fd}")));
     }
     // SAFETY: the descriptor is only borrowed for the duplication below; an
     // fd that is not open makes it fail with EBADF.
     let borrowed = unsafe { BorrowedFd::borrow_raw(fd) };
-    borrowed
-        .try_clone_to_owned()
-        .map(std::fs::File::from)
-        .map_err(|e| pyo3::exceptions::PyOSError::new_err(format!("file descriptor {fd}: {e}")))
+    borrowed.try_clone_to_owned().map(std::fs::File::from).map_err(|e| os_error(format!("file descriptor {fd}: {e}")))
 }
 
 #[cfg(not(unix))]
 fn dup_fd(_fd: i32) -> PyResult<std::fs::File> {
-    Err(pyo3::exceptions::PyOSError::new_err("reading a file descriptor directly needs a Unix system"))
+    Err(os_error("reading a file descriptor directly needs a Unix system"))
 }
 
 fn parse_deadband(kind: &str, value: f64) -> PyResult<Deadband> {
     match kind {
         "force" => Ok(Deadband::Force(value)),
         "sigma" => Ok(Deadband::Sigma(value)),
-        other => Err(PyValueError::new_err(format!("deadband_kind must be 'force' or 'sigma', got {other:?}"))),
+        other => Err(bad(format!("the deadband kind must be 'force' or 'sigma', got {other:?}"))),
     }
 }
 
-/// Per-window statistics of windows k0..k1 (window k = samples
-/// [k * step, k * step + length)) of channels stored in the open file `fd`
-/// (a file descriptor, duplicated for the call and left open) as
-/// contiguous little-endian f64 runs starting at the byte offsets
-/// `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples each, or as
-/// `Extents` (any numeric type, segments, interleaved rows, scaling). The
-/// samples are read with `pread`, `block` windows per task, on `threads`
-/// threads; the `columns` asked for, with the same results as
+/// Per-window statistics of windows k0..k1 (`windows` = (k0, k1, step):
+/// window k = samples [k * step, k * step + spec.length)) of channels
+/// stored in the open file `fd` (a file descriptor, duplicated for the
+/// call and left open) as contiguous little-endian f64 runs starting at the
+/// byte offsets `(fx, fy, fz, aux)` (fx, aux may be None), `n` samples
+/// each, or as `Extents` (any numeric type, segments, interleaved rows,
+/// scaling). The samples are read with `pread`, `block` windows per task,
+/// on `spec.threads` threads; the spec's columns, with the same results as
 /// `windows_stats` on those samples. A file that shrinks meanwhile is a
 /// `ValueError` (a short read), never a crash.
 ///
-/// With `sos` (and `zi`, its steady state for a unit input, one row per
-/// section) the force channels are raw: they are high-passed from sample
-/// `origin` on (state carried, each channel started at `zi * x[origin]`)
-/// and the classical COF of the raw forces is added (`mu_classic`); the
-/// windows must not overlap (step >= length).
+/// With the spec's `highpass` (sos and zi, its steady state for a unit
+/// input, one row per section) the force channels are raw: they are
+/// high-passed from sample `origin` on (state carried, each channel started
+/// at `zi * x[origin]`) and the classical COF of the raw forces is added
+/// (`mu_classic`); the windows must not overlap (step >= length).
 #[pyfunction]
-#[pyo3(signature = (fd, offsets, n, k0, k1, step, length, orientation, deadband_kind, deadband, n_bins, columns, *, block=512, sos=None, zi=None, origin=0, threads=None, lag=0, lines=None, segments=4, delay=0.0, classical=None))]
+#[pyo3(signature = (spec, fd, offsets, n, windows, *, block=512, origin=0))]
 #[allow(clippy::too_many_arguments)]
 fn windows_stats_file<'py>(
     py: Python<'py>,
+    spec: &Bound<'py, PyWindowSpec>,
     fd: i32,
     offsets: Offsets<'py>,
     n: usize,
-    k0: usize,
-    k1: usize,
-    step: usize,
-    length: usize,
-    orientation: f64,
-    deadband_kind: &str,
-    deadband: f64,
-    n_bins: usize,
-    columns: Vec<String>,
+    windows: (usize, usize, usize),
     block: usize,
-    sos: Option<PyReadonlyArray2<'py, f64>>,
-    zi: Option<PyReadonlyArray2<'py, f64>>,
     origin: usize,
-    threads: Option<i64>,
-    lag: usize,
-    lines: Option<Vec<f64>>,
-    segments: usize,
-    delay: f64,
-    classical: Option<(f64, f64, f64)>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let threads = threads_of(threads)?;
-    let deadband = parse_deadband(deadband_kind, deadband)?;
-    let cols_asked = columns_of(&columns)?;
-    let ext = ext_options(&columns, lag, lines.as_deref(), segments, delay, classical)?;
-    let highpass = match (&sos, &zi) {
-        (Some(s), Some(z)) => {
-            let secs = sections(s)?;
-            let zs = z.as_array();
-            if zs.shape() != [secs.len(), 2] {
-                return Err(PyValueError::new_err(format!(
-                    "zi must have shape ({}, 2), got {:?}",
-                    secs.len(),
-                    zs.shape()
-                )));
-            }
-            let zi: Vec<[f64; 2]> = zs.rows().into_iter().map(|r| [r[0], r[1]]).collect();
-            Some((secs, zi))
-        }
-        (None, None) => None,
-        _ => return Err(PyValueError::new_err("sos and zi go together")),
-    };
+    let spec = spec.get();
+    let (k0, k1, step) = windows;
     let file = dup_fd(fd)?;
     let layout = mapped::FileLayout {
         fx: offsets.0.as_ref().map(source_of).transpose()?,
@@ -729,27 +1013,28 @@ fn windows_stats_file<'py>(
         n,
     };
     let grid = mapped::Grid { k0, k1, step, block };
-    let opt = WindowOptions { len: length, orientation, deadband, n_bins, ext };
+    let (opt, threads) = (&spec.opt, spec.threads);
     // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
-    mapped::check(&file, &layout, &grid, &opt).map_err(to_py)?;
-    let cols = std::sync::Mutex::new(Columns::new(cols_asked, k1.saturating_sub(k0), n_bins, ext.spec_len())?);
+    mapped::check(&file, &layout, &grid, opt).map_err(to_py)?;
+    let cols =
+        std::sync::Mutex::new(Columns::new(spec.cols.clone(), k1.saturating_sub(k0), opt.n_bins, opt.ext.spec_len())?);
     // Each block's rows go into the columns as soon as it is done.
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
         cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);
     };
-    py.detach(|| match &highpass {
+    py.detach(|| match &spec.highpass {
         // Its own threads (the caller and scoped helpers), no pool to wake.
-        None => mapped::windows_stats_mapped_each(&file, &layout, &grid, &opt, threads, &sink),
+        None => mapped::windows_stats_mapped_each(&file, &layout, &grid, opt, threads, &sink),
         Some((sos, zi)) => {
             let hp = mapped::HighPass { sos, zi, origin };
             parallel::run_with(threads, || {
-                mapped::windows_stats_mapped_highpass_each(&file, &layout, &grid, &opt, &hp, &sink)
+                mapped::windows_stats_mapped_highpass_each(&file, &layout, &grid, opt, &hp, &sink)
             })
             .and_then(|r| r)
         }
     })
-    .map_err(to_py)?;
-    cols.into_inner().unwrap_or_else(|e| e.into_inner()).into_dict(py, &columns)
+    .map_err(|e| spec.fault(e))?;
+    cols.into_inner().unwrap_or_else(|e| e.into_inner()).into_dict(py, &spec.names)
 }
 
 /// `(fx, fy, fz, aux)` of `windows_stats_file`, each as [`source_of`] takes it.
@@ -778,16 +1063,15 @@ impl PyExtents {
     /// contiguously: `parts` is a list of (sample count, byte offset).
     #[staticmethod]
     fn contiguous(dtype: &str, big_endian: bool, parts: Vec<(u64, u64)>) -> PyResult<Self> {
-        let num = mapped::Num::from_name(dtype)
-            .ok_or_else(|| PyValueError::new_err(format!("unknown numeric type {dtype:?}")))?;
+        let num = mapped::Num::from_name(dtype).ok_or_else(|| bad(format!("unknown numeric type {dtype:?}")))?;
         let w = num.width();
         let mut start = 0u64;
         let mut out = Vec::with_capacity(parts.len());
         for (count, offset) in parts {
             let end = count.checked_mul(w).and_then(|b| b.checked_add(offset));
-            let end = end.ok_or_else(|| PyValueError::new_err("extent overflows"))?;
+            let end = end.ok_or_else(|| bad("extent overflows"))?;
             out.push(mapped::Extent { start, ..mapped::Extent::single(count, offset, w, (offset, end)) });
-            start = start.checked_add(count).ok_or_else(|| PyValueError::new_err("extent counts overflow"))?;
+            start = start.checked_add(count).ok_or_else(|| bad("extent counts overflow"))?;
         }
         let ext = mapped::Extents { num, big_endian, parts: out, ops: Vec::new() };
         ext.check(u64::MAX).map_err(to_py)?;
@@ -802,7 +1086,7 @@ impl PyExtents {
             ext.ops.push(match (kind.as_str(), v.as_slice()) {
                 ("linear", &[slope, intercept]) => mapped::Op::Linear { slope, intercept },
                 ("poly", c) => mapped::Op::Poly(c.to_vec()),
-                _ => return Err(PyValueError::new_err(format!("unknown scaling {kind:?} with {} values", v.len()))),
+                _ => return Err(bad(format!("unknown scaling {kind:?} with {} values", v.len()))),
             });
         }
         Ok(PyExtents { inner: std::sync::Arc::new(ext) })
@@ -905,18 +1189,16 @@ fn dialect_of(
     let delim = match delimiter {
         None => None,
         Some(d) if d.len() == 1 && d.is_ascii() => Some(d.as_bytes()[0]),
-        Some(d) => {
-            return Err(PyValueError::new_err(format!("delimiter must be one ASCII character or None, got {d:?}")))
-        }
+        Some(d) => return Err(bad(format!("delimiter must be one ASCII character or None, got {d:?}"))),
     };
     let decimal = match decimal {
         "." => b'.',
         "," => b',',
-        d => return Err(PyValueError::new_err(format!("decimal must be '.' or ',', got {d:?}"))),
+        d => return Err(bad(format!("decimal must be '.' or ',', got {d:?}"))),
     };
     let comment = match comment {
         Some(c) if c.is_empty() || !c.is_ascii() => {
-            return Err(PyValueError::new_err(format!("comment must be ASCII text or None, got {c:?}")))
+            return Err(bad(format!("comment must be ASCII text or None, got {c:?}")))
         }
         c => c.map(|c| c.as_bytes().to_vec()),
     };
@@ -990,7 +1272,7 @@ fn text_parse<'py>(
     let pieces: Vec<text::Piece> =
         pieces.into_iter().map(|(offset, line, skip, rows)| text::Piece { offset, line, skip, rows }).collect();
     let total: u64 = pieces.iter().map(|p| p.rows).sum();
-    let total = usize::try_from(total).map_err(|_| PyValueError::new_err("too many rows"))?;
+    let total = usize::try_from(total).map_err(|_| bad("too many rows"))?;
     let mut outs: Vec<Vec<f64>> = Vec::with_capacity(usecols.len());
     for _ in &usecols {
         outs.push(zeros(total, "rows")?);
@@ -999,23 +1281,16 @@ fn text_parse<'py>(
         let mut cols: Vec<&mut [f64]> = outs.iter_mut().map(|v| v.as_mut_slice()).collect();
         text::parse(&file, &pieces, &dialect, &usecols, &mut cols, threads)
     });
-    match res {
-        Ok(()) => outs.into_iter().map(|v| Ok(PyArray1::from_vec(py, v))).collect(),
-        Err(text::ParseError::Fields { line, got, need }) => Err(PyValueError::new_err(("fields", line, got, need))),
-        Err(text::ParseError::Number { line, col, text }) => {
-            Err(PyValueError::new_err(("number", line, col, pyo3::types::PyBytes::new(py, &text).unbind())))
-        }
-        Err(text::ParseError::Eof { line, short }) => Err(PyValueError::new_err(("eof", line, short))),
-        Err(text::ParseError::Io(e)) => Err(to_py(e)),
-    }
+    res.map_err(Fault::Parse)?;
+    Ok(outs.into_iter().map(|v| PyArray1::from_vec(py, v)).collect())
 }
 
 /// Sets the thread count of calls that name none (0 = all cores; at most
 /// `max_threads()`).
 #[pyfunction]
 fn set_threads(n: i64) -> PyResult<()> {
-    let n = usize::try_from(n)
-        .map_err(|_| PyValueError::new_err(format!("threads must be in [0, {}], got {n}", parallel::max_threads())))?;
+    let n =
+        usize::try_from(n).map_err(|_| bad(format!("threads must be in [0, {}], got {n}", parallel::max_threads())))?;
     parallel::set_default_threads(n).map_err(to_py)
 }
 
@@ -1044,6 +1319,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
     m.add_function(wrap_pyfunction!(tdms_index, m)?)?;
     m.add_class::<PyExtents>()?;
+    m.add_class::<PyWindowSpec>()?;
     m.add_function(wrap_pyfunction!(text_scan, m)?)?;
     m.add_function(wrap_pyfunction!(text_parse, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
