@@ -254,7 +254,7 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
     intervals (docs/method.md 3b, 3d).
     """
     from .estimators import (
-        T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, reverse_slope, slopes, window_noise,
+        T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes, window_noise,
     )  # fmt: skip
 
     lag = plan.iv_lag if lag is None else int(lag)
@@ -330,13 +330,7 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
             "rel_ci": rel,
         }
     if bound:  # least squares, attenuated by the noise on fz: up to the reverse regression (docs/method.md 3d)
-        b_rev, se_rev = reverse_slope(E)
-        high = s * b_rev + T975 * se_rev
-        out["mu_r_high"] = np.where(np.isfinite(high), np.maximum(high, out["mu_r_high"]), out["mu_r_high"])
-        gap = s * b_rev - mu
-        gap = gap[np.isfinite(gap)]
-        found["mu_r_bound"] = "lower"
-        found["attenuation_gap"] = float(max(np.median(gap), 0.0)) if gap.size else float("nan")
+        _lower_bound(E, s, out, found)
     if "skew" in o:
         out["skew_lag"] = o["skew"]
     if "spec" in o:
@@ -357,6 +351,21 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
                 "mu_r is biased low by it; analyze(..., align='auto') corrects it (docs/method.md 3e)"
             )
     return out
+
+
+def _lower_bound(E: Any, s: int, out: Stats, found: Dict[str, Any]) -> None:
+    """Least squares as a lower bound (docs/method.md 3b, 3d): each window's ``mu_r_high`` up to the reverse
+    regression's slope plus t_{0.975,4} of its standard error; ``found`` gets ``mu_r_bound`` and the
+    median gap between the reverse and the least-squares slope (``attenuation_gap``)."""
+    from .estimators import T975, reverse_slope
+
+    b_rev, se_rev = reverse_slope(E)
+    high = s * b_rev + T975 * se_rev
+    out["mu_r_high"] = np.where(np.isfinite(high), np.maximum(high, out["mu_r_high"]), out["mu_r_high"])
+    gap = s * b_rev - out["mu_r"]
+    gap = gap[np.isfinite(gap)]
+    found["mu_r_bound"] = "lower"
+    found["attenuation_gap"] = float(max(np.median(gap), 0.0)) if gap.size else float("nan")
 
 
 def _fz_std(o: Stats, plan: Plan) -> np.ndarray:

@@ -101,7 +101,7 @@ def choose_lag(p: Optional[LagProfile], weak: float) -> Optional[int]:
     return None
 
 
-def sample_windows(source: Any, rec: Any, length: int, start: int = 0, stop: Optional[int] = None,
+def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: Optional[int] = None,
                    limit: int = SAMPLE_WINDOWS) -> List[Tuple[np.ndarray, np.ndarray]]:  # fmt: skip
     """The first ``limit`` windows of ``length`` samples of (fy, fz), tiling, never across two acquisitions.
 
@@ -178,7 +178,7 @@ def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bo
         return None
     n = int(plan.length)
     if rec is not None and not whole:
-        windows = sample_windows(source, rec, n, plan.start, plan.stop)
+        windows = sample_windows(source, rec, n, start=plan.start, stop=plan.stop)
     else:
         windows = sample_windows(source, rec, n)
     return choose_lag(lag_profile(windows, (n - 1) // 2), WEAK_INSTRUMENT)
