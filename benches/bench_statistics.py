@@ -36,6 +36,13 @@ the temperature test's breakpoints and hysteresis at hops of 10 s and 2 s
 and false optima on a flat COF (:func:`ranges`). The table in
 docs/method.md 7 is its ``--markdown`` output.
 
+``--instrument`` measures issue 23 point 3 (the instrument's lag chosen
+from the data, the lower bound when no instrument is valid) on the cases of
+:data:`INSTRUMENT_CASES`, ``--recordings`` recordings each (seeds 3000 on):
+the lag used, per-window bias and coverage, the headline's bias, the
+fraction of recordings whose headline interval holds the truth, how many
+headlines are marked a lower bound, the median ``attenuation_p``.
+
 ``--pipeline HOURS`` instead times ``analyze`` end to end on a recording of
 that many hours (1 kHz, fx, fy, fz, i, float64 ``.npy`` written by
 ``bench_pipeline.write_recording``; 2 s windows tiling it), in one process:
@@ -274,6 +281,74 @@ def ranges(recordings: int, seed: int = 100, only: str = "aJTd") -> list:
     return rows
 
 
+#: The cases of ``--instrument`` (issue 23 point 3): separate 2 s acquisitions at SNR_z 6 dB without ``rpm``, at a
+#: rig speed (228 rpm) where fz lagged by 200 samples (the old default) is nearly uncorrelated with fz; the same
+#: with band-limited fz noise; a lag given at which no instrument is valid (0.12 s); and, for no loss, continuous
+#: recordings at the usual 250 rpm with and without ``rpm``. (name, conditions, acquisitions, seconds each,
+#: analyze options)
+INSTRUMENT_CASES = [
+    ("40 acquisitions of 2 s, SNR_z 6 dB, 228 rpm, no rpm", dict(snr_z=6.0, y_noise=0.02, rpm=228.0), 40, 2.0, {}),
+    ("40 acquisitions of 2 s, SNR_z 6 dB band, 228 rpm, no rpm",
+     dict(snr_z=6.0, z_noise="band", y_noise=0.02, rpm=228.0), 40, 2.0, {}),
+    ("40 acquisitions of 2 s, SNR_z 6 dB, 228 rpm, iv_lag=0.12 s (no valid instrument)",
+     dict(snr_z=6.0, y_noise=0.02, rpm=228.0), 40, 2.0, dict(iv_lag=0.12)),
+    ("continuous 400 s, SNR_z 6 dB, rpm given", dict(snr_z=6.0, y_noise=0.02), 1, 400.0, "rpm"),
+    ("continuous 400 s, SNR_z 6 dB, no rpm", dict(snr_z=6.0, y_noise=0.02), 1, 400.0, {}),
+]  # fmt: skip
+
+
+def instrument(recordings: int, seed: int = 3000) -> list:
+    """One row per case of :data:`INSTRUMENT_CASES` over ``recordings`` simulated recordings (docs/method.md 3f)."""
+    rows = []
+    for name, kw, count, seconds, opts in INSTRUMENT_CASES:
+        acc: dict = {k: [] for k in ("bias", "head", "head_cov", "ci_cov", "lag", "bound", "p")}
+        cnt = dict(windows=0, covered=0)
+        for r in range(recordings):
+            sims = [simulate.conditions(seconds, mu=MU, seed=(seed + r) * 1000 + k, **kw) for k in range(count)]
+            src = [dict(a.channels) for a in sims] if count > 1 else dict(sims[0].channels)
+            extra = dict(rpm=sims[0].rpm) if opts == "rpm" else dict(opts)
+            res = tribodyn.analyze(src, fs=sims[0].fs, window=2.0, hop=2.0, threads=1, **extra)
+            mu, lo, hi = res["mu_r"], res["mu_r_low"], res["mu_r_high"]
+            good = np.isfinite(mu)
+            acc["bias"].append(float(np.mean(mu[good]) / MU - 1))
+            cnt["windows"] += int(good.sum())
+            cnt["covered"] += int(np.sum((lo[good] <= MU) & (MU <= hi[good])))
+            head = res.headline
+            acc["head"].append(head.value / MU - 1)
+            acc["head_cov"].append(_within(head.low, head.high))
+            acc["lag"].append(res.params.get("iv_lag_samples"))
+            acc["bound"].append(getattr(head, "bound", "") == "lower")
+            acc["p"].append(float(np.nanmedian(res["attenuation_p"])))
+        rows.append(
+            dict(
+                case=name, recordings=recordings, acquisitions=count, windows=cnt["windows"] / recordings,
+                bias=float(np.mean(acc["bias"])), coverage=cnt["covered"] / max(cnt["windows"], 1),
+                headline=float(np.mean(acc["head"])), head_cov=float(np.mean(acc["head_cov"])),
+                lag=float(np.median(acc["lag"])), lag_range=(min(acc["lag"]), max(acc["lag"])),
+                bound=int(np.sum(acc["bound"])), p=float(np.median(acc["p"])),
+            )
+        )  # fmt: skip
+        print(rows[-1], flush=True)
+    return rows
+
+
+def print_instrument(rows: list) -> None:
+    print(
+        "| case | recordings | windows each | instrument lag (median, range) | all windows: bias | "
+        "all windows: coverage | headline bias | headline interval coverage | headline a lower bound | "
+        "median attenuation_p |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        lo, hi = r["lag_range"]
+        print(
+            f"| {r['case']} | {r['recordings']} | {r['windows']:.0f} | {r['lag']:.0f} ({lo}-{hi}) | "
+            f"{_pct(r['bias'])} | "
+            f"{_frac(r['coverage'])} | {_pct(r['headline'])} | {_frac(r['head_cov'])} | "
+            f"{r['bound']} of {r['recordings']} | {r['p']:.3f} |"
+        )
+
+
 def gate_accuracy(seed: int = 0, noise: float = 0.05) -> dict:
     """The gated COF window by window on the temperature test with white noise on fy (docs/method.md 5)."""
     sim = simulate.temperature_test(seed=seed)
@@ -373,7 +448,15 @@ def main() -> None:
     ap.add_argument("--recordings", type=int, default=200, help="recordings per case of --intervals (--ranges: 20)")
     ap.add_argument("--ranges", action="store_true", help="the issue-23 point-5 operating-range cases")
     ap.add_argument("--only", default="aJTd", help="--ranges groups: a (instability), J, T, d (flat COF)")
+    ap.add_argument("--instrument", action="store_true", help="the issue-23 point-3 table: the instrument's lag")
     args = ap.parse_args()
+    if args.instrument:
+        t0 = time.perf_counter()
+        rows = instrument(args.recordings, seed=3000 * args.seed)
+        if args.markdown:
+            print_instrument(rows)
+        print(f"\n({time.perf_counter() - t0:.0f} s, seeds from {3000 * args.seed})")
+        return
     if args.ranges:
         t0 = time.perf_counter()
         n = args.recordings if args.recordings != 200 else 20

@@ -33,6 +33,7 @@ from .io.base import RecordingProtocol
 from .plan import Findings, Plan, make_plan
 from .results import Results
 from .routes import concat_stats, run
+from .instrument import find_lag
 from .options import defaults
 from .strokes import stroke_windows
 from .threads import reading, resolve_threads
@@ -390,7 +391,7 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     plan = _plan_of(given, fs, rec, options)
     _check_range(source, rec, plan)
     pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
-    found = Findings(classical=pre.get("spec"))
+    found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # docs/method.md 3b
     tribo = _tribometer_params(rec, pre, plan.window_note)
     strokes: Optional[Dict[str, np.ndarray]] = None
     run_source, run_rec = source, rec

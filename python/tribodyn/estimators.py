@@ -40,6 +40,7 @@ __all__ = [
     "Slopes",
     "slopes",
     "pooled_noise",
+    "reverse_slope",
     "window_noise",
     "gate_precision",
     "quadratic",
@@ -264,6 +265,23 @@ def slopes(
         ols=b_ols, ols_se=se_ols, iv=b_iv, iv_se=se_iv, slope=b, se=se, attenuation_p=p, noise_z=noise_z,
         instrument_r=r_inst, se_white=se_w, dnoise=dnoise,
     )  # fmt: skip
+
+
+def reverse_slope(E: "np.ndarray | Sums") -> Tuple[np.ndarray, np.ndarray]:
+    """The reverse regression's slope S_yy / S_zy per window (orientation +1) and its batch-means standard error.
+
+    fz regressed on fy, inverted: with noise on fy and fz independent of the
+    contact force, |OLS| <= |b| <= |S_yy / S_zy| (the classical bounds of
+    errors in variables; Frisch 1934, Fuller 1987, Sec. 1.1.3): the upper
+    end of the interval when least squares is a lower bound (docs/method.md 3d).
+    Estimating equation sum_t y_t (y_t - b z_t) = 0, so U_k = S_yy,k - b S_zy,k, D = S_zy.
+    """
+    S = _sums(E)
+    syy, szy = _p(S, "yy", True), _p(S, "zy", True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        b = syy / szy
+        u = _p(S, "yy") - b[:, None] * _p(S, "zy")
+    return b, _bm_se(u, szy)
 
 
 def gate_precision(mu: np.ndarray, se: np.ndarray, se_white: np.ndarray) -> Tuple[np.ndarray, float, float]:

@@ -106,7 +106,11 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     centre = t_start + 0.5 * n_win / fs
     seen: Dict[str, Any] = {}
     notes: List[str] = []
-    stats_cols = _statistics(o, plan, found.delay, s, found=seen, notes=notes)
+    if not plan.paper:  # where the instrument lag comes from (docs/method.md 3b)
+        rpm_lag = plan.rpm is not None and plan.iv_lag == int(round(60.0 * fs / float(plan.rpm)))
+        seen["iv_lag_rule"] = ("data" if found.iv_lag else "default") if plan.iv_lag_from_data else (
+            "rpm" if rpm_lag else "given")  # fmt: skip
+    stats_cols = _statistics(o, plan, found.delay, s, found=seen, notes=notes, lag=plan.lag(found))
     o.update(stats_cols)
     skew_gate = o.get("skew_lag")
     reasons = gate_reasons(o, plan.gate, skew_gate, rel_ci=stats_cols.get("rel_ci"), max_rel_ci=plan.max_rel_ci)
@@ -231,15 +235,29 @@ WEAK_INSTRUMENT = 0.3
 ALIGN_MIN = 0.05
 
 
-def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str, Any], notes: List[str]) -> Stats:
+def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str, Any], notes: List[str],
+                lag: Optional[int] = None) -> Stats:  # fmt: skip
     """mu_r by the plan's estimator, its interval, the force dependence and the line statistics (docs/method.md 3a-3e).
 
     ``o`` holds the oriented kernel statistics (``mu_r`` = s * OLS slope);
     returns the columns that replace or join them. ``found`` gets what the
     recording revealed (for ``params``), ``notes`` the warnings; ``delay0`` is
-    the fz delay already corrected in every window (``align="auto"``).
+    the fz delay already corrected in every window (``align="auto"``); ``lag``
+    the instrument lag of the kernel's sums (default ``plan.iv_lag``).
+
+    When the noise on fz cannot be measured (no valid instrument) and the
+    estimator falls back to least squares, that slope is a lower bound of
+    |mu|: each window's interval then reaches up to the reverse regression's
+    slope (``mu_r_high``), and ``params["mu_r_bound"] = "lower"`` with
+    ``params["attenuation_gap"]`` (median over windows of the reverse minus
+    the least-squares slope) widen the summary's and the headline's
+    intervals (docs/method.md 3b, 3d).
     """
-    from .estimators import T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes, window_noise
+    from .estimators import (
+        T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes, window_noise,
+    )  # fmt: skip
+
+    lag = plan.iv_lag if lag is None else int(lag)
 
     k = len(o["n"])
     mu_ols = np.array(o["mu_r"], dtype=float)
@@ -255,15 +273,18 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
         return out
     E = Sums(o.pop("ext"))
     n = np.asarray(o["n"])
+    found["iv_lag_samples"] = lag
     pooled = None
+    bound = False  # the fallback to least squares: mu_r is a lower bound of |mu| (docs/method.md 3b)
     if plan.estimator == "corrected" and plan.noise is None:
         pooled = pooled_noise(E, n)
         if not np.isfinite(pooled[0]):
             notes.append(
-                f"the noise on fz could not be measured (instrument lag {plan.iv_lag} samples needs windows longer "
-                "than twice it): mu_r is the least-squares slope; pass iv_lag= or noise="
+                f"the noise on fz could not be measured (instrument lag {lag} samples needs windows longer "
+                "than twice it): mu_r is the least-squares slope, a lower bound; pass iv_lag= or noise="
             )
             pooled = (0.0, 0.0)
+            bound = True
         found["noise_z_std"] = float(np.sqrt(pooled[0]))
     sl = slopes(E, n, plan.estimator, noise=plan.noise, pooled=pooled)
     r_inst = sl.instrument_r[np.isfinite(sl.instrument_r)]
@@ -274,14 +295,16 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
         pooled = (0.0, 0.0)
         found["noise_z_std"] = 0.0
         sl = slopes(E, n, plan.estimator, noise=plan.noise, pooled=pooled)
+        bound = True
         notes.append(
-            f"the noise on fz could not be measured: the instrument (fz lagged by {plan.iv_lag} samples) is weak "
-            f"(median r = {found['instrument_r']:.2f}), so mu_r is the least-squares slope; pass rpm= (a lag of "
-            "one revolution), iv_lag= or noise= (docs/method.md 3b)"
+            f"the noise on fz could not be measured: the instrument (fz lagged by {lag} samples) is weak "
+            f"(median r = {found['instrument_r']:.2f}), so mu_r is the least-squares slope, a lower bound (its "
+            "intervals reach up to the reverse regression's slope); pass rpm= (a lag of one revolution), iv_lag= "
+            "or noise= (docs/method.md 3b)"
         )
     elif weak and plan.estimator == "iv":
         notes.append(
-            f"the instrument (fz lagged by {plan.iv_lag} samples) is weak: median r = {found['instrument_r']:.2f}; "
+            f"the instrument (fz lagged by {lag} samples) is weak: median r = {found['instrument_r']:.2f}; "
             "IV slopes are imprecise; pass rpm= (a lag of one revolution) or iv_lag= (docs/method.md 3b)"
         )
     mu = s * sl.slope
@@ -306,6 +329,8 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
             "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
             "rel_ci": rel,
         }
+    if bound:  # least squares, attenuated by the noise on fz: up to the reverse regression (docs/method.md 3d)
+        _lower_bound(E, s, out, found)
     if "skew" in o:
         out["skew_lag"] = o["skew"]
     if "spec" in o:
@@ -326,6 +351,21 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
                 "mu_r is biased low by it; analyze(..., align='auto') corrects it (docs/method.md 3e)"
             )
     return out
+
+
+def _lower_bound(E: Any, s: int, out: Stats, found: Dict[str, Any]) -> None:
+    """Least squares as a lower bound (docs/method.md 3b, 3d): each window's ``mu_r_high`` up to the reverse
+    regression's slope plus t_{0.975,4} of its standard error; ``found`` gets ``mu_r_bound`` and the
+    median gap between the reverse and the least-squares slope (``attenuation_gap``)."""
+    from .estimators import T975, reverse_slope
+
+    b_rev, se_rev = reverse_slope(E)
+    high = s * b_rev + T975 * se_rev
+    out["mu_r_high"] = np.where(np.isfinite(high), np.maximum(high, out["mu_r_high"]), out["mu_r_high"])
+    gap = s * b_rev - out["mu_r"]
+    gap = gap[np.isfinite(gap)]
+    found["mu_r_bound"] = "lower"
+    found["attenuation_gap"] = float(max(np.median(gap), 0.0)) if gap.size else float("nan")
 
 
 def _fz_std(o: Stats, plan: Plan) -> np.ndarray:

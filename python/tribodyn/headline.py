@@ -76,6 +76,10 @@ class Headline:
         How the value is computed, in words.
     interval : str
         How the interval is computed, in words.
+    bound : str
+        "lower" when the value is a lower bound of the COF (least squares
+        attenuated by noise on fz that no valid instrument could measure;
+        the interval then reaches up to the reverse regression, docs/method.md 3d), else "".
     """
 
     method: str
@@ -88,6 +92,7 @@ class Headline:
     reasons: Tuple[str, ...] = ()
     estimate: str = ""
     interval: str = ""
+    bound: str = ""
 
     @property
     def ok(self) -> bool:
@@ -101,7 +106,8 @@ class Headline:
             why = "; ".join(self.reasons) if self.reasons else "nothing to compute it from"
             return f"No {self.method} COF: {why}."
         iv = f" (95 % interval {self.low:#.4g} to {self.high:#.4g})" if math.isfinite(self.low) else ""
-        return f"COF {self.value:#.4g}{iv}: {self.method}, {self.estimate}."
+        lb = f" ({self.bound} bound)" if self.bound else ""
+        return f"COF {self.value:#.4g}{lb}{iv}: {self.method}, {self.estimate}."
 
     @property
     def short(self) -> str:
@@ -142,6 +148,7 @@ class Headline:
             "reasons": list(self.reasons),
             "estimate": self.estimate,
             "interval": self.interval,
+            "bound": self.bound,
             "text": self.text,
         }
 
@@ -457,6 +464,10 @@ def _dynamic(res: "Results", total: int) -> Headline:
     # the recording's fz-noise estimate is drawn anew in each resample (docs/method.md 3d); summary() shares it
     ci = res.mu_r_ci.get("median")
     rect = ", direction-rectified strokes" if res.params.get("rectified") else ""
+    bound = "lower" if res.params.get("mu_r_bound") == "lower" else ""
+    if bound:  # docs/method.md 3d: least squares attenuated by the noise on fz, which no instrument could measure
+        rect += "; least squares, a lower bound: no valid instrument measured the noise on fz"
+        interval += ", its upper end raised to the reverse regression's slope"
     return Headline(
         method="dynamic",
         value=float(np.median(v)) if v.size else float("nan"),
@@ -467,6 +478,7 @@ def _dynamic(res: "Results", total: int) -> Headline:
         fraction_used=frac,
         estimate=f"median of mu_r ({est} estimator{rect}) over {v.size} gated windows of {len(res)}",
         interval=interval,
+        bound=bound,
     )
 
 

@@ -180,8 +180,11 @@ class Plan:
     max_rel_ci: float = 0.1
     #: "auto" (estimate and correct the fz delay) or None.
     align: Optional[str] = None
-    #: Instrument lag, samples (docs/method.md 3b).
+    #: Instrument lag, samples (docs/method.md 3b); with ``iv_lag_from_data`` the fallback when the data
+    #: name none (``Findings.iv_lag``).
     iv_lag: int = 0
+    #: True when neither ``iv_lag`` nor ``rpm`` was given: the lag is chosen from the data (docs/method.md 3b).
+    iv_lag_from_data: bool = False
     #: Line frequencies (cycles per sample) and the index of f0, f_l among them.
     lines: Tuple[float, ...] = ()
     line_index: Tuple[Tuple[str, int], ...] = ()
@@ -211,8 +214,12 @@ class Plan:
             out["classical"] = (float(c.min_fn), float(c.tare_fy), float(c.tare_fz))
         if self.paper:
             return out
-        out.update(lag=self.iv_lag, lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=found.delay)
+        out.update(lag=self.lag(found), lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=found.delay)
         return out
+
+    def lag(self, found: "Findings") -> int:
+        """The instrument lag of the analysis (samples): the data's choice when the plan leaves it to them."""
+        return int(found.iv_lag) if self.iv_lag_from_data and found.iv_lag else self.iv_lag
 
     @property
     def raw(self) -> bool:
@@ -405,10 +412,16 @@ class Findings:
     delay : float
         Samples by which fz is advanced in every window (``align="auto"``'s
         measurement, docs/method.md 3e); 0 otherwise.
+    iv_lag : int or None
+        The instrument lag chosen from the data (samples; docs/method.md 3b:
+        the shortest lag past the noise's correlation time at which the
+        instrument is strong), used when the plan leaves the lag to the data
+        (``Plan.iv_lag_from_data``); None when none was found or looked for.
     """
 
     classical: Optional[Any] = None
     delay: float = 0.0
+    iv_lag: Optional[int] = None
 
 
 #: Segments averaged per window for the line cross-spectra (docs/method.md 3e).
@@ -459,7 +472,8 @@ def check_statistics(
     rev = None if rpm is None else positive(rpm, "rpm")
     if iv_lag is None:
         # One revolution when the speed is known (the run-out repeats, the
-        # noise does not); else a tenth of the window, at least 10 samples.
+        # noise does not); else chosen from the data (Findings.iv_lag), failing
+        # which a tenth of the window, at least 10 samples.
         lag = int(round(60.0 * fs / rev)) if rev is not None else max(10, length // 10)
     else:
         lag = max(1, int(round(positive(iv_lag, "iv_lag") * fs)))
@@ -480,5 +494,5 @@ def check_statistics(
         raise ValueError("align='auto' needs rpm= (and n_lamellas=): the delay is measured at the rig's lines")
     return dict(
         method="", estimator=est, gate=g, max_rel_ci=rel, align=align, iv_lag=lag, lines=lines,
-        line_index=tuple(index.items()), noise=sig,
+        line_index=tuple(index.items()), noise=sig, iv_lag_from_data=iv_lag is None and rev is None,
     )  # fmt: skip

@@ -292,7 +292,12 @@ class Results:
         resample (docs/method.md 3d): ``summary()["mu_r"]["ci"]`` and the dynamic headline's interval,
         computed once."""
         mu, keep = self._gated_mu
-        return bootstrap_ci(mu, noise=noise_resample(self.table, keep), threads=self._threads)
+        ci = bootstrap_ci(mu, noise=noise_resample(self.table, keep), threads=self._threads)
+        gap = self.params.get("attenuation_gap")
+        if self.params.get("mu_r_bound") == "lower" and gap is not None and np.isfinite(gap):
+            # least squares is a lower bound: the upper ends reach the reverse regression (docs/method.md 3d)
+            ci = {k: (lo, hi + float(gap)) for k, (lo, hi) in ci.items()}
+        return ci
 
     @cached_property
     def verdict(self) -> Dict[str, Any]:

@@ -146,6 +146,7 @@ from scipy.interpolate import PchipInterpolator
 
 __all__ = [
     "N_LAMELLAS",
+    "acquisitions",
     "ReciprocatingSimulation",
     "StribeckModel",
     "StribeckSimulation",
@@ -509,6 +510,7 @@ class _Rig:
         loss_fn: _ArrayFn | None = None,
         current_fn: _ArrayFn | None = None,
         start_index: int = 0,
+        rpm: float = RPM,
     ) -> None:
         self.fs = float(fs)
         self.seed = int(seed)
@@ -523,7 +525,7 @@ class _Rig:
         self._cache: dict[int, tuple[tuple[int, int], np.ndarray]] = {}
 
         rng = np.random.default_rng(np.random.SeedSequence([self.seed, 0]))
-        f0 = RPM / 60.0
+        f0 = float(rpm) / 60.0
         fl = N_LAMELLAS * f0
         # (frequency, amplitude, phase, modulation depth at f0, modulation phase)
         comps = [
@@ -547,7 +549,7 @@ class _Rig:
         self.mod_phase = mod_phase
         # Everything deterministic is periodic in the rotation: when a
         # revolution is a whole number of samples (240 at 1 kHz), tabulate it.
-        period = self.fs * 60.0 / RPM
+        period = self.fs * 60.0 / float(rpm)
         self._table: tuple[np.ndarray, np.ndarray] | None = None
         if abs(period - round(period)) < 1e-9 * period and round(period) <= 10_000_000:
             self._table = self._rotor_direct(np.arange(round(period)) / self.fs)
@@ -1180,6 +1182,7 @@ def conditions(
     delay: float = 0.0,
     beta: float = 0.0,
     raw: bool = False,
+    rpm: float | None = None,
 ) -> Simulation:
     """A stationary recording under controlled measurement conditions.
 
@@ -1228,11 +1231,16 @@ def conditions(
         ``d mu / d N = mu * beta``.
     raw : bool
         Return DC-coupled forces (no high-pass), still quantised.
+    rpm : float or None
+        Speed of the rig (rev/min, > 0); None: :data:`RPM`. The run-out and
+        the lamella excitation (``f_l = N_LAMELLAS rpm / 60``) move with it,
+        and so does the autocorrelation of fz at a given lag (at 228 rpm fz
+        lagged by 200 samples is nearly uncorrelated with fz, docs/method.md 3b).
 
     Returns
     -------
     Simulation
-        Channels fx, fy, fz. ``truth.mu`` is ``mu`` (constant),
+        Channels fx, fy, fz; ``rpm`` is the rig's speed. ``truth.mu`` is ``mu`` (constant),
         ``truth.force_dependence`` is ``beta`` per newton (not relative to
         ``N0`` as in the other scenarios), ``truth.skew`` is
         ``int(round(delay))``; ``truth.params`` holds every condition plus
@@ -1259,6 +1267,9 @@ def conditions(
     ripple_c = _cond_number("ripple", ripple, nonneg=True)
     delay_c = _cond_number("delay", delay)
     beta_c = _cond_number("beta", beta)
+    speed = RPM if rpm is None else _cond_number("rpm", rpm)
+    if not speed > 0.0:
+        raise ValueError(f"rpm must be > 0, got {rpm!r}")
     pre = max(1, round(fs))
     if abs(delay_c) > pre:
         raise ValueError(f"|delay| must be <= {pre} samples, got {delay!r}")
@@ -1272,7 +1283,7 @@ def conditions(
     # a pad of 2 s at each end: sample n of the result is rig index n.
     pad = max(1, round(_COND_PAD_S * fs))
     n_tot = n_out + 2 * pad
-    rig = _Rig(fs=fs, seed=int(seed), orientation=1, beta=0.0, mu0_fn=ones, start_index=-(pre + pad))
+    rig = _Rig(fs=fs, seed=int(seed), orientation=1, beta=0.0, mu0_fn=ones, start_index=-(pre + pad), rpm=speed)
     rig.next(pre)
     normal = np.empty(n_tot)
     fx = np.empty(n_tot)
@@ -1290,7 +1301,7 @@ def conditions(
     w_y = rng.standard_normal(n_tot)
     w_d = rng.standard_normal(n_tot)
     sos_band = _band_sos(*_COND_BAND_HZ, fs)[0]
-    f_l = N_LAMELLAS * RPM / 60.0
+    f_l = N_LAMELLAS * speed / 60.0
 
     mu_t = mu_c * (1.0 + beta_c * (normal - PRELOAD_N))
     if ripple_c != 0.0:
@@ -1351,6 +1362,7 @@ def conditions(
             "f_l": f_l,
             "noise_band_hz": _COND_BAND_HZ,
             "drift_cutoff_hz": _COND_DRIFT_HZ,
+            "rpm": speed,
         },
     )
     return Simulation(
@@ -1358,11 +1370,25 @@ def conditions(
         channels=channels,
         temperature_log=None,
         area_mm2=None,
-        rpm=RPM,
+        rpm=speed,
         n_lamellas=N_LAMELLAS,
         orientation=int(orientation),
         truth=truth,
     )
+
+
+def acquisitions(count: int, duration_s: float, *, seed: int = 0, **kw: Any) -> list[Simulation]:
+    """``count`` separate acquisitions of ``duration_s`` each under the same :func:`conditions`.
+
+    Acquisition ``k`` is ``conditions(duration_s, seed=seed * 1000 + k, **kw)``
+    (``count <= 1000``): its own rig phases, noises and amplifier start, as
+    separate short records of one contact are (analyse
+    ``[dict(a.channels) for a in result]``; each acquisition is windowed on its own).
+    """
+    n = int(count)
+    if isinstance(count, bool) or n != count or not 1 <= n <= 1000:
+        raise ValueError(f"count must be an integer in 1..1000, got {count!r}")
+    return [conditions(duration_s, seed=int(seed) * 1000 + k, **kw) for k in range(n)]
 
 
 _SCENARIOS: dict[str, Callable[..., Simulation]] = {
