@@ -18,7 +18,10 @@ import numpy as np
 from .columns import TABLE
 from .contact_loss import mark_contact_loss
 from .covariates import branch, evaluate, interpolate, log_quality
-from .headline import ClassicalTotals
+from .estimators import (
+    T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, reverse_slope, slopes, window_noise,
+)  # fmt: skip
+from .headline import ClassicalTotals, instrument_check
 from .identify import resolve_orientation
 from .plan import Covariates, Findings, Plan
 from .results import Results
@@ -39,8 +42,6 @@ def settle(res: Results, classical: Optional[Callable[[], Optional[ClassicalTota
     when the headline is not the dynamic COF; a difference of the
     instrument's COF from the headline over 0.5 % is explained in a warning.
     """
-    from .headline import instrument_check
-
     v = res.verdict
     if classical is not None and res.classical is None and not v["dynamic_method"] and v["motion"] != "reciprocating":
         res = dataclasses.replace(res, classical=classical())
@@ -253,10 +254,6 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
     the least-squares slope) widen the summary's and the headline's
     intervals (docs/method.md 3b, 3d).
     """
-    from .estimators import (
-        T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, slopes, window_noise,
-    )  # fmt: skip
-
     lag = plan.iv_lag if lag is None else int(lag)
 
     k = len(o["n"])
@@ -357,7 +354,6 @@ def _lower_bound(E: Any, s: int, out: Stats, found: Dict[str, Any]) -> None:
     """Least squares as a lower bound (docs/method.md 3b, 3d): each window's ``mu_r_high`` up to the reverse
     regression's slope plus t_{0.975,4} of its standard error; ``found`` gets ``mu_r_bound`` and the
     median gap between the reverse and the least-squares slope (``attenuation_gap``)."""
-    from .estimators import T975, reverse_slope
 
     b_rev, se_rev = reverse_slope(E)
     high = s * b_rev + T975 * se_rev
