@@ -8,13 +8,25 @@ argument. Nothing here copies an array that is already contiguous float64.
 from __future__ import annotations
 
 import numbers
-from typing import Any
+from typing import Any, Union
 
 import numpy as np
 
 from . import _core
 
-__all__ = ["as_signal", "as_channels", "positive", "check_fs", "check_int", "check_bins", "MAX_BINS", "MIN_BIN_SAMPLES"]
+__all__ = [
+    "Orientation",
+    "resolve_orientation",
+    "check_gate",
+    "as_signal",
+    "as_channels",
+    "positive",
+    "check_fs",
+    "check_int",
+    "check_bins",
+    "MAX_BINS",
+    "MIN_BIN_SAMPLES",
+]
 
 
 def _as_float_array(x: Any, name: str) -> np.ndarray:
@@ -128,3 +140,28 @@ def check_bins(value: Any, samples: int, name: str = "n_bins") -> int:
             f"{MIN_BIN_SAMPLES}), at most {MAX_BINS}; docs/method.md 4), got {nb}"
         )
     return nb
+
+
+Orientation = Union[int, str]
+
+
+def resolve_orientation(orientation: Orientation, slope: float) -> int:
+    """s in {+1, -1}: as given, or for "auto" the sign of ``slope`` (docs/method.md 0).
+
+    "auto" with an undefined or zero slope gives +1.
+    """
+    if isinstance(orientation, str):
+        if orientation != "auto":
+            raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
+        return -1 if slope < 0 else 1
+    if orientation in (1, -1) and not isinstance(orientation, bool):
+        return int(orientation)
+    raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
+
+
+def check_gate(gate: Any) -> float:
+    """The paper's |C_yz(0)| threshold, in [0, 1] (docs/method.md 5)."""
+    g = float(gate)
+    if not 0 <= g <= 1:
+        raise ValueError(f"gate must be in [0, 1], got {gate!r}")
+    return g

@@ -24,11 +24,11 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+from ._validate import Orientation
 from .covariates import align_to_recording
 from .deadband import DeadbandSpec
 from .finish import ALIGN_MIN, finish, settle
 from .headline import ClassicalTotals, classical_totals
-from .identify import Orientation
 from .io.base import RecordingProtocol
 from .plan import Findings, Plan, make_plan
 from .results import Results

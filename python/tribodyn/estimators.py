@@ -32,6 +32,9 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+#: Below this median |r| of instrument and fz the instrument is weak (docs/method.md 3b).
+WEAK_INSTRUMENT = 0.3
+
 __all__ = [
     "BLOCKS",
     "PRODUCTS",

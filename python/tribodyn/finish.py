@@ -16,13 +16,14 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .columns import TABLE
+from ._validate import resolve_orientation
 from .contact_loss import mark_contact_loss
 from .covariates import branch, evaluate, interpolate, log_quality
 from .estimators import (
-    T975, Sums, gate_precision, line_stats, pooled_noise, quadratic, reverse_slope, slopes, window_noise,
+    T975, WEAK_INSTRUMENT, Sums, gate_precision, line_stats, pooled_noise, quadratic, reverse_slope, slopes,
+    window_noise,
 )  # fmt: skip
 from .headline import ClassicalTotals, instrument_check
-from .identify import resolve_orientation
 from .plan import Covariates, Findings, Plan
 from .results import Results
 from .window_stats import gate_reasons, orient
@@ -229,8 +230,6 @@ def _covariate_columns(o: Stats, cov: Any, centre: np.ndarray, notes: List[str]
 
 #: Normal quantile 0.975: the paper's intervals (mu_r +- 1.96 OLS standard errors).
 _Z975 = 1.959963984540054
-#: Below this median |r| of instrument and fz the instrument is weak (docs/method.md 3b).
-WEAK_INSTRUMENT = 0.3
 #: A recording-wide fz delay (samples) above which align="auto" corrects it
 #: and align=None warns (docs/method.md 3e).
 ALIGN_MIN = 0.05

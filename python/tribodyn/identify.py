@@ -3,40 +3,29 @@
 from __future__ import annotations
 
 import warnings
-from typing import Any, Dict, Optional, Tuple, Union
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from ._validate import as_signal, check_bins, check_fs, check_int, same_length
+from ._validate import (
+    Orientation,
+    as_signal,
+    check_bins,
+    check_fs,
+    check_gate,
+    check_int,
+    resolve_orientation,
+    same_length,
+)
 from .correlation import xcorr
 from .deadband import parse_deadband
+from .estimators import T975, WEAK_INSTRUMENT, quadratic, slopes
+from .options import option
+from .plan import Plan, check_statistics
 from .results import BinTable, CofResult
 from .window_stats import compute, gate_reasons, make_spec, orient
 
-__all__ = ["identify", "resolve_orientation", "cross_spectra"]
-
-Orientation = Union[int, str]
-
-
-def resolve_orientation(orientation: Orientation, slope: float) -> int:
-    """s in {+1, -1}: as given, or for "auto" the sign of ``slope`` (docs/method.md 0).
-
-    "auto" with an undefined or zero slope gives +1.
-    """
-    if isinstance(orientation, str):
-        if orientation != "auto":
-            raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
-        return -1 if slope < 0 else 1
-    if orientation in (1, -1) and not isinstance(orientation, bool):
-        return int(orientation)
-    raise ValueError(f"orientation must be +1, -1 or 'auto', got {orientation!r}")
-
-
-def check_gate(gate: Any) -> float:
-    g = float(gate)
-    if not 0 <= g <= 1:
-        raise ValueError(f"gate must be in [0, 1], got {gate!r}")
-    return g
+__all__ = ["identify", "resolve_orientation", "cross_spectra", "check_gate", "Orientation"]
 
 
 def cross_spectra(
@@ -229,9 +218,6 @@ def identify(
 
 def _identify_options(fs: Any, plan: Any, options: Dict[str, Any]) -> Tuple[Any, Dict[str, Any]]:
     """(fs, the options by name): from ``plan``, or ``options`` over the declared defaults (tribodyn.options)."""
-    from .options import option
-    from .plan import Plan
-
     unknown = sorted(set(options) - set(IDENTIFY_OPTIONS))
     if unknown:
         raise TypeError(
@@ -255,8 +241,6 @@ def _identify_options(fs: Any, plan: Any, options: Dict[str, Any]) -> Tuple[Any,
 
 def _statistics_options(fs: float, n: int, o: Dict[str, Any]) -> Dict[str, Any]:
     """The statistical options checked for an acquisition of ``n`` samples (``plan.check_statistics``)."""
-    from .plan import check_statistics
-
     return check_statistics(
         fs, n, method=o["method"], estimator=o["estimator"], gate=o["gate"], max_rel_ci=o["max_rel_ci"],
         iv_lag=o["iv_lag"], noise=o["noise"], rpm=o["rpm"], n_lamellas=o["n_lamellas"],
@@ -273,8 +257,6 @@ def _estimate(fy: np.ndarray, fz: np.ndarray, s: int, stats: Dict[str, Any], o: 
 
     Updates ``o``; {} (``o`` untouched: least squares) when "corrected" has a weak instrument and no ``noise``.
     """
-    from .estimators import T975, quadratic, slopes
-    from .finish import WEAK_INSTRUMENT
 
     n = fz.size
     spec = make_spec(n, parse_deadband(0.0), 1, ["n", "ext"], options=dict(lag=stats["iv_lag"]))

@@ -172,7 +172,7 @@ def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bo
     one lag with the analysis of the whole). None (the plan's default lag) with ``method="paper"``, a given ``iv_lag``
     or ``rpm``, a reciprocating test, a one-pass stream or no valid lag.
     """
-    from .finish import WEAK_INSTRUMENT
+    from .estimators import WEAK_INSTRUMENT
 
     if plan.paper or not plan.iv_lag_from_data or pre.get("motion") == "reciprocating":
         return None

@@ -15,11 +15,10 @@ from typing import Any, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
-from ._validate import check_bins, check_fs, check_int, positive
+from ._validate import check_bins, check_fs, check_gate, check_int, positive
 from .columns import kernel_columns
 from .covariates import TimeLog, as_log, constant_or_log
 from .deadband import Deadband, parse_deadband
-from .identify import check_gate
 from .threads import resolve_threads
 
 __all__ = [
