@@ -35,6 +35,8 @@ from typing import Dict, Tuple
 
 import numpy as np
 
+from .segmented import Fit
+
 __all__ = ["CurvedFit", "fit_curved", "bootstrap_curved", "profile_interval", "WIDTHS", "REACHES"]
 
 #: Onset widths ``w`` of the walls, as fractions of the covariate range.
@@ -60,21 +62,14 @@ def shape(u: np.ndarray, w: float, c: float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class CurvedFit:
-    """A bathtub fit with curved walls; the fields of :class:`tribodyn.segmented.Fit` plus the shapes.
+class CurvedFit(Fit):
+    """A bathtub fit with curved walls: a :class:`tribodyn.segmented.Fit` plus the walls' shapes.
 
     ``w_lo, c_lo`` (``w_hi, c_hi``): onset width and reach of the lower
     (upper) wall, in covariate units; ``a_lo``/``a_hi`` the slope of the
     wall's straight part.
     """
 
-    family: str
-    m: float
-    a_lo: float
-    a_hi: float
-    b_lo: float
-    b_hi: float
-    rss: float
     w_lo: float = 0.0
     c_lo: float = math.inf
     w_hi: float = 0.0
