@@ -29,6 +29,7 @@ __all__ = [
     "max_threads",
     "linfit",
     "pearson",
+    "row_quantiles",
     "set_threads",
     "tdms_index",
     "text_parse",
