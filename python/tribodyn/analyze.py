@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Mapping
-from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -410,29 +410,25 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     c_start, c_stop = _sample_range(source, rec, plan, partial)
     tribo["n_samples_total"] = c_stop - c_start
 
-    seen: List[Optional[ClassicalTotals]] = []  # the main pass's sums, when it read every sample (routes.run)
-
-    def classical_pass() -> Optional[ClassicalTotals]:  # docs/method.md 6a, 6e: every sample in contact
+    def classical_pass(sums: Optional[ClassicalTotals]) -> Optional[ClassicalTotals]:  # docs/method.md 6a, 6e
+        """The classical COF's sums over every sample in contact: the main pass's, else read again."""
         if found.classical is None or strokes is not None:
             return None
-        if seen and seen[-1] is not None:
-            return seen[-1]
-        return classical_totals(source, rec, found.classical, c_start, c_stop)
+        return sums if sums is not None else classical_totals(source, rec, found.classical, c_start, c_stop)
 
     span = (c_start, c_stop) if strokes is None else None
     if partial:  # the ranges are combined elsewhere, without the file: the sums are taken here
         k = run(run_source, run_rec, plan, found, span)
-        seen.append(k.classical)
         warnings = k.warnings + tuple(rec.warnings if rec is not None else ()) + own
         return Partial(k.st, k.aux_role, plan, k.route, tuple(dict.fromkeys(warnings)), tribo=tribo,
-                       strokes=strokes, classical=classical_pass(), found=found)  # fmt: skip
-    res = _analyze_aligned(run_source, run_rec, plan, found, span=span, seen=seen)
+                       strokes=strokes, classical=classical_pass(k.classical), found=found)  # fmt: skip
+    res, sums = _analyze_aligned(run_source, run_rec, plan, found, span)
     if run_rec is not rec and rec is not None:
         res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
     res.params.update(tribo)
     if own:
         res = dataclasses.replace(res, warnings=res.warnings + own)
-    return settle(dataclasses.replace(res, strokes=strokes), classical_pass)
+    return settle(dataclasses.replace(res, strokes=strokes), lambda: classical_pass(sums))
 
 
 def _sample_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partial: bool) -> Tuple[int, int]:
@@ -490,34 +486,29 @@ def _tribometer_params(rec: Optional[RecordingProtocol], pre: Dict[str, Any], wi
     return out
 
 
-def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
-                     span: Optional[Tuple[int, int]] = None, seen: Optional[List[Any]] = None) -> Results:  # fmt: skip
-    """The analysis, with align="auto"'s second pass when the plan asks for it (docs/method.md 3e).
-
-    ``span`` and ``seen``: the classical COF's sample range and where the
-    main pass's sums of it go (:func:`tribodyn.routes.run`).
-    """
+def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
+                     span: Optional[Tuple[int, int]] = None) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
+    """The analysis, with align="auto"'s second pass when the plan asks for it (docs/method.md 3e), and the
+    classical COF's sums over ``span`` when the main pass took them (:func:`tribodyn.routes.run`)."""
     if plan.align == "auto":
         if not (rec is not None or isinstance(source, (Mapping, list, tuple))):
             raise ValueError(
                 "align='auto' reads the source twice (to measure the delay, then to correct it): pass a mapping of "
                 "arrays, a list of acquisitions or a recording, not a one-pass stream of chunks"
             )
-        first = _analyze_plan(source, rec, plan, found, span=span, seen=seen)
+        first, sums = _analyze_plan(source, rec, plan, found, span)
         delay = float(first.params.get("skew_median", float("nan")))
         if not (np.isfinite(delay) and abs(delay) > ALIGN_MIN):
             first.params.update(align="auto", delay_samples=0.0 if not np.isfinite(delay) else delay, aligned=False)
-            return first
-        res = _analyze_plan(source, rec, plan, dataclasses.replace(found, delay=delay))
+            return first, sums
+        res, _ = _analyze_plan(source, rec, plan, dataclasses.replace(found, delay=delay))
         res.params.update(delay_samples=delay, aligned=True)
-        return res
-    return _analyze_plan(source, rec, plan, found, span=span, seen=seen)
+        return res, sums  # the sums are of the raw samples: the delay does not change them
+    return _analyze_plan(source, rec, plan, found, span)
 
 
-def _analyze_plan(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
-                  span: Optional[Tuple[int, int]] = None, seen: Optional[List[Any]] = None) -> Results:  # fmt: skip
-    """The windows of ``source`` on their route, finished (the classical COF's sums of ``span`` into ``seen``)."""
+def _analyze_plan(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
+                  span: Optional[Tuple[int, int]] = None) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
+    """The windows of ``source`` on their route, finished, and the classical COF's sums of ``span`` (or None)."""
     k = run(source, rec, plan, found, span)
-    if seen is not None:
-        seen.append(k.classical)
-    return finish(k.st, k.aux_role, plan, found, route=k.route, warnings=k.warnings)
+    return finish(k.st, k.aux_role, plan, found, route=k.route, warnings=k.warnings), k.classical

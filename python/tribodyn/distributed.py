@@ -34,7 +34,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, 
 import numpy as np
 
 from .analyze import Partial, analyze_partial, combine
-from .plan import Plan
+from .plan import Plan, make_plan
 from .results import Results
 
 __all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
@@ -188,12 +188,13 @@ def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Op
     if split_s is None:
         return [(0, None)]
     if isinstance(options, Plan):
-        length, step, hop = options.length, options.step, options.hop
+        grid = options
     else:
-        from .tribometer import auto_window
-
-        window, hop, _ = auto_window(fs, options.get("window"), options.get("hop"))
-        length, step = int(round(window * fs)), int(round(hop * fs))
+        try:
+            grid = make_plan(fs=fs, window=options.get("window"), hop=options.get("hop"))
+        except (TypeError, ValueError):
+            return [(0, None)]  # a bad window or hop: the task reports it, per recording
+    length, step, hop = grid.length, grid.step, grid.hop
     n_windows = 0 if n < length else (n - length) // step + 1
     per = max(1, int(split_s // hop))  # windows per range
     out: List[Tuple[int, Optional[int]]] = []

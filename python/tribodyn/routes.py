@@ -112,10 +112,6 @@ class KernelSpec:
     """
 
     plan: Plan
-    #: The statistics asked of the kernel per window (``tribodyn.columns``).
-    columns: Tuple[str, ...]
-    #: The options of the statistics beyond the paper (instrument lag, lines, delay, classical COF).
-    options: Dict[str, Any]
     #: The kernel's settings: the plan's window, deadband, bins, columns, options, threads, high-pass of raw forces,
     #: and how a NaN or inf is named (role, time).
     window: _core.WindowSpec
@@ -132,7 +128,7 @@ class KernelSpec:
             highpass = (hp.sos, hp.steady_state)
         window = make_spec(plan.length, plan.deadband, plan.n_bins, columns, options=options, threads=plan.threads,
                            highpass=highpass, naming=("aux", plan.fs))  # fmt: skip
-        return cls(plan, columns, options, window)
+        return cls(plan, window)
 
     def spec(self, *, length: Optional[int] = None, aux_role: Optional[str] = None,
              threads: Optional[int] = None) -> _core.WindowSpec:  # fmt: skip
