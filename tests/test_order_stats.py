@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 import pytest
 
-from tribodyn import _order
+from tribodyn import _core, _order
 from tribodyn import results as R
 
 pytestmark = pytest.mark.fast
@@ -26,12 +26,49 @@ def _arrays(rng: np.random.Generator):
     yield rng.normal(size=100)  # short: NumPy itself
 
 
-def test_median_and_percentile_match_numpy() -> None:
+@pytest.mark.parametrize("kernel", [True, False], ids=["kernel", "numpy"])
+def test_median_and_percentile_match_numpy(kernel: bool, monkeypatch: pytest.MonkeyPatch) -> None:
+    if not kernel:
+        monkeypatch.delattr(_core, "select_ranks")
     rng = np.random.default_rng(7)
     for x in _arrays(rng):
         assert _order.median(x) == float(np.median(x))
+        for c in (0.0, float(np.median(x)), -3.5):
+            assert _order.median_abs_dev(x, c) == float(np.median(np.abs(x - c)))
         for q in (0, 5, 37.5, 50, 95, 100):
             assert _order.percentile(x, q) == float(np.percentile(x, q))
+    x = rng.normal(size=1 << 16)
+    x[77] = np.nan
+    assert np.isnan(_order.median(x)) and np.isnan(_order.median_abs_dev(x, 0.0))
+
+
+def test_select_ranks_kernel_is_exact_and_checks_its_ranks() -> None:
+    x = np.random.default_rng(2).normal(size=(1 << 17) + 3)
+    ks = [0, 5, 65537, 65538, (1 << 17) + 2]
+    assert np.array_equal(_core.select_ranks(x, ks), np.sort(x)[ks])
+    assert np.array_equal(_core.select_ranks(x, ks, centre=0.25), np.sort(np.abs(x - 0.25))[ks])
+    assert _core.select_ranks(x, ks, centre=float("nan")) is None
+    with pytest.raises(ValueError, match="rank"):
+        _core.select_ranks(x, [x.size])
+
+
+def test_histogram_kernel_is_numpys() -> None:
+    rng = np.random.default_rng(4)
+    for x in (rng.normal(size=100_000), np.round(rng.normal(size=50_000), 1), np.linspace(-1, 1, 4097)):
+        lo, hi = float(x.min()), float(x.max())
+        want, edges = np.histogram(x, bins=1024, range=(lo, hi))
+        assert np.array_equal(_core.histogram_uniform(x, np.linspace(lo, hi, 1025)), want)
+        assert np.array_equal(edges, np.linspace(lo, hi, 1025))
+
+
+def test_side_medians_are_numpys() -> None:
+    from tribodyn.tribometer import _side_medians
+
+    rng = np.random.default_rng(5)
+    for n in (1, 2, 3, 8, 1001, 1 << 16):
+        for fy in (rng.normal(0.4, 1, n), np.round(rng.normal(-0.3, 1, n), 1), np.where(np.arange(n) % 3, 1.0, 0.0)):
+            want = [float(np.median(np.abs(fy[s]))) if s.any() else 0.0 for s in (fy > 0, fy < 0)]
+            assert [np.float64(v).tobytes() for v in _side_medians(fy)] == [np.float64(v).tobytes() for v in want]
 
 
 def test_order_stats_falls_back_when_the_bracket_misses(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -30,6 +30,8 @@ __all__ = [
     "linfit",
     "pearson",
     "row_quantiles",
+    "select_ranks",
+    "histogram_uniform",
     "set_threads",
     "tdms_index",
     "text_parse",
@@ -74,6 +76,13 @@ def xcorr_auto_method(n: int, max_lag: int) -> str:
 
 def row_quantiles(x: _F64, qs: list[float], *, threads: int | None = None) -> tuple[_F64, _F64]:
     """Per row, ignoring NaN: the median and the quantiles qs (fractions), NumPy's values bit for bit."""
+
+def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None) -> _F64 | None:
+    """The values of ranks ks (0-based, ascending) of a 1-D array (with centre: of |x - centre|), exactly;
+    None when it holds NaN."""
+
+def histogram_uniform(x: _F64, edges: _F64) -> NDArray[np.int64]:
+    """NumPy's histogram of x over uniform edges (np.linspace), bit for bit."""
 
 def pearson(x: _F64, y: _F64) -> float:
     """Pearson's r, C(0) of Eq. (1)."""

@@ -35,6 +35,10 @@ def order_stats(x: np.ndarray, ks: Sequence[int]) -> np.ndarray:
     x = np.asarray(x)
     n = x.size
     ks = [int(k) for k in ks]
+    if ks and x.dtype == np.float64 and x.ndim == 1 and hasattr(_core, "select_ranks"):
+        got = _core.select_ranks(np.ascontiguousarray(x), ks)  # the same bracket in one pass (Rust)
+        if got is not None:
+            return got
     if n <= _SMALL or not ks:
         return np.partition(x, ks)[ks] if ks else np.zeros(0, dtype=x.dtype)
     sample = np.sort(x[:: max(1, n // _SAMPLE)])
@@ -63,6 +67,11 @@ def median(x: np.ndarray) -> float:
     """``float(np.median(x))`` of a 1-D array (NaN when it holds NaN, as NumPy's)."""
     x = np.asarray(x, dtype=float)
     n = x.size
+    if n and x.ndim == 1 and hasattr(_core, "select_ranks"):
+        h = n // 2
+        got = _core.select_ranks(np.ascontiguousarray(x), [h] if n % 2 else [h - 1, h])
+        if got is not None:  # None: x holds NaN (NumPy's median is NaN then)
+            return float(np.mean(got))
     if n == 0 or n <= _SMALL or np.isnan(x).any():
         return float(np.median(x))
     h = n // 2
@@ -71,10 +80,27 @@ def median(x: np.ndarray) -> float:
     return float(np.mean(order_stats(x, [h - 1, h])))
 
 
+def median_abs_dev(x: np.ndarray, centre: float) -> float:
+    """``float(np.median(np.abs(x - centre)))`` of a 1-D array, without the temporary array (Rust)."""
+    x = np.asarray(x, dtype=float)
+    n = x.size
+    if n and x.ndim == 1 and hasattr(_core, "select_ranks"):
+        h = n // 2
+        got = _core.select_ranks(np.ascontiguousarray(x), [h] if n % 2 else [h - 1, h], centre=float(centre))
+        if got is not None:
+            return float(np.mean(got))
+    return median(np.abs(x - centre))
+
+
 def percentile(x: np.ndarray, q: float) -> float:
     """``float(np.percentile(x, q))`` of a 1-D array (method "linear")."""
     x = np.asarray(x, dtype=float)
     n = x.size
+    if n and x.ndim == 1 and hasattr(_core, "select_ranks"):
+        pi, ni, gamma = _indexes(np.array([n]), np.true_divide(q, 100))
+        got = _core.select_ranks(np.ascontiguousarray(x), [int(pi[0]), int(ni[0])])
+        if got is not None:
+            return float(lerp(got[:1], got[1:], gamma)[0])
     if n == 0 or n <= _SMALL or np.isnan(x).any():
         return float(np.percentile(x, q))
     pi, ni, gamma = _indexes(np.array([n]), np.true_divide(q, 100))

@@ -209,7 +209,7 @@ def _robust_sd(v: np.ndarray, centre: Optional[float] = None) -> float:
     if not v.size:
         return 0.0
     m = _order.median(v) if centre is None else centre
-    return 1.4826 * _order.median(np.abs(v - m))
+    return 1.4826 * _order.median_abs_dev(v, m)
 
 
 def _otsu(v: np.ndarray, bins: int = 1024) -> float:
@@ -217,7 +217,11 @@ def _otsu(v: np.ndarray, bins: int = 1024) -> float:
     lo, hi = float(v.min()), float(v.max())
     if not hi > lo:
         return hi
-    h, edges = np.histogram(v, bins=bins, range=(lo, hi))
+    if v.dtype == np.float64 and v.ndim == 1 and np.isfinite(hi - lo) and hasattr(_core, "histogram_uniform"):
+        edges = np.linspace(lo, hi, bins + 1, endpoint=True)  # np.histogram's edges
+        h = _core.histogram_uniform(np.ascontiguousarray(v), edges)  # its counts, bit for bit (Rust)
+    else:
+        h, edges = np.histogram(v, bins=bins, range=(lo, hi))
     centres = 0.5 * (edges[:-1] + edges[1:])
     w = np.cumsum(h)[:-1].astype(float)
     m = np.cumsum(h * centres)[:-1]
@@ -322,7 +326,7 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
         unl_frac = float(unl.mean())
     else:
         t_fz = t_fy = 0.0
-        absz = _order.median(np.abs(fz))
+        absz = _order.median_abs_dev(fz, 0.0)
         noise = _robust_sd(np.diff(fz)) / np.sqrt(2.0) if n > 1 else 0.0
         thr = min(max(4.0 * noise, CONTACT_FLOOR_FRACTION * absz), MIN_FN_FRACTION * absz)
         rule = f"no unloaded cluster: in contact when |fz| >= {thr:.4g} N (4 noise SDs, within 1-5 % of median |fz|)"
@@ -383,6 +387,32 @@ def sample_channels(rec: Any, keys: Sequence[str], tare_n: int = 0, limit: Optio
     return {r: np.concatenate(v) for r, v in out.items()}, bounds
 
 
+def _untared(v: np.ndarray, tare: float) -> np.ndarray:
+    """``v - tare`` (``v`` itself for a tare of +0.0, which leaves every value as it is)."""
+    return v if tare == 0.0 and not np.signbit(tare) else v - tare
+
+
+def _side_medians(fy: np.ndarray) -> List[float]:
+    """[median |fy| over fy > 0, over fy < 0] (0.0 for an empty side) of NaN-free ``fy``, without copies.
+
+    The positive values are the top ``p`` of the sorted fy and the negative ones its bottom ``q``, so
+    each side's median is the mean of one or two order statistics of fy itself; the negative side's
+    |.| reverses its order and negates the mean exactly, so the values equal
+    ``np.median(np.abs(fy[fy > 0]))`` and ``np.median(np.abs(fy[fy < 0]))`` bit for bit.
+    """
+    n = fy.size
+    p, q = int(np.count_nonzero(fy > 0)), int(np.count_nonzero(fy < 0))
+    out = []
+    for count, first, sign in ((p, n - p, 1.0), (q, 0, -1.0)):
+        if not count:
+            out.append(0.0)
+            continue
+        h = count // 2
+        ranks = [first + h] if count % 2 else [first + h - 1, first + h]
+        out.append(sign * float(np.mean(_order.order_stats(fy, ranks))))
+    return out
+
+
 def prepass(
     source: Any,
     rec: Any,
@@ -437,12 +467,12 @@ def prepass(
     if not isinstance(tare, Mapping) and tare_n == 0 and min_fn is None:
         contact = detect_contact(fy, fz)
         t_fy, t_fz = contact.tare_fy, contact.tare_fz
-    fy, fz = fy - t_fy, fz - t_fz
+    fy, fz = _untared(fy, t_fy), _untared(fz, t_fz)
     med = _order.median(fz) if fz.size else 0.0
-    mad = _order.median(np.abs(fz - med)) if fz.size else 0.0
+    mad = _order.median_abs_dev(fz, med) if fz.size else 0.0
     static = bool(abs(med) > 0 and abs(med) > 3.0 * mad) or bool(contact is not None and contact.static)
     out["static"] = static
-    absz = _order.median(np.abs(fz))
+    absz = _order.median_abs_dev(fz, 0.0)
     out["median_abs_fz"] = absz
     if contact is not None:
         out["contact"] = contact
@@ -471,7 +501,7 @@ def prepass(
     # Both directions' friction must stand out of the noise: a friction near zero (a tare that takes
     # most of it, a lubricated contact) changes sign with the noise alone.
     noise = _robust_sd(np.diff(fy)) / np.sqrt(2.0) if fy.size > 1 else 0.0
-    sides = [_order.median(np.abs(fy[sel])) if sel.any() else 0.0 for sel in (fy > 0, fy < 0)]
+    sides = _side_medians(fy)
     snr = min(sides) / noise if noise > 0 else np.inf
     out["sign_snr"] = float(snr)
     if motion == "auto":

@@ -241,6 +241,23 @@ class NpyRecording(Recording):
             return {nm: self._arr[idx[nm], start:stop] for nm in names}
         return {nm: self._arr[start:stop, idx[nm]] for nm in names}
 
+    def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
+        """Several ranges of each channel row read straight into one array per channel (the pre-pass
+        samples: hundreds of short ranges, one ``preadv`` each instead of an array and a dict each)."""
+        if not (self._rows_are_channels and self._direct_read_ok()):
+            return super()._read_ranges(names, ranges)
+        idx = {nm: k for k, nm in enumerate(self._names)}
+        total = sum(b - a for a, b in ranges)
+        out = {}
+        for nm in names:
+            buf = np.empty(total, dtype=self._arr.dtype)
+            at = 0
+            for a, b in ranges:
+                self._pread_into(buf[at : at + b - a], idx[nm], a)
+                at += b - a
+            out[nm] = buf
+        return out
+
     def _f64_rows(self) -> bool:
         """Each channel is one contiguous, 8-byte aligned run of native float64 in the file.
 
@@ -308,8 +325,12 @@ class NpyRecording(Recording):
         a page fault per 4 KiB and keeps the resident set flat: the file's
         pages stay in the page cache, not in this process.
         """
-        a = self._arr
-        out = np.empty(stop - start, dtype=a.dtype)
+        out = np.empty(stop - start, dtype=self._arr.dtype)
+        self._pread_into(out, row, start)
+        return out
+
+    def _pread_into(self, out: np.ndarray, row: int, start: int) -> None:
+        """Fills the contiguous ``out`` with samples ``start:start + out.size`` of one channel row."""
         offset = self._offset(row, start)
         assert self._fd is not None, "open recordings hold their descriptor"
         view = memoryview(out).cast("B")  # type: ignore[arg-type]  # numpy's stubs lack the buffer protocol
@@ -319,7 +340,6 @@ class NpyRecording(Recording):
             if got <= 0:
                 raise RecordingError(f"{self.path}: file ends early (truncated since it was opened?)")
             done += got
-        return out
 
     _fd: Optional[int] = None
     _owned_reads = True  # pread fills new arrays; memmap views are copied (not owned)

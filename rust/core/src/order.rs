@@ -95,6 +95,113 @@ fn one_row(v: &mut [f64], qs: &[f64], median: &mut f64, out: &mut [f64]) {
     }
 }
 
+/// Arrays up to this many values are selected in a copy of the whole (as `tribodyn._order._SMALL`).
+const SMALL: usize = 1 << 15;
+/// Size of the strided sample that brackets the wanted ranks (as `tribodyn._order._SAMPLE`).
+const SAMPLE: usize = 1 << 14;
+
+fn cmp(a: &f64, b: &f64) -> std::cmp::Ordering {
+    a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal)
+}
+
+/// The values of ranks `ks` (0-based, ascending) of `x` (with `centre`: of `|x - centre|`), exactly,
+/// or None when `x` holds NaN.
+///
+/// A long array is bracketed as `tribodyn._order.order_stats` does it (Floyd and Rivest 1975): a
+/// strided sample is sorted, the ranks' neighbourhood in it gives two values `lo` and `hi`, one pass
+/// counts the values below `lo` and keeps those within `[lo, hi]`, and the ranks are selected among
+/// the few kept; a bracket that misses (an unusual ordering) falls back to a selection in a copy of
+/// the whole. The order statistics are values of the array, so any exact selection gives the same
+/// ones. With `centre` the deviations are computed on the fly (no temporary array: the robust SD's
+/// median absolute deviation).
+pub fn select_ranks(x: &[f64], ks: &[usize], centre: Option<f64>) -> Result<Option<Vec<f64>>, KernelError> {
+    let n = x.len();
+    if let Some(k) = ks.iter().find(|&&k| k >= n) {
+        return Err(KernelError::Invalid(format!("select_ranks: rank {k} of {n} values")));
+    }
+    if centre.is_some_and(|c| !c.is_finite()) || x.iter().fold(false, |nan, v| nan | v.is_nan()) {
+        return Ok(None);
+    }
+    if ks.is_empty() {
+        return Ok(Some(Vec::new()));
+    }
+    let value = |v: f64| match centre {
+        Some(c) => (v - c).abs(),
+        None => v,
+    };
+    let (kmin, kmax) = (*ks.iter().min().unwrap_or(&0), *ks.iter().max().unwrap_or(&0));
+    let whole = || -> Vec<f64> {
+        let mut v: Vec<f64> = x.iter().map(|&v| value(v)).collect();
+        let mut fixed = Vec::with_capacity(ks.len());
+        ks.iter().map(|&k| rank(&mut v, k, &mut fixed)).collect()
+    };
+    if n <= SMALL {
+        return Ok(Some(whole()));
+    }
+    let step = (n / SAMPLE).max(1);
+    let mut sample: Vec<f64> = x.iter().step_by(step).map(|&v| value(v)).collect();
+    sample.sort_unstable_by(cmp);
+    let m = sample.len() as f64;
+    let margin = 3.0 * m.sqrt() + 8.0;
+    let lo_j = (kmin as f64 / n as f64 * m - margin) as i64; // Python's int(): toward zero
+    let hi_j = (kmax as f64 / n as f64 * m + margin).ceil() as i64;
+    if lo_j <= 0 && hi_j >= m as i64 - 1 {
+        return Ok(Some(whole()));
+    }
+    let lo = if lo_j > 0 { sample[lo_j as usize] } else { f64::NEG_INFINITY };
+    let hi = if hi_j < m as i64 - 1 { sample[hi_j as usize] } else { f64::INFINITY };
+    // Branch-free: every value is written at the end of the kept ones, which grows only when it is
+    // inside the bracket (the allocation is virtual; only the kept values' pages are touched).
+    let mut below = 0usize;
+    let mut inside: Vec<f64> = vec![0.0; 0];
+    inside.reserve_exact(n);
+    let buf = inside.spare_capacity_mut();
+    let mut kept = 0usize;
+    for &v in x {
+        let v = value(v);
+        below += (v < lo) as usize;
+        buf[kept].write(v);
+        kept += ((v >= lo) & (v <= hi)) as usize;
+    }
+    // SAFETY: the first `kept` slots were written by the loop (each kept value at its slot).
+    unsafe { inside.set_len(kept) };
+    if kmin < below || kmax - below >= kept {
+        return Ok(Some(whole()));
+    }
+    let mut fixed = Vec::with_capacity(ks.len());
+    Ok(Some(ks.iter().map(|&k| rank(&mut inside, k - below, &mut fixed)).collect()))
+}
+
+/// NumPy's `histogram(x, bins=edges.len() - 1, range=(edges[0], edges[last]))` of uniform `edges`
+/// (from `np.linspace`), bit for bit: values outside the range are left out, a value's bin is
+/// `(x - first) / (last - first) * bins` truncated, moved by one where that lands beside the edges
+/// (NumPy's correction within an ULP of an edge), and the last bin holds its right edge.
+pub fn histogram_uniform(x: &[f64], edges: &[f64]) -> Result<Vec<i64>, KernelError> {
+    if edges.len() < 2 {
+        return Err(KernelError::Invalid("histogram_uniform: at least two edges".into()));
+    }
+    let bins = edges.len() - 1;
+    let (first, last) = (edges[0], edges[bins]);
+    let denom = last - first;
+    let mut counts = vec![0i64; bins];
+    for &v in x {
+        if !(v >= first && v <= last) {
+            continue;
+        }
+        let mut i = (((v - first) / denom) * bins as f64) as usize;
+        if i == bins {
+            i -= 1;
+        }
+        if v < edges[i] {
+            i -= 1;
+        } else if v >= edges[i + 1] && i != bins - 1 {
+            i += 1;
+        }
+        counts[i] += 1;
+    }
+    Ok(counts)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -117,5 +224,32 @@ mod tests {
         assert_eq!(only[..2], med[..2]);
         assert!(row_quantiles(&x, 5, &[0.5], &mut med, &mut out[..3]).is_err());
         assert!(row_quantiles(&x, 4, &[1.5], &mut med, &mut out[..3]).is_err());
+    }
+
+    #[test]
+    fn select_ranks_is_exact() {
+        let n = 100_003usize;
+        let x: Vec<f64> = (0..n).map(|i| ((i * 7919) % n) as f64 * 0.5 - 3.0).collect();
+        let mut s = x.clone();
+        s.sort_by(cmp);
+        for ks in [vec![0], vec![n / 2 - 1, n / 2], vec![n - 1], vec![17, 95_000]] {
+            let got = select_ranks(&x, &ks, None).unwrap().unwrap();
+            let want: Vec<f64> = ks.iter().map(|&k| s[k]).collect();
+            assert_eq!(got, want);
+        }
+        let mut y = x.clone();
+        y[500] = f64::NAN;
+        assert!(select_ranks(&y, &[3], None).unwrap().is_none());
+        assert!(select_ranks(&x, &[n], None).is_err());
+        let mut d: Vec<f64> = x.iter().map(|v| (v - 1.25).abs()).collect();
+        d.sort_by(cmp);
+        assert_eq!(select_ranks(&x, &[n / 2], Some(1.25)).unwrap().unwrap(), vec![d[n / 2]]);
+    }
+
+    #[test]
+    fn histogram_counts_every_value_in_range() {
+        let edges: Vec<f64> = (0..=4).map(|i| i as f64 * 0.25).collect();
+        let x = [0.0, 0.25, 0.3, 0.74999, 0.75, 1.0, 1.5, -0.1];
+        assert_eq!(histogram_uniform(&x, &edges).unwrap(), vec![1, 2, 1, 2]);
     }
 }

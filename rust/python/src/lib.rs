@@ -272,6 +272,34 @@ fn xcorr_auto_method(n: usize, max_lag: usize) -> &'static str {
     }
 }
 
+/// The values of ranks `ks` (0-based, ascending order) of a 1-D C-contiguous float64 array (with `centre`:
+/// of its absolute deviations from it), exactly; None when it holds NaN (tribodyn._order).
+#[pyfunction]
+#[pyo3(signature = (x, ks, *, centre=None))]
+fn select_ranks<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    ks: Vec<usize>,
+    centre: Option<f64>,
+) -> PyResult<Option<Bound<'py, PyArray1<f64>>>> {
+    let xs = x.as_slice().map_err(slice_err("x"))?;
+    let got = py.detach(|| order::select_ranks(xs, &ks, centre)).map_err(to_py)?;
+    Ok(got.map(|v| PyArray1::from_vec(py, v)))
+}
+
+/// NumPy's histogram of `x` over the uniform `edges` (np.linspace), bit for bit (tribodyn.tribometer._otsu).
+#[pyfunction]
+fn histogram_uniform<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    edges: PyReadonlyArray1<'py, f64>,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    let xs = x.as_slice().map_err(slice_err("x"))?;
+    let es = edges.as_slice().map_err(slice_err("edges"))?;
+    let counts = py.detach(|| order::histogram_uniform(xs, es)).map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, counts))
+}
+
 /// Two float64 arrays.
 type Pair<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>);
 
@@ -1339,6 +1367,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(xcorr_auto_method, m)?)?;
     m.add_function(wrap_pyfunction!(pearson, m)?)?;
     m.add_function(wrap_pyfunction!(row_quantiles, m)?)?;
+    m.add_function(wrap_pyfunction!(select_ranks, m)?)?;
+    m.add_function(wrap_pyfunction!(histogram_uniform, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_inplace, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_into, m)?)?;
     m.add_function(wrap_pyfunction!(all_finite, m)?)?;
