@@ -79,3 +79,26 @@ def test_a_missing_pyarrow_is_an_error_not_a_missing_file(tmp_path, monkeypatch)
     with pytest.raises(ImportError, match="pip install pyarrow"):
         write_table_parquet(res, tmp_path / "w.parquet")
     assert not (tmp_path / "w.parquet").exists()
+
+
+def test_columns_built_from_buffers_equal_pyarrow_s_own_and_need_no_pandas(tmp_path):
+    """outputs.arrow_array makes the array pa.array makes (type, values, nulls), without importing pandas."""
+    import subprocess
+
+    code = (
+        "import sys, numpy as np, pyarrow as pa\n"
+        "from tribodyn.outputs import arrow_array\n"
+        "rng = np.random.default_rng(0)\n"
+        "cases = [rng.normal(size=7), np.array([np.nan, 1.0, -np.inf]), np.arange(9, dtype=np.int32),\n"
+        "         np.arange(4, dtype=np.uint8), np.array([True, False, True]),\n"
+        "         np.array(['a', 'bé', '', '=x'], dtype=object),\n"
+        "         np.array(['a', 'b']), np.zeros(0), rng.normal(size=20)[::2], np.arange(5, dtype=np.float32)]\n"
+        "got = [arrow_array(pa, c) for c in cases]\n"
+        "assert 'pandas' not in sys.modules\n"
+        "for c, g in zip(cases, got):\n"
+        "    w = pa.array(c.astype(str) if c.dtype == object else c)\n"
+        "    g.validate(full=True)\n"
+        "    assert g.type == w.type and g.null_count == w.null_count == 0, (c, g.type, w.type)\n"
+        "    assert repr(g.to_pylist()) == repr(w.to_pylist()), c\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path)

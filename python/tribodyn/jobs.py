@@ -846,7 +846,7 @@ def _run_analysis(
 
 #: Modules the output step imports (figures, the interactive views, tables), imported during the analysis.
 _OUTPUT_MODULES = (
-    "matplotlib.figure", "matplotlib.backends.backend_agg", "pandas", "pyarrow", "pyarrow.parquet",
+    "matplotlib.figure", "matplotlib.backends.backend_agg", "pyarrow", "pyarrow.parquet",
     "bokeh.plotting", "bokeh.models", "bokeh.layouts", "bokeh.embed", "bokeh.resources",
 )  # fmt: skip
 
