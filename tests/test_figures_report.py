@@ -525,3 +525,37 @@ def test_a_rendering_child_that_hangs_is_killed_and_its_share_drawn_here(monkeyp
     t0 = time.monotonic()
     assert figures._collect((pid, r)) is None
     assert time.monotonic() - t0 < 10
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork: POSIX only")
+@pytest.mark.parametrize("fork", [True, False], ids=["child", "no-child"])
+def test_rendering_runs_also_once_in_the_child_or_here(monkeypatch, fork):
+    """figures.Rendering(also=...): the child's extra work comes back with its figures; without a child (or
+    when it fails) it is done here; the PNG bytes are those drawn here either way."""
+    from matplotlib.figure import Figure
+
+    from tribodyn import figures
+
+    def fig(k):
+        f = Figure(figsize=(2, 2))
+        f.add_subplot().plot([0, k], [1, 0])
+        return f
+
+    calls = []
+
+    def also():
+        calls.append(os.getpid())
+        return {"pid": os.getpid(), "html": "<div>x</div>"}
+
+    if not fork:
+        monkeypatch.setattr(figures, "_can_fork", lambda: False)
+    figs = [fig(k) for k in range(3)]
+    render = figures.Rendering(figs, share=0.5, also=also)
+    got = render.finish()
+    assert got == [figures.png_bytes(fig(k)) for k in range(3)]
+    extra = render.also_result()
+    assert extra["html"] == "<div>x</div>" and render.also_result() is extra
+    if fork and figures._can_fork():
+        assert extra["pid"] != os.getpid() and calls == []  # done in the child only
+    else:
+        assert calls == [os.getpid()]

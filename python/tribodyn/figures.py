@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -1328,16 +1328,22 @@ class Rendering:
     a ``share`` of them (every figure whose index k has
     ``round(k * share) < round((k + 1) * share)``) and sends back the PNG
     bytes, the same bytes the parent would draw; the caller may do other
-    work meanwhile, then :meth:`finish` draws the rest here. When the child
-    fails, its figures are drawn here too.
+    work meanwhile, then :meth:`finish` draws the rest here. ``also``: more
+    work for the child (a callable whose result pickles), after its figures;
+    :meth:`also_result` gives its result. When the child fails, its figures
+    (and ``also``) are done here too.
     """
 
-    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, share: float = 0.5) -> None:
+    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, share: float = 0.5,
+                 also: Optional[Callable[[], Any]] = None) -> None:  # fmt: skip
         self._figs = list(figs)
         self._dpi = dpi
+        self._also = also
+        self._also_done: Optional[Tuple[Any]] = None
         n = len(self._figs)
         self._theirs = [k for k in range(n) if round(k * share) < round((k + 1) * share)] if n > 1 else []
-        self._child = _fork_render([self._figs[k] for k in self._theirs], dpi) if self._theirs and _can_fork() else None
+        forked = (self._theirs or also is not None) and _can_fork()
+        self._child = _fork_render([self._figs[k] for k in self._theirs], dpi, also) if forked else None
         if self._child is None:
             self._theirs = []
 
@@ -1351,10 +1357,20 @@ class Rendering:
         finally:
             got = _collect(self._child)
             self._child = None
-        if got is None or len(got) != len(self._theirs):
-            got = [png_bytes(self._figs[k], dpi=self._dpi) for k in self._theirs]
-        out.update(zip(self._theirs, got))
+        if got is None or len(got[0]) != len(self._theirs):
+            got = ([png_bytes(self._figs[k], dpi=self._dpi) for k in self._theirs], None)
+        elif self._also is not None:
+            self._also_done = (got[1],)
+        out.update(zip(self._theirs, got[0]))
         return [out[k] for k in range(len(self._figs))]
+
+    def also_result(self) -> Any:
+        """What ``also()`` returned (in the child, or here when the child failed); after :meth:`finish`."""
+        if self._also is None:
+            return None
+        if self._also_done is None:
+            self._also_done = (self._also(),)
+        return self._also_done[0]
 
 
 def _can_fork() -> bool:
@@ -1363,8 +1379,10 @@ def _can_fork() -> bool:
     return sys.platform.startswith("linux") and hasattr(os, "fork") and (os.cpu_count() or 1) > 1
 
 
-def _fork_render(figs: Sequence[Figure], dpi: int) -> Optional[Tuple[int, int]]:
-    """(pid, read end of a pipe) of a child rendering ``figs`` to PNG, or None when fork failed."""
+def _fork_render(figs: Sequence[Figure], dpi: int, also: Optional[Callable[[], Any]] = None
+                 ) -> Optional[Tuple[int, int]]:  # fmt: skip
+    """(pid, read end of a pipe) of a child rendering ``figs`` to PNG (then running ``also``), or None when
+    fork failed. The child sends ``(PNG bytes, also's result)`` pickled."""
     r, w = os.pipe()
     try:
         with warnings.catch_warnings():
@@ -1380,7 +1398,8 @@ def _fork_render(figs: Sequence[Figure], dpi: int) -> Optional[Tuple[int, int]]:
             os.close(r)
             import pickle
 
-            data = pickle.dumps([png_bytes(f, dpi=dpi) for f in figs], protocol=pickle.HIGHEST_PROTOCOL)
+            pngs = [png_bytes(f, dpi=dpi) for f in figs]
+            data = pickle.dumps((pngs, also() if also is not None else None), protocol=pickle.HIGHEST_PROTOCOL)
             with os.fdopen(w, "wb") as fh:
                 fh.write(data)
             code = 0
@@ -1394,8 +1413,8 @@ def _fork_render(figs: Sequence[Figure], dpi: int) -> Optional[Tuple[int, int]]:
 _CHILD_TIMEOUT = 300.0
 
 
-def _collect(child: Optional[Tuple[int, int]]) -> Optional[List[bytes]]:
-    """The child's PNG bytes, or None when it failed."""
+def _collect(child: Optional[Tuple[int, int]]) -> Optional[Tuple[List[bytes], Any]]:
+    """The child's PNG bytes and ``also``'s result, or None when it failed."""
     if child is None:
         return None
     import pickle
@@ -1425,10 +1444,10 @@ def _collect(child: Optional[Tuple[int, int]]) -> Optional[List[bytes]]:
     if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):
         return None
     try:
-        got = pickle.loads(data)
+        pngs, extra = pickle.loads(data)
     except Exception:  # noqa: BLE001 - a truncated message: draw them here
         return None
-    return [bytes(b) for b in got]
+    return [bytes(b) for b in pngs], extra
 
 
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:
