@@ -1,4 +1,5 @@
-"""How much of a recording the command line reads (issue 22 point 5): ``/proc/self/io`` rchar.
+"""How much of a recording the command line reads (issue 22 point 5): ``/proc/self/io`` rchar, and how often
+it opens it.
 
 rchar counts every byte read by the process and the children it reaped, of every file: besides the
 recording, the output step's modules, fonts and the report's scripts (tens of MB, whatever the
@@ -17,7 +18,7 @@ import pytest
 
 from tribodyn import cli, stickslip, tribometer
 
-pytestmark = pytest.mark.skipif(
+needs_proc_io = pytest.mark.skipif(
     not sys.platform.startswith("linux") or not os.path.exists("/proc/self/io"), reason="needs /proc/self/io"
 )
 
@@ -56,6 +57,7 @@ def cli_reads(tmp_path: Path, n: int) -> tuple:
     return rchar() - r0, size
 
 
+@needs_proc_io
 def test_the_cli_reads_a_recording_three_times_and_bounded_samples(tmp_path, monkeypatch):
     # blocks and samples far shorter than the recordings (4 and 8 stick-slip blocks), as for hours at 1 kHz
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
@@ -69,3 +71,28 @@ def test_the_cli_reads_a_recording_three_times_and_bounded_samples(tmp_path, mon
     assert per_byte <= WHOLE_READS + TOLERANCE, f"the CLI read the recording {per_byte:.2f} times"
     assert per_byte >= WHOLE_READS - TOLERANCE  # the measurement sees the reads it bounds
     assert small >= again
+
+
+def test_the_cli_opens_a_recording_once(tmp_path, monkeypatch):
+    # Opening a text file reads it whole: the channel map, the figures' windows and stick-slip read the
+    # recording the analysis opened.
+    import tribodyn.io as tio
+
+    opened = []
+    real = tio.open_recording
+
+    def counted(*args, **kwargs):
+        opened.append(args[0])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(tio, "open_recording", counted)
+    n = 20_000
+    k = np.arange(n)
+    fz = 20.0 + 0.03 * np.random.default_rng(1).standard_normal(n)
+    fy = -(0.2 * fz + 0.3 * (np.mod(k / 37.3, 1.0) - 0.5))
+    p = tmp_path / "rec.csv"
+    np.savetxt(p, np.column_stack([k / 1000.0, fy, fz]), delimiter=",", header="time,fy,fz", comments="")
+    assert cli.main(["analyze", str(p), "--out", str(tmp_path / "out"), "-q"]) == 0
+    assert len(opened) == 1
+    summary = (tmp_path / "out" / "summary.json").read_text()
+    assert '"events"' in summary and "fy (" in summary  # stick-slip and the channel map, from that opening
