@@ -184,3 +184,67 @@ def test_the_cli_reports_stick_slip_only_when_present(tmp_path, capsys):
         else:
             assert not ss["present"] and ss["events"] == 0
             assert "stick-slip" not in out and "stick-slip present" not in html
+
+
+def _counting_reader(monkeypatch):
+    """Counts the samples stick_slip reads (a list holding the total)."""
+    got = [0]
+    reader = stickslip._reader
+
+    def counted(source, open_options):
+        read, n, close = reader(source, open_options)
+
+        def read_counted(a, b):
+            got[0] += b - a
+            return read(a, b)
+
+        return read_counted, n, close
+
+    monkeypatch.setattr(stickslip, "_reader", counted)
+    return got
+
+
+def test_a_long_recording_is_read_once_and_a_bounded_sample(monkeypatch):
+    ch, drops = _unidirectional_saw(9, n=400_000)
+    res = td.analyze(ch, fs=1000.0, motion="unidirectional")
+    whole = td.stick_slip(ch, res)  # one block: the statistics of every sample
+    got = _counting_reader(monkeypatch)
+    monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
+    monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)  # pieces of 4096 samples: 8 x 4096 + margins
+    part = td.stick_slip(ch, res)
+    assert 400_000 < got[0] < 400_000 * 1.25  # before: every block twice
+    np.testing.assert_array_equal(part.times, whole.times)
+    assert part.noise == pytest.approx(whole.noise, rel=0.05) and part.duration == whole.duration
+    monkeypatch.setattr(stickslip, "SAMPLE", 1 << 20)  # a recording within the sample: both passes read it all
+    got[0] = 0
+    two = td.stick_slip(ch, res)
+    assert got[0] > 2 * 400_000
+    np.testing.assert_array_equal(two.times, whole.times)
+
+
+def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch):
+    n, m = 400_000, 4096
+    ch, _ = _unidirectional_saw(10, n=n)
+    k = np.arange(n)
+    centres = (2 * np.arange(8) + 1) * n // 16
+    # friction positive where the sample's pieces lie, negative (most samples) elsewhere
+    near = (np.abs(k[:, None] - centres[None, :]) < m // 2 + 4000).any(axis=1)
+    ch = {"fy": np.where(near, -1.0, 1.0) * ch["fy"], "fz": ch["fz"]}
+    res = td.analyze(ch, fs=1000.0, motion="unidirectional")
+    monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
+    monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
+    signs = []
+    search = stickslip._search
+
+    def recorded(seg, spans, fetch, orientation, **kw):
+        signs.append(orientation)
+        return search(seg, spans, fetch, orientation, **kw)
+
+    monkeypatch.setattr(stickslip, "_search", recorded)
+    part = td.stick_slip(ch, res)
+    assert signs == [1.0, -1.0]  # the sample's sign, then the recording's
+    at = np.round(part.times * 1000.0 + 0.5).astype(int)  # the sample after each drop
+    assert (~near[at]).sum() > 7500  # the drops where friction has the recording's sign (8157 simulated)
+    monkeypatch.setattr(stickslip, "SAMPLE", 1 << 20)  # both passes over every block: the recording's sign
+    signs.clear()
+    assert td.stick_slip(ch, res).events > 8000 and signs == [-1.0]

@@ -245,8 +245,8 @@ def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, An
                   ) -> List[Dict[str, Any]]:  # fmt: skip
     """fy and x of the first, a middle and the last whole cycle with an energy, for the friction loops (6c).
 
-    ``source`` is a recording path or a dict of channel arrays; only those
-    cycles' samples are read again.
+    ``source`` is an open recording, a recording path or a dict of channel
+    arrays; only those cycles' samples are read again.
     """
     cy = res.cycles
     if cy is None:
@@ -325,8 +325,8 @@ def diagnostic_examples(
 ) -> List[Dict[str, Any]]:
     """Figs. 2-9 inputs for the representative gated window and the worst failing one.
 
-    ``source`` is a recording path or a dict of channel arrays; the window's
-    samples are read again (high-passed like the analysis when it used
+    ``source`` is an open recording, a recording path or a dict of channel
+    arrays; the window's samples are read again (high-passed like the analysis when it used
     ``highpass``) and identified with the analysis's settings.
     """
     fs = float(res.params.get("fs") or 0.0)
@@ -375,12 +375,19 @@ def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any],
                  roles: Sequence[str] = ("fx", "fy", "fz")) -> Optional[Dict[str, np.ndarray]]:  # fmt: skip
     if isinstance(source, Mapping):
         return {r: np.asarray(source[r][start : start + n], dtype=float) for r in roles if r in source}
-    from .io import open_recording
+    from .io import Recording, open_recording
 
+    if isinstance(source, Recording):
+        return _window_of(source, start, n, roles)
     with open_recording(source, **open_options) as rec:
-        have = [r for r in roles if r in dict(rec.roles)]
-        for chunk in rec.chunks(n, have, start=start, stop=start + n):
-            return {r: np.asarray(chunk[r], dtype=float) for r in have}
+        return _window_of(rec, start, n, roles)
+
+
+def _window_of(rec: Any, start: int, n: int, roles: Sequence[str]) -> Optional[Dict[str, np.ndarray]]:
+    """Samples start..start + n of the ``roles`` an open recording has (None when it holds none of them)."""
+    have = [r for r in roles if r in dict(rec.roles)]
+    for chunk in rec.chunks(n, have, start=start, stop=start + n):
+        return {r: np.asarray(chunk[r], dtype=float) for r in have}
     return None
 
 
@@ -691,157 +698,207 @@ def _run_analysis(
 ) -> Dict[str, Any]:
     """:func:`run_analysis` once the output folder is checked and the digests started."""
     from . import __version__
-    from .distributed import analyze_many
-    from .stickslip import stick_slip
 
     open_options = dict(open_options or {})
     opts = dict(analyze_options or {})
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
     cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
-    meta = meta or Meta()
-    if len(files) == 1 and client is None and split is None:
-        # One file, here: read it directly (progress bar over its samples).
-        from .io import open_recording
-
-        with open_recording(files[0], **open_options) as rec:
-            runs = [(Path(files[0]), analyze(rec, progress=progress, **opts))]
-        failures: Dict[str, Any] = {}
-    else:
-        many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
-        if not many.results:
+    with contextlib.ExitStack() as stack:
+        # A recording is opened once: the analysis' own stays open for the figures' windows, the channel
+        # map and stick-slip (a text file's opening reads it whole; issue 22 point 5).
+        runs, failures, kept = _analyse(stack, files, open_options, opts, progress=progress, client=client,
+                                        split=split)  # fmt: skip
+        if not runs:
             # Every recording failed: summary.json still lists every error (the CLI exits with status 3).
-            failed = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
             summary_failed: Dict[str, Any] = {
                 "tribodyn_version": __version__,
                 "inputs": [str(f) for f in files],
                 "open_options": open_options,
                 "recordings": {},
-                "failures": failed,
+                "failures": failures,
             }
             with output as out:
                 write_json(summary_failed, out.path("summary.json"))
             return summary_failed
-        runs = [(Path(p), r) for p, r in many.results.items()]
-        failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
-
-    imports.join()  # before this thread imports any of them
-    from .report import verdict_lines, write_report
-
-    summary: Dict[str, Any] = {
-        "tribodyn_version": __version__,
-        "inputs": input_provenance([p for p, _ in runs], digests),
-        "open_options": open_options,
-        "recordings": {},
-        "failures": failures,
-    }
-    single = len(runs) == 1 and not failures
-    labels = _labels([p for p, _ in runs])
-    inputs = {i["file"]: i for i in summary["inputs"]}
-    for p, res in runs:
-        inputs[p.name]["channels"] = _channel_map(p, open_options)
-        inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
-            f"{name}: {Path(f).name}" for name, f in cov_files.items()
-        ]
-    with output as out:
-        all_figs = []
-        verdict: List[str] = []
-        sections: List[Tuple[str, str]] = []
-        for (p, res), label in zip(runs, labels):
-            prefix = "" if single else f"{label}/"
-            opr_t = _try_range(res, "temperature")
-            opr_j = _try_range(res, "current_density")
-            has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
-            opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
-            try:
-                examples = diagnostic_examples(str(p), res, open_options)
-                loops = loop_examples(str(p), res, open_options)
-            except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
-                examples, loops = [], []
-                res = _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
-            try:  # docs/method.md 6g: fy and fz read again; only a test with a static fz is searched
-                slip: Optional[Dict[str, Any]] = stick_slip(str(p), res, open_options=open_options).to_dict()
-            except (OSError, ValueError) as exc:
-                slip = None
-                res = _replaced(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
-            steady = _steady_state(res) if steady_state else None
-            # the figures read the steady state from their Results' params (docs/method.md 6h)
-            fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
-            figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
-            res_now = res
-
-            def meanwhile() -> Tuple[List[str], Dict[str, Any], List[Tuple[str, str]]]:  # a child draws figures
-                return (_write_set(out, prefix, res_now), res_now.summary(),
-                        _report_extras(res_now, p.name, f"{prefix}windows.csv"))  # fmt: skip
-
-            pngs, (written, res_summary, extras) = _save_figures(out, figs, prefix, meanwhile)
-            written += [name for name, _, _ in pngs]
-            rec_sum = {
-                **res_summary,
-                **({"steady_state": steady} if steady else {}),
-                "operating_range_temperature": range_summary(opr_t),
-                "operating_range_current_density": range_summary(opr_j),
-                "operating_range_speed": range_summary(opr_v),
-                "params": res.params,
-                "files": written,
-                "stick_slip": slip,
-            }
-            rec_sum["meta"] = summary_meta(meta, rec_sum["headline"])
-            summary["recordings"][p.name] = rec_sum
-            ranges = {"temperature": rec_sum["operating_range_temperature"],
-                      "current_density": rec_sum["operating_range_current_density"],
-                      "speed": rec_sum["operating_range_speed"]}  # fmt: skip
-            lines = verdict_lines(p.name, rec_sum, res.params, ranges)
-            if steady:  # right after the headline
-                lines.insert(1, f"{p.name}: {steady['text']}.")
-            if slip and slip["present"]:
-                lines.append(f"{p.name}: {slip['verdict']}")
-            captioned = _captioned(pngs)
-            if not single:
-                write_json(rec_sum, out.path(f"{prefix}summary.json"))
-                write_report(
-                    out.path(f"{prefix}report.html"),
-                    title=f"tribodyn: {p.name}",
-                    summary=_flat_summary({p.name: rec_sum}),
-                    params=res.params,
-                    figures=captioned,
-                    quality=rec_sum["gate_failures"],
-                    verdict=lines,
-                    inputs=[inputs[p.name]],
-                    sections=_report_extras(res, p.name, "windows.csv"),
-                    head_html=_bokeh_head(),
-                    record_html=record_html(meta, {p.name: rec_sum["headline"]}),
-                )
-            verdict += lines
-            sections += extras
-            all_figs += [(f"{p.name}: {c}", f) for c, f in captioned]
-        if not single:
-            combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
-            write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
-            write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
-        summary["columns"] = column_units()
-        write_json(summary, out.path("summary.json"))
-        heads = {n: r["headline"] for n, r in summary["recordings"].items()}
-        write_json(metadata(meta, summary["inputs"], heads, __version__), out.path("metadata.json"))
-        for name, f in failures.items():
-            verdict.append(f"{name}: not analysed: {f['error']}")
-        write_report(
-            out.path("report.html"),
-            title="tribodyn: " + ", ".join([p.name for p, _ in runs] + list(failures)),
-            summary=_flat_summary(summary["recordings"]),
-            params={p.name: r.params for p, r in runs},
-            figures=all_figs,
-            quality={p.name: summary["recordings"][p.name]["gate_failures"] for p, _ in runs},
-            verdict=verdict,
-            inputs=list(inputs.values())
-            + [
-                {"file": n, "sha256": "", "channels": {}, "logs": [f"failed: {f['error']}"]}
-                for n, f in failures.items()
-            ],  # fmt: skip
-            sections=sections,
-            head_html=_bokeh_head(),
-            record_html=record_html(meta, heads),
-        )
+        imports.join()  # before this thread imports any of them
+        summary: Dict[str, Any] = {
+            "tribodyn_version": __version__,
+            "inputs": input_provenance([p for p, _ in runs], digests),
+            "open_options": open_options,
+            "recordings": {},
+            "failures": failures,
+        }
+        inputs = {i["file"]: i for i in summary["inputs"]}
+        for p, _ in runs:
+            inputs[p.name]["channels"] = {}  # (filled with the recording's outputs)
+            inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
+                f"{name}: {Path(f).name}" for name, f in cov_files.items()
+            ]
+        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary)
+        with output as out:
+            verdict: List[str] = []
+            sections: List[Tuple[str, str]] = []
+            all_figs: List[Tuple[str, bytes]] = []
+            for (p, res), label in zip(runs, _labels([p for p, _ in runs])):
+                rec = kept[p] if p in kept else _open_once(stack, p, open_options)
+                lines, extras, captioned = _recording_outputs(out, job, (p, res), label, rec)
+                verdict += lines
+                sections += extras
+                all_figs += [(f"{p.name}: {c}", f) for c, f in captioned]
+            _write_top(out, job, runs, verdict, sections=sections, figures=all_figs)
     return summary
+
+
+def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Dict[str, Any], opts: Dict[str, Any],
+             *, progress: bool, client: Any, split: Optional[float],
+             ) -> Tuple[List[Tuple[Path, Results]], Dict[str, Any], Dict[Path, Any]]:  # fmt: skip
+    """(path and Results of each recording analysed, failures by file name, the recordings still open by path)."""
+    from .distributed import analyze_many
+
+    if len(files) == 1 and client is None and split is None:
+        # One file, here: read it directly (progress bar over its samples), kept open for the outputs.
+        from .io import open_recording
+
+        rec = stack.enter_context(open_recording(files[0], **open_options))
+        return [(Path(files[0]), analyze(rec, progress=progress, **opts))], {}, {Path(files[0]): rec}
+    many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
+    failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
+    return [(Path(p), r) for p, r in many.results.items()], failures, {}
+
+
+def _open_once(stack: contextlib.ExitStack, path: Path, open_options: Mapping[str, Any]) -> Any:
+    """The recording opened for its outputs (closed with ``stack``), or the exception that opening raised."""
+    from .io import open_recording
+
+    try:
+        return stack.enter_context(open_recording(path, **open_options))
+    except Exception as exc:  # noqa: BLE001 - the analysis already read it; each output says what went wrong
+        return exc
+
+
+@dataclasses.dataclass(frozen=True)
+class _Job:
+    """What every recording's outputs share."""
+
+    meta: Meta
+    steady_state: bool
+    single: bool  # one recording without failures: its outputs at the top of the folder
+    inputs: Dict[str, Dict[str, Any]]  # file name -> provenance (digest, channels, logs)
+    summary: Dict[str, Any]  # summary.json, filled recording by recording
+
+
+def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], label: str, rec: Any
+                       ) -> Tuple[List[str], List[Tuple[str, str]], List[Tuple[str, bytes]]]:  # fmt: skip
+    """One recording's tables and figures (and, among several, its summary.json and report.html), its entry in
+    the job's summary: (verdict lines, report sections, captioned figures). ``rec`` is the open recording the
+    figures' windows and stick-slip read, or the exception that opening it raised."""
+    from .report import verdict_lines, write_report
+    from .stickslip import stick_slip
+
+    p, res = run
+    prefix = "" if job.single else f"{label}/"
+    job.inputs[p.name]["channels"] = _channel_map(rec)
+    opr_t = _try_range(res, "temperature")
+    opr_j = _try_range(res, "current_density")
+    has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
+    opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
+    try:
+        if isinstance(rec, Exception):
+            raise rec
+        examples, loops = diagnostic_examples(rec, res), loop_examples(rec, res)
+    except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
+        examples, loops = [], []
+        res = _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+    try:  # docs/method.md 6g: fy and fz read again, once; only a test with a static fz is searched
+        if isinstance(rec, Exception):
+            raise rec
+        slip: Optional[Dict[str, Any]] = stick_slip(rec, res).to_dict()
+    except (OSError, ValueError) as exc:
+        slip = None
+        res = _replaced(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
+    steady = _steady_state(res) if job.steady_state else None
+    # the figures read the steady state from their Results' params (docs/method.md 6h)
+    fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
+    figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
+    res_now = res
+
+    def meanwhile() -> Tuple[List[str], Dict[str, Any], List[Tuple[str, str]]]:  # a child draws figures
+        return (_write_set(out, prefix, res_now), res_now.summary(),
+                _report_extras(res_now, p.name, f"{prefix}windows.csv"))  # fmt: skip
+
+    pngs, (written, res_summary, extras) = _save_figures(out, figs, prefix, meanwhile)
+    written += [name for name, _, _ in pngs]
+    rec_sum = {
+        **res_summary,
+        **({"steady_state": steady} if steady else {}),
+        "operating_range_temperature": range_summary(opr_t),
+        "operating_range_current_density": range_summary(opr_j),
+        "operating_range_speed": range_summary(opr_v),
+        "params": res.params,
+        "files": written,
+        "stick_slip": slip,
+    }
+    rec_sum["meta"] = summary_meta(job.meta, rec_sum["headline"])
+    job.summary["recordings"][p.name] = rec_sum
+    ranges = {"temperature": rec_sum["operating_range_temperature"],
+              "current_density": rec_sum["operating_range_current_density"],
+              "speed": rec_sum["operating_range_speed"]}  # fmt: skip
+    lines = verdict_lines(p.name, rec_sum, res.params, ranges)
+    if steady:  # right after the headline
+        lines.insert(1, f"{p.name}: {steady['text']}.")
+    if slip and slip["present"]:
+        lines.append(f"{p.name}: {slip['verdict']}")
+    captioned = _captioned(pngs)
+    if not job.single:
+        write_json(rec_sum, out.path(f"{prefix}summary.json"))
+        write_report(
+            out.path(f"{prefix}report.html"),
+            title=f"tribodyn: {p.name}",
+            summary=_flat_summary({p.name: rec_sum}),
+            params=res.params,
+            figures=captioned,
+            quality=rec_sum["gate_failures"],
+            verdict=lines,
+            inputs=[job.inputs[p.name]],
+            sections=_report_extras(res, p.name, "windows.csv"),
+            head_html=_bokeh_head(),
+            record_html=record_html(job.meta, {p.name: rec_sum["headline"]}),
+        )
+    return lines, extras, captioned
+
+
+def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], verdict: List[str], *,
+               sections: List[Tuple[str, str]], figures: List[Tuple[str, bytes]]) -> None:  # fmt: skip
+    """The job's own outputs: the combined tables (several recordings), summary.json, metadata.json and
+    report.html."""
+    from . import __version__
+    from .report import write_report
+
+    summary, failures = job.summary, job.summary["failures"]
+    if not job.single:
+        combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
+        write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
+        write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
+    summary["columns"] = column_units()
+    write_json(summary, out.path("summary.json"))
+    heads = {n: r["headline"] for n, r in summary["recordings"].items()}
+    write_json(metadata(job.meta, summary["inputs"], heads, __version__), out.path("metadata.json"))
+    for name, f in failures.items():
+        verdict.append(f"{name}: not analysed: {f['error']}")
+    failed = [{"file": n, "sha256": "", "channels": {}, "logs": [f"failed: {f['error']}"]} for n, f in failures.items()]
+    write_report(
+        out.path("report.html"),
+        title="tribodyn: " + ", ".join([p.name for p, _ in runs] + list(failures)),
+        summary=_flat_summary(summary["recordings"]),
+        params={p.name: r.params for p, r in runs},
+        figures=figures,
+        quality={p.name: summary["recordings"][p.name]["gate_failures"] for p, _ in runs},
+        verdict=verdict,
+        inputs=list(job.inputs.values()) + failed,
+        sections=sections,
+        head_html=_bokeh_head(),
+        record_html=record_html(job.meta, heads),
+    )
 
 
 #: Modules the output step imports (figures, the interactive views, tables), imported during the analysis.
@@ -884,16 +941,13 @@ def _steady_state(res: Results) -> Dict[str, Any]:
     return steady_state(res).to_dict()
 
 
-def _channel_map(path: Path, open_options: Mapping[str, Any]) -> Dict[str, str]:
-    """Role -> 'channel (unit)' of a recording, as the analysis read it."""
-    from .io import open_recording
-
-    try:
-        with open_recording(path, **open_options) as rec:
-            units = {c.name: c.unit for c in rec.channels}
-            return {r: f"{c} ({units.get(c) or 'no unit'})" for r, c in dict(rec.roles).items()}
-    except Exception as exc:  # noqa: BLE001 - the analysis already read it; say what went wrong here
-        return {"?": f"channel map unavailable: {exc}"}
+def _channel_map(rec: Any) -> Dict[str, str]:
+    """Role -> 'channel (unit)' of an open recording, as the analysis read it (or why it is unavailable:
+    ``rec`` is then the exception that opening it raised)."""
+    if isinstance(rec, Exception):
+        return {"?": f"channel map unavailable: {rec}"}
+    units = {c.name: c.unit for c in rec.channels}
+    return {r: f"{c} ({units.get(c) or 'no unit'})" for r, c in dict(rec.roles).items()}
 
 
 def _labels(paths: Sequence[Path]) -> List[str]:

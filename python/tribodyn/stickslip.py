@@ -5,15 +5,17 @@
   (``tribometer.stroke_table`` calls it for the ``mu_static`` column).
 * :func:`stick_slip`: the stick-slip events of a recording (a slow rise of
   the friction force, then a sudden drop), their count, median amplitude
-  and frequency, as a :class:`StickSlip`. It reads fy and fz again (in
-  blocks), so :func:`tribodyn.analyze` stays as cheap as it was.
+  and frequency, as a :class:`StickSlip`. It reads fy and fz again, once
+  (in blocks; the noise of a long recording from a bounded sample), so
+  :func:`tribodyn.analyze` stays as cheap as it was.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, Callable, Dict, List, Optional, Tuple
 
 import numpy as np
@@ -45,6 +47,10 @@ RISE_T = 2.0
 MIN_EVENTS = 3
 #: Samples per block read at once (a fixed grid: the result does not depend on a reader's chunks).
 BLOCK = 1 << 20
+#: The noise and rise of a longer search come from a sample of this many samples (docs/method.md 6g) ...
+SAMPLE = 1 << 20
+#: ... in this many evenly spread pieces.
+SAMPLE_PIECES = 8
 
 
 def breakaway_peak(ratio: np.ndarray, smooth: int = BREAKAWAY_SMOOTH) -> Tuple[float, int]:
@@ -439,63 +445,110 @@ def stick_slip(
     read, n, close = _reader(source, open_options)
     try:
         seg, scope = _segments(res, n, fraction)
-        lo = int(seg.start.min()) if seg.start.size else 0
-        hi = min(n, int(seg.stop.max())) if seg.stop.size else 0
-        blocks = [(a, min(a + BLOCK, hi)) for a in range((lo // BLOCK) * BLOCK, hi, BLOCK)]
-        # each block is read with a margin (whole blocks of the COF grid) so that an event near its edge
-        # is seen whole; it counts in the block holding its drop
-        margin = 2 * (SMOOTH + drop_samples) + FIT_MAX + 2
-        p = seg.per_second
-        # (one more second each side: the COF interpolated between seconds needs its neighbours)
-        spans = [
-            (a, b, max(0, ((a - margin) // p - 1) * p), min(n, (-(-(b + margin) // p) + 1) * p)) for a, b in blocks
-        ]
+        spans = _spans(seg, n, drop_samples)
         kept: Dict[Tuple[int, int], Dict[str, np.ndarray]] = {}
 
-        def fetch(ra: int, rb: int) -> Dict[str, np.ndarray]:
+        def fetch(span: _Span) -> Dict[str, np.ndarray]:
             if len(spans) == 1:  # one block: read once for both passes
-                if (ra, rb) not in kept:
-                    kept[(ra, rb)] = read(ra, rb)
-                return kept[(ra, rb)]
-            return read(ra, rb)
+                if span.read not in kept:
+                    kept[span.read] = read(*span.read)
+                return kept[span.read]
+            return read(*span.read)
 
-        # pass 1: the friction's sign, the noise and the rise rate (the drops must be falls: each block's
-        # statistics with its own sign, which is the recording's unless friction changes sign)
-        sigmas, slopes, signsum, used = [], [], 0.0, 0
-        for a, b, ra, rb in spans:
-            d = fetch(ra, rb)
-            own = slice(a - ra, b - ra)
-            r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=1.0)
-            inside = label[own] >= 0
-            ysum = float(np.sum(y[own][inside]))
-            if ysum < 0:
-                r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=-1.0)
-            est = _noise(r[own], label[own], drop_samples)
-            if est is not None:
-                sigmas.append(est[0])
-                slopes.append(est[1])
-            signsum += ysum
-            used += int(inside.sum())
-        duration = used / fs_
+        # pass 1: the noise and the rise rate, from the blocks of a short recording, else from an evenly spread
+        # sample (docs/method.md 6g); each with its own sign (the recording's unless friction changes sign)
+        lo, hi = _extent(seg, n)
+        piece = max(SAMPLE // SAMPLE_PIECES, 4 * seg.per_second)  # (at least 4 s of the COF grid)
+        whole = len(spans) == 1 or hi - lo <= SAMPLE_PIECES * piece
+        first = spans if whole else _sample_spans(seg, lo, hi, m=piece, n=n, drop_samples=drop_samples)
+        est = [_block_noise(seg, s, fetch(s), drop_samples) for s in first]
+        if first is not spans and all(e is None for e, _, _ in est):  # the sample met no contact: every block
+            est = [_block_noise(seg, s, fetch(s), drop_samples) for s in spans]
+        sigmas = [e[0] for e, _, _ in est if e is not None]
+        slopes = [e[1] for e, _, _ in est if e is not None]
         if not sigmas:
+            duration = sum(u for _, _, u in est) / fs_  # pass 1 read every block here
             why = f"stick-slip not assessed: fewer than 10 samples in contact in {scope}"
             return StickSlip(0, nan, nan, nan, nan, np.zeros(0), np.zeros(0), nan, nan, duration, False, why, scope)
-        sigma = float(np.median(sigmas))
-        orientation = 1.0 if signsum >= 0 else -1.0
-        slope = float(np.median(slopes))
-        # pass 2: the events
-        events: List[_Event] = []
-        for a, b, ra, rb in spans:
-            d = fetch(ra, rb)
-            r, fn, label, _ = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=orientation)
-            events += [
-                e
-                for e in _detect(r, fn, label, ra, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
-                if a <= e.index < b
-            ]
+        sigma, slope = float(np.median(sigmas)), float(np.median(slopes))
+        orientation = 1.0 if sum(y for _, y, _ in est) >= 0 else -1.0
+        # pass 2: the events, the time searched and the recording's sign; a sample whose sign is not the
+        # recording's (friction changing sign) is searched again with the recording's
+        search = functools.partial(_search, seg, spans, fetch, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
+        events, signsum, used = search(orientation)
+        if (1.0 if signsum >= 0 else -1.0) != orientation:
+            events = search(-orientation)[0]
     finally:
         close()
-    return _summarise(events, sigma=sigma, k=k, duration=duration, fs=fs_, scope=scope)
+    return _summarise(events, sigma=sigma, k=k, duration=used / fs_, fs=fs_, scope=scope)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Span:
+    """A block searched (``own``: the samples whose events it counts) and the samples read for it (``read``)."""
+
+    own: Tuple[int, int]
+    read: Tuple[int, int]
+
+
+def _span(seg: _Segments, a: int, b: int, n: int, drop_samples: int) -> _Span:
+    """Samples a..b with a margin (whole seconds of the COF grid) so that an event near its edge is seen whole."""
+    margin = 2 * (SMOOTH + drop_samples) + FIT_MAX + 2
+    p = seg.per_second
+    # (one more second each side: the COF interpolated between seconds needs its neighbours)
+    return _Span((a, b), (max(0, ((a - margin) // p - 1) * p), min(n, (-(-(b + margin) // p) + 1) * p)))
+
+
+def _extent(seg: _Segments, n: int) -> Tuple[int, int]:
+    """The first sample of the segments and the one after their last (at most n)."""
+    lo = int(seg.start.min()) if seg.start.size else 0
+    hi = min(n, int(seg.stop.max())) if seg.stop.size else 0
+    return lo, hi
+
+
+def _spans(seg: _Segments, n: int, drop_samples: int) -> List[_Span]:
+    """The blocks of :data:`BLOCK` samples, on a grid fixed by the recording, that cover the segments."""
+    lo, hi = _extent(seg, n)
+    return [_span(seg, a, min(a + BLOCK, hi), n, drop_samples) for a in range((lo // BLOCK) * BLOCK, hi, BLOCK)]
+
+
+def _sample_spans(seg: _Segments, lo: int, hi: int, *, m: int, n: int, drop_samples: int) -> List[_Span]:
+    """Pass 1's sample of samples lo..hi (more than :data:`SAMPLE_PIECES` x m): SAMPLE_PIECES pieces of m
+    samples, centred at lo + (j + 1/2) (hi - lo) / SAMPLE_PIECES (docs/method.md 6g)."""
+    centres = [lo + ((2 * j + 1) * (hi - lo)) // (2 * SAMPLE_PIECES) for j in range(SAMPLE_PIECES)]
+    return [_span(seg, c - m // 2, c - m // 2 + m, n, drop_samples) for c in centres]
+
+
+def _block_noise(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], drop_samples: int
+                 ) -> Tuple[Optional[Tuple[float, float]], float, int]:  # fmt: skip
+    """(noise SD and rise per sample or None, sum of the friction force, samples in contact) of a block's
+    own samples, with the block's own sign (docs/method.md 6g)."""
+    (a, b), (ra, rb) = span.own, span.read
+    own = slice(a - ra, b - ra)
+    r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=1.0)
+    inside = label[own] >= 0
+    ysum = float(np.sum(y[own][inside]))
+    if ysum < 0:
+        r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=-1.0)
+    return _noise(r[own], label[own], drop_samples), ysum, int(inside.sum())
+
+
+def _search(seg: _Segments, spans: Sequence[_Span], fetch: Callable[[_Span], Dict[str, np.ndarray]],
+            orientation: float, *, sigma: float, slope: float, k: float, drop_samples: int
+            ) -> Tuple[List[_Event], float, int]:  # fmt: skip
+    """(events, sum of the friction force, samples in contact) of every block, in one reading of each."""
+    events: List[_Event] = []
+    signsum, used = 0.0, 0
+    for span in spans:
+        (a, b), (ra, rb) = span.own, span.read
+        d = fetch(span)
+        r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=orientation)
+        inside = label[a - ra : b - ra] >= 0
+        signsum += orientation * float(np.sum(y[a - ra : b - ra][inside]))
+        used += int(inside.sum())
+        found = _detect(r, fn, label, ra, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
+        events += [e for e in found if a <= e.index < b]
+    return events, signsum, used
 
 
 def _summarise(events: List[_Event], *, sigma: float, k: float, duration: float, fs: float, scope: str) -> StickSlip:
