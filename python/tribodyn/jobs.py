@@ -270,22 +270,30 @@ def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, An
 
 
 def _save_figures(
-    out: OutputSet, figs: Sequence[Tuple[str, str, Any]], prefix: str, meanwhile: Optional[Callable[[], Any]] = None
-) -> Tuple[List[Tuple[str, str, bytes]], Any]:
+    out: OutputSet,
+    figs: Sequence[Tuple[str, str, Any]],
+    prefix: str,
+    meanwhile: Optional[Callable[[], Any]] = None,
+    *,
+    also: Optional[Callable[[], Any]] = None,
+) -> Tuple[List[Tuple[str, str, bytes]], Any, Any]:
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
-    triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); and what
-    ``meanwhile()`` returns, called while a forked child draws most of the figures (``figures.Rendering``)."""
+    triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); what ``meanwhile()``
+    returns, called while a forked child draws a share of the figures (``figures.Rendering``); and what
+    ``also()`` returns, run by that child after its figures (here when there is none)."""
     from .figures import Rendering
     from .io.writers import atomic_write
 
-    render = Rendering([f for _, _, f in figs], share=0.6 if meanwhile is not None else 0.5)
+    # the child's share: most figures, or fewer when it has the Bokeh views to draw as well
+    share = 0.3 if also is not None else 0.6 if meanwhile is not None else 0.5
+    render = Rendering([f for _, _, f in figs], share=share, also=also)
     done = meanwhile() if meanwhile is not None else None
     saved = []
     for (stem, caption, _), data in zip(figs, render.finish()):
         name = f"figures/{prefix}{stem}.png"
         atomic_write(out.path(name), _bytes_writer(data))
         saved.append((name, caption, data))
-    return saved, done
+    return saved, done, render.also_result()
 
 
 def _bytes_writer(data: bytes) -> Callable[[str], None]:
@@ -391,22 +399,36 @@ def _window_of(rec: Any, start: int, n: int, roles: Sequence[str]) -> Optional[D
     return None
 
 
-def _report_extras(res: Results, name: str, csv_name: str) -> List[Tuple[str, str]]:
-    """The interactive COF view and the table of windows, as report sections."""
+def _interactive_view(res: Results, name: str) -> Tuple[str, str]:
+    """(the interactive COF view's script and div, Bokeh's JavaScript for the report's head): all the Bokeh
+    work of a recording, which the CLI leaves to its rendering child."""
     from ._interactive import cof_views
-    from .report import windows_table_html
 
     script, div = cof_views(res, name)
+    return script + div, _bokeh_head()
+
+
+def _report_extras(res: Results, name: str, csv_name: str, view: Optional[str] = None) -> List[Tuple[str, str]]:
+    """The interactive COF view (``view``: drawn already) and the table of windows, as report sections."""
+    from .report import windows_table_html
+
     return [
-        (f"{name}: interactive COF against time, temperature and current density", script + div),
+        (f"{name}: interactive COF against time, temperature and current density",
+         _interactive_view(res, name)[0] if view is None else view),
         (f"{name}: table of windows", windows_table_html(res, csv_name)),
-    ]
+    ]  # fmt: skip
+
+
+#: Bokeh's JavaScript for the reports' head, once rendered (here, or by a rendering child: see _recording_outputs).
+_BOKEH_HEAD: Dict[str, str] = {}
 
 
 def _bokeh_head() -> str:
-    from ._interactive import bokeh_resources
+    if "js" not in _BOKEH_HEAD:
+        from ._interactive import bokeh_resources
 
-    return bokeh_resources()
+        _BOKEH_HEAD["js"] = bokeh_resources()
+    return _BOKEH_HEAD["js"]
 
 
 def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: bool = False) -> Dict[str, Any]:
@@ -479,7 +501,7 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
         named = [(f"temperature_{s}", c, f) for s, c, f in figs_t] + [
             (f"current_density_{s}", c, f) for s, c, f in figs_j
         ]
-        pngs, (files, extras) = _save_figures(out, named, "", meanwhile)
+        pngs, (files, extras), _ = _save_figures(out, named, "", meanwhile)
         png_t, png_j = pngs[: len(figs_t)], pngs[len(figs_t) :]
         files += [name for name, _, _ in pngs]
         summary["files"] = files + ["summary.json", "report.html"]
@@ -822,11 +844,14 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
     figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
     res_now = res
 
-    def meanwhile() -> Tuple[List[str], Dict[str, Any], List[Tuple[str, str]]]:  # a child draws figures
-        return (_write_set(out, prefix, res_now), res_now.summary(),
-                _report_extras(res_now, p.name, f"{prefix}windows.csv"))  # fmt: skip
+    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # while a child draws figures and the Bokeh view
+        return _write_set(out, prefix, res_now), res_now.summary()
 
-    pngs, (written, res_summary, extras) = _save_figures(out, figs, prefix, meanwhile)
+    pngs, (written, res_summary), (view, head) = _save_figures(
+        out, figs, prefix, meanwhile, also=lambda: _interactive_view(res_now, p.name)
+    )
+    _BOKEH_HEAD.setdefault("js", head)
+    extras = _report_extras(res_now, p.name, f"{prefix}windows.csv", view)
     written += [name for name, _, _ in pngs]
     rec_sum = {
         **res_summary,
@@ -860,7 +885,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
             quality=rec_sum["gate_failures"],
             verdict=lines,
             inputs=[job.inputs[p.name]],
-            sections=_report_extras(res, p.name, "windows.csv"),
+            sections=_report_extras(res, p.name, "windows.csv", view),
             head_html=_bokeh_head(),
             record_html=record_html(job.meta, {p.name: rec_sum["headline"]}),
         )
@@ -901,11 +926,9 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
     )
 
 
-#: Modules the output step imports (figures, the interactive views, tables), imported during the analysis.
-_OUTPUT_MODULES = (
-    "matplotlib.figure", "matplotlib.backends.backend_agg", "pyarrow", "pyarrow.parquet",
-    "bokeh.plotting", "bokeh.models", "bokeh.layouts", "bokeh.embed", "bokeh.resources",
-)  # fmt: skip
+#: Modules the output step imports here (figures, tables), imported during the analysis; Bokeh is imported by
+#: the rendering child, which draws the interactive views (``_recording_outputs``).
+_OUTPUT_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg", "pyarrow", "pyarrow.parquet")
 
 
 def _import_in_background() -> threading.Thread:
