@@ -35,9 +35,6 @@ ALLOWED: frozenset[str] = frozenset(
         "ranges.py:_branch_fit_units",  # 8 positional parameters
         "ranges.py:_binned_curves",  # 9 positional parameters
         "ranges.py:operating_range",  # 101 lines
-        # simulate.py
-        "simulate.py:_record_scenario",  # 9 positional parameters
-        "simulate.py:conditions",  # 118 lines
         # finish.py, routes.py: nothing over the rule as measured here
     }
 )
