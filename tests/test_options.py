@@ -79,6 +79,42 @@ def test_make_plan_takes_the_declared_defaults() -> None:
         td.make_plan(fs=1000.0, tare="3 s")
 
 
+def test_every_option_has_its_check_or_a_joint_one() -> None:
+    """Issue 22 point 1: an option declares the rule that checks it alone (plan.CHECKS), or plan.JOINT says where
+    it is checked with the options it depends on; never both, never neither, so no option comes without a check."""
+    from tribodyn.plan import CHECKS, JOINT
+
+    names = {o.name for o in OPTIONS}
+    assert set(JOINT) <= names, sorted(set(JOINT) - names)
+    for o in OPTIONS:
+        assert bool(o.check) != (o.name in JOINT), o.name
+        assert not o.check or o.check in CHECKS, (o.name, o.check)
+    assert {o.check for o in OPTIONS if o.check} == set(CHECKS)  # no rule without an option
+
+
+#: A value each option with a rule of its own refuses (all but progress: any value is a truth value).
+BAD = {
+    "fs": 0.0, "highpass": -1.0, "orientation": 0, "temperature": "x", "current": float("inf"),
+    "voltage": float("nan"), "shunt_ohm": -1.0, "area_mm2": 0.0, "covariates": [1], "chunk": -1.0,
+    "deadband": "x", "max_lag": -1, "threads": 0, "start": -1, "stop": 1.5, "motion": "sideways", "min_fn": -1.0,
+    "tare": "3 s", "stroke_fraction": 1.5,
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_make_plan_applies_each_declared_check(name: str) -> None:
+    from tribodyn.plan import checked
+
+    assert option(name).check, name
+    options = {name: BAD[name], "shunt_ohm": 1.0} if name == "voltage" else {name: BAD[name]}
+    fs = options.pop("fs", FS)
+    with pytest.raises((TypeError, ValueError), match=name) as how:
+        td.make_plan(fs=fs, **options)
+    with pytest.raises(how.type, match=re.escape(str(how.value))):
+        checked(option(name), BAD[name])  # the same error: make_plan applies the declared rule
+    assert {o.name for o in OPTIONS if o.check} - set(BAD) == {"progress"}
+
+
 def test_plan_is_frozen_and_holds_every_plan_option() -> None:
     plan = td.make_plan(fs=1000.0, tare={"fy": 0.1, "fz": 0.2})
     fields = {f.name for f in dataclasses.fields(td.Plan)}

@@ -6,8 +6,12 @@ From this table come the defaults :func:`tribodyn.plan.make_plan` applies,
 the command line's flags and ``--config`` keys (``tribodyn.cli``), the
 report's units and the README's option list; ``analyze``'s signature and
 docstring, ``Plan``'s fields and ``Results.params`` are checked against it
-(``tests/test_options.py``). A new option is one entry here, its check in
-``plan.py`` and its use.
+(``tests/test_options.py``). Each option names its check (``check``): a rule
+of :data:`tribodyn.plan.CHECKS` that :func:`tribodyn.plan.make_plan` applies
+to its value alone, or "" for the few whose validity depends on other
+options, which ``make_plan`` checks together (:data:`tribodyn.plan.JOINT`
+says where). A new option is one entry here, its rule (or its joint check)
+and its use.
 
 Kinds:
 
@@ -60,6 +64,10 @@ class Option:
         The values a "choice" takes.
     config_type : str
         What a ``--config`` value must be, in words.
+    check : str
+        The rule of :data:`tribodyn.plan.CHECKS` that checks (and converts)
+        the value on its own; "" when :func:`tribodyn.plan.make_plan` checks
+        it together with other options (:data:`tribodyn.plan.JOINT`).
     """
 
     name: str
@@ -73,6 +81,7 @@ class Option:
     cli_type: str = ""
     choices: Tuple[str, ...] = ()
     config_type: str = ""
+    check: str = ""
 
 
 _NUMBER, _INTEGER, _TEXT = "a number", "an integer", "a string"
@@ -80,65 +89,69 @@ _NUMBER, _INTEGER, _TEXT = "a number", "an integer", "a string"
 
 def _opt(*, name: str, default: Any, kind: str, unit: str, section: str, doc: str, flag: Optional[str] = None,
          cli_type: str = "", choices: Tuple[str, ...] = (), config_type: str = "",
-         config: Optional[str] = None) -> Option:  # fmt: skip
+         config: Optional[str] = None, check: str = "") -> Option:  # fmt: skip
     config = config or (flag[2:].replace("-", "_") if flag else None)
     if not config_type:
         config_type = {"float": _NUMBER, "int": _INTEGER, "text": _TEXT, "choice": _TEXT}.get(cli_type, "")
-    return Option(name, default, kind, unit, section, doc, flag, config, cli_type, choices, config_type)
+    return Option(name, default, kind, unit, section, doc, flag, config, cli_type, choices, config_type, check)
 
 
 # fmt: off
 #: Every option of :func:`tribodyn.analyze`, in the order of its signature.
 OPTIONS: Tuple[Option, ...] = (
     _opt(name="fs", default=None, kind="source", unit="Hz", section="6", doc="sampling rate (default: the recording's)",
-         flag="--fs", cli_type="float"),
+         flag="--fs", cli_type="float", check="sampling rate"),
     _opt(name="window", default=None, kind="plan", unit="s", section="6b",
          doc="window length (default 2 s; slow recordings: from the rate)", flag="--window", cli_type="float"),
     _opt(name="hop", default=None, kind="plan", unit="s", section="6b",
          doc="window start spacing (default 10 s; = window tiles)", flag="--hop", cli_type="float"),
     _opt(name="highpass", default=None, kind="plan", unit="Hz", section="2",
-         doc="high-pass raw DC-coupled forces first (None: dynamic forces)", flag="--highpass", cli_type="float"),
+         doc="high-pass raw DC-coupled forces first (None: dynamic forces)", flag="--highpass", cli_type="float",
+         check="number > 0 or None"),
     _opt(name="orientation", default="auto", kind="plan", unit="", section="0",
          doc="s in mu = s * slope: +1, -1 or auto (once per recording)", flag="--orientation", cli_type="orientation",
-         config_type='"auto", 1 or -1'),
+         config_type='"auto", 1 or -1', check="orientation"),
     _opt(name="temperature", default=None, kind="log", unit="degC", section="6",
          doc="temperature log (t_s, T), interpolated at window centres", flag="--temperature", cli_type="log",
-         config_type="a string"),
+         config_type="a string", check="log or None"),
     _opt(name="current", default=None, kind="log", unit="A", section="6",
-         doc="current log (t_s, i) or constant, when the source has no i channel"),
+         doc="current log (t_s, i) or constant, when the source has no i channel", check="constant or log"),
     _opt(name="voltage", default=None, kind="log", unit="V", section="6",
-         doc="shunt voltage log (t_s, u) or constant (needs shunt_ohm)"),
+         doc="shunt voltage log (t_s, u) or constant (needs shunt_ohm)", check="constant or log"),
     _opt(name="shunt_ohm", default=None, kind="plan", unit="ohm", section="6", doc="shunt resistance R: i = u / R",
-         flag="--shunt", cli_type="float"),
+         flag="--shunt", cli_type="float", check="number > 0 or None"),
     _opt(name="area_mm2", default=None, kind="plan", unit="mm^2", section="7", doc="contact area: J = i / area",
-         flag="--area", cli_type="float"),
+         flag="--area", cli_type="float", check="number > 0 or None"),
     _opt(name="covariates", default=None, kind="log", unit="", section="7a",
          doc="other logs by name (speed: the Stribeck curve)", flag="--covariate", cli_type="covariate",
-         config_type='a table of name = "log file"', config="covariates"),
+         config_type='a table of name = "log file"', config="covariates", check="covariate logs"),
     _opt(name="chunk", default=None, kind="plan", unit="s", section="9",
-         doc="seconds read per chunk (memory bound; never changes a result)", flag="--chunk", cli_type="float"),
-    _opt(name="progress", default=False, kind="plan", unit="", section="9", doc="a progress bar on stderr"),
+         doc="seconds read per chunk (memory bound; never changes a result)", flag="--chunk", cli_type="float",
+         check="number > 0 or None"),
+    _opt(name="progress", default=False, kind="plan", unit="", section="9", doc="a progress bar on stderr",
+         check="truth value"),
     _opt(name="deadband", default=0.35, kind="plan", unit="N", section="4",
          doc="|fz| below it is left out of the bins and mu_a, mu_b: a force (default 0.35) or e.g. 0.7sigma",
          flag="--deadband", cli_type="deadband",
-         config_type='a number (N) or a string such as "0.7sigma"'),
+         config_type='a number (N) or a string such as "0.7sigma"', check="deadband"),
     _opt(name="n_bins", default=16, kind="plan", unit="", section="4",
          doc="normal-force bins (default 16; at most 1024, about 4 samples each)", flag="--bins", cli_type="int"),
     _opt(name="gate", default=None, kind="plan", unit="", section="5",
          doc="quality gate: ci (default) or a |C_yz(0)| threshold (paper 0.85)", flag="--gate", cli_type="gate",
          config_type='a number (|C_yz| threshold) or "ci"'),
     _opt(name="max_lag", default=None, kind="plan", unit="samples", section="3e",
-         doc="per-window channel-skew check up to this lag", flag="--max-lag", cli_type="int"),
+         doc="per-window channel-skew check up to this lag", flag="--max-lag", cli_type="int",
+         check="integer >= 0 or None"),
     _opt(name="rpm", default=None, kind="plan", unit="1/min", section="3e",
          doc="rotating speed: the instrument lag and the rig's lines", flag="--rpm", cli_type="float"),
     _opt(name="n_lamellas", default=None, kind="plan", unit="", section="3e",
          doc="commutator lamellas: the lamella line f_l", flag="--lamellas", cli_type="int"),
     _opt(name="threads", default=None, kind="plan", unit="", section="9",
-         doc="kernel threads of this call (default: every core)", flag="--threads", cli_type="int"),
+         doc="kernel threads of this call (default: every core)", flag="--threads", cli_type="int", check="threads"),
     _opt(name="start", default=0, kind="plan", unit="samples", section="9",
-         doc="first sample of the source within the recording"),
+         doc="first sample of the source within the recording", check="integer >= 0"),
     _opt(name="stop", default=None, kind="plan", unit="samples", section="9",
-         doc="a recording's sample where reading ends (exclusive)"),
+         doc="a recording's sample where reading ends (exclusive)", check="integer >= 0 or None"),
     _opt(name="estimator", default=None, kind="plan", unit="", section="3a",
          doc="slope estimator: corrected (default), iv, ols or deming", flag="--estimator", cli_type="choice",
          choices=("corrected", "iv", "ols", "deming")),
@@ -157,14 +170,16 @@ OPTIONS: Tuple[Option, ...] = (
          config_type="a list of two numbers [sigma_y, sigma_z] in N"),
     _opt(name="motion", default="auto", kind="plan", unit="", section="6c",
          doc="auto, unidirectional or reciprocating (per-stroke table)", flag="--motion", cli_type="choice",
-         choices=("auto", "unidirectional", "reciprocating")),
+         choices=("auto", "unidirectional", "reciprocating"), check="choice"),
     _opt(name="min_fn", default=None, kind="plan", unit="N", section="6a",
-         doc="classical COF: least |fz| in contact (default from the data)", flag="--min-fn", cli_type="float"),
+         doc="classical COF: least |fz| in contact (default from the data)", flag="--min-fn", cli_type="float",
+         check="force >= 0 or None"),
     _opt(name="tare", default=None, kind="plan", unit="s or N", section="6a",
          doc="classical COF: seconds without contact at the start, or offsets", flag="--tare", cli_type="tare",
-         config_type="a number of seconds or a table of offsets"),
+         config_type="a number of seconds or a table of offsets", check="tare"),
     _opt(name="stroke_fraction", default=0.5, kind="plan", unit="", section="6c",
-         doc="reciprocating: central part of each stroke", flag="--stroke-fraction", cli_type="float"),
+         doc="reciprocating: central part of each stroke", flag="--stroke-fraction", cli_type="float",
+         check="fraction"),
     _opt(name="channels", default=None, kind="source", unit="", section="6f",
          doc="role -> column of a DataFrame, or channel of a file", flag="--map", cli_type="map",
          config_type='a table of role = "channel" (or a string "fy=Ft,fz=Fn")', config="map"),

@@ -4,6 +4,11 @@
 returns a frozen :class:`Plan`; every route of the pipeline (and the
 finishing step) takes the plan, never loose settings. Nothing in a plan
 changes while a recording is read.
+
+An option valid on its own names its rule in its declaration
+(``tribodyn.options.Option.check``, a key of :data:`CHECKS`), which
+``make_plan`` applies from ``OPTIONS``; the others are checked together
+with the options they depend on, as :data:`JOINT` says.
 """
 
 from __future__ import annotations
@@ -11,7 +16,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, Dict, Mapping, Optional, Tuple, Union
+from typing import TYPE_CHECKING, Any, Callable, Dict, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
@@ -21,7 +26,12 @@ from .covariates import TimeLog, as_log, constant_or_log
 from .deadband import Deadband, parse_deadband
 from .threads import resolve_threads
 
+if TYPE_CHECKING:
+    from .options import Option
+
 __all__ = [
+    "CHECKS",
+    "JOINT",
     "Covariates",
     "Findings",
     "Plan",
@@ -29,6 +39,7 @@ __all__ = [
     "check_orientation",
     "check_covariate_logs",
     "check_tribometer",
+    "checked",
 ]
 
 
@@ -300,11 +311,11 @@ def make_plan(*, fs: Any, **options: Any) -> Plan:
 
 def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
     """:func:`make_plan` with every option present (``o``)."""
+    from .options import OPTIONS, option
     from .tribometer import auto_window
 
-    fs_v = check_fs(fs)
+    fs_v = checked(option("fs"), fs)
     window, hop, window_note = auto_window(fs_v, o["window"], o["hop"])
-    voltage, shunt_ohm, stop = o["voltage"], o["shunt_ohm"], o["stop"]
     w_s = positive(window, "window")
     h_s = positive(hop, "hop")
     length = int(round(w_s * fs_v))
@@ -313,67 +324,101 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         raise ValueError(f"window = {window} s is under 3 samples at fs = {fs_v:g} Hz")
     if step < 1:
         raise ValueError(f"hop = {hop} s is under one sample at fs = {fs_v:g} Hz")
-    if voltage is not None or shunt_ohm is not None:
-        if shunt_ohm is None:
-            raise ValueError("voltage needs shunt_ohm (i = u / R)")
-        shunt: Optional[float] = positive(shunt_ohm, "shunt_ohm")
-    else:
-        shunt = None
-    cov = Covariates(
-        temperature=None if o["temperature"] is None else as_log(o["temperature"], "temperature"),
-        current=constant_or_log(o["current"], "current"),
-        voltage=constant_or_log(voltage, "voltage"),
-        shunt_ohm=shunt,
-        area_mm2=None if o["area_mm2"] is None else positive(o["area_mm2"], "area_mm2"),
-        logs=check_covariate_logs(o["covariates"]),
-    )
-    origin = check_int(o["start"], "start", minimum=0)
-    end = None if stop is None else check_int(stop, "stop", minimum=0)
-    if end is not None and end < origin:
-        raise ValueError(f"stop must satisfy start <= stop, got start={origin}, stop={end}")
+    if o["voltage"] is not None and o["shunt_ohm"] is None:
+        raise ValueError("voltage needs shunt_ohm (i = u / R)")
+    # Each option valid on its own, by the rule it declares (in the order of OPTIONS); then those checked jointly.
+    c = {opt.name: checked(opt, o[opt.name]) for opt in OPTIONS if opt.check and opt.name in o}
+    cov = Covariates(temperature=c["temperature"], current=c["current"], voltage=c["voltage"],
+                     shunt_ohm=c["shunt_ohm"], area_mm2=c["area_mm2"], logs=c["covariates"])  # fmt: skip
+    if c["stop"] is not None and c["stop"] < c["start"]:
+        raise ValueError(f"stop must satisfy start <= stop, got start={c['start']}, stop={c['stop']}")
     stats = check_statistics(
         fs_v, length, method=o["method"], estimator=o["estimator"], gate=o["gate"], max_rel_ci=o["max_rel_ci"],
         align=o["align"], iv_lag=o["iv_lag"], noise=o["noise"], rpm=o["rpm"], n_lamellas=o["n_lamellas"],
     )  # fmt: skip
-    highpass, max_lag, chunk = o["highpass"], o["max_lag"], o["chunk"]
+    chunk = c["chunk"]
     return Plan(
         fs=fs_v,
         window=w_s,
         hop=h_s,
         length=length,
         step=step,
-        deadband=parse_deadband(o["deadband"]),
+        deadband=c["deadband"],
         n_bins=check_bins(o["n_bins"], length),
-        orientation=check_orientation(o["orientation"]),
-        highpass=None if highpass is None else positive(highpass, "highpass"),
-        max_lag=None if max_lag is None else check_int(max_lag, "max_lag", minimum=0),
+        orientation=c["orientation"],
+        highpass=c["highpass"],
+        max_lag=c["max_lag"],
         rpm=o["rpm"],
         n_lamellas=o["n_lamellas"],
         covariates=cov,
-        threads=resolve_threads(o["threads"]),
-        chunk=None if chunk is None else max(1, int(round(positive(chunk, "chunk") * fs_v))),
-        start=origin,
-        stop=end,
-        progress=bool(o["progress"]),
+        threads=c["threads"],
+        chunk=None if chunk is None else max(1, int(round(chunk * fs_v))),
+        start=c["start"],
+        stop=c["stop"],
+        progress=c["progress"],
         window_note=window_note,
         **stats,
-        **check_tribometer(o["motion"], o["min_fn"], o["tare"], o["stroke_fraction"]),
+        motion=c["motion"],
+        min_fn=c["min_fn"],
+        tare=c["tare"],
+        stroke_fraction=c["stroke_fraction"],
     )
 
 
 def check_tribometer(motion: Any, min_fn: Any, tare: Any, stroke_fraction: Any) -> Dict[str, Any]:
     """The tribometer options checked (docs/method.md 6a, 6c): motion, min_fn, tare, stroke_fraction."""
-    motion = "auto" if motion is None else motion
-    if motion not in ("auto", "unidirectional", "reciprocating"):
-        raise ValueError(f"motion must be 'auto', 'unidirectional' or 'reciprocating', got {motion!r}")
-    fn = None
-    if min_fn is not None:
-        try:
-            fn = float(min_fn)
-        except (TypeError, ValueError):
-            raise TypeError(f"min_fn must be a force in N, got {min_fn!r}") from None
-        if not (np.isfinite(fn) and fn >= 0) or isinstance(min_fn, bool):
-            raise ValueError(f"min_fn must be finite and >= 0, got {min_fn!r}")
+    from .options import option
+
+    given = dict(motion=motion, min_fn=min_fn, tare=tare, stroke_fraction=stroke_fraction)
+    return {name: checked(option(name), value) for name, value in given.items()}
+
+
+# -- each option's own check (tribodyn.options.Option.check) -----------------------------------------------------
+
+
+def checked(opt: "Option", value: Any) -> Any:
+    """``value`` checked (and converted) by the rule ``opt`` declares (``opt.check``, a key of :data:`CHECKS`)."""
+    return CHECKS[opt.check](value, opt)
+
+
+def _positive_or_none(value: Any, opt: "Option") -> Optional[float]:
+    return None if value is None else positive(value, opt.name)
+
+
+def _count(value: Any, opt: "Option") -> int:
+    return check_int(value, opt.name, minimum=0)
+
+
+def _count_or_none(value: Any, opt: "Option") -> Optional[int]:
+    return None if value is None else check_int(value, opt.name, minimum=0)
+
+
+def _choice(value: Any, opt: "Option") -> Any:
+    """One of ``opt.choices``; None is the default."""
+    value = opt.default if value is None else value
+    if value not in opt.choices:
+        *first, last = map(repr, opt.choices)
+        raise ValueError(f"{opt.name} must be {', '.join(first)} or {last}, got {value!r}")
+    return value
+
+
+def _min_fn(value: Any, opt: "Option") -> Optional[float]:
+    """A force in N, finite and >= 0, or None (docs/method.md 6a)."""
+    if value is None:
+        return None
+    try:
+        fn = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{opt.name} must be a force in N, got {value!r}") from None
+    if not (np.isfinite(fn) and fn >= 0) or isinstance(value, bool):
+        raise ValueError(f"{opt.name} must be finite and >= 0, got {value!r}")
+    return fn
+
+
+def _tare(tare: Any, opt: "Option") -> Any:
+    """Seconds >= 0 without contact at the start, a read-only mapping of offsets {"fy": N, "fz": N}, or None."""
+    if tare is None:
+        return None
     if isinstance(tare, Mapping):
         bad = [
             k
@@ -382,21 +427,56 @@ def check_tribometer(motion: Any, min_fn: Any, tare: Any, stroke_fraction: Any) 
         ]
         if bad:
             raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
-        tare = MappingProxyType({str(k): float(v) for k, v in tare.items()})
-    elif tare is not None:
-        if isinstance(tare, bool) or not isinstance(tare, (int, float)):
-            raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
-        if not (np.isfinite(tare) and tare >= 0):
-            raise ValueError(f"tare must be seconds >= 0, got {tare!r}")
-        tare = float(tare)
-    sf = 0.5 if stroke_fraction is None else stroke_fraction
+        return MappingProxyType({str(k): float(v) for k, v in tare.items()})
+    if isinstance(tare, bool) or not isinstance(tare, (int, float)):
+        raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+    if not (np.isfinite(tare) and tare >= 0):
+        raise ValueError(f"tare must be seconds >= 0, got {tare!r}")
+    return float(tare)
+
+
+def _fraction(value: Any, opt: "Option") -> float:
+    """A number in (0, 1]; None is the default (docs/method.md 6c)."""
     try:
-        frac = float(sf)
+        frac = float(opt.default if value is None else value)
     except (TypeError, ValueError):
-        raise TypeError(f"stroke_fraction must be a number in (0, 1], got {stroke_fraction!r}") from None
+        raise TypeError(f"{opt.name} must be a number in (0, 1], got {value!r}") from None
     if not (0 < frac <= 1):
-        raise ValueError(f"stroke_fraction must be in (0, 1], got {stroke_fraction!r}")
-    return dict(motion=motion, min_fn=fn, tare=tare, stroke_fraction=frac)
+        raise ValueError(f"{opt.name} must be in (0, 1], got {value!r}")
+    return frac
+
+
+#: The rules an option may declare as its own check (``Option.check``): each takes the value and the option
+#: and returns the value checked and converted, or raises the TypeError or ValueError that names the option.
+CHECKS: Mapping[str, Callable[[Any, "Option"], Any]] = MappingProxyType({
+    "sampling rate": lambda v, o: check_fs(v),
+    "number > 0 or None": _positive_or_none,
+    "integer >= 0": _count,
+    "integer >= 0 or None": _count_or_none,
+    "truth value": lambda v, o: bool(v),
+    "choice": _choice,
+    "orientation": lambda v, o: check_orientation(v),
+    "deadband": lambda v, o: parse_deadband(v),
+    "threads": lambda v, o: resolve_threads(v),
+    "log or None": lambda v, o: None if v is None else as_log(v, o.name),
+    "constant or log": lambda v, o: constant_or_log(v, o.name),
+    "covariate logs": lambda v, o: check_covariate_logs(v),
+    "force >= 0 or None": _min_fn,
+    "tare": _tare,
+    "fraction": _fraction,
+})  # fmt: skip
+
+_STATISTICS = ("method", "estimator", "gate", "max_rel_ci", "align", "iv_lag", "noise", "rpm", "n_lamellas")
+#: The options without a rule of their own (``Option.check`` is ""), and where they are checked with the
+#: options they depend on.
+JOINT: Mapping[str, str] = MappingProxyType({
+    "window": "make_plan: with hop and fs (tribometer.auto_window; at least 3 samples)",
+    "hop": "make_plan: with window and fs (at least one sample)",
+    "n_bins": "make_plan: against the window's length in samples (_validate.check_bins)",
+    **dict.fromkeys(_STATISTICS, "check_statistics: the paper's preset (method='paper') fixes, refuses or ignores "
+                                 "them; the instrument lag and the rig's lines need fs and rpm"),
+    "channels": "where the source is opened (open_recording, a DataFrame's columns); make_plan does not take it",
+})  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Callable, Dict, Literal, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Literal, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -435,7 +435,24 @@ class OperatingRange:
         return out
 
 
-def _curve(cov: np.ndarray, mu: np.ndarray, edges: np.ndarray, tol: float, rise: float, min_count: int) -> RangeCurve:
+@dataclass(frozen=True)
+class _Binning:
+    """The binned curves' settings (``method="binned"``, docs/method.md 7).
+
+    ``width`` is the bin width in fit units; a bin's median counts when it
+    has ``min_count`` windows; the optimum is the run of bins within ``tol``
+    (relative) of the lowest median, the onset where the medians reach
+    ``(1 + rise)`` times it.
+    """
+
+    width: float
+    tol: float
+    rise: float
+    min_count: int
+
+
+def _curve(cov: np.ndarray, mu: np.ndarray, edges: np.ndarray, bins: _Binning) -> RangeCurve:
+    tol, rise, min_count = bins.tol, bins.rise, bins.min_count
     k = len(edges) - 1
     idx = np.clip(np.searchsorted(edges, cov, side="right") - 1, 0, k - 1)
     count = np.bincount(idx, minlength=k)
@@ -559,10 +576,12 @@ def _curved(f: Fit) -> CurvedFit:
 
 
 def _excluded(
-    results: Results, by: str, cov: np.ndarray, mu: np.ndarray, se: np.ndarray, ok: np.ndarray,
-    nonpositive: Optional[np.ndarray] = None, gate: str = "gate",
-) -> Tuple[np.ndarray, Dict[str, int]]:  # fmt: skip
-    """Usable windows and the others counted by reason; ``ok`` the windows the COF allows (``gate`` names the rest)."""
+    results: Results, by: str, cov: np.ndarray, fitted: _FittedCof, nonpositive: Optional[np.ndarray] = None
+) -> Tuple[np.ndarray, Dict[str, int]]:
+    """Usable windows and the others counted by reason; ``fitted.ok`` the windows the COF allows (the rest are
+    counted as "gate" for the dynamic COF, "stroke reversal" for the classical)."""
+    mu, se, ok = fitted.mu, fitted.se, fitted.ok
+    gate = "gate" if fitted.which == "dynamic" else "stroke reversal"
     reasons = np.asarray(results["reasons"]).astype(str)
     lost = np.char.find(reasons, _CONTACT_LOSS) >= 0
     gap = np.asarray(results.table.get("T_gap", np.zeros(len(ok), dtype=bool)), dtype=bool)
@@ -582,9 +601,20 @@ def _excluded(
     return usable & ~bad, {k: v for k, v in counts.items() if v}
 
 
-def _explain(verdict: str, cv: Covariate, resolution: float, f: CurvedFit, sel: Optional[Selection], n: int,
-             rng: Interval) -> str:  # fmt: skip
+@dataclass(frozen=True)
+class _FitContext:
+    """What the fits of every branch share: the covariate, its resolution (fit units), the relative rise
+    that marks the onset and the covariate's reading noise (standard deviation, fit units)."""
+
+    cv: Covariate
+    resolution: float
+    rise: float
+    x_noise: float = 0.0
+
+
+def _explain(verdict: str, f: CurvedFit, sel: Optional[Selection], ctx: _FitContext, *, n: int, rng: Interval) -> str:
     """The verdict in one sentence; ``f``'s breakpoints and ``rng`` in the column's unit."""
+    cv, resolution = ctx.cv, ctx.resolution
     what, unit = cv.by.replace("_", " "), cv.unit
     span = f"{rng[0]:.4g}-{rng[1]:.4g} {unit}"
     if verdict == "too few windows":
@@ -617,13 +647,11 @@ def _explain(verdict: str, cv: Covariate, resolution: float, f: CurvedFit, sel: 
 
 
 def _branch_fit(
-    name: str, cv: Covariate, resolution: float, x: np.ndarray, y: np.ndarray, se: np.ndarray,
-    boot: Sequence[np.ndarray], rise: float, x_noise: float = 0.0,
-) -> Tuple[BranchFit, Dict[str, np.ndarray]]:  # fmt: skip
-    """The fit of one branch and its bootstrap draws (``boot``: resampled positions into x; x in fit units;
-    ``x_noise``: the covariate's reading noise, standard deviation)."""
-    bf, draws = _branch_fit_units(name, cv, resolution, x, y, se, boot, rise, x_noise)
-    return _in_column_units(bf, cv), draws
+    name: str, x: np.ndarray, y: np.ndarray, se: np.ndarray, boot: Sequence[np.ndarray], *, ctx: _FitContext
+) -> Tuple[BranchFit, Dict[str, np.ndarray]]:
+    """The fit of one branch and its bootstrap draws (``boot``: resampled positions into x; x in fit units)."""
+    bf, draws = _branch_fit_units(name, x, y, se, boot, ctx=ctx)
+    return _in_column_units(bf, ctx.cv), draws
 
 
 def _in_column_units(bf: BranchFit, cv: Covariate) -> BranchFit:
@@ -644,22 +672,22 @@ def _in_column_units(bf: BranchFit, cv: Covariate) -> BranchFit:
 
 
 def _branch_fit_units(
-    name: str, cv: Covariate, resolution: float, x: np.ndarray, y: np.ndarray, se: np.ndarray,
-    boot: Sequence[np.ndarray], rise: float, x_noise: float = 0.0,
-) -> Tuple[BranchFit, Dict[str, np.ndarray]]:  # fmt: skip
+    name: str, x: np.ndarray, y: np.ndarray, se: np.ndarray, boot: Sequence[np.ndarray], *, ctx: _FitContext
+) -> Tuple[BranchFit, Dict[str, np.ndarray]]:
     n = len(x)
     grid = np.linspace(float(x.min()), float(x.max()), 121) if n else np.zeros(0)
     rng: Interval = (float(x.min()), float(x.max())) if n else (math.nan, math.nan)
     nan_draws: Dict[str, np.ndarray] = {}
     empty = np.full(len(grid), np.nan)
     sel: Optional[Selection] = None
-    shown: Interval = (cv.inverse(rng[0]), cv.inverse(rng[1])) if n else rng
+    inverse = ctx.cv.inverse
+    shown: Interval = (inverse(rng[0]), inverse(rng[1])) if n else rng
 
     def explain(verdict: str, f: CurvedFit, sel: Optional[Selection]) -> str:
-        g = dataclasses.replace(f, b_lo=cv.inverse(f.b_lo), b_hi=cv.inverse(f.b_hi))
-        return _explain(verdict, cv, resolution, g, sel, n, shown)
+        g = dataclasses.replace(f, b_lo=inverse(f.b_lo), b_hi=inverse(f.b_hi))
+        return _explain(verdict, g, sel, ctx, n=n, rng=shown)
 
-    if n < MIN_WINDOWS or not (rng[1] - rng[0] >= resolution):
+    if n < MIN_WINDOWS or not (rng[1] - rng[0] >= ctx.resolution):
         verdict = "too few windows" if n < MIN_WINDOWS else "covariate constant"
         w = 1.0 / np.maximum(se, 1e-12) ** 2 if n else np.zeros(0)
         m = float(np.sum(w * y) / np.sum(w)) if n else math.nan
@@ -684,35 +712,7 @@ def _branch_fit_units(
             f = g
         else:
             sides, prof = {}, {}
-    # Bootstrap: a resample is a count per window; the chosen family refitted on each, same weights.
-    counts = np.zeros((len(boot), n))
-    for b, idx in enumerate(boot):
-        if len(idx) >= MIN_WINDOWS:
-            counts[b] = np.bincount(idx, minlength=n)
-    fitted = counts.sum(1) > 0
-    draws = {k: np.full(len(boot), np.nan) for k in ("b_lo", "b_hi", "m", "onset")}
-    curves = np.full((len(boot), len(grid)), np.nan)
-    if f.family == "flat" or not sides:
-        wc = counts * sel.weights[None, :]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            draws["m"] = np.where(fitted, (wc @ y) / wc.sum(1), np.nan)
-        curves[:] = draws["m"][:, None]
-    else:
-        d = bootstrap_curved(x, y, sel.weights, counts, fit=f, sides=sides)
-        draws["m"] = np.where(fitted, d["m"], np.nan)
-        draws["b_lo"] = np.where(fitted, d["b_lo"], np.nan)
-        draws["b_hi"] = np.where(fitted, d["b_hi"], np.nan)
-
-        def at(key: str, b: int, default: float) -> float:
-            v = float(d[key][b])
-            return default if math.isnan(v) else v
-
-        for b in map(int, np.flatnonzero(np.isfinite(draws["m"]))):
-            g = CurvedFit(f.family, at("m", b, 0.0), at("a_lo", b, 0.0), at("a_hi", b, 0.0), at("b_lo", b, math.nan),
-                          at("b_hi", b, math.nan), 0.0, at("w_lo", b, 0.0), at("c_lo", b, math.inf),
-                          at("w_hi", b, 0.0), at("c_hi", b, math.inf))  # fmt: skip
-            draws["onset"][b] = _onset(g, rise, rng[1])
-            curves[b] = g.predict(grid)
+    draws, curves = _bootstrap(x, y, sel.weights, f, boot, sides=sides, grid=grid, rise=ctx.rise, x_max=rng[1])
     band_lo, band_hi = (np.nanpercentile(curves, q, axis=0) for q in (2.5, 97.5)) if np.isfinite(
         curves).any() else (empty, empty)  # fmt: skip
     has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
@@ -723,19 +723,12 @@ def _branch_fit_units(
     else:
         verdict = "optimum at the edge of the tested range"
     scale = _profile_scale(x, y, sel.weights, f) if prof else math.nan
-    lower_ci = _to_data(_widen(_hull(_pct(draws["b_lo"]), prof.get("lo"), f.rss, scale), f.b_lo, x_noise), x) \
+    lower_ci = _to_data(_widen(_hull(_pct(draws["b_lo"]), prof.get("lo"), f.rss, scale), f.b_lo, ctx.x_noise), x) \
         if has_lo else None  # fmt: skip
-    upper_ci = _to_data(_widen(_hull(_pct(draws["b_hi"]), prof.get("hi"), f.rss, scale), f.b_hi, x_noise), x) \
+    upper_ci = _to_data(_widen(_hull(_pct(draws["b_hi"]), prof.get("hi"), f.rss, scale), f.b_hi, ctx.x_noise), x) \
         if has_hi else None  # fmt: skip
-    on = _onset(f, rise, rng[1])
-    onset_ci = None
-    if has_hi:
-        v = draws["onset"][~np.isnan(draws["onset"])]
-        if v.size >= 20:
-            # Resamples whose onset lies beyond the tested range count as +inf.
-            lo_, hi_ = np.percentile(np.where(np.isinf(v), np.finfo(float).max, v), [2.5, 97.5])
-            # An end beyond the tested range is interpolated towards a resample without onset: inf.
-            onset_ci = (math.inf if lo_ > rng[1] else float(lo_), math.inf if hi_ > rng[1] else float(hi_))
+    on = _onset(f, ctx.rise, rng[1])
+    onset_ci = _onset_interval(draws["onset"], rng[1]) if has_hi else None
     optimum: Optional[Interval] = None
     optimum_ci: Optional[Tuple[Interval, Interval]] = None
     if verdict != "no dependence":
@@ -776,6 +769,62 @@ def _branch_fit_units(
     return bf, draws
 
 
+def _bootstrap(
+    x: np.ndarray, y: np.ndarray, weights: np.ndarray, f: CurvedFit, boot: Sequence[np.ndarray], *,
+    sides: Dict[str, Any], grid: np.ndarray, rise: float, x_max: float,
+) -> Tuple[Dict[str, np.ndarray], np.ndarray]:  # fmt: skip
+    """The bootstrap draws of the fit ``f`` ("b_lo", "b_hi", "m", "onset") and each resample's curve on ``grid``.
+
+    A resample is a count per window (``boot``: resampled positions into x);
+    the chosen family is refitted on each with the same weights (its curved
+    walls from ``sides``, :func:`tribodyn.walls.bootstrap_curved`; a flat
+    fit, or walls that could not be curved, refit the mean only). A
+    resample of fewer than :data:`MIN_WINDOWS` windows, or whose fit fails,
+    draws NaN.
+    """
+    n = len(x)
+    counts = np.zeros((len(boot), n))
+    for b, idx in enumerate(boot):
+        if len(idx) >= MIN_WINDOWS:
+            counts[b] = np.bincount(idx, minlength=n)
+    fitted = counts.sum(1) > 0
+    draws = {k: np.full(len(boot), np.nan) for k in ("b_lo", "b_hi", "m", "onset")}
+    curves = np.full((len(boot), len(grid)), np.nan)
+    if f.family == "flat" or not sides:
+        wc = counts * weights[None, :]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            draws["m"] = np.where(fitted, (wc @ y) / wc.sum(1), np.nan)
+        curves[:] = draws["m"][:, None]
+        return draws, curves
+    d = bootstrap_curved(x, y, weights, counts, fit=f, sides=sides)
+    draws["m"] = np.where(fitted, d["m"], np.nan)
+    draws["b_lo"] = np.where(fitted, d["b_lo"], np.nan)
+    draws["b_hi"] = np.where(fitted, d["b_hi"], np.nan)
+
+    def at(key: str, b: int, default: float) -> float:
+        v = float(d[key][b])
+        return default if math.isnan(v) else v
+
+    for b in map(int, np.flatnonzero(np.isfinite(draws["m"]))):
+        g = CurvedFit(f.family, at("m", b, 0.0), at("a_lo", b, 0.0), at("a_hi", b, 0.0), at("b_lo", b, math.nan),
+                      at("b_hi", b, math.nan), 0.0, at("w_lo", b, 0.0), at("c_lo", b, math.inf),
+                      at("w_hi", b, 0.0), at("c_hi", b, math.inf))  # fmt: skip
+        draws["onset"][b] = _onset(g, rise, x_max)
+        curves[b] = g.predict(grid)
+    return draws, curves
+
+
+def _onset_interval(onsets: np.ndarray, x_max: float) -> Optional[Interval]:
+    """95 % interval of the onset from its bootstrap draws (None from fewer than 20 that are not NaN)."""
+    v = onsets[~np.isnan(onsets)]
+    if v.size < 20:
+        return None
+    # Resamples whose onset lies beyond the tested range count as +inf.
+    lo_, hi_ = np.percentile(np.where(np.isinf(v), np.finfo(float).max, v), [2.5, 97.5])
+    # An end beyond the tested range is interpolated towards a resample without onset: inf.
+    return (math.inf if lo_ > x_max else float(lo_), math.inf if hi_ > x_max else float(hi_))
+
+
 #: Non-lost windows just before the first contact loss whose covariate is the instability onset.
 ONSET_WINDOWS = 3
 
@@ -814,34 +863,26 @@ def _instability(
     return onset, (low - 0.5 * resolution, onset + 0.5 * resolution), own
 
 
-def _binned_curves(
-    cov: np.ndarray,
-    mu: np.ndarray,
-    keep: np.ndarray,
-    by: str,
-    branches: Any,
-    width: float,
-    tol: float,
-    rise: float,
-    min_count: int,
-) -> Dict[str, RangeCurve]:
+def _binned_curves(x: np.ndarray, y: np.ndarray, br: np.ndarray, by: str, bins: _Binning) -> Dict[str, RangeCurve]:
+    """The binned curves of the COF ``y`` against the covariate ``x`` (fit units): "all", and for temperature
+    each branch with windows (``br``: +1 heating, -1 cooling)."""
+    width = bins.width
     # Bin centres on multiples of the width, so set points such as J = 4.5
     # A/mm^2 fall mid-bin, never on an edge.
-    k_lo = int(np.floor(cov[keep].min() / width + 0.5))
-    k_hi = int(np.floor(cov[keep].max() / width + 0.5))
+    k_lo = int(np.floor(x.min() / width + 0.5))
+    k_hi = int(np.floor(x.max() / width + 0.5))
     if k_hi - k_lo + 1 > MAX_BINS:
         raise ValueError(
             f"bin_width = {width:g} cuts the {by.replace('_', ' ')} range "
-            f"[{cov[keep].min():g}, {cov[keep].max():g}] into {k_hi - k_lo + 1} bins; at most {MAX_BINS} are allowed"
+            f"[{x.min():g}, {x.max():g}] into {k_hi - k_lo + 1} bins; at most {MAX_BINS} are allowed"
         )
     edges = (np.arange(k_lo, k_hi + 2) - 0.5) * width
-    curves = {"all": _curve(cov[keep], mu[keep], edges, tol, rise, min_count)}
+    curves = {"all": _curve(x, y, edges, bins)}
     if by == "temperature":
-        br = branches[keep]
         for name, sign in _BRANCHES.items():
             sel = br == sign
             if sel.any():
-                curves[name] = _curve(cov[keep][sel], mu[keep][sel], edges, tol, rise, min_count)
+                curves[name] = _curve(x[sel], y[sel], edges, bins)
     return curves
 
 
@@ -854,7 +895,17 @@ def _curve_in_column_units(c: RangeCurve, cv: Covariate) -> RangeCurve:
                                onset=cv.inverse(c.onset))  # fmt: skip
 
 
-def _cof_of(results: Results, cof: str) -> Tuple[str, np.ndarray, np.ndarray, np.ndarray]:
+class _FittedCof(NamedTuple):
+    """The COF fitted (docs/method.md 7a): which ("dynamic" or "classical"), per window its value, its
+    standard error, and whether the window may enter the fit."""
+
+    which: str
+    mu: np.ndarray
+    se: np.ndarray
+    ok: np.ndarray
+
+
+def _cof_of(results: Results, cof: str) -> _FittedCof:
     """(which, COF, standard error, windows that may enter) of the COF fitted (docs/method.md 7a).
 
     "dynamic": mu_r of the windows that passed the quality gate, with its
@@ -872,8 +923,8 @@ def _cof_of(results: Results, cof: str) -> Tuple[str, np.ndarray, np.ndarray, np
         dynamic = results.headline.method == "dynamic" or not np.isfinite(classical).any()
         which = "dynamic" if dynamic else "classical"
     if which == "dynamic":
-        return which, np.asarray(results["mu_r"], dtype=float), np.asarray(results["mu_r_stderr"], dtype=float), \
-            np.asarray(results.gated, dtype=bool)  # fmt: skip
+        mu_r, stderr = np.asarray(results["mu_r"], dtype=float), np.asarray(results["mu_r_stderr"], dtype=float)
+        return _FittedCof(which, mu_r, stderr, np.asarray(results.gated, dtype=bool))
     if not np.isfinite(classical).any():
         raise ValueError(
             "no window has a classical COF (mu_classical: forces with their static level, docs/method.md 6a); "
@@ -881,7 +932,7 @@ def _cof_of(results: Results, cof: str) -> Tuple[str, np.ndarray, np.ndarray, np
         )
     reasons = np.asarray(results["reasons"]).astype(str)
     ok = (np.char.find(reasons, "stroke reversal") < 0) & (np.char.find(reasons, _CONTACT_LOSS) < 0)
-    return which, classical, np.zeros(len(classical)), ok
+    return _FittedCof(which, classical, np.zeros(len(classical)), ok)
 
 
 def operating_range(
@@ -966,23 +1017,10 @@ def operating_range(
         raise TypeError(f"results must be the Results of tribodyn.analyze, got {type(results).__name__}")
     cv = covariate(results, by, log)
     by = cv.by
-    if method not in ("segmented", "binned"):
-        raise ValueError(f"method must be 'segmented' or 'binned', got {method!r}")
-    if branch is not None and branch not in _BRANCHES:
-        raise ValueError(f"branch must be None, 'heating' or 'cooling', got {branch!r}")
-    if branch is not None and by != "temperature":
-        raise ValueError(f"branch applies to by='temperature' only ({by.replace('_', ' ')} has no heating/cooling "
-                         "branches)")  # fmt: skip
-    if bin_width is not None and not (isinstance(bin_width, (int, float, np.number)) and np.isfinite(bin_width)
-                                      and bin_width > 0):  # fmt: skip
-        raise ValueError(f"bin_width must be > 0, got {bin_width!r}")
-    if not (tol >= 0 and rise > 0 and min_count >= 1):
-        raise ValueError("tol must be >= 0, rise > 0 and min_count >= 1")
-    if not (isinstance(n_boot, (int, np.integer)) and 0 <= n_boot <= 100_000):
-        raise ValueError(f"n_boot must be an integer in [0, 100000], got {n_boot!r}")
-    if block is not None and not (isinstance(block, (int, np.integer)) and block >= 1):
-        raise ValueError(f"block must be an integer >= 1, got {block!r}")
-    which, mu, se, may = _cof_of(results, cof)
+    _check_settings(by, method=method, branch=branch, bin_width=bin_width, tol=tol, rise=rise, min_count=min_count,
+                    n_boot=n_boot, block=block)  # fmt: skip
+    fitted = _cof_of(results, cof)
+    which, mu, se, may = fitted
     raw = np.asarray(results[cv.column], dtype=float)
     raw = np.abs(raw) if cv.magnitude else raw
     nonpositive = None
@@ -1010,7 +1048,7 @@ def operating_range(
     else:
         width = float(np.ptp(cov[keep])) / 10 or max(span, 1.0) * RELATIVE_RESOLUTION
     br_all = np.asarray(results["branch"]) if "branch" in results.table else np.zeros(len(cov), dtype=np.int8)
-    curves = _binned_curves(cov, mu, keep, by, br_all, width, tol, rise, min_count)
+    curves = _binned_curves(cov[keep], mu[keep], br_all[keep], by, _Binning(width, tol, rise, min_count))
     raw_resolution = resolution if not cv.log else 0.0
     instability, instability_ci, lost_onset = _instability(results, raw, raw_resolution)
     common: Dict[str, Any] = dict(
@@ -1034,13 +1072,13 @@ def operating_range(
             n_windows=int(keep.sum()), curves={k: _curve_in_column_units(v, cv) for k, v in curves.items()},
             **common,
         )  # fmt: skip
-    usable, excluded = _excluded(results, by, cov, mu, se, may, nonpositive,
-                                 "gate" if which == "dynamic" else "stroke reversal")  # fmt: skip
+    usable, excluded = _excluded(results, by, cov, fitted, nonpositive)
     pos = np.flatnonzero(usable)  # time order: the table's
     x, y, s = cov[pos], mu[pos], se[pos]
     br = br_all[pos]
     boot = bootstrap_indices(len(pos), n_boot, seed, block) if len(pos) and n_boot else np.zeros((0, 0), int)
     x_noise = _reading_noise(results, by, pos)
+    ctx = _FitContext(cv, resolution, rise, x_noise)
     names = ["all"] + ([b for b in _BRANCHES] if by == "temperature" else [])
     fits: Dict[str, BranchFit] = {}
     draws: Dict[str, Dict[str, np.ndarray]] = {}
@@ -1051,8 +1089,7 @@ def operating_range(
         # Positions in the branch's own arrays for each resampled window of the whole series.
         where = np.cumsum(member) - 1
         sub = [where[idx[member[idx]]] for idx in boot]
-        fits[name], draws[name] = _branch_fit(name, cv, resolution, x[member], y[member], s[member], sub, rise,
-                                              x_noise)  # fmt: skip
+        fits[name], draws[name] = _branch_fit(name, x[member], y[member], s[member], sub, ctx=ctx)
     hysteresis = None
     if "heating" in fits and "cooling" in fits:
         hysteresis = _hysteresis(fits, draws, x_noise)
@@ -1066,6 +1103,29 @@ def operating_range(
         n_windows=len(pos), excluded=excluded, n_boot=int(n_boot), seed=int(seed),
         curves={k: _curve_in_column_units(v, cv) for k, v in curves.items()}, **common,
     )  # fmt: skip
+
+
+def _check_settings(
+    by: str, *, method: str, branch: Optional[str], bin_width: Optional[float], tol: float, rise: float,
+    min_count: int, n_boot: int, block: Optional[int],
+) -> None:  # fmt: skip
+    """ValueError unless :func:`operating_range`'s settings are valid for the covariate ``by`` (its name)."""
+    if method not in ("segmented", "binned"):
+        raise ValueError(f"method must be 'segmented' or 'binned', got {method!r}")
+    if branch is not None and branch not in _BRANCHES:
+        raise ValueError(f"branch must be None, 'heating' or 'cooling', got {branch!r}")
+    if branch is not None and by != "temperature":
+        raise ValueError(f"branch applies to by='temperature' only ({by.replace('_', ' ')} has no heating/cooling "
+                         "branches)")  # fmt: skip
+    if bin_width is not None and not (isinstance(bin_width, (int, float, np.number)) and np.isfinite(bin_width)
+                                      and bin_width > 0):  # fmt: skip
+        raise ValueError(f"bin_width must be > 0, got {bin_width!r}")
+    if not (tol >= 0 and rise > 0 and min_count >= 1):
+        raise ValueError("tol must be >= 0, rise > 0 and min_count >= 1")
+    if not (isinstance(n_boot, (int, np.integer)) and 0 <= n_boot <= 100_000):
+        raise ValueError(f"n_boot must be an integer in [0, 100000], got {n_boot!r}")
+    if block is not None and not (isinstance(block, (int, np.integer)) and block >= 1):
+        raise ValueError(f"block must be an integer >= 1, got {block!r}")
 
 
 def _reading_noise(results: Results, by: str, pos: np.ndarray) -> float:

@@ -737,44 +737,52 @@ def _record(rig: _Rig, n_total: int, *, skew: int, raw: bool, chunk: int) -> dic
     return out
 
 
+@dataclass(frozen=True)
+class _ScenarioOptions:
+    """The options every recorded scenario takes (``fs`` as returned by :func:`_check_common`)."""
+
+    seed: int
+    fs: float
+    orientation: int
+    force_dependence: float
+    skew: int
+    raw: bool
+
+
 def _record_scenario(
     tg: np.ndarray,
     mu: np.ndarray,
     duration: float,
-    seed: int,
-    fs: float,
-    orientation: int,
-    force_dependence: float,
-    skew: int,
-    raw: bool,
+    opts: _ScenarioOptions,
     *,
     loss_fn: _ArrayFn | None = None,
     current_fn: _ArrayFn | None = None,
 ) -> dict[str, np.ndarray]:
     """Records a scenario whose true COF is ``mu`` on the truth grid ``tg``.
 
-    ``seed`` ... ``raw`` are the scenario's options (``fs`` as returned by
-    :func:`_check_common`); ``loss_fn`` and ``current_fn`` go to the rig as
-    they are. The rig starts one second before t = 0 and the channels are
-    generated in 60 s chunks (the chunking does not change the data).
+    ``opts`` are the scenario's options; ``loss_fn`` and ``current_fn`` go
+    to the rig as they are. The rig starts one second before t = 0 and the
+    channels are generated in 60 s chunks (the chunking does not change the
+    data).
     """
 
     def mu0_fn(t: np.ndarray) -> np.ndarray:
         out: np.ndarray = np.interp(t, tg, mu)
         return out
 
+    fs = opts.fs
     rig = _Rig(
         fs=fs,
-        seed=int(seed),
-        orientation=orientation,
-        beta=force_dependence,
+        seed=int(opts.seed),
+        orientation=opts.orientation,
+        beta=opts.force_dependence,
         mu0_fn=mu0_fn,
         loss_fn=loss_fn,
         current_fn=current_fn,
         start_index=-max(1, round(fs)),
     )
     n_total = round(duration * fs)
-    return _record(rig, n_total, skew=int(skew), raw=raw, chunk=max(1, round(60.0 * fs)))
+    return _record(rig, n_total, skew=int(opts.skew), raw=opts.raw, chunk=max(1, round(60.0 * fs)))
 
 
 def _truth_grid(duration: float) -> np.ndarray:
@@ -852,7 +860,8 @@ def temperature_test(
     if model not in ("bathtub", "flat"):
         raise ValueError(f"model must be 'bathtub' or 'flat', got {model!r}")
     mu = _mu_of_temperature(temp, t_up) if model == "bathtub" else np.full(tg.shape, _T_MU_MIN)
-    channels = _record_scenario(tg, mu, duration, seed, fs, orientation, force_dependence, skew, raw)
+    opts = _ScenarioOptions(seed, fs, orientation, force_dependence, skew, raw)
+    channels = _record_scenario(tg, mu, duration, opts)
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 2]))
     times = [0.0]
@@ -979,19 +988,8 @@ def current_density_test(
             return j_fn(t) * area * (1.0 - current_drop * loss_fn(t))
         return j_fn(t) * area
 
-    channels = _record_scenario(
-        tg,
-        mu,
-        duration,
-        seed,
-        fs,
-        orientation,
-        force_dependence,
-        skew,
-        raw,
-        loss_fn=loss_fn,
-        current_fn=current_fn,
-    )
+    opts = _ScenarioOptions(seed, fs, orientation, force_dependence, skew, raw)
+    channels = _record_scenario(tg, mu, duration, opts, loss_fn=loss_fn, current_fn=current_fn)
 
     temp = 100.0 + 35.0 * tg / duration
     truth = Truth(
@@ -1166,6 +1164,97 @@ def _fractional_delay(x: np.ndarray, d: float) -> np.ndarray:
     return out
 
 
+@dataclass(frozen=True)
+class _Conditions:
+    """The measurement conditions of :func:`conditions`, checked: numbers as floats, noise kinds known.
+
+    ``n_out`` is the record's length in samples; ``rpm`` the rig's speed
+    (:data:`RPM` when none is given).
+    """
+
+    duration: float
+    n_out: int
+    mu: float
+    snr_z: float | None
+    z_noise: str
+    y_noise: float
+    y_noise_kind: str
+    drift: float
+    ripple: float
+    delay: float
+    beta: float
+    rpm: float
+
+
+def _check_conditions(
+    duration_s: float,
+    fs: float,
+    *,
+    mu: float,
+    snr_z: float | None,
+    z_noise: str,
+    y_noise: float,
+    y_noise_kind: str,
+    drift: float,
+    ripple: float,
+    delay: float,
+    beta: float,
+    raw: bool,
+    rpm: float | None,
+) -> _Conditions:
+    """The arguments of :func:`conditions` checked (``fs`` as returned by :func:`_check_common`), else ValueError."""
+    duration = _cond_number("duration_s", duration_s, nonneg=True)
+    n_out = round(duration * fs)
+    if n_out < 2:
+        raise ValueError(f"duration_s * fs must give >= 2 samples, got {duration_s!r}")
+    mu_c = _cond_number("mu", mu, nonneg=True)
+    snr = None if snr_z is None else _cond_number("snr_z", snr_z)
+    z_kind = _cond_kind("z_noise", z_noise)
+    y_kind = _cond_kind("y_noise_kind", y_noise_kind)
+    y_std = _cond_number("y_noise", y_noise, nonneg=True)
+    drift_std = _cond_number("drift", drift, nonneg=True)
+    ripple_c = _cond_number("ripple", ripple, nonneg=True)
+    delay_c = _cond_number("delay", delay)
+    beta_c = _cond_number("beta", beta)
+    speed = RPM if rpm is None else _cond_number("rpm", rpm)
+    if not speed > 0.0:
+        raise ValueError(f"rpm must be > 0, got {rpm!r}")
+    pre = max(1, round(fs))
+    if abs(delay_c) > pre:
+        raise ValueError(f"|delay| must be <= {pre} samples, got {delay!r}")
+    if not isinstance(raw, (bool, np.bool_)):
+        raise ValueError(f"raw must be a bool, got {raw!r}")
+    return _Conditions(
+        duration=duration, n_out=n_out, mu=mu_c, snr_z=snr, z_noise=z_kind, y_noise=y_std, y_noise_kind=y_kind,
+        drift=drift_std, ripple=ripple_c, delay=delay_c, beta=beta_c, rpm=speed,
+    )  # fmt: skip
+
+
+def _cond_contact(
+    n_tot: int, *, fs: float, seed: int, rpm: float, settle: int, pad: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The rig's DC-coupled fz (the true contact force N) and fx over a record of ``n_tot`` samples.
+
+    The rig (orientation +1, no force dependence) settles for ``settle``
+    samples, which are discarded; sample n of the record is rig index
+    n - ``pad``. Generated in 60 s chunks.
+    """
+
+    def ones(t: np.ndarray) -> np.ndarray:
+        return np.ones(np.shape(t))
+
+    rig = _Rig(fs=fs, seed=int(seed), orientation=1, beta=0.0, mu0_fn=ones, start_index=-(settle + pad), rpm=rpm)
+    rig.next(settle)
+    normal = np.empty(n_tot)
+    fx = np.empty(n_tot)
+    step = max(1, round(60.0 * fs))
+    for pos in range(0, n_tot, step):
+        part = rig.next(min(step, n_tot - pos))
+        normal[pos : pos + part["fz"].size] = part["fz"]
+        fx[pos : pos + part["fx"].size] = part["fx"]
+    return normal, fx
+
+
 def conditions(
     duration_s: float,
     *,
@@ -1254,45 +1343,17 @@ def conditions(
         ``|delay| > fs`` or too short a record.
     """
     fs = _check_common(seed, fs, orientation, 0.0, 0)
-    duration = _cond_number("duration_s", duration_s, nonneg=True)
-    n_out = round(duration * fs)
-    if n_out < 2:
-        raise ValueError(f"duration_s * fs must give >= 2 samples, got {duration_s!r}")
-    mu_c = _cond_number("mu", mu, nonneg=True)
-    snr = None if snr_z is None else _cond_number("snr_z", snr_z)
-    z_kind = _cond_kind("z_noise", z_noise)
-    y_kind = _cond_kind("y_noise_kind", y_noise_kind)
-    y_std = _cond_number("y_noise", y_noise, nonneg=True)
-    drift_std = _cond_number("drift", drift, nonneg=True)
-    ripple_c = _cond_number("ripple", ripple, nonneg=True)
-    delay_c = _cond_number("delay", delay)
-    beta_c = _cond_number("beta", beta)
-    speed = RPM if rpm is None else _cond_number("rpm", rpm)
-    if not speed > 0.0:
-        raise ValueError(f"rpm must be > 0, got {rpm!r}")
+    c = _check_conditions(
+        duration_s, fs, mu=mu, snr_z=snr_z, z_noise=z_noise, y_noise=y_noise, y_noise_kind=y_noise_kind,
+        drift=drift, ripple=ripple, delay=delay, beta=beta, raw=raw, rpm=rpm,
+    )  # fmt: skip
     pre = max(1, round(fs))
-    if abs(delay_c) > pre:
-        raise ValueError(f"|delay| must be <= {pre} samples, got {delay!r}")
-    if not isinstance(raw, (bool, np.bool_)):
-        raise ValueError(f"raw must be a bool, got {raw!r}")
-
-    def ones(t: np.ndarray) -> np.ndarray:
-        return np.ones(np.shape(t))
-
     # The rig settles for 1 s (discarded), then the record is generated with
     # a pad of 2 s at each end: sample n of the result is rig index n.
     pad = max(1, round(_COND_PAD_S * fs))
-    n_tot = n_out + 2 * pad
-    rig = _Rig(fs=fs, seed=int(seed), orientation=1, beta=0.0, mu0_fn=ones, start_index=-(pre + pad), rpm=speed)
-    rig.next(pre)
-    normal = np.empty(n_tot)
-    fx = np.empty(n_tot)
-    step = max(1, round(60.0 * fs))
-    for pos in range(0, n_tot, step):
-        part = rig.next(min(step, n_tot - pos))
-        normal[pos : pos + part["fz"].size] = part["fz"]
-        fx[pos : pos + part["fx"].size] = part["fx"]
-    keep = slice(pad, pad + n_out)
+    n_tot = c.n_out + 2 * pad
+    normal, fx = _cond_contact(n_tot, fs=fs, seed=seed, rpm=c.rpm, settle=pre, pad=pad)
+    keep = slice(pad, pad + c.n_out)
     t = (np.arange(n_tot, dtype=np.float64) - pad) / fs
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), _NS_CONDITIONS]))
@@ -1301,23 +1362,23 @@ def conditions(
     w_y = rng.standard_normal(n_tot)
     w_d = rng.standard_normal(n_tot)
     sos_band = _band_sos(*_COND_BAND_HZ, fs)[0]
-    f_l = N_LAMELLAS * speed / 60.0
+    f_l = N_LAMELLAS * c.rpm / 60.0
 
-    mu_t = mu_c * (1.0 + beta_c * (normal - PRELOAD_N))
-    if ripple_c != 0.0:
-        mu_t = mu_t * (1.0 + ripple_c * np.sin(2.0 * np.pi * f_l * t + phi))
+    mu_t = c.mu * (1.0 + c.beta * (normal - PRELOAD_N))
+    if c.ripple != 0.0:
+        mu_t = mu_t * (1.0 + c.ripple * np.sin(2.0 * np.pi * f_l * t + phi))
     fy = float(orientation) * np.maximum(mu_t, 0.0) * normal
-    if y_std > 0.0:
-        fy += y_std * _cond_unit(w_y, sos_band if y_kind == "band" else None, keep)
-    if drift_std > 0.0:
+    if c.y_noise > 0.0:
+        fy += c.y_noise * _cond_unit(w_y, sos_band if c.y_noise_kind == "band" else None, keep)
+    if c.drift > 0.0:
         sos_lp = signal.butter(2, min(_COND_DRIFT_HZ, 0.4 * fs), "lowpass", fs=fs, output="sos")
-        fy += drift_std * _cond_unit(w_d, sos_lp, keep)
+        fy += c.drift * _cond_unit(w_d, sos_lp, keep)
 
-    fz = _fractional_delay(normal, delay_c) if delay_c != 0.0 else normal.copy()
+    fz = _fractional_delay(normal, c.delay) if c.delay != 0.0 else normal.copy()
     noise_z_std = 0.0
-    if snr is not None:
-        e_z = float(np.std(normal[keep])) * 10.0 ** (-snr / 20.0)
-        e_z = e_z * _cond_unit(w_z, sos_band if z_kind == "band" else None, keep)
+    if c.snr_z is not None:
+        e_z = float(np.std(normal[keep])) * 10.0 ** (-c.snr_z / 20.0)
+        e_z = e_z * _cond_unit(w_z, sos_band if c.z_noise == "band" else None, keep)
         fz += e_z
         noise_z_std = float(np.std(e_z[keep]))
 
@@ -1330,39 +1391,39 @@ def conditions(
             x = signal.sosfilt(sos_hp, x, zi=zi * static)[0]
         channels[name] = _quantise(x[keep], FULL_SCALE_N)
 
-    tg = _truth_grid(duration)
+    tg = _truth_grid(c.duration)
     truth = Truth(
         t=tg,
-        mu=np.full(tg.shape, mu_c),
+        mu=np.full(tg.shape, c.mu),
         temperature=None,
         current_density=None,
         contact_loss=(),
         optimum={},
-        force_dependence=beta_c,
-        skew=int(round(delay_c)),
+        force_dependence=c.beta,
+        skew=int(round(c.delay)),
         params={
             "scenario": "conditions",
             "preload_N": PRELOAD_N,
-            "mu": mu_c,
+            "mu": c.mu,
             "seed": int(seed),
             "fs": fs,
             "orientation": int(orientation),
-            "snr_z": snr,
-            "z_noise": z_kind,
-            "y_noise": y_std,
-            "y_noise_kind": y_kind,
-            "drift": drift_std,
-            "ripple": ripple_c,
-            "delay": delay_c,
-            "beta": beta_c,
+            "snr_z": c.snr_z,
+            "z_noise": c.z_noise,
+            "y_noise": c.y_noise,
+            "y_noise_kind": c.y_noise_kind,
+            "drift": c.drift,
+            "ripple": c.ripple,
+            "delay": c.delay,
+            "beta": c.beta,
             "raw": bool(raw),
             "noise_z_std": noise_z_std,
-            "dmu_dfn": mu_c * beta_c,
+            "dmu_dfn": c.mu * c.beta,
             "ripple_phase": phi,
             "f_l": f_l,
             "noise_band_hz": _COND_BAND_HZ,
             "drift_cutoff_hz": _COND_DRIFT_HZ,
-            "rpm": speed,
+            "rpm": c.rpm,
         },
     )
     return Simulation(
@@ -1370,7 +1431,7 @@ def conditions(
         channels=channels,
         temperature_log=None,
         area_mm2=None,
-        rpm=speed,
+        rpm=c.rpm,
         n_lamellas=N_LAMELLAS,
         orientation=int(orientation),
         truth=truth,

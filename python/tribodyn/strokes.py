@@ -55,8 +55,8 @@ def stroke_windows(source: Any, rec: Optional[RecordingProtocol], plan: Plan, fo
         return None
     kind, sig = ("v", data["v"]) if "v" in data else (("x", data["x"]) if "x" in data else ("fy", data["fy"]))
     strokes = find_strokes(sig, boundaries=bounds, kind=kind)
-    table = stroke_table(data["fy"], data["fz"], strokes, plan.fs, found.classical, fraction, data.get("cof"),
-                         data.get("x"))  # fmt: skip
+    table = stroke_table(data["fy"], data["fz"], strokes, plan.fs, spec=found.classical, fraction=fraction,
+                         cof=data.get("cof"), x=data.get("x"))  # fmt: skip
     # The windows: each stroke's central part, fy rectified.
     dsig = np.gradient(np.asarray(sig, dtype=float)) if kind == "x" else np.asarray(sig, dtype=float)
     fin = np.abs(dsig[np.isfinite(dsig)])

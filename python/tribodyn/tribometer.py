@@ -576,7 +576,7 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
     return out
 
 
-def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, int, int]], fs: float,
+def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, int, int]], fs: float, *,
                  spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None,
                  x: Optional[np.ndarray] = None) -> Dict[str, np.ndarray]:  # fmt: skip
     """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c),
@@ -626,7 +626,7 @@ def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, in
         rows["n"].append(int(keep.sum()))
         rows["start"].append(a)
         rows["stop"].append(b)
-        work, dist, span = _stroke_work(fy, fz, x, a, b, spec) if x is not None else (np.nan, np.nan, np.nan)
+        work, dist, span = _stroke_work(fy, x, a, b, spec) if x is not None else (np.nan, np.nan, np.nan)
         rows["work"].append(work)
         rows["distance"].append(dist)
         rows["x_span"].append(span)
@@ -635,8 +635,7 @@ def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, in
     return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in rows.items()}
 
 
-def _stroke_work(fy: np.ndarray, fz: np.ndarray, x: np.ndarray, a: int, b: int, spec: ClassicalSpec
-                 ) -> Tuple[float, float, float]:  # fmt: skip
+def _stroke_work(fy: np.ndarray, x: np.ndarray, a: int, b: int, spec: ClassicalSpec) -> Tuple[float, float, float]:
     """(work of friction sum fy dx (J), sliding distance sum |dx| (m), max x - min x (m)) over samples a..b.
 
     Trapezoids from sample a to sample b (the next stroke's first), so the
