@@ -66,11 +66,12 @@ def test_the_cli_reads_a_recording_three_times_and_bounded_samples(tmp_path, mon
     n = 1 << 18
     small, s1 = cli_reads(tmp_path, n)
     big, s2 = cli_reads(tmp_path, 2 * n)
-    again, _ = cli_reads(tmp_path, n)  # the first run also imported the output step's modules
+    again, _ = cli_reads(tmp_path, n)  # the first run also imported the output step's modules here
     per_byte = (big - again) / (s2 - s1)
     assert per_byte <= WHOLE_READS + TOLERANCE, f"the CLI read the recording {per_byte:.2f} times"
     assert per_byte >= WHOLE_READS - TOLERANCE  # the measurement sees the reads it bounds
-    assert small >= again
+    # (the rendering child, a new process each run, imports Bokeh every time: the runs differ by little)
+    assert small >= again - (1 << 20)
 
 
 def test_the_cli_opens_a_recording_once(tmp_path, monkeypatch):
