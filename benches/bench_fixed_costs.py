@@ -243,6 +243,7 @@ def run(args: argparse.Namespace) -> Dict[str, Any]:
         "load_after": os.getloadavg(),
         "rounds": args.rounds,
         "builds": builds,
+        "baseline_label": args.baseline_label,
         "runs": got,
     }
     return out
@@ -334,7 +335,8 @@ def report(o: Dict[str, Any]) -> str:
         f"`python benches/bench_fixed_costs.py --rounds {o['rounds']}`, run {o['when']}; "
         f"{o['rounds']} interleaved rounds of fresh processes (with the package's bytecode, as installed), medians"
         + (
-            "; `baseline` = the Python package of main before issue 25 (4b6e29a) with the same `_core`"
+            f"; `baseline` = {o.get('baseline_label') or 'the Python package of ' + str(o['builds']['baseline'])}"
+            " with the same `_core`"
             if has_base
             else ""
         )
@@ -373,6 +375,7 @@ def main(argv: Optional[List[str]] = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", default=os.path.join(tempfile.gettempdir(), "perf"))
     ap.add_argument("--baseline", help="a tree whose python/ holds the baseline tribodyn package (with a _core)")
+    ap.add_argument("--baseline-label", help="what the baseline is, for the report (e.g. a commit)")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--demo-rounds", type=int, default=3)
     ap.add_argument("--no-demo", action="store_true")
