@@ -122,7 +122,10 @@ def _old_bootstrap_stats(v: np.ndarray, noise: R.NoiseResample | None) -> tuple:
 
 @pytest.mark.parametrize("n", [3, 50, 700])
 @pytest.mark.parametrize("gated", [1.0, 0.7])
-def test_bootstrap_statistics_unchanged_by_chunks_and_threads(n: int, gated: float, monkeypatch) -> None:
+@pytest.mark.parametrize("kernel", [True, False], ids=["kernel", "numpy"])
+def test_bootstrap_statistics_unchanged_by_chunks_and_threads(n: int, gated: float, kernel: bool, monkeypatch) -> None:
+    if not kernel:
+        monkeypatch.delattr(_core, "resample_stats")
     rng = np.random.default_rng(n)
     total = int(n / gated)
     v = 0.12 + 0.01 * rng.normal(size=n)
@@ -134,17 +137,56 @@ def test_bootstrap_statistics_unchanged_by_chunks_and_threads(n: int, gated: flo
     for nz in (None, noise):
         want = _old_bootstrap_stats(v, nz)
         seen = []
-        real = R._resample_stats
+        real = R._all_resample_stats
 
         def spy(*a, **k):
             out = real(*a, **k)
             seen.append(out)
             return out
 
-        monkeypatch.setattr(R, "_resample_stats", spy)
+        monkeypatch.setattr(R, "_all_resample_stats", spy)
         one = R.bootstrap_ci(v, noise=nz, threads=1)
-        monkeypatch.setattr(R, "_resample_stats", real)
-        got = tuple(np.concatenate([s[j] for s in seen]) for j in range(4))
+        monkeypatch.setattr(R, "_all_resample_stats", real)
+        (got,) = seen
         for a, b in zip(got, want):
             assert np.array_equal(a, b, equal_nan=True)
         assert R.bootstrap_ci(v, noise=nz, threads=2) == one
+
+
+def _resample_cases(rng: np.random.Generator):
+    for n in (3, 7, 130, 1001, 18000):
+        v = rng.normal(size=n) * 0.01 + 0.12
+        yield v, None
+        w = v.copy()
+        w[rng.random(n) < 0.05] = np.nan  # windows without a value
+        yield w, None
+        m = n + n // 3  # the recording's windows; v holds some of them
+        var = np.abs(rng.normal(size=m)) * 1e-3
+        var[rng.random(m) < 0.1] = np.nan
+        index = np.sort(rng.choice(m, size=n, replace=False))
+        dn = rng.normal(size=n) * 3.0
+        yield v, R.NoiseResample(var=var, index=index, dnoise=dn)
+        yield w, R.NoiseResample(var=np.full(m, np.nan), index=index, dnoise=dn)  # no noise estimate at all
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_resample_stats_kernel_is_the_numpy_path(threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bootstrap's resample statistics: the Rust kernel gives _resample_stats' values bit for bit."""
+    rng = np.random.default_rng(9)
+    for v, noise in _resample_cases(rng):
+        m = v.size if noise is None else noise.var.size
+        starts, ell = R._block_starts(np.random.default_rng(3), m)
+        args = None
+        if noise is not None:
+            pos = np.full(m, -1, dtype=np.int64)
+            pos[noise.index] = np.arange(v.size)
+            args = (noise.var, pos, noise.dnoise, max(float(np.nanmedian(noise.var)), 0.0) if np.isfinite(
+                noise.var).any() else float("nan"))  # fmt: skip
+        got = R._all_resample_stats(v, starts, ell, args, m, threads)
+        with monkeypatch.context() as mp, warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            mp.delattr(_core, "resample_stats")
+            want = R._all_resample_stats(v, starts, ell, args, m, threads)
+        for g, w in zip(got, want):  # the same bits, NaN where NumPy gives NaN (its sign aside)
+            assert np.array_equal(np.isnan(g), np.isnan(w)), (v.size, noise is not None)
+            assert g[~np.isnan(g)].tobytes() == w[~np.isnan(w)].tobytes(), (v.size, noise is not None)

@@ -30,6 +30,7 @@ __all__ = [
     "linfit",
     "pearson",
     "row_quantiles",
+    "resample_stats",
     "select_ranks",
     "histogram_uniform",
     "set_threads",
@@ -83,6 +84,16 @@ def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None) -> _F64
 
 def histogram_uniform(x: _F64, edges: _F64) -> NDArray[np.int64]:
     """NumPy's histogram of x over uniform edges (np.linspace), bit for bit."""
+
+def resample_stats(
+    v: _F64,
+    starts: NDArray[np.int64],
+    ell: int,
+    *,
+    noise: tuple[_F64, NDArray[np.int64], _F64, float] | None = None,
+    threads: int | None = None,
+) -> _F64:
+    """Median, mean, p05 and p95 of every moving-block resample, NumPy's values bit for bit: (4 x rows)."""
 
 def pearson(x: _F64, y: _F64) -> float:
     """Pearson's r, C(0) of Eq. (1)."""

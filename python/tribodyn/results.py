@@ -618,6 +618,33 @@ def _threads(threads: Optional[int]) -> int:
     return max(1, int(threads))
 
 
+def _all_resample_stats(v: np.ndarray, starts: np.ndarray, ell: int, noise: Optional[Tuple[Any, ...]], width: int,
+                        threads: int) -> Tuple[np.ndarray, ...]:  # fmt: skip
+    """(median, mean, p05, p95) of every resample: the Rust kernel (one pass per resample, rows on
+    ``threads`` threads) when the extension has it, else :func:`_resample_stats` a bounded chunk of
+    resamples at a time (every statistic is per resample: the same numbers as all at once)."""
+    from . import _core
+
+    if hasattr(_core, "resample_stats"):
+        nz = None if noise is None else (np.ascontiguousarray(noise[0], dtype=float),
+                                         np.ascontiguousarray(noise[1], dtype=np.int64),
+                                         np.ascontiguousarray(noise[2], dtype=float), float(noise[3]))  # fmt: skip
+        flat = _core.resample_stats(np.ascontiguousarray(v, dtype=float), np.ascontiguousarray(starts, dtype=np.int64),
+                                    ell, noise=nz, threads=threads)  # fmt: skip
+        rows = starts.shape[0]
+        return tuple(flat[j * rows : (j + 1) * rows] for j in range(4))
+    chunks = _row_chunks(starts.shape[0], width)
+    workers = min(len(chunks), threads)
+    if workers < 2:
+        parts = [_resample_stats(v, starts[c], ell, noise) for c in chunks]
+    else:  # NumPy's selections, gathers and ufuncs release the GIL
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(workers) as ex:
+            parts = list(ex.map(lambda c: _resample_stats(v, starts[c], ell, noise), chunks))
+    return tuple(np.concatenate([p[j] for p in parts]) for j in range(4))
+
+
 def bootstrap_ci(
     v: np.ndarray,
     level: float = 0.95,
@@ -672,17 +699,7 @@ def bootstrap_ci(
         pos = np.full(var.size, -1, dtype=np.int64)
         pos[index] = np.arange(n)
         args, width = (var, pos, dn, used), var.size
-    # A chunk of resamples at a time (every statistic is per resample: the same numbers as all at once).
-    chunks = _row_chunks(starts.shape[0], width)
-    workers = min(len(chunks), _threads(threads))
-    if workers < 2:
-        parts = [_resample_stats(v, starts[c], ell, args) for c in chunks]
-    else:  # NumPy's selections, gathers and ufuncs release the GIL
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(workers) as ex:
-            parts = list(ex.map(lambda c: _resample_stats(v, starts[c], ell, args), chunks))
-    stats = tuple(np.concatenate([p[j] for p in parts]) for j in range(4))
+    stats = _all_resample_stats(v, starts, ell, args, width, _threads(threads))
     b = -(-n // int(np.ceil(n ** (1.0 / 3.0))))
     a = 100.0 * NormalDist().cdf(-math.sqrt(b / (b - 1)) * t_quantile(1.0 - (1.0 - level) / 2.0, b - 1))
     out: Dict[str, Tuple[float, float]] = {}

@@ -17,6 +17,7 @@
 //! Every public function validates what a caller controls and returns
 //! [`KernelError`] instead of panicking.
 
+pub mod bootstrap;
 pub mod correlation;
 pub mod error;
 pub mod extended;

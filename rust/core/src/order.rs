@@ -66,7 +66,7 @@ fn rank(v: &mut [f64], k: usize, fixed: &mut Vec<usize>) -> f64 {
     v[k]
 }
 
-fn one_row(v: &mut [f64], qs: &[f64], median: &mut f64, out: &mut [f64]) {
+pub(crate) fn one_row(v: &mut [f64], qs: &[f64], median: &mut f64, out: &mut [f64]) {
     let k = v.len();
     if k == 0 {
         *median = f64::NAN;

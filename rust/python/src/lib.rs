@@ -19,6 +19,7 @@ use numpy::{
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use tribodyn_core::bootstrap;
 use tribodyn_core::correlation::{self, Method};
 use tribodyn_core::extended;
 use tribodyn_core::iir;
@@ -298,6 +299,45 @@ fn histogram_uniform<'py>(
     let es = edges.as_slice().map_err(slice_err("edges"))?;
     let counts = py.detach(|| order::histogram_uniform(xs, es)).map_err(to_py)?;
     Ok(PyArray1::from_vec(py, counts))
+}
+
+/// The fz-noise part of a resample: (var, pos, dnoise, used), see `tribodyn.results.NoiseResample`.
+type NoiseArgs<'py> = (PyReadonlyArray1<'py, f64>, PyReadonlyArray1<'py, i64>, PyReadonlyArray1<'py, f64>, f64);
+
+/// Median, mean, p05 and p95 of every moving-block resample (rows of `starts`, blocks of `ell` windows),
+/// as `tribodyn.results._resample_stats` computes them with NumPy, bit for bit: a (4, rows) array.
+#[pyfunction]
+#[pyo3(signature = (v, starts, ell, *, noise=None, threads=None))]
+fn resample_stats<'py>(
+    py: Python<'py>,
+    v: PyReadonlyArray1<'py, f64>,
+    starts: PyReadonlyArray2<'py, i64>,
+    ell: usize,
+    noise: Option<NoiseArgs<'py>>,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let threads = threads_of(threads)?;
+    c_order(starts.is_c_contiguous(), "starts")?;
+    let (rows, per_row) = (starts.shape()[0], starts.shape()[1]);
+    let ss = starts.as_slice().map_err(|_| bad("starts must be a C-contiguous int64 array"))?;
+    let vs = v.as_slice().map_err(slice_err("v"))?;
+    let parts = match &noise {
+        Some((var, pos, dn, used)) => Some((
+            var.as_slice().map_err(slice_err("var"))?,
+            pos.as_slice().map_err(|_| bad("pos must be a C-contiguous int64 array"))?,
+            dn.as_slice().map_err(slice_err("dnoise"))?,
+            *used,
+        )),
+        None => None,
+    };
+    let mut out = vec![0.0; 4 * rows];
+    py.detach(|| {
+        let nz = parts.map(|(var, pos, dnoise, used)| bootstrap::Noise { var, pos, dnoise, used });
+        parallel::run_with(threads, || bootstrap::resample_stats(vs, ss, per_row, ell, nz.as_ref(), &mut out))
+            .and_then(|r| r)
+    })
+    .map_err(to_py)?;
+    Ok(PyArray1::from_vec(py, out))
 }
 
 /// Two float64 arrays.
@@ -1367,6 +1407,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(xcorr_auto_method, m)?)?;
     m.add_function(wrap_pyfunction!(pearson, m)?)?;
     m.add_function(wrap_pyfunction!(row_quantiles, m)?)?;
+    m.add_function(wrap_pyfunction!(resample_stats, m)?)?;
     m.add_function(wrap_pyfunction!(select_ranks, m)?)?;
     m.add_function(wrap_pyfunction!(histogram_uniform, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_inplace, m)?)?;
