@@ -182,11 +182,11 @@ def test_resample_stats_kernel_is_the_numpy_path(threads: int, monkeypatch: pyte
             pos[noise.index] = np.arange(v.size)
             args = (noise.var, pos, noise.dnoise, max(float(np.nanmedian(noise.var)), 0.0) if np.isfinite(
                 noise.var).any() else float("nan"))  # fmt: skip
-        got = R._all_resample_stats(v, starts, ell, args, m, threads)
+        got = R._all_resample_stats(v, starts, ell, args, width=m, threads=threads)
         with monkeypatch.context() as mp, warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             mp.delattr(_core, "resample_stats")
-            want = R._all_resample_stats(v, starts, ell, args, m, threads)
+            want = R._all_resample_stats(v, starts, ell, args, width=m, threads=threads)
         for g, w in zip(got, want):  # the same bits, NaN where NumPy gives NaN (its sign aside)
             assert np.array_equal(np.isnan(g), np.isnan(w)), (v.size, noise is not None)
             assert g[~np.isnan(g)].tobytes() == w[~np.isnan(w)].tobytes(), (v.size, noise is not None)

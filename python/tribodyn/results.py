@@ -618,7 +618,7 @@ def _threads(threads: Optional[int]) -> int:
     return max(1, int(threads))
 
 
-def _all_resample_stats(v: np.ndarray, starts: np.ndarray, ell: int, noise: Optional[Tuple[Any, ...]], width: int,
+def _all_resample_stats(v: np.ndarray, starts: np.ndarray, ell: int, noise: Optional[Tuple[Any, ...]], *, width: int,
                         threads: int) -> Tuple[np.ndarray, ...]:  # fmt: skip
     """(median, mean, p05, p95) of every resample: the Rust kernel (one pass per resample, rows on
     ``threads`` threads) when the extension has it, else :func:`_resample_stats` a bounded chunk of
@@ -699,7 +699,7 @@ def bootstrap_ci(
         pos = np.full(var.size, -1, dtype=np.int64)
         pos[index] = np.arange(n)
         args, width = (var, pos, dn, used), var.size
-    stats = _all_resample_stats(v, starts, ell, args, width, _threads(threads))
+    stats = _all_resample_stats(v, starts, ell, args, width=width, threads=_threads(threads))
     b = -(-n // int(np.ceil(n ** (1.0 / 3.0))))
     a = 100.0 * NormalDist().cdf(-math.sqrt(b / (b - 1)) * t_quantile(1.0 - (1.0 - level) / 2.0, b - 1))
     out: Dict[str, Tuple[float, float]] = {}
