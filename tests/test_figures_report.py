@@ -559,3 +559,29 @@ def test_rendering_runs_also_once_in_the_child_or_here(monkeypatch, fork):
         assert extra["pid"] != os.getpid() and calls == []  # done in the child only
     else:
         assert calls == [os.getpid()]
+
+
+def test_fig11_shows_log_gap_windows_apart_and_no_solid_fit_without_windows(temp_res):
+    """Windows whose T is interpolated across a log gap are left out of the operating range's fit; the figure
+    draws them apart (hollow, "not fitted") and draws a fit solid only near the windows it used."""
+    from tribodyn import figures as F
+
+    table = temp_res.table
+    gap = np.asarray(table["T_gap"], dtype=bool) & np.asarray(table["ok"], dtype=bool)
+    assert gap.any(), "the simulated temperature test has a fast log gap"
+    fig = F.cof_vs_temperature(temp_res)
+    ax = fig.axes[0]
+    labels = {str(ln.get_label()): ln for ln in ax.lines}
+    hollow = [ln for k, ln in labels.items() if k.startswith("windows in a log gap")]
+    assert hollow and len(hollow[0].get_xdata()) == int(gap.sum())
+    scattered = sum(len(ln.get_xdata()) for k, ln in labels.items() if k.startswith(("heating windows",
+                    "cooling windows", "windows, dT/dt unknown")))  # fmt: skip
+    assert scattered == int((np.asarray(table["ok"], dtype=bool) & np.isfinite(table["T"]) & ~gap).sum())
+    used = np.asarray(table["T"])[np.asarray(table["ok"], dtype=bool) & ~gap]
+    width = tribodyn.operating_range(temp_res, "temperature").bin_width
+    for ln in ax.lines:
+        if "bathtub fit" in str(ln.get_label()):
+            x, y = np.asarray(ln.get_xdata(), float), np.asarray(ln.get_ydata(), float)
+            solid = x[np.isfinite(y)]
+            # every solid point lies within a bin width of a window the fit used
+            assert np.all(np.min(np.abs(solid[:, None] - used[None, :]), axis=1) <= width + 1e-9)

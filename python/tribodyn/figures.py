@@ -936,13 +936,16 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
             label=f"optimum {lo:.4g}–{hi:.4g} {spec['unit']} (min COF {_fmt(opr.mu_min, '.3f')})",
         )
     groups: Tuple[Tuple[str, np.ndarray], ...]
+    br = _column(results, "branch", n, fill=0.0)
     if branches:
-        br = _column(results, "branch", n, fill=0.0)
         groups = (("heating", br > 0), ("cooling", br < 0), ("unknown", br == 0))
     else:
         groups = (("all", np.ones(n, dtype=bool)),)
+    # Windows whose temperature is interpolated across a fast gap of the log: drawn apart, as the
+    # operating range leaves them out of its fit (docs/method.md 7).
+    gap = (_column(results, "T_gap", n, fill=0.0) > 0) if column == "T" else np.zeros(n, dtype=bool)
     for name, sel in groups:
-        sel = sel & good
+        sel = sel & good & ~gap
         if not sel.any():
             continue
         st = _BRANCH_STYLE.get(name, dict(color="tab:blue", marker="o", label="gated windows"))
@@ -956,6 +959,10 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
             alpha=0.35,
             label=f"{st['label']} ({int(sel.sum())})",
         )
+    if (good & gap).any():
+        ax.plot(cov[good & gap], mu[good & gap], linestyle="none", marker="o", markersize=5, markerfacecolor="none",
+                markeredgecolor="0.3", label=f"windows in a log gap ({int((good & gap).sum())}; T interpolated, "
+                "not fitted)")  # fmt: skip
     if bad.any():  # apart from the COF values, in a strip at the top (never at COF = 0)
         lim = (lim[0], lim[1] + (lim[1] - lim[0]) * FAILED_STRIP / (1 - FAILED_STRIP) * 1.6)
         _failed_strip(ax, cov, results, bad)
@@ -991,7 +998,9 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
                 linewidth=1.2 if names else 1.8,
                 label=f"all: binned median ({_fmt(opr.bin_width, '.3g')} {spec['unit']} bins)",
             )
-        _draw_fit(ax, opr, spec["unit"], branches)
+        fitted = good & ~gap
+        support = {"all": cov[fitted], "heating": cov[fitted & (br >= 0)], "cooling": cov[fitted & (br <= 0)]}
+        _draw_fit(ax, opr, spec["unit"], branches, support)
         if opr.onset is not None and np.isfinite(opr.onset):
             what = "instability onset" if column == "J" else "onset of the COF rise"
             ax.axvline(
@@ -1010,8 +1019,22 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
 _FIT_STYLE = {"all": ("black", "-"), "heating": ("tab:red", "-"), "cooling": ("tab:blue", "-")}
 
 
-def _draw_fit(ax: Any, opr: Any, unit: str, branches: bool) -> None:
-    """The segmented fit(s), their 95 % bands, the breakpoints with intervals and the verdict (docs/method.md 7)."""
+def _supported(grid: np.ndarray, xs: np.ndarray, reach: float) -> np.ndarray:
+    """Which points of ``grid`` lie within ``reach`` of a fitted window's covariate ``xs`` (all without either)."""
+    if xs.size == 0 or not np.isfinite(reach):
+        return np.ones(grid.shape, dtype=bool)
+    xs = np.sort(xs)
+    k = np.searchsorted(xs, grid)
+    left, right = xs[np.clip(k - 1, 0, xs.size - 1)], xs[np.clip(k, 0, xs.size - 1)]
+    return np.asarray(np.minimum(np.abs(grid - left), np.abs(grid - right)) <= reach)
+
+
+def _draw_fit(ax: Any, opr: Any, unit: str, branches: bool, support: Optional[Mapping[str, np.ndarray]] = None
+              ) -> None:  # fmt: skip
+    """The segmented fit(s), their 95 % bands, the breakpoints with intervals and the verdict (docs/method.md 7).
+
+    With ``support`` (the covariate of the windows each fit used), a fit is drawn solid and with its band
+    only within one bin width of those windows, dotted across the stretches without any (a log gap)."""
     fits = getattr(opr, "fits", None) or {}
     if not fits:
         return
@@ -1020,10 +1043,17 @@ def _draw_fit(ax: Any, opr: Any, unit: str, branches: bool) -> None:
     for name in names:
         f = fits[name]
         colour, ls = _FIT_STYLE.get(name, ("black", "-"))
+        grid = np.asarray(f.grid, dtype=float)
+        width = getattr(opr, "bin_width", None)
+        width = float(width) if width is not None else float("nan")
+        inside = _supported(grid, np.asarray((support or {}).get(name, []), dtype=float), width)
         if np.isfinite(f.band_low).any():
-            ax.fill_between(f.grid, f.band_low, f.band_high, color=colour, alpha=0.12, linewidth=0,
-                            label=f"{name}: 95 % band of the fit")  # fmt: skip
-        ax.plot(f.grid, f.curve, ls, color=colour, linewidth=2.0, label=f"{name}: bathtub fit ({f.verdict})")
+            ax.fill_between(grid, np.where(inside, f.band_low, np.nan), np.where(inside, f.band_high, np.nan),
+                            color=colour, alpha=0.12, linewidth=0, label=f"{name}: 95 % band of the fit")  # fmt: skip
+        if not inside.all():
+            ax.plot(grid, f.curve, ":", color=colour, linewidth=1.0, label=f"{name}: fit where it has no window")
+        ax.plot(grid, np.where(inside, f.curve, np.nan), ls, color=colour, linewidth=2.0,
+                label=f"{name}: bathtub fit ({f.verdict})")  # fmt: skip
         for side in ("lower", "upper"):
             b, ci = getattr(f, side), getattr(f, f"{side}_ci")
             if b is None:
