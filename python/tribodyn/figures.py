@@ -967,53 +967,60 @@ def _cof_vs_covariate(results: Any, opr: Any, column: str, by: str, *, title: st
         lim = (lim[0], lim[1] + (lim[1] - lim[0]) * FAILED_STRIP / (1 - FAILED_STRIP) * 1.6)
         _failed_strip(ax, cov, results, bad)
     if opr is not None:
-        names = ("heating", "cooling") if branches and ("heating" in opr.curves or "cooling" in opr.curves) else ()
-        for name in names:
-            c = opr.curves.get(name)
-            if c is None:
-                continue
-            if np.isfinite(c.median).any():  # NaN (empty) bins break the line
-                st = _BRANCH_STYLE[name]
-                ax.plot(
-                    c.centres,
-                    c.median,
-                    "-",
-                    marker=st["marker"],
-                    color=st["color"],
-                    markersize=7,
-                    markeredgecolor="black",
-                    markeredgewidth=0.6,
-                    linewidth=1.8,
-                    label=f"{name}: binned median",
-                )
-        c = opr.curves.get("all")
-        if c is not None and np.isfinite(c.median).any():
-            ax.plot(
-                c.centres,
-                c.median,
-                "--" if names else "-",
-                marker="s" if not names else None,
-                color="black",
-                markersize=5,
-                linewidth=1.2 if names else 1.8,
-                label=f"all: binned median ({_fmt(opr.bin_width, '.3g')} {spec['unit']} bins)",
-            )
         fitted = good & ~gap
         support = {"all": cov[fitted], "heating": cov[fitted & (br >= 0)], "cooling": cov[fitted & (br <= 0)]}
-        _draw_fit(ax, opr, spec["unit"], branches, support)
-        if opr.onset is not None and np.isfinite(opr.onset):
-            what = "instability onset" if column == "J" else "onset of the COF rise"
-            ax.axvline(
-                opr.onset,
-                color=_ONSET_COLOUR,
-                linestyle="--",
-                linewidth=1.4,
-                label=f"{what} {opr.onset:.3g} {spec['unit']} (COF ≥ {1 + opr.rise:g} × min)",
-            )
+        _draw_range(ax, opr, spec=spec, column=column, branches=branches, support=support)
     ax.set_ylim(*lim)
     ax.grid(True, alpha=0.3)
     _legend_above(ax, ncol=2)
     return fig
+
+
+def _draw_range(ax: Any, opr: Any, *, spec: Mapping[str, Any], column: str, branches: bool,
+                support: Mapping[str, np.ndarray]) -> None:  # fmt: skip
+    """The operating range on a COF-against-covariate figure: binned medians, the fit(s) (solid where
+    ``support``, the fitted windows' covariate per fit, has windows) and the onset (docs/method.md 7)."""
+    names = ("heating", "cooling") if branches and ("heating" in opr.curves or "cooling" in opr.curves) else ()
+    for name in names:
+        c = opr.curves.get(name)
+        if c is None:
+            continue
+        if np.isfinite(c.median).any():  # NaN (empty) bins break the line
+            st = _BRANCH_STYLE[name]
+            ax.plot(
+                c.centres,
+                c.median,
+                "-",
+                marker=st["marker"],
+                color=st["color"],
+                markersize=7,
+                markeredgecolor="black",
+                markeredgewidth=0.6,
+                linewidth=1.8,
+                label=f"{name}: binned median",
+            )
+    c = opr.curves.get("all")
+    if c is not None and np.isfinite(c.median).any():
+        ax.plot(
+            c.centres,
+            c.median,
+            "--" if names else "-",
+            marker="s" if not names else None,
+            color="black",
+            markersize=5,
+            linewidth=1.2 if names else 1.8,
+            label=f"all: binned median ({_fmt(opr.bin_width, '.3g')} {spec['unit']} bins)",
+        )
+    _draw_fit(ax, opr, spec["unit"], branches, support)
+    if opr.onset is not None and np.isfinite(opr.onset):
+        what = "instability onset" if column == "J" else "onset of the COF rise"
+        ax.axvline(
+            opr.onset,
+            color=_ONSET_COLOUR,
+            linestyle="--",
+            linewidth=1.4,
+            label=f"{what} {opr.onset:.3g} {spec['unit']} (COF ≥ {1 + opr.rise:g} × min)",
+        )
 
 
 _FIT_STYLE = {"all": ("black", "-"), "heating": ("tab:red", "-"), "cooling": ("tab:blue", "-")}
