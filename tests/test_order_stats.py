@@ -73,6 +73,7 @@ def test_side_medians_are_numpys() -> None:
 
 def test_order_stats_falls_back_when_the_bracket_misses(monkeypatch: pytest.MonkeyPatch) -> None:
     x = np.random.default_rng(1).normal(size=1 << 17)
+    monkeypatch.delattr(_core, "select_ranks")  # the NumPy bracket (the kernel has its own test)
     monkeypatch.setattr(_order, "_SAMPLE", 4)  # a sample too small to bracket the ranks
     ks = [10, 60000, 60001, 131000]
     assert np.array_equal(_order.order_stats(x, ks), np.sort(x)[ks])

@@ -18,7 +18,7 @@ the way the order statistics are found differs.
 
 from __future__ import annotations
 
-from typing import List, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -30,15 +30,28 @@ _SMALL = 1 << 15
 _SAMPLE = 1 << 14
 
 
+def _kernel_ranks(x: np.ndarray, ks: Sequence[int], centre: Optional[float] = None) -> Optional[np.ndarray]:
+    """Ranks ``ks`` of the 1-D float64 ``x`` (with ``centre``: of ``|x - centre|``) by the Rust kernel
+    ``_core.select_ranks`` (the bracket below in one pass); None without the kernel or when ``x`` holds NaN."""
+    if not ks or x.ndim != 1 or x.dtype != np.float64 or not hasattr(_core, "select_ranks"):
+        return None
+    return _core.select_ranks(np.ascontiguousarray(x), [int(k) for k in ks], centre=centre)
+
+
+def _middle(n: int) -> List[int]:
+    """The rank(s) whose mean is the median of ``n`` values."""
+    h = n // 2
+    return [h] if n % 2 else [h - 1, h]
+
+
 def order_stats(x: np.ndarray, ks: Sequence[int]) -> np.ndarray:
     """The values of ranks ``ks`` (0-based, ascending order) of the 1-D NaN-free array ``x``, exactly."""
     x = np.asarray(x)
     n = x.size
     ks = [int(k) for k in ks]
-    if ks and x.dtype == np.float64 and x.ndim == 1 and hasattr(_core, "select_ranks"):
-        got = _core.select_ranks(np.ascontiguousarray(x), ks)  # the same bracket in one pass (Rust)
-        if got is not None:
-            return got
+    got = _kernel_ranks(x, ks)
+    if got is not None:
+        return got
     if n <= _SMALL or not ks:
         return np.partition(x, ks)[ks] if ks else np.zeros(0, dtype=x.dtype)
     sample = np.sort(x[:: max(1, n // _SAMPLE)])
@@ -67,47 +80,34 @@ def median(x: np.ndarray) -> float:
     """``float(np.median(x))`` of a 1-D array (NaN when it holds NaN, as NumPy's)."""
     x = np.asarray(x, dtype=float)
     n = x.size
-    if n and x.ndim == 1 and hasattr(_core, "select_ranks"):
-        h = n // 2
-        got = _core.select_ranks(np.ascontiguousarray(x), [h] if n % 2 else [h - 1, h])
-        if got is not None:  # None: x holds NaN (NumPy's median is NaN then)
-            return float(np.mean(got))
-    if n == 0 or n <= _SMALL or np.isnan(x).any():
+    got = _kernel_ranks(x, _middle(n)) if n else None
+    if got is None and (n == 0 or n <= _SMALL or np.isnan(x).any()):
         return float(np.median(x))
-    h = n // 2
-    if n % 2:
-        return float(np.mean(order_stats(x, [h])))
-    return float(np.mean(order_stats(x, [h - 1, h])))
+    return float(np.mean(got if got is not None else order_stats(x, _middle(n))))
 
 
 def median_abs_dev(x: np.ndarray, centre: float) -> float:
     """``float(np.median(np.abs(x - centre)))`` of a 1-D array, without the temporary array (Rust)."""
     x = np.asarray(x, dtype=float)
-    n = x.size
-    if n and x.ndim == 1 and hasattr(_core, "select_ranks"):
-        h = n // 2
-        got = _core.select_ranks(np.ascontiguousarray(x), [h] if n % 2 else [h - 1, h], centre=float(centre))
-        if got is not None:
-            return float(np.mean(got))
-    return median(np.abs(x - centre))
+    got = _kernel_ranks(x, _middle(x.size), float(centre)) if x.size else None
+    return float(np.mean(got)) if got is not None else median(np.abs(x - centre))
 
 
 def percentile(x: np.ndarray, q: float) -> float:
     """``float(np.percentile(x, q))`` of a 1-D array (method "linear")."""
     x = np.asarray(x, dtype=float)
     n = x.size
-    if n and x.ndim == 1 and hasattr(_core, "select_ranks"):
-        pi, ni, gamma = _indexes(np.array([n]), np.true_divide(q, 100))
-        got = _core.select_ranks(np.ascontiguousarray(x), [int(pi[0]), int(ni[0])])
-        if got is not None:
-            return float(lerp(got[:1], got[1:], gamma)[0])
-    if n == 0 or n <= _SMALL or np.isnan(x).any():
+    if n == 0:
         return float(np.percentile(x, q))
     pi, ni, gamma = _indexes(np.array([n]), np.true_divide(q, 100))
-    ks = sorted({int(pi[0]), int(ni[0])})
-    vals = order_stats(x, ks)
-    a, b = vals[ks.index(int(pi[0]))], vals[ks.index(int(ni[0]))]
-    return float(lerp(np.array([a]), np.array([b]), gamma)[0])
+    ks = [int(pi[0]), int(ni[0])]
+    got = _kernel_ranks(x, ks)
+    if got is None:
+        if n <= _SMALL or np.isnan(x).any():
+            return float(np.percentile(x, q))
+        got = order_stats(x, sorted(set(ks)))
+        got = got[[sorted(set(ks)).index(k) for k in ks]]
+    return float(lerp(got[:1], got[1:], gamma)[0])
 
 
 def _indexes(k: np.ndarray, quant: np.floating) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
