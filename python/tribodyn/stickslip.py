@@ -45,7 +45,8 @@ FIT_MAX = 200
 RISE_T = 2.0
 #: Stick-slip is "present" from this many events on.
 MIN_EVENTS = 3
-#: Samples per block read at once (a fixed grid: the result does not depend on a reader's chunks).
+#: Samples per block read at once (a fixed grid: the result does not depend on a reader's chunks); at most
+#: 2^21, so that the stick lines' running integer sums of t^2 fit in int64.
 BLOCK = 1 << 20
 #: The noise and rise of a longer search come from a sample of this many samples (docs/method.md 6g) ...
 SAMPLE = 1 << 20
@@ -244,11 +245,30 @@ def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, o
 
 
 @dataclasses.dataclass(frozen=True)
-class _Event:
-    index: int  # sample after the drop (global)
-    drop: float  # N
-    fn: float  # mean normal force beside it (N)
-    label: int
+class _Events:
+    """Events as columns: the sample after each drop (global), its drop (N), the mean normal force beside it (N)
+    and its segment's index."""
+
+    index: np.ndarray
+    drop: np.ndarray
+    fn: np.ndarray
+    label: np.ndarray
+
+    @staticmethod
+    def none() -> "_Events":
+        return _Events(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, np.int64))
+
+    @staticmethod
+    def concat(parts: Sequence["_Events"]) -> "_Events":
+        if not parts:
+            return _Events.none()
+        return _Events(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("index", "drop", "fn", "label")))
+
+    def where(self, keep: np.ndarray) -> "_Events":
+        return _Events(self.index[keep], self.drop[keep], self.fn[keep], self.label[keep])
+
+    def __len__(self) -> int:
+        return int(self.index.size)
 
 
 def _drop_statistic(r: np.ndarray, label: np.ndarray, slope: float, drop_samples: int
@@ -299,68 +319,104 @@ def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int) -> Optional[Tupl
     return max(white, coloured), -mid / (L + D)
 
 
+def _candidates(r: np.ndarray, i: np.ndarray, g: np.ndarray, ok: np.ndarray, *, sigma: float, k: float,
+                drop_samples: int) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(the drop's sample of each candidate, whether it is strong: g > k sigma), in order (docs/method.md 6g).
+
+    Each run of consecutive positions with g > min(k, BOUND_K) sigma gives one candidate at its (first)
+    maximum; its drop's sample is the largest single fall among the samples the statistic saw there (near a
+    segment's edge the statistic may see a drop in one of its averages, not in its gap). Consecutive runs that
+    name the same sample are one candidate, strong when any of them is.
+    """
+    L, D = SMOOTH, drop_samples
+    idx = np.flatnonzero(ok & (g > min(k, BOUND_K) * sigma))
+    if idx.size == 0:
+        return np.zeros(0, np.int64), np.zeros(0, bool)
+    first = np.concatenate([[0], np.flatnonzero(np.diff(idx) > 1) + 1])  # each run's first position in idx
+    gi = g[idx]
+    run = np.repeat(np.arange(first.size), np.diff(np.append(first, idx.size)))
+    top = gi == np.maximum.reduceat(gi, first)[run]
+    _, at_top = np.unique(run[top], return_index=True)  # each run's first maximum (np.argmax's)
+    peaks = idx[np.flatnonzero(top)[at_top]]
+    ci = i[peaks]
+    # the samples ci - L .. ci + D + L - 1 (inside r: i runs from L to r.size - D - L)
+    falls = np.diff(r[ci[:, None] + np.arange(-L, D + L)[None, :]], axis=1)
+    seen = np.isfinite(falls).any(axis=1)
+    at = np.where(seen, ci - L + 1 + np.argmin(np.where(np.isnan(falls), np.inf, falls), axis=1), ci)
+    strong = g[peaks] > k * sigma
+    new = np.concatenate([[True], at[1:] != at[:-1]])  # a run naming the previous run's sample joins it
+    starts = np.flatnonzero(new)
+    return at[starts], np.logical_or.reduceat(strong, starts)
+
+
 def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, sigma: float, slope: float,
-            k: float, drop_samples: int) -> List[_Event]:  # fmt: skip
+            k: float, drop_samples: int) -> _Events:  # fmt: skip
     """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g)."""
     n, L, D = r.size, SMOOTH, drop_samples
     if n < 2 * L + D or not (sigma > 0):
-        return []
+        return _Events.none()
     i, g, ok = _drop_statistic(r, label, slope, D)
-    fin = np.isfinite(r)
-    # runs above BOUND_K SDs: a weaker drop still bounds its neighbours' stick lines; an event needs k SDs
-    hit = ok & (g > min(k, BOUND_K) * sigma)
     if not (ok & (g > k * sigma)).any():
-        return []
-    idx = np.flatnonzero(hit)
-    runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
-    peaks = [run[np.argmax(g[run])] for run in runs]
-    # the drop's sample (the one after it): the largest single fall among the samples the statistic saw
-    # (near a segment's edge the statistic may see a drop in one of its averages, not in its gap)
-    ats: List[int] = []
-    strong: List[bool] = []
-    for pk in peaks:
-        ci = int(i[pk])
-        falls = np.diff(r[ci - L : ci + D + L])
-        at = ci - L + 1 + int(np.nanargmin(falls)) if np.isfinite(falls).any() else ci
-        if not ats or at != ats[-1]:
-            ats.append(at)
-            strong.append(bool(g[pk] > k * sigma))
-        elif g[pk] > k * sigma:
-            strong[-1] = True
-    cands = ats
+        return _Events.none()
+    cands, strong = _candidates(r, i, g, ok, sigma=sigma, k=k, drop_samples=D)
     # segment bounds of each sample: a run of one label
     change = np.flatnonzero(np.diff(label) != 0) + 1
     starts = np.concatenate([[0], change])
     stops = np.concatenate([change, [n]])
-    out: List[_Event] = []
     edge = L + D - 1  # a drop this near a segment's edge may go unseen: no stick line reaches into it
-    for j, at in enumerate(cands):
-        if not strong[j]:
-            continue
-        s = int(np.searchsorted(starts, at, side="right") - 1)
-        # the stick lines: before the slip (at most D steps, one of them at) and after it, up to the neighbours
-        p0 = max(at - D + 1 - FIT_MAX, int(starts[s]) + edge, cands[j - 1] + D - 1 if j else 0)
-        q1 = min(at + D - 1 + FIT_MAX, int(stops[s]) - edge, cands[j + 1] - D + 1 if j + 1 < len(cands) else n)
-        t_pre = np.arange(p0, at - D + 1)
-        t_post = np.arange(at + D - 1, q1)
-        t_pre = t_pre[fin[t_pre]]
-        t_post = t_post[fin[t_post]]
-        if t_pre.size < L or t_post.size < L:  # too near an edge (or a neighbour) to measure: not counted
-            continue
-        y_pre, y_post = r[t_pre], r[t_post]
-        m_pre, m_post = t_pre.mean(), t_post.mean()
-        sxx = float(np.sum((t_pre - m_pre) ** 2) + np.sum((t_post - m_post) ** 2))
-        sxy = float(np.sum((t_pre - m_pre) * (y_pre - y_pre.mean())))
-        sxy += float(np.sum((t_post - m_post) * (y_post - y_post.mean())))
-        if sxx <= 0:
-            continue
+    s = np.searchsorted(starts, cands, side="right") - 1
+    # the stick lines: before the slip (at most D steps, one of them at) and after it, up to the neighbours
+    prev = np.concatenate([[0], cands[:-1] + D - 1])
+    nxt = np.concatenate([cands[1:] - D + 1, [n]])
+    p0 = np.maximum.reduce([cands - D + 1 - FIT_MAX, starts[s] + edge, prev])
+    q1 = np.minimum.reduce([cands + D - 1 + FIT_MAX, stops[s] - edge, nxt])
+    j = np.flatnonzero(strong)
+    drop, beside = _stick_lines(r, fn, cands[j], p0[j], q1[j], sigma=sigma, drop_samples=D)
+    at = cands[j]
+    keep = np.isfinite(drop)
+    return _Events(offset + at[keep], drop[keep], beside[keep], label[at[keep]].astype(np.int64))
+
+
+def _stick_lines(r: np.ndarray, fn: np.ndarray, at: np.ndarray, p0: np.ndarray, q1: np.ndarray, *, sigma: float,
+                 drop_samples: int) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(drop, mean Fn beside it) of each candidate from its two stick lines (docs/method.md 6g); NaN where it is
+    no event: fewer than L finite samples on a side, or no rise by RISE_T standard errors.
+
+    The stick before the slip is samples p0 .. at - D, the one after it at + D - 1 .. q1 - 1; their finite
+    samples are fitted by two parallel lines (a common slope). Every candidate's sums come from running sums
+    over the block: of 1, t and t^2 in integers (exact), of r, t r and Fn in floats (r is centred by the COF
+    subtracted, so t r's running sum stays small: the drops agree with a direct fit of each line to about
+    1e-9 relative, docs/method.md 6g).
+    """
+    D = drop_samples
+    if r.size >= 3_000_000:  # sum of t^2 over the block < 2^63 (BLOCK <= 2^21 with its margins)
+        raise ValueError(f"stick-slip blocks hold at most 3e6 samples, got {r.size}")
+    fin = np.isfinite(r)
+    t = np.arange(r.size, dtype=np.int64)
+    rz = np.where(fin, r, 0.0)
+
+    def running(x: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.zeros(1, x.dtype), np.cumsum(x)])
+
+    sums = [running(v) for v in (fin.astype(np.int64), np.where(fin, t, 0), np.where(fin, t * t, 0))]
+    sums += [running(v) for v in (rz, t * rz, np.where(fin, fn, 0.0))]
+
+    def side(lo: np.ndarray, hi: np.ndarray) -> Tuple[np.ndarray, ...]:
+        hi = np.maximum(lo, hi)
+        c, st, stt, sy, sty, sfn = (x[hi] - x[lo] for x in sums)
+        n = np.maximum(c, 1)
+        sxx = (n * stt - st * st) / n  # (integers: exact)
+        return c, st / n, sy / n, sxx, sty - st * (sy / n), sfn
+
+    c_pre, m_pre, y_pre, sxx_pre, sxy_pre, fn_pre = side(p0, at - D + 1)
+    c_post, m_post, y_post, sxx_post, sxy_post, fn_post = side(at + D - 1, q1)
+    sxx, sxy = sxx_pre + sxx_post, sxy_pre + sxy_post
+    with np.errstate(invalid="ignore", divide="ignore"):
         b = sxy / sxx  # the common slope of the two stick lines
-        if b * np.sqrt(sxx) < RISE_T * sigma:  # no rise before (a step, or a fall): not stick-slip
-            continue
-        drop = float((y_pre.mean() - b * m_pre) - (y_post.mean() - b * m_post))  # the parallel lines' offset
-        beside = np.concatenate([fn[t_pre], fn[t_post]])
-        out.append(_Event(offset + at, drop, float(np.mean(beside)), int(label[at])))
-    return out
+        rose = (c_pre >= SMOOTH) & (c_post >= SMOOTH) & (sxx > 0) & (b * np.sqrt(sxx) >= RISE_T * sigma)
+        drop = (y_pre - y_post) + b * (m_post - m_pre)  # the parallel lines' offset (a step, a fall: no event)
+    beside = (fn_pre + fn_post) / np.maximum(c_pre + c_post, 1)
+    return np.where(rose, drop, np.nan), np.where(rose, beside, np.nan)
 
 
 def _segments(res: Any, n: int, fraction: Optional[float]) -> Tuple[_Segments, str]:
@@ -535,36 +591,38 @@ def _block_noise(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], drop_sam
 
 def _search(seg: _Segments, spans: Sequence[_Span], fetch: Callable[[_Span], Dict[str, np.ndarray]],
             orientation: float, *, sigma: float, slope: float, k: float, drop_samples: int
-            ) -> Tuple[List[_Event], float, int]:  # fmt: skip
+            ) -> Tuple[_Events, float, int]:  # fmt: skip
     """(events, sum of the friction force, samples in contact) of every block, in one reading of each."""
-    events: List[_Event] = []
-    signsum, used = 0.0, 0
-    for span in spans:
-        (a, b), (ra, rb) = span.own, span.read
-        d = fetch(span)
-        r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=orientation)
-        inside = label[a - ra : b - ra] >= 0
-        signsum += orientation * float(np.sum(y[a - ra : b - ra][inside]))
-        used += int(inside.sum())
-        found = _detect(r, fn, label, ra, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
-        events += [e for e in found if a <= e.index < b]
-    return events, signsum, used
+    found = [_search_block(seg, span, fetch(span), orientation, sigma=sigma, slope=slope, k=k,
+                           drop_samples=drop_samples) for span in spans]  # fmt: skip
+    return _Events.concat([f[0] for f in found]), sum(f[1] for f in found), sum(f[2] for f in found)
 
 
-def _summarise(events: List[_Event], *, sigma: float, k: float, duration: float, fs: float, scope: str) -> StickSlip:
+def _search_block(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], orientation: float, *, sigma: float,
+                  slope: float, k: float, drop_samples: int) -> Tuple[_Events, float, int]:  # fmt: skip
+    """(events, sum of the friction force, samples in contact) of one block's own samples."""
+    (a, b), (ra, rb) = span.own, span.read
+    r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=orientation)
+    inside = label[a - ra : b - ra] >= 0
+    signsum = orientation * float(np.sum(y[a - ra : b - ra][inside]))
+    found = _detect(r, fn, label, ra, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
+    return found.where((found.index >= a) & (found.index < b)), signsum, int(inside.sum())
+
+
+def _summarise(events: _Events, *, sigma: float, k: float, duration: float, fs: float, scope: str) -> StickSlip:
     """The recording's numbers and verdict from its events (docs/method.md 6g)."""
-    events = sorted(events, key=lambda e: e.index)
-    times = np.array([(e.index - 0.5) / fs for e in events])
-    drops = np.array([e.drop for e in events])
-    cofs = np.array([e.drop / e.fn for e in events if e.fn > 0])
-    intervals = [
-        (b.index - a.index) / fs for a, b in zip(events[:-1], events[1:]) if a.label == b.label and b.index > a.index
-    ]
+    events = events.where(np.argsort(events.index, kind="stable"))
+    times = (events.index - 0.5) / fs
+    drops = events.drop
+    cofs = (events.drop / events.fn)[events.fn > 0]
+    idx, lab = events.index, events.label
+    pair = (lab[1:] == lab[:-1]) & (idx[1:] > idx[:-1])  # consecutive events of one segment
+    intervals = (idx[1:] - idx[:-1])[pair] / fs
     nan = float("nan")
     amp = float(np.median(drops)) if drops.size else nan
     amp_cof = float(np.median(cofs)) if cofs.size else nan
     freq = nan
-    if intervals:  # the mean of the intervals near their median: robust to a missed event, finer than samples
+    if intervals.size:  # the mean of the intervals near their median: robust to a missed event, finer than samples
         iv = np.asarray(intervals)
         med = float(np.median(iv))
         freq = 1.0 / float(np.mean(iv[np.abs(iv - med) <= 0.25 * med]))
