@@ -92,7 +92,7 @@ def test_every_option_has_its_check_or_a_joint_one() -> None:
     assert {o.check for o in OPTIONS if o.check} == set(CHECKS)  # no rule without an option
 
 
-#: A value each option with a rule of its own refuses (all but progress: any value is a truth value).
+#: A value each option with a rule of its own refuses (all but progress and stick_slip: any value is a truth value).
 BAD = {
     "fs": 0.0, "highpass": -1.0, "orientation": 0, "temperature": "x", "current": float("inf"),
     "voltage": float("nan"), "shunt_ohm": -1.0, "area_mm2": 0.0, "covariates": [1], "chunk": -1.0,
@@ -112,7 +112,7 @@ def test_make_plan_applies_each_declared_check(name: str) -> None:
         td.make_plan(fs=fs, **options)
     with pytest.raises(how.type, match=re.escape(str(how.value))):
         checked(option(name), BAD[name])  # the same error: make_plan applies the declared rule
-    assert {o.name for o in OPTIONS if o.check} - set(BAD) == {"progress"}
+    assert {o.name for o in OPTIONS if o.check} - set(BAD) == {"progress", "stick_slip"}
 
 
 def test_plan_is_frozen_and_holds_every_plan_option() -> None:

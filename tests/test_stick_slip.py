@@ -3,6 +3,7 @@ against the simulator's truth."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -234,13 +235,14 @@ def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
     signs = []
-    search = stickslip._search
+    search = stickslip._search_block
 
-    def recorded(seg, spans, fetch, orientation, **kw):
-        signs.append(orientation)
-        return search(seg, spans, fetch, orientation, **kw)
+    def recorded(seg, span, d, orientation, **kw):
+        if not signs or signs[-1] != orientation:
+            signs.append(orientation)
+        return search(seg, span, d, orientation, **kw)
 
-    monkeypatch.setattr(stickslip, "_search", recorded)
+    monkeypatch.setattr(stickslip, "_search_block", recorded)
     part = td.stick_slip(ch, res)
     assert signs == [1.0, -1.0]  # the sample's sign, then the recording's
     at = np.round(part.times * 1000.0 + 0.5).astype(int)  # the sample after each drop
@@ -248,3 +250,112 @@ def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 20)  # both passes over every block: the recording's sign
     signs.clear()
     assert td.stick_slip(ch, res).events > 8000 and signs == [-1.0]
+
+
+# -- stick-slip in the analysis' own reading (analyze(stick_slip=True), docs/method.md 6g) -------------------------
+
+
+def _same(a, b):
+    assert (a.events, a.verdict, a.scope) == (b.events, b.verdict, b.scope)
+    np.testing.assert_array_equal(a.times, b.times)
+    np.testing.assert_array_equal(a.drops, b.drops)
+    for f in ("amplitude", "amplitude_cof", "frequency", "rate", "noise", "threshold", "duration"):
+        np.testing.assert_equal(getattr(a, f), getattr(b, f), err_msg=f)
+
+
+def _read_again(ch, res):
+    """What stick_slip finds reading the source again after the analysis."""
+    return td.stick_slip(ch, dataclasses.replace(res, stick_slip=None))
+
+
+def _never_read_again(monkeypatch):
+    import sys
+
+    an = sys.modules["tribodyn.analyze"]  # (the package's name `analyze` is the function)
+
+    def refused(*a, **k):
+        raise AssertionError("the analysis read the recording again for stick-slip")
+
+    monkeypatch.setattr(an, "stick_slip", refused)
+
+
+@pytest.mark.parametrize(("block", "chunk", "threads"), [(1 << 16, None, 1), (1 << 16, 7.3, 2), (1 << 20, 41.0, 2)])
+def test_the_analysis_finds_what_reading_again_finds(monkeypatch, block, chunk, threads):
+    # blocks of 2^16 with a sample of 2^15: pass 1 from the sample, pass 2 from the main pass's chunks;
+    # one block of 2^20: both passes over the block kept (a short search)
+    monkeypatch.setattr(stickslip, "BLOCK", block)
+    monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
+    ch, _ = _unidirectional_saw(11, n=400_000)
+    with monkeypatch.context() as m:
+        _never_read_again(m)
+        res = td.analyze(ch, fs=1000.0, motion="unidirectional", stick_slip=True, chunk=chunk, threads=threads)
+    assert res.params["stick_slip"] is True and res.stick_slip.events > 10_000
+    _same(res.stick_slip, _read_again(ch, res))
+    assert td.stick_slip(ch, res) is res.stick_slip  # the defaults: nothing read
+    assert td.stick_slip(ch, res, k=4.0).events >= res.stick_slip.events  # other settings: searched again
+
+
+def test_a_recording_is_read_once_for_the_analysis_and_stick_slip(tmp_path, monkeypatch):
+    monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
+    monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
+    ch, _ = _unidirectional_saw(12, n=300_000)
+    p = tmp_path / "rec.npy"
+    np.save(p, np.vstack([ch["fy"], ch["fz"]]))
+
+    def samples_read(**options):
+        with td.open_recording(p, fs=1000.0, channels={"fy": "ch0", "fz": "ch1"}) as rec:
+            read = []
+            real = rec.chunks
+
+            def counted(size, roles=None, **kw):
+                for c in real(size, roles, **kw):
+                    read.append(len(c["fz"]))
+                    yield c
+
+            rec.chunks = counted
+            res = td.analyze(rec, motion="unidirectional", **options)
+            total = sum(read)
+            if res.stick_slip is not None:
+                _same(res.stick_slip, _read_again(rec, res))
+        return total, res
+
+    alone, _ = samples_read()
+    with monkeypatch.context() as m:
+        _never_read_again(m)
+        both, res = samples_read(stick_slip=True)
+    assert res.params["route"] == "stream" and res.stick_slip.events > 7000
+    # stick-slip adds its sample alone: 8 pieces of 2^12 samples, each with its margins rounded out to seconds
+    piece = 4096 + 2 * (2 * (stickslip.SMOOTH + stickslip.DROP_SAMPLES) + stickslip.FIT_MAX + 2) + 4 * 1000
+    assert 0 < both - alone <= 8 * piece
+
+
+def test_a_sample_of_the_other_sign_and_a_range_read_again(tmp_path, monkeypatch):
+    n, m = 400_000, 4096
+    ch, _ = _unidirectional_saw(10, n=n)
+    k = np.arange(n)
+    centres = (2 * np.arange(8) + 1) * n // 16
+    near = (np.abs(k[:, None] - centres[None, :]) < m // 2 + 4000).any(axis=1)
+    ch = {"fy": np.where(near, -1.0, 1.0) * ch["fy"], "fz": ch["fz"]}
+    monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
+    monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
+    res = td.analyze(ch, fs=1000.0, motion="unidirectional", stick_slip=True)
+    _same(res.stick_slip, _read_again(ch, res))  # (the blocks searched again with the recording's sign)
+    # a range whose blocks' margins reach outside it: read again after the analysis, the same result
+    saw, _ = _unidirectional_saw(10, n=n)
+    p = tmp_path / "rec.npy"
+    np.save(p, np.vstack([saw["fy"], saw["fz"]]))
+    with td.open_recording(p, fs=1000.0, channels={"fy": "ch0", "fz": "ch1"}) as rec:
+        part = td.analyze(rec, motion="unidirectional", stick_slip=True, start=50_000, stop=350_000)
+        assert part.stick_slip.events > 5000
+        _same(part.stick_slip, _read_again(rec, part))
+
+
+def test_stick_slip_is_not_searched_unless_asked_or_without_a_static_level():
+    ch, _ = _unidirectional_saw(13, n=30_000)
+    assert td.analyze(ch, fs=1000.0).stick_slip is None
+    sim = simulate.reciprocating(seed=3, cycles=4, stick_slip=0.2, stick_slip_period=0.0271)
+    res = td.analyze(sim.channels, fs=sim.fs, stick_slip=True)  # strokes: searched after the analysis
+    _same(res.stick_slip, _read_again(sim.channels, res))
+    dyn = simulate.conditions(10, seed=1)  # the charge amplifier's high-pass: no static level
+    got = td.analyze(dyn.channels, fs=dyn.fs, stick_slip=True).stick_slip
+    assert got.verdict.startswith("stick-slip not assessed: fz carries no")

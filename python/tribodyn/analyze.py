@@ -32,7 +32,8 @@ from .headline import ClassicalTotals, classical_totals
 from .io.base import RecordingProtocol
 from .plan import Findings, Plan, make_plan
 from .results import Results
-from .routes import concat_stats, run
+from .routes import Tap, choose_route, concat_stats, run
+from .stickslip import ReadingPass, stick_slip
 from .instrument import find_lag
 from .options import defaults
 from .strokes import stroke_windows
@@ -82,6 +83,7 @@ def analyze(
     min_fn: Optional[float] = None,
     tare: Any = None,
     stroke_fraction: float = 0.5,
+    stick_slip: bool = False,
     channels: Optional[Mapping[str, str]] = None,
 ) -> Results:
     """COF of every window of a long recording (docs/method.md 6).
@@ -135,6 +137,12 @@ def analyze(
         and fz are subtracted), or explicit offsets ``{"fy": N, "fz": N}``.
     stroke_fraction : float
         Central part of each stroke used for its COF (default 0.5).
+    stick_slip : bool
+        Also find the stick-slip events (docs/method.md 6g) in the same
+        reading of the source: ``Results.stick_slip`` holds what
+        :func:`tribodyn.stick_slip` would find reading it again, bit for
+        bit. Default False (``Results.stick_slip`` None); the command line
+        sets it.
     channels : mapping, optional
         For a DataFrame source: role -> column; for a path: role -> channel,
         as ``open_recording``'s ``channels=``.
@@ -422,13 +430,31 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
         warnings = k.warnings + tuple(rec.warnings if rec is not None else ()) + own
         return Partial(k.st, k.aux_role, plan, k.route, tuple(dict.fromkeys(warnings)), tribo=tribo,
                        strokes=strokes, classical=classical_pass(k.classical), found=found)  # fmt: skip
-    res, sums = _analyze_aligned(run_source, run_rec, plan, found, span)
+    slip = _reading_pass(source, rec, plan, found, params={**tribo, "fs": plan.fs, "start": plan.start,
+                         "stop": plan.stop}, strokes=strokes)  # fmt: skip
+    res, sums = _analyze_aligned(run_source, run_rec, plan, found, span, taps=() if slip is None else (slip,))
     if run_rec is not rec and rec is not None:
         res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
     res.params.update(tribo)
     if own:
         res = dataclasses.replace(res, warnings=res.warnings + own)
-    return settle(dataclasses.replace(res, strokes=strokes), lambda: classical_pass(sums))
+    res = settle(dataclasses.replace(res, strokes=strokes), lambda: classical_pass(sums))
+    if not plan.stick_slip:
+        return res
+    got = slip.result() if slip is not None else None  # else read again (docs/method.md 6g)
+    return dataclasses.replace(res, stick_slip=got if got is not None else stick_slip(source, res))
+
+
+def _reading_pass(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
+                  params: Dict[str, Any], strokes: Optional[Dict[str, np.ndarray]]
+                  ) -> Optional[ReadingPass]:  # fmt: skip
+    """Stick-slip found in the main pass's chunks (docs/method.md 6g) when the plan asks for it and the route
+    reads a unidirectional recording with its static level in order; None otherwise."""
+    if not (plan.stick_slip and params.get("static_fz") and found.classical is not None and strokes is None):
+        return None
+    if not (rec is not None or isinstance(source, Mapping)) or choose_route(source, rec, plan, found) != "stream":
+        return None
+    return ReadingPass.of(params, source, start=plan.start, stop=plan.stop)
 
 
 def _sample_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partial: bool) -> Tuple[int, int]:
@@ -487,16 +513,18 @@ def _tribometer_params(rec: Optional[RecordingProtocol], pre: Dict[str, Any], wi
 
 
 def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
-                     span: Optional[Tuple[int, int]] = None) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
+                     span: Optional[Tuple[int, int]] = None, *, taps: Sequence[Tap] = ()
+                     ) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
     """The analysis, with align="auto"'s second pass when the plan asks for it (docs/method.md 3e), and the
-    classical COF's sums over ``span`` when the main pass took them (:func:`tribodyn.routes.run`)."""
+    classical COF's sums over ``span`` when the main pass took them (:func:`tribodyn.routes.run`); ``taps``
+    take the first pass's raw chunks."""
     if plan.align == "auto":
         if not (rec is not None or isinstance(source, (Mapping, list, tuple))):
             raise ValueError(
                 "align='auto' reads the source twice (to measure the delay, then to correct it): pass a mapping of "
                 "arrays, a list of acquisitions or a recording, not a one-pass stream of chunks"
             )
-        first, sums = _analyze_plan(source, rec, plan, found, span)
+        first, sums = _analyze_plan(source, rec, plan, found, span, taps=taps)
         delay = float(first.params.get("skew_median", float("nan")))
         if not (np.isfinite(delay) and abs(delay) > ALIGN_MIN):
             first.params.update(align="auto", delay_samples=0.0 if not np.isfinite(delay) else delay, aligned=False)
@@ -504,11 +532,12 @@ def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, 
         res, _ = _analyze_plan(source, rec, plan, dataclasses.replace(found, delay=delay))
         res.params.update(delay_samples=delay, aligned=True)
         return res, sums  # the sums are of the raw samples: the delay does not change them
-    return _analyze_plan(source, rec, plan, found, span)
+    return _analyze_plan(source, rec, plan, found, span, taps=taps)
 
 
 def _analyze_plan(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
-                  span: Optional[Tuple[int, int]] = None) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
+                  span: Optional[Tuple[int, int]] = None, *, taps: Sequence[Tap] = ()
+                  ) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
     """The windows of ``source`` on their route, finished, and the classical COF's sums of ``span`` (or None)."""
-    k = run(source, rec, plan, found, span)
+    k = run(source, rec, plan, found, span, taps=taps)
     return finish(k.st, k.aux_role, plan, found, route=k.route, warnings=k.warnings), k.classical

@@ -314,6 +314,9 @@ def analyze_many(
             plan = dataclasses.replace(plan, chunk=max(1, int(round(chunk * plan.fs))))
     if options.get("align") is not None:
         raise ValueError("analyze_many does not align (align='auto' reads a recording twice): use analyze per file")
+    if options.get("stick_slip") or (plan is not None and plan.stick_slip):
+        raise ValueError("analyze_many analyses ranges apart, not stick-slip (stick_slip=True): call "
+                         "tribodyn.stick_slip(path, res) for each recording, or analyze per file")  # fmt: skip
     if split is not None and not split > 0:
         raise ValueError(f"split must be > 0 seconds, got {split!r}")
     run = _runner(client, progress)

@@ -782,7 +782,9 @@ def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Di
         from .io import open_recording
 
         rec = stack.enter_context(open_recording(files[0], **open_options))
-        return [(Path(files[0]), analyze(rec, progress=progress, **opts))], {}, {Path(files[0]): rec}
+        # stick-slip in the analysis' own reading (docs/method.md 6g): the recording is not read again for it
+        res = analyze(rec, progress=progress, stick_slip=True, **opts)
+        return [(Path(files[0]), res)], {}, {Path(files[0]): rec}
     many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
     failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
     return [(Path(p), r) for p, r in many.results.items()], failures, {}
@@ -831,7 +833,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
     except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
         examples, loops = [], []
         res = _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
-    try:  # docs/method.md 6g: fy and fz read again, once; only a test with a static fz is searched
+    try:  # docs/method.md 6g: found in the analysis' reading (one file), else fy and fz read again, once
         if isinstance(rec, Exception):
             raise rec
         slip: Optional[Dict[str, Any]] = stick_slip(rec, res).to_dict()

@@ -180,6 +180,8 @@ OPTIONS: Tuple[Option, ...] = (
     _opt(name="stroke_fraction", default=0.5, kind="plan", unit="", section="6c",
          doc="reciprocating: central part of each stroke", flag="--stroke-fraction", cli_type="float",
          check="fraction"),
+    _opt(name="stick_slip", default=False, kind="plan", unit="", section="6g",
+         doc="also find stick-slip events, in the same reading (Results.stick_slip)", check="truth value"),
     _opt(name="channels", default=None, kind="source", unit="", section="6f",
          doc="role -> column of a DataFrame, or channel of a file", flag="--map", cli_type="map",
          config_type='a table of role = "channel" (or a string "fy=Ft,fz=Fn")', config="map"),

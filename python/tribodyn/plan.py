@@ -161,6 +161,8 @@ class Plan:
         Central part of each stroke of a reciprocating test.
     window_note : str
         What was chosen from the rate for window and hop ('' when nothing).
+    stick_slip : bool
+        Also find the stick-slip events in the same reading (docs/method.md 6g).
     """
 
     fs: float
@@ -210,6 +212,8 @@ class Plan:
     stroke_fraction: float = 0.5
     #: What was chosen from the rate for window and hop (docs/method.md 6b), '' when nothing was.
     window_note: str = ""
+    #: Also find the stick-slip events, in the analysis' own reading (docs/method.md 6g).
+    stick_slip: bool = False
 
     @property
     def paper(self) -> bool:
@@ -283,6 +287,7 @@ class Plan:
             start=self.start,
             stop=self.stop,
             progress=self.progress,
+            stick_slip=self.stick_slip,
         )
 
 
@@ -362,6 +367,7 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         min_fn=c["min_fn"],
         tare=c["tare"],
         stroke_fraction=c["stroke_fraction"],
+        stick_slip=c["stick_slip"],
     )
 
 

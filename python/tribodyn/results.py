@@ -8,7 +8,7 @@ import warnings as _warnings
 from dataclasses import dataclass, field
 from functools import cached_property
 from statistics import NormalDist
-from typing import Any, Dict, List, Mapping, Optional, Tuple
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -16,6 +16,9 @@ from .columns import UNITS, WINDOW_COLUMNS
 from ._order import row_quantiles
 from .correlation import XcorrResult
 from .headline import ClassicalTotals, Headline
+
+if TYPE_CHECKING:
+    from .stickslip import StickSlip
 
 __all__ = ["BinTable", "CofResult", "Results", "WINDOW_COLUMNS"]
 
@@ -198,6 +201,9 @@ class Results:
     strokes: Optional[Dict[str, np.ndarray]] = None
     #: The classical COF's sums over the whole recording (docs/method.md 6a, 6e), or None.
     classical: Optional[ClassicalTotals] = None
+    #: The stick-slip events found in the analysis' own reading (``analyze(stick_slip=True)``,
+    #: docs/method.md 6g), or None when not asked for.
+    stick_slip: Optional["StickSlip"] = None
 
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""

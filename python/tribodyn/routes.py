@@ -42,7 +42,7 @@ import os
 from collections import deque
 from collections.abc import Iterable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Any, Deque, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Deque, Dict, List, Optional, Protocol, Sequence, Tuple
 
 import numpy as np
 
@@ -54,6 +54,14 @@ from .io.base import RecordingError, RecordingProtocol
 from .plan import Findings, Plan
 from .window_stats import compute, make_spec
 from .windowing import Windower
+
+
+class Tap(Protocol):
+    """What takes the raw chunks of the route "stream" as they are read, in order (``run(taps=...)``)."""
+
+    def push(self, first: int, piece: Mapping[str, np.ndarray]) -> None:
+        """Samples ``first``.. (the recording's index) of the chunk ``piece``, raw, before any filter."""
+
 
 __all__ = [
     "KernelRun",
@@ -147,7 +155,7 @@ class KernelSpec:
 
 
 def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
-        classical_range: Optional[Tuple[int, int]] = None) -> KernelRun:  # fmt: skip
+        classical_range: Optional[Tuple[int, int]] = None, *, taps: Sequence[Tap] = ()) -> KernelRun:  # fmt: skip
     """The kernel's statistics of every window of ``source`` on the route :func:`choose_route` picks.
 
     ``found`` (the pre-pass's classical-COF threshold and tare, the fz
@@ -155,6 +163,9 @@ def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findin
     ``classical_range`` and a recording whose pre-pass found the classical
     COF's contact threshold, the chunks read also give the classical COF's
     block sums over that range (``KernelRun.classical``): the file is read once.
+    On the route "stream" every raw chunk also goes to each of ``taps``
+    (e.g. :class:`tribodyn.stickslip.ReadingPass`), in order; elsewhere
+    they get nothing (and say so: their result is None).
     """
     route = choose_route(source, rec, plan, found)
     total = _total(source, rec, plan)
@@ -177,7 +188,7 @@ def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findin
     elif rec is not None and route == "spans":
         st, aux_role = _run_spans(rec, ks)
     else:
-        st, aux_role = _run_stream(_chunk_source(source, rec, plan), ks, total, sums)
+        st, aux_role = _run_stream(_chunk_source(source, rec, plan), ks, total, (sums, *taps) if sums else taps)
     if rec is not None:
         rec.check_unchanged()  # a file changed while it was read: an error, not a table of mixed data
     totals = sums.totals() if sums is not None else None
@@ -363,7 +374,7 @@ def _run_segments(rec: RecordingProtocol, ks: KernelSpec, ranges: Sequence[Tuple
         if b - a < plan.length:
             continue
         batch, aux = _run_chunks(rec.chunks(size, start=a, stop=b, copy=_copies(rec)), 0, ks, None,
-                                 threads=plan.threads, sums=sums, base=a)  # fmt: skip
+                                 threads=plan.threads, taps=(sums,) if sums else (), base=a)  # fmt: skip
         aux_role = aux_role or aux
         for st in batch:
             st["start"] = np.asarray(st["start"], dtype=np.int64) + a
@@ -527,12 +538,12 @@ def _total(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> Optiona
     return None
 
 
-def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int], sums: Optional[BlockSums] = None
+def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int], taps: Sequence[Tap] = ()
                 ) -> Tuple[Stats, Optional[str]]:  # fmt: skip
     plan = ks.plan
     bar = _progress(plan.progress, total)
     try:
-        parts, aux_role = _run_chunks(chunks, plan.start, ks, bar, threads=plan.threads, sums=sums)
+        parts, aux_role = _run_chunks(chunks, plan.start, ks, bar, threads=plan.threads, taps=taps)
     finally:
         if bar is not None:
             bar.close()
@@ -540,7 +551,7 @@ def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int], sum
 
 
 def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *, threads: int, depth: int = 2,
-                sums: Optional[BlockSums] = None, base: int = 0) -> Tuple[List[Stats], Optional[str]]:  # fmt: skip
+                taps: Sequence[Tap] = (), base: int = 0) -> Tuple[List[Stats], Optional[str]]:  # fmt: skip
     """Checks, filters and windows a stream of chunks; the batches of window statistics, in order.
 
     The calling thread alone reads the chunks (so a reader that is not
@@ -549,10 +560,11 @@ def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *,
     GIL and uses ``threads`` kernel threads), chunk after chunk in order,
     at most ``depth`` chunks behind the reading: the filter state and the
     windower's tail are only ever touched by that worker. With one thread
-    everything runs on the calling thread. ``sums`` takes the raw chunks
-    for the classical COF (``base``: the recording's index of ``origin``).
+    everything runs on the calling thread. ``taps`` take the raw chunks
+    (the classical COF's sums, stick-slip; ``base``: the recording's index
+    of ``origin``).
     """
-    stage = _Stage(origin, ks, threads, sums=sums, base=base)
+    stage = _Stage(origin, ks, threads, taps=taps, base=base)
     if threads < 2:
         for i, raw_chunk in enumerate(chunks):
             stage.push(_check_chunk(raw_chunk, f"chunk {i}"))
@@ -580,10 +592,10 @@ def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *,
 class _Stage:
     """Filter, windower and kernel for one stream of chunks (used by one thread at a time)."""
 
-    def __init__(self, origin: int, ks: KernelSpec, threads: int, *, sums: Optional[BlockSums] = None,
+    def __init__(self, origin: int, ks: KernelSpec, threads: int, *, taps: Sequence[Tap] = (),
                  base: int = 0) -> None:  # fmt: skip
         self.origin, self.ks, self.plan, self.threads = origin, ks, ks.plan, threads
-        self.sums, self.base = sums, base
+        self.taps, self.base = tuple(taps), base
         self.parts: List[Stats] = []
         self.aux_role: Optional[str] = None
         self.windower: Optional[Windower] = None
@@ -606,8 +618,8 @@ class _Stage:
             missing = sorted(set(self.force_roles) - set(ch))
             raise ValueError(f"a chunk from sample {self.seen} on lacks channel(s) present in the first: {missing}")
         first, self.seen = self.seen, self.seen + len(ch["fz"])
-        if self.sums is not None:  # the classical COF's sums from the raw samples (docs/method.md 6e)
-            self.sums.push(self.base + first, ch)
+        for tap in self.taps:  # the classical COF's sums, stick-slip: from the raw samples (docs/method.md 6e, 6g)
+            tap.push(self.base + first, ch)
         if self.hp is not None:
             # The filter refuses NaN/inf as it reads every sample.
             stacked = np.stack([ch[r] for r in self.force_roles])

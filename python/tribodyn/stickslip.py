@@ -13,10 +13,9 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
 import os
 from collections.abc import Iterator, Mapping, Sequence
-from typing import Any, Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
@@ -419,14 +418,16 @@ def _stick_lines(r: np.ndarray, fn: np.ndarray, at: np.ndarray, p0: np.ndarray, 
     return np.where(rose, drop, np.nan), np.where(rose, beside, np.nan)
 
 
-def _segments(res: Any, n: int, fraction: Optional[float]) -> Tuple[_Segments, str]:
-    """The segments searched: each stroke's central part, or the analysed range in contact."""
-    p = res.params
+def _segments(params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarray]], n: int,
+              fraction: Optional[float]) -> Tuple[_Segments, str]:  # fmt: skip
+    """The segments searched: each stroke's central part, or the analysed range in contact (``params``: an
+    analysis' ``Results.params``)."""
+    p = params
     fs = float(p["fs"])
     tare = p.get("tare_offsets") or {}
     min_fn = float(p.get("min_fn") or 0.0)
     tare_fy, tare_fz = float(tare.get("fy", 0.0)), float(tare.get("fz", 0.0))
-    st = res.strokes
+    st = strokes
     if st is not None and len(st.get("mu", [])):
         frac = float(p.get("stroke_fraction", 0.5) if fraction is None else fraction)
         if not (0 < frac <= 1):
@@ -448,6 +449,23 @@ def _segments(res: Any, n: int, fraction: Optional[float]) -> Tuple[_Segments, s
     return seg, "the samples in contact"
 
 
+def _check(k: float, drop_samples: int) -> None:
+    if not (np.isfinite(k) and k > 0):
+        raise ValueError(f"k must be > 0, got {k!r}")
+    if not (isinstance(drop_samples, (int, np.integer)) and 1 <= drop_samples <= 100):
+        raise ValueError(f"drop_samples must be an int in 1..100, got {drop_samples!r}")
+
+
+def _not_assessed(why: str, scope: str = "nothing", duration: float = 0.0) -> StickSlip:
+    nan = float("nan")
+    return StickSlip(0, nan, nan, nan, nan, np.zeros(0), np.zeros(0), nan, nan, duration, False, why, scope)
+
+
+#: Why a recording without the forces' static level is not searched.
+NO_STATIC = ("stick-slip not assessed: fz carries no static level (high-passed forces), so the friction force's "
+             "level and sign are unknown")  # fmt: skip
+
+
 def stick_slip(
     source: Any,
     res: Any = None,
@@ -466,7 +484,10 @@ def stick_slip(
     source : mapping, list of acquisitions, Recording or path
         The data given to :func:`tribodyn.analyze` (fy and fz are read again, in blocks).
     res : Results, optional
-        Its analysis (tare, ``min_fn``, strokes); None: ``tribodyn.analyze(source, fs=fs)`` first.
+        Its analysis (tare, ``min_fn``, strokes); None: ``tribodyn.analyze(source, fs=fs)`` first. An
+        analysis made with ``stick_slip=True`` holds the result already (``res.stick_slip``, found in the
+        analysis' own reading): with the default ``k``, ``drop_samples`` and ``fraction`` it is returned
+        as it is, nothing read.
     fs : float, optional
         Sampling rate, only when ``res`` is None and the source does not carry it.
     k : float
@@ -484,59 +505,187 @@ def stick_slip(
         ``present`` with at least 3 events; ``verdict`` is its one line. Forces without their static
         level (high-passed) are not assessed (``events`` 0, NaN amounts, the verdict says why).
     """
-    if not (np.isfinite(k) and k > 0):
-        raise ValueError(f"k must be > 0, got {k!r}")
-    if not (isinstance(drop_samples, (int, np.integer)) and 1 <= drop_samples <= 100):
-        raise ValueError(f"drop_samples must be an int in 1..100, got {drop_samples!r}")
+    _check(k, drop_samples)
     if res is None:
         from .analyze import analyze
 
         res = analyze(source, fs=fs)
-    fs_ = float(res.params["fs"])
-    nan = float("nan")
+    found = getattr(res, "stick_slip", None)
+    if isinstance(found, StickSlip) and k == K_SIGMA and drop_samples == DROP_SAMPLES and fraction is None:
+        return found
     if not res.params.get("static_fz"):
-        return StickSlip(0, nan, nan, nan, nan, np.zeros(0), np.zeros(0), nan, nan, 0.0, False,
-                         "stick-slip not assessed: fz carries no static level (high-passed forces), so the "
-                         "friction force's level and sign are unknown", "nothing")  # fmt: skip
+        return _not_assessed(NO_STATIC)
     read, n, close = _reader(source, open_options)
     try:
-        seg, scope = _segments(res, n, fraction)
+        search = _Search.of(res.params, res.strokes, n, fraction, k=k, drop_samples=drop_samples)
+        return search.run(read)
+    finally:
+        close()
+
+
+@dataclasses.dataclass(frozen=True)
+class _Search:
+    """One recording's search (docs/method.md 6g): where, in which blocks, and the sample of pass 1."""
+
+    seg: _Segments
+    scope: str
+    spans: List["_Span"]
+    first: List["_Span"]  # pass 1's blocks: every block of a short search, else the sample's pieces
+    fs: float
+    k: float
+    drop_samples: int
+
+    @staticmethod
+    def of(params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarray]], n: int,
+           fraction: Optional[float], *, k: float, drop_samples: int) -> "_Search":  # fmt: skip
+        seg, scope = _segments(params, strokes, n, fraction)
         spans = _spans(seg, n, drop_samples)
+        lo, hi = _extent(seg, n)
+        piece = max(SAMPLE // SAMPLE_PIECES, 4 * seg.per_second)  # (at least 4 s of the COF grid)
+        whole = len(spans) == 1 or hi - lo <= SAMPLE_PIECES * piece
+        first = spans if whole else _sample_spans(seg, lo, hi, m=piece, n=n, drop_samples=drop_samples)
+        return _Search(seg, scope, spans, first, float(params["fs"]), float(k), int(drop_samples))
+
+    @property
+    def whole(self) -> bool:
+        """Pass 1 reads every block (a short search)."""
+        return self.first is self.spans
+
+    def noise(self, fetch: Callable[["_Span"], Dict[str, np.ndarray]], *, every_block: bool = True
+              ) -> Union[Tuple[float, float, float], StickSlip, None]:  # fmt: skip
+        """Pass 1: (noise SD, rise per sample, the recording's sign), or why it is not assessed. A sample that
+        met no contact is estimated again from every block (None instead when ``every_block`` is False)."""
+        D = self.drop_samples
+        est = [_block_noise(self.seg, s, fetch(s), D) for s in self.first]
+        if not self.whole and all(e is None for e, _, _ in est):  # the sample met no contact: every block
+            if not every_block:
+                return None
+            est = [_block_noise(self.seg, s, fetch(s), D) for s in self.spans]
+        sigmas = [e[0] for e, _, _ in est if e is not None]
+        slopes = [e[1] for e, _, _ in est if e is not None]
+        if not sigmas:
+            duration = sum(u for _, _, u in est) / self.fs  # pass 1 read every block here
+            return _not_assessed(f"stick-slip not assessed: fewer than 10 samples in contact in {self.scope}",
+                                 self.scope, duration)  # fmt: skip
+        orientation = 1.0 if sum(y for _, y, _ in est) >= 0 else -1.0
+        return float(np.median(sigmas)), float(np.median(slopes)), orientation
+
+    def block(self, span: "_Span", d: Dict[str, np.ndarray], orientation: float, sigma: float, slope: float
+              ) -> Tuple[_Events, float, int]:  # fmt: skip
+        """Pass 2 over one block: (events, sum of the friction force, samples in contact)."""
+        return _search_block(self.seg, span, d, orientation, sigma=sigma, slope=slope, k=self.k,
+                             drop_samples=self.drop_samples)  # fmt: skip
+
+    def summary(self, found: List[Tuple[_Events, float, int]], orientation: float, sigma: float, slope: float,
+                fetch: Callable[["_Span"], Dict[str, np.ndarray]]) -> StickSlip:  # fmt: skip
+        """The recording's result from pass 2's blocks; a sample whose sign is not the recording's (friction
+        changing sign) is searched again with the recording's."""
+        events = _Events.concat([f[0] for f in found])
+        signsum, used = sum(f[1] for f in found), sum(f[2] for f in found)
+        if (1.0 if signsum >= 0 else -1.0) != orientation:
+            events = _Events.concat([self.block(s, fetch(s), -orientation, sigma, slope)[0] for s in self.spans])
+        return _summarise(events, sigma=sigma, k=self.k, duration=used / self.fs, fs=self.fs, scope=self.scope)
+
+    def run(self, read: Callable[[int, int], Dict[str, np.ndarray]]) -> StickSlip:
+        """Both passes, reading with ``read(a, b)``: a search of one block reads it once for both."""
         kept: Dict[Tuple[int, int], Dict[str, np.ndarray]] = {}
 
         def fetch(span: _Span) -> Dict[str, np.ndarray]:
-            if len(spans) == 1:  # one block: read once for both passes
+            if len(self.spans) == 1:  # one block: read once for both passes
                 if span.read not in kept:
                     kept[span.read] = read(*span.read)
                 return kept[span.read]
             return read(*span.read)
 
-        # pass 1: the noise and the rise rate, from the blocks of a short recording, else from an evenly spread
-        # sample (docs/method.md 6g); each with its own sign (the recording's unless friction changes sign)
-        lo, hi = _extent(seg, n)
-        piece = max(SAMPLE // SAMPLE_PIECES, 4 * seg.per_second)  # (at least 4 s of the COF grid)
-        whole = len(spans) == 1 or hi - lo <= SAMPLE_PIECES * piece
-        first = spans if whole else _sample_spans(seg, lo, hi, m=piece, n=n, drop_samples=drop_samples)
-        est = [_block_noise(seg, s, fetch(s), drop_samples) for s in first]
-        if first is not spans and all(e is None for e, _, _ in est):  # the sample met no contact: every block
-            est = [_block_noise(seg, s, fetch(s), drop_samples) for s in spans]
-        sigmas = [e[0] for e, _, _ in est if e is not None]
-        slopes = [e[1] for e, _, _ in est if e is not None]
-        if not sigmas:
-            duration = sum(u for _, _, u in est) / fs_  # pass 1 read every block here
-            why = f"stick-slip not assessed: fewer than 10 samples in contact in {scope}"
-            return StickSlip(0, nan, nan, nan, nan, np.zeros(0), np.zeros(0), nan, nan, duration, False, why, scope)
-        sigma, slope = float(np.median(sigmas)), float(np.median(slopes))
-        orientation = 1.0 if sum(y for _, y, _ in est) >= 0 else -1.0
-        # pass 2: the events, the time searched and the recording's sign; a sample whose sign is not the
-        # recording's (friction changing sign) is searched again with the recording's
-        search = functools.partial(_search, seg, spans, fetch, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
-        events, signsum, used = search(orientation)
-        if (1.0 if signsum >= 0 else -1.0) != orientation:
-            events = search(-orientation)[0]
-    finally:
-        close()
-    return _summarise(events, sigma=sigma, k=k, duration=used / fs_, fs=fs_, scope=scope)
+        got = self.noise(fetch)
+        if isinstance(got, StickSlip) or got is None:
+            return got or _not_assessed("stick-slip not assessed", self.scope)
+        sigma, slope, orientation = got
+        found = [self.block(s, fetch(s), orientation, sigma, slope) for s in self.spans]
+        return self.summary(found, orientation, sigma, slope, fetch)
+
+
+class ReadingPass:
+    """Stick-slip found in the analysis' own reading (``analyze(stick_slip=True)``, docs/method.md 6g).
+
+    Built before the main pass: the noise and rise of a long search come from
+    their sample then (read through ``read``), a short search keeps its
+    blocks. The main pass then hands over every chunk of raw fy, fz in order
+    (:meth:`push`, as :class:`tribodyn.headline.BlockSums`); each block is
+    searched when its last sample has arrived and dropped. :meth:`result` is
+    bitwise the result of :func:`stick_slip` reading the recording again;
+    None when the chunks did not cover the blocks in order (the caller then
+    reads again).
+    """
+
+    def __init__(self, search: _Search, read: Callable[[int, int], Dict[str, np.ndarray]]) -> None:
+        self.search, self.read = search, read
+        self._next = search.spans[0].read[0] if search.spans else 0  # the next sample expected
+        self._pieces: List[Tuple[int, Dict[str, np.ndarray]]] = []  # samples kept for blocks not yet searched
+        self._found: List[Tuple[_Events, float, int]] = []
+        self._broken = False
+        self._done = 0  # blocks searched
+        self._noise: Union[Tuple[float, float, float], StickSlip, None] = None
+        if not search.whole:
+            self._noise = search.noise(lambda s: read(*s.read), every_block=False)
+            self._broken = self._noise is None  # (no contact in the sample: pass 1 reads every block)
+
+    @staticmethod
+    def of(params: Mapping[str, Any], source: Any, *, start: int, stop: Optional[int]) -> Optional["ReadingPass"]:
+        """The pass of a unidirectional search of ``source`` (a mapping or a recording) with the defaults of
+        :func:`stick_slip`, for a main pass over samples ``start``..``stop``; None when its blocks reach outside
+        them (their margins: the recording is then read again)."""
+        read, n, _ = _reader(source, None)  # (a mapping or a recording: nothing to close)
+        search = _Search.of(params, None, n, None, k=K_SIGMA, drop_samples=DROP_SAMPLES)
+        end = n if stop is None else min(int(stop), n)
+        if not search.spans or search.spans[0].read[0] < start or search.spans[-1].read[1] > end:
+            return None
+        return ReadingPass(search, read)
+
+    def push(self, first: int, piece: Mapping[str, np.ndarray]) -> None:
+        """Samples ``first``.. of raw fy, fz, in order."""
+        if self._broken or self._done == len(self.search.spans):
+            return
+        a, b = max(first, self._next), min(first + len(piece["fz"]), self.search.spans[-1].read[1])
+        if b <= a:
+            return
+        if first > self._next:  # a gap: read again instead
+            self._broken = True
+            self._pieces = []
+            return
+        self._pieces.append((a, {r: np.asarray(piece[r][a - first : b - first]) for r in ("fy", "fz")}))
+        self._next = b
+        if isinstance(self._noise, tuple):
+            self._search_ready()
+
+    def _take(self, a: int, b: int) -> Dict[str, np.ndarray]:
+        """Samples a..b of the pieces kept."""
+        parts = [(s, d) for s, d in self._pieces if s < b and s + len(d["fz"]) > a]
+        return {r: np.concatenate([d[r][max(0, a - s) : b - s] for s, d in parts]) for r in ("fy", "fz")}
+
+    def _search_ready(self) -> None:
+        assert isinstance(self._noise, tuple)
+        sigma, slope, orientation = self._noise
+        spans = self.search.spans
+        while self._done < len(spans) and spans[self._done].read[1] <= self._next:
+            span = spans[self._done]
+            self._found.append(self.search.block(span, self._take(*span.read), orientation, sigma, slope))
+            self._done += 1
+            keep_from = spans[self._done].read[0] if self._done < len(spans) else self._next
+            self._pieces = [(s, d) for s, d in self._pieces if s + len(d["fz"]) > keep_from]
+
+    def result(self) -> Optional[StickSlip]:
+        """The stick-slip of the recording, or None when the chunks missed samples of its blocks."""
+        spans = self.search.spans
+        if self._broken or (spans and self._next < spans[-1].read[1]):
+            return None
+        if self.search.whole:  # a short search: both passes over the blocks kept
+            return self.search.run(self._take)
+        if isinstance(self._noise, StickSlip):
+            return self._noise
+        assert isinstance(self._noise, tuple)
+        sigma, slope, orientation = self._noise
+        return self.search.summary(self._found, orientation, sigma, slope, lambda s: self.read(*s.read))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -587,15 +736,6 @@ def _block_noise(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], drop_sam
     if ysum < 0:
         r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=-1.0)
     return _noise(r[own], label[own], drop_samples), ysum, int(inside.sum())
-
-
-def _search(seg: _Segments, spans: Sequence[_Span], fetch: Callable[[_Span], Dict[str, np.ndarray]],
-            orientation: float, *, sigma: float, slope: float, k: float, drop_samples: int
-            ) -> Tuple[_Events, float, int]:  # fmt: skip
-    """(events, sum of the friction force, samples in contact) of every block, in one reading of each."""
-    found = [_search_block(seg, span, fetch(span), orientation, sigma=sigma, slope=slope, k=k,
-                           drop_samples=drop_samples) for span in spans]  # fmt: skip
-    return _Events.concat([f[0] for f in found]), sum(f[1] for f in found), sum(f[2] for f in found)
 
 
 def _search_block(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], orientation: float, *, sigma: float,
