@@ -19,6 +19,8 @@ from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
+from ._order import row_quantiles
+
 __all__ = [
     "BREAKAWAY_SMOOTH",
     "StickSlip",
@@ -225,19 +227,34 @@ def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, o
     if np.isnan(mu[label >= 0]).any():
         # unidirectional: the median |Ft|/Fn of each second of the fixed grid, interpolated linearly between
         # their centres (a step between two seconds would be a drop of the signal)
-        p = seg.per_second
-        centres, values = [], []
-        for c in range((a // p) * p, b, p):
-            s0, s1 = max(c, a) - a, min(c + p, b) - a
-            m = inside[s0:s1]
-            if m.any():
-                centres.append(0.5 * (s0 + s1 - 1))
-                values.append(float(np.median(y[s0:s1][m] / fn[s0:s1][m])))
-        if values:
+        centres, values = _second_medians(a, b, y, fn, inside, seg.per_second)
+        if values.size:
             mu = np.where(label >= 0, np.interp(np.arange(n), centres, values), np.nan)
     r = np.where(inside, y - mu * fn, np.nan)
     label[~inside] = -1
     return r, fn, label, y
+
+
+def _second_medians(a: int, b: int, y: np.ndarray, fn: np.ndarray, inside: np.ndarray, p: int
+                    ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(centre, median F / Fn) of each second of the fixed grid (p samples from sample 0) that holds samples
+    of a..b inside; centres in samples from a (the second's part within a..b)."""
+    c0 = (a // p) * p
+    rows = -(-(b - c0) // p)
+    ratio = np.full(rows * p, np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio[a - c0 : b - c0] = np.where(inside, y / fn, np.nan)
+    med, _ = row_quantiles(ratio.reshape(rows, p), [])  # (np.median of each second's samples, bit for bit)
+    starts = np.maximum(c0 + p * np.arange(rows), a) - a
+    stops = np.minimum(c0 + p * np.arange(1, rows + 1), b) - a
+    has = _inside_any(inside, starts, stops)
+    return (0.5 * (starts + stops - 1))[has], med[has]
+
+
+def _inside_any(inside: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
+    """Whether each range starts[j]..stops[j] of ``inside`` holds a True."""
+    cum = np.concatenate([[0], np.cumsum(inside)])
+    return np.asarray(cum[stops] > cum[starts])
 
 
 # -- detection ----------------------------------------------------------------------------------------------
