@@ -168,3 +168,27 @@ def test_table_columns_never_share_memory():
     for a in range(len(cols)):
         for b in range(a + 1, len(cols)):
             assert not np.shares_memory(cols[a], cols[b])
+
+
+@pytest.mark.parametrize(
+    ("kw", "error", "match"),
+    [
+        (dict(current="x"), TypeError, "current must be a number or a log"),
+        (dict(voltage="3 V", shunt_ohm=1.0), TypeError, "voltage must be a number or a log"),
+        # the paper's preset checks (and records) the rig data and the statistics' options it does not use
+        (dict(method="paper", rpm=-5), ValueError, "rpm must be"),
+        (dict(method="paper", n_lamellas=2.5), TypeError, "n_lamellas must be an integer"),
+        (dict(method="paper", max_rel_ci=-1), ValueError, "max_rel_ci must be"),
+        (dict(method="paper", iv_lag=-3), ValueError, "iv_lag must be"),
+        (dict(method="paper", noise=(1,)), TypeError, "noise must be"),
+    ],
+)
+def test_every_option_is_checked_whatever_the_preset(kw, error, match):
+    with pytest.raises(error, match=match):
+        td.make_plan(fs=1000.0, **kw)
+
+
+def test_the_plan_holds_the_checked_rig_data():
+    for method in (None, "paper"):
+        plan = td.make_plan(fs=1000.0, method=method, rpm=1500, n_lamellas=24)
+        assert (plan.rpm, plan.n_lamellas) == (1500.0, 24) and isinstance(plan.rpm, float)

@@ -326,7 +326,10 @@ def constant_or_log(value: Any, name: str) -> Optional[TimeLog]:
     if value is None:
         return None
     if np.ndim(value) == 0:
-        v = float(value)
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise TypeError(f"{name} must be a number or a log (t_s, values), got {value!r}") from None
         if not np.isfinite(v):
             raise ValueError(f"{name} must be finite, got {value!r}")
         return np.array([-np.inf]), np.array([v])

@@ -353,8 +353,6 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         orientation=c["orientation"],
         highpass=c["highpass"],
         max_lag=c["max_lag"],
-        rpm=o["rpm"],
-        n_lamellas=o["n_lamellas"],
         covariates=cov,
         threads=c["threads"],
         chunk=None if chunk is None else max(1, int(round(chunk * fs_v))),
@@ -540,44 +538,53 @@ def check_statistics(
 
     if method not in (None, "paper"):
         raise ValueError(f"method must be None or 'paper', got {method!r}")
+    # every value checked whatever the preset (the paper's records the rig data it does not use)
+    rev = None if rpm is None else positive(rpm, "rpm")
+    nl = None if n_lamellas is None else check_int(n_lamellas, "n_lamellas", minimum=1)
+    rel = MAX_REL_CI if max_rel_ci is None else positive(max_rel_ci, "max_rel_ci")
+    lag_s = None if iv_lag is None else positive(iv_lag, "iv_lag")
+    sig = _noise(noise)
     if method == "paper":
         for name, value, allowed in (("estimator", estimator, (None, "ols")), ("align", align, (None,))):
             if value not in allowed:
                 raise ValueError(f"method='paper' uses estimator='ols' and align=None; got {name}={value!r}")
         if gate == "ci":
             raise ValueError("method='paper' uses the |C_yz| gate (a number such as 0.85), not gate='ci'")
-        return dict(method="paper", estimator="ols", gate=check_gate(0.85 if gate is None else gate))
+        return dict(method="paper", estimator="ols", gate=check_gate(0.85 if gate is None else gate), rpm=rev,
+                    n_lamellas=nl)  # fmt: skip
     est = "corrected" if estimator is None else estimator
     if est not in ESTIMATORS:
         raise ValueError(f"estimator must be one of {', '.join(map(repr, ESTIMATORS))}, got {estimator!r}")
     g: Union[float, str] = "ci" if gate is None or gate == "ci" else check_gate(gate)
-    rel = MAX_REL_CI if max_rel_ci is None else positive(max_rel_ci, "max_rel_ci")
     if align not in (None, "auto"):
         raise ValueError(f"align must be None or 'auto', got {align!r}")
-    rev = None if rpm is None else positive(rpm, "rpm")
-    if iv_lag is None:
+    if lag_s is None:
         # One revolution when the speed is known (the run-out repeats, the
         # noise does not); else chosen from the data (Findings.iv_lag), failing
         # which a tenth of the window, at least 10 samples.
         lag = int(round(60.0 * fs / rev)) if rev is not None else max(10, length // 10)
     else:
-        lag = max(1, int(round(positive(iv_lag, "iv_lag") * fs)))
-    sig: Optional[Tuple[float, float]] = None
-    if noise is not None:
-        try:
-            sy, sz = (float(v) for v in noise)
-        except (TypeError, ValueError):
-            raise TypeError(f"noise must be (sigma_y, sigma_z) in N, got {noise!r}") from None
-        if not (sy >= 0 and sz > 0 and np.isfinite(sy) and np.isfinite(sz)):
-            raise ValueError(f"noise must be (sigma_y >= 0, sigma_z > 0) in N, got {noise!r}")
-        sig = (sy, sz)
+        lag = max(1, int(round(lag_s * fs)))
     if est == "deming" and sig is None:
         raise ValueError("estimator='deming' needs noise=(sigma_y, sigma_z) in N (docs/method.md 3c)")
-    nl = None if n_lamellas is None else check_int(n_lamellas, "n_lamellas", minimum=1)
     lines, index = line_frequencies(fs, rev, nl)
     if align == "auto" and not lines:
         raise ValueError("align='auto' needs rpm= (and n_lamellas=): the delay is measured at the rig's lines")
     return dict(
         method="", estimator=est, gate=g, max_rel_ci=rel, align=align, iv_lag=lag, lines=lines,
-        line_index=tuple(index.items()), noise=sig, iv_lag_from_data=iv_lag is None and rev is None,
+        line_index=tuple(index.items()), noise=sig, iv_lag_from_data=iv_lag is None and rev is None, rpm=rev,
+        n_lamellas=nl,
     )  # fmt: skip
+
+
+def _noise(noise: Any) -> Optional[Tuple[float, float]]:
+    """``noise=(sigma_y, sigma_z)`` checked (docs/method.md 3c), or None."""
+    if noise is None:
+        return None
+    try:
+        sy, sz = (float(v) for v in noise)
+    except (TypeError, ValueError):
+        raise TypeError(f"noise must be (sigma_y, sigma_z) in N, got {noise!r}") from None
+    if not (sy >= 0 and sz > 0 and np.isfinite(sy) and np.isfinite(sz)):
+        raise ValueError(f"noise must be (sigma_y >= 0, sigma_z > 0) in N, got {noise!r}")
+    return sy, sz
