@@ -184,6 +184,13 @@ class Results:
         sampling, a last row dropped as cut off) and what the analysis
         noticed; each once, in order. They travel into ``summary()``,
         ``summary.json``, the report and the CLI's stderr.
+    strokes : dict or None
+        Per-stroke table of a reciprocating test (docs/method.md 6c).
+    classical : ClassicalTotals or None
+        The classical COF's sums over the recording (docs/method.md 6a, 6e).
+    stick_slip : StickSlip or None
+        The stick-slip events, found in the analysis' own reading when it
+        was asked for (``analyze(stick_slip=True)``, docs/method.md 6g).
     """
 
     table: Dict[str, np.ndarray]

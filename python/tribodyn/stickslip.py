@@ -227,7 +227,7 @@ def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, o
     if np.isnan(mu[label >= 0]).any():
         # unidirectional: the median |Ft|/Fn of each second of the fixed grid, interpolated linearly between
         # their centres (a step between two seconds would be a drop of the signal)
-        centres, values = _second_medians(a, b, y, fn, inside, seg.per_second)
+        centres, values = _second_medians(a, b, y, fn, inside, p=seg.per_second)
         if values.size:
             mu = np.where(label >= 0, np.interp(np.arange(n), centres, values), np.nan)
     r = np.where(inside, y - mu * fn, np.nan)
@@ -235,7 +235,7 @@ def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, o
     return r, fn, label, y
 
 
-def _second_medians(a: int, b: int, y: np.ndarray, fn: np.ndarray, inside: np.ndarray, p: int
+def _second_medians(a: int, b: int, y: np.ndarray, fn: np.ndarray, inside: np.ndarray, *, p: int
                     ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(centre, median F / Fn) of each second of the fixed grid (p samples from sample 0) that holds samples
     of a..b inside; centres in samples from a (the second's part within a..b)."""
