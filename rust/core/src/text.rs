@@ -131,6 +131,234 @@ fn lex_number(s: &[u8], mut i: usize, point: u8) -> (usize, Option<f64>) {
     (i, Some(if neg { -v } else { v }))
 }
 
+/// Bytes `buf[i..i + 8]` as a little-endian word (the first byte lowest), if there are 8.
+#[inline(always)]
+fn word_at(buf: &[u8], i: usize) -> Option<u64> {
+    let b: [u8; 8] = buf.get(i..i + 8)?.try_into().ok()?;
+    Some(u64::from_le_bytes(b))
+}
+
+const ONES: u64 = 0x0101_0101_0101_0101;
+
+/// 0x80 in each byte of `x` that is zero, 0 elsewhere (exact: no carry
+/// between bytes, since the addition sees 7-bit values only).
+#[inline(always)]
+fn zero_bytes(x: u64) -> u64 {
+    !(((x & (0x7f * ONES)) + 0x7f * ONES) | x | (0x7f * ONES))
+}
+
+/// The leading ASCII digits of a word (8 bytes, first byte lowest): how
+/// many (0 to 8) and the integer they write. Eight bytes at a time instead
+/// of a loop of dependent multiplications: the fields of a data file are
+/// runs of 1-8 digits, and this is the parse's inner loop.
+#[inline(always)]
+fn digits8(w: u64) -> (usize, u64) {
+    // a byte is a digit when its high nibble is 3 and adding 6 keeps it 3
+    // (a carry out of a non-digit byte only reaches later bytes, which do not count)
+    let hi = 0xf0 * ONES;
+    let nondigit = ((w & hi) ^ (0x30 * ONES)) | ((w.wrapping_add(0x06 * ONES) & hi) ^ (0x30 * ONES));
+    let n = (nondigit.trailing_zeros() / 8) as usize;
+    if n == 0 {
+        return (0, 0);
+    }
+    // the digits' values, moved to the word's top so the missing ones read as leading zeros
+    // (a borrow out of a non-digit byte only reaches later bytes, shifted out here)
+    let mut v = w.wrapping_sub(0x30 * ONES) << (8 * (8 - n));
+    v = v.wrapping_mul(10).wrapping_add(v >> 8); // pairs of digits in bytes 0, 2, 4, 6
+    let m = 0x0000_00ff_0000_00ffu64;
+    let a = (v & m).wrapping_mul(100 + (1_000_000 << 32));
+    let b = ((v >> 16) & m).wrapping_mul(1 + (10_000 << 32));
+    (n, (a.wrapping_add(b)) >> 32)
+}
+
+/// Exact powers of ten as integers, for [`quick_number`].
+const POW10U: [u64; 9] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000];
+
+/// The commonest numbers of a data file, read from `buf[i..]`: a sign, at
+/// most 7 digits, a decimal point (`.` or `point`) and at most 7 digits.
+/// Returns the value and where it stopped (the first byte after the digits,
+/// which the caller checks ends the field), or None for anything else
+/// (fewer than 8 bytes left, longer digit runs, no digit: the caller then
+/// takes the general way). The value is [`lex_number`]'s: m has at most 14
+/// digits, so m <= 2^53 and one IEEE division by an exact power of ten
+/// rounds it correctly, the float Python's `float` gives.
+#[inline(always)]
+fn quick_number(buf: &[u8], mut i: usize, point: u8) -> Option<(f64, usize)> {
+    let c = *buf.get(i)?;
+    let neg = c == b'-';
+    i += (neg || c == b'+') as usize;
+    let (n1, a) = digits8(word_at(buf, i)?);
+    if n1 == 8 {
+        return None;
+    }
+    i += n1;
+    let mut m = a;
+    let mut frac = 0usize;
+    // buf[i] exists: it is the word's byte n1 < 8
+    if buf[i] == b'.' || buf[i] == point {
+        let (n2, b) = digits8(word_at(buf, i + 1)?);
+        if n2 == 8 {
+            return None;
+        }
+        m = m * POW10U[n2] + b;
+        frac = n2;
+        i += 1 + n2;
+    }
+    if n1 + frac == 0 {
+        return None;
+    }
+    // POW10[0] = 1 divides exactly; the sign is set without a branch (signs of data are random, so a
+    // branch on them is mispredicted every other field)
+    let v = (m as i64) as f64 / POW10[frac]; // m < 2^53: exact either way, one instruction as i64
+    Some((f64::from_bits(v.to_bits() | ((neg as u64) << 63)), i))
+}
+
+/// Where the field from `buf[i..]` ends: the first separator `d` or `\n`
+/// (None when the buffer ends first), eight bytes at a time.
+#[inline(always)]
+fn field_end(buf: &[u8], mut i: usize, d: u8) -> Option<usize> {
+    while let Some(w) = word_at(buf, i) {
+        let hit = zero_bytes(w ^ (d as u64 * ONES)) | zero_bytes(w ^ (b'\n' as u64 * ONES));
+        if hit != 0 {
+            return Some(i + (hit.trailing_zeros() / 8) as usize);
+        }
+        i += 8;
+    }
+    buf[i..].iter().position(|&b| b == d || b == b'\n').map(|j| i + j)
+}
+
+/// The separator of a dialect whose plain rows [`quick_number`] may read,
+/// with the decimal point to accept: a one-byte separator that cannot be
+/// part of a number or of a line end.
+#[inline]
+fn quick_sep(d: &Dialect) -> Option<(u8, u8)> {
+    let s = d.delim?;
+    let numeric = s.is_ascii_alphanumeric() || matches!(s, b'.' | b'+' | b'-' | b'\n' | b'\r');
+    if numeric {
+        return None;
+    }
+    Some((s, if d.decimal == s { b'.' } else { d.decimal }))
+}
+
+/// After a field that ended at `buf[p]`: Some(true) and `p` on the next
+/// field for a separator, Some(false) and `p` on the line's `\n` at the
+/// line's end, None for anything else.
+#[inline(always)]
+fn after_field(buf: &[u8], p: &mut usize, sep: u8) -> Option<bool> {
+    match *buf.get(*p)? {
+        c if c == sep => {
+            *p += 1;
+            Some(true)
+        }
+        b'\n' => Some(false),
+        b'\r' if buf.get(*p + 1) == Some(&b'\n') => {
+            *p += 1;
+            Some(false)
+        }
+        _ => None,
+    }
+}
+
+/// Whether the line at `at` starts as a number does (so it is neither
+/// blank, nor led by whitespace, nor a comment).
+#[inline(always)]
+fn quick_start(buf: &[u8], at: usize, d: &Dialect, point: u8) -> bool {
+    let Some(&c) = buf.get(at) else { return false };
+    (c.is_ascii_digit() || matches!(c, b'-' | b'+' | b'.') || c == point)
+        && d.comment.as_ref().is_none_or(|k| k.first() != Some(&c))
+}
+
+/// The quickest way through a scanned row at `at` of a file with a plain
+/// separator (see [`quick_sep`]): every field up to its end, the time and
+/// probe fields as [`quick_number`]s, the fields counted. Some((next line's
+/// start, time)) for a row with exactly `nf` fields, None to take the line
+/// the slower ways (which decide).
+#[inline(always)]
+fn scan_row_quick(buf: &[u8], at: usize, spec: &ScanSpec, sep: u8, point: u8) -> Option<(usize, f64)> {
+    if !quick_start(buf, at, &spec.dialect, point) {
+        return None;
+    }
+    let last = spec.time.map_or(spec.probe, |t| t.max(spec.probe));
+    let mut p = at;
+    let mut t = f64::NAN;
+    for k in 0..=last {
+        if k == spec.probe || Some(k) == spec.time {
+            let (v, e) = quick_number(buf, p, point)?;
+            if Some(k) == spec.time {
+                t = v;
+            }
+            p = e;
+        } else {
+            p = field_end(buf, p, sep)?;
+        }
+        if !after_field(buf, &mut p, sep)? {
+            // the line ends: a row only when this was its last field
+            return (spec.nf.is_none_or(|nf| nf == k + 1) && k == last).then_some((p + 1, t));
+        }
+    }
+    // the other fields are only counted
+    let (nl, more) = count_to_line_end(buf, p, sep)?;
+    spec.nf.is_none_or(|nf| nf == last + 2 + more).then_some((nl + 1, t))
+}
+
+/// From `buf[i..]` to the line's end: where its `\n` is and how many
+/// separators `d` lie before it (None when the buffer ends first), eight
+/// bytes at a time.
+#[inline(always)]
+fn count_to_line_end(buf: &[u8], mut i: usize, d: u8) -> Option<(usize, usize)> {
+    let mut n = 0usize;
+    while let Some(w) = word_at(buf, i) {
+        let seps = zero_bytes(w ^ (d as u64 * ONES));
+        let nl = zero_bytes(w ^ (b'\n' as u64 * ONES));
+        if nl != 0 {
+            // each hit is a byte's top bit: those below the first newline's are before it
+            let before = (nl & nl.wrapping_neg()) - 1;
+            return Some((i + (nl.trailing_zeros() / 8) as usize, n + (seps & before).count_ones() as usize));
+        }
+        n += seps.count_ones() as usize;
+        i += 8;
+    }
+    let j = buf[i..].iter().position(|&b| b == b'\n')?;
+    Some((i + j, n + buf[i..i + j].iter().filter(|&&b| b == d).count()))
+}
+
+/// The quickest way through a parsed row at `at` (see [`scan_row_quick`]):
+/// Some(next line's start) when the first `vals.len()` fields were
+/// [`quick_number`]s (those `used`) and are in `vals`, None to take the line
+/// the slower ways.
+#[inline(always)]
+fn parse_row_quick(
+    buf: &[u8],
+    at: usize,
+    d: &Dialect,
+    sep: u8,
+    point: u8,
+    used: &[bool],
+    vals: &mut [f64],
+) -> Option<usize> {
+    if !quick_start(buf, at, d, point) {
+        return None;
+    }
+    let need = vals.len();
+    let mut p = at;
+    for (k, (v, &u)) in vals.iter_mut().zip(used).enumerate() {
+        if u {
+            let (x, e) = quick_number(buf, p, point)?;
+            *v = x;
+            p = e;
+        } else {
+            p = field_end(buf, p, sep)?;
+        }
+        let more = after_field(buf, &mut p, sep)?;
+        if !more {
+            // the line ends: the row is whole only after its last needed field
+            return if k + 1 == need { Some(p + 1) } else { None };
+        }
+    }
+    // fields beyond those needed are not looked at (as the general way)
+    Some(memchr::memchr(b'\n', &buf[p..]).map_or(buf.len(), |i| p + i + 1))
+}
+
 /// The common case of [`to_float`] (a stripped field): [`lex_number`] of the whole field.
 #[inline(always)]
 fn fast_float(s: &[u8], decimal: u8) -> Option<f64> {
@@ -498,7 +726,14 @@ fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
     let d = &spec.dialect;
     let mut t_prev = f64::NAN;
     let mut at = 0usize;
+    let quick = quick_sep(d);
     while at < buf.len() {
+        if let Some((nl, t)) = quick.and_then(|(sep, point)| scan_row_quick(buf, at, spec, sep, point)) {
+            out.row(t, &mut t_prev, at, spec, keep);
+            out.lines += 1;
+            at = nl;
+            continue;
+        }
         if let Some((nl, t)) = scan_line_fast(buf, at, spec) {
             out.row(t, &mut t_prev, at, spec, keep);
             out.lines += 1;
@@ -719,6 +954,7 @@ fn parse_piece(
     let pairs: Vec<(usize, usize)> = usecols.iter().enumerate().map(|(c, &u)| (u, c)).collect();
     let used: Vec<bool> = (0..need).map(|k| !feeds[k].is_empty()).collect();
     let mut vals = vec![0.0f64; need];
+    let quick = quick_sep(d);
     let mut buf: Vec<u8> = Vec::with_capacity(BLOCK);
     let mut off = p.offset;
     let mut line = p.line;
@@ -752,7 +988,11 @@ fn parse_piece(
                 continue;
             }
             if skip == 0 {
-                if let Some(nl) = parse_line_fast(view, at, d, &used, &mut vals) {
+                let row = match quick {
+                    Some((sep, point)) => parse_row_quick(view, at, d, sep, point, &used, &mut vals),
+                    None => None,
+                };
+                if let Some(nl) = row.or_else(|| parse_line_fast(view, at, d, &used, &mut vals)) {
                     for &(k, c) in &pairs {
                         outs[c][r] = vals[k];
                     }
@@ -909,6 +1149,55 @@ mod tests {
         }
         assert!(to_float(b"-NaN", b'.').unwrap().is_nan());
         assert_eq!(to_float(b"iNfInItY", b'.'), Some(f64::INFINITY));
+    }
+
+    #[test]
+    fn quick_numbers_are_the_general_parsers_bits() {
+        // every shape quick_number takes or refuses: signs, 0-9 digits on each side of the point,
+        // digits that fill a word; the value must be Rust's correctly rounded parse (Python's float)
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            let mut s = String::new();
+            s.push_str(["", "-", "+", ""][(r & 3) as usize]);
+            let (a, b) = ((r >> 2) % 10, (r >> 6) % 10);
+            for j in 0..a {
+                s.push((b'0' + ((r >> (10 + 3 * j)) % 10) as u8) as char);
+            }
+            let point = (r >> 50) & 7 != 0;
+            if point {
+                s.push('.');
+            }
+            for _ in 0..b {
+                s.push((b'0' + (next() % 10) as u8) as char);
+            }
+            let end = ["\n", ",", "\r\n", "e5,", "x", ",1,2,3,4,5,6,7"][((r >> 53) % 6) as usize];
+            let text = format!("{s}{end}");
+            let got = quick_number(text.as_bytes(), 0, b'.');
+            if let Some((v, e)) = got {
+                assert_eq!(e, s.len(), "{text:?}");
+                let want: f64 = s.parse().unwrap();
+                assert_eq!(v.to_bits(), want.to_bits(), "{text:?}");
+                assert_eq!(Some(v), fast_float(s.as_bytes(), b'.'), "{text:?}");
+            } else if end.len() > 8 && a + b > 0 && if point { a < 8 && b < 8 } else { a + b < 8 } {
+                panic!("{text:?} refused");
+            }
+        }
+        // the words: digits8 counts leading digits and reads them
+        assert_eq!(digits8(u64::from_le_bytes(*b"12345678")), (8, 12_345_678));
+        assert_eq!(digits8(u64::from_le_bytes(*b"0070,abc")), (4, 70));
+        assert_eq!(digits8(u64::from_le_bytes(*b"9\xff999999")), (1, 9));
+        assert_eq!(digits8(u64::from_le_bytes(*b"/:123456")), (0, 0));
+        assert_eq!(quick_number(b"1,5;xxxxxx", 0, b','), Some((1.5, 3)));
+        assert_eq!(quick_number(b"-0.0,xxxxxx", 0, b'.').map(|(v, _)| v.to_bits()), Some((-0.0f64).to_bits()));
+        assert_eq!(count_to_line_end(b"1,2,,3\r\nxxxxxxxxxxxxxxxx", 0, b','), Some((7, 3)));
+        assert_eq!(count_to_line_end(b"1,2,,3,", 0, b','), None);
     }
 
     #[test]
