@@ -30,6 +30,10 @@ use std::fs::File;
 /// the checkpoints a parse may start from).
 pub const PIECE: usize = 1 << 20;
 
+/// Bytes between the checkpoints the scan keeps inside a piece: a read of a
+/// few windows (the pre-pass's samples) starts at most this far before them.
+pub const STRIDE: usize = 1 << 16;
+
 /// How a file's fields are separated and which lines are skipped.
 #[derive(Clone, Debug)]
 pub struct Dialect {
@@ -673,6 +677,9 @@ pub struct Run {
     pub t_prev: f64,
     /// (row, byte offset, line) from which a parse can start: about one per [`PIECE`].
     pub checkpoints: Vec<(u64, u64, u64)>,
+    /// More such entries, about one per [`STRIDE`] bytes: the rows from one to the next
+    /// checkpoint after it are consecutive (only blank and comment lines between).
+    pub marks: Vec<(u64, u64, u64)>,
     /// (line, byte offset) of the last data row.
     pub last: Option<(u64, u64)>,
 }
@@ -687,6 +694,9 @@ struct PieceScan {
     first: Option<(u64, u64, usize, f64)>,
     last_t: f64,
     last: Option<(u64, usize)>,
+    /// (row, line, byte) of data rows about every [`STRIDE`] bytes after the piece's start.
+    marks: Vec<(u64, u64, usize)>,
+    next_mark: usize,
 }
 
 fn is_break(prev: f64, now: f64, gap: f64) -> bool {
@@ -716,13 +726,17 @@ impl PieceScan {
                 self.times.push(t);
             }
         }
+        if at >= self.next_mark {
+            self.marks.push((self.rows, self.lines, at));
+            self.next_mark = at + STRIDE;
+        }
         self.last = Some((self.lines, at));
         self.rows += 1;
     }
 }
 
 fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
-    let mut out = PieceScan { last_t: f64::NAN, ..Default::default() };
+    let mut out = PieceScan { last_t: f64::NAN, next_mark: STRIDE, ..Default::default() };
     let d = &spec.dialect;
     let mut t_prev = f64::NAN;
     let mut at = 0usize;
@@ -807,60 +821,97 @@ fn read_some(_file: &File, _at: u64, _buf: &mut [u8]) -> Result<usize, KernelErr
     Err(KernelError::Invalid("reading text natively needs a Unix system".into()))
 }
 
-/// Line-aligned cut points splitting `buf` (whole lines) into about `parts` pieces.
-fn cuts(buf: &[u8], parts: usize) -> Vec<usize> {
-    let mut out = vec![0];
-    for i in 1..parts {
-        let nominal = buf.len() * i / parts;
-        let from = (*out.last().unwrap_or(&0)).max(nominal);
-        if from >= buf.len() {
+/// The whole lines that start in bytes `[lo, hi)` of a file of `size`
+/// bytes: the offset of the first and the buffer from which they are read
+/// (`buf[skip..]`). The first line starts at `lo` when `at_start`, else after
+/// the first `\n` from `lo - 1`; the last runs on past `hi` to its `\n`, and
+/// a last line of the file without one is left out (the reader's to judge).
+/// So consecutive ranges share no line and miss none, and each is read by
+/// the thread that scans it.
+fn lines_in(file: &File, lo: u64, hi: u64, at_start: bool, size: u64) -> Result<(u64, Vec<u8>, usize), KernelError> {
+    let from = if at_start { lo } else { lo - 1 };
+    let mut buf = vec![0u8; (hi - from) as usize];
+    let got = read_some(file, from, &mut buf)?;
+    buf.truncate(got);
+    let skip = if at_start {
+        0
+    } else {
+        match memchr::memchr(b'\n', &buf) {
+            Some(i) => i + 1,
+            None => return Ok((hi, Vec::new(), 0)),
+        }
+    };
+    if from + skip as u64 >= hi {
+        return Ok((hi, Vec::new(), 0)); // inside a line that started before lo
+    }
+    // the last line that starts before hi ends at the first `\n` from byte hi - 1
+    let mut search = ((hi - 1 - from) as usize).max(skip);
+    let mut more = 1usize << 12; // a line's rest: small reads, doubling for long lines
+    loop {
+        if let Some(j) = memchr::memchr(b'\n', &buf[search.min(buf.len())..]) {
+            buf.truncate(search + j + 1);
             break;
         }
-        if let Some(j) = memchr::memchr(b'\n', &buf[from..]) {
-            let c = from + j + 1;
-            if c < buf.len() && c > *out.last().unwrap_or(&0) {
-                out.push(c);
+        let at = from + buf.len() as u64;
+        let old = buf.len();
+        if at < size {
+            buf.resize(old + more.min((size - at) as usize), 0);
+            more = (2 * more).min(PIECE);
+            let got = read_some(file, at, &mut buf[old..])?;
+            buf.truncate(old + got);
+            if got > 0 {
+                search = old;
+                continue;
             }
         }
+        // the file ends without a last `\n`: whole lines only
+        let end = memchr::memrchr(b'\n', &buf[skip..]).map_or(skip, |i| skip + i + 1);
+        buf.truncate(end);
+        break;
     }
-    out.push(buf.len());
-    out
+    Ok((from + skip as u64, buf, skip))
 }
 
 /// Follows the run of data rows that starts at byte `start` of `file` (the
 /// line there is its first) until a line that is not one (by `spec`'s
 /// rules; see the module doc) or the file's end. A last line without its
 /// `\n` ends the run too (it may be a row being written).
+///
+/// The file is cut at every [`PIECE`] bytes; each piece's thread reads its
+/// own bytes and finds its first whole line (see [`lines_in`]), so the
+/// reads run in parallel too; the pieces are then joined in file order.
 pub fn scan(file: &File, start: u64, spec: &ScanSpec, threads: usize) -> Result<Run, KernelError> {
     let size = file.metadata().map_err(|e| KernelError::Invalid(format!("cannot stat the file: {e}")))?.len();
     let threads = parallel::check_threads(threads)?;
     let mut run = Run { t_prev: spec.t_prev, end: start, ..Default::default() };
     let mut pos = start;
-    let mut span = PIECE * threads;
-    let mut buf: Vec<u8> = Vec::new();
     while pos < size {
-        let want = (span as u64).min(size - pos) as usize;
-        buf.resize(want, 0);
-        let got = read_some(file, pos, &mut buf)?;
-        buf.truncate(got);
-        let Some(last_nl) = memchr::memrchr(b'\n', &buf) else {
-            if pos + got as u64 >= size || got < want {
-                break; // an unterminated last line: the reader's to judge
-            }
-            span *= 2; // a line longer than the block
-            continue;
-        };
-        let whole = &buf[..last_nl + 1];
-        let cut = cuts(whole, whole.len().div_ceil(PIECE).clamp(1, 4 * threads));
+        let batch: Vec<(u64, u64)> = (0..4 * threads as u64)
+            .map(|k| (pos + k * PIECE as u64, (pos + (k + 1) * PIECE as u64).min(size)))
+            .filter(|&(lo, _)| lo < size)
+            .collect();
         // times still wanted: a piece keeps no more (those after the first pieces are dropped anyway)
         let keep = spec.keep_times.saturating_sub(run.times.len());
-        let pieces: Vec<PieceScan> = parallel::run_with(threads, || {
-            cut.par_windows(2).map(|w| scan_piece(&whole[w[0]..w[1]], spec, keep)).collect()
+        let pieces: Vec<Result<(u64, usize, PieceScan), KernelError>> = parallel::run_with(threads, || {
+            batch
+                .par_iter()
+                .map(|&(lo, hi)| {
+                    let (base, buf, skip) = lines_in(file, lo, hi, lo == start, size)?;
+                    Ok((base, buf.len() - skip, scan_piece(&buf[skip..], spec, keep)))
+                })
+                .collect()
         })?;
-        for (w, p) in cut.windows(2).zip(pieces) {
-            let base = pos + w[0] as u64;
+        pos = batch.last().map_or(size, |b| b.1);
+        for piece in pieces {
+            let (base, len, p) = piece?;
+            if len == 0 {
+                continue;
+            }
             if p.rows > 0 {
                 run.checkpoints.push((run.rows, base, run.lines));
+            }
+            for &(row, line, at) in p.marks.iter().filter(|m| m.2 > 0) {
+                run.marks.push((run.rows + row, base + at as u64, run.lines + line));
             }
             if let Some((row, line, at, t)) = p.first {
                 if !run.t_prev.is_nan() && is_break(run.t_prev, t, spec.gap) {
@@ -895,10 +946,8 @@ pub fn scan(file: &File, start: u64, spec: &ScanSpec, threads: usize) -> Result<
                 run.end = base + stop as u64;
                 return Ok(run);
             }
+            run.end = base + len as u64;
         }
-        pos += whole.len() as u64;
-        run.end = pos;
-        span = PIECE * threads;
     }
     Ok(run)
 }
@@ -962,13 +1011,16 @@ fn parse_piece(
     let mut r = 0usize;
     let rows = p.rows as usize;
     let mut eof = false;
+    // a short piece (a few windows of a sample) reads about its rows' bytes, not a whole block
+    let mut want = ((p.skip + p.rows) as usize).saturating_mul(64).clamp(1 << 12, BLOCK);
     while r < rows {
         if eof && buf.is_empty() {
             return Err(ParseError::Eof { line: line.saturating_sub(1), short: (rows - r) as u64 });
         }
         if !eof {
             let have = buf.len();
-            let grow = BLOCK.max(have); // doubles while one line fills the buffer
+            let grow = want.max(have); // doubles while one line fills the buffer
+            want = BLOCK;
             buf.resize(have + grow, 0);
             let got = read_some(file, off, &mut buf[have..]).map_err(ParseError::Io)?;
             buf.truncate(have + got);
@@ -1254,6 +1306,48 @@ mod tests {
             parse_into(&f, &[Piece { offset: off, line: line + 1, skip: 0, rows: 1 }], &d, &[1, 2], &mut out, 1)
                 .unwrap();
             assert_eq!(out, vec![(row % 7) as f64, (row % 3) as f64]);
+        }
+    }
+
+    #[test]
+    fn scan_pieces_meet_at_line_starts_whatever_the_lines() {
+        // a comment line longer than two pieces, lines that end exactly at a piece's edge, and an
+        // unterminated last row: every thread count finds the same run, and the parse from every
+        // checkpoint reads the right row
+        let mut text = Vec::new();
+        let mut row = 0u64;
+        while text.len() < PIECE - 6 {
+            writeln!(text, "{row},{},1", row % 10).unwrap();
+            row += 1;
+        }
+        while text.len() % PIECE != PIECE - 6 {
+            text.push(b'#');
+        }
+        text.extend_from_slice(b"\n"); // ends 5 bytes before the edge
+        writeln!(text, "{row},{},1", row % 10).unwrap();
+        row += 1;
+        text.push(b'#');
+        text.extend(std::iter::repeat_n(b'x', 2 * PIECE + 3));
+        text.push(b'\n');
+        for _ in 0..50_000 {
+            writeln!(text, "{row},{},1", row % 10).unwrap();
+            row += 1;
+        }
+        let whole = text.len() as u64;
+        text.extend_from_slice(b"9,9"); // no line end
+        let f = file_of(&text);
+        let runs: Vec<Run> = [1, 2, 3].iter().map(|&n| scan(&f, 0, &spec(csv()), n).unwrap()).collect();
+        for r in &runs {
+            assert_eq!((r.rows, r.end), (row, whole));
+            assert_eq!((&r.checkpoints, &r.marks, &r.times), (&runs[0].checkpoints, &runs[0].marks, &runs[0].times));
+            assert_eq!(r.last, runs[0].last);
+        }
+        assert!(runs[0].marks.len() > 10);
+        for &(row, off, line) in runs[0].checkpoints.iter().chain(&runs[0].marks) {
+            let mut out = vec![0.0; 2];
+            parse_into(&f, &[Piece { offset: off, line: line + 1, skip: 0, rows: 1 }], &csv(), &[0, 1], &mut out, 1)
+                .unwrap();
+            assert_eq!(out, vec![row as f64, (row % 10) as f64]);
         }
     }
 
