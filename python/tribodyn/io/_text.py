@@ -620,7 +620,11 @@ class Checkpoints:
     so any range of samples is read from the entry at or before its start.
     """
 
-    def __init__(self, entries: Sequence[Tuple[int, int, int]], n: int) -> None:
+    def __init__(
+        self, entries: Sequence[Tuple[int, int, int]], n: int, marks: Sequence[Tuple[int, int, int]] = ()
+    ) -> None:
+        m = np.array(sorted(marks), dtype=np.int64).reshape(-1, 3)
+        self.mark_sample, self.mark_offset, self.mark_line = m[:, 0], m[:, 1], m[:, 2]
         a = np.array(sorted(entries), dtype=np.int64).reshape(-1, 3)
         keep = np.ones(len(a), dtype=bool)
         keep[1:] = a[1:, 0] != a[:-1, 0]  # one entry per sample (the first)
@@ -630,16 +634,26 @@ class Checkpoints:
         self.n = n
 
     def pieces(self, start: int, stop: int) -> List[Tuple[int, int, int, int]]:
-        """(offset, line, rows to skip, rows) covering samples ``start:stop`` in order."""
+        """(offset, line, rows to skip, rows) covering samples ``start:stop`` in order.
+
+        The first piece starts from the last mark (one about every 64 KiB of a native run, see
+        ``tribodyn._core.text_scan``) at or before ``start`` when one lies after the entry
+        before ``start``, so few rows are skipped; every other piece from an entry.
+        """
         out: List[Tuple[int, int, int, int]] = []
         if stop <= start:
             return out
         j = int(np.searchsorted(self.sample, start, side="right")) - 1
         while j < len(self.sample) and self.sample[j] < stop:
-            s = int(self.sample[j])
+            s, off, line = int(self.sample[j]), int(self.offset[j]), int(self.line[j])
+            if not out:
+                i = int(np.searchsorted(self.mark_sample, start, side="right")) - 1
+                if i >= 0 and s <= self.mark_sample[i] and self.mark_offset[i] > off:
+                    # between this entry and the next: the rows from the mark on are consecutive
+                    s, off, line = int(self.mark_sample[i]), int(self.mark_offset[i]), int(self.mark_line[i])
             a, b = max(start, s), min(stop, int(self.limit[j]))
             if b > a:
-                out.append((int(self.offset[j]), int(self.line[j]), a - s, b - a))
+                out.append((off, line, a - s, b - a))
             j += 1
         return out
 

@@ -788,6 +788,7 @@ class DelimitedRecording(TextRecording):
         """Reads the file once: its blocks of data rows, time breaks, footer, sampling rate and metadata."""
         self._native = native_dialect(self._delim, self._decimal, self._comment) if self._use_native else None
         self._cps: List[Tuple[int, int, int]] = []
+        self._marks: List[Tuple[int, int, int]] = []
         st = self._scan_rows(head_raw)
         footer = self._check_last_row(st)
         if not st.blocks:
@@ -984,7 +985,7 @@ class DelimitedRecording(TextRecording):
             self._cps.append((pos, b.offset, b.lineno))
             pos += b.n
         if self._native is not None:  # read at any sample from here on
-            self._checkpoints, self._parse_dialect = Checkpoints(self._cps, pos), self._native
+            self._checkpoints, self._parse_dialect = Checkpoints(self._cps, pos, self._marks), self._native
             self.random_access = True
         self._n = pos
         self._segments = ranges
@@ -1042,6 +1043,7 @@ class DelimitedRecording(TextRecording):
         base = total - rows
         for row, off, line in run["checkpoints"]:
             self._cps.append((base + int(row), int(off), first_line + int(line)))
+        self._marks += [(base + row, off, first_line + line) for row, off, line in run["marks"]]
         last_line = int(run["last"][0])
         return total, ntimes + len(times), (first_line + last_line, b"\n", rows - 1 < len(times))
 

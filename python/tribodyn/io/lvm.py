@@ -66,10 +66,11 @@ _END = b"***End_of_Header***"
 
 
 class _Segment:
-    __slots__ = ("announced", "cps", "header", "lineno", "n", "offset")
+    __slots__ = ("announced", "cps", "header", "lineno", "marks", "n", "offset")
 
     def __init__(self, offset: int, lineno: int, header: Dict[str, List[str]]) -> None:
         self.cps: List[Tuple[int, int, int]] = []  # (row of the segment, byte offset, line): parse starts
+        self.marks: List[Tuple[int, int, int]] = []  # more of them, only to start a read near a sample
         self.offset = offset
         self.lineno = lineno
         self.n = 0
@@ -229,6 +230,7 @@ class LvmRecording(TextRecording):
         if run["rows"]:
             for row, off, line in run["checkpoints"]:
                 seg.cps.append((seg.n + int(row), int(off), st.lineno + 1 + int(line)))
+            seg.marks += [(seg.n + row, off, st.lineno + 1 + line) for row, off, line in run["marks"]]
             seg.n += int(run["rows"])
             st.last_lineno = st.lineno + 1 + int(run["last"][0])
             fh.seek(int(run["last"][1]))
@@ -444,13 +446,15 @@ class LvmRecording(TextRecording):
         self._n = pos
         self._segments = ranges
         cps: List[Tuple[int, int, int]] = []
+        marks: List[Tuple[int, int, int]] = []
         base = 0
         for sg in segments:
             cps.append((base, sg.offset, sg.lineno))
             cps += [(base + r, off, line) for r, off, line in sg.cps]
+            marks += [(base + r, off, line) for r, off, line in sg.marks]
             base += sg.n
         if self._native is not None:  # the parse skips blank lines (none is inside a segment)
-            self._checkpoints = Checkpoints(cps, pos)
+            self._checkpoints = Checkpoints(cps, pos, marks)
             self._parse_dialect = dict(self._native, skip_blank=True)
             self.random_access = True  # read at any sample from the checkpoints
 

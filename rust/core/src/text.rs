@@ -30,6 +30,10 @@ use std::fs::File;
 /// the checkpoints a parse may start from).
 pub const PIECE: usize = 1 << 20;
 
+/// Bytes between the checkpoints the scan keeps inside a piece: a read of a
+/// few windows (the pre-pass's samples) starts at most this far before them.
+pub const STRIDE: usize = 1 << 16;
+
 /// How a file's fields are separated and which lines are skipped.
 #[derive(Clone, Debug)]
 pub struct Dialect {
@@ -129,6 +133,234 @@ fn lex_number(s: &[u8], mut i: usize, point: u8) -> (usize, Option<f64>) {
     }
     let v = if k < 0 { m as f64 / POW10[(-k) as usize] } else { m as f64 * POW10[k as usize] };
     (i, Some(if neg { -v } else { v }))
+}
+
+/// Bytes `buf[i..i + 8]` as a little-endian word (the first byte lowest), if there are 8.
+#[inline(always)]
+fn word_at(buf: &[u8], i: usize) -> Option<u64> {
+    let b: [u8; 8] = buf.get(i..i + 8)?.try_into().ok()?;
+    Some(u64::from_le_bytes(b))
+}
+
+const ONES: u64 = 0x0101_0101_0101_0101;
+
+/// 0x80 in each byte of `x` that is zero, 0 elsewhere (exact: no carry
+/// between bytes, since the addition sees 7-bit values only).
+#[inline(always)]
+fn zero_bytes(x: u64) -> u64 {
+    !(((x & (0x7f * ONES)) + 0x7f * ONES) | x | (0x7f * ONES))
+}
+
+/// The leading ASCII digits of a word (8 bytes, first byte lowest): how
+/// many (0 to 8) and the integer they write. Eight bytes at a time instead
+/// of a loop of dependent multiplications: the fields of a data file are
+/// runs of 1-8 digits, and this is the parse's inner loop.
+#[inline(always)]
+fn digits8(w: u64) -> (usize, u64) {
+    // a byte is a digit when its high nibble is 3 and adding 6 keeps it 3
+    // (a carry out of a non-digit byte only reaches later bytes, which do not count)
+    let hi = 0xf0 * ONES;
+    let nondigit = ((w & hi) ^ (0x30 * ONES)) | ((w.wrapping_add(0x06 * ONES) & hi) ^ (0x30 * ONES));
+    let n = (nondigit.trailing_zeros() / 8) as usize;
+    if n == 0 {
+        return (0, 0);
+    }
+    // the digits' values, moved to the word's top so the missing ones read as leading zeros
+    // (a borrow out of a non-digit byte only reaches later bytes, shifted out here)
+    let mut v = w.wrapping_sub(0x30 * ONES) << (8 * (8 - n));
+    v = v.wrapping_mul(10).wrapping_add(v >> 8); // pairs of digits in bytes 0, 2, 4, 6
+    let m = 0x0000_00ff_0000_00ffu64;
+    let a = (v & m).wrapping_mul(100 + (1_000_000 << 32));
+    let b = ((v >> 16) & m).wrapping_mul(1 + (10_000 << 32));
+    (n, (a.wrapping_add(b)) >> 32)
+}
+
+/// Exact powers of ten as integers, for [`quick_number`].
+const POW10U: [u64; 9] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000, 100_000_000];
+
+/// The commonest numbers of a data file, read from `buf[i..]`: a sign, at
+/// most 7 digits, a decimal point (`.` or `point`) and at most 7 digits.
+/// Returns the value and where it stopped (the first byte after the digits,
+/// which the caller checks ends the field), or None for anything else
+/// (fewer than 8 bytes left, longer digit runs, no digit: the caller then
+/// takes the general way). The value is [`lex_number`]'s: m has at most 14
+/// digits, so m <= 2^53 and one IEEE division by an exact power of ten
+/// rounds it correctly, the float Python's `float` gives.
+#[inline(always)]
+fn quick_number(buf: &[u8], mut i: usize, point: u8) -> Option<(f64, usize)> {
+    let c = *buf.get(i)?;
+    let neg = c == b'-';
+    i += (neg || c == b'+') as usize;
+    let (n1, a) = digits8(word_at(buf, i)?);
+    if n1 == 8 {
+        return None;
+    }
+    i += n1;
+    let mut m = a;
+    let mut frac = 0usize;
+    // buf[i] exists: it is the word's byte n1 < 8
+    if buf[i] == b'.' || buf[i] == point {
+        let (n2, b) = digits8(word_at(buf, i + 1)?);
+        if n2 == 8 {
+            return None;
+        }
+        m = m * POW10U[n2] + b;
+        frac = n2;
+        i += 1 + n2;
+    }
+    if n1 + frac == 0 {
+        return None;
+    }
+    // POW10[0] = 1 divides exactly; the sign is set without a branch (signs of data are random, so a
+    // branch on them is mispredicted every other field)
+    let v = (m as i64) as f64 / POW10[frac]; // m < 2^53: exact either way, one instruction as i64
+    Some((f64::from_bits(v.to_bits() | ((neg as u64) << 63)), i))
+}
+
+/// Where the field from `buf[i..]` ends: the first separator `d` or `\n`
+/// (None when the buffer ends first), eight bytes at a time.
+#[inline(always)]
+fn field_end(buf: &[u8], mut i: usize, d: u8) -> Option<usize> {
+    while let Some(w) = word_at(buf, i) {
+        let hit = zero_bytes(w ^ (d as u64 * ONES)) | zero_bytes(w ^ (b'\n' as u64 * ONES));
+        if hit != 0 {
+            return Some(i + (hit.trailing_zeros() / 8) as usize);
+        }
+        i += 8;
+    }
+    buf[i..].iter().position(|&b| b == d || b == b'\n').map(|j| i + j)
+}
+
+/// The separator of a dialect whose plain rows [`quick_number`] may read,
+/// with the decimal point to accept: a one-byte separator that cannot be
+/// part of a number or of a line end.
+#[inline]
+fn quick_sep(d: &Dialect) -> Option<(u8, u8)> {
+    let s = d.delim?;
+    let numeric = s.is_ascii_alphanumeric() || matches!(s, b'.' | b'+' | b'-' | b'\n' | b'\r');
+    if numeric {
+        return None;
+    }
+    Some((s, if d.decimal == s { b'.' } else { d.decimal }))
+}
+
+/// After a field that ended at `buf[p]`: Some(true) and `p` on the next
+/// field for a separator, Some(false) and `p` on the line's `\n` at the
+/// line's end, None for anything else.
+#[inline(always)]
+fn after_field(buf: &[u8], p: &mut usize, sep: u8) -> Option<bool> {
+    match *buf.get(*p)? {
+        c if c == sep => {
+            *p += 1;
+            Some(true)
+        }
+        b'\n' => Some(false),
+        b'\r' if buf.get(*p + 1) == Some(&b'\n') => {
+            *p += 1;
+            Some(false)
+        }
+        _ => None,
+    }
+}
+
+/// Whether the line at `at` starts as a number does (so it is neither
+/// blank, nor led by whitespace, nor a comment).
+#[inline(always)]
+fn quick_start(buf: &[u8], at: usize, d: &Dialect, point: u8) -> bool {
+    let Some(&c) = buf.get(at) else { return false };
+    (c.is_ascii_digit() || matches!(c, b'-' | b'+' | b'.') || c == point)
+        && d.comment.as_ref().is_none_or(|k| k.first() != Some(&c))
+}
+
+/// The quickest way through a scanned row at `at` of a file with a plain
+/// separator (see [`quick_sep`]): every field up to its end, the time and
+/// probe fields as [`quick_number`]s, the fields counted. Some((next line's
+/// start, time)) for a row with exactly `nf` fields, None to take the line
+/// the slower ways (which decide).
+#[inline(always)]
+fn scan_row_quick(buf: &[u8], at: usize, spec: &ScanSpec, sep: u8, point: u8) -> Option<(usize, f64)> {
+    if !quick_start(buf, at, &spec.dialect, point) {
+        return None;
+    }
+    let last = spec.time.map_or(spec.probe, |t| t.max(spec.probe));
+    let mut p = at;
+    let mut t = f64::NAN;
+    for k in 0..=last {
+        if k == spec.probe || Some(k) == spec.time {
+            let (v, e) = quick_number(buf, p, point)?;
+            if Some(k) == spec.time {
+                t = v;
+            }
+            p = e;
+        } else {
+            p = field_end(buf, p, sep)?;
+        }
+        if !after_field(buf, &mut p, sep)? {
+            // the line ends: a row only when this was its last field
+            return (spec.nf.is_none_or(|nf| nf == k + 1) && k == last).then_some((p + 1, t));
+        }
+    }
+    // the other fields are only counted
+    let (nl, more) = count_to_line_end(buf, p, sep)?;
+    spec.nf.is_none_or(|nf| nf == last + 2 + more).then_some((nl + 1, t))
+}
+
+/// From `buf[i..]` to the line's end: where its `\n` is and how many
+/// separators `d` lie before it (None when the buffer ends first), eight
+/// bytes at a time.
+#[inline(always)]
+fn count_to_line_end(buf: &[u8], mut i: usize, d: u8) -> Option<(usize, usize)> {
+    let mut n = 0usize;
+    while let Some(w) = word_at(buf, i) {
+        let seps = zero_bytes(w ^ (d as u64 * ONES));
+        let nl = zero_bytes(w ^ (b'\n' as u64 * ONES));
+        if nl != 0 {
+            // each hit is a byte's top bit: those below the first newline's are before it
+            let before = (nl & nl.wrapping_neg()) - 1;
+            return Some((i + (nl.trailing_zeros() / 8) as usize, n + (seps & before).count_ones() as usize));
+        }
+        n += seps.count_ones() as usize;
+        i += 8;
+    }
+    let j = buf[i..].iter().position(|&b| b == b'\n')?;
+    Some((i + j, n + buf[i..i + j].iter().filter(|&&b| b == d).count()))
+}
+
+/// The quickest way through a parsed row at `at` (see [`scan_row_quick`]):
+/// Some(next line's start) when the first `vals.len()` fields were
+/// [`quick_number`]s (those `used`) and are in `vals`, None to take the line
+/// the slower ways.
+#[inline(always)]
+fn parse_row_quick(
+    buf: &[u8],
+    at: usize,
+    d: &Dialect,
+    sep: u8,
+    point: u8,
+    used: &[bool],
+    vals: &mut [f64],
+) -> Option<usize> {
+    if !quick_start(buf, at, d, point) {
+        return None;
+    }
+    let need = vals.len();
+    let mut p = at;
+    for (k, (v, &u)) in vals.iter_mut().zip(used).enumerate() {
+        if u {
+            let (x, e) = quick_number(buf, p, point)?;
+            *v = x;
+            p = e;
+        } else {
+            p = field_end(buf, p, sep)?;
+        }
+        let more = after_field(buf, &mut p, sep)?;
+        if !more {
+            // the line ends: the row is whole only after its last needed field
+            return if k + 1 == need { Some(p + 1) } else { None };
+        }
+    }
+    // fields beyond those needed are not looked at (as the general way)
+    Some(memchr::memchr(b'\n', &buf[p..]).map_or(buf.len(), |i| p + i + 1))
 }
 
 /// The common case of [`to_float`] (a stripped field): [`lex_number`] of the whole field.
@@ -445,6 +677,9 @@ pub struct Run {
     pub t_prev: f64,
     /// (row, byte offset, line) from which a parse can start: about one per [`PIECE`].
     pub checkpoints: Vec<(u64, u64, u64)>,
+    /// More such entries, about one per [`STRIDE`] bytes: the rows from one to the next
+    /// checkpoint after it are consecutive (only blank and comment lines between).
+    pub marks: Vec<(u64, u64, u64)>,
     /// (line, byte offset) of the last data row.
     pub last: Option<(u64, u64)>,
 }
@@ -459,6 +694,9 @@ struct PieceScan {
     first: Option<(u64, u64, usize, f64)>,
     last_t: f64,
     last: Option<(u64, usize)>,
+    /// (row, line, byte) of data rows about every [`STRIDE`] bytes after the piece's start.
+    marks: Vec<(u64, u64, usize)>,
+    next_mark: usize,
 }
 
 fn is_break(prev: f64, now: f64, gap: f64) -> bool {
@@ -488,17 +726,28 @@ impl PieceScan {
                 self.times.push(t);
             }
         }
+        if at >= self.next_mark {
+            self.marks.push((self.rows, self.lines, at));
+            self.next_mark = at + STRIDE;
+        }
         self.last = Some((self.lines, at));
         self.rows += 1;
     }
 }
 
 fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
-    let mut out = PieceScan { last_t: f64::NAN, ..Default::default() };
+    let mut out = PieceScan { last_t: f64::NAN, next_mark: STRIDE, ..Default::default() };
     let d = &spec.dialect;
     let mut t_prev = f64::NAN;
     let mut at = 0usize;
+    let quick = quick_sep(d);
     while at < buf.len() {
+        if let Some((nl, t)) = quick.and_then(|(sep, point)| scan_row_quick(buf, at, spec, sep, point)) {
+            out.row(t, &mut t_prev, at, spec, keep);
+            out.lines += 1;
+            at = nl;
+            continue;
+        }
         if let Some((nl, t)) = scan_line_fast(buf, at, spec) {
             out.row(t, &mut t_prev, at, spec, keep);
             out.lines += 1;
@@ -572,60 +821,97 @@ fn read_some(_file: &File, _at: u64, _buf: &mut [u8]) -> Result<usize, KernelErr
     Err(KernelError::Invalid("reading text natively needs a Unix system".into()))
 }
 
-/// Line-aligned cut points splitting `buf` (whole lines) into about `parts` pieces.
-fn cuts(buf: &[u8], parts: usize) -> Vec<usize> {
-    let mut out = vec![0];
-    for i in 1..parts {
-        let nominal = buf.len() * i / parts;
-        let from = (*out.last().unwrap_or(&0)).max(nominal);
-        if from >= buf.len() {
+/// The whole lines that start in bytes `[lo, hi)` of a file of `size`
+/// bytes: the offset of the first and the buffer from which they are read
+/// (`buf[skip..]`). The first line starts at `lo` when `at_start`, else after
+/// the first `\n` from `lo - 1`; the last runs on past `hi` to its `\n`, and
+/// a last line of the file without one is left out (the reader's to judge).
+/// So consecutive ranges share no line and miss none, and each is read by
+/// the thread that scans it.
+fn lines_in(file: &File, lo: u64, hi: u64, at_start: bool, size: u64) -> Result<(u64, Vec<u8>, usize), KernelError> {
+    let from = if at_start { lo } else { lo - 1 };
+    let mut buf = vec![0u8; (hi - from) as usize];
+    let got = read_some(file, from, &mut buf)?;
+    buf.truncate(got);
+    let skip = if at_start {
+        0
+    } else {
+        match memchr::memchr(b'\n', &buf) {
+            Some(i) => i + 1,
+            None => return Ok((hi, Vec::new(), 0)),
+        }
+    };
+    if from + skip as u64 >= hi {
+        return Ok((hi, Vec::new(), 0)); // inside a line that started before lo
+    }
+    // the last line that starts before hi ends at the first `\n` from byte hi - 1
+    let mut search = ((hi - 1 - from) as usize).max(skip);
+    let mut more = 1usize << 12; // a line's rest: small reads, doubling for long lines
+    loop {
+        if let Some(j) = memchr::memchr(b'\n', &buf[search.min(buf.len())..]) {
+            buf.truncate(search + j + 1);
             break;
         }
-        if let Some(j) = memchr::memchr(b'\n', &buf[from..]) {
-            let c = from + j + 1;
-            if c < buf.len() && c > *out.last().unwrap_or(&0) {
-                out.push(c);
+        let at = from + buf.len() as u64;
+        let old = buf.len();
+        if at < size {
+            buf.resize(old + more.min((size - at) as usize), 0);
+            more = (2 * more).min(PIECE);
+            let got = read_some(file, at, &mut buf[old..])?;
+            buf.truncate(old + got);
+            if got > 0 {
+                search = old;
+                continue;
             }
         }
+        // the file ends without a last `\n`: whole lines only
+        let end = memchr::memrchr(b'\n', &buf[skip..]).map_or(skip, |i| skip + i + 1);
+        buf.truncate(end);
+        break;
     }
-    out.push(buf.len());
-    out
+    Ok((from + skip as u64, buf, skip))
 }
 
 /// Follows the run of data rows that starts at byte `start` of `file` (the
 /// line there is its first) until a line that is not one (by `spec`'s
 /// rules; see the module doc) or the file's end. A last line without its
 /// `\n` ends the run too (it may be a row being written).
+///
+/// The file is cut at every [`PIECE`] bytes; each piece's thread reads its
+/// own bytes and finds its first whole line (see [`lines_in`]), so the
+/// reads run in parallel too; the pieces are then joined in file order.
 pub fn scan(file: &File, start: u64, spec: &ScanSpec, threads: usize) -> Result<Run, KernelError> {
     let size = file.metadata().map_err(|e| KernelError::Invalid(format!("cannot stat the file: {e}")))?.len();
     let threads = parallel::check_threads(threads)?;
     let mut run = Run { t_prev: spec.t_prev, end: start, ..Default::default() };
     let mut pos = start;
-    let mut span = PIECE * threads;
-    let mut buf: Vec<u8> = Vec::new();
     while pos < size {
-        let want = (span as u64).min(size - pos) as usize;
-        buf.resize(want, 0);
-        let got = read_some(file, pos, &mut buf)?;
-        buf.truncate(got);
-        let Some(last_nl) = memchr::memrchr(b'\n', &buf) else {
-            if pos + got as u64 >= size || got < want {
-                break; // an unterminated last line: the reader's to judge
-            }
-            span *= 2; // a line longer than the block
-            continue;
-        };
-        let whole = &buf[..last_nl + 1];
-        let cut = cuts(whole, whole.len().div_ceil(PIECE).clamp(1, 4 * threads));
+        let batch: Vec<(u64, u64)> = (0..4 * threads as u64)
+            .map(|k| (pos + k * PIECE as u64, (pos + (k + 1) * PIECE as u64).min(size)))
+            .filter(|&(lo, _)| lo < size)
+            .collect();
         // times still wanted: a piece keeps no more (those after the first pieces are dropped anyway)
         let keep = spec.keep_times.saturating_sub(run.times.len());
-        let pieces: Vec<PieceScan> = parallel::run_with(threads, || {
-            cut.par_windows(2).map(|w| scan_piece(&whole[w[0]..w[1]], spec, keep)).collect()
+        let pieces: Vec<Result<(u64, usize, PieceScan), KernelError>> = parallel::run_with(threads, || {
+            batch
+                .par_iter()
+                .map(|&(lo, hi)| {
+                    let (base, buf, skip) = lines_in(file, lo, hi, lo == start, size)?;
+                    Ok((base, buf.len() - skip, scan_piece(&buf[skip..], spec, keep)))
+                })
+                .collect()
         })?;
-        for (w, p) in cut.windows(2).zip(pieces) {
-            let base = pos + w[0] as u64;
+        pos = batch.last().map_or(size, |b| b.1);
+        for piece in pieces {
+            let (base, len, p) = piece?;
+            if len == 0 {
+                continue;
+            }
             if p.rows > 0 {
                 run.checkpoints.push((run.rows, base, run.lines));
+            }
+            for &(row, line, at) in p.marks.iter().filter(|m| m.2 > 0) {
+                run.marks.push((run.rows + row, base + at as u64, run.lines + line));
             }
             if let Some((row, line, at, t)) = p.first {
                 if !run.t_prev.is_nan() && is_break(run.t_prev, t, spec.gap) {
@@ -660,10 +946,8 @@ pub fn scan(file: &File, start: u64, spec: &ScanSpec, threads: usize) -> Result<
                 run.end = base + stop as u64;
                 return Ok(run);
             }
+            run.end = base + len as u64;
         }
-        pos += whole.len() as u64;
-        run.end = pos;
-        span = PIECE * threads;
     }
     Ok(run)
 }
@@ -719,6 +1003,7 @@ fn parse_piece(
     let pairs: Vec<(usize, usize)> = usecols.iter().enumerate().map(|(c, &u)| (u, c)).collect();
     let used: Vec<bool> = (0..need).map(|k| !feeds[k].is_empty()).collect();
     let mut vals = vec![0.0f64; need];
+    let quick = quick_sep(d);
     let mut buf: Vec<u8> = Vec::with_capacity(BLOCK);
     let mut off = p.offset;
     let mut line = p.line;
@@ -726,13 +1011,16 @@ fn parse_piece(
     let mut r = 0usize;
     let rows = p.rows as usize;
     let mut eof = false;
+    // a short piece (a few windows of a sample) reads about its rows' bytes, not a whole block
+    let mut want = ((p.skip + p.rows) as usize).saturating_mul(64).clamp(1 << 12, BLOCK);
     while r < rows {
         if eof && buf.is_empty() {
             return Err(ParseError::Eof { line: line.saturating_sub(1), short: (rows - r) as u64 });
         }
         if !eof {
             let have = buf.len();
-            let grow = BLOCK.max(have); // doubles while one line fills the buffer
+            let grow = want.max(have); // doubles while one line fills the buffer
+            want = BLOCK;
             buf.resize(have + grow, 0);
             let got = read_some(file, off, &mut buf[have..]).map_err(ParseError::Io)?;
             buf.truncate(have + got);
@@ -752,7 +1040,11 @@ fn parse_piece(
                 continue;
             }
             if skip == 0 {
-                if let Some(nl) = parse_line_fast(view, at, d, &used, &mut vals) {
+                let row = match quick {
+                    Some((sep, point)) => parse_row_quick(view, at, d, sep, point, &used, &mut vals),
+                    None => None,
+                };
+                if let Some(nl) = row.or_else(|| parse_line_fast(view, at, d, &used, &mut vals)) {
                     for &(k, c) in &pairs {
                         outs[c][r] = vals[k];
                     }
@@ -912,6 +1204,55 @@ mod tests {
     }
 
     #[test]
+    fn quick_numbers_are_the_general_parsers_bits() {
+        // every shape quick_number takes or refuses: signs, 0-9 digits on each side of the point,
+        // digits that fill a word; the value must be Rust's correctly rounded parse (Python's float)
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            let mut s = String::new();
+            s.push_str(["", "-", "+", ""][(r & 3) as usize]);
+            let (a, b) = ((r >> 2) % 10, (r >> 6) % 10);
+            for j in 0..a {
+                s.push((b'0' + ((r >> (10 + 3 * j)) % 10) as u8) as char);
+            }
+            let point = (r >> 50) & 7 != 0;
+            if point {
+                s.push('.');
+            }
+            for _ in 0..b {
+                s.push((b'0' + (next() % 10) as u8) as char);
+            }
+            let end = ["\n", ",", "\r\n", "e5,", "x", ",1,2,3,4,5,6,7"][((r >> 53) % 6) as usize];
+            let text = format!("{s}{end}");
+            let got = quick_number(text.as_bytes(), 0, b'.');
+            if let Some((v, e)) = got {
+                assert_eq!(e, s.len(), "{text:?}");
+                let want: f64 = s.parse().unwrap();
+                assert_eq!(v.to_bits(), want.to_bits(), "{text:?}");
+                assert_eq!(Some(v), fast_float(s.as_bytes(), b'.'), "{text:?}");
+            } else if end.len() > 8 && a + b > 0 && if point { a < 8 && b < 8 } else { a + b < 8 } {
+                panic!("{text:?} refused");
+            }
+        }
+        // the words: digits8 counts leading digits and reads them
+        assert_eq!(digits8(u64::from_le_bytes(*b"12345678")), (8, 12_345_678));
+        assert_eq!(digits8(u64::from_le_bytes(*b"0070,abc")), (4, 70));
+        assert_eq!(digits8(u64::from_le_bytes(*b"9\xff999999")), (1, 9));
+        assert_eq!(digits8(u64::from_le_bytes(*b"/:123456")), (0, 0));
+        assert_eq!(quick_number(b"1,5;xxxxxx", 0, b','), Some((1.5, 3)));
+        assert_eq!(quick_number(b"-0.0,xxxxxx", 0, b'.').map(|(v, _)| v.to_bits()), Some((-0.0f64).to_bits()));
+        assert_eq!(count_to_line_end(b"1,2,,3\r\nxxxxxxxxxxxxxxxx", 0, b','), Some((7, 3)));
+        assert_eq!(count_to_line_end(b"1,2,,3,", 0, b','), None);
+    }
+
+    #[test]
     fn fields_split_like_python() {
         let f: Vec<&[u8]> = Fields::new(b"a,,b,", Some(b',')).collect();
         assert_eq!(f, vec![&b"a"[..], b"", b"b", b""]);
@@ -965,6 +1306,48 @@ mod tests {
             parse_into(&f, &[Piece { offset: off, line: line + 1, skip: 0, rows: 1 }], &d, &[1, 2], &mut out, 1)
                 .unwrap();
             assert_eq!(out, vec![(row % 7) as f64, (row % 3) as f64]);
+        }
+    }
+
+    #[test]
+    fn scan_pieces_meet_at_line_starts_whatever_the_lines() {
+        // a comment line longer than two pieces, lines that end exactly at a piece's edge, and an
+        // unterminated last row: every thread count finds the same run, and the parse from every
+        // checkpoint reads the right row
+        let mut text = Vec::new();
+        let mut row = 0u64;
+        while text.len() < PIECE - 6 {
+            writeln!(text, "{row},{},1", row % 10).unwrap();
+            row += 1;
+        }
+        while text.len() % PIECE != PIECE - 6 {
+            text.push(b'#');
+        }
+        text.extend_from_slice(b"\n"); // ends 5 bytes before the edge
+        writeln!(text, "{row},{},1", row % 10).unwrap();
+        row += 1;
+        text.push(b'#');
+        text.extend(std::iter::repeat_n(b'x', 2 * PIECE + 3));
+        text.push(b'\n');
+        for _ in 0..50_000 {
+            writeln!(text, "{row},{},1", row % 10).unwrap();
+            row += 1;
+        }
+        let whole = text.len() as u64;
+        text.extend_from_slice(b"9,9"); // no line end
+        let f = file_of(&text);
+        let runs: Vec<Run> = [1, 2, 3].iter().map(|&n| scan(&f, 0, &spec(csv()), n).unwrap()).collect();
+        for r in &runs {
+            assert_eq!((r.rows, r.end), (row, whole));
+            assert_eq!((&r.checkpoints, &r.marks, &r.times), (&runs[0].checkpoints, &runs[0].marks, &runs[0].times));
+            assert_eq!(r.last, runs[0].last);
+        }
+        assert!(runs[0].marks.len() > 10);
+        for &(row, off, line) in runs[0].checkpoints.iter().chain(&runs[0].marks) {
+            let mut out = vec![0.0; 2];
+            parse_into(&f, &[Piece { offset: off, line: line + 1, skip: 0, rows: 1 }], &csv(), &[0, 1], &mut out, 1)
+                .unwrap();
+            assert_eq!(out, vec![row as f64, (row % 10) as f64]);
         }
     }
 

@@ -1303,7 +1303,8 @@ fn dialect_of(
 /// Follows the run of data rows from byte `start` of the text file open as
 /// `fd` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
 /// "end", "times" (float64), "breaks" [(row, line, offset, prev, now)],
-/// "t_prev", "checkpoints" [(row, offset, line)] and "last" ((line, offset) or None);
+/// "t_prev", "checkpoints" [(row, offset, line)] (about one a MiB), "marks" (more
+/// such entries, about one per 64 KiB, see `Checkpoints`) and "last" ((line, offset) or None);
 /// lines are counted from the run's first (0).
 #[pyfunction]
 #[pyo3(signature = (fd, start, *, delimiter, decimal, comment, skip_blank, nf, probe, time, gap, t_prev, keep_times, threads=None))]
@@ -1339,6 +1340,7 @@ fn text_scan<'py>(
     d.set_item("breaks", breaks)?;
     d.set_item("t_prev", run.t_prev)?;
     d.set_item("checkpoints", run.checkpoints)?;
+    d.set_item("marks", run.marks)?;
     d.set_item("last", run.last)?;
     Ok(d)
 }
