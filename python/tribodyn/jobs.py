@@ -27,6 +27,7 @@ from .identify import identify
 from .outputs import (
     Digests,
     OutputSet,
+    fill_digests,
     input_provenance,
     pyarrow_modules,
     write_json,
@@ -745,7 +746,8 @@ def _run_analysis(
         imports.join()  # before this thread imports any of them
         summary: Dict[str, Any] = {
             "tribodyn_version": __version__,
-            "inputs": input_provenance([p for p, _ in runs], digests),
+            # the digests are waited for only when written: the outputs are drawn while the thread hashes
+            "inputs": input_provenance([p for p, _ in runs], later=True),
             "open_options": open_options,
             "recordings": {},
             "failures": failures,
@@ -756,7 +758,7 @@ def _run_analysis(
             inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
                 f"{name}: {Path(f).name}" for name, f in cov_files.items()
             ]
-        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary)
+        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary, digests)
         with output as out:
             verdict: List[str] = []
             sections: List[Tuple[str, str]] = []
@@ -809,6 +811,7 @@ class _Job:
     single: bool  # one recording without failures: its outputs at the top of the folder
     inputs: Dict[str, Dict[str, Any]]  # file name -> provenance (digest, channels, logs)
     summary: Dict[str, Any]  # summary.json, filled recording by recording
+    digests: Digests  # the inputs' SHA-256, filled into ``inputs`` when written (fill_digests)
 
 
 def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], label: str, rec: Any
@@ -877,6 +880,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
         lines.append(f"{p.name}: {slip['verdict']}")
     captioned = _captioned(pngs)
     if not job.single:
+        fill_digests([job.inputs[p.name]], job.digests)
         write_json(rec_sum, out.path(f"{prefix}summary.json"))
         write_report(
             out.path(f"{prefix}report.html"),
@@ -907,6 +911,7 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
         write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
         write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
     summary["columns"] = column_units()
+    fill_digests(summary["inputs"], job.digests)
     write_json(summary, out.path("summary.json"))
     heads = {n: r["headline"] for n, r in summary["recordings"].items()}
     write_json(metadata(job.meta, summary["inputs"], heads, __version__), out.path("metadata.json"))

@@ -57,6 +57,7 @@ __all__ = [
     "write_table_parquet",
     "write_json",
     "sha256_file",
+    "fill_digests",
     "Digests",
     "jsonable",
 ]
@@ -544,14 +545,26 @@ def pyarrow_modules() -> Tuple[Any, Any]:
     return pa, pq
 
 
-def input_provenance(paths: Iterable[PathLike], digests: Optional["Digests"] = None) -> List[Dict[str, Any]]:
-    """Name, size and SHA-256 of each input file (``digests``: computed beforehand, e.g. during the analysis)."""
+def input_provenance(paths: Iterable[PathLike], digests: Optional["Digests"] = None, *, later: bool = False
+                     ) -> List[Dict[str, Any]]:  # fmt: skip
+    """Name, size and SHA-256 of each input file (``digests``: computed beforehand, e.g. during the analysis).
+
+    ``later``: the digests are left None, for :func:`fill_digests` to fill when they are written (the outputs
+    are drawn while the hashing thread finishes).
+    """
     out = []
     for p in paths:
         p = Path(p)
-        digest = digests.get(p) if digests is not None else sha256_file(p)
+        digest = None if later else digests.get(p) if digests is not None else sha256_file(p)
         out.append({"file": p.name, "path": str(p.resolve()), "bytes": p.stat().st_size, "sha256": digest})
     return out
+
+
+def fill_digests(inputs: Iterable[Dict[str, Any]], digests: Optional["Digests"]) -> None:
+    """Sets the SHA-256 that :func:`input_provenance` left None (``later``), waiting for ``digests``."""
+    for entry in inputs:
+        if entry.get("sha256") is None and entry.get("path"):
+            entry["sha256"] = digests.get(entry["path"]) if digests is not None else sha256_file(entry["path"])
 
 
 class Digests:
