@@ -24,6 +24,13 @@ from typing import Any, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
+# NumPy's submodules an analysis uses (find_lag's FFT, the bootstrap's generator, np.median's NaN check
+# imports numpy.ma), imported with this module rather than inside the first call (issue 25: no imports
+# inside analyze; `import tribodyn` itself stays lazy).
+import numpy.fft  # noqa: F401
+import numpy.ma  # noqa: F401
+import numpy.random  # noqa: F401
+
 from ._validate import Orientation
 from .covariates import align_to_recording
 from .deadband import DeadbandSpec
