@@ -223,14 +223,18 @@ def test_a_long_recording_is_read_once_and_a_bounded_sample(monkeypatch):
     np.testing.assert_array_equal(two.times, whole.times)
 
 
-def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch):
-    n, m = 400_000, 4096
+def _other_sign_at_the_sample(n=400_000, m=4096):
+    """(a saw-tooth recording whose friction is positive where the sample's 8 pieces of m samples lie and
+    negative, most samples, elsewhere; where it is positive)."""
     ch, _ = _unidirectional_saw(10, n=n)
     k = np.arange(n)
     centres = (2 * np.arange(8) + 1) * n // 16
-    # friction positive where the sample's pieces lie, negative (most samples) elsewhere
     near = (np.abs(k[:, None] - centres[None, :]) < m // 2 + 4000).any(axis=1)
-    ch = {"fy": np.where(near, -1.0, 1.0) * ch["fy"], "fz": ch["fz"]}
+    return {"fy": np.where(near, -1.0, 1.0) * ch["fy"], "fz": ch["fz"]}, near
+
+
+def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch):
+    ch, near = _other_sign_at_the_sample()
     res = td.analyze(ch, fs=1000.0, motion="unidirectional")
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
@@ -330,12 +334,8 @@ def test_a_recording_is_read_once_for_the_analysis_and_stick_slip(tmp_path, monk
 
 
 def test_a_sample_of_the_other_sign_and_a_range_read_again(tmp_path, monkeypatch):
-    n, m = 400_000, 4096
-    ch, _ = _unidirectional_saw(10, n=n)
-    k = np.arange(n)
-    centres = (2 * np.arange(8) + 1) * n // 16
-    near = (np.abs(k[:, None] - centres[None, :]) < m // 2 + 4000).any(axis=1)
-    ch = {"fy": np.where(near, -1.0, 1.0) * ch["fy"], "fz": ch["fz"]}
+    n = 400_000
+    ch, _ = _other_sign_at_the_sample(n)
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
     res = td.analyze(ch, fs=1000.0, motion="unidirectional", stick_slip=True)
