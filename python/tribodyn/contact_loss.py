@@ -21,7 +21,7 @@ the window fails the gate and stays out of every fit.
 
 from __future__ import annotations
 
-from typing import Any, List, Mapping
+from typing import Mapping
 
 import numpy as np
 
@@ -43,11 +43,9 @@ def contact_loss_mask(stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndar
     finite ``j``: nothing is flagged.
     """
     j = np.asarray(j, dtype=float)
-    n = j.size
-    out = np.zeros(n, dtype=bool)
     fin = np.isfinite(j)
     if not fin.any():
-        return out
+        return np.zeros(j.size, dtype=bool)
     lo, hi = float(j[fin].min()), float(j[fin].max())
     with np.errstate(invalid="ignore"):
         high = fin & (j >= 0.5 * (lo + hi)) & (np.abs(j) > 0)
@@ -62,15 +60,16 @@ def contact_loss_mask(stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndar
     # A spread that lasts: a step of the current moves the COF within one
     # window (a wide spread once) without any loss of contact.
     lasting = spread & (np.r_[spread[1:], False] | np.r_[False, spread[:-1]])
-    history: List[Any] = []
-    for k in range(n):
-        jump = False
-        if lasting[k] and np.isfinite(mu[k]) and history:
-            ref = float(np.median(history[-HISTORY:]))
-            jump = abs(mu[k] - ref) > COF_JUMP * abs(ref)
-        out[k] = high[k] and (collapse[k] or jump)
-        if not out[k] and not collapse[k] and np.isfinite(mu[k]) and not spread[k]:
-            history.append(mu[k])
+    out: np.ndarray = high & collapse
+    # The history of calm windows: neither collapsed nor spread, with a COF (a window that is neither is
+    # never flagged, so the history does not depend on the flags); a lasting spread jumps when its COF
+    # leaves the median of the last HISTORY calm windows before it by more than COF_JUMP.
+    calm = np.flatnonzero(~collapse & np.isfinite(mu) & ~spread)
+    for k in np.flatnonzero(lasting & np.isfinite(mu) & high & ~collapse):
+        before = calm[: np.searchsorted(calm, k)][-HISTORY:]
+        if before.size:
+            ref = float(np.median(mu[before]))
+            out[k] = abs(mu[k] - ref) > COF_JUMP * abs(ref)
     return out
 
 

@@ -9,6 +9,7 @@ strong; :func:`sample_windows` reads the windows the profile is measured on.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
@@ -159,9 +160,9 @@ def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[
     The first ones, whatever the source: a mapping, a random-access or a
     sequential recording of the same samples give the same lag.
     """
-    tiles = [(a + j * length, a + (j + 1) * length) for a, b in bounds if b - a >= length
-             for j in range((b - a) // length)]  # fmt: skip
-    return tiles[:limit]
+    tiles = ((a + j * length, a + (j + 1) * length) for a, b in bounds if b - a >= length
+             for j in range((b - a) // length))  # fmt: skip
+    return list(itertools.islice(tiles, limit))
 
 
 def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bool = False) -> Optional[int]:
