@@ -308,3 +308,53 @@ def test_simulator_options_keep_the_defaults_unchanged():
     assert np.all(flat.truth.mu == 0.1) and flat.truth.optimum == {}
     with pytest.raises(ValueError, match="bathtub"):
         simulate.current_density_test(bathtub="round")
+
+
+def _contact_loss_loop(stats, j):
+    """contact_loss_mask as first written, window by window (the reference of the vectorised one)."""
+    from tribodyn.contact_loss import COF_JUMP, COLLAPSE, HISTORY, SPREAD_JUMP
+
+    j = np.asarray(j, dtype=float)
+    out = np.zeros(j.size, dtype=bool)
+    fin = np.isfinite(j)
+    if not fin.any():
+        return out
+    lo, hi = float(j[fin].min()), float(j[fin].max())
+    with np.errstate(invalid="ignore"):
+        high = fin & (j >= 0.5 * (lo + hi)) & (np.abs(j) > 0)
+    c, mu, se = (np.asarray(stats[k], dtype=float) for k in ("c_yz", "mu_r", "mu_r_stderr"))
+    c = np.abs(c)
+    c_med = float(np.nanmedian(c)) if np.isfinite(c).any() else np.nan
+    se_med = float(np.nanmedian(se)) if np.isfinite(se).any() else np.nan
+    with np.errstate(invalid="ignore"):
+        collapse = np.isfinite(c) & (c < COLLAPSE * c_med)
+        spread = np.isfinite(se) & (se > SPREAD_JUMP * se_med)
+    lasting = spread & (np.r_[spread[1:], False] | np.r_[False, spread[:-1]])
+    history = []
+    for k in range(j.size):
+        jump = False
+        if lasting[k] and np.isfinite(mu[k]) and history:
+            ref = float(np.median(history[-HISTORY:]))
+            jump = abs(mu[k] - ref) > COF_JUMP * abs(ref)
+        out[k] = high[k] and (collapse[k] or jump)
+        if not out[k] and not collapse[k] and np.isfinite(mu[k]) and not spread[k]:
+            history.append(mu[k])
+    return out
+
+
+def test_contact_loss_mask_flags_what_the_window_by_window_rule_flags():
+    from tribodyn.contact_loss import contact_loss_mask
+
+    rng = np.random.default_rng(7)
+    flagged = 0
+    for _ in range(500):
+        n = int(rng.integers(0, 120))
+        c = rng.uniform(0, 1, n) * np.where(rng.random(n) < 0.2, 0.3, 1.0)
+        se = rng.exponential(1, n) * np.where(rng.random(n) < 0.3, 10.0, 1.0)
+        mu = np.where(rng.random(n) < 0.05, np.nan, 0.2 + rng.normal(0, 0.05, n))
+        j = np.where(rng.random(n) < 0.05, np.nan, rng.uniform(0, 10, n))
+        stats = {"c_yz": c, "mu_r": mu, "mu_r_stderr": se}
+        want = _contact_loss_loop(stats, j)
+        np.testing.assert_array_equal(contact_loss_mask(stats, j), want)
+        flagged += int(want.sum())
+    assert flagged > 1000  # the cases flag windows, by collapse and by jumps
