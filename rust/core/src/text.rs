@@ -1013,6 +1013,9 @@ fn parse_piece(
     let mut eof = false;
     // a short piece (a few windows of a sample) reads about its rows' bytes, not a whole block
     let mut want = ((p.skip + p.rows) as usize).saturating_mul(64).clamp(1 << 12, BLOCK);
+    // bytes and rows (data rows passed over or parsed) consumed so far: the last block of a piece reads
+    // about the bytes its remaining rows take, not a whole block past them
+    let (mut done_bytes, mut done_rows) = (0u64, 0u64);
     while r < rows {
         if eof && buf.is_empty() {
             return Err(ParseError::Eof { line: line.saturating_sub(1), short: (rows - r) as u64 });
@@ -1097,6 +1100,14 @@ fn parse_piece(
             }
         }
         buf.drain(..at);
+        done_bytes += at as u64;
+        let rows_now = (p.skip - skip) + r as u64;
+        if rows_now > done_rows && r < rows {
+            done_rows = rows_now;
+            let left = (p.skip + p.rows).saturating_sub(done_rows);
+            let est = left.saturating_mul(done_bytes) / done_rows;
+            want = (est + est / 16 + 256).min(BLOCK as u64).max(1 << 12) as usize;
+        }
     }
     Ok(())
 }
