@@ -311,27 +311,18 @@ def test_simulator_options_keep_the_defaults_unchanged():
 
 
 def _contact_loss_loop(stats, j):
-    """contact_loss_mask as first written, window by window (the reference of the vectorised one)."""
-    from tribodyn.contact_loss import COF_JUMP, COLLAPSE, HISTORY, SPREAD_JUMP
+    """contact_loss_mask's history rule as first written, window by window (the reference of the vectorised
+    one), on the same per-window criteria."""
+    from tribodyn.contact_loss import COF_JUMP, HISTORY, criteria
 
-    j = np.asarray(j, dtype=float)
-    out = np.zeros(j.size, dtype=bool)
-    fin = np.isfinite(j)
-    if not fin.any():
-        return out
-    lo, hi = float(j[fin].min()), float(j[fin].max())
-    with np.errstate(invalid="ignore"):
-        high = fin & (j >= 0.5 * (lo + hi)) & (np.abs(j) > 0)
-    c, mu, se = (np.asarray(stats[k], dtype=float) for k in ("c_yz", "mu_r", "mu_r_stderr"))
-    c = np.abs(c)
-    c_med = float(np.nanmedian(c)) if np.isfinite(c).any() else np.nan
-    se_med = float(np.nanmedian(se)) if np.isfinite(se).any() else np.nan
-    with np.errstate(invalid="ignore"):
-        collapse = np.isfinite(c) & (c < COLLAPSE * c_med)
-        spread = np.isfinite(se) & (se > SPREAD_JUMP * se_med)
-    lasting = spread & (np.r_[spread[1:], False] | np.r_[False, spread[:-1]])
+    crit = criteria(stats, j)
+    if crit is None:
+        return np.zeros(len(j), dtype=bool)
+    high, collapse, spread, lasting = crit
+    mu = np.asarray(stats["mu_r"], dtype=float)
+    out = np.zeros(len(j), dtype=bool)
     history = []
-    for k in range(j.size):
+    for k in range(len(j)):
         jump = False
         if lasting[k] and np.isfinite(mu[k]) and history:
             ref = float(np.median(history[-HISTORY:]))

@@ -21,7 +21,7 @@ the window fails the gate and stays out of every fit.
 
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -43,23 +43,11 @@ def contact_loss_mask(stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndar
     finite ``j``: nothing is flagged.
     """
     j = np.asarray(j, dtype=float)
-    fin = np.isfinite(j)
-    if not fin.any():
+    crit = criteria(stats, j)
+    if crit is None:
         return np.zeros(j.size, dtype=bool)
-    lo, hi = float(j[fin].min()), float(j[fin].max())
-    with np.errstate(invalid="ignore"):
-        high = fin & (j >= 0.5 * (lo + hi)) & (np.abs(j) > 0)
-    c = np.abs(np.asarray(stats["c_yz"], dtype=float))
+    high, collapse, spread, lasting = crit
     mu = np.asarray(stats["mu_r"], dtype=float)
-    se = np.asarray(stats["mu_r_stderr"], dtype=float)
-    c_med = float(np.nanmedian(c)) if np.isfinite(c).any() else np.nan
-    se_med = float(np.nanmedian(se)) if np.isfinite(se).any() else np.nan
-    with np.errstate(invalid="ignore"):
-        collapse = np.isfinite(c) & (c < COLLAPSE * c_med)
-        spread = np.isfinite(se) & (se > SPREAD_JUMP * se_med)
-    # A spread that lasts: a step of the current moves the COF within one
-    # window (a wide spread once) without any loss of contact.
-    lasting = spread & (np.r_[spread[1:], False] | np.r_[False, spread[:-1]])
     out: np.ndarray = high & collapse
     # The history of calm windows: neither collapsed nor spread, with a COF (a window that is neither is
     # never flagged, so the history does not depend on the flags); a lasting spread jumps when its COF
@@ -71,6 +59,30 @@ def contact_loss_mask(stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndar
             ref = float(np.median(mu[before]))
             out[k] = abs(mu[k] - ref) > COF_JUMP * abs(ref)
     return out
+
+
+def criteria(stats: Mapping[str, np.ndarray], j: np.ndarray
+             ) -> Optional[Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:  # fmt: skip
+    """Per window (high current, |C_yz| collapsed, spread jumped, spread lasting), or None without a finite
+    ``j`` (:func:`contact_loss_mask`)."""
+    j = np.asarray(j, dtype=float)
+    fin = np.isfinite(j)
+    if not fin.any():
+        return None
+    lo, hi = float(j[fin].min()), float(j[fin].max())
+    with np.errstate(invalid="ignore"):
+        high = fin & (j >= 0.5 * (lo + hi)) & (np.abs(j) > 0)
+    c = np.abs(np.asarray(stats["c_yz"], dtype=float))
+    se = np.asarray(stats["mu_r_stderr"], dtype=float)
+    c_med = float(np.nanmedian(c)) if np.isfinite(c).any() else np.nan
+    se_med = float(np.nanmedian(se)) if np.isfinite(se).any() else np.nan
+    with np.errstate(invalid="ignore"):
+        collapse = np.isfinite(c) & (c < COLLAPSE * c_med)
+        spread = np.isfinite(se) & (se > SPREAD_JUMP * se_med)
+    # A spread that lasts: a step of the current moves the COF within one
+    # window (a wide spread once) without any loss of contact.
+    lasting = spread & (np.r_[spread[1:], False] | np.r_[False, spread[:-1]])
+    return high, collapse, spread, lasting
 
 
 def mark_contact_loss(reasons: np.ndarray, stats: Mapping[str, np.ndarray], j: np.ndarray) -> np.ndarray:

@@ -614,9 +614,10 @@ class _Search:
                 return kept[span.read]
             return read(*span.read)
 
-        got = self.noise(fetch)
-        if isinstance(got, StickSlip) or got is None:
-            return got or _not_assessed("stick-slip not assessed", self.scope)
+        got = self.noise(fetch)  # (every block when the sample met no contact: never None)
+        if isinstance(got, StickSlip):
+            return got
+        assert got is not None
         sigma, slope, orientation = got
         found = [self.block(s, fetch(s), orientation, sigma, slope) for s in self.spans]
         return self.summary(found, orientation, sigma, slope, fetch)
