@@ -445,11 +445,11 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     res.params.update(tribo)
     if own:
         res = dataclasses.replace(res, warnings=res.warnings + own)
-    res = settle(dataclasses.replace(res, strokes=strokes), lambda: classical_pass(sums))
-    if not plan.stick_slip:
-        return res
-    got = slip.result() if slip is not None else None  # else read again (docs/method.md 6g)
-    return dataclasses.replace(res, stick_slip=got if got is not None else stick_slip(source, res))
+    res = dataclasses.replace(res, strokes=strokes)
+    if plan.stick_slip:  # (before settle, which keeps the headline it computes: no copy after it)
+        got = slip.result() if slip is not None else None  # else read again (docs/method.md 6g)
+        res = dataclasses.replace(res, stick_slip=got if got is not None else stick_slip(source, res))
+    return settle(res, lambda: classical_pass(sums))
 
 
 def _reading_pass(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
