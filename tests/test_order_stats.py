@@ -191,3 +191,65 @@ def test_resample_stats_kernel_is_the_numpy_path(threads: int, monkeypatch: pyte
         for g, w in zip(got, want):  # the same bits, NaN where NumPy gives NaN (its sign aside)
             assert np.array_equal(np.isnan(g), np.isnan(w)), (v.size, noise is not None)
             assert g[~np.isnan(g)].tobytes() == w[~np.isnan(w)].tobytes(), (v.size, noise is not None)
+
+
+def _bytes(v: object) -> bytes:
+    return np.float64(v).tobytes()
+
+
+def test_sorted_values_give_numpys_medians_and_deviations() -> None:
+    """The pre-pass's one sort (``_order.Sorted``): medians, deviations and ranks of any run of it."""
+    rng = np.random.default_rng(11)
+    for x in [*_arrays(rng), np.array([2.5]), np.array([-1.0, 1.0]), 1e8 + 1e-8 * rng.normal(size=999)]:
+        whole = _order.Sorted.of(x)
+        for a, b in ((0, x.size), (0, max(1, x.size // 3)), (x.size // 2, x.size), (x.size - 1, x.size)):
+            part = whole.part(a, b)
+            v = part.values()
+            assert _bytes(part.median()) == _bytes(np.median(v))
+            for c in (0.0, float(np.median(v)), float(v[0]), float(v[-1]) + 2.0, float(v[0]) - 0.5, -3.5):
+                assert _bytes(part.median_abs_dev(c)) == _bytes(np.median(np.abs(v - c)))
+                ks = sorted({0, v.size // 3, v.size - 1})
+                assert part.ranks(ks, c) == list(np.sort(np.abs(v - c))[ks])
+            assert part.count_le(float(np.median(v))) == int(np.count_nonzero(v <= np.median(v)))
+    with pytest.raises(IndexError):
+        _order.Sorted.of(np.arange(3.0)).ranks([3])
+
+
+def test_histogram_of_sorted_values_is_the_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Otsu's histogram from binary searches equals NumPy's (the kernel's) count, and falls back to
+    the kernel where the edges are too close to tell (a range of a few ULPs)."""
+    from tribodyn.tribometer import _histogram_sorted
+
+    rng = np.random.default_rng(6)
+    calls = []
+    kernel = _core.histogram_uniform
+    monkeypatch.setattr(_core, "histogram_uniform", lambda x, e: calls.append(1) or kernel(x, e))
+    cases = [rng.normal(size=100_000), np.round(rng.normal(size=50_000), 1), np.linspace(-1, 1, 4097),
+             rng.integers(-3, 4, 5000).astype(float), np.array([0.0, 1.0])]  # fmt: skip
+    for x in cases:
+        s = np.sort(x)
+        edges = np.linspace(s[0], s[-1], 1025)
+        want, _ = np.histogram(x, bins=1024, range=(s[0], s[-1]))
+        assert np.array_equal(_histogram_sorted(s, edges), want)
+    assert not calls  # no fallback on ordinary ranges
+    tight = np.sort(1e8 + np.arange(40) * np.spacing(1e8))  # 40 ULPs over 1024 bins: edges repeat
+    edges = np.linspace(tight[0], tight[-1], 1025)  # (np.histogram refuses this range; the kernel counts it)
+    assert np.array_equal(_histogram_sorted(tight, edges), kernel(tight, edges))
+    assert calls  # the kernel's count
+
+
+def test_unloaded_cluster_is_its_masked_samples() -> None:
+    """The sorted cluster ``_unloaded`` returns holds exactly the samples of its mask."""
+    from tribodyn.tribometer import _unloaded
+
+    rng = np.random.default_rng(8)
+    n = 60_000
+    z = 0.02 * rng.normal(size=n)
+    z[n // 5 : n // 2] += 8.0
+    z[n // 2 : 4 * n // 5] += 0.6  # a low load step: the cluster narrows to its part nearer zero
+    got = _unloaded(z, _order.Sorted.of(z))
+    assert got is not None
+    mask, cluster = got
+    assert np.array_equal(cluster.values(), np.sort(z[mask]))
+    assert 0.35 < mask.mean() < 0.45
+    assert _unloaded(10.0 + 0.01 * rng.normal(size=n), _order.Sorted.of(10.0 + 0.01 * rng.normal(size=n))) is None

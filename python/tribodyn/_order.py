@@ -93,6 +93,94 @@ def median_abs_dev(x: np.ndarray, centre: float) -> float:
     return float(np.mean(got)) if got is not None else median(np.abs(x - centre))
 
 
+class Sorted:
+    """A sorted 1-D NaN-free float64 array whose order statistics (and those of its distances to a
+    centre) are read without a selection: the pre-pass sorts its sample of fz once and takes every
+    median, median absolute deviation and class of Otsu's splits from it (issue 25).
+
+    The values are those of :func:`median` and :func:`median_abs_dev` of the same values, bit for
+    bit: a rank of ``s`` is an index, and the distances ``|s_i - c|`` (``c - s_i`` left of ``c``,
+    ``s_i - c`` right of it, rounded the same way as ``|s_i - c|``) form two sorted runs whose
+    k-th smallest is found by a binary search over how many of them come from the left run.
+    ``a:b`` is the part looked at (a class of Otsu's split), without copies.
+    """
+
+    __slots__ = ("s", "a", "b")
+
+    def __init__(self, s: np.ndarray, a: int = 0, b: Optional[int] = None) -> None:
+        self.s, self.a, self.b = s, int(a), int(s.size if b is None else b)
+
+    @classmethod
+    def of(cls, x: np.ndarray) -> "Sorted":
+        """``x`` sorted (a copy)."""
+        return cls(np.sort(np.asarray(x, dtype=np.float64)))
+
+    @property
+    def size(self) -> int:
+        return self.b - self.a
+
+    def part(self, a: int, b: int) -> "Sorted":
+        """Values ``a:b`` of this part (indices relative to it)."""
+        return Sorted(self.s, self.a + a, self.a + b)
+
+    def values(self) -> np.ndarray:
+        """This part's values (a view)."""
+        return self.s[self.a : self.b]
+
+    def count_le(self, t: float) -> int:
+        """How many values are <= ``t``."""
+        return int(np.searchsorted(self.values(), t, side="right"))
+
+    def ranks(self, ks: Sequence[int], centre: Optional[float] = None) -> List[float]:
+        """The values of ranks ``ks`` (0-based, ascending) of this part, or with ``centre`` of the
+        distances ``|value - centre|`` (:func:`order_stats`, ``_core.select_ranks`` with a centre)."""
+        n, a, s = self.size, self.a, self.s
+        if any(k < 0 or k >= n for k in ks):
+            raise IndexError(f"rank out of range for {n} values")
+        if centre is None:
+            return [float(s[a + k]) for k in ks]
+        c = float(centre)
+        j = int(np.searchsorted(self.values(), c, side="left"))  # values < c on the left
+        n_left, n_right = j, n - j
+
+        def left(i: int) -> float:  # i-th smallest distance on the left: c - s[j - 1 - i]
+            return c - float(s[a + j - 1 - i])
+
+        def right(i: int) -> float:
+            return float(s[a + j + i]) - c
+
+        out = []
+        for k in ks:
+            # i = how many of the k + 1 smallest distances are on the left
+            lo, hi = max(0, k + 1 - n_right), min(k + 1, n_left)
+            while True:
+                i = (lo + hi) // 2
+                r = k + 1 - i  # taken on the right
+                if i > 0 and r < n_right and left(i - 1) > right(r):
+                    hi = i - 1
+                elif r > 0 and i < n_left and right(r - 1) > left(i):
+                    lo = i + 1
+                else:
+                    break
+            got = [left(i - 1)] if i > 0 else []
+            if r > 0:
+                got.append(right(r - 1))
+            out.append(max(got))
+        return out
+
+    def median(self) -> float:
+        """:func:`median` of this part's values."""
+        if not self.size:
+            return float("nan")
+        return float(np.mean(np.array(self.ranks(_middle(self.size)))))
+
+    def median_abs_dev(self, centre: float) -> float:
+        """:func:`median_abs_dev` of this part's values."""
+        if not self.size:
+            return float("nan")
+        return float(np.mean(np.array(self.ranks(_middle(self.size), centre))))
+
+
 def percentile(x: np.ndarray, q: float) -> float:
     """``float(np.percentile(x, q))`` of a 1-D array (method "linear")."""
     x = np.asarray(x, dtype=float)

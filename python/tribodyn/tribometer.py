@@ -212,16 +212,51 @@ def _robust_sd(v: np.ndarray, centre: Optional[float] = None) -> float:
     return 1.4826 * _order.median_abs_dev(v, m)
 
 
-def _otsu(v: np.ndarray, bins: int = 1024) -> float:
-    """Otsu's threshold of ``v``: the split of its histogram with the largest between-class variance."""
-    lo, hi = float(v.min()), float(v.max())
+def _sorted_robust_sd(v: _order.Sorted, centre: float) -> float:
+    """:func:`_robust_sd` of sorted values around their median ``centre``."""
+    return 1.4826 * v.median_abs_dev(centre) if v.size else 0.0
+
+
+def _bins_of(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """The bin ``_core.histogram_uniform`` (NumPy's histogram) puts each value of ``x`` (within the
+    edges' range) in: ``(x - first) / (last - first) * bins`` truncated, moved by one beside an edge."""
+    bins = edges.size - 1
+    i = np.minimum((((x - edges[0]) / (edges[-1] - edges[0])) * bins).astype(np.int64), bins - 1)
+    down = x < edges[i]
+    up = ~down & (x >= edges[i + 1]) & (i != bins - 1)
+    out: np.ndarray = i - down + up
+    return out
+
+
+def _histogram_sorted(v: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """``_core.histogram_uniform(v, edges)`` of sorted ``v`` spanning exactly the edges' range.
+
+    A value's bin (:func:`_bins_of`) never decreases as the value grows, so a bin's count is the
+    distance between the first values at or past its edges: found by a binary search for each edge
+    and checked by the bins of the values either side of it (the kernel's own count when a check
+    fails, as it may for edges a few ULPs apart).
+    """
+    n, bins = v.size, edges.size - 1
+    cut = np.searchsorted(v, edges[1:-1], side="left")  # first value >= each inner edge
+    j = np.arange(1, bins)
+    before, at = cut > 0, cut < n
+    ok = np.all(_bins_of(v[cut[before] - 1], edges) < j[before]) and np.all(_bins_of(v[cut[at]], edges) >= j[at])
+    if not ok:
+        return _core.histogram_uniform(np.ascontiguousarray(v), edges)
+    return np.diff(np.concatenate(([0], cut, [n]))).astype(np.int64)
+
+
+def _otsu(v: _order.Sorted, bins: int = 1024) -> float:
+    """Otsu's threshold of sorted finite values: the split of their histogram with the largest
+    between-class variance (NumPy's histogram of ``bins`` uniform bins over their range)."""
+    lo, hi = v.ranks([0, v.size - 1])
     if not hi > lo:
         return hi
-    if v.dtype == np.float64 and v.ndim == 1 and np.isfinite(hi - lo) and hasattr(_core, "histogram_uniform"):
+    if np.isfinite(hi - lo):
         edges = np.linspace(lo, hi, bins + 1, endpoint=True)  # np.histogram's edges
-        h = _core.histogram_uniform(np.ascontiguousarray(v), edges)  # its counts, bit for bit (Rust)
+        h = _histogram_sorted(v.values(), edges)
     else:
-        h, edges = np.histogram(v, bins=bins, range=(lo, hi))
+        h, edges = np.histogram(v.values(), bins=bins, range=(lo, hi))
     centres = 0.5 * (edges[:-1] + edges[1:])
     w = np.cumsum(h)[:-1].astype(float)
     m = np.cumsum(h * centres)[:-1]
@@ -233,8 +268,9 @@ def _otsu(v: np.ndarray, bins: int = 1024) -> float:
     return float(edges[int(np.argmax(between)) + 1])
 
 
-def _unloaded(z: np.ndarray) -> Optional[np.ndarray]:
-    """The mask of the unloaded cluster of ``z``, or None (docs/method.md 6a).
+def _unloaded(z: np.ndarray, order: _order.Sorted) -> Optional[Tuple[np.ndarray, _order.Sorted]]:
+    """The mask of the unloaded cluster of the finite ``z`` (``order``: ``z`` sorted) and its values
+    sorted, or None (docs/method.md 6a).
 
     Otsu's split of fz into two classes; the class nearer zero is an
     unloaded cluster when it holds at least UNLOADED_MIN_SHARE of the
@@ -243,28 +279,27 @@ def _unloaded(z: np.ndarray) -> Optional[np.ndarray]:
     way (lift-off below a low load step) is narrowed to its part nearer zero.
     """
     n = z.size
-    # The classes are value ranges: each step keeps the values of one side of a threshold, so the
-    # samples are selected by the thresholds' conditions rather than gathered by index.
-    v = z
+    # The classes are value ranges: each step keeps the values of one side of a threshold, a run of
+    # the sorted values; the samples are selected by the thresholds' conditions at the end.
+    v = order
     steps: List[Tuple[float, bool]] = []  # (threshold, low side) of each narrowing
-    found: Optional[List[Tuple[float, bool]]] = None
+    found: Optional[Tuple[List[Tuple[float, bool]], _order.Sorted]] = None
     for _ in range(3):
         if v.size < 10:
             break
         thr = _otsu(v)
-        low = v <= thr
-        k = int(np.count_nonzero(low))
+        k = v.count_le(thr)
         if k == v.size or k == 0:
             break
-        va, vb = v[low], v[~low]
-        ma, mb = _order.median(va), _order.median(vb)
+        va, vb = v.part(0, k), v.part(k, v.size)
+        ma, mb = va.median(), vb.median()
         side = abs(ma) <= abs(mb)
         u, other, mu_u = (va, mb, ma) if side else (vb, ma, mb)
         gap = abs(other - mu_u)
         if u.size < max(5, UNLOADED_MIN_SHARE * n) or not gap > 0:
             break
-        if _robust_sd(u, mu_u) <= UNLOADED_TIGHT * gap:
-            found = [*steps, (thr, side)]
+        if _sorted_robust_sd(u, mu_u) <= UNLOADED_TIGHT * gap:
+            found = ([*steps, (thr, side)], u)
         elif found is not None:
             break
         v = u  # narrow: the class nearer zero may still hold a tighter cluster (lift-off below a low step)
@@ -272,9 +307,9 @@ def _unloaded(z: np.ndarray) -> Optional[np.ndarray]:
     if found is None:
         return None
     mask = np.ones(n, dtype=bool)
-    for thr, side in found:
+    for thr, side in found[0]:
         mask &= (z <= thr) if side else ~(z <= thr)
-    return mask
+    return mask, found[1]
 
 
 def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
@@ -288,28 +323,42 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
     sample-to-sample differences / sqrt 2), clipped to
     [CONTACT_FLOOR_FRACTION, MIN_FN_FRACTION] x the median |fz|.
     """
-    fy = np.asarray(fy, dtype=float)
     fz = np.asarray(fz, dtype=float)
+    return _contact(np.asarray(fy, dtype=float), fz, _order.Sorted.of(fz))[0]
+
+
+def _shifted(order: _order.Sorted, tare: float) -> _order.Sorted:
+    """The sorted values of :func:`_untared` (the whole of ``order``): ``value - tare`` keeps the order."""
+    return order if tare == 0.0 and not np.signbit(tare) else _order.Sorted(order.values() - tare)
+
+
+def _contact(fy: np.ndarray, fz: np.ndarray, order: _order.Sorted) -> Tuple[Contact, _order.Sorted]:
+    """:func:`detect_contact` with ``order``, fz sorted; and fz tared by the contact's tare, sorted. The
+    medians and counts of fz are read from the sorted values (one sort instead of a selection each)."""
     n = fz.size
     if n == 0:
-        return Contact(0.0, 0.0, 0.0, 0.0, 0.0, False, "no samples")
-    unl = _unloaded(fz)
+        return Contact(0.0, 0.0, 0.0, 0.0, 0.0, False, "no samples"), order
+    got = _unloaded(fz, order) if np.isfinite(order.ranks([0, n - 1])).all() else None
     note = ""
-    if unl is not None:
+    if got is not None:
+        unl, cluster = got
         loaded_idx = np.flatnonzero(~unl)
         before = unl.copy()
         before[loaded_idx[0] :] = False  # the unloaded samples before the first loaded one (as tare= S takes them)
         after = unl.copy()
         after[: loaded_idx[-1] + 1] = False
         ref = before if before.sum() >= 5 else unl
-        t_fz = _order.median(fz[ref])
+        t_fz = _order.median(fz[ref]) if ref is before else cluster.median()
         t_fy = _order.median(fy[ref])
-        loaded = _order.median(fz[~unl])
-        sd = _robust_sd(fz[unl])
+        # the loaded samples are the sorted values either side of the cluster's run
+        m, at, width = n - cluster.size, cluster.a, cluster.size
+        loaded = float(np.mean(np.array(order.ranks([r if r < at else r + width for r in _order._middle(m)]))))
+        sd = _sorted_robust_sd(cluster, cluster.median())
         thr = max(CONTACT_SIGMAS * sd, CONTACT_GAP_FRACTION * abs(loaded - t_fz))
         where = "before the first contact" if ref is before else "of the whole recording"
+        unl_frac = cluster.size / n
         rule = (
-            f"unloaded cluster at fz = {t_fz:.4g} N ({100 * unl.mean():.1f} % of the samples; fy there "
+            f"unloaded cluster at fz = {t_fz:.4g} N ({100 * unl_frac:.1f} % of the samples; fy there "
             f"{t_fy:.4g} N), its median {where} taken as the tare; in contact when |fz - tare| >= {thr:.4g} N"
         )
         if ref is before and after.sum() >= 5:
@@ -323,19 +372,31 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
                     "drift?); pass --tare fy=N,fz=N (tare=) if another offset is right"
                 )
         static = True
-        unl_frac = float(unl.mean())
     else:
         t_fz = t_fy = 0.0
-        absz = _order.median_abs_dev(fz, 0.0)
+        absz = order.median_abs_dev(0.0)
         noise = _robust_sd(np.diff(fz)) / np.sqrt(2.0) if n > 1 else 0.0
         thr = min(max(4.0 * noise, CONTACT_FLOOR_FRACTION * absz), MIN_FN_FRACTION * absz)
         rule = f"no unloaded cluster: in contact when |fz| >= {thr:.4g} N (4 noise SDs, within 1-5 % of median |fz|)"
-        beyond = fz[np.abs(fz) >= thr]
-        share = float(max(np.mean(beyond > 0), np.mean(beyond < 0))) if beyond.size else 0.0
-        static = bool(share >= STATIC_SIGN_SHARE and beyond.size >= 0.5 * n)
+        v = order.values()
+        if thr > 0:  # |fz| >= thr: at or above thr, or at or below -thr
+            pos, neg = n - int(np.searchsorted(v, thr, "left")), int(np.searchsorted(v, -thr, "right"))
+        elif thr <= 0:  # every sample
+            pos, neg = n - int(np.searchsorted(v, 0.0, "right")), int(np.searchsorted(v, 0.0, "left"))
+        else:  # NaN: none
+            pos = neg = 0
+        size = pos + neg if thr > 0 or not thr <= 0 else n
+        share = max(pos / size, neg / size) if size else 0.0
+        static = bool(share >= STATIC_SIGN_SHARE and size >= 0.5 * n)
         unl_frac = 0.0
-    excluded = float(np.mean(np.abs(fz - t_fz) < thr)) if thr > 0 else float(np.mean(fz == t_fz))
-    return Contact(float(thr), t_fy, t_fz, unl_frac, excluded, static, rule, note)
+    tared = _shifted(order, t_fz)
+    v = tared.values()
+    if thr > 0:  # |fz - tare| < thr
+        inside = int(np.searchsorted(v, thr, "left")) - int(np.searchsorted(v, -thr, "right"))
+    else:  # fz == tare
+        raw = order.values()
+        inside = int(np.searchsorted(raw, t_fz, "right")) - int(np.searchsorted(raw, t_fz, "left"))
+    return Contact(float(thr), t_fy, t_fz, unl_frac, inside / n, static, rule, note), tared
 
 
 # -- pre-pass -------------------------------------------------------------------------
@@ -464,15 +525,18 @@ def prepass(
     elif tare is not None and not isinstance(tare, (int, float)):
         raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
     contact: Optional[Contact] = None
+    order = _order.Sorted.of(fz)  # fz sorted once: its medians and classes below (docs/method.md 6a)
     if not isinstance(tare, Mapping) and tare_n == 0 and min_fn is None:
-        contact = detect_contact(fy, fz)
+        contact, order = _contact(fy, fz, order)
         t_fy, t_fz = contact.tare_fy, contact.tare_fz
+    else:
+        order = _shifted(order, t_fz)
     fy, fz = _untared(fy, t_fy), _untared(fz, t_fz)
-    med = _order.median(fz) if fz.size else 0.0
-    mad = _order.median_abs_dev(fz, med) if fz.size else 0.0
+    med = order.median() if fz.size else 0.0
+    mad = order.median_abs_dev(med) if fz.size else 0.0
     static = bool(abs(med) > 0 and abs(med) > 3.0 * mad) or bool(contact is not None and contact.static)
     out["static"] = static
-    absz = _order.median_abs_dev(fz, 0.0)
+    absz = order.median_abs_dev(0.0)
     out["median_abs_fz"] = absz
     if contact is not None:
         out["contact"] = contact
