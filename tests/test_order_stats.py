@@ -253,3 +253,18 @@ def test_unloaded_cluster_is_its_masked_samples() -> None:
     assert np.array_equal(cluster.values(), np.sort(z[mask]))
     assert 0.35 < mask.mean() < 0.45
     assert _unloaded(10.0 + 0.01 * rng.normal(size=n), _order.Sorted.of(10.0 + 0.01 * rng.normal(size=n))) is None
+
+
+def test_select_ranks_is_the_same_on_every_thread_count() -> None:
+    """The bracket pass runs over a piece per thread; the kept values, and so the ranks, do not change."""
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.normal(size=300_001), np.full(5000, 0.25)])  # ties at the centre
+    ks = [0, 1234, x.size // 2, x.size - 1]
+    want = np.sort(x)[ks]
+    dev = np.sort(np.abs(x - 0.25))[ks]
+    for threads in (1, 2, 3, 8):
+        assert np.array_equal(_core.select_ranks(x, ks, threads=threads), want)
+        assert np.array_equal(_core.select_ranks(x, ks, centre=0.25, threads=threads), dev)
+    y = x.copy()
+    y[-3] = np.nan
+    assert _core.select_ranks(y, ks, threads=2) is None  # NaN in the last piece

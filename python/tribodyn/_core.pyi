@@ -78,7 +78,7 @@ def xcorr_auto_method(n: int, max_lag: int) -> str:
 def row_quantiles(x: _F64, qs: list[float], *, threads: int | None = None) -> tuple[_F64, _F64]:
     """Per row, ignoring NaN: the median and the quantiles qs (fractions), NumPy's values bit for bit."""
 
-def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None) -> _F64 | None:
+def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None, threads: int | None = None) -> _F64 | None:
     """The values of ranks ks (0-based, ascending) of a 1-D array (with centre: of |x - centre|), exactly;
     None when it holds NaN."""
 

@@ -35,7 +35,11 @@ def _kernel_ranks(x: np.ndarray, ks: Sequence[int], centre: Optional[float] = No
     ``_core.select_ranks`` (the bracket below in one pass); None without the kernel or when ``x`` holds NaN."""
     if not ks or x.ndim != 1 or x.dtype != np.float64 or not hasattr(_core, "select_ranks"):
         return None
-    return _core.select_ranks(np.ascontiguousarray(x), [int(k) for k in ks], centre=centre)
+    from .threads import read_threads  # the running analysis's thread count
+
+    return _core.select_ranks(
+        np.require(x, requirements=["C", "A"]), [int(k) for k in ks], centre=centre, threads=read_threads()
+    )
 
 
 def _middle(n: int) -> List[int]:
@@ -229,7 +233,7 @@ def row_quantiles(x: np.ndarray, qs: Sequence[float], *, threads: int = 1) -> Tu
     x = np.asarray(x)
     if x.ndim == 2 and x.dtype == np.float64 and hasattr(_core, "row_quantiles"):
         fracs = [float(np.true_divide(q, 100)) for q in qs]
-        med, flat = _core.row_quantiles(np.ascontiguousarray(x), fracs, threads=threads)
+        med, flat = _core.row_quantiles(np.require(x, requirements=["C", "A"]), fracs, threads=threads)
         return med, [flat[j * x.shape[0] : (j + 1) * x.shape[0]] for j in range(len(fracs))]
     return _row_quantiles_numpy(x, qs)
 

@@ -360,7 +360,7 @@ def choose_roles(rec: Any, channels: Optional[Mapping[str, Optional[str]]]) -> O
     there is one) and adds the warning of an ambiguous choice to ``rec.warnings``.
     """
     from .io.base import TANGENTIAL_NAMES, RecordingError, base_name
-    from .tribometer import sample_channels
+    from .tribometer import in_range, sample_channels
 
     if channels is not None and "fy" in channels:
         return None
@@ -387,7 +387,8 @@ def choose_roles(rec: Any, channels: Optional[Mapping[str, Optional[str]]]) -> O
         rec.warnings.append(f"the friction channel could not be chosen from the data ({exc}): the names decide")
         return None
     # Forces beyond the kernel's range count as missing, as in the pre-pass (docs/method.md 4).
-    data.update({n: np.where(np.abs(data[n]) <= _core.FORCE_LIMIT, data[n], np.nan) for n in (*names, fz)})
+    data.update({n: data[n] if in_range(data[n]) else np.where(np.abs(data[n]) <= _core.FORCE_LIMIT, data[n], np.nan)
+                 for n in (*names, fz)})  # fmt: skip
     forces = {n: data[n] for n in names}
     preferred = roles.get("fy") if roles.get("fy") in names else None
     choice = decide(forces, data[fz], motion=data[mchan] if mchan else None, motion_kind=kind or "x",

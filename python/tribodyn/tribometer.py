@@ -242,7 +242,7 @@ def _histogram_sorted(v: np.ndarray, edges: np.ndarray) -> np.ndarray:
     before, at = cut > 0, cut < n
     ok = np.all(_bins_of(v[cut[before] - 1], edges) < j[before]) and np.all(_bins_of(v[cut[at]], edges) >= j[at])
     if not ok:
-        return _core.histogram_uniform(np.ascontiguousarray(v), edges)
+        return _core.histogram_uniform(np.require(v, requirements=["C", "A"]), edges)
     return np.diff(np.concatenate(([0], cut, [n]))).astype(np.int64)
 
 
@@ -448,6 +448,13 @@ def sample_channels(rec: Any, keys: Sequence[str], tare_n: int = 0, limit: Optio
     return {r: np.concatenate(v) for r, v in out.items()}, bounds
 
 
+def in_range(*arrays: np.ndarray) -> bool:
+    """Every value of ``arrays`` finite and within +-``_core.FORCE_LIMIT`` (docs/method.md 4): two reductions
+    each, no temporary (NaN fails the comparisons, as ``np.abs(v) <= FORCE_LIMIT`` does)."""
+    lim = _core.FORCE_LIMIT
+    return all(not v.size or bool(v.min() >= -lim and v.max() <= lim) for v in arrays)
+
+
 def _untared(v: np.ndarray, tare: float) -> np.ndarray:
     """``v - tare`` (``v`` itself for a tare of +0.0, which leaves every value as it is)."""
     return v if tare == 0.0 and not np.signbit(tare) else v - tare
@@ -499,7 +506,7 @@ def prepass(
     elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a and "fy" in a
                                                             for a in source):  # fmt: skip
         data = {r: np.concatenate([np.asarray(a[r], dtype=float) for a in source]) for r in ("fy", "fz")}
-    if data is not None and data["fy"].shape == data["fz"].shape:
+    if data is not None and data["fy"].shape == data["fz"].shape and not in_range(data["fy"], data["fz"]):
         # Finite samples within the kernel's range (docs/method.md 4): a window holding another is out of range.
         ok = (np.abs(data["fy"]) <= _core.FORCE_LIMIT) & (np.abs(data["fz"]) <= _core.FORCE_LIMIT)
         data = {r: v[ok] for r, v in data.items()}

@@ -35,6 +35,8 @@ from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, T
 
 import numpy as np
 
+from ..threads import read_threads
+
 from .base import (
     Recording,
     RecordingError,
@@ -49,6 +51,8 @@ __all__ = ["NpyRecording", "NpzRecording"]
 
 #: Largest header accepted (numpy's own default limit for loading untrusted files).
 _MAX_HEADER = 10000
+#: Samples a channel from which the ranges of several channels are read a channel a thread.
+_PARALLEL_READ = 1 << 16
 
 #: What zipfile raises on a corrupt or unreadable member: a bad CRC or header, a corrupt compressed
 #: stream (zlib.error; bz2 and lzma raise OSError / LZMAError), an unknown compression method
@@ -248,15 +252,22 @@ class NpyRecording(Recording):
             return super()._read_ranges(names, ranges)
         idx = {nm: k for k, nm in enumerate(self._names)}
         total = sum(b - a for a, b in ranges)
-        out = {}
-        for nm in names:
+
+        def channel(nm: str) -> np.ndarray:
             buf = np.empty(total, dtype=self._arr.dtype)
             at = 0
             for a, b in ranges:
                 self._pread_into(buf[at : at + b - a], idx[nm], a)
                 at += b - a
-            out[nm] = buf
-        return out
+            return buf
+
+        workers = min(len(names), read_threads()) if total >= _PARALLEL_READ else 1
+        if workers > 1:  # a channel a thread: preadv releases the GIL
+            from concurrent.futures import ThreadPoolExecutor
+
+            with ThreadPoolExecutor(workers, thread_name_prefix="tribodyn-read") as pool:
+                return dict(zip(names, pool.map(channel, names)))
+        return {nm: channel(nm) for nm in names}
 
     def _f64_rows(self) -> bool:
         """Each channel is one contiguous, 8-byte aligned run of native float64 in the file.

@@ -119,7 +119,13 @@ pub fn select_ranks(x: &[f64], ks: &[usize], centre: Option<f64>) -> Result<Opti
     if let Some(k) = ks.iter().find(|&&k| k >= n) {
         return Err(KernelError::Invalid(format!("select_ranks: rank {k} of {n} values")));
     }
-    if centre.is_some_and(|c| !c.is_finite()) || x.iter().fold(false, |nan, v| nan | v.is_nan()) {
+    let pieces = crate::parallel::current().min(n / (1 << 16)).max(1);
+    let size = n.div_ceil(pieces).max(1);
+    let has_nan = || {
+        use rayon::prelude::*;
+        x.par_chunks(size).any(|p| p.iter().fold(false, |nan, v| nan | v.is_nan()))
+    };
+    if centre.is_some_and(|c| !c.is_finite()) || has_nan() {
         return Ok(None);
     }
     if ks.is_empty() {
@@ -150,11 +156,32 @@ pub fn select_ranks(x: &[f64], ks: &[usize], centre: Option<f64>) -> Result<Opti
     }
     let lo = if lo_j > 0 { sample[lo_j as usize] } else { f64::NEG_INFINITY };
     let hi = if hi_j < m as i64 - 1 { sample[hi_j as usize] } else { f64::INFINITY };
+    // The pass that counts the values below the bracket and keeps those inside it, over fixed pieces
+    // (one per thread of the pool it runs on), kept in the pieces' order: the kept values are the same
+    // multiset whatever the thread count, and a selection among them gives the same order statistics.
+    let parts: Vec<(usize, Vec<f64>)> = {
+        use rayon::prelude::*;
+        x.par_chunks(size).map(|piece| bracket(piece, lo, hi, &value)).collect()
+    };
+    let below: usize = parts.iter().map(|p| p.0).sum();
+    let mut inside: Vec<f64> = Vec::with_capacity(parts.iter().map(|p| p.1.len()).sum());
+    for (_, kept) in parts {
+        inside.extend_from_slice(&kept);
+    }
+    let kept = inside.len();
+    if kmin < below || kmax - below >= kept {
+        return Ok(Some(whole()));
+    }
+    let mut fixed = Vec::with_capacity(ks.len());
+    Ok(Some(ks.iter().map(|&k| rank(&mut inside, k - below, &mut fixed)).collect()))
+}
+
+/// (values of `x` below `lo`, the values within `[lo, hi]` in their order), of `value(v)` for each `v`.
+fn bracket(x: &[f64], lo: f64, hi: f64, value: &(impl Fn(f64) -> f64 + Sync)) -> (usize, Vec<f64>) {
     // Branch-free: every value is written at the end of the kept ones, which grows only when it is
     // inside the bracket (the allocation is virtual; only the kept values' pages are touched).
     let mut below = 0usize;
-    let mut inside: Vec<f64> = vec![0.0; 0];
-    inside.reserve_exact(n);
+    let mut inside: Vec<f64> = Vec::with_capacity(x.len());
     let buf = inside.spare_capacity_mut();
     let mut kept = 0usize;
     for &v in x {
@@ -165,11 +192,7 @@ pub fn select_ranks(x: &[f64], ks: &[usize], centre: Option<f64>) -> Result<Opti
     }
     // SAFETY: the first `kept` slots were written by the loop (each kept value at its slot).
     unsafe { inside.set_len(kept) };
-    if kmin < below || kmax - below >= kept {
-        return Ok(Some(whole()));
-    }
-    let mut fixed = Vec::with_capacity(ks.len());
-    Ok(Some(ks.iter().map(|&k| rank(&mut inside, k - below, &mut fixed)).collect()))
+    (below, inside)
 }
 
 /// NumPy's `histogram(x, bins=edges.len() - 1, range=(edges[0], edges[last]))` of uniform `edges`

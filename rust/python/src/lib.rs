@@ -276,15 +276,20 @@ fn xcorr_auto_method(n: usize, max_lag: usize) -> &'static str {
 /// The values of ranks `ks` (0-based, ascending order) of a 1-D C-contiguous float64 array (with `centre`:
 /// of its absolute deviations from it), exactly; None when it holds NaN (tribodyn._order).
 #[pyfunction]
-#[pyo3(signature = (x, ks, *, centre=None))]
+#[pyo3(signature = (x, ks, *, centre=None, threads=None))]
 fn select_ranks<'py>(
     py: Python<'py>,
     x: PyReadonlyArray1<'py, f64>,
     ks: Vec<usize>,
     centre: Option<f64>,
+    threads: Option<i64>,
 ) -> PyResult<Option<Bound<'py, PyArray1<f64>>>> {
+    let threads = threads_of(threads)?;
     let xs = x.as_slice().map_err(slice_err("x"))?;
-    let got = py.detach(|| order::select_ranks(xs, &ks, centre)).map_err(to_py)?;
+    let got = py
+        .detach(|| parallel::run_with(threads, || order::select_ranks(xs, &ks, centre)))
+        .map_err(to_py)?
+        .map_err(to_py)?;
     Ok(got.map(|v| PyArray1::from_vec(py, v)))
 }
 
