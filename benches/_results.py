@@ -40,12 +40,24 @@ def machine_description() -> str:
     )
 
 
+#: A section's text after this line is written by hand: a script rewriting the section keeps it.
+KEEP = "<!-- written by hand below this line: the scripts that rewrite this section keep it -->"
+
+
+def kept(section_text: str) -> str:
+    """The hand-written end of a section (from :data:`KEEP` on), or ''."""
+    at = section_text.find(KEEP)
+    return "" if at < 0 else "\n" + section_text[at:].strip() + "\n"
+
+
 def write_section(title: str, body: str) -> None:
-    """Replaces (or appends) the section ``## title`` of RESULTS.md."""
+    """Replaces (or appends) the section ``## title`` of RESULTS.md, keeping its hand-written end."""
     text = RESULTS.read_text() if RESULTS.exists() else HEADER
     block = f"## {title}\n\nMachine: {machine_description()}\n\n{body.strip()}\n"
     pattern = re.compile(rf"^## {re.escape(title)}\n.*?(?=^## |\Z)", re.S | re.M)
-    if pattern.search(text):
+    found = pattern.search(text)
+    if found:
+        block += kept(found.group(0))
         text = pattern.sub(lambda _: block + "\n", text)
     else:
         text = text.rstrip("\n") + "\n\n" + block

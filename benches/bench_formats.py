@@ -277,11 +277,15 @@ def render(res: Dict[float, Dict[str, Any]], repeat: int) -> str:
 
 
 def write_section(text: str, section: str = SECTION) -> None:
-    """Replaces (or appends) the section of benches/RESULTS.md whose heading is ``section``."""
+    """Replaces (or appends) the section of benches/RESULTS.md whose heading is ``section``, keeping its
+    hand-written end (``_results.KEEP``)."""
+    from _results import kept
+
     old = RESULTS.read_text() if RESULTS.exists() else ""
     if section in old:
         start = old.index(section)
         nxt = old.find("\n## ", start + len(section))
+        text = text.rstrip("\n") + "\n" + kept(old[start : nxt if nxt >= 0 else len(old)])
         old = old[:start] + (old[nxt + 1 :] if nxt >= 0 else "")
     RESULTS.write_text(old.rstrip("\n") + "\n\n" + text)
 
