@@ -55,6 +55,7 @@ NAMES = ["fx", "fy", "fz", "i"]
 
 CHILD = r"""
 import json, os, resource, sys, time
+PHASES = ("prepass", "find_lag", "run", "finish", "settle")  # the steps of tribodyn.analyze._analyze_body
 job = json.loads(sys.argv[1])
 kind = job["kind"]
 out = {}
@@ -102,11 +103,31 @@ elif kind in ("api", "tiled"):
     opts = dict(window=2.0, hop=2.0) if kind == "tiled" else {}
     if job.get("threads"):
         opts["threads"] = job["threads"]
+    # the profile: wall time of the analysis' steps (the functions analyze's module calls by name)
+    import functools, importlib
+    phases = {}
+    mod = importlib.import_module("tribodyn.analyze")
+    def timed(name, f):
+        @functools.wraps(f)
+        def g(*a, **k):
+            t0 = time.perf_counter()
+            try:
+                return f(*a, **k)
+            finally:
+                phases[name] = phases.get(name, 0.0) + time.perf_counter() - t0
+        return g
+    for name in PHASES:
+        if callable(getattr(mod, name, None)):
+            setattr(mod, name, timed(name, getattr(mod, name)))
     before = set(sys.modules)
     t = time.perf_counter()
-    with td.open_recording(p, **kw) as rec:
+    rec = td.open_recording(p, **kw)
+    phases["open_recording"] = time.perf_counter() - t
+    with rec:
         res = td.analyze(rec, **opts)
     out["seconds"] = time.perf_counter() - t
+    phases["other"] = out["seconds"] - sum(phases.values())
+    out["phases"] = phases
     out["imported"] = sorted(set(sys.modules) - before)
     out["headline"] = str(res.headline)
     out["windows"] = len(res)
@@ -368,7 +389,24 @@ def report(o: Dict[str, Any]) -> str:
         lines.append(f"| {k} | " + " | ".join(cells) + f" | {runs} | {rss:.0f} MB |")
     lines.append(f"| yardstick `fy @ fz`, 10 h in RAM, one BLAS thread | {fmt(yard)} | " + ("|" if has_base else "")
                  + f" {', '.join(fmt(r['seconds']) for r in g['yardstick'])} | |")  # fmt: skip
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines) + "\n" + profile(g)
+
+
+def profile(g: Dict[str, List[Dict[str, Any]]]) -> str:
+    """The profile of the API's misses: wall time of each step of the call (this build; medians)."""
+    keys = [k for k in ("api h1", "api h10", "api h10 tdms", "tiled h10 t1", "tiled h10 t2") if f"this|{k}" in g]
+    steps = ["open_recording", "prepass", "find_lag", "run", "finish", "settle", "other"]
+    what = {"open_recording": "opening (the friction axis chosen from a sample)",
+            "prepass": "pre-pass (2^20-sample sample: contact, tare, motion)", "find_lag": "find_lag (IV lag)",
+            "run": "the windows' kernel (reads the file)", "finish": "finish (estimators, gate, table)",
+            "settle": "settle (headline and its bootstrap)", "other": "the rest"}  # fmt: skip
+    out = ["", "Profile of the API call (this build, wall time of each step, medians of the runs; "
+           "`tribodyn.analyze`'s steps timed by name in the child):", "",
+           "| step | " + " | ".join(keys) + " |", "|---|" + "---|" * len(keys)]  # fmt: skip
+    for st in steps:
+        cells = [f"{1e3 * statistics.median(r['phases'].get(st, 0.0) for r in g[f'this|{k}']):.0f} ms" for k in keys]
+        out.append(f"| {what[st]} | " + " | ".join(cells) + " |")
+    return "\n".join(out) + "\n"
 
 
 def main(argv: Optional[List[str]] = None) -> None:
