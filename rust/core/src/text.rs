@@ -217,6 +217,56 @@ fn quick_number(buf: &[u8], mut i: usize, point: u8) -> Option<(f64, usize)> {
     Some((f64::from_bits(v.to_bits() | ((neg as u64) << 63)), i))
 }
 
+/// The number that fills the field `buf[s..e]` when it is short: a sign, then at most 8 bytes of
+/// digits with at most one decimal point (`.` or `point`), at least one digit. The field's end is
+/// known (from [`row_masks`]), so the digits are read in one word whatever their count: the point
+/// is taken out by moving the bytes before it up one, and every byte left is checked to be a
+/// digit. None for any other field (the caller then takes [`quick_number`]). The value is
+/// [`quick_number`]'s: m has at most 8 digits and one IEEE division by an exact power of ten
+/// rounds it correctly.
+#[inline(always)]
+fn field_number(buf: &[u8], s: usize, e: usize, point: u8) -> Option<f64> {
+    let c = *buf.get(s)?;
+    let neg = c == b'-';
+    let s1 = s + (neg || c == b'+') as usize;
+    let len = e.wrapping_sub(s1);
+    if len.wrapping_sub(1) >= 8 {
+        return None;
+    }
+    // the field's bytes at the word's top (the first byte lowest), zero bytes below them
+    let w = word_at(buf, s1)? << (8 * (8 - len));
+    let dots = zero_bytes(w ^ (b'.' as u64 * ONES)) | zero_bytes(w ^ (point as u64 * ONES));
+    if dots & dots.wrapping_sub(1) != 0 {
+        return None; // two points
+    }
+    // the bytes below the point move up one over it (no point: nothing moves)
+    let low = (dots >> 7).wrapping_sub(1) & 0u64.wrapping_sub((dots != 0) as u64);
+    let w = ((w & low) << 8) | (w & !low & !((dots >> 7) * 0xff));
+    // the digits fill the top len - (one if a point) bytes, and there is at least one
+    let nd = len - (dots != 0) as usize;
+    if nd == 0 {
+        return None;
+    }
+    let top = u64::MAX << (8 * (8 - nd));
+    // a byte is a digit when its high nibble is 3 and adding 6 keeps it 3 (a carry only leaves a
+    // byte of 0xfa or more, itself no digit)
+    let hi = 0xf0 * ONES;
+    let nondigit = ((w & hi) ^ (0x30 * ONES)) | ((w.wrapping_add(0x06 * ONES) & hi) ^ (0x30 * ONES));
+    if nondigit & top != 0 {
+        return None;
+    }
+    let mut v = w.wrapping_sub((0x30 * ONES) & top);
+    v = v.wrapping_mul(10).wrapping_add(v >> 8); // pairs of digits in bytes 0, 2, 4, 6
+    let m2 = 0x0000_00ff_0000_00ffu64;
+    let a = (v & m2).wrapping_mul(100 + (1_000_000 << 32));
+    let b = ((v >> 16) & m2).wrapping_mul(1 + (10_000 << 32));
+    let m = (a.wrapping_add(b)) >> 32;
+    // digits after the point: the bytes above it (the point's top bit is bit 8p + 7)
+    let frac = (dots.leading_zeros() / 8) as usize & 7;
+    let x = (m as i64) as f64 / POW10[frac];
+    Some(f64::from_bits(x.to_bits() | ((neg as u64) << 63)))
+}
+
 /// Where the field from `buf[i..]` ends: the first separator `d` or `\n`
 /// (None when the buffer ends first), eight bytes at a time.
 #[inline(always)]
@@ -361,6 +411,155 @@ fn parse_row_quick(
     }
     // fields beyond those needed are not looked at (as the general way)
     Some(memchr::memchr(b'\n', &buf[p..]).map_or(buf.len(), |i| p + i + 1))
+}
+
+/// Gathers the top bit of each byte of `x` into the byte's bit of one byte (the first byte lowest):
+/// 8 bits. Each product term of the multiplication lands on its own bit, so nothing carries.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn gather_bytes(x: u64) -> u64 {
+    ((x >> 7) & ONES).wrapping_mul(0x0102_0408_1020_4080) >> 56
+}
+
+/// [`row_masks`] eight bytes at a time (any target; the reference of the SSE2 one).
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn row_masks_swar(b: &[u8; 64], sep: u8) -> (u64, u64) {
+    let (mut ends, mut nl) = (0u64, 0u64);
+    for (j, c) in b.chunks_exact(8).enumerate() {
+        let w = u64::from_le_bytes(c.try_into().unwrap_or([0; 8]));
+        let n = zero_bytes(w ^ (b'\n' as u64 * ONES));
+        let s = zero_bytes(w ^ (sep as u64 * ONES));
+        nl |= gather_bytes(n) << (8 * j);
+        ends |= gather_bytes(n | s) << (8 * j);
+    }
+    (ends, nl)
+}
+
+/// [`row_masks`] sixteen bytes at a time (SSE2 is part of every x86-64).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn row_masks_sse2(b: &[u8; 64], sep: u8) -> (u64, u64) {
+    use std::arch::x86_64::*;
+    let (mut ends, mut nl) = (0u64, 0u64);
+    // SAFETY: SSE2 is always there on x86-64, and each unaligned 16-byte load lies inside `b`.
+    unsafe {
+        let vs = _mm_set1_epi8(sep as i8);
+        let vn = _mm_set1_epi8(b'\n' as i8);
+        for j in 0..4 {
+            let v = _mm_loadu_si128(b.as_ptr().add(16 * j) as *const __m128i);
+            let n = _mm_cmpeq_epi8(v, vn);
+            let e = _mm_or_si128(n, _mm_cmpeq_epi8(v, vs));
+            nl |= (_mm_movemask_epi8(n) as u32 as u64) << (16 * j);
+            ends |= (_mm_movemask_epi8(e) as u32 as u64) << (16 * j);
+        }
+    }
+    (ends, nl)
+}
+
+/// The 64 bytes from `buf[at]` as bit masks (bit i: byte `at + i`): those that end a field (the
+/// separator `sep` or `\n`), and the `\n`. None when fewer than 64 bytes are left.
+#[inline(always)]
+fn row_masks(buf: &[u8], at: usize, sep: u8) -> Option<(u64, u64)> {
+    let b: &[u8; 64] = buf.get(at..at.checked_add(64)?)?.try_into().ok()?;
+    #[cfg(target_arch = "x86_64")]
+    return Some(row_masks_sse2(b, sep));
+    #[cfg(not(target_arch = "x86_64"))]
+    return Some(row_masks_swar(b, sep));
+}
+
+/// Whether a number read from `s` to `end` (see [`quick_number`]) fills the field that ends at
+/// `e`, the row's `\n` being at `nl`: it ends at the field's end, or at a `\r` just before the `\n`.
+#[inline(always)]
+fn fills(buf: &[u8], end: usize, e: usize, nl: usize) -> bool {
+    end == e || (e == nl && end + 1 == nl && buf[end] == b'\r')
+}
+
+/// The number that fills the field from `s` to its end `e` (a separator, or the row's `\n` at
+/// `nl`: a `\r` before it is no part of the field): [`field_number`], else [`quick_number`]; None
+/// when neither reads the whole field (the caller then takes the slower ways, which decide).
+#[inline(always)]
+fn masked_number(buf: &[u8], s: usize, e: usize, nl: usize, point: u8) -> Option<f64> {
+    let e1 = e - (e == nl && e > s && buf[e - 1] == b'\r') as usize;
+    if let Some(x) = field_number(buf, s, e1, point) {
+        return Some(x);
+    }
+    let (x, end) = quick_number(buf, s, point)?;
+    fills(buf, end, e, nl).then_some(x)
+}
+
+/// [`scan_row_quick`] of a row that ends within 64 bytes, its field ends found all at once from
+/// [`row_masks`] (so no field waits for the one before it). None when the row does not fit (or
+/// too few bytes are left: take [`scan_row_quick`]); Some(None) when it is no plain row (take the
+/// slower ways, which decide); else what [`scan_row_quick`] gives.
+#[inline(always)]
+fn scan_row_masked(buf: &[u8], at: usize, spec: &ScanSpec, sep: u8, point: u8) -> Option<Option<(usize, f64)>> {
+    let (ends, nl) = row_masks(buf, at, sep)?;
+    if nl == 0 {
+        return None;
+    }
+    if !quick_start(buf, at, &spec.dialect, point) {
+        return Some(None);
+    }
+    let nlp = at + nl.trailing_zeros() as usize;
+    let mut m = ends & (nl ^ (nl - 1)); // the field ends up to the row's `\n`: one per field
+    let fields = m.count_ones() as usize;
+    let last = spec.time.map_or(spec.probe, |t| t.max(spec.probe));
+    if fields <= last || spec.nf.is_some_and(|nf| nf != fields) {
+        return Some(None);
+    }
+    let mut s = at;
+    let mut t = f64::NAN;
+    for k in 0..=last {
+        let e = at + m.trailing_zeros() as usize;
+        m &= m - 1;
+        if k == spec.probe || Some(k) == spec.time {
+            let Some(v) = masked_number(buf, s, e, nlp, point) else { return Some(None) };
+            if Some(k) == spec.time {
+                t = v;
+            }
+        }
+        s = e + 1;
+    }
+    Some(Some((nlp + 1, t)))
+}
+
+/// [`parse_row_quick`] of a row whose needed fields end within 64 bytes, found all at once from
+/// [`row_masks`]. None: take [`parse_row_quick`]; Some(None): take the slower ways; else what
+/// [`parse_row_quick`] gives.
+#[inline(always)]
+fn parse_row_masked(
+    buf: &[u8],
+    at: usize,
+    d: &Dialect,
+    sep: u8,
+    point: u8,
+    used: &[bool],
+    vals: &mut [f64],
+) -> Option<Option<usize>> {
+    let (ends, nl) = row_masks(buf, at, sep)?;
+    if nl == 0 {
+        return None;
+    }
+    if !quick_start(buf, at, d, point) {
+        return Some(None);
+    }
+    let nlp = at + nl.trailing_zeros() as usize;
+    let mut m = ends & (nl ^ (nl - 1));
+    if (m.count_ones() as usize) < vals.len() {
+        return Some(None);
+    }
+    let mut s = at;
+    for (v, &u) in vals.iter_mut().zip(used) {
+        let e = at + m.trailing_zeros() as usize;
+        m &= m - 1;
+        if u {
+            let Some(x) = masked_number(buf, s, e, nlp, point) else { return Some(None) };
+            *v = x;
+        }
+        s = e + 1;
+    }
+    Some(Some(nlp + 1))
 }
 
 /// The common case of [`to_float`] (a stripped field): [`lex_number`] of the whole field.
@@ -742,7 +941,10 @@ fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
     let mut at = 0usize;
     let quick = quick_sep(d);
     while at < buf.len() {
-        if let Some((nl, t)) = quick.and_then(|(sep, point)| scan_row_quick(buf, at, spec, sep, point)) {
+        let row = quick.and_then(|(sep, point)| {
+            scan_row_masked(buf, at, spec, sep, point).unwrap_or_else(|| scan_row_quick(buf, at, spec, sep, point))
+        });
+        if let Some((nl, t)) = row {
             out.row(t, &mut t_prev, at, spec, keep);
             out.lines += 1;
             at = nl;
@@ -1044,7 +1246,8 @@ fn parse_piece(
             }
             if skip == 0 {
                 let row = match quick {
-                    Some((sep, point)) => parse_row_quick(view, at, d, sep, point, &used, &mut vals),
+                    Some((sep, point)) => parse_row_masked(view, at, d, sep, point, &used, &mut vals)
+                        .unwrap_or_else(|| parse_row_quick(view, at, d, sep, point, &used, &mut vals)),
                     None => None,
                 };
                 if let Some(nl) = row.or_else(|| parse_line_fast(view, at, d, &used, &mut vals)) {
@@ -1261,6 +1464,168 @@ mod tests {
         assert_eq!(quick_number(b"-0.0,xxxxxx", 0, b'.').map(|(v, _)| v.to_bits()), Some((-0.0f64).to_bits()));
         assert_eq!(count_to_line_end(b"1,2,,3\r\nxxxxxxxxxxxxxxxx", 0, b','), Some((7, 3)));
         assert_eq!(count_to_line_end(b"1,2,,3,", 0, b','), None);
+    }
+
+    /// A random field for the row paths' tests: mostly numbers of the shapes data files have, some
+    /// of every other kind (signs, points, exponents, blanks, text, long digit runs).
+    fn random_field(next: &mut impl FnMut() -> u64) -> String {
+        let r = next();
+        let digits = |n: u64, next: &mut dyn FnMut() -> u64| -> String {
+            (0..n).map(|_| (b'0' + (next() % 10) as u8) as char).collect()
+        };
+        let sign = ["", "-", "+", "", "-", ""][(r % 6) as usize];
+        match (r >> 3) % 16 {
+            0 => String::new(),
+            1 => ["x", "nan", "-inf", " 1", "1 ", "1e5", "1E-3", "..5", "1.2.3", "-", ".", "+.", "1_0"]
+                [(r >> 8) as usize % 13]
+                .to_string(),
+            2 => format!("{sign}{}", digits((r >> 8) % 21, next)),
+            3 => format!("{sign}{}.{}e{}", digits((r >> 8) % 3, next), digits((r >> 12) % 4, next), (r >> 16) % 30),
+            _ => {
+                let a = (r >> 8) % 9;
+                let b = (r >> 12) % 10;
+                let p = if (r >> 16) % 8 == 0 { "" } else { "." };
+                format!("{sign}{}{p}{}", digits(a, next), digits(b, next))
+            }
+        }
+    }
+
+    #[test]
+    fn row_masks_find_every_separator_and_line_end() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..20_000 {
+            let sep = [b',', b'\t', b';', b' ', 0xa0, 0x80][(next() % 6) as usize];
+            let b: Vec<u8> = (0..70)
+                .map(|_| match next() % 8 {
+                    0 => sep,
+                    1 => b'\n',
+                    2 => (next() & 0xff) as u8,
+                    _ => b'0' + (next() % 10) as u8,
+                })
+                .collect();
+            let at = (next() % 7) as usize;
+            let (ends, nl) = row_masks(&b, at, sep).unwrap();
+            let want_nl: u64 = (0..64).filter(|&i| b[at + i] == b'\n').map(|i| 1u64 << i).sum();
+            let want_ends: u64 =
+                (0..64).filter(|&i| matches!(b[at + i], b'\n') || b[at + i] == sep).map(|i| 1u64 << i).sum();
+            assert_eq!((ends, nl), (want_ends, want_nl));
+            let arr: &[u8; 64] = b[at..at + 64].try_into().unwrap();
+            assert_eq!(row_masks_swar(arr, sep), (want_ends, want_nl));
+        }
+        assert_eq!(row_masks(&[b'1'; 63], 0, b','), None);
+        assert_eq!(row_masks(&[b'1'; 80], 17, b','), None);
+    }
+
+    #[test]
+    fn field_numbers_are_the_general_parsers_bits() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..300_000 {
+            let f = random_field(&mut next);
+            let point = if next() % 4 == 0 { b',' } else { b'.' };
+            let f = if point == b',' && next() % 2 == 0 { f.replace('.', ",") } else { f };
+            let text = format!("{f},xxxxxxxxxxxxxxxx");
+            let got = field_number(text.as_bytes(), 0, f.len(), point);
+            let want = fast_float(f.as_bytes(), point);
+            match got {
+                Some(v) => assert_eq!(Some(v.to_bits()), want.map(f64::to_bits), "{f:?}"),
+                None => {
+                    let body = f.trim_start_matches(['-', '+']);
+                    let short = f.len() - body.len() <= 1 && body.len() <= 8;
+                    let grammar = body.bytes().all(|c| c.is_ascii_digit() || c == b'.' || c == point)
+                        && body.bytes().filter(|&c| c == b'.' || c == point).count() <= 1
+                        && body.bytes().any(|c| c.is_ascii_digit());
+                    assert!(!(short && grammar), "{f:?} refused");
+                }
+            }
+        }
+        assert_eq!(field_number(b"-0.982056,", 0, 9, b'.'), Some(-0.982056));
+        assert_eq!(field_number(b"+5.,xxxxxxxx", 0, 3, b'.'), Some(5.0));
+        assert_eq!(field_number(b".25\nxxxxxxxx", 0, 3, b'.'), Some(0.25));
+        assert_eq!(field_number(b"1,5;xxxxxxxx", 0, 3, b','), Some(1.5));
+        assert_eq!(field_number(b"12345678,xxxxxxxx", 0, 8, b'.'), Some(12_345_678.0));
+        assert_eq!(field_number(b"1.5.1,xxxxxxxx", 0, 5, b'.'), None);
+        assert_eq!(field_number(b"1.5", 0, 3, b'.'), None); // fewer than 8 bytes from the digits
+    }
+
+    #[test]
+    fn masked_rows_read_as_the_general_way() {
+        // rows of random fields; wherever the masked paths take a row, its end, time and values must be
+        // those of the general way (Python's rules), bit for bit
+        let mut state = 0x1234_5678_9abc_def1u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut taken = (0, 0);
+        for _ in 0..100_000 {
+            let sep = [b',', b';', b'\t', b','][(next() % 4) as usize];
+            let nf = 1 + (next() % 6) as usize;
+            let mut line: Vec<u8> = Vec::new();
+            for k in 0..nf {
+                if k > 0 {
+                    line.push(sep);
+                }
+                line.extend_from_slice(random_field(&mut next).as_bytes());
+            }
+            line.extend_from_slice(["\n", "\r\n", "\r\r\n", "\n"][(next() % 4) as usize].as_bytes());
+            let mut buf = line.clone();
+            buf.extend_from_slice(&[b'9'; 80]);
+            let point = if sep != b',' && next() % 3 == 0 { b',' } else { b'.' };
+            let d = Dialect { delim: Some(sep), decimal: point, comment: Some(b"#".to_vec()), skip_blank: true };
+            let text = text_of(&line);
+            let fields: Vec<&[u8]> = Fields::new(text, Some(sep)).collect();
+            let general = |k: usize| number(strip(fields[k], str_ws), point);
+            // the parse of the first `need` fields, some of them
+            let need = 1 + (next() as usize % nf.max(1));
+            let used: Vec<bool> = (0..need).map(|k| k + 1 == need || next() % 3 != 0).collect();
+            let mut vals = vec![0.0; need];
+            if let Some(Some(nl)) = parse_row_masked(&buf, 0, &d, sep, point, &used, &mut vals) {
+                taken.0 += 1;
+                assert_eq!(nl, line.len(), "{line:?}");
+                assert!(fields.len() >= need);
+                for k in 0..need {
+                    if used[k] {
+                        assert_eq!(Some(vals[k].to_bits()), general(k).map(f64::to_bits), "{line:?} field {k}");
+                    }
+                }
+            }
+            // the scan's: field count, probe and time
+            let probe = next() as usize % nf;
+            let time = if next() % 2 == 0 { Some(next() as usize % nf) } else { None };
+            let sp = ScanSpec {
+                dialect: d.clone(),
+                nf: if next() % 4 == 0 { None } else { Some(nf) },
+                probe,
+                time,
+                gap: f64::NAN,
+                t_prev: f64::NAN,
+                keep_times: 0,
+            };
+            if let Some(Some((nl, t))) = scan_row_masked(&buf, 0, &sp, sep, point) {
+                taken.1 += 1;
+                assert_eq!(nl, line.len(), "{line:?}");
+                assert_eq!(fields.len(), nf);
+                assert!(general(probe).is_some(), "{line:?}");
+                if let Some(j) = time {
+                    assert_eq!(Some(t.to_bits()), general(j).map(f64::to_bits), "{line:?}");
+                }
+            }
+        }
+        assert!(taken.0 > 5_000 && taken.1 > 5_000, "{taken:?}");
     }
 
     #[test]
