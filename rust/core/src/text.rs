@@ -267,6 +267,88 @@ fn field_number(buf: &[u8], s: usize, e: usize, point: u8) -> Option<f64> {
     Some(f64::from_bits(x.to_bits() | ((neg as u64) << 63)))
 }
 
+/// Where each byte of a number goes for [`field_number_sse`]: for a number of `len` bytes (1-16)
+/// with its point at `p` (16: none), the source byte of each of 16 digit places, the digits
+/// right-aligned (the last at place 15), 0x80 (a zero) before them.
+const fn shuffles() -> [[[u8; 16]; 17]; 17] {
+    let mut t = [[[0x80u8; 16]; 17]; 17];
+    let mut len = 1;
+    while len <= 16 {
+        let mut p = 0;
+        while p <= 16 {
+            // the digits' sources, from the last back
+            let mut place = 16;
+            let mut src = len;
+            while src > 0 {
+                src -= 1;
+                if src != p {
+                    place -= 1;
+                    t[len][p][place] = src as u8;
+                }
+            }
+            p += 1;
+        }
+        len += 1;
+    }
+    t
+}
+
+static SHUFFLES: [[[u8; 16]; 17]; 17] = shuffles();
+
+/// [`field_number`] of up to 16 bytes after the sign (at most 15 digits), with SSE4.1: the bytes
+/// checked to be digits but one point at once, the digits moved right-aligned past the point by
+/// one shuffle ([`SHUFFLES`]) and summed in pairs, fours and eights by multiply-adds. The value is
+/// [`quick_number`]'s: m < 10^15 < 2^53, so one IEEE division by an exact power of ten rounds it
+/// correctly.
+///
+/// # Safety
+/// The CPU must have SSE4.1 and SSSE3.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse4.1,ssse3")]
+#[inline]
+unsafe fn field_number_sse(buf: &[u8], s: usize, e: usize, point: u8) -> Option<f64> {
+    use std::arch::x86_64::*;
+    let c = *buf.get(s)?;
+    let neg = c == b'-';
+    let s1 = s + (neg || c == b'+') as usize;
+    let len = e.wrapping_sub(s1);
+    if len.wrapping_sub(1) >= 16 {
+        return None;
+    }
+    let b: &[u8; 16] = buf.get(s1..s1 + 16)?.try_into().ok()?;
+    // the bytes `b` holds; every later byte read is in `b` or a table row of 16
+    let v = _mm_loadu_si128(b.as_ptr() as *const __m128i);
+    let d = _mm_sub_epi8(v, _mm_set1_epi8(b'0' as i8));
+    let nine = _mm_set1_epi8(9);
+    // the field's bytes that are no digit (above 9 once '0' is taken off, unsigned): the point only
+    let bad = (_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, nine), nine)) as u32 ^ 0xffff) & ((1u32 << len) - 1);
+    if bad & bad.wrapping_sub(1) != 0 {
+        return None;
+    }
+    let p = (bad.trailing_zeros() as usize).min(16);
+    if p < 16 && b[p] != b'.' && b[p] != point {
+        return None;
+    }
+    let nd = len - (p < 16) as usize;
+    if nd == 0 || nd > 15 {
+        return None;
+    }
+    let frac = if p < 16 { len - p - 1 } else { 0 };
+    // the digits right-aligned, zeros before them (the shuffle's 0x80), then summed: the first
+    // byte is the first digit
+    let idx = _mm_loadu_si128(SHUFFLES[len][p].as_ptr() as *const __m128i);
+    let x = _mm_shuffle_epi8(d, idx);
+    let t1 = _mm_maddubs_epi16(x, _mm_setr_epi8(10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1));
+    let t2 = _mm_madd_epi16(t1, _mm_setr_epi16(100, 1, 100, 1, 100, 1, 100, 1));
+    let t3 = _mm_packus_epi32(t2, t2);
+    let t4 = _mm_madd_epi16(t3, _mm_setr_epi16(10000, 1, 10000, 1, 10000, 1, 10000, 1));
+    let hi = _mm_cvtsi128_si32(t4) as u32 as u64;
+    let lo = _mm_extract_epi32(t4, 1) as u32 as u64;
+    let m = hi * 100_000_000 + lo;
+    let x = (m as i64) as f64 / POW10[frac];
+    Some(f64::from_bits(x.to_bits() | ((neg as u64) << 63)))
+}
+
 /// Where the field from `buf[i..]` ends: the first separator `d` or `\n`
 /// (None when the buffer ends first), eight bytes at a time.
 #[inline(always)]
@@ -475,12 +557,27 @@ fn fills(buf: &[u8], end: usize, e: usize, nl: usize) -> bool {
     end == e || (e == nl && end + 1 == nl && buf[end] == b'\r')
 }
 
+/// Whether the CPU reads the masked rows' numbers with [`field_number_sse`] (SSE4.1 and SSSE3).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn has_sse41() -> bool {
+    std::arch::is_x86_feature_detected!("sse4.1") && std::arch::is_x86_feature_detected!("ssse3")
+}
+
 /// The number that fills the field from `s` to its end `e` (a separator, or the row's `\n` at
 /// `nl`: a `\r` before it is no part of the field): [`field_number`], else [`quick_number`]; None
 /// when neither reads the whole field (the caller then takes the slower ways, which decide).
+/// With `SSE` (only where [`has_sse41`]) a field takes [`field_number_sse`] first.
 #[inline(always)]
-fn masked_number(buf: &[u8], s: usize, e: usize, nl: usize, point: u8) -> Option<f64> {
+fn masked_number<const SSE: bool>(buf: &[u8], s: usize, e: usize, nl: usize, point: u8) -> Option<f64> {
     let e1 = e - (e == nl && e > s && buf[e - 1] == b'\r') as usize;
+    #[cfg(target_arch = "x86_64")]
+    if SSE {
+        // SAFETY: SSE is true only on the paths taken after `has_sse41`
+        if let Some(x) = unsafe { field_number_sse(buf, s, e1, point) } {
+            return Some(x);
+        }
+    }
     if let Some(x) = field_number(buf, s, e1, point) {
         return Some(x);
     }
@@ -493,7 +590,13 @@ fn masked_number(buf: &[u8], s: usize, e: usize, nl: usize, point: u8) -> Option
 /// too few bytes are left: take [`scan_row_quick`]); Some(None) when it is no plain row (take the
 /// slower ways, which decide); else what [`scan_row_quick`] gives.
 #[inline(always)]
-fn scan_row_masked(buf: &[u8], at: usize, spec: &ScanSpec, sep: u8, point: u8) -> Option<Option<(usize, f64)>> {
+fn scan_row_masked<const SSE: bool>(
+    buf: &[u8],
+    at: usize,
+    spec: &ScanSpec,
+    sep: u8,
+    point: u8,
+) -> Option<Option<(usize, f64)>> {
     let (ends, nl) = row_masks(buf, at, sep)?;
     if nl == 0 {
         return None;
@@ -514,7 +617,7 @@ fn scan_row_masked(buf: &[u8], at: usize, spec: &ScanSpec, sep: u8, point: u8) -
         let e = at + m.trailing_zeros() as usize;
         m &= m - 1;
         if k == spec.probe || Some(k) == spec.time {
-            let Some(v) = masked_number(buf, s, e, nlp, point) else { return Some(None) };
+            let Some(v) = masked_number::<SSE>(buf, s, e, nlp, point) else { return Some(None) };
             if Some(k) == spec.time {
                 t = v;
             }
@@ -528,7 +631,7 @@ fn scan_row_masked(buf: &[u8], at: usize, spec: &ScanSpec, sep: u8, point: u8) -
 /// [`row_masks`]. None: take [`parse_row_quick`]; Some(None): take the slower ways; else what
 /// [`parse_row_quick`] gives.
 #[inline(always)]
-fn parse_row_masked(
+fn parse_row_masked<const SSE: bool>(
     buf: &[u8],
     at: usize,
     d: &Dialect,
@@ -554,7 +657,7 @@ fn parse_row_masked(
         let e = at + m.trailing_zeros() as usize;
         m &= m - 1;
         if u {
-            let Some(x) = masked_number(buf, s, e, nlp, point) else { return Some(None) };
+            let Some(x) = masked_number::<SSE>(buf, s, e, nlp, point) else { return Some(None) };
             *v = x;
         }
         s = e + 1;
@@ -934,7 +1037,28 @@ impl PieceScan {
     }
 }
 
+/// [`scan_piece_with`], its numbers read with SSE4.1 where the CPU has it (the same results).
 fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+    #[cfg(target_arch = "x86_64")]
+    if has_sse41() {
+        // SAFETY: the CPU has the features
+        return unsafe { scan_piece_sse41(buf, spec, keep) };
+    }
+    scan_piece_with::<false>(buf, spec, keep)
+}
+
+/// [`scan_piece_with`] compiled with SSE4.1 and SSSE3.
+///
+/// # Safety
+/// The CPU must have SSE4.1 and SSSE3.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse4.1,ssse3")]
+unsafe fn scan_piece_sse41(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+    scan_piece_with::<true>(buf, spec, keep)
+}
+
+#[inline(always)]
+fn scan_piece_with<const SSE: bool>(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
     let mut out = PieceScan { last_t: f64::NAN, next_mark: STRIDE, ..Default::default() };
     let d = &spec.dialect;
     let mut t_prev = f64::NAN;
@@ -942,7 +1066,8 @@ fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
     let quick = quick_sep(d);
     while at < buf.len() {
         let row = quick.and_then(|(sep, point)| {
-            scan_row_masked(buf, at, spec, sep, point).unwrap_or_else(|| scan_row_quick(buf, at, spec, sep, point))
+            scan_row_masked::<SSE>(buf, at, spec, sep, point)
+                .unwrap_or_else(|| scan_row_quick(buf, at, spec, sep, point))
         });
         if let Some((nl, t)) = row {
             out.row(t, &mut t_prev, at, spec, keep);
@@ -1189,7 +1314,40 @@ pub enum ParseError {
 
 const BLOCK: usize = 1 << 18;
 
+/// [`parse_piece_with`], its numbers read with SSE4.1 where the CPU has it (the same results).
 fn parse_piece(
+    file: &File,
+    p: &Piece,
+    d: &Dialect,
+    usecols: &[usize],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ParseError> {
+    #[cfg(target_arch = "x86_64")]
+    if has_sse41() {
+        // SAFETY: the CPU has the features
+        return unsafe { parse_piece_sse41(file, p, d, usecols, outs) };
+    }
+    parse_piece_with::<false>(file, p, d, usecols, outs)
+}
+
+/// [`parse_piece_with`] compiled with SSE4.1 and SSSE3.
+///
+/// # Safety
+/// The CPU must have SSE4.1 and SSSE3.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse4.1,ssse3")]
+unsafe fn parse_piece_sse41(
+    file: &File,
+    p: &Piece,
+    d: &Dialect,
+    usecols: &[usize],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ParseError> {
+    parse_piece_with::<true>(file, p, d, usecols, outs)
+}
+
+#[inline(always)]
+fn parse_piece_with<const SSE: bool>(
     file: &File,
     p: &Piece,
     d: &Dialect,
@@ -1246,7 +1404,7 @@ fn parse_piece(
             }
             if skip == 0 {
                 let row = match quick {
-                    Some((sep, point)) => parse_row_masked(view, at, d, sep, point, &used, &mut vals)
+                    Some((sep, point)) => parse_row_masked::<SSE>(view, at, d, sep, point, &used, &mut vals)
                         .unwrap_or_else(|| parse_row_quick(view, at, d, sep, point, &used, &mut vals)),
                     None => None,
                 };
@@ -1538,6 +1696,20 @@ mod tests {
             let text = format!("{f},xxxxxxxxxxxxxxxx");
             let got = field_number(text.as_bytes(), 0, f.len(), point);
             let want = fast_float(f.as_bytes(), point);
+            #[cfg(target_arch = "x86_64")]
+            if has_sse41() {
+                // SAFETY: the CPU has the features
+                match unsafe { field_number_sse(text.as_bytes(), 0, f.len(), point) } {
+                    Some(v) => assert_eq!(Some(v.to_bits()), want.map(f64::to_bits), "{f:?}"),
+                    None => {
+                        let body = f.trim_start_matches(['-', '+']);
+                        let digits = body.bytes().filter(u8::is_ascii_digit).count();
+                        let points = body.bytes().filter(|&c| c == b'.' || c == point).count();
+                        let plain = f.len() - body.len() <= 1 && digits + points == body.len() && points <= 1;
+                        assert!(!(plain && (1..=15).contains(&digits) && body.len() <= 16), "{f:?} refused (SSE)");
+                    }
+                }
+            }
             match got {
                 Some(v) => assert_eq!(Some(v.to_bits()), want.map(f64::to_bits), "{f:?}"),
                 None => {
@@ -1557,6 +1729,15 @@ mod tests {
         assert_eq!(field_number(b"12345678,xxxxxxxx", 0, 8, b'.'), Some(12_345_678.0));
         assert_eq!(field_number(b"1.5.1,xxxxxxxx", 0, 5, b'.'), None);
         assert_eq!(field_number(b"1.5", 0, 3, b'.'), None); // fewer than 8 bytes from the digits
+        #[cfg(target_arch = "x86_64")]
+        if has_sse41() {
+            // SAFETY: the CPU has the features
+            let sse = |t: &[u8], e: usize, point: u8| unsafe { field_number_sse(t, 0, e, point) };
+            assert_eq!(sse(b"-123456.789012345,xxxxxxxxxxxxxxxx", 17, b'.'), Some(-123456.789012345));
+            assert_eq!(sse(b"1234567890123456,xxxxxxxxxxxxxxxx", 16, b'.'), None); // 16 digits
+            assert_eq!(sse(b"0.5", 3, b'.'), None); // fewer than 16 bytes from the digits
+            assert_eq!(sse(b"7,25;xxxxxxxxxxxxxxxx", 4, b','), Some(7.25));
+        }
     }
 
     #[test]
@@ -1592,14 +1773,26 @@ mod tests {
             // the parse of the first `need` fields, some of them
             let need = 1 + (next() as usize % nf.max(1));
             let used: Vec<bool> = (0..need).map(|k| k + 1 == need || next() % 3 != 0).collect();
-            let mut vals = vec![0.0; need];
-            if let Some(Some(nl)) = parse_row_masked(&buf, 0, &d, sep, point, &used, &mut vals) {
-                taken.0 += 1;
-                assert_eq!(nl, line.len(), "{line:?}");
-                assert!(fields.len() >= need);
-                for k in 0..need {
-                    if used[k] {
-                        assert_eq!(Some(vals[k].to_bits()), general(k).map(f64::to_bits), "{line:?} field {k}");
+            // the portable way, and SSE4.1's where the CPU has it (which takes more rows: up to 15 digits)
+            #[cfg(target_arch = "x86_64")]
+            let ways = if has_sse41() { vec![false, true] } else { vec![false] };
+            #[cfg(not(target_arch = "x86_64"))]
+            let ways = vec![false];
+            for &sse in &ways {
+                let mut vals = vec![0.0; need];
+                let row = if sse {
+                    parse_row_masked::<true>(&buf, 0, &d, sep, point, &used, &mut vals)
+                } else {
+                    parse_row_masked::<false>(&buf, 0, &d, sep, point, &used, &mut vals)
+                };
+                if let Some(Some(nl)) = row {
+                    taken.0 += 1;
+                    assert_eq!(nl, line.len(), "{line:?}");
+                    assert!(fields.len() >= need);
+                    for k in 0..need {
+                        if used[k] {
+                            assert_eq!(Some(vals[k].to_bits()), general(k).map(f64::to_bits), "{line:?} field {k}");
+                        }
                     }
                 }
             }
@@ -1615,17 +1808,78 @@ mod tests {
                 t_prev: f64::NAN,
                 keep_times: 0,
             };
-            if let Some(Some((nl, t))) = scan_row_masked(&buf, 0, &sp, sep, point) {
-                taken.1 += 1;
-                assert_eq!(nl, line.len(), "{line:?}");
-                assert_eq!(fields.len(), nf);
-                assert!(general(probe).is_some(), "{line:?}");
-                if let Some(j) = time {
-                    assert_eq!(Some(t.to_bits()), general(j).map(f64::to_bits), "{line:?}");
+            for &sse in &ways {
+                let row = if sse {
+                    scan_row_masked::<true>(&buf, 0, &sp, sep, point)
+                } else {
+                    scan_row_masked::<false>(&buf, 0, &sp, sep, point)
+                };
+                if let Some(Some((nl, t))) = row {
+                    taken.1 += 1;
+                    assert_eq!(nl, line.len(), "{line:?}");
+                    assert_eq!(fields.len(), nf);
+                    assert!(general(probe).is_some(), "{line:?}");
+                    if let Some(j) = time {
+                        assert_eq!(Some(t.to_bits()), general(j).map(f64::to_bits), "{line:?}");
+                    }
                 }
             }
         }
         assert!(taken.0 > 5_000 && taken.1 > 5_000, "{taken:?}");
+    }
+
+    #[test]
+    fn pieces_read_the_same_with_and_without_sse() {
+        // a file of random rows (numbers of every length, blanks, text, \r\n): the portable scan and
+        // parse of a piece give what the dispatched ones (SSE4.1 here, where the CPU has it) give
+        let mut state = 0x0bad_cafe_1234_5678u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut text = Vec::new();
+        for i in 0..20_000u32 {
+            write!(text, "{}", i as f64 * 1e-3).unwrap();
+            for k in 0..3 {
+                let f = random_field(&mut next);
+                // numbers and blanks (NaN), and in the last column a rare other field (the parse's error)
+                let ok = f.parse::<f64>().is_ok() || f.is_empty() || (k == 2 && next() % 5_000 == 0);
+                let f = if ok { f } else { "1.5".into() };
+                write!(text, ",{f}").unwrap();
+            }
+            text.extend_from_slice(if next() % 5 == 0 { b"\r\n" } else { b"\n" });
+        }
+        let f = file_of(&text);
+        let mut sp = spec(csv());
+        sp.nf = Some(4);
+        sp.gap = 0.0015;
+        let a = scan_piece_with::<false>(&text, &sp, 100);
+        let b = scan_piece(&text, &sp, 100);
+        assert_eq!((a.rows, a.lines, a.stop, &a.breaks, a.last), (b.rows, b.lines, b.stop, &b.breaks, b.last));
+        assert!(a.times.iter().zip(&b.times).all(|(x, y)| x.to_bits() == y.to_bits()));
+        let rows = a.rows;
+        assert!(rows > 1_000, "{rows}");
+        let d = csv();
+        let p = Piece { offset: 0, line: 1, skip: 3, rows: rows - 3 };
+        for cols in [vec![1usize, 2, 3], vec![3, 0], vec![2]] {
+            let mut x = vec![vec![0.0; p.rows as usize]; cols.len()];
+            let mut y = x.clone();
+            let ra = {
+                let mut o: Vec<&mut [f64]> = x.iter_mut().map(|c| c.as_mut_slice()).collect();
+                parse_piece_with::<false>(&f, &p, &d, &cols, &mut o)
+            };
+            let rb = {
+                let mut o: Vec<&mut [f64]> = y.iter_mut().map(|c| c.as_mut_slice()).collect();
+                parse_piece(&f, &p, &d, &cols, &mut o)
+            };
+            assert_eq!(ra, rb);
+            assert!(ra.is_ok() || cols.contains(&3));
+            for (u, v) in x.iter().zip(&y) {
+                assert!(u.iter().zip(v).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
+        }
     }
 
     #[test]
