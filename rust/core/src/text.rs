@@ -264,7 +264,8 @@ fn field_number(buf: &[u8], s: usize, e: usize, point: u8) -> Option<f64> {
     // digits after the point: the bytes above it (the point's top bit is bit 8p + 7)
     let frac = (dots.leading_zeros() / 8) as usize & 7;
     let x = (m as i64) as f64 / POW10[frac];
-    Some(f64::from_bits(x.to_bits() | ((neg as u64) << 63)))
+    // the sign by an exact multiplication, in the float registers (-0.0 for a zero too)
+    Some(x * [1.0, -1.0][neg as usize])
 }
 
 /// Where each byte of a number goes for [`field_number_sse`]: for a number of `len` bytes (1-16)
@@ -346,7 +347,8 @@ unsafe fn field_number_sse(buf: &[u8], s: usize, e: usize, point: u8) -> Option<
     let lo = _mm_extract_epi32(t4, 1) as u32 as u64;
     let m = hi * 100_000_000 + lo;
     let x = (m as i64) as f64 / POW10[frac];
-    Some(f64::from_bits(x.to_bits() | ((neg as u64) << 63)))
+    // the sign by an exact multiplication, in the float registers (-0.0 for a zero too)
+    Some(x * [1.0, -1.0][neg as usize])
 }
 
 /// Where the field from `buf[i..]` ends: the first separator `d` or `\n`
