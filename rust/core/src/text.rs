@@ -271,6 +271,7 @@ fn field_number(buf: &[u8], s: usize, e: usize, point: u8) -> Option<f64> {
 /// Where each byte of a number goes for [`field_number_sse`]: for a number of `len` bytes (1-16)
 /// with its point at `p` (16: none), the source byte of each of 16 digit places, the digits
 /// right-aligned (the last at place 15), 0x80 (a zero) before them.
+#[cfg(target_arch = "x86_64")]
 const fn shuffles() -> [[[u8; 16]; 17]; 17] {
     let mut t = [[[0x80u8; 16]; 17]; 17];
     let mut len = 1;
@@ -294,6 +295,7 @@ const fn shuffles() -> [[[u8; 16]; 17]; 17] {
     t
 }
 
+#[cfg(target_arch = "x86_64")]
 static SHUFFLES: [[[u8; 16]; 17]; 17] = shuffles();
 
 /// [`field_number`] of up to 16 bytes after the sign (at most 15 digits), with SSE4.1: the bytes
