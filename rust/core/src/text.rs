@@ -543,11 +543,40 @@ fn row_masks_sse2(b: &[u8; 64], sep: u8) -> (u64, u64) {
     (ends, nl)
 }
 
+/// [`row_masks`] thirty-two bytes at a time.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn row_masks_avx2(b: &[u8; 64], sep: u8) -> (u64, u64) {
+    use std::arch::x86_64::*;
+    let vs = _mm256_set1_epi8(sep as i8);
+    let vn = _mm256_set1_epi8(b'\n' as i8);
+    // both unaligned 32-byte loads lie inside `b`
+    let lo = _mm256_loadu_si256(b.as_ptr() as *const __m256i);
+    let hi = _mm256_loadu_si256(b.as_ptr().add(32) as *const __m256i);
+    let (nlo, nhi) = (_mm256_cmpeq_epi8(lo, vn), _mm256_cmpeq_epi8(hi, vn));
+    let elo = _mm256_or_si256(nlo, _mm256_cmpeq_epi8(lo, vs));
+    let ehi = _mm256_or_si256(nhi, _mm256_cmpeq_epi8(hi, vs));
+    let join = |a: __m256i, b: __m256i| {
+        (_mm256_movemask_epi8(a) as u32 as u64) | ((_mm256_movemask_epi8(b) as u32 as u64) << 32)
+    };
+    (join(elo, ehi), join(nlo, nhi))
+}
+
 /// The 64 bytes from `buf[at]` as bit masks (bit i: byte `at + i`): those that end a field (the
-/// separator `sep` or `\n`), and the `\n`. None when fewer than 64 bytes are left.
+/// separator `sep` or `\n`), and the `\n`. None when fewer than 64 bytes are left. `LEVEL` is
+/// the build's (see [`level`]): 2 reads with AVX2, else SSE2 (x86-64) or eight bytes at a time.
 #[inline(always)]
-fn row_masks(buf: &[u8], at: usize, sep: u8) -> Option<(u64, u64)> {
+fn row_masks<const LEVEL: u8>(buf: &[u8], at: usize, sep: u8) -> Option<(u64, u64)> {
     let b: &[u8; 64] = buf.get(at..at.checked_add(64)?)?.try_into().ok()?;
+    #[cfg(target_arch = "x86_64")]
+    if LEVEL >= 2 {
+        // SAFETY: LEVEL 2 only in the build run where `level` found AVX2
+        return Some(unsafe { row_masks_avx2(b, sep) });
+    }
     #[cfg(target_arch = "x86_64")]
     return Some(row_masks_sse2(b, sep));
     #[cfg(not(target_arch = "x86_64"))]
@@ -561,23 +590,28 @@ fn fills(buf: &[u8], end: usize, e: usize, nl: usize) -> bool {
     end == e || (e == nl && end + 1 == nl && buf[end] == b'\r')
 }
 
-/// Whether the CPU reads the masked rows' numbers with [`field_number_sse`] (SSE4.1 and SSSE3).
+/// Which build of the row loops the CPU runs: 2 with AVX2 (the row masks 32 bytes at a time) and
+/// everything of 1; 1 with SSE4.1, SSSE3, POPCNT and BMI1 (the numbers by [`field_number_sse`]);
+/// 0 the portable one. All give the same results.
 #[cfg(target_arch = "x86_64")]
 #[inline]
-fn has_sse41() -> bool {
-    std::arch::is_x86_feature_detected!("sse4.1") && std::arch::is_x86_feature_detected!("ssse3")
+fn level() -> u8 {
+    use std::arch::is_x86_feature_detected as has;
+    let one = has!("sse4.1") && has!("ssse3") && has!("popcnt") && has!("bmi1");
+    let two = one && has!("avx2") && has!("bmi2") && has!("lzcnt");
+    two as u8 + one as u8
 }
 
 /// The number that fills the field from `s` to its end `e` (a separator, or the row's `\n` at
 /// `nl`: a `\r` before it is no part of the field): [`field_number`], else [`quick_number`]; None
 /// when neither reads the whole field (the caller then takes the slower ways, which decide).
-/// With `SSE` (only where [`has_sse41`]) a field takes [`field_number_sse`] first.
+/// From `LEVEL` 1 on (see [`level`]) a field takes [`field_number_sse`] first.
 #[inline(always)]
-fn masked_number<const SSE: bool>(buf: &[u8], s: usize, e: usize, nl: usize, point: u8) -> Option<f64> {
+fn masked_number<const LEVEL: u8>(buf: &[u8], s: usize, e: usize, nl: usize, point: u8) -> Option<f64> {
     let e1 = e - (e == nl && e > s && buf[e - 1] == b'\r') as usize;
     #[cfg(target_arch = "x86_64")]
-    if SSE {
-        // SAFETY: SSE is true only on the paths taken after `has_sse41`
+    if LEVEL >= 1 {
+        // SAFETY: LEVEL 1 or 2 only in the builds run where `level` found the features
         if let Some(x) = unsafe { field_number_sse(buf, s, e1, point) } {
             return Some(x);
         }
@@ -594,14 +628,14 @@ fn masked_number<const SSE: bool>(buf: &[u8], s: usize, e: usize, nl: usize, poi
 /// too few bytes are left: take [`scan_row_quick`]); Some(None) when it is no plain row (take the
 /// slower ways, which decide); else what [`scan_row_quick`] gives.
 #[inline(always)]
-fn scan_row_masked<const SSE: bool>(
+fn scan_row_masked<const LEVEL: u8>(
     buf: &[u8],
     at: usize,
     spec: &ScanSpec,
     sep: u8,
     point: u8,
 ) -> Option<Option<(usize, f64)>> {
-    let (ends, nl) = row_masks(buf, at, sep)?;
+    let (ends, nl) = row_masks::<LEVEL>(buf, at, sep)?;
     if nl == 0 {
         return None;
     }
@@ -621,7 +655,7 @@ fn scan_row_masked<const SSE: bool>(
         let e = at + m.trailing_zeros() as usize;
         m &= m - 1;
         if k == spec.probe || Some(k) == spec.time {
-            let Some(v) = masked_number::<SSE>(buf, s, e, nlp, point) else { return Some(None) };
+            let Some(v) = masked_number::<LEVEL>(buf, s, e, nlp, point) else { return Some(None) };
             if Some(k) == spec.time {
                 t = v;
             }
@@ -635,7 +669,7 @@ fn scan_row_masked<const SSE: bool>(
 /// [`row_masks`]. None: take [`parse_row_quick`]; Some(None): take the slower ways; else what
 /// [`parse_row_quick`] gives.
 #[inline(always)]
-fn parse_row_masked<const SSE: bool>(
+fn parse_row_masked<const LEVEL: u8>(
     buf: &[u8],
     at: usize,
     d: &Dialect,
@@ -644,7 +678,7 @@ fn parse_row_masked<const SSE: bool>(
     used: &[bool],
     vals: &mut [f64],
 ) -> Option<Option<usize>> {
-    let (ends, nl) = row_masks(buf, at, sep)?;
+    let (ends, nl) = row_masks::<LEVEL>(buf, at, sep)?;
     if nl == 0 {
         return None;
     }
@@ -661,7 +695,7 @@ fn parse_row_masked<const SSE: bool>(
         let e = at + m.trailing_zeros() as usize;
         m &= m - 1;
         if u {
-            let Some(x) = masked_number::<SSE>(buf, s, e, nlp, point) else { return Some(None) };
+            let Some(x) = masked_number::<LEVEL>(buf, s, e, nlp, point) else { return Some(None) };
             *v = x;
         }
         s = e + 1;
@@ -1041,28 +1075,40 @@ impl PieceScan {
     }
 }
 
-/// [`scan_piece_with`], its numbers read with SSE4.1 where the CPU has it (the same results).
+/// [`scan_piece_with`] in the build the CPU runs (see [`level`]; the same results).
 fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
     #[cfg(target_arch = "x86_64")]
-    if has_sse41() {
-        // SAFETY: the CPU has the features
-        return unsafe { scan_piece_sse41(buf, spec, keep) };
+    match level() {
+        // SAFETY: the CPU has the features of each build
+        2 => return unsafe { scan_piece_avx2(buf, spec, keep) },
+        1 => return unsafe { scan_piece_sse41(buf, spec, keep) },
+        _ => {}
     }
-    scan_piece_with::<false>(buf, spec, keep)
+    scan_piece_with::<0>(buf, spec, keep)
 }
 
-/// [`scan_piece_with`] compiled with SSE4.1 and SSSE3.
+/// [`scan_piece_with`] compiled for level 1.
 ///
 /// # Safety
-/// The CPU must have SSE4.1 and SSSE3.
+/// The CPU must have the features of level 1 (see [`level`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "sse4.1,ssse3")]
+#[target_feature(enable = "sse4.1,ssse3,popcnt,bmi1")]
 unsafe fn scan_piece_sse41(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
-    scan_piece_with::<true>(buf, spec, keep)
+    scan_piece_with::<1>(buf, spec, keep)
+}
+
+/// [`scan_piece_with`] compiled for level 2.
+///
+/// # Safety
+/// The CPU must have the features of level 2 (see [`level`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,sse4.1,ssse3")]
+unsafe fn scan_piece_avx2(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+    scan_piece_with::<2>(buf, spec, keep)
 }
 
 #[inline(always)]
-fn scan_piece_with<const SSE: bool>(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+fn scan_piece_with<const LEVEL: u8>(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
     let mut out = PieceScan { last_t: f64::NAN, next_mark: STRIDE, ..Default::default() };
     let d = &spec.dialect;
     let mut t_prev = f64::NAN;
@@ -1070,7 +1116,7 @@ fn scan_piece_with<const SSE: bool>(buf: &[u8], spec: &ScanSpec, keep: usize) ->
     let quick = quick_sep(d);
     while at < buf.len() {
         let row = quick.and_then(|(sep, point)| {
-            scan_row_masked::<SSE>(buf, at, spec, sep, point)
+            scan_row_masked::<LEVEL>(buf, at, spec, sep, point)
                 .unwrap_or_else(|| scan_row_quick(buf, at, spec, sep, point))
         });
         if let Some((nl, t)) = row {
@@ -1318,7 +1364,7 @@ pub enum ParseError {
 
 const BLOCK: usize = 1 << 18;
 
-/// [`parse_piece_with`], its numbers read with SSE4.1 where the CPU has it (the same results).
+/// [`parse_piece_with`] in the build the CPU runs (see [`level`]; the same results).
 fn parse_piece(
     file: &File,
     p: &Piece,
@@ -1327,19 +1373,21 @@ fn parse_piece(
     outs: &mut [&mut [f64]],
 ) -> Result<(), ParseError> {
     #[cfg(target_arch = "x86_64")]
-    if has_sse41() {
-        // SAFETY: the CPU has the features
-        return unsafe { parse_piece_sse41(file, p, d, usecols, outs) };
+    match level() {
+        // SAFETY: the CPU has the features of each build
+        2 => return unsafe { parse_piece_avx2(file, p, d, usecols, outs) },
+        1 => return unsafe { parse_piece_sse41(file, p, d, usecols, outs) },
+        _ => {}
     }
-    parse_piece_with::<false>(file, p, d, usecols, outs)
+    parse_piece_with::<0>(file, p, d, usecols, outs)
 }
 
-/// [`parse_piece_with`] compiled with SSE4.1 and SSSE3.
+/// [`parse_piece_with`] compiled for level 1.
 ///
 /// # Safety
-/// The CPU must have SSE4.1 and SSSE3.
+/// The CPU must have the features of level 1 (see [`level`]).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "sse4.1,ssse3")]
+#[target_feature(enable = "sse4.1,ssse3,popcnt,bmi1")]
 unsafe fn parse_piece_sse41(
     file: &File,
     p: &Piece,
@@ -1347,11 +1395,27 @@ unsafe fn parse_piece_sse41(
     usecols: &[usize],
     outs: &mut [&mut [f64]],
 ) -> Result<(), ParseError> {
-    parse_piece_with::<true>(file, p, d, usecols, outs)
+    parse_piece_with::<1>(file, p, d, usecols, outs)
+}
+
+/// [`parse_piece_with`] compiled for level 2.
+///
+/// # Safety
+/// The CPU must have the features of level 2 (see [`level`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,sse4.1,ssse3")]
+unsafe fn parse_piece_avx2(
+    file: &File,
+    p: &Piece,
+    d: &Dialect,
+    usecols: &[usize],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ParseError> {
+    parse_piece_with::<2>(file, p, d, usecols, outs)
 }
 
 #[inline(always)]
-fn parse_piece_with<const SSE: bool>(
+fn parse_piece_with<const LEVEL: u8>(
     file: &File,
     p: &Piece,
     d: &Dialect,
@@ -1408,7 +1472,7 @@ fn parse_piece_with<const SSE: bool>(
             }
             if skip == 0 {
                 let row = match quick {
-                    Some((sep, point)) => parse_row_masked::<SSE>(view, at, d, sep, point, &used, &mut vals)
+                    Some((sep, point)) => parse_row_masked::<LEVEL>(view, at, d, sep, point, &used, &mut vals)
                         .unwrap_or_else(|| parse_row_quick(view, at, d, sep, point, &used, &mut vals)),
                     None => None,
                 };
@@ -1672,7 +1736,11 @@ mod tests {
                 })
                 .collect();
             let at = (next() % 7) as usize;
-            let (ends, nl) = row_masks(&b, at, sep).unwrap();
+            let (ends, nl) = row_masks::<0>(&b, at, sep).unwrap();
+            #[cfg(target_arch = "x86_64")]
+            if level() >= 2 {
+                assert_eq!(row_masks::<2>(&b, at, sep), Some((ends, nl)));
+            }
             let want_nl: u64 = (0..64).filter(|&i| b[at + i] == b'\n').map(|i| 1u64 << i).sum();
             let want_ends: u64 =
                 (0..64).filter(|&i| matches!(b[at + i], b'\n') || b[at + i] == sep).map(|i| 1u64 << i).sum();
@@ -1680,8 +1748,8 @@ mod tests {
             let arr: &[u8; 64] = b[at..at + 64].try_into().unwrap();
             assert_eq!(row_masks_swar(arr, sep), (want_ends, want_nl));
         }
-        assert_eq!(row_masks(&[b'1'; 63], 0, b','), None);
-        assert_eq!(row_masks(&[b'1'; 80], 17, b','), None);
+        assert_eq!(row_masks::<0>(&[b'1'; 63], 0, b','), None);
+        assert_eq!(row_masks::<0>(&[b'1'; 80], 17, b','), None);
     }
 
     #[test]
@@ -1701,7 +1769,7 @@ mod tests {
             let got = field_number(text.as_bytes(), 0, f.len(), point);
             let want = fast_float(f.as_bytes(), point);
             #[cfg(target_arch = "x86_64")]
-            if has_sse41() {
+            if level() >= 1 {
                 // SAFETY: the CPU has the features
                 match unsafe { field_number_sse(text.as_bytes(), 0, f.len(), point) } {
                     Some(v) => assert_eq!(Some(v.to_bits()), want.map(f64::to_bits), "{f:?}"),
@@ -1734,7 +1802,7 @@ mod tests {
         assert_eq!(field_number(b"1.5.1,xxxxxxxx", 0, 5, b'.'), None);
         assert_eq!(field_number(b"1.5", 0, 3, b'.'), None); // fewer than 8 bytes from the digits
         #[cfg(target_arch = "x86_64")]
-        if has_sse41() {
+        if level() >= 1 {
             // SAFETY: the CPU has the features
             let sse = |t: &[u8], e: usize, point: u8| unsafe { field_number_sse(t, 0, e, point) };
             assert_eq!(sse(b"-123456.789012345,xxxxxxxxxxxxxxxx", 17, b'.'), Some(-123456.789012345));
@@ -1777,17 +1845,17 @@ mod tests {
             // the parse of the first `need` fields, some of them
             let need = 1 + (next() as usize % nf.max(1));
             let used: Vec<bool> = (0..need).map(|k| k + 1 == need || next() % 3 != 0).collect();
-            // the portable way, and SSE4.1's where the CPU has it (which takes more rows: up to 15 digits)
+            // the portable way, and those of the levels the CPU has (SSE4.1's takes more rows: up to 15 digits)
             #[cfg(target_arch = "x86_64")]
-            let ways = if has_sse41() { vec![false, true] } else { vec![false] };
+            let ways: Vec<u8> = (0..=level()).collect();
             #[cfg(not(target_arch = "x86_64"))]
-            let ways = vec![false];
-            for &sse in &ways {
+            let ways = vec![0u8];
+            for &way in &ways {
                 let mut vals = vec![0.0; need];
-                let row = if sse {
-                    parse_row_masked::<true>(&buf, 0, &d, sep, point, &used, &mut vals)
-                } else {
-                    parse_row_masked::<false>(&buf, 0, &d, sep, point, &used, &mut vals)
+                let row = match way {
+                    2 => parse_row_masked::<2>(&buf, 0, &d, sep, point, &used, &mut vals),
+                    1 => parse_row_masked::<1>(&buf, 0, &d, sep, point, &used, &mut vals),
+                    _ => parse_row_masked::<0>(&buf, 0, &d, sep, point, &used, &mut vals),
                 };
                 if let Some(Some(nl)) = row {
                     taken.0 += 1;
@@ -1812,11 +1880,11 @@ mod tests {
                 t_prev: f64::NAN,
                 keep_times: 0,
             };
-            for &sse in &ways {
-                let row = if sse {
-                    scan_row_masked::<true>(&buf, 0, &sp, sep, point)
-                } else {
-                    scan_row_masked::<false>(&buf, 0, &sp, sep, point)
+            for &way in &ways {
+                let row = match way {
+                    2 => scan_row_masked::<2>(&buf, 0, &sp, sep, point),
+                    1 => scan_row_masked::<1>(&buf, 0, &sp, sep, point),
+                    _ => scan_row_masked::<0>(&buf, 0, &sp, sep, point),
                 };
                 if let Some(Some((nl, t))) = row {
                     taken.1 += 1;
@@ -1859,10 +1927,17 @@ mod tests {
         let mut sp = spec(csv());
         sp.nf = Some(4);
         sp.gap = 0.0015;
-        let a = scan_piece_with::<false>(&text, &sp, 100);
-        let b = scan_piece(&text, &sp, 100);
-        assert_eq!((a.rows, a.lines, a.stop, &a.breaks, a.last), (b.rows, b.lines, b.stop, &b.breaks, b.last));
-        assert!(a.times.iter().zip(&b.times).all(|(x, y)| x.to_bits() == y.to_bits()));
+        let a = scan_piece_with::<0>(&text, &sp, 100);
+        let mut others = vec![scan_piece(&text, &sp, 100)];
+        #[cfg(target_arch = "x86_64")]
+        if level() >= 1 {
+            // SAFETY: the CPU has the features of level 1
+            others.push(unsafe { scan_piece_sse41(&text, &sp, 100) });
+        }
+        for b in &others {
+            assert_eq!((a.rows, a.lines, a.stop, &a.breaks, a.last), (b.rows, b.lines, b.stop, &b.breaks, b.last));
+            assert!(a.times.iter().zip(&b.times).all(|(x, y)| x.to_bits() == y.to_bits()));
+        }
         let rows = a.rows;
         assert!(rows > 1_000, "{rows}");
         let d = csv();
@@ -1872,13 +1947,21 @@ mod tests {
             let mut y = x.clone();
             let ra = {
                 let mut o: Vec<&mut [f64]> = x.iter_mut().map(|c| c.as_mut_slice()).collect();
-                parse_piece_with::<false>(&f, &p, &d, &cols, &mut o)
+                parse_piece_with::<0>(&f, &p, &d, &cols, &mut o)
             };
             let rb = {
                 let mut o: Vec<&mut [f64]> = y.iter_mut().map(|c| c.as_mut_slice()).collect();
                 parse_piece(&f, &p, &d, &cols, &mut o)
             };
             assert_eq!(ra, rb);
+            #[cfg(target_arch = "x86_64")]
+            if level() >= 1 {
+                let mut z = x.clone();
+                let mut o: Vec<&mut [f64]> = z.iter_mut().map(|c| c.as_mut_slice()).collect();
+                // SAFETY: the CPU has the features of level 1
+                assert_eq!(unsafe { parse_piece_sse41(&f, &p, &d, &cols, &mut o) }, ra);
+                assert!(z.iter().flatten().zip(y.iter().flatten()).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
             assert!(ra.is_ok() || cols.contains(&3));
             for (u, v) in x.iter().zip(&y) {
                 assert!(u.iter().zip(v).all(|(a, b)| a.to_bits() == b.to_bits()));
