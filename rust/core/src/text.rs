@@ -217,6 +217,142 @@ fn quick_number(buf: &[u8], mut i: usize, point: u8) -> Option<(f64, usize)> {
     Some((f64::from_bits(v.to_bits() | ((neg as u64) << 63)), i))
 }
 
+/// The number that fills the field `buf[s..e]` when it is short: a sign, then at most 8 bytes of
+/// digits with at most one decimal point (`.` or `point`), at least one digit. The field's end is
+/// known (from [`row_masks`]), so the digits are read in one word whatever their count: the point
+/// is taken out by moving the bytes before it up one, and every byte left is checked to be a
+/// digit. None for any other field (the caller then takes [`quick_number`]). The value is
+/// [`quick_number`]'s: m has at most 8 digits and one IEEE division by an exact power of ten
+/// rounds it correctly.
+#[inline(always)]
+fn field_number(buf: &[u8], s: usize, e: usize, point: u8) -> Option<f64> {
+    let c = *buf.get(s)?;
+    let neg = c == b'-';
+    let s1 = s + (neg || c == b'+') as usize;
+    let len = e.wrapping_sub(s1);
+    if len.wrapping_sub(1) >= 8 {
+        return None;
+    }
+    // the field's bytes at the word's top (the first byte lowest), zero bytes below them
+    let w = word_at(buf, s1)? << (8 * (8 - len));
+    let dots = zero_bytes(w ^ (b'.' as u64 * ONES)) | zero_bytes(w ^ (point as u64 * ONES));
+    if dots & dots.wrapping_sub(1) != 0 {
+        return None; // two points
+    }
+    // the bytes below the point move up one over it (no point: nothing moves)
+    let low = (dots >> 7).wrapping_sub(1) & 0u64.wrapping_sub((dots != 0) as u64);
+    let w = ((w & low) << 8) | (w & !low & !((dots >> 7) * 0xff));
+    // the digits fill the top len - (one if a point) bytes, and there is at least one
+    let nd = len - (dots != 0) as usize;
+    if nd == 0 {
+        return None;
+    }
+    let top = u64::MAX << (8 * (8 - nd));
+    // a byte is a digit when its high nibble is 3 and adding 6 keeps it 3 (a carry only leaves a
+    // byte of 0xfa or more, itself no digit)
+    let hi = 0xf0 * ONES;
+    let nondigit = ((w & hi) ^ (0x30 * ONES)) | ((w.wrapping_add(0x06 * ONES) & hi) ^ (0x30 * ONES));
+    if nondigit & top != 0 {
+        return None;
+    }
+    let mut v = w.wrapping_sub((0x30 * ONES) & top);
+    v = v.wrapping_mul(10).wrapping_add(v >> 8); // pairs of digits in bytes 0, 2, 4, 6
+    let m2 = 0x0000_00ff_0000_00ffu64;
+    let a = (v & m2).wrapping_mul(100 + (1_000_000 << 32));
+    let b = ((v >> 16) & m2).wrapping_mul(1 + (10_000 << 32));
+    let m = (a.wrapping_add(b)) >> 32;
+    // digits after the point: the bytes above it (the point's top bit is bit 8p + 7)
+    let frac = (dots.leading_zeros() / 8) as usize & 7;
+    let x = (m as i64) as f64 / POW10[frac];
+    // the sign by an exact multiplication, in the float registers (-0.0 for a zero too)
+    Some(x * [1.0, -1.0][neg as usize])
+}
+
+/// Where each byte of a number goes for [`field_number_sse`]: for a number of `len` bytes (1-16)
+/// with its point at `p` (16: none), the source byte of each of 16 digit places, the digits
+/// right-aligned (the last at place 15), 0x80 (a zero) before them.
+#[cfg(target_arch = "x86_64")]
+const fn shuffles() -> [[[u8; 16]; 17]; 17] {
+    let mut t = [[[0x80u8; 16]; 17]; 17];
+    let mut len = 1;
+    while len <= 16 {
+        let mut p = 0;
+        while p <= 16 {
+            // the digits' sources, from the last back
+            let mut place = 16;
+            let mut src = len;
+            while src > 0 {
+                src -= 1;
+                if src != p {
+                    place -= 1;
+                    t[len][p][place] = src as u8;
+                }
+            }
+            p += 1;
+        }
+        len += 1;
+    }
+    t
+}
+
+#[cfg(target_arch = "x86_64")]
+static SHUFFLES: [[[u8; 16]; 17]; 17] = shuffles();
+
+/// [`field_number`] of up to 16 bytes after the sign (at most 15 digits), with SSE4.1: the bytes
+/// checked to be digits but one point at once, the digits moved right-aligned past the point by
+/// one shuffle ([`SHUFFLES`]) and summed in pairs, fours and eights by multiply-adds. The value is
+/// [`quick_number`]'s: m < 10^15 < 2^53, so one IEEE division by an exact power of ten rounds it
+/// correctly.
+///
+/// # Safety
+/// The CPU must have SSE4.1 and SSSE3.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse4.1,ssse3")]
+#[inline]
+unsafe fn field_number_sse(buf: &[u8], s: usize, e: usize, point: u8) -> Option<f64> {
+    use std::arch::x86_64::*;
+    let c = *buf.get(s)?;
+    let neg = c == b'-';
+    let s1 = s + (neg || c == b'+') as usize;
+    let len = e.wrapping_sub(s1);
+    if len.wrapping_sub(1) >= 16 {
+        return None;
+    }
+    let b: &[u8; 16] = buf.get(s1..s1 + 16)?.try_into().ok()?;
+    // the bytes `b` holds; every later byte read is in `b` or a table row of 16
+    let v = _mm_loadu_si128(b.as_ptr() as *const __m128i);
+    let d = _mm_sub_epi8(v, _mm_set1_epi8(b'0' as i8));
+    let nine = _mm_set1_epi8(9);
+    // the field's bytes that are no digit (above 9 once '0' is taken off, unsigned): the point only
+    let bad = (_mm_movemask_epi8(_mm_cmpeq_epi8(_mm_max_epu8(d, nine), nine)) as u32 ^ 0xffff) & ((1u32 << len) - 1);
+    if bad & bad.wrapping_sub(1) != 0 {
+        return None;
+    }
+    let p = (bad.trailing_zeros() as usize).min(16);
+    if p < 16 && b[p] != b'.' && b[p] != point {
+        return None;
+    }
+    let nd = len - (p < 16) as usize;
+    if nd == 0 || nd > 15 {
+        return None;
+    }
+    let frac = if p < 16 { len - p - 1 } else { 0 };
+    // the digits right-aligned, zeros before them (the shuffle's 0x80), then summed: the first
+    // byte is the first digit
+    let idx = _mm_loadu_si128(SHUFFLES[len][p].as_ptr() as *const __m128i);
+    let x = _mm_shuffle_epi8(d, idx);
+    let t1 = _mm_maddubs_epi16(x, _mm_setr_epi8(10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1, 10, 1));
+    let t2 = _mm_madd_epi16(t1, _mm_setr_epi16(100, 1, 100, 1, 100, 1, 100, 1));
+    let t3 = _mm_packus_epi32(t2, t2);
+    let t4 = _mm_madd_epi16(t3, _mm_setr_epi16(10000, 1, 10000, 1, 10000, 1, 10000, 1));
+    let hi = _mm_cvtsi128_si32(t4) as u32 as u64;
+    let lo = _mm_extract_epi32(t4, 1) as u32 as u64;
+    let m = hi * 100_000_000 + lo;
+    let x = (m as i64) as f64 / POW10[frac];
+    // the sign by an exact multiplication, in the float registers (-0.0 for a zero too)
+    Some(x * [1.0, -1.0][neg as usize])
+}
+
 /// Where the field from `buf[i..]` ends: the first separator `d` or `\n`
 /// (None when the buffer ends first), eight bytes at a time.
 #[inline(always)]
@@ -361,6 +497,210 @@ fn parse_row_quick(
     }
     // fields beyond those needed are not looked at (as the general way)
     Some(memchr::memchr(b'\n', &buf[p..]).map_or(buf.len(), |i| p + i + 1))
+}
+
+/// Gathers the top bit of each byte of `x` into the byte's bit of one byte (the first byte lowest):
+/// 8 bits. Each product term of the multiplication lands on its own bit, so nothing carries.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn gather_bytes(x: u64) -> u64 {
+    ((x >> 7) & ONES).wrapping_mul(0x0102_0408_1020_4080) >> 56
+}
+
+/// [`row_masks`] eight bytes at a time (any target; the reference of the SSE2 one).
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+#[inline(always)]
+fn row_masks_swar(b: &[u8; 64], sep: u8) -> (u64, u64) {
+    let (mut ends, mut nl) = (0u64, 0u64);
+    for (j, c) in b.chunks_exact(8).enumerate() {
+        let w = u64::from_le_bytes(c.try_into().unwrap_or([0; 8]));
+        let n = zero_bytes(w ^ (b'\n' as u64 * ONES));
+        let s = zero_bytes(w ^ (sep as u64 * ONES));
+        nl |= gather_bytes(n) << (8 * j);
+        ends |= gather_bytes(n | s) << (8 * j);
+    }
+    (ends, nl)
+}
+
+/// [`row_masks`] sixteen bytes at a time (SSE2 is part of every x86-64).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn row_masks_sse2(b: &[u8; 64], sep: u8) -> (u64, u64) {
+    use std::arch::x86_64::*;
+    let (mut ends, mut nl) = (0u64, 0u64);
+    // SAFETY: SSE2 is always there on x86-64, and each unaligned 16-byte load lies inside `b`.
+    unsafe {
+        let vs = _mm_set1_epi8(sep as i8);
+        let vn = _mm_set1_epi8(b'\n' as i8);
+        for j in 0..4 {
+            let v = _mm_loadu_si128(b.as_ptr().add(16 * j) as *const __m128i);
+            let n = _mm_cmpeq_epi8(v, vn);
+            let e = _mm_or_si128(n, _mm_cmpeq_epi8(v, vs));
+            nl |= (_mm_movemask_epi8(n) as u32 as u64) << (16 * j);
+            ends |= (_mm_movemask_epi8(e) as u32 as u64) << (16 * j);
+        }
+    }
+    (ends, nl)
+}
+
+/// [`row_masks`] thirty-two bytes at a time.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn row_masks_avx2(b: &[u8; 64], sep: u8) -> (u64, u64) {
+    use std::arch::x86_64::*;
+    let vs = _mm256_set1_epi8(sep as i8);
+    let vn = _mm256_set1_epi8(b'\n' as i8);
+    // both unaligned 32-byte loads lie inside `b`
+    let lo = _mm256_loadu_si256(b.as_ptr() as *const __m256i);
+    let hi = _mm256_loadu_si256(b.as_ptr().add(32) as *const __m256i);
+    let (nlo, nhi) = (_mm256_cmpeq_epi8(lo, vn), _mm256_cmpeq_epi8(hi, vn));
+    let elo = _mm256_or_si256(nlo, _mm256_cmpeq_epi8(lo, vs));
+    let ehi = _mm256_or_si256(nhi, _mm256_cmpeq_epi8(hi, vs));
+    let join = |a: __m256i, b: __m256i| {
+        (_mm256_movemask_epi8(a) as u32 as u64) | ((_mm256_movemask_epi8(b) as u32 as u64) << 32)
+    };
+    (join(elo, ehi), join(nlo, nhi))
+}
+
+/// The 64 bytes from `buf[at]` as bit masks (bit i: byte `at + i`): those that end a field (the
+/// separator `sep` or `\n`), and the `\n`. None when fewer than 64 bytes are left. `LEVEL` is
+/// the build's (see [`level`]): 2 reads with AVX2, else SSE2 (x86-64) or eight bytes at a time.
+#[inline(always)]
+fn row_masks<const LEVEL: u8>(buf: &[u8], at: usize, sep: u8) -> Option<(u64, u64)> {
+    let b: &[u8; 64] = buf.get(at..at.checked_add(64)?)?.try_into().ok()?;
+    #[cfg(target_arch = "x86_64")]
+    if LEVEL >= 2 {
+        // SAFETY: LEVEL 2 only in the build run where `level` found AVX2
+        return Some(unsafe { row_masks_avx2(b, sep) });
+    }
+    #[cfg(target_arch = "x86_64")]
+    return Some(row_masks_sse2(b, sep));
+    #[cfg(not(target_arch = "x86_64"))]
+    return Some(row_masks_swar(b, sep));
+}
+
+/// Whether a number read from `s` to `end` (see [`quick_number`]) fills the field that ends at
+/// `e`, the row's `\n` being at `nl`: it ends at the field's end, or at a `\r` just before the `\n`.
+#[inline(always)]
+fn fills(buf: &[u8], end: usize, e: usize, nl: usize) -> bool {
+    end == e || (e == nl && end + 1 == nl && buf[end] == b'\r')
+}
+
+/// Which build of the row loops the CPU runs: 2 with AVX2 (the row masks 32 bytes at a time) and
+/// everything of 1; 1 with SSE4.1, SSSE3, POPCNT and BMI1 (the numbers by [`field_number_sse`]);
+/// 0 the portable one. All give the same results.
+#[cfg(target_arch = "x86_64")]
+#[inline]
+fn level() -> u8 {
+    use std::arch::is_x86_feature_detected as has;
+    let one = has!("sse4.1") && has!("ssse3") && has!("popcnt") && has!("bmi1");
+    let two = one && has!("avx2") && has!("bmi2") && has!("lzcnt");
+    two as u8 + one as u8
+}
+
+/// The number that fills the field from `s` to its end `e` (a separator, or the row's `\n` at
+/// `nl`: a `\r` before it is no part of the field): [`field_number`], else [`quick_number`]; None
+/// when neither reads the whole field (the caller then takes the slower ways, which decide).
+/// From `LEVEL` 1 on (see [`level`]) a field takes [`field_number_sse`] first.
+#[inline(always)]
+fn masked_number<const LEVEL: u8>(buf: &[u8], s: usize, e: usize, nl: usize, point: u8) -> Option<f64> {
+    let e1 = e - (e == nl && e > s && buf[e - 1] == b'\r') as usize;
+    #[cfg(target_arch = "x86_64")]
+    if LEVEL >= 1 {
+        // SAFETY: LEVEL 1 or 2 only in the builds run where `level` found the features
+        if let Some(x) = unsafe { field_number_sse(buf, s, e1, point) } {
+            return Some(x);
+        }
+    }
+    if let Some(x) = field_number(buf, s, e1, point) {
+        return Some(x);
+    }
+    let (x, end) = quick_number(buf, s, point)?;
+    fills(buf, end, e, nl).then_some(x)
+}
+
+/// [`scan_row_quick`] of a row that ends within 64 bytes, its field ends found all at once from
+/// [`row_masks`] (so no field waits for the one before it). None when the row does not fit (or
+/// too few bytes are left: take [`scan_row_quick`]); Some(None) when it is no plain row (take the
+/// slower ways, which decide); else what [`scan_row_quick`] gives.
+#[inline(always)]
+fn scan_row_masked<const LEVEL: u8>(
+    buf: &[u8],
+    at: usize,
+    spec: &ScanSpec,
+    sep: u8,
+    point: u8,
+) -> Option<Option<(usize, f64)>> {
+    let (ends, nl) = row_masks::<LEVEL>(buf, at, sep)?;
+    if nl == 0 {
+        return None;
+    }
+    if !quick_start(buf, at, &spec.dialect, point) {
+        return Some(None);
+    }
+    let nlp = at + nl.trailing_zeros() as usize;
+    let mut m = ends & (nl ^ (nl - 1)); // the field ends up to the row's `\n`: one per field
+    let fields = m.count_ones() as usize;
+    let last = spec.time.map_or(spec.probe, |t| t.max(spec.probe));
+    if fields <= last || spec.nf.is_some_and(|nf| nf != fields) {
+        return Some(None);
+    }
+    let mut s = at;
+    let mut t = f64::NAN;
+    for k in 0..=last {
+        let e = at + m.trailing_zeros() as usize;
+        m &= m - 1;
+        if k == spec.probe || Some(k) == spec.time {
+            let Some(v) = masked_number::<LEVEL>(buf, s, e, nlp, point) else { return Some(None) };
+            if Some(k) == spec.time {
+                t = v;
+            }
+        }
+        s = e + 1;
+    }
+    Some(Some((nlp + 1, t)))
+}
+
+/// [`parse_row_quick`] of a row whose needed fields end within 64 bytes, found all at once from
+/// [`row_masks`]. None: take [`parse_row_quick`]; Some(None): take the slower ways; else what
+/// [`parse_row_quick`] gives.
+#[inline(always)]
+fn parse_row_masked<const LEVEL: u8>(
+    buf: &[u8],
+    at: usize,
+    d: &Dialect,
+    sep: u8,
+    point: u8,
+    used: &[bool],
+    vals: &mut [f64],
+) -> Option<Option<usize>> {
+    let (ends, nl) = row_masks::<LEVEL>(buf, at, sep)?;
+    if nl == 0 {
+        return None;
+    }
+    if !quick_start(buf, at, d, point) {
+        return Some(None);
+    }
+    let nlp = at + nl.trailing_zeros() as usize;
+    let mut m = ends & (nl ^ (nl - 1));
+    if (m.count_ones() as usize) < vals.len() {
+        return Some(None);
+    }
+    let mut s = at;
+    for (v, &u) in vals.iter_mut().zip(used) {
+        let e = at + m.trailing_zeros() as usize;
+        m &= m - 1;
+        if u {
+            let Some(x) = masked_number::<LEVEL>(buf, s, e, nlp, point) else { return Some(None) };
+            *v = x;
+        }
+        s = e + 1;
+    }
+    Some(Some(nlp + 1))
 }
 
 /// The common case of [`to_float`] (a stripped field): [`lex_number`] of the whole field.
@@ -735,14 +1075,51 @@ impl PieceScan {
     }
 }
 
+/// [`scan_piece_with`] in the build the CPU runs (see [`level`]; the same results).
 fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+    #[cfg(target_arch = "x86_64")]
+    match level() {
+        // SAFETY: the CPU has the features of each build
+        2 => return unsafe { scan_piece_avx2(buf, spec, keep) },
+        1 => return unsafe { scan_piece_sse41(buf, spec, keep) },
+        _ => {}
+    }
+    scan_piece_with::<0>(buf, spec, keep)
+}
+
+/// [`scan_piece_with`] compiled for level 1.
+///
+/// # Safety
+/// The CPU must have the features of level 1 (see [`level`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse4.1,ssse3,popcnt,bmi1")]
+unsafe fn scan_piece_sse41(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+    scan_piece_with::<1>(buf, spec, keep)
+}
+
+/// [`scan_piece_with`] compiled for level 2.
+///
+/// # Safety
+/// The CPU must have the features of level 2 (see [`level`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,sse4.1,ssse3")]
+unsafe fn scan_piece_avx2(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
+    scan_piece_with::<2>(buf, spec, keep)
+}
+
+#[inline(always)]
+fn scan_piece_with<const LEVEL: u8>(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
     let mut out = PieceScan { last_t: f64::NAN, next_mark: STRIDE, ..Default::default() };
     let d = &spec.dialect;
     let mut t_prev = f64::NAN;
     let mut at = 0usize;
     let quick = quick_sep(d);
     while at < buf.len() {
-        if let Some((nl, t)) = quick.and_then(|(sep, point)| scan_row_quick(buf, at, spec, sep, point)) {
+        let row = quick.and_then(|(sep, point)| {
+            scan_row_masked::<LEVEL>(buf, at, spec, sep, point)
+                .unwrap_or_else(|| scan_row_quick(buf, at, spec, sep, point))
+        });
+        if let Some((nl, t)) = row {
             out.row(t, &mut t_prev, at, spec, keep);
             out.lines += 1;
             at = nl;
@@ -987,7 +1364,58 @@ pub enum ParseError {
 
 const BLOCK: usize = 1 << 18;
 
+/// [`parse_piece_with`] in the build the CPU runs (see [`level`]; the same results).
 fn parse_piece(
+    file: &File,
+    p: &Piece,
+    d: &Dialect,
+    usecols: &[usize],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ParseError> {
+    #[cfg(target_arch = "x86_64")]
+    match level() {
+        // SAFETY: the CPU has the features of each build
+        2 => return unsafe { parse_piece_avx2(file, p, d, usecols, outs) },
+        1 => return unsafe { parse_piece_sse41(file, p, d, usecols, outs) },
+        _ => {}
+    }
+    parse_piece_with::<0>(file, p, d, usecols, outs)
+}
+
+/// [`parse_piece_with`] compiled for level 1.
+///
+/// # Safety
+/// The CPU must have the features of level 1 (see [`level`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "sse4.1,ssse3,popcnt,bmi1")]
+unsafe fn parse_piece_sse41(
+    file: &File,
+    p: &Piece,
+    d: &Dialect,
+    usecols: &[usize],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ParseError> {
+    parse_piece_with::<1>(file, p, d, usecols, outs)
+}
+
+/// [`parse_piece_with`] compiled for level 2.
+///
+/// # Safety
+/// The CPU must have the features of level 2 (see [`level`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,sse4.1,ssse3")]
+unsafe fn parse_piece_avx2(
+    file: &File,
+    p: &Piece,
+    d: &Dialect,
+    usecols: &[usize],
+    outs: &mut [&mut [f64]],
+) -> Result<(), ParseError> {
+    parse_piece_with::<2>(file, p, d, usecols, outs)
+}
+
+#[inline(always)]
+fn parse_piece_with<const LEVEL: u8>(
     file: &File,
     p: &Piece,
     d: &Dialect,
@@ -1044,7 +1472,8 @@ fn parse_piece(
             }
             if skip == 0 {
                 let row = match quick {
-                    Some((sep, point)) => parse_row_quick(view, at, d, sep, point, &used, &mut vals),
+                    Some((sep, point)) => parse_row_masked::<LEVEL>(view, at, d, sep, point, &used, &mut vals)
+                        .unwrap_or_else(|| parse_row_quick(view, at, d, sep, point, &used, &mut vals)),
                     None => None,
                 };
                 if let Some(nl) = row.or_else(|| parse_line_fast(view, at, d, &used, &mut vals)) {
@@ -1261,6 +1690,283 @@ mod tests {
         assert_eq!(quick_number(b"-0.0,xxxxxx", 0, b'.').map(|(v, _)| v.to_bits()), Some((-0.0f64).to_bits()));
         assert_eq!(count_to_line_end(b"1,2,,3\r\nxxxxxxxxxxxxxxxx", 0, b','), Some((7, 3)));
         assert_eq!(count_to_line_end(b"1,2,,3,", 0, b','), None);
+    }
+
+    /// A random field for the row paths' tests: mostly numbers of the shapes data files have, some
+    /// of every other kind (signs, points, exponents, blanks, text, long digit runs).
+    fn random_field(next: &mut impl FnMut() -> u64) -> String {
+        let r = next();
+        let digits = |n: u64, next: &mut dyn FnMut() -> u64| -> String {
+            (0..n).map(|_| (b'0' + (next() % 10) as u8) as char).collect()
+        };
+        let sign = ["", "-", "+", "", "-", ""][(r % 6) as usize];
+        match (r >> 3) % 16 {
+            0 => String::new(),
+            1 => ["x", "nan", "-inf", " 1", "1 ", "1e5", "1E-3", "..5", "1.2.3", "-", ".", "+.", "1_0"]
+                [(r >> 8) as usize % 13]
+                .to_string(),
+            2 => format!("{sign}{}", digits((r >> 8) % 21, next)),
+            3 => format!("{sign}{}.{}e{}", digits((r >> 8) % 3, next), digits((r >> 12) % 4, next), (r >> 16) % 30),
+            _ => {
+                let a = (r >> 8) % 9;
+                let b = (r >> 12) % 10;
+                let p = if (r >> 16) % 8 == 0 { "" } else { "." };
+                format!("{sign}{}{p}{}", digits(a, next), digits(b, next))
+            }
+        }
+    }
+
+    #[test]
+    fn row_masks_find_every_separator_and_line_end() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..20_000 {
+            let sep = [b',', b'\t', b';', b' ', 0xa0, 0x80][(next() % 6) as usize];
+            let b: Vec<u8> = (0..70)
+                .map(|_| match next() % 8 {
+                    0 => sep,
+                    1 => b'\n',
+                    2 => (next() & 0xff) as u8,
+                    _ => b'0' + (next() % 10) as u8,
+                })
+                .collect();
+            let at = (next() % 7) as usize;
+            let (ends, nl) = row_masks::<0>(&b, at, sep).unwrap();
+            #[cfg(target_arch = "x86_64")]
+            if level() >= 2 {
+                assert_eq!(row_masks::<2>(&b, at, sep), Some((ends, nl)));
+            }
+            let want_nl: u64 = (0..64).filter(|&i| b[at + i] == b'\n').map(|i| 1u64 << i).sum();
+            let want_ends: u64 =
+                (0..64).filter(|&i| matches!(b[at + i], b'\n') || b[at + i] == sep).map(|i| 1u64 << i).sum();
+            assert_eq!((ends, nl), (want_ends, want_nl));
+            let arr: &[u8; 64] = b[at..at + 64].try_into().unwrap();
+            assert_eq!(row_masks_swar(arr, sep), (want_ends, want_nl));
+        }
+        assert_eq!(row_masks::<0>(&[b'1'; 63], 0, b','), None);
+        assert_eq!(row_masks::<0>(&[b'1'; 80], 17, b','), None);
+    }
+
+    #[test]
+    fn field_numbers_are_the_general_parsers_bits() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for _ in 0..300_000 {
+            let f = random_field(&mut next);
+            let point = if next() % 4 == 0 { b',' } else { b'.' };
+            let f = if point == b',' && next() % 2 == 0 { f.replace('.', ",") } else { f };
+            let text = format!("{f},xxxxxxxxxxxxxxxx");
+            let got = field_number(text.as_bytes(), 0, f.len(), point);
+            let want = fast_float(f.as_bytes(), point);
+            #[cfg(target_arch = "x86_64")]
+            if level() >= 1 {
+                // SAFETY: the CPU has the features
+                match unsafe { field_number_sse(text.as_bytes(), 0, f.len(), point) } {
+                    Some(v) => assert_eq!(Some(v.to_bits()), want.map(f64::to_bits), "{f:?}"),
+                    None => {
+                        let body = f.trim_start_matches(['-', '+']);
+                        let digits = body.bytes().filter(u8::is_ascii_digit).count();
+                        let points = body.bytes().filter(|&c| c == b'.' || c == point).count();
+                        let plain = f.len() - body.len() <= 1 && digits + points == body.len() && points <= 1;
+                        assert!(!(plain && (1..=15).contains(&digits) && body.len() <= 16), "{f:?} refused (SSE)");
+                    }
+                }
+            }
+            match got {
+                Some(v) => assert_eq!(Some(v.to_bits()), want.map(f64::to_bits), "{f:?}"),
+                None => {
+                    let body = f.trim_start_matches(['-', '+']);
+                    let short = f.len() - body.len() <= 1 && body.len() <= 8;
+                    let grammar = body.bytes().all(|c| c.is_ascii_digit() || c == b'.' || c == point)
+                        && body.bytes().filter(|&c| c == b'.' || c == point).count() <= 1
+                        && body.bytes().any(|c| c.is_ascii_digit());
+                    assert!(!(short && grammar), "{f:?} refused");
+                }
+            }
+        }
+        assert_eq!(field_number(b"-0.982056,", 0, 9, b'.'), Some(-0.982056));
+        assert_eq!(field_number(b"+5.,xxxxxxxx", 0, 3, b'.'), Some(5.0));
+        assert_eq!(field_number(b".25\nxxxxxxxx", 0, 3, b'.'), Some(0.25));
+        assert_eq!(field_number(b"1,5;xxxxxxxx", 0, 3, b','), Some(1.5));
+        assert_eq!(field_number(b"12345678,xxxxxxxx", 0, 8, b'.'), Some(12_345_678.0));
+        assert_eq!(field_number(b"1.5.1,xxxxxxxx", 0, 5, b'.'), None);
+        assert_eq!(field_number(b"1.5", 0, 3, b'.'), None); // fewer than 8 bytes from the digits
+        #[cfg(target_arch = "x86_64")]
+        if level() >= 1 {
+            // SAFETY: the CPU has the features
+            let sse = |t: &[u8], e: usize, point: u8| unsafe { field_number_sse(t, 0, e, point) };
+            assert_eq!(sse(b"-123456.789012345,xxxxxxxxxxxxxxxx", 17, b'.'), Some(-123456.789012345));
+            assert_eq!(sse(b"1234567890123456,xxxxxxxxxxxxxxxx", 16, b'.'), None); // 16 digits
+            assert_eq!(sse(b"0.5", 3, b'.'), None); // fewer than 16 bytes from the digits
+            assert_eq!(sse(b"7,25;xxxxxxxxxxxxxxxx", 4, b','), Some(7.25));
+        }
+    }
+
+    #[test]
+    fn masked_rows_read_as_the_general_way() {
+        // rows of random fields; wherever the masked paths take a row, its end, time and values must be
+        // those of the general way (Python's rules), bit for bit
+        let mut state = 0x1234_5678_9abc_def1u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut taken = (0, 0);
+        for _ in 0..100_000 {
+            let sep = [b',', b';', b'\t', b','][(next() % 4) as usize];
+            let nf = 1 + (next() % 6) as usize;
+            let mut line: Vec<u8> = Vec::new();
+            for k in 0..nf {
+                if k > 0 {
+                    line.push(sep);
+                }
+                line.extend_from_slice(random_field(&mut next).as_bytes());
+            }
+            line.extend_from_slice(["\n", "\r\n", "\r\r\n", "\n"][(next() % 4) as usize].as_bytes());
+            let mut buf = line.clone();
+            buf.extend_from_slice(&[b'9'; 80]);
+            let point = if sep != b',' && next() % 3 == 0 { b',' } else { b'.' };
+            let d = Dialect { delim: Some(sep), decimal: point, comment: Some(b"#".to_vec()), skip_blank: true };
+            let text = text_of(&line);
+            let fields: Vec<&[u8]> = Fields::new(text, Some(sep)).collect();
+            let general = |k: usize| number(strip(fields[k], str_ws), point);
+            // the parse of the first `need` fields, some of them
+            let need = 1 + (next() as usize % nf.max(1));
+            let used: Vec<bool> = (0..need).map(|k| k + 1 == need || next() % 3 != 0).collect();
+            // the portable way, and those of the levels the CPU has (SSE4.1's takes more rows: up to 15 digits)
+            #[cfg(target_arch = "x86_64")]
+            let ways: Vec<u8> = (0..=level()).collect();
+            #[cfg(not(target_arch = "x86_64"))]
+            let ways = vec![0u8];
+            for &way in &ways {
+                let mut vals = vec![0.0; need];
+                let row = match way {
+                    2 => parse_row_masked::<2>(&buf, 0, &d, sep, point, &used, &mut vals),
+                    1 => parse_row_masked::<1>(&buf, 0, &d, sep, point, &used, &mut vals),
+                    _ => parse_row_masked::<0>(&buf, 0, &d, sep, point, &used, &mut vals),
+                };
+                if let Some(Some(nl)) = row {
+                    taken.0 += 1;
+                    assert_eq!(nl, line.len(), "{line:?}");
+                    assert!(fields.len() >= need);
+                    for k in 0..need {
+                        if used[k] {
+                            assert_eq!(Some(vals[k].to_bits()), general(k).map(f64::to_bits), "{line:?} field {k}");
+                        }
+                    }
+                }
+            }
+            // the scan's: field count, probe and time
+            let probe = next() as usize % nf;
+            let time = if next() % 2 == 0 { Some(next() as usize % nf) } else { None };
+            let sp = ScanSpec {
+                dialect: d.clone(),
+                nf: if next() % 4 == 0 { None } else { Some(nf) },
+                probe,
+                time,
+                gap: f64::NAN,
+                t_prev: f64::NAN,
+                keep_times: 0,
+            };
+            for &way in &ways {
+                let row = match way {
+                    2 => scan_row_masked::<2>(&buf, 0, &sp, sep, point),
+                    1 => scan_row_masked::<1>(&buf, 0, &sp, sep, point),
+                    _ => scan_row_masked::<0>(&buf, 0, &sp, sep, point),
+                };
+                if let Some(Some((nl, t))) = row {
+                    taken.1 += 1;
+                    assert_eq!(nl, line.len(), "{line:?}");
+                    assert_eq!(fields.len(), nf);
+                    assert!(general(probe).is_some(), "{line:?}");
+                    if let Some(j) = time {
+                        assert_eq!(Some(t.to_bits()), general(j).map(f64::to_bits), "{line:?}");
+                    }
+                }
+            }
+        }
+        assert!(taken.0 > 5_000 && taken.1 > 5_000, "{taken:?}");
+    }
+
+    #[test]
+    fn pieces_read_the_same_with_and_without_sse() {
+        // a file of random rows (numbers of every length, blanks, text, \r\n): the portable scan and
+        // parse of a piece give what the dispatched ones (SSE4.1 here, where the CPU has it) give
+        let mut state = 0x0bad_cafe_1234_5678u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut text = Vec::new();
+        for i in 0..20_000u32 {
+            write!(text, "{}", i as f64 * 1e-3).unwrap();
+            for k in 0..3 {
+                let f = random_field(&mut next);
+                // numbers and blanks (NaN), and in the last column a rare other field (the parse's error)
+                let ok = f.parse::<f64>().is_ok() || f.is_empty() || (k == 2 && next() % 5_000 == 0);
+                let f = if ok { f } else { "1.5".into() };
+                write!(text, ",{f}").unwrap();
+            }
+            text.extend_from_slice(if next() % 5 == 0 { b"\r\n" } else { b"\n" });
+        }
+        let f = file_of(&text);
+        let mut sp = spec(csv());
+        sp.nf = Some(4);
+        sp.gap = 0.0015;
+        let a = scan_piece_with::<0>(&text, &sp, 100);
+        let mut others = vec![scan_piece(&text, &sp, 100)];
+        #[cfg(target_arch = "x86_64")]
+        if level() >= 1 {
+            // SAFETY: the CPU has the features of level 1
+            others.push(unsafe { scan_piece_sse41(&text, &sp, 100) });
+        }
+        for b in &others {
+            assert_eq!((a.rows, a.lines, a.stop, &a.breaks, a.last), (b.rows, b.lines, b.stop, &b.breaks, b.last));
+            assert!(a.times.iter().zip(&b.times).all(|(x, y)| x.to_bits() == y.to_bits()));
+        }
+        let rows = a.rows;
+        assert!(rows > 1_000, "{rows}");
+        let d = csv();
+        let p = Piece { offset: 0, line: 1, skip: 3, rows: rows - 3 };
+        for cols in [vec![1usize, 2, 3], vec![3, 0], vec![2]] {
+            let mut x = vec![vec![0.0; p.rows as usize]; cols.len()];
+            let mut y = x.clone();
+            let ra = {
+                let mut o: Vec<&mut [f64]> = x.iter_mut().map(|c| c.as_mut_slice()).collect();
+                parse_piece_with::<0>(&f, &p, &d, &cols, &mut o)
+            };
+            let rb = {
+                let mut o: Vec<&mut [f64]> = y.iter_mut().map(|c| c.as_mut_slice()).collect();
+                parse_piece(&f, &p, &d, &cols, &mut o)
+            };
+            assert_eq!(ra, rb);
+            #[cfg(target_arch = "x86_64")]
+            if level() >= 1 {
+                let mut z = x.clone();
+                let mut o: Vec<&mut [f64]> = z.iter_mut().map(|c| c.as_mut_slice()).collect();
+                // SAFETY: the CPU has the features of level 1
+                assert_eq!(unsafe { parse_piece_sse41(&f, &p, &d, &cols, &mut o) }, ra);
+                assert!(z.iter().flatten().zip(y.iter().flatten()).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
+            assert!(ra.is_ok() || cols.contains(&3));
+            for (u, v) in x.iter().zip(&y) {
+                assert!(u.iter().zip(v).all(|(a, b)| a.to_bits() == b.to_bits()));
+            }
+        }
     }
 
     #[test]
