@@ -69,6 +69,18 @@ def test_contact_without_an_unloaded_cluster_dead_weight_and_ramp():
     assert not detect_contact(hp, hp).static
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_contact_of_non_finite_or_misshapen_forces_is_an_error(bad):
+    fz = np.r_[np.zeros(50), np.full(100, 5.0), np.zeros(50)]
+    for fy, z in ((0.1 * fz, np.r_[fz[:-1], bad]), (np.r_[bad, 0.1 * fz[1:]], fz)):
+        with pytest.raises(ValueError, match="must be finite"):
+            detect_contact(fy, z)
+    with pytest.raises(ValueError, match="1-D of equal lengths"):
+        detect_contact(fz[:, None], fz[:, None])
+    with pytest.raises(ValueError, match="1-D of equal lengths"):
+        detect_contact(fz[1:], fz)
+
+
 @pytest.mark.parametrize("offset", [-0.13, 0.0, 0.4])
 def test_contact_with_lift_off_takes_the_unloaded_level_as_tare(offset):
     rng = np.random.default_rng(2)

@@ -548,3 +548,15 @@ def test_core_degenerate_input_is_a_value_not_an_error():
     assert np.isnan(m.fit()[0])
     assert _core.xcorr_auto_method(0, 0) in ("direct", "fft")
     assert _core.xcorr_auto_method(2**40, 2**39) == "fft"
+
+
+@pytest.mark.parametrize("shape", ["column", "row", "scalar"])
+def test_analyze_of_channels_that_are_not_1d_names_the_shape(shape: str) -> None:
+    """A mapping of 2-D or 0-d channels meets the pipeline's own shape error, whatever the pre-pass
+    does with in-range forces first (its fast path looks at 1-D channels only)."""
+    rng = np.random.default_rng(0)
+    fz = np.r_[np.zeros(500), np.full(1000, 10.0), np.zeros(500)] + rng.normal(0.0, 0.01, 2000)
+    shaped = {"column": lambda v: v[:, None], "row": lambda v: v[None, :], "scalar": lambda v: np.float64(v[700])}
+    src = {"fy": shaped[shape](0.3 * fz), "fz": shaped[shape](fz)}
+    with raises(ValueError, match="must be 1-D"):
+        td.analyze(src, fs=1000.0)

@@ -39,7 +39,7 @@ from .headline import ClassicalTotals, classical_totals
 from .io.base import RecordingProtocol
 from .plan import Findings, Plan, make_plan
 from .results import Results
-from .routes import Tap, choose_route, concat_stats, run
+from .routes import PIPELINE_ROLES, Tap, choose_route, concat_stats, run
 from .stickslip import ReadingPass, stick_slip
 from .instrument import find_lag
 from .options import defaults
@@ -354,7 +354,21 @@ def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[Reco
     rec: Optional[RecordingProtocol] = source if _is_recording(source) else None
     if fs is None and rec is not None:
         fs = rec.fs
+    if rec is None:
+        _check_shapes(source)
     return source, rec, fs
+
+
+def _check_shapes(source: Any) -> None:
+    """A mapping's (or a list of mappings') channels are 1-D, checked before the pre-pass and the lag search
+    look at them (the message is the pipeline's own, which names each chunk)."""
+    acqs = [source] if isinstance(source, Mapping) else source if isinstance(source, (list, tuple)) else ()
+    for i, chunk in enumerate(acqs):
+        if not isinstance(chunk, Mapping):
+            return  # the pipeline names what a chunk must be
+        for k, v in chunk.items():
+            if k in PIPELINE_ROLES and np.ndim(v) != 1:
+                raise ValueError(f"chunk {i}[{k!r}] must be 1-D, got {np.ndim(v)}-D with shape {np.shape(v)}")
 
 
 def _plan_of(given: Optional[Plan], fs: Any, rec: Optional[RecordingProtocol], options: Dict[str, Any]) -> Plan:

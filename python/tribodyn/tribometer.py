@@ -323,8 +323,12 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
     sample-to-sample differences / sqrt 2), clipped to
     [CONTACT_FLOOR_FRACTION, MIN_FN_FRACTION] x the median |fz|.
     """
-    fz = np.asarray(fz, dtype=float)
-    return _contact(np.asarray(fy, dtype=float), fz, _order.Sorted.of(fz))[0]
+    fy, fz = np.asarray(fy, dtype=float), np.asarray(fz, dtype=float)
+    if fy.shape != fz.shape or fz.ndim != 1:
+        raise ValueError(f"fy and fz must be 1-D of equal lengths, got shapes {fy.shape} and {fz.shape}")
+    if not (in_range(fz) or np.isfinite(fz).all()) or not (in_range(fy) or np.isfinite(fy).all()):
+        raise ValueError("fy and fz must be finite (drop or interpolate NaN and inf first)")
+    return _contact(fy, fz, _order.Sorted.of(fz))[0]
 
 
 def _shifted(order: _order.Sorted, tare: float) -> _order.Sorted:
