@@ -602,6 +602,46 @@ fn level() -> u8 {
     two as u8 + one as u8
 }
 
+/// `fn $name(args) -> ret`: `$with::<LEVEL>` in the build the CPU runs (see [`level`]; all give the
+/// same results), and the builds `$one` (level 1) and `$two` (level 2), each compiled with its
+/// features enabled.
+macro_rules! by_level {
+    ($(#[$doc:meta])* fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $ret:ty
+     => $with:ident, $one:ident, $two:ident) => {
+        $(#[$doc])*
+        fn $name($($arg: $ty),*) -> $ret {
+            #[cfg(target_arch = "x86_64")]
+            match level() {
+                // SAFETY: `level` found the features of each build on this CPU
+                2 => return unsafe { $two($($arg),*) },
+                1 => return unsafe { $one($($arg),*) },
+                _ => {}
+            }
+            $with::<0>($($arg),*)
+        }
+
+        #[doc = concat!("[`", stringify!($with), "`] compiled for level 1.")]
+        ///
+        /// # Safety
+        /// The CPU must have the features of level 1 (see [`level`]).
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "sse4.1,ssse3,popcnt,bmi1")]
+        unsafe fn $one($($arg: $ty),*) -> $ret {
+            $with::<1>($($arg),*)
+        }
+
+        #[doc = concat!("[`", stringify!($with), "`] compiled for level 2.")]
+        ///
+        /// # Safety
+        /// The CPU must have the features of level 2 (see [`level`]).
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,sse4.1,ssse3")]
+        unsafe fn $two($($arg: $ty),*) -> $ret {
+            $with::<2>($($arg),*)
+        }
+    };
+}
+
 /// The number that fills the field from `s` to its end `e` (a separator, or the row's `\n` at
 /// `nl`: a `\r` before it is no part of the field): [`field_number`], else [`quick_number`]; None
 /// when neither reads the whole field (the caller then takes the slower ways, which decide).
@@ -1075,36 +1115,10 @@ impl PieceScan {
     }
 }
 
-/// [`scan_piece_with`] in the build the CPU runs (see [`level`]; the same results).
-fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
-    #[cfg(target_arch = "x86_64")]
-    match level() {
-        // SAFETY: the CPU has the features of each build
-        2 => return unsafe { scan_piece_avx2(buf, spec, keep) },
-        1 => return unsafe { scan_piece_sse41(buf, spec, keep) },
-        _ => {}
-    }
-    scan_piece_with::<0>(buf, spec, keep)
-}
-
-/// [`scan_piece_with`] compiled for level 1.
-///
-/// # Safety
-/// The CPU must have the features of level 1 (see [`level`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "sse4.1,ssse3,popcnt,bmi1")]
-unsafe fn scan_piece_sse41(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
-    scan_piece_with::<1>(buf, spec, keep)
-}
-
-/// [`scan_piece_with`] compiled for level 2.
-///
-/// # Safety
-/// The CPU must have the features of level 2 (see [`level`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,sse4.1,ssse3")]
-unsafe fn scan_piece_avx2(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan {
-    scan_piece_with::<2>(buf, spec, keep)
+by_level! {
+    /// [`scan_piece_with`] in the build the CPU runs.
+    fn scan_piece(buf: &[u8], spec: &ScanSpec, keep: usize) -> PieceScan
+        => scan_piece_with, scan_piece_sse41, scan_piece_avx2
 }
 
 #[inline(always)]
@@ -1364,54 +1378,15 @@ pub enum ParseError {
 
 const BLOCK: usize = 1 << 18;
 
-/// [`parse_piece_with`] in the build the CPU runs (see [`level`]; the same results).
-fn parse_piece(
-    file: &File,
-    p: &Piece,
-    d: &Dialect,
-    usecols: &[usize],
-    outs: &mut [&mut [f64]],
-) -> Result<(), ParseError> {
-    #[cfg(target_arch = "x86_64")]
-    match level() {
-        // SAFETY: the CPU has the features of each build
-        2 => return unsafe { parse_piece_avx2(file, p, d, usecols, outs) },
-        1 => return unsafe { parse_piece_sse41(file, p, d, usecols, outs) },
-        _ => {}
-    }
-    parse_piece_with::<0>(file, p, d, usecols, outs)
-}
-
-/// [`parse_piece_with`] compiled for level 1.
-///
-/// # Safety
-/// The CPU must have the features of level 1 (see [`level`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "sse4.1,ssse3,popcnt,bmi1")]
-unsafe fn parse_piece_sse41(
-    file: &File,
-    p: &Piece,
-    d: &Dialect,
-    usecols: &[usize],
-    outs: &mut [&mut [f64]],
-) -> Result<(), ParseError> {
-    parse_piece_with::<1>(file, p, d, usecols, outs)
-}
-
-/// [`parse_piece_with`] compiled for level 2.
-///
-/// # Safety
-/// The CPU must have the features of level 2 (see [`level`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,bmi1,bmi2,lzcnt,popcnt,sse4.1,ssse3")]
-unsafe fn parse_piece_avx2(
-    file: &File,
-    p: &Piece,
-    d: &Dialect,
-    usecols: &[usize],
-    outs: &mut [&mut [f64]],
-) -> Result<(), ParseError> {
-    parse_piece_with::<2>(file, p, d, usecols, outs)
+by_level! {
+    /// [`parse_piece_with`] in the build the CPU runs.
+    fn parse_piece(
+        file: &File,
+        p: &Piece,
+        d: &Dialect,
+        usecols: &[usize],
+        outs: &mut [&mut [f64]],
+    ) -> Result<(), ParseError> => parse_piece_with, parse_piece_sse41, parse_piece_avx2
 }
 
 #[inline(always)]
@@ -1643,17 +1618,21 @@ mod tests {
         assert_eq!(to_float(b"iNfInItY", b'.'), Some(f64::INFINITY));
     }
 
-    #[test]
-    fn quick_numbers_are_the_general_parsers_bits() {
-        // every shape quick_number takes or refuses: signs, 0-9 digits on each side of the point,
-        // digits that fill a word; the value must be Rust's correctly rounded parse (Python's float)
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
+    /// A xorshift64 generator from `state` (the tests' random text, the same on every run).
+    fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
+        move || {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
             state
-        };
+        }
+    }
+
+    #[test]
+    fn quick_numbers_are_the_general_parsers_bits() {
+        // every shape quick_number takes or refuses: signs, 0-9 digits on each side of the point,
+        // digits that fill a word; the value must be Rust's correctly rounded parse (Python's float)
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         for _ in 0..200_000 {
             let r = next();
             let mut s = String::new();
@@ -1718,13 +1697,7 @@ mod tests {
 
     #[test]
     fn row_masks_find_every_separator_and_line_end() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1du64);
         for _ in 0..20_000 {
             let sep = [b',', b'\t', b';', b' ', 0xa0, 0x80][(next() % 6) as usize];
             let b: Vec<u8> = (0..70)
@@ -1754,13 +1727,7 @@ mod tests {
 
     #[test]
     fn field_numbers_are_the_general_parsers_bits() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15u64);
         for _ in 0..300_000 {
             let f = random_field(&mut next);
             let point = if next() % 4 == 0 { b',' } else { b'.' };
@@ -1816,13 +1783,7 @@ mod tests {
     fn masked_rows_read_as_the_general_way() {
         // rows of random fields; wherever the masked paths take a row, its end, time and values must be
         // those of the general way (Python's rules), bit for bit
-        let mut state = 0x1234_5678_9abc_def1u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x1234_5678_9abc_def1u64);
         let mut taken = (0, 0);
         for _ in 0..100_000 {
             let sep = [b',', b';', b'\t', b','][(next() % 4) as usize];
@@ -1904,13 +1865,7 @@ mod tests {
     fn pieces_read_the_same_with_and_without_sse() {
         // a file of random rows (numbers of every length, blanks, text, \r\n): the portable scan and
         // parse of a piece give what the dispatched ones (SSE4.1 here, where the CPU has it) give
-        let mut state = 0x0bad_cafe_1234_5678u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x0bad_cafe_1234_5678u64);
         let mut text = Vec::new();
         for i in 0..20_000u32 {
             write!(text, "{}", i as f64 * 1e-3).unwrap();
