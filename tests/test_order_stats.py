@@ -268,3 +268,17 @@ def test_select_ranks_is_the_same_on_every_thread_count() -> None:
     y = x.copy()
     y[-3] = np.nan
     assert _core.select_ranks(y, ks, threads=2) is None  # NaN in the last piece
+
+
+def test_block_sums_total_is_numpys_sum_bit_for_bit() -> None:
+    """estimators.Sums adds the blocks in a loop: the same bits as ``blocks.sum(axis=2)``, signed zeros too."""
+    from tribodyn.estimators import BLOCKS, PRODUCTS, Sums
+
+    rng = np.random.default_rng(11)
+    shape = (3000, BLOCKS, len(PRODUCTS))
+    E = rng.normal(size=shape) * 10.0 ** rng.integers(-12, 12, shape)
+    E[rng.random(shape) < 0.1] = -0.0
+    E[:7] = -0.0  # every block -0.0: NumPy's sum is +0.0
+    S = Sums(E)
+    want = np.ascontiguousarray(E.transpose(2, 0, 1)).sum(axis=2)
+    assert np.array_equal(S.total.view(np.int64), want.view(np.int64))

@@ -93,7 +93,12 @@ class Sums:
             raise ValueError(f"block sums must have shape (windows, {BLOCKS}, {len(PRODUCTS)}), got {E.shape}")
         self.E = E
         self.blocks = np.ascontiguousarray(E.transpose(2, 0, 1))
-        self.total = self.blocks.sum(axis=2)
+        # blocks.sum(axis=2) bit for bit (NumPy adds the few blocks in order onto 0.0), without its slow
+        # reduction over a short last axis
+        total = 0.0 + self.blocks[:, :, 0]
+        for k in range(1, BLOCKS):
+            total += self.blocks[:, :, k]
+        self.total = total
 
     def __len__(self) -> int:
         return int(self.E.shape[0])

@@ -25,7 +25,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _core
+from . import _core, _order
 
 __all__ = [
     "FOLLOW_SHARE",
@@ -197,11 +197,11 @@ class RoleChoice:
 
 def _static(fz: np.ndarray) -> bool:
     """fz carries a static level (|median| > 3 MAD), as the pre-pass decides (docs/method.md 6a)."""
-    fin = fz[np.isfinite(fz)]
+    fin = fz if np.isfinite(fz).all() else fz[np.isfinite(fz)]
     if fin.size == 0:
         return False
-    med = float(np.median(fin))
-    return abs(med) > 0 and abs(med) > 3.0 * float(np.median(np.abs(fin - med)))
+    med = _order.median(fin)  # NumPy's median and MAD, bit for bit, in a parallel pass each
+    return abs(med) > 0 and abs(med) > 3.0 * _order.median_abs_dev(fin, med)
 
 
 def _stroke_signs(ft: np.ndarray, strokes: Sequence[Tuple[int, int, int]]) -> Tuple[float, int]:
