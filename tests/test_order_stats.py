@@ -211,6 +211,13 @@ def test_sorted_values_give_numpys_medians_and_deviations() -> None:
                 ks = sorted({0, v.size // 3, v.size - 1})
                 assert part.ranks(ks, c) == list(np.sort(np.abs(v - c))[ks])
             assert part.count_le(float(np.median(v))) == int(np.count_nonzero(v <= np.median(v)))
+    # signed zeros: a zero distance is +0.0, as np.abs makes it
+    for x in (np.array([-0.0, 0.0, -0.0, 1.0]), np.array([-0.0, -0.0]), np.array([0.0, -1.0, -0.0])):
+        whole = _order.Sorted.of(x)
+        for c in (0.0, -0.0):
+            want = np.sort(np.abs(x - c))
+            assert [_bytes(r) for r in whole.ranks(range(x.size), c)] == [_bytes(r) for r in want]
+            assert _bytes(whole.median_abs_dev(c)) == _bytes(np.median(np.abs(x - c)))
     with pytest.raises(IndexError):
         _order.Sorted.of(np.arange(3.0)).ranks([3])
 

@@ -169,7 +169,7 @@ class Sorted:
             got = [left(i - 1)] if i > 0 else []
             if r > 0:
                 got.append(right(r - 1))
-            out.append(max(got))
+            out.append(abs(max(got)))  # |.|: a zero distance is +0.0, as NumPy's np.abs gives it
         return out
 
     def median(self) -> float:
