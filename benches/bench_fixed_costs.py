@@ -38,6 +38,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import statistics
@@ -265,9 +266,20 @@ def run(args: argparse.Namespace) -> Dict[str, Any]:
         "rounds": args.rounds,
         "builds": builds,
         "baseline_label": args.baseline_label,
+        "same_core": same_core(args.baseline) if args.baseline else None,
         "runs": got,
     }
     return out
+
+
+def same_core(tree: str) -> bool:
+    """Whether the baseline's ``_core`` is this build's, byte for byte (its Python alone differs then)."""
+    import tribodyn
+
+    def digest(pkg: Path) -> str:
+        return "".join(hashlib.sha256(f.read_bytes()).hexdigest() for f in sorted(pkg.glob("_core*.so")))
+
+    return digest(Path(tribodyn.__file__).parent) == digest(Path(tree) / "python" / "tribodyn")
 
 
 def med(runs: List[Dict[str, Any]], key: str = "seconds") -> float:
@@ -357,7 +369,7 @@ def report(o: Dict[str, Any]) -> str:
         f"{o['rounds']} interleaved rounds of fresh processes (with the package's bytecode, as installed), medians"
         + (
             f"; `baseline` = {o.get('baseline_label') or 'the Python package of ' + str(o['builds']['baseline'])}"
-            " with the same `_core`"
+            + {True: " with the same `_core`", False: " with its own `_core`"}.get(o.get("same_core"), "")
             if has_base
             else ""
         )
