@@ -8,7 +8,7 @@ argument. Nothing here copies an array that is already contiguous float64.
 from __future__ import annotations
 
 import numbers
-from typing import Any, Union
+from typing import Any, Tuple, Union
 
 import numpy as np
 
@@ -19,6 +19,7 @@ __all__ = [
     "resolve_orientation",
     "check_gate",
     "as_signal",
+    "check_1d",
     "as_channels",
     "positive",
     "check_fs",
@@ -58,11 +59,16 @@ def finite_error(name: str) -> str:
     return f"{name} contains NaN or inf (pass check_finite=False to allow)"
 
 
+def check_1d(shape: Tuple[int, ...], name: str) -> None:
+    """Raises the ``ValueError`` of an argument ``name`` of ``shape`` that is not 1-D."""
+    if len(shape) != 1:
+        raise ValueError(f"{name} must be 1-D, got {len(shape)}-D with shape {shape}")
+
+
 def as_signal(x: Any, name: str, *, min_len: int = 1, check_finite: bool = True) -> np.ndarray:
     """Returns ``x`` as a 1-D C-contiguous float64 array of at least ``min_len`` samples."""
     a = _as_float_array(x, name)
-    if a.ndim != 1:
-        raise ValueError(f"{name} must be 1-D, got {a.ndim}-D with shape {a.shape}")
+    check_1d(a.shape, name)
     if a.size < min_len:
         raise ValueError(f"{name} needs at least {min_len} samples, got {a.size}")
     if check_finite:

@@ -31,7 +31,7 @@ import numpy.fft  # noqa: F401
 import numpy.ma  # noqa: F401
 import numpy.random  # noqa: F401
 
-from ._validate import Orientation
+from ._validate import Orientation, check_1d
 from .covariates import align_to_recording
 from .deadband import DeadbandSpec
 from .finish import ALIGN_MIN, finish, settle
@@ -367,8 +367,8 @@ def _check_shapes(source: Any) -> None:
         if not isinstance(chunk, Mapping):
             return  # the pipeline names what a chunk must be
         for k, v in chunk.items():
-            if k in PIPELINE_ROLES and np.ndim(v) != 1:
-                raise ValueError(f"chunk {i}[{k!r}] must be 1-D, got {np.ndim(v)}-D with shape {np.shape(v)}")
+            if k in PIPELINE_ROLES:
+                check_1d(np.shape(v), f"chunk {i}[{k!r}]")
 
 
 def _plan_of(given: Optional[Plan], fs: Any, rec: Optional[RecordingProtocol], options: Dict[str, Any]) -> Plan:

@@ -197,7 +197,8 @@ class RoleChoice:
 
 def _static(fz: np.ndarray) -> bool:
     """fz carries a static level (|median| > 3 MAD), as the pre-pass decides (docs/method.md 6a)."""
-    fin = fz if np.isfinite(fz).all() else fz[np.isfinite(fz)]
+    finite = np.isfinite(fz)
+    fin = fz if finite.all() else fz[finite]
     if fin.size == 0:
         return False
     med = _order.median(fin)  # NumPy's median and MAD, bit for bit, in a parallel pass each

@@ -326,7 +326,7 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
     fy, fz = np.asarray(fy, dtype=float), np.asarray(fz, dtype=float)
     if fy.shape != fz.shape or fz.ndim != 1:
         raise ValueError(f"fy and fz must be 1-D of equal lengths, got shapes {fy.shape} and {fz.shape}")
-    if not (in_range(fz) or np.isfinite(fz).all()) or not (in_range(fy) or np.isfinite(fy).all()):
+    if not (np.isfinite(fy).all() and np.isfinite(fz).all()):
         raise ValueError("fy and fz must be finite (drop or interpolate NaN and inf first)")
     return _contact(fy, fz, _order.Sorted.of(fz))[0]
 
