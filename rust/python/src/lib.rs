@@ -19,17 +19,17 @@ use numpy::{
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tribodyn_core::bootstrap;
-use tribodyn_core::correlation::{self, Method};
-use tribodyn_core::extended;
-use tribodyn_core::iir;
-use tribodyn_core::mapped;
-use tribodyn_core::order;
+use tribodyn_core::io::mapped;
+use tribodyn_core::io::text;
+use tribodyn_core::numerics::bootstrap;
+use tribodyn_core::numerics::correlation::{self, Method};
+use tribodyn_core::numerics::extended;
+use tribodyn_core::numerics::iir;
+use tribodyn_core::numerics::order;
+use tribodyn_core::numerics::regression::{self, LinFit, Moments};
+use tribodyn_core::numerics::sums;
+use tribodyn_core::numerics::windows::{self, Deadband, WindowOptions};
 use tribodyn_core::parallel;
-use tribodyn_core::regression::{self, LinFit, Moments};
-use tribodyn_core::sums;
-use tribodyn_core::text;
-use tribodyn_core::windows::{self, Deadband, WindowOptions};
 
 /// Values per window of the column "ext".
 const EXT_WIDTH: usize = extended::BLOCKS * extended::PRODUCTS;
@@ -1258,7 +1258,7 @@ fn tdms_index<'py>(py: Python<'py>, fd: i32, index_fd: Option<i32>) -> PyResult<
     use pyo3::types::{PyBytes, PyList};
     let file = dup_fd(fd)?;
     let index = index_fd.map(dup_fd).transpose()?;
-    let idx = py.detach(|| tribodyn_core::tdms::read_index(&file, index.as_ref())).map_err(to_py)?;
+    let idx = py.detach(|| tribodyn_core::io::tdms::read_index(&file, index.as_ref())).map_err(to_py)?;
     let d = PyDict::new(py);
     d.set_item("segments", idx.segments)?;
     d.set_item("warnings", idx.warnings)?;
