@@ -9,6 +9,8 @@
 //! built in one place, from a [`Fault`] (`From<Fault> for PyErr`): kernel
 //! errors, bad arguments, memory, descriptors, text rows; a NaN or inf in
 //! a window is named there in the recording's terms when the spec says how.
+//! The messages of kernel and text-row errors are the core's own
+//! (`KernelError::named`, `ParseError::named`): this layer words none of them.
 //! Validation of user-facing options lives in the Python layer; the kernels
 //! re-check everything that could otherwise panic.
 
@@ -33,6 +35,7 @@ use tribodyn_core::parallel;
 
 /// Values per window of the column "ext".
 const EXT_WIDTH: usize = extended::BLOCKS * extended::PRODUCTS;
+use tribodyn_core::error::Naming;
 use tribodyn_core::KernelError;
 
 pyo3::create_exception!(
@@ -59,10 +62,9 @@ enum Fault {
     Memory(String),
     /// A file descriptor that cannot be used: `OSError`.
     Os(String),
-    /// A text row that cannot be read: `ValueError` with args ("fields",
-    /// line, got, need), ("number", line, column, text bytes) or ("eof",
-    /// line, rows short).
-    Parse(text::ParseError),
+    /// A text row that cannot be read: `ValueError`, in the core's words
+    /// (`ParseError::named`), the columns asked for named by these labels.
+    Parse(text::ParseError, Vec<String>),
 }
 
 impl From<KernelError> for Fault {
@@ -80,33 +82,20 @@ impl From<Fault> for PyErr {
             Fault::Type(msg) => PyTypeError::new_err(msg),
             Fault::Memory(msg) => PyMemoryError::new_err(msg),
             Fault::Os(msg) => PyOSError::new_err(msg),
-            Fault::Parse(text::ParseError::Fields { line, got, need }) => {
-                PyValueError::new_err(("fields", line, got, need))
-            }
-            Fault::Parse(text::ParseError::Number { line, col, text }) => {
-                PyValueError::new_err(("number", line, col, text))
-            }
-            Fault::Parse(text::ParseError::Eof { line, short }) => PyValueError::new_err(("eof", line, short)),
-            Fault::Parse(text::ParseError::Io(e)) => kernel_error(e, None),
+            Fault::Parse(text::ParseError::Io(e), _) => kernel_error(e, None),
+            Fault::Parse(e, labels) => PyValueError::new_err(e.named(&labels).to_string()),
         }
     }
 }
 
-/// A kernel error as a Python exception: `NonFiniteError` (its message
-/// the one arg; attributes `channel`, `sample`, `window`: with `naming`,
-/// the channel is the recording's role and the message gives the time) or
-/// `ValueError`.
+/// A kernel error as a Python exception, in the core's words
+/// (`KernelError::named`): `NonFiniteError` (its message the one arg;
+/// attributes `channel`, `sample`, `window`: with `naming`, the channel is
+/// the recording's role and the message gives the time) or `ValueError`.
 fn kernel_error(e: KernelError, naming: Option<&Naming>) -> PyErr {
-    let (msg, channel, sample, window) = match (e, naming) {
-        (KernelError::NonFinite { channel, sample, window }, Some(n)) => {
-            let role = n.role(channel);
-            (n.non_finite(role, sample, window), role.to_owned(), sample, window)
-        }
-        (e @ KernelError::NonFinite { channel, sample, window }, None) => {
-            (e.to_string(), channel.to_owned(), sample, window)
-        }
-        (other, _) => return PyValueError::new_err(other.to_string()),
-    };
+    let msg = e.named(naming).to_string();
+    let KernelError::NonFinite { channel, sample, window } = e else { return PyValueError::new_err(msg) };
+    let channel = naming.map_or(channel, |n| n.role(channel)).to_owned();
     Python::attach(|py| {
         let err = NonFiniteError::new_err(msg);
         let value = err.value(py);
@@ -139,69 +128,6 @@ fn no_memory(msg: impl Into<String>) -> PyErr {
 /// An `OSError` (through [`Fault`]).
 fn os_error(msg: impl Into<String>) -> PyErr {
     Fault::Os(msg.into()).into()
-}
-
-/// How a window call names a NaN or inf: the auxiliary channel by its role
-/// ("i" or "u"), the raw forces as the forces, and with `fs` the time.
-#[derive(Clone, Debug, PartialEq)]
-struct Naming {
-    aux: String,
-    fs: Option<f64>,
-}
-
-impl Naming {
-    fn role<'a>(&'a self, channel: &'a str) -> &'a str {
-        if channel == "aux" {
-            &self.aux
-        } else {
-            channel.strip_suffix("_raw").unwrap_or(channel)
-        }
-    }
-
-    /// "fy contains NaN or inf in the window starting at sample 5000 (t = 5 s)".
-    fn non_finite(&self, role: &str, sample: Option<usize>, window: bool) -> String {
-        let mut msg = format!("{role} contains NaN or inf");
-        let Some(s) = sample else { return msg };
-        msg += &if window { format!(" in the window starting at sample {s}") } else { format!(" at sample {s}") };
-        if let Some(fs) = self.fs {
-            let tail = if window { "" } else { "; the high-pass filter needs every sample" };
-            msg += &format!(" (t = {} s{tail})", format_g(s as f64 / fs));
-        }
-        msg
-    }
-}
-
-/// `x` as Python's `f"{x:g}"` writes it: 6 significant digits, trailing
-/// zeros dropped, an exponent below 1e-4 and from 1e6 on.
-fn format_g(x: f64) -> String {
-    if !x.is_finite() {
-        return if x.is_nan() {
-            "nan".into()
-        } else if x > 0.0 {
-            "inf".into()
-        } else {
-            "-inf".into()
-        };
-    }
-    if x == 0.0 {
-        return if x.is_sign_negative() { "-0".into() } else { "0".into() };
-    }
-    let sci = format!("{x:.5e}"); // rounded to 6 significant digits: its exponent decides
-    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
-    let exp: i32 = exp.parse().unwrap_or(0);
-    let trim = |t: &str| -> String {
-        if t.contains('.') {
-            t.trim_end_matches('0').trim_end_matches('.').to_owned()
-        } else {
-            t.to_owned()
-        }
-    };
-    if (-4..6).contains(&exp) {
-        trim(&format!("{x:.*}", (5 - exp) as usize))
-    } else {
-        let sign = if exp < 0 { '-' } else { '+' };
-        format!("{}e{sign}{:02}", trim(mantissa), exp.abs())
-    }
 }
 
 /// The thread count of one call: `threads` if given (1 ..= 4 x cores),
@@ -536,29 +462,33 @@ impl PyMoments {
     }
 
     /// (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo).
-    fn state(&self) -> (u64, f64, f64, f64, f64, f64, f64, f64, f64) {
+    fn state(&self) -> StateTuple {
         let m = &self.inner;
         (m.n, m.mean_x, m.mean_y, m.sxx, m.syy, m.sxy, m.sse, m.mean_x_lo, m.mean_y_lo)
     }
 
-    /// Rebuilds moments from `state()` (for pickling and transport).
+    /// Rebuilds moments from `state()` (for pickling and transport): the
+    /// tuple (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo),
+    /// or its first seven (the low parts then 0.0).
     #[staticmethod]
-    #[pyo3(signature = (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo=0.0, mean_y_lo=0.0))]
-    #[allow(clippy::too_many_arguments)]
-    fn from_state(
-        n: u64,
-        mean_x: f64,
-        mean_y: f64,
-        sxx: f64,
-        syy: f64,
-        sxy: f64,
-        sse: f64,
-        mean_x_lo: f64,
-        mean_y_lo: f64,
-    ) -> PyMoments {
-        PyMoments { inner: Moments { n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo } }
+    fn from_state(state: &Bound<'_, PyAny>) -> PyResult<PyMoments> {
+        type Seven = (u64, f64, f64, f64, f64, f64, f64);
+        let (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo) = match state.extract::<StateTuple>() {
+            Ok(full) => full,
+            Err(_) => {
+                let (n, mx, my, sxx, syy, sxy, sse) = state.extract::<Seven>().map_err(|_| {
+                    let want = "(n, mean_x, mean_y, sxx, syy, sxy, sse[, mean_x_lo, mean_y_lo])";
+                    Fault::Type(format!("state must be a tuple {want}, got {state:?}"))
+                })?;
+                (n, mx, my, sxx, syy, sxy, sse, 0.0, 0.0)
+            }
+        };
+        Ok(PyMoments { inner: Moments { n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo } })
     }
 }
+
+/// (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo)
+type StateTuple = (u64, f64, f64, f64, f64, f64, f64, f64, f64);
 
 /// (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
 type FitTuple = (f64, f64, f64, f64, f64, f64, u64, bool);
@@ -1280,61 +1210,104 @@ fn tdms_index<'py>(py: Python<'py>, fd: i32, index_fd: Option<i32>) -> PyResult<
     Ok(d)
 }
 
-fn dialect_of(
-    delimiter: Option<&str>,
-    decimal: &str,
-    comment: Option<&str>,
-    skip_blank: bool,
-) -> PyResult<text::Dialect> {
-    let delim = match delimiter {
-        None => None,
-        Some(d) if d.len() == 1 && d.is_ascii() => Some(d.as_bytes()[0]),
-        Some(d) => return Err(bad(format!("delimiter must be one ASCII character or None, got {d:?}"))),
-    };
-    let decimal = match decimal {
-        "." => b'.',
-        "," => b',',
-        d => return Err(bad(format!("decimal must be '.' or ',', got {d:?}"))),
-    };
-    let comment = match comment {
-        Some(c) if c.is_empty() || !c.is_ascii() => {
-            return Err(bad(format!("comment must be ASCII text or None, got {c:?}")))
-        }
-        c => c.map(|c| c.as_bytes().to_vec()),
-    };
-    Ok(text::Dialect { delim, decimal, comment, skip_blank })
+/// How a text file's fields are separated and which lines are skipped
+/// (the rules of `text_scan` and `text_parse`), checked when it is made.
+#[pyclass(name = "TextDialect", module = "tribodyn._core", frozen)]
+#[derive(Clone)]
+struct PyTextDialect {
+    inner: text::Dialect,
+}
+
+#[pymethods]
+impl PyTextDialect {
+    /// `delimiter`: one ASCII character, or None for runs of whitespace;
+    /// `decimal`: "." or ","; `comment`: ASCII text that starts a skipped
+    /// line, or None; `skip_blank`: blank lines are skipped (else they end
+    /// a run). A bad argument is a `ValueError`.
+    #[new]
+    #[pyo3(signature = (delimiter, decimal, comment=None, skip_blank=true))]
+    fn new(delimiter: Option<&str>, decimal: &str, comment: Option<&str>, skip_blank: bool) -> PyResult<Self> {
+        let delim = match delimiter {
+            None => None,
+            Some(d) if d.len() == 1 && d.is_ascii() => Some(d.as_bytes()[0]),
+            Some(d) => return Err(bad(format!("delimiter must be one ASCII character or None, got {d:?}"))),
+        };
+        let decimal = match decimal {
+            "." => b'.',
+            "," => b',',
+            d => return Err(bad(format!("decimal must be '.' or ',', got {d:?}"))),
+        };
+        let comment = match comment {
+            Some(c) if c.is_empty() || !c.is_ascii() => {
+                return Err(bad(format!("comment must be ASCII text or None, got {c:?}")))
+            }
+            c => c.map(|c| c.as_bytes().to_vec()),
+        };
+        Ok(PyTextDialect { inner: text::Dialect { delim, decimal, comment, skip_blank } })
+    }
+
+    fn __repr__(&self) -> String {
+        let d = &self.inner;
+        let py_str = |b: &[u8]| format!("'{}'", b.escape_ascii());
+        format!(
+            "TextDialect(delimiter={}, decimal={}, comment={}, skip_blank={})",
+            d.delim.map_or("None".into(), |c| py_str(&[c])),
+            py_str(&[d.decimal]),
+            d.comment.as_deref().map_or("None".into(), py_str),
+            if d.skip_blank { "True" } else { "False" },
+        )
+    }
+}
+
+/// What makes a line a data row of `text_scan`, and what the scan records.
+#[pyclass(name = "TextScan", module = "tribodyn._core", frozen)]
+struct PyTextScan {
+    inner: text::ScanSpec,
+}
+
+#[pymethods]
+impl PyTextScan {
+    /// `dialect`: the file's `TextDialect`; `nf`: the fields a row has (more
+    /// are allowed when blank; None: any); `probe`: a field that must be a
+    /// number or empty; `time`: the time column, whose restarts and gaps (a
+    /// step above `gap`; NaN: restarts only) are reported, `t_prev` the
+    /// time of the row before the run (NaN: none); `keep_times`: time
+    /// values kept from the run's first row.
+    #[new]
+    #[pyo3(signature = (dialect, *, nf, probe, time=None, gap=f64::NAN, t_prev=f64::NAN, keep_times=0))]
+    fn new(
+        dialect: &PyTextDialect,
+        nf: Option<usize>,
+        probe: usize,
+        time: Option<usize>,
+        gap: f64,
+        t_prev: f64,
+        keep_times: usize,
+    ) -> Self {
+        let dialect = dialect.inner.clone();
+        PyTextScan { inner: text::ScanSpec { dialect, nf, probe, time, gap, t_prev, keep_times } }
+    }
 }
 
 /// Follows the run of data rows from byte `start` of the text file open as
-/// `fd` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
+/// `fd` by the rules of `scan` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
 /// "end", "times" (float64), "breaks" [(row, line, offset, prev, now)],
 /// "t_prev", "checkpoints" [(row, offset, line)] (about one a MiB), "marks" (more
 /// such entries, about one per 64 KiB, see `Checkpoints`) and "last" ((line, offset) or None);
 /// lines are counted from the run's first (0).
 #[pyfunction]
-#[pyo3(signature = (fd, start, *, delimiter, decimal, comment, skip_blank, nf, probe, time, gap, t_prev, keep_times, threads=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (fd, start, scan, *, threads=None))]
 fn text_scan<'py>(
     py: Python<'py>,
     fd: i32,
     start: u64,
-    delimiter: Option<&str>,
-    decimal: &str,
-    comment: Option<&str>,
-    skip_blank: bool,
-    nf: Option<usize>,
-    probe: usize,
-    time: Option<usize>,
-    gap: f64,
-    t_prev: f64,
-    keep_times: usize,
+    scan: &PyTextScan,
     threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let dialect = dialect_of(delimiter, decimal, comment, skip_blank)?;
     let threads = threads_of(threads)?;
     let file = dup_fd(fd)?;
-    let spec = text::ScanSpec { dialect, nf, probe, time, gap, t_prev, keep_times };
-    let run = py.detach(|| text::scan(&file, start, &spec, threads)).map_err(to_py)?;
+    let spec = &scan.inner;
+    let run = py.detach(|| text::scan(&file, start, spec, threads)).map_err(to_py)?;
     let d = PyDict::new(py);
     d.set_item("rows", run.rows)?;
     d.set_item("lines", run.lines)?;
@@ -1351,24 +1324,22 @@ fn text_scan<'py>(
 }
 
 /// Parses the rows of `pieces` [(offset, line, skip, rows)] of the text
-/// file open as `fd` into one float64 array per entry of `usecols`. A row that
-/// cannot be read raises ValueError with args ("fields", line, got, need),
-/// ("number", line, column, text bytes) or ("eof", line, rows short).
+/// file open as `fd` by the rules of `dialect` into one float64 array per
+/// entry of `usecols`. A row that cannot be read raises ValueError in the
+/// reader's words ("line 7: 'x' in channel 'fy' is not a number (corrupt
+/// file?)"), each column asked for named by its entry of `names` (by its
+/// index without one).
 #[pyfunction]
-#[pyo3(signature = (fd, pieces, usecols, *, delimiter, decimal, comment, skip_blank, threads=None))]
-#[allow(clippy::too_many_arguments)]
+#[pyo3(signature = (fd, pieces, usecols, dialect, *, names=None, threads=None))]
 fn text_parse<'py>(
     py: Python<'py>,
     fd: i32,
     pieces: Vec<(u64, u64, u64, u64)>,
     usecols: Vec<usize>,
-    delimiter: Option<&str>,
-    decimal: &str,
-    comment: Option<&str>,
-    skip_blank: bool,
+    dialect: &PyTextDialect,
+    names: Option<Vec<Bound<'py, PyAny>>>,
     threads: Option<i64>,
 ) -> PyResult<Vec<Bound<'py, PyArray1<f64>>>> {
-    let dialect = dialect_of(delimiter, decimal, comment, skip_blank)?;
     let threads = threads_of(threads)?;
     let file = dup_fd(fd)?;
     let pieces: Vec<text::Piece> =
@@ -1379,11 +1350,16 @@ fn text_parse<'py>(
     for _ in &usecols {
         outs.push(zeros(total, "rows")?);
     }
+    let d = &dialect.inner;
     let res = py.detach(|| {
         let mut cols: Vec<&mut [f64]> = outs.iter_mut().map(|v| v.as_mut_slice()).collect();
-        text::parse(&file, &pieces, &dialect, &usecols, &mut cols, threads)
+        text::parse(&file, &pieces, d, &usecols, &mut cols, threads)
     });
-    res.map_err(Fault::Parse)?;
+    if let Err(e) = res {
+        // a message quotes each name as Python's repr does
+        let labels = names.iter().flatten().map(|n| Ok(n.repr()?.to_string())).collect::<PyResult<Vec<String>>>()?;
+        return Err(Fault::Parse(e, labels).into());
+    }
     Ok(outs.into_iter().map(|v| PyArray1::from_vec(py, v)).collect())
 }
 
@@ -1426,6 +1402,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tdms_index, m)?)?;
     m.add_class::<PyExtents>()?;
     m.add_class::<PyWindowSpec>()?;
+    m.add_class::<PyTextDialect>()?;
+    m.add_class::<PyTextScan>()?;
     m.add_function(wrap_pyfunction!(text_scan, m)?)?;
     m.add_function(wrap_pyfunction!(text_parse, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
