@@ -600,7 +600,7 @@ def native_scan(
 ) -> Dict[str, Any]:
     """The run of data rows from byte ``start`` (see ``tribodyn._core.text_scan``)."""
     from .. import _core
-    from ..threads import read_threads
+    from ..kernels.threads import read_threads
 
     try:
         scan = _core.TextScan(
@@ -671,7 +671,7 @@ def native_parse(
     native reader: ``tribodyn._core.text_parse``; the path is put before them here).
     """
     from .. import _core
-    from ..threads import read_threads
+    from ..kernels.threads import read_threads
 
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
     try:
