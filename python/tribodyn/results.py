@@ -19,6 +19,7 @@ from .headline import ClassicalTotals, Headline
 
 if TYPE_CHECKING:
     from .stickslip import StickSlip
+    from .uncertainty import Moments
 
 __all__ = ["BinTable", "CofResult", "Results", "WINDOW_COLUMNS"]
 
@@ -191,6 +192,9 @@ class Results:
     stick_slip : StickSlip or None
         The stick-slip events, found in the analysis' own reading when it
         was asked for (``analyze(stick_slip=True)``, docs/method.md 6g).
+    budget_stats : uncertainty.Moments or None
+        The headline's sufficient statistics for its uncertainty budget
+        (``analyze(uncertainty=...)``, docs/method.md 6i).
     """
 
     table: Dict[str, np.ndarray]
@@ -211,6 +215,8 @@ class Results:
     #: The stick-slip events found in the analysis' own reading (``analyze(stick_slip=True)``,
     #: docs/method.md 6g), or None when not asked for.
     stick_slip: Optional["StickSlip"] = None
+    #: The headline's sufficient statistics for its uncertainty budget (docs/method.md 6i), or None.
+    budget_stats: Optional["Moments"] = None
 
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""
@@ -234,6 +240,7 @@ class Results:
             warnings=self.warnings,
             strokes=self.strokes,
             classical=self.classical,
+            budget_stats=self.budget_stats,
         )
 
     def __len__(self) -> int:

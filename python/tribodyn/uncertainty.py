@@ -1,0 +1,732 @@
+"""The uncertainty budget of the headline COF: the instrument combined with the statistics (docs/method.md 6i).
+
+* :class:`Inputs`: what a lab knows of its instrument (``analyze(uncertainty=...)``,
+  ``--uncertainty KEY=VALUE``, ``[uncertainty]`` in ``--config``, ``--calibration FILE``):
+  the standard uncertainty of each channel's calibration (``fy_rel``, ``fz_rel``), of its
+  offset (``fy_abs``, ``fz_abs``), of the angle between the tangential axis and the contact
+  plane (``misalignment_deg``; a known ``misalignment_bias_deg`` is corrected) and of the
+  crosstalk (``crosstalk``), each with its distribution and degrees of freedom.
+* :class:`Moments`: the headline's sufficient statistics: over the samples (or windows) it
+  averages, the weighted sums of r^j u^k (r = fy/fz, u = 1/fz, j <= 3, k <= 2) apart for each
+  sign of r; from them the headline's estimator is evaluated on the forces corrected by any
+  instrument, without the samples (:func:`classical_moments`, :func:`stroke_moments`,
+  :func:`dynamic_moments`).
+* :func:`propagate`: the Monte Carlo of JCGM 101 (GUM Supplement 1) through that estimator,
+  the statistical interval entering as its own distribution, and the law of propagation of
+  GUM (first-order sensitivities) as its check: an :class:`Uncertainty` with the budget.
+* :func:`instrument`, :func:`through`: an instrument drawn from the stated distributions, and
+  true forces measured through it (the coverage study, ``benches/bench_uncertainty.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Dict, Iterable, List, Mapping, Optional, Tuple
+
+import numpy as np
+
+from . import _core
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .headline import Headline
+    from .results import Results
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "SOURCES",
+    "BudgetRow",
+    "Inputs",
+    "Instrument",
+    "Moments",
+    "Source",
+    "Uncertainty",
+    "classical_moments",
+    "dynamic_moments",
+    "instrument",
+    "parse_inputs",
+    "parse_item",
+    "propagate",
+    "stroke_moments",
+    "through",
+]
+
+#: The instrument's sources: key -> (unit, meaning) (docs/method.md 6i).
+SOURCES: Dict[str, Tuple[str, str]] = {
+    "fy_rel": ("1", "relative standard uncertainty of the fy (friction) channel's calibration"),
+    "fz_rel": ("1", "relative standard uncertainty of the fz (normal) channel's calibration"),
+    "fy_abs": ("N", "standard uncertainty of the fy channel's offset (offset, drift, resolution)"),
+    "fz_abs": ("N", "standard uncertainty of the fz channel's offset (offset, drift, resolution)"),
+    "misalignment_deg": ("deg", "standard uncertainty of the angle between the tangential axis and the contact plane"),
+    "crosstalk": ("1", "standard uncertainty of the fraction of fz seen on the fy channel, and of fy on fz"),
+}
+#: A known misalignment (degrees), corrected: fy reads fy cos(theta) + fz sin(theta) (docs/method.md 6i).
+BIAS = "misalignment_bias_deg"
+#: The distributions of an input, as GUM names them; the value given is always the standard uncertainty.
+DISTRIBUTIONS = ("normal", "rectangular", "triangular")
+#: Largest value of each source that the model holds (beyond it the instrument is not a load cell).
+_LIMITS = {"fy_rel": 0.5, "fz_rel": 0.5, "misalignment_deg": 10.0, "crosstalk": 0.5, BIAS: 45.0}
+#: Monte Carlo draws (JCGM 101 7.2: 10^6 / (1 - p) suggests 2e5 for p = 0.95 at two significant digits).
+DRAWS = 200_000
+#: How the reason begins when the inputs are given but the headline's statistics could not be read.
+NO_BUDGET = "no uncertainty budget: "
+#: Coverage probability of the interval.
+COVERAGE = 0.95
+#: An interval whose two sides differ by more than this share of its width is quoted by its ends, not +- U.
+ASYMMETRY = 0.05
+_DEG = math.pi / 180.0
+
+
+# -- inputs ------------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Source:
+    """One input: ``u`` its standard uncertainty (in the key's unit), its distribution and degrees of freedom.
+
+    A normal input with ``dof`` degrees of freedom is a scaled and shifted
+    Student t (JCGM 101 6.4.9); a rectangular one spans +- sqrt(3) u, a
+    triangular one +- sqrt(6) u.
+    """
+
+    name: str
+    u: float
+    distribution: str = "normal"
+    dof: Optional[float] = None
+
+    def draw(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """``n`` draws of the input's error (mean zero, standard deviation ``u``; a Student t: scale ``u``)."""
+        if self.u == 0:
+            return np.zeros(n)
+        if self.distribution == "rectangular":
+            a = math.sqrt(3.0) * self.u
+            return rng.uniform(-a, a, n)
+        if self.distribution == "triangular":
+            a = math.sqrt(6.0) * self.u
+            return rng.triangular(-a, 0.0, a, n)
+        if self.dof is not None and math.isfinite(self.dof):
+            return self.u * rng.standard_t(self.dof, n)
+        return self.u * rng.standard_normal(n)
+
+    def to_dict(self) -> Dict[str, Any]:
+        return {"u": self.u, "distribution": self.distribution, "dof": self.dof}
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """What a lab knows of its instrument (docs/method.md 6i): :func:`parse_inputs` of ``analyze(uncertainty=...)``."""
+
+    sources: Tuple[Source, ...] = ()
+    misalignment_bias_deg: float = 0.0
+    instrument: str = ""
+
+    def get(self, name: str) -> Optional[Source]:
+        return next((s for s in self.sources if s.name == name), None)
+
+    def to_dict(self) -> Dict[str, Any]:
+        """JSON-ready, the form :func:`parse_inputs` takes back."""
+        out: Dict[str, Any] = {s.name: s.to_dict() for s in self.sources}
+        if self.misalignment_bias_deg:
+            out[BIAS] = self.misalignment_bias_deg
+        if self.instrument:
+            out["instrument"] = self.instrument
+        return out
+
+
+def _number(v: Any, what: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{what} must be a number, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise ValueError(f"{what} must be finite, got {v!r}")
+    return x
+
+
+def _source(name: str, v: Any) -> Source:
+    where = f"uncertainty[{name!r}]"
+    if isinstance(v, Mapping):
+        extra = sorted(set(map(str, v)) - {"u", "distribution", "dof"})
+        if extra:
+            raise ValueError(f"{where}: unknown field(s) {', '.join(extra)} (u, distribution, dof)")
+        if "u" not in v:
+            raise ValueError(f"{where} needs u, its standard uncertainty")
+        u, dist, dof = v["u"], v.get("distribution", "normal"), v.get("dof")
+    else:
+        u, dist, dof = v, "normal", None
+    x = _number(u, where)
+    if x < 0:
+        raise ValueError(f"{where} is a standard uncertainty, >= 0, got {u!r}")
+    if name in _LIMITS and x > _LIMITS[name]:
+        raise ValueError(f"{where} = {x:g} is beyond what a load cell can be ({_LIMITS[name]:g} at most)")
+    if dist not in DISTRIBUTIONS:
+        raise ValueError(f"{where}: distribution must be normal, rectangular or triangular, got {dist!r}")
+    nu: Optional[float] = None
+    if dof is not None:
+        nu = _number(dof, f"{where} dof")
+        if dist != "normal":
+            raise ValueError(f"{where}: degrees of freedom apply to a normal (Student t) input, not a {dist} one")
+        if nu <= 2:
+            raise ValueError(f"{where}: dof must be > 2 (a Student t with <= 2 has no standard deviation), got {dof!r}")
+    return Source(name, x, str(dist), nu)
+
+
+def parse_inputs(value: Any) -> Optional[Inputs]:
+    """``analyze(uncertainty=...)`` checked: None (or an empty mapping) for no budget, else :class:`Inputs`.
+
+    ``value`` maps each key of :data:`SOURCES` to its standard uncertainty
+    (a number: normal) or to ``{"u": ..., "distribution": ..., "dof": ...}``;
+    ``misalignment_bias_deg`` is a number, ``instrument`` a name. Unknown
+    keys and impossible values raise a one-line ValueError (TypeError for
+    a wrong type) naming ``uncertainty``.
+    """
+    if value is None or isinstance(value, Inputs):
+        return value
+    if not isinstance(value, Mapping):
+        raise TypeError(f"uncertainty must be a mapping of {', '.join(SOURCES)} to standard uncertainties")
+    if not value:
+        return None
+    unknown = sorted(str(k) for k in value if k not in SOURCES and k not in (BIAS, "instrument"))
+    if unknown:
+        raise ValueError(f"uncertainty: unknown key(s) {', '.join(unknown)}; the keys are {', '.join(SOURCES)}, {BIAS}")
+    sources = tuple(_source(k, value[k]) for k in SOURCES if k in value)
+    bias = 0.0
+    if BIAS in value:
+        bias = _number(value[BIAS], f"uncertainty[{BIAS!r}]")
+        if abs(bias) > _LIMITS[BIAS]:
+            raise ValueError(f"uncertainty[{BIAS!r}] must be within +-{_LIMITS[BIAS]:g} degrees, got {bias!r}")
+    name = value.get("instrument", "")
+    if not isinstance(name, str):
+        raise TypeError(f"uncertainty['instrument'] must be a name (text), got {name!r}")
+    return Inputs(sources, bias, name)
+
+
+def parse_item(text: str) -> Tuple[str, Any]:
+    """``--uncertainty KEY=VALUE``: VALUE is ``U``, ``U:DISTRIBUTION`` or ``U:normal:DOF`` (bias: a number).
+
+    Returns ``(key, value)`` for :func:`parse_inputs` (which checks the values).
+    """
+    key, eq, rest = text.partition("=")
+    key = key.strip()
+    if not eq or not key or not rest.strip():
+        raise ValueError(f"--uncertainty takes KEY=VALUE (e.g. misalignment_deg=0.3:rectangular), got {text!r}")
+    if key not in SOURCES and key != BIAS:
+        raise ValueError(f"--uncertainty: unknown key {key!r}; the keys are {', '.join(SOURCES)}, {BIAS}")
+    parts = [p.strip() for p in rest.split(":")]
+    try:
+        nums = [float(parts[0])] + ([float(parts[2])] if len(parts) > 2 else [])
+    except ValueError:
+        raise ValueError(f"--uncertainty {key}: {rest!r} is not U[:distribution[:dof]] with numbers") from None
+    if key == BIAS:
+        if len(parts) > 1:
+            raise ValueError(f"--uncertainty {BIAS} is a known angle in degrees (a number), got {rest!r}")
+        return key, nums[0]
+    if len(parts) > 3:
+        raise ValueError(f"--uncertainty {key}: {rest!r} is not U[:distribution[:dof]]")
+    out: Dict[str, Any] = {"u": nums[0]}
+    if len(parts) > 1:
+        out["distribution"] = parts[1]
+    if len(parts) > 2:
+        out["dof"] = nums[1]
+    return key, out
+
+
+# -- sufficient statistics ---------------------------------------------------------------------------------------
+
+#: Powers of r (0..3) and of u (0..2) kept: the estimator to third order in the instrument's errors.
+_J, _K = 4, 3
+
+
+def ratio_sums(y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """sum r^j u^k (r = y/z, u = 1/z; j < 4, k < 3) over the samples, apart for r >= 0 [0] and r < 0 [1]."""
+    u = 1.0 / np.asarray(z, dtype=float)
+    r = np.asarray(y, dtype=float) * u
+    neg = r < 0
+    out = np.zeros((2, _J, _K))
+    for side, sel in ((0, ~neg), (1, neg)):
+        rs, us = r[sel], u[sel]
+        if not rs.size:
+            continue
+        r2 = rs * rs
+        rp = np.stack([np.ones_like(rs), rs, r2, r2 * rs])
+        up = np.stack([np.ones_like(us), us, us * us])
+        out[side] = rp @ up.T  # one matrix product: every sum of r^j u^k
+    return out
+
+
+@dataclass(frozen=True)
+class Moments:
+    """The headline's sufficient statistics (docs/method.md 6i).
+
+    ``t[0]`` (r >= 0) and ``t[1]`` (r < 0) hold sum_i w_i r_i^j u_i^k over
+    the samples (classical), the stroke centres' samples (per-stroke) or the
+    direction medians (dynamic, u = 0) that the headline averages, with the
+    weights w_i it gives them (summing to 1): the headline is
+    sum_s s t[s][1, 0] and, measured through another instrument, the same
+    sums of the corrected ratio.
+    """
+
+    method: str
+    t: np.ndarray
+    n: int
+
+    @property
+    def value(self) -> float:
+        """The headline as these statistics give it (the nominal instrument)."""
+        return float(self.t[0, 1, 0] - self.t[1, 1, 0])
+
+    def signed(self, j: int, k: int) -> float:
+        """sum_s s t[s][j, k]."""
+        return float(self.t[0, j, k] - self.t[1, j, k])
+
+
+def _contact(y: np.ndarray, z: np.ndarray, spec: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """The tared samples in contact, as the classical COF takes them (``headline._block_sums``, docs/method.md 6a)."""
+    y = np.asarray(y, dtype=float) - spec.tare_fy
+    z = np.asarray(z, dtype=float) - spec.tare_fz
+    az = np.abs(z)
+    keep = (np.abs(y) <= _core.FORCE_LIMIT) & (az <= _core.FORCE_LIMIT) & (az >= spec.min_fn) & (az > 0)
+    return y[keep], z[keep]
+
+
+def classical_moments(source: Any, rec: Any, spec: Any, start: int = 0, stop: Optional[int] = None
+                      ) -> Optional[Moments]:  # fmt: skip
+    """The classical COF's statistics over the samples in contact of ``start``..``stop`` (one more reading)."""
+    from .headline import _blocks
+
+    got = _blocks(source, rec, int(start), stop)
+    if got is None:
+        return None
+    total = np.zeros((2, _J, _K))
+    for _, piece in got[1]:
+        y, z = _contact(piece["fy"], piece["fz"], spec)
+        total += ratio_sums(y, z)
+    n = int(round(total[:, 0, 0].sum()))
+    return Moments("classical", total / n, n) if n else None
+
+
+def _read_forces(source: Any, rec: Any) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+    if rec is not None:
+        d = rec.read(["fy", "fz"])
+        return np.asarray(d["fy"], dtype=float), np.asarray(d["fz"], dtype=float)
+    if isinstance(source, Mapping):
+        return np.asarray(source["fy"], dtype=float), np.asarray(source["fz"], dtype=float)
+    if isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) for a in source):
+        return (np.concatenate([np.asarray(a["fy"], dtype=float) for a in source]),
+                np.concatenate([np.asarray(a["fz"], dtype=float) for a in source]))  # fmt: skip
+    return None
+
+
+def stroke_moments(source: Any, rec: Any, strokes: Mapping[str, np.ndarray], spec: Any, fraction: float
+                   ) -> Optional[Moments]:  # fmt: skip
+    """The per-stroke COF's statistics: each stroke's central samples weighted as the mean over cycles weighs them.
+
+    The headline is the mean over the cycles holding both directions of
+    (forward mean + backward mean) / 2, each direction's mean over its
+    strokes in the cycle (``tribometer.cycle_table``): a stroke's samples
+    weigh 1 / (2 C m n) (C cycles, m strokes of its direction in its
+    cycle, n its samples).
+    """
+    from .tribometer import ClassicalSpec
+
+    forces = _read_forces(source, rec)
+    if forces is None:
+        return None
+    fy, fz = forces
+    spec = spec or ClassicalSpec(0.0)
+    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
+    d = np.asarray(strokes["direction"], dtype=np.int64)
+    mu = np.asarray(strokes["mu"], dtype=float)
+    ok = np.isfinite(mu)
+    valid = [c for c in np.unique(cyc) if np.any(ok & (cyc == c) & (d == 1)) and np.any(ok & (cyc == c) & (d == -1))]
+    if not valid:
+        return None
+    total = np.zeros((2, _J, _K))
+    n_used = 0
+    for c in valid:
+        for sign in (1, -1):
+            ks = np.flatnonzero(ok & (cyc == c) & (d == sign))
+            for k in ks.tolist():
+                a, b = int(strokes["start"][k]), int(strokes["stop"][k])
+                m = b - a
+                c0 = a + int(round(m * (1 - fraction) / 2))
+                c1 = max(c0 + 1, a + int(round(m * (1 + fraction) / 2)))
+                y, z = _contact(fy[c0:c1], fz[c0:c1], spec)
+                if not y.size:
+                    continue
+                n_used += y.size
+                total += ratio_sums(y, z) / (2.0 * len(valid) * ks.size * y.size)
+    return Moments("per-stroke", total, n_used)
+
+
+def dynamic_moments(res: "Results") -> Optional[Moments]:
+    """The dynamic COF's statistics: the median slope of each direction (u = 0: a static offset does not enter).
+
+    The slope in the channels' own frame is s d m (s the orientation, d
+    the stroke's direction for direction-rectified strokes, m the median
+    of mu_r); the median of a monotone function of the slopes is that
+    function of their median, so the headline through another instrument
+    is the corrected slope of each median.
+    """
+    ok = np.asarray(res.table["ok"], dtype=bool)
+    mu = np.asarray(res.table["mu_r"], dtype=float)
+    keep = ok & np.isfinite(mu)
+    if not keep.any():
+        return None
+    s = int(res.params.get("orientation_used", res.orientation) or 1)
+    slopes: List[Tuple[float, float]] = []
+    st = res.strokes
+    if res.params.get("rectified") and st is not None and len(st.get("direction", [])):
+        d = np.asarray(st["direction"])[np.asarray(res.table["acquisition"], dtype=np.int64)[keep]]
+        parts = [(sign, mu[keep][d == sign]) for sign in (1, -1)]
+        parts = [(sign, v) for sign, v in parts if v.size]
+        if len(parts) == 2:
+            slopes = [(0.5, s * sign * float(np.median(v))) for sign, v in parts]
+    if not slopes:
+        slopes = [(1.0, s * float(np.median(mu[keep])))]
+    t = np.zeros((2, _J, _K))
+    for w, b in slopes:
+        t[0 if b >= 0 else 1, :, 0] += w * b ** np.arange(_J)
+    return Moments("dynamic", t, int(keep.sum()))
+
+
+# -- the instrument, and its inverse ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Instrument:
+    """An instrument's errors (docs/method.md 6i), arrays of draws or scalars.
+
+    The channels read, from the true tangential Y and normal Z forces (each
+    in the channel's own sign):
+    ``fy = (1 + g_y) (Y cos t + Z sin t) + k_y Z + o_y`` and
+    ``fz = (1 + g_z) (Z cos t - Y sin t) + k_z Y + o_z``.
+    """
+
+    g_y: Any = 0.0
+    g_z: Any = 0.0
+    o_y: Any = 0.0
+    o_z: Any = 0.0
+    theta: Any = 0.0
+    k_y: Any = 0.0
+    k_z: Any = 0.0
+
+    def matrix(self) -> Tuple[Any, Any, Any, Any]:
+        """(a11, a12, a21, a22): (fy, fz) - offsets = A (Y, Z)."""
+        c, s = np.cos(self.theta), np.sin(self.theta)
+        return ((1 + self.g_y) * c, (1 + self.g_y) * s + self.k_y, -(1 + self.g_z) * s + self.k_z, (1 + self.g_z) * c)
+
+
+def instrument(inputs: Inputs, rng: np.random.Generator, n: Optional[int] = None) -> Instrument:
+    """An instrument (or ``n`` of them) drawn from the stated distributions, the known bias added to the angle."""
+    size = 1 if n is None else n
+
+    def d(name: str) -> np.ndarray:
+        src = inputs.get(name)
+        return src.draw(rng, size) if src is not None else np.zeros(size)
+
+    vals = dict(g_y=d("fy_rel"), g_z=d("fz_rel"), o_y=d("fy_abs"), o_z=d("fz_abs"),
+                theta=(inputs.misalignment_bias_deg + d("misalignment_deg")) * _DEG, k_y=d("crosstalk"),
+                k_z=d("crosstalk"))  # fmt: skip
+    if n is None:
+        return Instrument(**{k: float(v[0]) for k, v in vals.items()})
+    return Instrument(**vals)
+
+
+def through(inst: Instrument, fy: np.ndarray, fz: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """True forces (fy tangential, fz normal, N) as the instrument ``inst`` reads them."""
+    a11, a12, a21, a22 = inst.matrix()
+    y, z = np.asarray(fy, dtype=float), np.asarray(fz, dtype=float)
+    return a11 * y + a12 * z + inst.o_y, a21 * y + a22 * z + inst.o_z
+
+
+def estimate(mom: Moments, inst: Instrument) -> np.ndarray:
+    """The headline's estimator on the forces corrected by ``inst`` (arrays of draws): to third order in its errors.
+
+    Per sample, the corrected ratio is R(rho) = (a22 rho - a12) / (a11 - a21 rho)
+    with rho = (r - o_y u) / (1 - o_z u); R is expanded in q = a21 / a11
+    (up to rho^3) and rho^m in the offsets (to second order), so that its
+    mean needs only the sums of r^j u^k (docs/method.md 6i).
+    """
+    a11, a12, a21, a22 = inst.matrix()
+    q = a21 / a11
+    coef = [-a12 / a11, (a22 - a12 * q) / a11, (a22 * q - a12 * q * q) / a11, a22 * q * q / a11]
+    oy, oz = np.asarray(inst.o_y, dtype=float), np.asarray(inst.o_z, dtype=float)
+    out = 0.0
+    for side, sign in ((0, 1.0), (1, -1.0)):
+        t = mom.t[side]
+        if not t[0, 0]:
+            continue
+        acc = coef[0] * t[0, 0]
+        for m in range(1, _J):
+            # rho^m = r^m + m oz r^m u + m(m+1)/2 oz^2 r^m u^2 - m oy r^(m-1) u - m^2 oy oz r^(m-1) u^2
+            #         + m(m-1)/2 oy^2 r^(m-2) u^2
+            e = t[m, 0] + m * oz * t[m, 1] + 0.5 * m * (m + 1) * oz * oz * t[m, 2] - m * oy * t[m - 1, 1]
+            e = e - m * m * oy * oz * t[m - 1, 2]
+            if m >= 2:
+                e = e + 0.5 * m * (m - 1) * oy * oy * t[m - 2, 2]
+            acc = acc + coef[m] * e
+        out = out + sign * acc
+    return np.asarray(out, dtype=float)
+
+
+# -- the budget ---------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BudgetRow:
+    """One source of the budget (docs/method.md 6i).
+
+    ``value``: its standard uncertainty (``unit``); ``sensitivity``: dCOF /
+    d(source) (per ``unit``), from GUM's law of propagation at the nominal
+    instrument; ``contribution``: |sensitivity| x value; ``share``: the
+    contribution's square over u_c^2 (GUM).
+    """
+
+    source: str
+    value: float
+    unit: str
+    distribution: str
+    dof: Optional[float]
+    sensitivity: float
+    contribution: float
+    share: float
+
+    def to_dict(self) -> Dict[str, Any]:
+        def num(v: Optional[float]) -> Optional[float]:
+            return float(v) if v is not None and math.isfinite(v) else None
+
+        return {"source": self.source, "value": num(self.value), "unit": self.unit, "distribution": self.distribution,
+                "dof": num(self.dof), "sensitivity": num(self.sensitivity), "contribution": num(self.contribution),
+                "share": num(self.share)}  # fmt: skip
+
+
+def _sig(x: float) -> int:
+    """Decimals of ``x`` at two significant digits when its first digit is 1 or 2, else one (GUM 7.2.6)."""
+    if not (math.isfinite(x) and x > 0):
+        return 4
+    e = math.floor(math.log10(x))
+    lead = int(x / 10.0**e)
+    return max(0, -e + (1 if lead < 3 else 0))
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """The headline's combined uncertainty: instrument and statistics (``Headline.uncertainty``; docs/method.md 6i).
+
+    Attributes
+    ----------
+    value : float
+        The COF (the headline's, corrected for ``misalignment_bias_deg``).
+    u_c : float
+        Combined standard uncertainty (the Monte Carlo's standard deviation).
+    low, high : float
+        The probabilistically symmetric 95 % coverage interval of the Monte Carlo.
+    k : float or None
+        U / u_c where a symmetric expanded uncertainty U = (high - low) / 2 is
+        quoted (None when the interval is too asymmetric to be quoted +- U).
+    budget : tuple of BudgetRow
+        One row per source, the statistical one included.
+    gum : dict
+        GUM's law of propagation: u_c, effective degrees of freedom, k, U.
+    instrument_u : float
+        The instrument's part alone (GUM): shared by all tests on this instrument.
+    """
+
+    value: float
+    u_c: float
+    low: float
+    high: float
+    k: Optional[float]
+    budget: Tuple[BudgetRow, ...]
+    gum: Dict[str, Any] = field(default_factory=dict)
+    instrument_u: float = float("nan")
+    statistical_u: float = float("nan")
+    correction: float = 0.0
+    draws: int = DRAWS
+    seed: int = 0
+    notes: Tuple[str, ...] = ()
+    instrument: str = ""
+
+    @property
+    def U(self) -> Optional[float]:
+        """The expanded uncertainty (half the interval) when ``k`` is quoted."""
+        return None if self.k is None else 0.5 * (self.high - self.low)
+
+    @property
+    def text(self) -> str:
+        """'0.104 +- 0.009 (95 %, instrument and statistics)'."""
+        if self.U is not None:
+            dec = _sig(self.U)
+            return f"{self.value:.{dec}f} +- {self.U:.{dec}f} (95 %, instrument and statistics)"
+        dec = _sig(0.5 * (self.high - self.low))
+        return f"{self.value:.{dec}f} (95 % {self.low:.{dec}f} to {self.high:.{dec}f}, instrument and statistics)"
+
+    def to_dict(self) -> Dict[str, Any]:
+        def num(v: Optional[float]) -> Optional[float]:
+            return float(v) if v is not None and math.isfinite(v) else None
+
+        return {
+            "value": num(self.value), "u_c": num(self.u_c), "low": num(self.low), "high": num(self.high),
+            "k": num(self.k), "U": num(self.U), "coverage": COVERAGE,
+            "budget": [r.to_dict() for r in self.budget],
+            "gum": {k: (num(v) if isinstance(v, float) else v) for k, v in self.gum.items()},
+            "instrument_u": num(self.instrument_u), "statistical_u": num(self.statistical_u),
+            "correction": num(self.correction), "draws": self.draws, "seed": self.seed, "notes": list(self.notes),
+            "instrument": self.instrument, "text": self.text,
+        }  # fmt: skip
+
+
+def sensitivities(mom: Moments) -> Dict[str, Tuple[float, ...]]:
+    """GUM's first-order sensitivities of the headline to each source (docs/method.md 6i, per the key's unit).
+
+    With S(j, k) = sum_s s t[s][j, k] (so that the COF is S(1, 0)):
+    d/dg_y = -S(1,0), d/dg_z = +S(1,0), d/do_y = -S(0,1), d/do_z = +S(1,1),
+    d/dtheta = -(S(0,0) + S(2,0)) (per radian), d/dk_y = -S(0,0), d/dk_z = +S(2,0).
+    The crosstalk's two coefficients are drawn apart: two values.
+    """
+    S = mom.signed
+    return {
+        "fy_rel": (-S(1, 0),),
+        "fz_rel": (S(1, 0),),
+        "fy_abs": (-S(0, 1),),
+        "fz_abs": (S(1, 1),),
+        "misalignment_deg": (-(S(0, 0) + S(2, 0)) * _DEG,),
+        "crosstalk": (-S(0, 0), S(2, 0)),
+    }
+
+
+def _t975(dof: float) -> float:
+    from .headline import t975
+
+    return 1.959964 if not math.isfinite(dof) else t975(int(math.floor(dof)))
+
+
+def statistical_part(head: "Headline", dof: float) -> Tuple[float, float, float]:
+    """(se below, se above, dof) of the headline's statistical interval: its half-widths over t(0.975, dof)."""
+    if not (math.isfinite(head.low) and math.isfinite(head.high)):
+        return float("nan"), float("nan"), dof
+    q = _t975(dof)
+    return max(0.0, head.value - head.low) / q, max(0.0, head.high - head.value) / q, dof
+
+
+def propagate(head: "Headline", mom: Moments, inputs: Inputs, *, stat_dof: float = float("inf"),
+              draws: int = DRAWS, seed: int = 0) -> Uncertainty:  # fmt: skip
+    """The Monte Carlo of JCGM 101 through the headline's estimator, with GUM's budget as its check (6i).
+
+    Each draw is an instrument from ``inputs`` (errors about the known bias)
+    and a statistical error from the headline's interval (a Student t with
+    ``stat_dof`` degrees of freedom scaled to it; below and above the value
+    apart when the interval is asymmetric); the COF of the draw is the
+    estimator on the corrected forces plus that error. u_c is the draws'
+    standard deviation, the interval their 2.5 % and 97.5 % quantiles.
+    Repeats exactly with ``seed``.
+    """
+    rng = np.random.default_rng(seed)
+    nominal = Instrument(theta=inputs.misalignment_bias_deg * _DEG)
+    value = float(estimate(mom, nominal))
+    correction = value - mom.value
+    inst = instrument(inputs, rng, draws)
+    mu = estimate(mom, inst)
+    lo_se, hi_se, dof = statistical_part(head, stat_dof)
+    notes: List[str] = []
+    if math.isfinite(lo_se):
+        e = rng.standard_normal(draws) if not math.isfinite(dof) else rng.standard_t(dof, draws)
+        mu = mu + np.where(e < 0, lo_se, hi_se) * e
+    else:
+        notes.append("the headline has no statistical interval: the budget holds the instrument only")
+    u_c = float(np.std(mu, ddof=1))
+    low, high = (float(x) for x in np.quantile(mu, [(1 - COVERAGE) / 2, (1 + COVERAGE) / 2]))
+    half = 0.5 * (high - low)
+    sym = abs((high - value) - (value - low)) <= ASYMMETRY * (high - low)
+    k = half / u_c if sym and u_c > 0 else None
+    # GUM: the law of propagation (first order), the check of the Monte Carlo
+    sens = sensitivities(mom)
+    rows: List[Tuple[str, float, str, str, Optional[float], float, float]] = []
+    for src in inputs.sources:
+        c = sens[src.name]
+        cs = math.sqrt(sum(x * x for x in c))
+        rows.append((src.name, src.u, SOURCES[src.name][0], src.distribution, src.dof, cs, cs * src.u))
+    se = 0.5 * (lo_se + hi_se) if math.isfinite(lo_se) else float("nan")
+    inst_var = sum(r[6] ** 2 for r in rows)
+    var = inst_var + (se * se if math.isfinite(se) else 0.0)
+    if math.isfinite(se):
+        rows.append(("statistics", se, "1", "normal" if not math.isfinite(dof) else "t", dof, 1.0, se))
+    u_gum = math.sqrt(var)
+    den = sum(r[6] ** 4 / r[4] for r in rows if r[4] is not None and math.isfinite(r[4]) and r[6] > 0)
+    nu_eff = var * var / den if den > 0 else float("inf")
+    k_gum = _t975(nu_eff)
+    budget = tuple(BudgetRow(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[6] ** 2 / var if var > 0 else float("nan"))
+                   for r in rows)  # fmt: skip
+    gum = {"u_c": u_gum, "dof_eff": nu_eff, "k": k_gum, "U": k_gum * u_gum}
+    return Uncertainty(value=value, u_c=u_c, low=low, high=high, k=k, budget=budget, gum=gum,
+                       instrument_u=math.sqrt(inst_var), statistical_u=se, correction=correction, draws=draws,
+                       seed=seed, notes=tuple(notes), instrument=inputs.instrument)  # fmt: skip
+
+
+# -- on a Results -------------------------------------------------------------------------------------------------
+
+
+def stat_dof(res: "Results", head: "Headline") -> float:
+    """Degrees of freedom of the headline's interval: batches - 1 (classical, per-stroke); the bootstrap's: inf."""
+    from .headline import _cycle_means, batch_mean
+
+    if head.method == "classical" and res.classical is not None:
+        b = res.classical.mean()[3]
+        return float(b - 1) if b >= 3 else float("inf")
+    if head.method == "per-stroke" and res.strokes is not None:
+        b = batch_mean(_cycle_means(res.strokes))[3]
+        return float(b - 1) if b >= 3 else float("inf")
+    return float("inf")
+
+
+def attach(res: "Results", head: "Headline") -> "Headline":
+    """``head`` with its :class:`Uncertainty` when ``res`` holds the inputs and the statistics; else unchanged."""
+    import dataclasses
+
+    inputs = parse_inputs(res.params.get("uncertainty"))
+    mom: Optional[Moments] = getattr(res, "budget_stats", None)
+    if inputs is None or not head.ok:
+        return head
+    if mom is None and head.method == "dynamic":
+        mom = dynamic_moments(res)
+    if mom is None or mom.method != head.method:
+        why = f"{NO_BUDGET}the {head.method} COF's statistics were not read (a one-pass stream, or ranges combined)"
+        return dataclasses.replace(head, reasons=head.reasons + (why,))
+    unc = propagate(head, mom, inputs, stat_dof=stat_dof(res, head))
+    return dataclasses.replace(head, uncertainty=unc)
+
+
+def statistics_of(res: "Results", source: Any, rec: Any, spec: Any, span: Tuple[int, Optional[int]]
+                  ) -> Optional[Moments]:  # fmt: skip
+    """The statistics of ``res``'s headline read from ``source`` (classical, per-stroke) or its table (dynamic)."""
+    head = res.headline
+    if head.method == "dynamic":
+        return dynamic_moments(res)
+    if head.method == "per-stroke" and res.strokes is not None:
+        return stroke_moments(source, rec, res.strokes, spec, float(res.params.get("stroke_fraction", 0.5)))
+    if head.method == "classical" and spec is not None and res.classical is not None:
+        return classical_moments(source, rec, spec, span[0], span[1])
+    return None
+
+
+def rows_text(unc: Uncertainty) -> Iterable[str]:
+    """The budget as lines of text (the CLI and repr)."""
+    yield f"{'source':<18}{'value':>11} {'unit':<5}{'distribution':<13}{'sensitivity':>12}{'contrib.':>10}{'share':>7}"
+    for r in unc.budget:
+        yield (f"{r.source:<18}{r.value:>11.4g} {r.unit:<5}{r.distribution:<13}{r.sensitivity:>12.4g}"
+               f"{r.contribution:>10.3g}{100 * r.share:>6.1f}%")  # fmt: skip
+
+
+def with_budget(res: "Results", stats: Optional[Moments]) -> "Results":
+    """``res`` holding ``stats``, its headline with the budget (the dynamic bootstrap is not run again)."""
+    import dataclasses
+
+    out = dataclasses.replace(res, budget_stats=stats)
+    for key in ("verdict", "mu_r_ci"):  # cached results that the statistics do not change
+        if key in res.__dict__:
+            out.__dict__[key] = res.__dict__[key]
+    if "headline" in res.__dict__:
+        head = res.__dict__["headline"]
+        kept = tuple(r for r in head.reasons if not r.startswith(NO_BUDGET))
+        out.__dict__["headline"] = attach(out, dataclasses.replace(head, uncertainty=None, reasons=kept))
+    return out
