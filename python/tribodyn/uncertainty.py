@@ -84,9 +84,10 @@ _DEG = math.pi / 180.0
 class Source:
     """One input: ``u`` its standard uncertainty (in the key's unit), its distribution and degrees of freedom.
 
-    A normal input with ``dof`` degrees of freedom is a scaled and shifted
-    Student t (JCGM 101 6.4.9); a rectangular one spans +- sqrt(3) u, a
-    triangular one +- sqrt(6) u.
+    ``u`` is always the standard deviation of the input's distribution: a
+    normal input with ``dof`` degrees of freedom is a Student t with that
+    standard deviation (scale u sqrt((dof - 2) / dof)), a rectangular one
+    spans +- sqrt(3) u, a triangular one +- sqrt(6) u.
     """
 
     name: str
@@ -95,7 +96,7 @@ class Source:
     dof: Optional[float] = None
 
     def draw(self, rng: np.random.Generator, n: int) -> np.ndarray:
-        """``n`` draws of the input's error (mean zero, standard deviation ``u``; a Student t: scale ``u``)."""
+        """``n`` draws of the input's error (mean zero, standard deviation ``u``)."""
         if self.u == 0:
             return np.zeros(n)
         if self.distribution == "rectangular":
@@ -105,7 +106,7 @@ class Source:
             a = math.sqrt(6.0) * self.u
             return rng.triangular(-a, 0.0, a, n)
         if self.dof is not None and math.isfinite(self.dof):
-            return self.u * rng.standard_t(self.dof, n)
+            return self.u * math.sqrt((self.dof - 2.0) / self.dof) * rng.standard_t(self.dof, n)
         return self.u * rng.standard_normal(n)
 
     def to_dict(self) -> Dict[str, Any]:
@@ -602,11 +603,17 @@ def _t975(dof: float) -> float:
 
 
 def statistical_part(head: "Headline", dof: float) -> Tuple[float, float, float]:
-    """(se below, se above, dof) of the headline's statistical interval: its half-widths over t(0.975, dof)."""
+    """(scale below, scale above, dof) of the headline's statistical interval: its half-widths over t(0.975, dof).
+
+    The Student t with ``dof`` degrees of freedom and these scales gives back
+    the headline's interval exactly (below and above the value apart when it
+    is asymmetric, as the dynamic bootstrap's may be); fewer than 3 degrees of
+    freedom (3 batches) are taken as 3, so that the part has a standard deviation.
+    """
     if not (math.isfinite(head.low) and math.isfinite(head.high)):
         return float("nan"), float("nan"), dof
     q = _t975(dof)
-    return max(0.0, head.value - head.low) / q, max(0.0, head.high - head.value) / q, dof
+    return max(0.0, head.value - head.low) / q, max(0.0, head.high - head.value) / q, max(3.0, dof)
 
 
 def propagate(head: "Headline", mom: Moments, inputs: Inputs, *, stat_dof: float = float("inf"),
@@ -648,9 +655,11 @@ def propagate(head: "Headline", mom: Moments, inputs: Inputs, *, stat_dof: float
         rows.append((src.name, src.u, SOURCES[src.name][0], src.distribution, src.dof, cs, cs * src.u))
     se = 0.5 * (lo_se + hi_se) if math.isfinite(lo_se) else float("nan")
     inst_var = sum(r[6] ** 2 for r in rows)
-    var = inst_var + (se * se if math.isfinite(se) else 0.0)
     if math.isfinite(se):
-        rows.append(("statistics", se, "1", "normal" if not math.isfinite(dof) else "t", dof, 1.0, se))
+        if math.isfinite(dof):  # the t's standard deviation
+            se *= math.sqrt(dof / (dof - 2.0))
+        rows.append(("statistics", se, "1", "Student t" if math.isfinite(dof) else "normal", dof, 1.0, se))
+    var = sum(r[6] ** 2 for r in rows)
     u_gum = math.sqrt(var)
     den = sum(r[6] ** 4 / r[4] for r in rows if r[4] is not None and math.isfinite(r[4]) and r[6] > 0)
     nu_eff = var * var / den if den > 0 else float("inf")
