@@ -562,6 +562,27 @@ class Uncertainty:
         dec = _sig(0.5 * (self.high - self.low))
         return f"{self.value:.{dec}f} (95 % {self.low:.{dec}f} to {self.high:.{dec}f}, instrument and statistics)"
 
+    @staticmethod
+    def from_dict(d: Mapping[str, Any]) -> "Uncertainty":
+        """From its :meth:`to_dict` form (``summary.json``; None as NaN)."""
+
+        def num(v: Any) -> float:
+            return float("nan") if v is None else float(v)
+
+        rows = tuple(
+            BudgetRow(str(r["source"]), num(r.get("value")), str(r.get("unit") or ""), str(r.get("distribution")),
+                      None if r.get("dof") is None else float(r["dof"]), num(r.get("sensitivity")),
+                      num(r.get("contribution")), num(r.get("share")))  # fmt: skip
+            for r in d.get("budget") or ()
+        )
+        return Uncertainty(value=num(d.get("value")), u_c=num(d.get("u_c")), low=num(d.get("low")),
+                           high=num(d.get("high")), k=None if d.get("k") is None else float(d["k"]), budget=rows,
+                           gum={k: num(v) for k, v in (d.get("gum") or {}).items()},
+                           instrument_u=num(d.get("instrument_u")), statistical_u=num(d.get("statistical_u")),
+                           correction=num(d.get("correction") or 0.0), draws=int(d.get("draws") or DRAWS),
+                           seed=int(d.get("seed") or 0), notes=tuple(map(str, d.get("notes") or ())),
+                           instrument=str(d.get("instrument") or ""))  # fmt: skip
+
     def to_dict(self) -> Dict[str, Any]:
         def num(v: Optional[float]) -> Optional[float]:
             return float(v) if v is not None and math.isfinite(v) else None
