@@ -250,7 +250,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument(
         "--calibration",
         metavar="FILE",
-        help="TOML file of the instrument's uncertainties (the --uncertainty keys; instrument = \"name\")",
+        help='TOML file of the instrument\'s uncertainties (the --uncertainty keys; instrument = "name")',
     )
     a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")

@@ -699,7 +699,7 @@ def _instrument_part(heads: Sequence[Headline], weights: np.ndarray, st: Mapping
         "the tests are compared on their statistical scatter; the instrument's part of their budgets "
         f"(u {u:.2g}) is common to every test"
         + (" (one instrument)" if len(names) == 1 else " (stated for different instruments; taken as shared)")
-        + f": it does not shrink with their number, and the mean with it is {st['mean'] - h:.4g} to {st['mean'] + h:.4g}"
+        + f": it does not shrink with their number; the mean with it: {st['mean'] - h:.4g} to {st['mean'] + h:.4g}"
     )
     return {"u": u, "low": st["mean"] - h, "high": st["mean"] + h}
 

@@ -114,7 +114,9 @@ class Headline:
         lb = f" ({self.bound} bound)" if self.bound else ""
         if self.uncertainty is not None:  # docs/method.md 6i
             return f"COF {self.uncertainty.text}{lb}: {self.method}, {self.estimate}."
-        iv = f" (95 % interval {self.low:#.4g} to {self.high:#.4g}, statistical only)" if math.isfinite(self.low) else ""
+        iv = ""
+        if math.isfinite(self.low):
+            iv = f" (95 % interval {self.low:#.4g} to {self.high:#.4g}, statistical only)"
         return f"COF {self.value:#.4g}{lb}{iv}: {self.method}, {self.estimate}."
 
     @property

@@ -142,12 +142,12 @@ def budget_table_html(unc: Mapping[str, Any]) -> str:
     rows = []
     for r in unc.get("budget") or ():
         unit = unit_text(str(r.get("unit") or ""))
-        share = r.get("share")
+        share = "" if r.get("share") is None else f"{100 * r['share']:.1f} %"
         rows.append(
             f"<tr><td class='key'>{html.escape(str(r['source']))}</td><td>{num(r.get('value'), '.4g')}"
             f"{' ' + html.escape(unit) if unit else ''}</td><td>{html.escape(str(r.get('distribution')))}</td>"
             f"<td>{num(r.get('dof'), '.3g') or '&infin;'}</td><td>{num(r.get('sensitivity'), '.4g')}</td>"
-            f"<td>{num(r.get('contribution'), '.3g')}</td><td>{'' if share is None else f'{100 * share:.1f} %'}</td></tr>"
+            f"<td>{num(r.get('contribution'), '.3g')}</td><td>{share}</td></tr>"
         )
     gum = unc.get("gum") or {}
     k = unc.get("k")
@@ -159,6 +159,8 @@ def budget_table_html(unc: Mapping[str, Any]) -> str:
         f"The instrument's part, u = {num(unc.get('instrument_u'), '.3g')}, is shared by every test on this "
         "instrument: it does not shrink with their number."
     )
+    if unc.get("instrument"):
+        note = f"Instrument: {html.escape(str(unc['instrument']))}. " + note
     if unc.get("correction"):
         note += f" Corrected for the known misalignment: {unc['correction']:+.4g}."
     for n in unc.get("notes") or ():
@@ -167,9 +169,7 @@ def budget_table_html(unc: Mapping[str, Any]) -> str:
         "<tr><th class='key'>source</th><th>standard uncertainty</th><th>distribution</th><th>dof</th>"
         "<th>sensitivity</th><th>contribution (COF)</th><th>share</th></tr>"
     )
-    return (
-        f'<table class="budget">{head}{"".join(rows)}</table><p class="note">{note}</p>'
-    )
+    return f'<table class="budget">{head}{"".join(rows)}</table><p class="note">{note}</p>'
 
 
 def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, Any],
@@ -195,7 +195,9 @@ def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, An
             f"{lines[0]} 90 % of the gated windows lie between {mu['p05']:.4f} and {mu['p95']:.4f}."
         )
     if head.get("uncertainty"):  # the budget under the headline (docs/method.md 6i)
-        lines[0].budget_html = budget_table_html(head["uncertainty"])
+        first = HeadlineLine(lines[0])
+        first.budget_html = budget_table_html(head["uncertainty"])
+        lines[0] = first
     if verdict:
         lines.append(f"{name}: {_labels.units_in_text(verdict)}")
     for by, rng in (ranges or {}).items():

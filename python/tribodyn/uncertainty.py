@@ -570,9 +570,16 @@ class Uncertainty:
             return float("nan") if v is None else float(v)
 
         rows = tuple(
-            BudgetRow(str(r["source"]), num(r.get("value")), str(r.get("unit") or ""), str(r.get("distribution")),
-                      None if r.get("dof") is None else float(r["dof"]), num(r.get("sensitivity")),
-                      num(r.get("contribution")), num(r.get("share")))  # fmt: skip
+            BudgetRow(
+                str(r["source"]),
+                num(r.get("value")),
+                str(r.get("unit") or ""),
+                str(r.get("distribution")),
+                None if r.get("dof") is None else float(r["dof"]),
+                num(r.get("sensitivity")),
+                num(r.get("contribution")),
+                num(r.get("share")),
+            )  # fmt: skip
             for r in d.get("budget") or ()
         )
         return Uncertainty(value=num(d.get("value")), u_c=num(d.get("u_c")), low=num(d.get("low")),
