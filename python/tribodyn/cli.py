@@ -185,6 +185,24 @@ def _add_analysis_options(a: argparse.ArgumentParser) -> None:
             a.add_argument(o.flag, type=parse[o.cli_type], help=text)
 
 
+def _add_budget_options(a: argparse.ArgumentParser) -> None:
+    """``--uncertainty KEY=VALUE`` (repeated) and ``--calibration FILE``: the instrument's budget (docs/method.md 6i)."""
+    a.add_argument(
+        "--uncertainty",
+        action="append",
+        dest="uncertainty_items",
+        metavar="KEY=VALUE",
+        help="the instrument's budget (docs/method.md 6i): KEY is fy_rel, fz_rel, fy_abs, fz_abs, misalignment_deg, "
+        "crosstalk (VALUE: standard uncertainty U, U:DISTRIBUTION or U:normal:DOF) or misalignment_bias_deg "
+        "(degrees, corrected); may be repeated; wins over --calibration and [uncertainty] in --config",
+    )
+    a.add_argument(
+        "--calibration",
+        metavar="FILE",
+        help='TOML file of the instrument\'s uncertainties (the --uncertainty keys; instrument = "name")',
+    )
+
+
 def _parser() -> argparse.ArgumentParser:
     # Global options go before or after the sub-command: the sub-commands' copies
     # default to SUPPRESS so they never overwrite a value given before it.
@@ -238,20 +256,7 @@ def _parser() -> argparse.ArgumentParser:
         help="another log file (two columns: time in s, value) interpolated at each window into the column NAME, "
         "e.g. speed=speed.csv (m/s: the Stribeck curve); may be repeated",
     )
-    a.add_argument(
-        "--uncertainty",
-        action="append",
-        dest="uncertainty_items",
-        metavar="KEY=VALUE",
-        help="the instrument's budget (docs/method.md 6i): KEY is fy_rel, fz_rel, fy_abs, fz_abs, misalignment_deg, "
-        "crosstalk (VALUE: standard uncertainty U, U:DISTRIBUTION or U:normal:DOF) or misalignment_bias_deg "
-        "(degrees, corrected); may be repeated; wins over --calibration and [uncertainty] in --config",
-    )
-    a.add_argument(
-        "--calibration",
-        metavar="FILE",
-        help='TOML file of the instrument\'s uncertainties (the --uncertainty keys; instrument = "name")',
-    )
+    _add_budget_options(a)
     a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
