@@ -186,7 +186,7 @@ def _add_analysis_options(a: argparse.ArgumentParser) -> None:
 
 
 def _add_budget_options(a: argparse.ArgumentParser) -> None:
-    """``--uncertainty KEY=VALUE`` (repeated) and ``--calibration FILE``: the instrument's budget (docs/method.md 6i)."""
+    """``--uncertainty KEY=VALUE`` (repeated) and ``--calibration FILE``: the budget (docs/method.md 6i)."""
     a.add_argument(
         "--uncertainty",
         action="append",
