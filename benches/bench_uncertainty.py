@@ -28,8 +28,8 @@ import numpy as np
 
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn import uncertainty as unc
-from tribodyn.headline import Headline
+from tribodyn.kernels import uncertainty as unc
+from tribodyn.results import Headline
 
 #: The lab's statement of its instrument (the same in every case).
 STATEMENT: Dict[str, Any] = {

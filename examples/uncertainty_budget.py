@@ -25,8 +25,9 @@ from pathlib import Path
 import numpy as np
 
 import tribodyn as td
-from tribodyn import cli, simulate
-from tribodyn import uncertainty as unc
+from tribodyn import simulate
+from tribodyn.app import cli
+from tribodyn.kernels import uncertainty as unc
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "uncertainty-budget")
 out.mkdir(parents=True, exist_ok=True)

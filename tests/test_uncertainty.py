@@ -17,9 +17,11 @@ import numpy as np
 import pytest
 
 import tribodyn as td
-from tribodyn import cli, simulate
-from tribodyn import uncertainty as unc
-from tribodyn.compare import compare, headline_from_dict
+from tribodyn import simulate
+from tribodyn.app import cli
+from tribodyn.kernels import uncertainty as unc
+from tribodyn.results.budget import stat_dof
+from tribodyn.analyses.compare import compare, headline_from_dict
 
 STATEMENT: Dict[str, Any] = {
     "fy_rel": {"u": 0.005, "distribution": "normal", "dof": 10},
@@ -154,7 +156,7 @@ def test_mc_agrees_with_gum_and_repeats_with_a_seed(uni: td.Results, recip: td.R
         assert u is not None
         assert abs(u.u_c / u.gum["u_c"] - 1) < 0.10, method
         assert u.low < h.value < u.high and u.k is not None and 1.6 < u.k < 2.3  # 1.65 for a rectangular alone
-        again = unc.propagate(h, res.budget_stats, unc.parse_inputs(STATEMENT), stat_dof=unc.stat_dof(res, h))
+        again = unc.propagate(h, res.budget_stats, unc.parse_inputs(STATEMENT), stat_dof=stat_dof(res, h))
         assert (again.u_c, again.low, again.high) == (u.u_c, u.low, u.high)
         other = unc.propagate(h, res.budget_stats, unc.parse_inputs(STATEMENT), seed=1)
         assert other.low != u.low
