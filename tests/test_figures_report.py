@@ -321,7 +321,7 @@ def test_no_pyplot_no_global_state(tmp_path):
         # to resolve the default backend: compare the raw values instead.)
         rc = matplotlib.rcParams.copy()
         import numpy as np
-        from tribodyn import figures as F
+        from tribodyn.app import figures as F
         x = np.sin(np.arange(500) * 0.1)
         fig = F.phase_plots(x, x, x)
         F.forces_vs_time(x, x, x, 100.0)

@@ -266,3 +266,12 @@ def test_report_and_cli_carry_the_budget(tmp_path: Path) -> None:
     assert 'class="budget"' in page and "instrument and statistics" in page
     for bad in (["--uncertainty", "fy_gain=1"], ["--uncertainty", "fy_rel=-1"], ["--calibration", str(cfg)]):
         assert cli.main([*args[:5], "--out", str(tmp_path / "x"), *bad, "-q"]) == cli.EXIT_USER_ERROR
+
+
+def test_a_flipped_orientation_flips_the_budget_with_the_headline(dyn: td.Results) -> None:
+    head = dyn.headline
+    flipped = dyn.with_orientation(-dyn.orientation).headline
+    assert head.uncertainty is not None and flipped.uncertainty is not None
+    assert np.sign(flipped.value) == np.sign(flipped.uncertainty.value) == -np.sign(head.value)
+    assert flipped.uncertainty.low <= flipped.value <= flipped.uncertainty.high
+    assert flipped.uncertainty.u_c == pytest.approx(head.uncertainty.u_c, rel=0.01)  # the same spread

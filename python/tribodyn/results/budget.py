@@ -16,7 +16,7 @@ import numpy as np
 
 from ..kernels.stats import batch_mean
 from ..kernels.strokes import cycle_means
-from ..kernels.uncertainty import NO_BUDGET, Moments, parse_inputs, propagate, slope_moments
+from ..kernels.uncertainty import NO_BUDGET, Moments, Uncertainty, parse_inputs, propagate, slope_moments
 
 __all__ = ["attach", "dynamic_moments", "stat_dof"]
 
@@ -74,5 +74,16 @@ def attach(res: Results, head: Headline) -> Headline:
     if mom is None or mom.method != head.method:
         why = f"{NO_BUDGET}the {head.method} COF's statistics were not read (a one-pass stream, or ranges combined)"
         return dataclasses.replace(head, reasons=head.reasons + (why,))
-    unc = propagate(head, mom, inputs, stat_dof=stat_dof(res, head))
+    if head.value < 0:  # a flipped orientation (Results.with_orientation): the budget of |COF|, mirrored
+        pos = dataclasses.replace(head, value=-head.value, low=-head.high, high=-head.low)
+        unc = _mirrored(propagate(pos, mom, inputs, stat_dof=stat_dof(res, pos)))
+    else:
+        unc = propagate(head, mom, inputs, stat_dof=stat_dof(res, head))
     return dataclasses.replace(head, uncertainty=unc)
+
+
+def _mirrored(unc: Uncertainty) -> Uncertainty:
+    """``unc`` of -COF: the value, interval, correction and sensitivities change sign (the spreads do not)."""
+    rows = tuple(dataclasses.replace(r, sensitivity=-r.sensitivity) for r in unc.budget)
+    return dataclasses.replace(unc, value=-unc.value, low=-unc.high, high=-unc.low, budget=rows,
+                               correction=-unc.correction)  # fmt: skip
