@@ -29,7 +29,7 @@ from typing import Any, Dict, Iterable, List, Mapping, Optional, Protocol, Seque
 import numpy as np
 
 from .. import _core
-from .stats import t975
+from .quantiles import t975
 
 __all__ = [
     "DISTRIBUTIONS",
