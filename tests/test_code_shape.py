@@ -1,6 +1,6 @@
-"""Issue 22's code-shape rule, checked over the whole package.
+"""Issue 22's code-shape rule, tightened by issue 33 (item 5), checked over the whole package.
 
-"No Python function over 100 lines (docstrings aside) or with more than
+"No Python function over 80 lines (docstrings aside) or with more than
 5 positional parameters."  The body length runs from the first statement
 after the docstring to the function's last line; the positional
 parameters are the positional-only and regular ones, not counting a
@@ -16,13 +16,22 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parent.parent / "python" / "tribodyn"
-MAX_BODY_LINES = 100
+MAX_BODY_LINES = 80
 MAX_POSITIONAL = 5
 
-# Known violations, each "path relative to python/tribodyn:qualified name": none
-# today (issue 22 brought every function within the rule). The test fails on an
-# entry that no longer violates, so the list cannot go stale.
-ALLOWED: frozenset[str] = frozenset()
+# Known violations, each "path relative to python/tribodyn:qualified name".
+# The test fails on an entry that no longer violates, so the list cannot go stale.
+# Issue 33 (item 5) lowered the limit to 80 lines; these four are being split in
+# other engineers' branches (their files are in flight elsewhere) and leave the
+# list when those merges land.
+ALLOWED: frozenset[str] = frozenset(
+    {
+        "analyses/compare.py:compare",
+        "io/hdf5.py:Hdf5Recording._open",
+        "io/roles.py:decide",
+        "io/tdms.py:TdmsRecording._open",
+    }
+)
 
 
 def _body_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
