@@ -677,9 +677,6 @@ def _branch_fit_units(
     n = len(x)
     grid = np.linspace(float(x.min()), float(x.max()), 121) if n else np.zeros(0)
     rng: Interval = (float(x.min()), float(x.max())) if n else (math.nan, math.nan)
-    nan_draws: Dict[str, np.ndarray] = {}
-    empty = np.full(len(grid), np.nan)
-    sel: Optional[Selection] = None
     inverse = ctx.cv.inverse
     shown: Interval = (inverse(rng[0]), inverse(rng[1])) if n else rng
 
@@ -689,53 +686,19 @@ def _branch_fit_units(
 
     if n < MIN_WINDOWS or not (rng[1] - rng[0] >= ctx.resolution):
         verdict = "too few windows" if n < MIN_WINDOWS else "covariate constant"
-        w = 1.0 / np.maximum(se, 1e-12) ** 2 if n else np.zeros(0)
-        m = float(np.sum(w * y) / np.sum(w)) if n else math.nan
-        f = CurvedFit("flat", m, 0.0, 0.0, math.nan, math.nan, math.nan)
-        bf = BranchFit(
-            name, verdict, explain(verdict, f, None), n, "flat", None, None, None, None, None,
-            None, m, None, None, None, 0.0, 0.0, False, False, math.nan, math.nan, rng, grid,
-            np.full(len(grid), m), empty, empty,
-        )  # fmt: skip
-        return bf, nan_draws
+        return _unfitted_branch(name, verdict, y, se, rng=rng, grid=grid, explain=explain), {}
     sel = fit_bathtub(x, y, se, alpha=ALPHA)
-    # The family is chosen with straight walls (F-tests above); its walls
-    # are then refitted curved (tribodyn.analyses.walls): the breakpoint is where the
-    # COF leaves its floor, not where a straight line through a bent wall
-    # meets it.
-    f = _curved(sel.fit)
-    sides: Dict[str, Any] = {}
-    prof: Dict[str, Any] = {}
-    if f.family != "flat":
-        g, sides, prof = fit_curved(x, y, sel.weights, f.family, start=(f.b_lo, f.b_hi))
-        if np.isfinite(g.rss):
-            f = g
-        else:
-            sides, prof = {}, {}
+    f, sides, prof = _curved_walls(x, y, sel)
     draws, curves = _bootstrap(x, y, sel.weights, f, boot, sides=sides, grid=grid, rise=ctx.rise, x_max=rng[1])
+    empty = np.full(len(grid), np.nan)
     band_lo, band_hi = (np.nanpercentile(curves, q, axis=0) for q in (2.5, 97.5)) if np.isfinite(
         curves).any() else (empty, empty)  # fmt: skip
     has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
-    if f.family == "flat":
-        verdict = "no dependence"
-    elif has_lo and has_hi:
-        verdict = "optimum"
-    else:
-        verdict = "optimum at the edge of the tested range"
-    scale = _profile_scale(x, y, sel.weights, f) if prof else math.nan
-    lower_ci = _to_data(_widen(_hull(_pct(draws["b_lo"]), prof.get("lo"), f.rss, scale), f.b_lo, ctx.x_noise), x) \
-        if has_lo else None  # fmt: skip
-    upper_ci = _to_data(_widen(_hull(_pct(draws["b_hi"]), prof.get("hi"), f.rss, scale), f.b_hi, ctx.x_noise), x) \
-        if has_hi else None  # fmt: skip
+    verdict = _verdict_of(f)
+    lower_ci, upper_ci = _breakpoint_intervals(x, y, sel, f, draws, prof=prof, x_noise=ctx.x_noise)
     on = _onset(f, ctx.rise, rng[1])
     onset_ci = _onset_interval(draws["onset"], rng[1]) if has_hi else None
-    optimum: Optional[Interval] = None
-    optimum_ci: Optional[Tuple[Interval, Interval]] = None
-    if verdict != "no dependence":
-        optimum = (f.b_lo if has_lo else rng[0], f.b_hi if has_hi else rng[1])
-        lo_ci = lower_ci if has_lo else (-math.inf, rng[0])
-        hi_ci = upper_ci if has_hi else (rng[1], math.inf)
-        optimum_ci = (lo_ci, hi_ci) if lo_ci is not None and hi_ci is not None else None
+    optimum, optimum_ci = _optimum(f, verdict, rng, lower_ci, upper_ci)
     bf = BranchFit(
         branch=name,
         verdict=verdict,
@@ -767,6 +730,82 @@ def _branch_fit_units(
         shape_upper=(f.w_hi, f.c_hi) if has_hi else None,
     )
     return bf, draws
+
+
+def _unfitted_branch(
+    name: str, verdict: str, y: np.ndarray, se: np.ndarray, *, rng: Interval, grid: np.ndarray,
+    explain: Callable[[str, CurvedFit, Optional[Selection]], str],
+) -> BranchFit:  # fmt: skip
+    """A branch too small or too narrow to fit (``verdict``): its weighted mean COF, flat, without intervals."""
+    n = len(y)
+    empty = np.full(len(grid), np.nan)
+    w = 1.0 / np.maximum(se, 1e-12) ** 2 if n else np.zeros(0)
+    m = float(np.sum(w * y) / np.sum(w)) if n else math.nan
+    f = CurvedFit("flat", m, 0.0, 0.0, math.nan, math.nan, math.nan)
+    return BranchFit(
+        name, verdict, explain(verdict, f, None), n, "flat", None, None, None, None, None,
+        None, m, None, None, None, 0.0, 0.0, False, False, math.nan, math.nan, rng, grid,
+        np.full(len(grid), m), empty, empty,
+    )  # fmt: skip
+
+
+def _curved_walls(x: np.ndarray, y: np.ndarray, sel: Selection) -> Tuple[CurvedFit, Dict[str, Any], Dict[str, Any]]:
+    """The selected family's walls refitted curved, with each wall's fit ("sides") and profile ("prof").
+
+    The family is chosen with straight walls (F-tests, :func:`fit_bathtub`);
+    its walls are then refitted curved (tribodyn.analyses.walls): the
+    breakpoint is where the COF leaves its floor, not where a straight line
+    through a bent wall meets it. A flat fit, or walls that could not be
+    curved, keep the straight fit with no sides and no profile.
+    """
+    f = _curved(sel.fit)
+    sides: Dict[str, Any] = {}
+    prof: Dict[str, Any] = {}
+    if f.family != "flat":
+        g, sides, prof = fit_curved(x, y, sel.weights, f.family, start=(f.b_lo, f.b_hi))
+        if np.isfinite(g.rss):
+            f = g
+        else:
+            sides, prof = {}, {}
+    return f, sides, prof
+
+
+def _verdict_of(f: CurvedFit) -> str:
+    """The verdict of a fitted branch from the walls its fit has."""
+    if f.family == "flat":
+        return "no dependence"
+    if f.family == "both":
+        return "optimum"
+    return "optimum at the edge of the tested range"
+
+
+def _breakpoint_intervals(
+    x: np.ndarray, y: np.ndarray, sel: Selection, f: CurvedFit, draws: Dict[str, np.ndarray], *,
+    prof: Dict[str, Any], x_noise: float,
+) -> Tuple[Optional[Interval], Optional[Interval]]:  # fmt: skip
+    """95 % intervals of the lower and upper breakpoints (None for an absent wall): the bootstrap's joined with the
+    profile's, widened by the covariate's reading noise, out to the nearest tested covariates (docs/method.md 7)."""
+    has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
+    scale = _profile_scale(x, y, sel.weights, f) if prof else math.nan
+    lower_ci = _to_data(_widen(_hull(_pct(draws["b_lo"]), prof.get("lo"), f.rss, scale), f.b_lo, x_noise), x) \
+        if has_lo else None  # fmt: skip
+    upper_ci = _to_data(_widen(_hull(_pct(draws["b_hi"]), prof.get("hi"), f.rss, scale), f.b_hi, x_noise), x) \
+        if has_hi else None  # fmt: skip
+    return lower_ci, upper_ci
+
+
+def _optimum(
+    f: CurvedFit, verdict: str, rng: Interval, lower_ci: Optional[Interval], upper_ci: Optional[Interval]
+) -> Tuple[Optional[Interval], Optional[Tuple[Interval, Interval]]]:
+    """The flat bottom and the intervals of its ends (an absent wall's side: the end of the tested range, its
+    interval out to infinity); None, None when the COF does not depend on the covariate."""
+    if verdict == "no dependence":
+        return None, None
+    has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
+    optimum = (f.b_lo if has_lo else rng[0], f.b_hi if has_hi else rng[1])
+    lo_ci = lower_ci if has_lo else (-math.inf, rng[0])
+    hi_ci = upper_ci if has_hi else (rng[1], math.inf)
+    return optimum, ((lo_ci, hi_ci) if lo_ci is not None and hi_ci is not None else None)
 
 
 def _bootstrap(
@@ -1021,32 +1060,13 @@ def operating_range(
                     n_boot=n_boot, block=block)  # fmt: skip
     fitted = _cof_of(results, cof)
     which, mu, se, may = fitted
-    raw = np.asarray(results[cv.column], dtype=float)
-    raw = np.abs(raw) if cv.magnitude else raw
-    nonpositive = None
-    if cv.log:
-        nonpositive = np.isfinite(raw) & (raw <= 0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            cov = np.where(raw > 0, np.log10(np.where(raw > 0, raw, 1.0)), np.nan)
-    else:
-        cov = raw
+    raw, cov, nonpositive = _on_fit_axis(results, cv)
     keep = may & np.isfinite(cov) & np.isfinite(mu)
     if not keep.any():
-        what = by.replace("_", " ") + (" > 0" if cv.log and np.isfinite(raw).any() else "")
-        if not np.isfinite(cov).any():
-            raise ValueError(f"no window has a {what} (did analyze get {cv.needs}?)")
-        if which == "dynamic":
-            raise ValueError(f"no quality-gated window has a {what} (the dynamic COF; cof='classical' fits the "
-                             "classical COF of each window)")  # fmt: skip
-        raise ValueError(f"no window with a classical COF has a {what}")
+        raise _no_usable_window(cv, raw, cov, which)
     span = float(np.max(np.abs(cov[keep])))
     resolution = cv.resolution if cv.resolution is not None else RELATIVE_RESOLUTION * span
-    if bin_width is not None:
-        width = float(bin_width)
-    elif cv.width is not None:
-        width = cv.width
-    else:
-        width = float(np.ptp(cov[keep])) / 10 or max(span, 1.0) * RELATIVE_RESOLUTION
+    width = _bin_width(bin_width, cv, cov[keep], span)
     br_all = np.asarray(results["branch"]) if "branch" in results.table else np.zeros(len(cov), dtype=np.int8)
     curves = _binned_curves(cov[keep], mu[keep], br_all[keep], by, _Binning(width, tol, rise, min_count))
     raw_resolution = resolution if not cv.log else 0.0
@@ -1056,40 +1076,13 @@ def operating_range(
         instability_ci=instability_ci, column=cv.column, log=cv.log, cof=which, contact_loss_onset=lost_onset,
     )  # fmt: skip
     if method == "binned":
-        c = curves[branch or "all"] if (branch or "all") in curves else curves["all"]
-        edges = c.edges
-        verdict = "too few windows" if c.optimum is None else (
-            "optimum at the edge of the tested range" if c.optimum[0] <= edges[0] or c.optimum[1] >= edges[-1]
-            else "optimum")  # fmt: skip
-        c = _curve_in_column_units(c, cv)
-        per = "decade" if cv.log else cv.unit
-        return OperatingRange(
-            optimum=c.optimum, mu_min=c.mu_min, onset=c.onset, method="binned", verdict=verdict,
-            explanation=(f"Binned medians ({width:g} {per} bins): the optimum is the run of bins within "
-                         f"{100 * tol:g} % of the lowest median; no intervals (method='binned')."),
-            edge_lower=c.optimum is not None and c.optimum[0] <= c.edges[0],
-            edge_upper=c.optimum is not None and c.optimum[1] >= c.edges[-1],
-            n_windows=int(keep.sum()), curves={k: _curve_in_column_units(v, cv) for k, v in curves.items()},
-            **common,
-        )  # fmt: skip
+        return _binned_range(curves, cv, branch=branch, n_windows=int(keep.sum()), common=common)
     usable, excluded = _excluded(results, by, cov, fitted, nonpositive)
     pos = np.flatnonzero(usable)  # time order: the table's
-    x, y, s = cov[pos], mu[pos], se[pos]
-    br = br_all[pos]
     boot = bootstrap_indices(len(pos), n_boot, seed, block) if len(pos) and n_boot else np.zeros((0, 0), int)
     x_noise = _reading_noise(results, by, pos)
     ctx = _FitContext(cv, resolution, rise, x_noise)
-    names = ["all"] + ([b for b in _BRANCHES] if by == "temperature" else [])
-    fits: Dict[str, BranchFit] = {}
-    draws: Dict[str, Dict[str, np.ndarray]] = {}
-    for name in names:
-        member = np.ones(len(pos), dtype=bool) if name == "all" else (br == _BRANCHES[name]) | (br == 0)
-        if name != "all" and not (br == _BRANCHES[name]).any():
-            continue
-        # Positions in the branch's own arrays for each resampled window of the whole series.
-        where = np.cumsum(member) - 1
-        sub = [where[idx[member[idx]]] for idx in boot]
-        fits[name], draws[name] = _branch_fit(name, x[member], y[member], s[member], sub, ctx=ctx)
+    fits, draws = _fit_branches(cov[pos], mu[pos], se[pos], br_all[pos], boot, ctx=ctx)
     hysteresis = None
     if "heating" in fits and "cooling" in fits:
         hysteresis = _hysteresis(fits, draws, x_noise)
@@ -1103,6 +1096,83 @@ def operating_range(
         n_windows=len(pos), excluded=excluded, n_boot=int(n_boot), seed=int(seed),
         curves={k: _curve_in_column_units(v, cv) for k, v in curves.items()}, **common,
     )  # fmt: skip
+
+
+def _on_fit_axis(results: Results, cv: Covariate) -> Tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
+    """The covariate per window as read (its magnitude where the covariate is one) and on the fit axis (log10 on a
+    log axis, NaN where <= 0), with the windows left out for that (None on a linear axis)."""
+    raw = np.asarray(results[cv.column], dtype=float)
+    raw = np.abs(raw) if cv.magnitude else raw
+    nonpositive = None
+    if cv.log:
+        nonpositive = np.isfinite(raw) & (raw <= 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cov = np.where(raw > 0, np.log10(np.where(raw > 0, raw, 1.0)), np.nan)
+    else:
+        cov = raw
+    return raw, cov, nonpositive
+
+
+def _no_usable_window(cv: Covariate, raw: np.ndarray, cov: np.ndarray, which: str) -> ValueError:
+    """Why no window can enter the fit: none has the covariate, or none that has it has the COF fitted."""
+    what = cv.by.replace("_", " ") + (" > 0" if cv.log and np.isfinite(raw).any() else "")
+    if not np.isfinite(cov).any():
+        return ValueError(f"no window has a {what} (did analyze get {cv.needs}?)")
+    if which == "dynamic":
+        return ValueError(f"no quality-gated window has a {what} (the dynamic COF; cof='classical' fits the "
+                          "classical COF of each window)")  # fmt: skip
+    return ValueError(f"no window with a classical COF has a {what}")
+
+
+def _bin_width(bin_width: Optional[float], cv: Covariate, kept: np.ndarray, span: float) -> float:
+    """The binned curves' width: the one given, else the covariate's default, else a tenth of the kept range."""
+    if bin_width is not None:
+        return float(bin_width)
+    if cv.width is not None:
+        return cv.width
+    return float(np.ptp(kept)) / 10 or max(span, 1.0) * RELATIVE_RESOLUTION
+
+
+def _binned_range(
+    curves: Dict[str, RangeCurve], cv: Covariate, *, branch: Optional[str], n_windows: int, common: Dict[str, Any]
+) -> OperatingRange:
+    """The operating range of ``method="binned"``: the chosen branch's binned curve, without intervals."""
+    width, tol = common["bin_width"], common["tol"]
+    c = curves[branch or "all"] if (branch or "all") in curves else curves["all"]
+    edges = c.edges
+    verdict = "too few windows" if c.optimum is None else (
+        "optimum at the edge of the tested range" if c.optimum[0] <= edges[0] or c.optimum[1] >= edges[-1]
+        else "optimum")  # fmt: skip
+    c = _curve_in_column_units(c, cv)
+    per = "decade" if cv.log else cv.unit
+    return OperatingRange(
+        optimum=c.optimum, mu_min=c.mu_min, onset=c.onset, method="binned", verdict=verdict,
+        explanation=(f"Binned medians ({width:g} {per} bins): the optimum is the run of bins within "
+                     f"{100 * tol:g} % of the lowest median; no intervals (method='binned')."),
+        edge_lower=c.optimum is not None and c.optimum[0] <= c.edges[0],
+        edge_upper=c.optimum is not None and c.optimum[1] >= c.edges[-1],
+        n_windows=n_windows, curves={k: _curve_in_column_units(v, cv) for k, v in curves.items()},
+        **common,
+    )  # fmt: skip
+
+
+def _fit_branches(
+    x: np.ndarray, y: np.ndarray, s: np.ndarray, br: np.ndarray, boot: np.ndarray, *, ctx: _FitContext
+) -> Tuple[Dict[str, BranchFit], Dict[str, Dict[str, np.ndarray]]]:
+    """The segmented fit of "all" usable windows and, for temperature, of each branch with windows (``br``: +1
+    heating, -1 cooling, 0 both), with their bootstrap draws from the same resamples of the whole series."""
+    names = ["all"] + ([b for b in _BRANCHES] if ctx.cv.by == "temperature" else [])
+    fits: Dict[str, BranchFit] = {}
+    draws: Dict[str, Dict[str, np.ndarray]] = {}
+    for name in names:
+        member = np.ones(len(x), dtype=bool) if name == "all" else (br == _BRANCHES[name]) | (br == 0)
+        if name != "all" and not (br == _BRANCHES[name]).any():
+            continue
+        # Positions in the branch's own arrays for each resampled window of the whole series.
+        where = np.cumsum(member) - 1
+        sub = [where[idx[member[idx]]] for idx in boot]
+        fits[name], draws[name] = _branch_fit(name, x[member], y[member], s[member], sub, ctx=ctx)
+    return fits, draws
 
 
 def _check_settings(
