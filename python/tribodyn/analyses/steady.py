@@ -448,13 +448,7 @@ def fit_steady(
     if int(n_boot) < 50:
         raise ValueError(f"n_boot must be at least 50, got {n_boot!r}")
     n_boot = int(n_boot)
-    t_all = np.asarray(time, dtype=float).ravel()
-    y_all = np.asarray(cof, dtype=float).ravel()
-    if t_all.shape != y_all.shape:
-        raise ValueError(f"time and cof differ in length ({t_all.size} and {y_all.size})")
-    keep = np.isfinite(t_all) & np.isfinite(y_all)
-    order = np.argsort(t_all[keep], kind="stable")
-    t, y = t_all[keep][order], y_all[keep][order]
+    t, y = _in_time_order(time, cof)
     nan = float("nan")
     start = float(t0) if t0 is not None and math.isfinite(t0) else (float(t[0]) if t.size else nan)
     if t.size and start > t[0]:
@@ -485,46 +479,17 @@ def fit_steady(
     tau = (ts - start) / _LN if code == 1 else nan
     # the bootstrap: the chosen fit plus AR(1) noise like its residuals, refitted with the model choice
     noise = _ar1_noise(resid, rho, p, n_boot, seed)
-    ts_b = np.empty(n_boot)
-    cof_b = np.empty(n_boot)
-    for a in range(0, n_boot, 50):  # in slices: memory (50 x 41 x n) whatever n_boot
-        Y = fitted[None, :] + noise[a : a + 50]
-        fb = _fit_rows(Y, t, start, grid, shapes)
-        ts_b[a : a + 50] = fb.ts
-        after = t[None, :] >= fb.ts[:, None]
-        level = Y - fb.fitted + fb.m[:, None]  # the points less the fitted transient's tail
-        with np.errstate(invalid="ignore", divide="ignore"):
-            cof_b[a : a + 50] = (level * after).sum(axis=1) / after.sum(axis=1)
+    ts_b, cof_b = _refits(fitted + noise, t, start, grid, shapes)
     tq = float(stats.t.ppf(0.975, float(_df(n, rho, p))))
     steady = t >= ts
     n_steady = int(steady.sum())
-    reasons = []
     drift, drift_p = _drift(t[steady], resid[steady]) if n_steady >= MIN_STEADY_POINTS else (nan, nan)
     cof_mean = float((resid + m)[steady].mean()) if n_steady else nan
-    need = max(MIN_STEADY_POINTS, math.ceil(MIN_STEADY_FRACTION * n))
     t_half = tq * float(np.std(ts_b, ddof=1))
-    if n_steady < need:
-        reasons.append(f"the fitted running-in ({model} model) ends at t = {ts:.4g} s, leaving {n_steady} of {n} "
-                       f"points after it (at least {need}, a fifth, needed)")  # fmt: skip
-    elif ts + t_half >= t[-1]:
-        reasons.append(f"the fitted running-in ends at t = {ts:.4g} s but its 95 % interval reaches the last "
-                       f"point ({t[-1]:.4g} s)")  # fmt: skip
-    else:
-        span = float(t[-1] - ts)
-        late = steady & (t >= ts + 0.5 * span)
-        for where, sel in (("the steady part", steady), ("its last half", late)):
-            b, pv = _drift(t[sel], resid[sel])
-            if pv < ALPHA_DRIFT / 2 and abs(b) * span > DRIFT_TOLERANCE * abs(cof_mean):
-                drift, drift_p = b, pv
-                reasons.append(f"the COF still drifts after t = {ts:.4g} s: {b:+.3g} per s over {where}, "
-                               f"{100 * abs(b) * span / abs(cof_mean):.1f} % of the COF over the steady part "
-                               f"(p = {pv:.2g})")  # fmt: skip
-                break
-    desc = {0: "the flat model (no running-in) beats both transient models",
-            1: f"exponential approach to a plateau, tau = {tau:.4g} s, t_steady = t0 + tau ln 50",
-            2: "a linear ramp to a plateau, t_steady where 2 % of the ramp is left"}[code]  # fmt: skip
-    estimate = (f"least-squares fit of the {series}{averaged} from t0 = {start:.4g} s: {desc}; the steady COF is "
-                f"the mean of the {n_steady} points at or after t_steady less the fitted transient's tail")  # fmt: skip
+    reasons, drift, drift_p = _why_not_steady(t, resid, ts, _Steady(model, t_half, cof_mean), drift=(drift, drift_p))
+    estimate = (f"least-squares fit of the {series}{averaged} from t0 = {start:.4g} s: {_model_text(code, tau)}; the "
+                f"steady COF is the mean of the {n_steady} points at or after t_steady less the fitted transient's "
+                "tail")  # fmt: skip
     common.update(model=model, n=n, n_steady=n_steady, t0=start, t_end=float(t[-1]), tau=tau, drift=drift,
                   drift_p=drift_p, estimate=estimate, fitted=fitted, cof_initial=m + float(fit.amp[0]))  # fmt: skip
     if reasons:
@@ -533,3 +498,85 @@ def fit_steady(
     c_half = tq * float(np.std(fin, ddof=1)) if fin.size > 1 else nan
     return SteadyState(VERDICTS[0], ts, max(start, ts - t_half), ts + t_half, cof_mean, cof_mean - c_half,
                        cof_mean + c_half, **common)  # fmt: skip
+
+
+def _in_time_order(time: Any, cof: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """The finite points of the series (time, COF), in time order (a stable sort: ties keep their order)."""
+    t_all = np.asarray(time, dtype=float).ravel()
+    y_all = np.asarray(cof, dtype=float).ravel()
+    if t_all.shape != y_all.shape:
+        raise ValueError(f"time and cof differ in length ({t_all.size} and {y_all.size})")
+    keep = np.isfinite(t_all) & np.isfinite(y_all)
+    order = np.argsort(t_all[keep], kind="stable")
+    return t_all[keep][order], y_all[keep][order]
+
+
+def _refits(
+    Y_all: np.ndarray, t: np.ndarray, start: float, grid: np.ndarray, shapes: np.ndarray
+) -> Tuple[np.ndarray, np.ndarray]:
+    """Each bootstrap series (a row of ``Y_all``: the chosen fit plus AR(1) noise) refitted with the model choice:
+    its t_steady and its steady COF (the mean of its points from t_steady on, less the fitted transient's tail)."""
+    n_boot = Y_all.shape[0]
+    ts_b = np.empty(n_boot)
+    cof_b = np.empty(n_boot)
+    for a in range(0, n_boot, 50):  # in slices: memory (50 x 41 x n) whatever n_boot
+        Y = Y_all[a : a + 50]
+        fb = _fit_rows(Y, t, start, grid, shapes)
+        ts_b[a : a + 50] = fb.ts
+        after = t[None, :] >= fb.ts[:, None]
+        level = Y - fb.fitted + fb.m[:, None]  # the points less the fitted transient's tail
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cof_b[a : a + 50] = (level * after).sum(axis=1) / after.sum(axis=1)
+    return ts_b, cof_b
+
+
+@dataclass(frozen=True)
+class _Steady:
+    """What the fit found: its model's name, the half-width of t_steady's interval and the steady COF."""
+
+    model: str
+    t_half: float
+    cof_mean: float
+
+
+def _why_not_steady(
+    t: np.ndarray, resid: np.ndarray, ts: float, found: _Steady, *, drift: Tuple[float, float]
+) -> Tuple[List[str], float, float]:
+    """Why the series has no steady state (none: it has one), with the drift (slope, p-value) to report.
+
+    Too few points after t_steady, t_steady's interval reaching the last
+    point, or a drift of the residuals after t_steady (over the steady part
+    or its last half) beyond :data:`DRIFT_TOLERANCE` of the COF
+    (docs/method.md 6h); ``drift`` is the steady part's, kept unless a drift
+    is the reason.
+    """
+    n = t.size
+    steady = t >= ts
+    n_steady = int(steady.sum())
+    need = max(MIN_STEADY_POINTS, math.ceil(MIN_STEADY_FRACTION * n))
+    reasons: List[str] = []
+    if n_steady < need:
+        reasons.append(f"the fitted running-in ({found.model} model) ends at t = {ts:.4g} s, leaving {n_steady} of "
+                       f"{n} points after it (at least {need}, a fifth, needed)")  # fmt: skip
+    elif ts + found.t_half >= t[-1]:
+        reasons.append(f"the fitted running-in ends at t = {ts:.4g} s but its 95 % interval reaches the last "
+                       f"point ({t[-1]:.4g} s)")  # fmt: skip
+    else:
+        span = float(t[-1] - ts)
+        late = steady & (t >= ts + 0.5 * span)
+        cof_mean = found.cof_mean
+        for where, sel in (("the steady part", steady), ("its last half", late)):
+            b, pv = _drift(t[sel], resid[sel])
+            if pv < ALPHA_DRIFT / 2 and abs(b) * span > DRIFT_TOLERANCE * abs(cof_mean):
+                reasons.append(f"the COF still drifts after t = {ts:.4g} s: {b:+.3g} per s over {where}, "
+                               f"{100 * abs(b) * span / abs(cof_mean):.1f} % of the COF over the steady part "
+                               f"(p = {pv:.2g})")  # fmt: skip
+                return reasons, b, pv
+    return reasons, drift[0], drift[1]
+
+
+def _model_text(code: int, tau: float) -> str:
+    """The chosen model in words (``code``: 0 flat, 1 exponential, 2 linear; ``tau`` the exponential's)."""
+    return {0: "the flat model (no running-in) beats both transient models",
+            1: f"exponential approach to a plateau, tau = {tau:.4g} s, t_steady = t0 + tau ln 50",
+            2: "a linear ramp to a plateau, t_steady where 2 % of the ramp is left"}[code]  # fmt: skip
