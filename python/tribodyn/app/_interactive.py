@@ -8,6 +8,7 @@ hover work without a server or a network. The static PNGs stay for print.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, List, Sequence, Tuple
 
 import numpy as np
@@ -31,17 +32,29 @@ def _thin(n: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, MAX_POINTS).round().astype(np.int64))
 
 
-def cof_views(results: Any, name: str) -> Tuple[str, str]:
-    """(script, div) of the zoomable COF-against-time view (and against T and J when they have data).
+#: The tools of every view.
+_TOOLS = "pan,box_zoom,wheel_zoom,reset,save"
 
-    Gated windows as points with hover (time, COF, interval, T, J), failed
-    windows as grey ticks in their own row below with their reason.
-    """
-    from bokeh.embed import components
-    from bokeh.layouts import column, row
-    from bokeh.models import ColumnDataSource, HoverTool, Range1d
-    from bokeh.plotting import figure
 
+@dataclass(frozen=True)
+class _Series:
+    """What the views plot, per window: time, whether it is shown as a point (``ok``), the COF with its interval,
+    T and J; with the points' name in the legend and the COF axis's label."""
+
+    t: np.ndarray
+    ok: np.ndarray
+    mu: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    temp: np.ndarray
+    cur: np.ndarray
+    what: str
+    y_label: str
+
+
+def _series(results: Any) -> _Series:
+    """The headline's COF per window: the dynamic ``mu_r`` of the gated windows, or the classical COF of each
+    window when the headline is the classical or per-stroke COF."""
     table = results.table
     t = np.asarray(table["time"], dtype=float)
     head = getattr(results, "headline", None)
@@ -59,18 +72,49 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
         what, y_label = "classical COF per window", "classical COF"
     temp = np.asarray(table.get("T", np.full(t.size, np.nan)), dtype=float)
     cur = np.asarray(table.get("J", np.full(t.size, np.nan)), dtype=float)
-    good = np.flatnonzero(ok & np.isfinite(mu) & np.isfinite(t))
+    return _Series(t, ok, mu, lo, hi, temp, cur, what, y_label)
+
+
+def cof_views(results: Any, name: str) -> Tuple[str, str]:
+    """(script, div) of the zoomable COF-against-time view (and against T and J when they have data).
+
+    Gated windows as points with hover (time, COF, interval, T, J), failed
+    windows as grey ticks in their own row below with their reason.
+    """
+    from bokeh.embed import components
+    from bokeh.layouts import column, row
+
+    s = _series(results)
+    good = np.flatnonzero(s.ok & np.isfinite(s.mu) & np.isfinite(s.t))
     good = good[_thin(good.size)]
-    bad = np.flatnonzero(~ok & np.isfinite(t))
+    bad = np.flatnonzero(~s.ok & np.isfinite(s.t))
     bad = bad[_thin(bad.size)]
+    p = _time_view(s, good, name)
+    plots: List[Any] = [p]
+    if bad.size:
+        plots.append(_failed_view(s, bad, np.asarray(results.table["reasons"]), p.x_range))
+    side = _covariate_views(s, good, p.y_range)
+    if side:
+        plots.append(row(*side, sizing_mode="stretch_width"))
+    script, div = components(column(*plots, sizing_mode="stretch_width"))
+    return str(script), str(div)
 
-    def clean(a: np.ndarray) -> List[Any]:
-        return [None if not np.isfinite(x) else float(x) for x in a]
 
+def _clean(a: np.ndarray) -> List[Any]:
+    """The values as floats, None where not finite (JSON has no NaN)."""
+    return [None if not np.isfinite(x) else float(x) for x in a]
+
+
+def _time_view(s: _Series, good: np.ndarray, name: str) -> Any:
+    """The COF against time: the ``good`` windows as points with hover, the COF axis fitted to them."""
+    from bokeh.models import ColumnDataSource, HoverTool, Range1d
+    from bokeh.plotting import figure
+
+    t, mu = s.t, s.mu
     src = ColumnDataSource(
-        dict(t=t[good], mu=mu[good], lo=clean(lo[good]), hi=clean(hi[good]), T=clean(temp[good]), J=clean(cur[good]))
-    )
-    tools = "pan,box_zoom,wheel_zoom,reset,save"
+        dict(t=t[good], mu=mu[good], lo=_clean(s.lo[good]), hi=_clean(s.hi[good]), T=_clean(s.temp[good]),
+             J=_clean(s.cur[good]))
+    )  # fmt: skip
     hover = HoverTool(
         tooltips=[
             ("t (s)", "@t{0.0}"),
@@ -83,54 +127,63 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
     p = figure(
         height=320,
         sizing_mode="stretch_width",
-        tools=tools,
+        tools=_TOOLS,
         title=f"{name}: COF against time (zoom, pan, hover)",
         x_axis_label="time t (s)",
-        y_axis_label=y_label,
+        y_axis_label=s.y_label,
         output_backend="canvas",
     )
     p.add_tools(hover)
-    p.scatter("t", "mu", source=src, size=3, alpha=0.6, color="#222222", legend_label=f"{what} ({int(ok.sum())})")
+    p.scatter("t", "mu", source=src, size=3, alpha=0.6, color="#222222", legend_label=f"{s.what} ({int(s.ok.sum())})")
     if good.size:
         v = mu[good]
         q0, q1 = np.percentile(v, [0.5, 99.5])
         pad = 0.1 * max(q1 - q0, 1e-3)
         p.y_range = Range1d(min(0.0, q0 - pad) if q0 < 0 else max(0.0, q0 - 3 * pad), q1 + pad)
     p.legend.location = "top_left"
-    plots: List[Any] = [p]
-    if bad.size:
-        reasons = [str(r) for r in np.asarray(table["reasons"])[bad]]
-        fsrc = ColumnDataSource(dict(t=t[bad], y=np.zeros(bad.size), why=reasons))
-        f = figure(
-            height=90,
-            sizing_mode="stretch_width",
-            x_range=p.x_range,
-            tools=tools,
-            toolbar_location=None,
-            title=f"windows that failed the quality gate ({int((~ok).sum())}); hover for the reason",
-        )
-        f.scatter("t", "y", source=fsrc, marker="dash", angle=np.pi / 2, size=10, color="#888888")
-        f.add_tools(HoverTool(tooltips=[("t (s)", "@t{0.0}"), ("reason", "@why")]))
-        f.yaxis.visible = False
-        plots.append(f)
+    return p
+
+
+def _failed_view(s: _Series, bad: np.ndarray, reasons_all: np.ndarray, x_range: Any) -> Any:
+    """The windows that failed the gate (``bad``) as grey ticks on the time axis ``x_range``, hover for the reason."""
+    from bokeh.models import ColumnDataSource, HoverTool
+    from bokeh.plotting import figure
+
+    reasons = [str(r) for r in reasons_all[bad]]
+    fsrc = ColumnDataSource(dict(t=s.t[bad], y=np.zeros(bad.size), why=reasons))
+    f = figure(
+        height=90,
+        sizing_mode="stretch_width",
+        x_range=x_range,
+        tools=_TOOLS,
+        toolbar_location=None,
+        title=f"windows that failed the quality gate ({int((~s.ok).sum())}); hover for the reason",
+    )
+    f.scatter("t", "y", source=fsrc, marker="dash", angle=np.pi / 2, size=10, color="#888888")
+    f.add_tools(HoverTool(tooltips=[("t (s)", "@t{0.0}"), ("reason", "@why")]))
+    f.yaxis.visible = False
+    return f
+
+
+def _covariate_views(s: _Series, good: np.ndarray, y_range: Any) -> List[Any]:
+    """The COF against T and against J, each where the ``good`` windows have it, on the time view's COF axis."""
+    from bokeh.plotting import figure
+
     side = []
-    for values, label in ((temp, "temperature T (°C)"), (cur, "current density J (A/mm²)")):
+    for values, label in ((s.temp, "temperature T (°C)"), (s.cur, "current density J (A/mm²)")):
         if np.isfinite(values[good]).any():
             c = figure(
                 height=300,
                 sizing_mode="stretch_width",
-                tools=tools,
+                tools=_TOOLS,
                 title=f"COF against {label.split(' (')[0]}",
                 x_axis_label=label,
-                y_axis_label=y_label,
-                y_range=p.y_range,
+                y_axis_label=s.y_label,
+                y_range=y_range,
             )
-            c.scatter(values[good], mu[good], size=3, alpha=0.5, color="#1f77b4")
+            c.scatter(values[good], s.mu[good], size=3, alpha=0.5, color="#1f77b4")
             side.append(c)
-    if side:
-        plots.append(row(*side, sizing_mode="stretch_width"))
-    script, div = components(column(*plots, sizing_mode="stretch_width"))
-    return str(script), str(div)
+    return side
 
 
 def sizes(parts: Sequence[str]) -> int:
