@@ -580,6 +580,44 @@ def write_report(
     warns = _pop_warnings(summary)
     if quality is None:
         quality = {k: summary.pop(k) for k in _QUALITY_KEYS if k in summary}
+    out = _page_head(title, head_html, len(images))
+    if verdict:
+        out += _verdict_box(verdict)
+    if inputs is not None:
+        out.append('<h2 id="inputs">Inputs</h2>')
+        out.append(inputs_table_html(inputs))
+    if record_html:
+        out.append('<h2 id="record">Test record</h2>')
+        out.append(record_html)
+    if warns:
+        out.append('<h2 id="warnings">Warnings</h2>')
+        out.append('<p class="note">What the readers found odd in the input, and what the analysis noticed:</p>')
+        out.append("<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warns) + "</ul>")
+    out += _summary_section(summary)
+
+    out.append('<h2 id="quality">Measurement quality</h2>')
+    out.append(_quality_section(quality))
+
+    out += _figures_section(images)
+
+    for sec_no, (sec_title, sec_html) in enumerate(sections or (), 1):
+        out.append(f'<h2 id="section{sec_no}">{html.escape(sec_title)}</h2>')
+        out.append(sec_html)
+
+    out.append('<h2 id="parameters">Parameters (with units)</h2>')
+    out.append(_kv_table(_params_with_units(params)) if params else '<p class="note">No parameters.</p>')
+
+    for name, table in (tables or {}).items():
+        out.append(f"<h2>{html.escape(str(name))}</h2>")
+        out.append(_columns_table(table, max_table_rows))
+
+    out += ["</body>", "</html>", ""]
+    _atomic_write_text(target, "\n".join(out))
+    return target
+
+
+def _page_head(title: str, head_html: str, n_figures: int) -> List[str]:
+    """The page up to its title line: the head (styles, ``head_html``) and the version, time and figure count."""
     try:
         from .._version import version as _version
 
@@ -587,8 +625,7 @@ def write_report(
     except ImportError:  # pragma: no cover
         version = "unknown"
     stamp = _dt.datetime.now().astimezone().strftime("%Y-%m-%d %H:%M:%S %Z")
-
-    out: List[str] = [
+    return [
         "<!DOCTYPE html>",
         '<html lang="en">',
         "<head>",
@@ -601,27 +638,25 @@ def write_report(
         f"<h1>{html.escape(title)}</h1>",
         (
             f'<p class="meta">tribodyn {html.escape(str(version))} &middot; {html.escape(stamp)} &middot; '
-            f"{len(images)} figure{'s' if len(images) != 1 else ''}</p>"
+            f"{n_figures} figure{'s' if n_figures != 1 else ''}</p>"
         ),
     ]
-    if verdict:
-        first, rest = verdict[0], verdict[1:]
-        out.append('<div class="verdict" id="verdict"><h2 style="margin-top:0">Verdict</h2>')
-        out.append(f'<p class="headline">{html.escape(first)}</p>{getattr(first, "budget_html", "")}')
-        if rest:  # the headline of every further recording in bold too (one headline per recording)
-            out.append("<ul>" + "".join(f"<li>{_verdict_item(x)}</li>" for x in rest) + "</ul>")
-        out.append("</div>")
-    if inputs is not None:
-        out.append('<h2 id="inputs">Inputs</h2>')
-        out.append(inputs_table_html(inputs))
-    if record_html:
-        out.append('<h2 id="record">Test record</h2>')
-        out.append(record_html)
-    if warns:
-        out.append('<h2 id="warnings">Warnings</h2>')
-        out.append('<p class="note">What the readers found odd in the input, and what the analysis noticed:</p>')
-        out.append("<ul>" + "".join(f"<li>{html.escape(w)}</li>" for w in warns) + "</ul>")
-    out.append('<h2 id="summary">Summary</h2>')
+
+
+def _verdict_box(verdict: Sequence[str]) -> List[str]:
+    """The verdict box: the headline (with its budget, if any) and the further lines."""
+    first, rest = verdict[0], verdict[1:]
+    out = ['<div class="verdict" id="verdict"><h2 style="margin-top:0">Verdict</h2>']
+    out.append(f'<p class="headline">{html.escape(first)}</p>{getattr(first, "budget_html", "")}')
+    if rest:  # the headline of every further recording in bold too (one headline per recording)
+        out.append("<ul>" + "".join(f"<li>{_verdict_item(x)}</li>" for x in rest) + "</ul>")
+    out.append("</div>")
+    return out
+
+
+def _summary_section(summary: Mapping[str, Any]) -> List[str]:
+    """The summary: its scalars, the COF statistics as a matrix, then each further dict under its own heading."""
+    out = ['<h2 id="summary">Summary</h2>']
     scalars = {k: v for k, v in summary.items() if not isinstance(v, Mapping)}
     nested = {k: v for k, v in summary.items() if isinstance(v, Mapping)}
     stats = {k: v for k, v in nested.items() if _is_stats(v)}
@@ -638,11 +673,12 @@ def write_report(
         out.append(_render_value(v))
     if not summary:
         out.append('<p class="note">No summary.</p>')
+    return out
 
-    out.append('<h2 id="quality">Measurement quality</h2>')
-    out.append(_quality_section(quality))
 
-    out.append('<h2 id="figures">Figures</h2>')
+def _figures_section(images: Sequence[Tuple[str, str]]) -> List[str]:
+    """The figures, numbered, each a base64 PNG with its caption."""
+    out = ['<h2 id="figures">Figures</h2>']
     if not images:
         out.append('<p class="note">No figures.</p>')
     for fig_no, (caption, b64) in enumerate(images, 1):
@@ -651,21 +687,7 @@ def write_report(
             f'<figure id="fig{fig_no}"><img src="data:image/png;base64,{b64}" alt="{cap}">'
             f"<figcaption><b>Figure {fig_no}.</b> {cap}</figcaption></figure>"
         )
-
-    for sec_no, (sec_title, sec_html) in enumerate(sections or (), 1):
-        out.append(f'<h2 id="section{sec_no}">{html.escape(sec_title)}</h2>')
-        out.append(sec_html)
-
-    out.append('<h2 id="parameters">Parameters (with units)</h2>')
-    out.append(_kv_table(_params_with_units(params)) if params else '<p class="note">No parameters.</p>')
-
-    for name, table in (tables or {}).items():
-        out.append(f"<h2>{html.escape(str(name))}</h2>")
-        out.append(_columns_table(table, max_table_rows))
-
-    out += ["</body>", "</html>", ""]
-    _atomic_write_text(target, "\n".join(out))
-    return target
+    return out
 
 
 def _pop_warnings(summary: Dict[str, Any]) -> List[str]:
