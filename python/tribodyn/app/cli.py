@@ -221,7 +221,32 @@ def _parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0, help="simulation seed")
     d.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
 
-    a = sub.add_parser("analyze", aliases=["analyse"], parents=[common], help="analyse recording files")
+    _add_analyze_command(
+        sub.add_parser("analyze", aliases=["analyse"], parents=[common], help="analyse recording files")
+    )
+    _add_compare_command(
+        sub.add_parser("compare", parents=[common], help="compare replicate tests (output folders of analyze)")
+    )
+
+    i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of files")
+    i.add_argument("files", nargs="+", metavar="FILE", help="recordings, directories or glob patterns")
+    i.add_argument("--json", action="store_true", help="print one JSON document (a list, one object per file)")
+    i.add_argument("--format", help="file format (default: detected)")
+    i.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
+
+    s = sub.add_parser("simulate", parents=[common], help="write a simulated recording (npz, h5 or tdms)")
+    s.add_argument("scenario", choices=["temperature", "current_density"], help="which test of the paper")
+    s.add_argument("--out", required=True, help="output file: .npz, .h5/.hdf5 or .tdms")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--raw", action="store_true", help="DC-coupled forces (no amplifier high-pass)")
+    s.add_argument("--skew", type=int, default=0, help="delay fz by this many samples")
+    s.add_argument("--force-dependence", type=float, default=0.0, help="beta of mu = mu0 (1 + beta (N - N0)/N0)")
+    return p
+
+
+def _add_analyze_command(a: argparse.ArgumentParser) -> None:
+    """The arguments of ``analyze``: the files, the output, how to read them, the analysis's options, the logs,
+    the budget, where to run and what more to report."""
     a.add_argument(
         "files",
         nargs="+",
@@ -273,7 +298,9 @@ def _parser() -> argparse.ArgumentParser:
         "lubricant, duration, operator, or your own key); may be repeated (docs/method.md 10c)",
     )
 
-    c = sub.add_parser("compare", parents=[common], help="compare replicate tests (output folders of analyze)")
+
+def _add_compare_command(c: argparse.ArgumentParser) -> None:
+    """The arguments of ``compare``: the output folders, the output, the names and groups of the tests."""
     c.add_argument("folders", nargs="+", metavar="OUT_DIR", help="output folders of tribodyn analyze (or summary.json)")
     c.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
     c.add_argument("--labels", help="test names, comma-separated: one per test (recording) or one per OUT_DIR")
@@ -288,21 +315,6 @@ def _parser() -> argparse.ArgumentParser:
         help="compare headlines of different methods (a dynamic median and a classical mean differ)",
     )
     c.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
-
-    i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of files")
-    i.add_argument("files", nargs="+", metavar="FILE", help="recordings, directories or glob patterns")
-    i.add_argument("--json", action="store_true", help="print one JSON document (a list, one object per file)")
-    i.add_argument("--format", help="file format (default: detected)")
-    i.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
-
-    s = sub.add_parser("simulate", parents=[common], help="write a simulated recording (npz, h5 or tdms)")
-    s.add_argument("scenario", choices=["temperature", "current_density"], help="which test of the paper")
-    s.add_argument("--out", required=True, help="output file: .npz, .h5/.hdf5 or .tdms")
-    s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--raw", action="store_true", help="DC-coupled forces (no amplifier high-pass)")
-    s.add_argument("--skew", type=int, default=0, help="delay fz by this many samples")
-    s.add_argument("--force-dependence", type=float, default=0.0, help="beta of mu = mu0 (1 + beta (N - N0)/N0)")
-    return p
 
 
 _QUIET_HELP = "no progress bar or summary (before or after the command)"
@@ -346,35 +358,43 @@ def _toml_type(v: Any) -> str:
 def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
     """The config value ``v`` of ``key`` checked and converted like the option, or UserError."""
     expected = _CONFIG_KEYS[key]
-
-    def bad() -> UserError:
-        return UserError(f"{where}: {shown} must be {expected}, got {v!r} ({_toml_type(v)})")
-
     is_int = isinstance(v, int) and not isinstance(v, bool)
+    if expected in (_NUMBER, _INTEGER, _TEXT):
+        out = _plain_config_value(expected, v, is_int)
+    elif key in ("orientation", "gate", "noise", "tare", "deadband"):
+        out = _option_config_value(key, v, is_int)
+    else:
+        out = _table_config_value(key, v, where)
+    if out is _BAD:
+        raise UserError(f"{where}: {shown} must be {expected}, got {v!r} ({_toml_type(v)})")
+    return out
+
+
+#: What a config value's converter returns for a value of the wrong type.
+_BAD: Any = object()
+
+
+def _plain_config_value(expected: str, v: Any, is_int: bool) -> Any:
+    """A number (as float), an integer or a string, or :data:`_BAD`."""
     if expected == _NUMBER:
-        if not (is_int or isinstance(v, float)):
-            raise bad()
-        return float(v)
+        return float(v) if is_int or isinstance(v, float) else _BAD
     if expected == _INTEGER:
-        if not is_int:
-            raise bad()
-        return v
-    if expected == _TEXT:
-        if not isinstance(v, str):
-            raise bad()
-        return v
+        return v if is_int else _BAD
+    return v if isinstance(v, str) else _BAD
+
+
+def _option_config_value(key: str, v: Any, is_int: bool) -> Any:
+    """The value of one of the options whose value is more than a number or a string, converted, or :data:`_BAD`."""
     if key == "orientation":
         if v == "auto" or (is_int and v in (1, -1)):
             return v
         if isinstance(v, str) and v in ("1", "+1", "-1"):
             return int(v)
-        raise bad()
+        return _BAD
     if key == "gate":
         if v == "ci":
             return v
-        if is_int or isinstance(v, float):
-            return float(v)
-        raise bad()
+        return float(v) if is_int or isinstance(v, float) else _BAD
     if key == "noise":
         if (
             isinstance(v, list)
@@ -382,30 +402,30 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
             and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)
         ):
             return (float(v[0]), float(v[1]))
-        raise bad()
+        return _BAD
     if key == "tare":
         if is_int or isinstance(v, float):
             return float(v)
         if isinstance(v, dict) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v.values()):
             return {str(k): float(x) for k, x in v.items()}
-        raise bad()
-    if key == "deadband":
-        if is_int or isinstance(v, float):
-            return float(v)
-        if isinstance(v, str):
-            return _deadband(v)
-        raise bad()
+        return _BAD
+    # deadband
+    if is_int or isinstance(v, float):
+        return float(v)
+    return _deadband(v) if isinstance(v, str) else _BAD
+
+
+def _table_config_value(key: str, v: Any, where: str) -> Any:
+    """A table (covariates, uncertainty, meta, map, scale) checked and converted, UserError, or :data:`_BAD`."""
     if key == "covariates":
         if not (isinstance(v, dict) and all(isinstance(x, str) for x in v.values())):
-            raise bad()
+            return _BAD
         return {_covariate_name(str(k), f"{where}: covariates"): path for k, path in v.items()}
     if key == "uncertainty":
-        if not isinstance(v, dict):
-            raise bad()
-        return _uncertainty(v, f"{where}: [uncertainty]")
+        return _uncertainty(v, f"{where}: [uncertainty]") if isinstance(v, dict) else _BAD
     if key == "meta":
         if not isinstance(v, dict):
-            raise bad()
+            return _BAD
         from .record import parse_meta
 
         try:
@@ -417,12 +437,12 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
             return _role_map(_kv(v, "map"), f"{where}: map")
         if isinstance(v, dict):
             return _role_map(v, f"{where}: map")
-        raise bad()
+        return _BAD
     # scale
     if isinstance(v, str):
         return _kv(v, "scale", float)
     if not isinstance(v, dict):
-        raise bad()
+        return _BAD
     for k, f in v.items():
         if isinstance(f, bool) or not isinstance(f, (int, float)):
             raise UserError(f"{where}: scale.{k} must be a number, got {f!r} ({_toml_type(f)})")
@@ -769,66 +789,7 @@ def _run(ns: argparse.Namespace) -> int:
             _print_demo(summary, ns.out)
         return 0
     if ns.command in ("analyze", "analyse"):
-        from ..pipeline.distributed import expand_paths
-        from .jobs import run_analysis
-        from .outputs import OutputSet
-
-        open_opts, opts, protect = _analysis_options(ns)
-        meta = opts.pop("meta", None)
-        files = expand_paths(ns.files)
-        _check_regular(files)
-        OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
-        if open_opts.get("scale"):
-            _warn_converted(files, open_opts)
-        client = None
-        if ns.scheduler:
-            from ..pipeline.distributed import connect
-
-            if ns.workers < 1:
-                raise UserError("--workers must be at least 1")
-            try:
-                client = connect(ns.scheduler, ns.workers)
-            except ImportError as exc:
-                raise UserError(str(exc)) from None
-            except OSError as exc:
-                raise UserError(f"cannot reach the Dask scheduler {ns.scheduler}: {exc}") from None
-        try:
-            summary = run_analysis(
-                ns.files,
-                ns.out,
-                open_options=open_opts,
-                analyze_options=opts,
-                progress=_progress_wanted(ns),
-                client=client,
-                split=ns.split,
-                overwrite=ns.overwrite,
-                protect=protect,
-                meta=meta,
-                steady_state=ns.steady_state,
-            )
-        except ValueError as exc:
-            if _MISSING_CHANNELS in str(exc):
-                raise UserError(_channels_hint(str(exc), files, open_opts)) from exc
-            raise
-        finally:
-            if client is not None:
-                cluster = getattr(client, "cluster", None)
-                client.close()
-                if ns.scheduler == "local" and cluster is not None:
-                    cluster.close()
-        if not ns.quiet:
-            _print_analysis(summary, ns.out)
-        # The readers' warnings, once each (they are also in summary.json and the report).
-        for name, s in summary.get("recordings", {}).items():
-            for w in dict.fromkeys(s.get("warnings") or ()):
-                print(f"tribodyn: warning: {name}: {w}", file=sys.stderr)
-        for name, f in summary.get("failures", {}).items():
-            err = f["error"]
-            if _MISSING_CHANNELS in err:
-                err = _channels_hint(err, [p for p in files if Path(p).name == name][:1], open_opts)
-                err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
-            print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
-        return EXIT_SOME_FAILED if summary.get("failures") else 0
+        return _run_analyze(ns)
     if ns.command == "compare":
         from .compare_job import cli_compare
 
@@ -836,18 +797,94 @@ def _run(ns: argparse.Namespace) -> int:
     if ns.command == "info":
         return _run_info(ns)
     if ns.command == "simulate":
-        from .. import simulate
-        from ..io.writers import save_recording
-
-        _check_recording_target(ns.out)
-        sim = simulate.scenario(
-            ns.scenario, seed=ns.seed, raw=ns.raw, skew=ns.skew, force_dependence=ns.force_dependence
-        )
-        save_recording(ns.out, sim.channels, sim.fs, units={k: ("A" if k == "i" else "N") for k in sim.channels})
-        if not ns.quiet:
-            print(f"wrote {ns.out}: {sim.duration:g} s at {sim.fs:g} Hz, channels {', '.join(sim.channels)}")
-        return 0
+        return _run_simulate(ns)
     raise UserError("no command given (try: tribodyn demo)")
+
+
+def _run_analyze(ns: argparse.Namespace) -> int:
+    """``analyze``: the files' analysis into --out, the summary printed, each reader's warning and failure on
+    stderr; the status is 3 when a file failed."""
+    from ..pipeline.distributed import expand_paths
+    from .jobs import run_analysis
+    from .outputs import OutputSet
+
+    open_opts, opts, protect = _analysis_options(ns)
+    meta = opts.pop("meta", None)
+    files = expand_paths(ns.files)
+    _check_regular(files)
+    OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
+    if open_opts.get("scale"):
+        _warn_converted(files, open_opts)
+    client = _dask_client(ns) if ns.scheduler else None
+    try:
+        summary = run_analysis(
+            ns.files,
+            ns.out,
+            open_options=open_opts,
+            analyze_options=opts,
+            progress=_progress_wanted(ns),
+            client=client,
+            split=ns.split,
+            overwrite=ns.overwrite,
+            protect=protect,
+            meta=meta,
+            steady_state=ns.steady_state,
+        )
+    except ValueError as exc:
+        if _MISSING_CHANNELS in str(exc):
+            raise UserError(_channels_hint(str(exc), files, open_opts)) from exc
+        raise
+    finally:
+        if client is not None:
+            cluster = getattr(client, "cluster", None)
+            client.close()
+            if ns.scheduler == "local" and cluster is not None:
+                cluster.close()
+    if not ns.quiet:
+        _print_analysis(summary, ns.out)
+    _print_problems(summary, files, open_opts)
+    return EXIT_SOME_FAILED if summary.get("failures") else 0
+
+
+def _dask_client(ns: argparse.Namespace) -> Any:
+    """The Dask client of ``--scheduler`` (with ``--workers`` for 'local'), or UserError."""
+    from ..pipeline.distributed import connect
+
+    if ns.workers < 1:
+        raise UserError("--workers must be at least 1")
+    try:
+        return connect(ns.scheduler, ns.workers)
+    except ImportError as exc:
+        raise UserError(str(exc)) from None
+    except OSError as exc:
+        raise UserError(f"cannot reach the Dask scheduler {ns.scheduler}: {exc}") from None
+
+
+def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Dict[str, Any]) -> None:
+    """The readers' warnings, once each (they are also in summary.json and the report), and each failed file, on
+    stderr."""
+    for name, s in summary.get("recordings", {}).items():
+        for w in dict.fromkeys(s.get("warnings") or ()):
+            print(f"tribodyn: warning: {name}: {w}", file=sys.stderr)
+    for name, f in summary.get("failures", {}).items():
+        err = f["error"]
+        if _MISSING_CHANNELS in err:
+            err = _channels_hint(err, [p for p in files if Path(p).name == name][:1], open_opts)
+            err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
+        print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
+
+
+def _run_simulate(ns: argparse.Namespace) -> int:
+    """``simulate``: one of the paper's simulated tests written as a recording file."""
+    from .. import simulate
+    from ..io.writers import save_recording
+
+    _check_recording_target(ns.out)
+    sim = simulate.scenario(ns.scenario, seed=ns.seed, raw=ns.raw, skew=ns.skew, force_dependence=ns.force_dependence)
+    save_recording(ns.out, sim.channels, sim.fs, units={k: ("A" if k == "i" else "N") for k in sim.channels})
+    if not ns.quiet:
+        print(f"wrote {ns.out}: {sim.duration:g} s at {sim.fs:g} Hz, channels {', '.join(sim.channels)}")
+    return 0
 
 
 def _check_recording_target(path: str) -> None:
