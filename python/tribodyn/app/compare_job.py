@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
-from ..analyses.compare import Comparison, compare, headline_from_dict
+from ..analyses.compare import Comparison, Precision, compare, headline_from_dict
 from ..results import Headline
 from .outputs import OutputSet, _safe_text, sha256_file, write_json
 
@@ -254,6 +254,28 @@ def _write_report(cmp: Comparison, tests: Sequence[SourceTest], inputs: Sequence
         f'<h2 id="figure">Tests side by side</h2><figure><img src="data:image/png;base64,{png}" alt="{esc(cap)}">'
         f"<figcaption><b>Figure 1.</b> {esc(cap)}</figcaption></figure>"
     )
+    out.append(_tests_table(cmp, tests))
+    out.append(_pooled_table(cmp))
+    if cmp.precision is not None:
+        out.append(_precision_section(cmp.precision))
+    irow = "".join(
+        f'<tr><td class="key">{esc(str(i["folder"]))}</td><td class="key">{esc(str(i["sha256"]))}</td></tr>'
+        for i in inputs
+    )
+    out.append('<h2 id="inputs">Inputs</h2><table><tr><th class="key">output folder</th>'
+               f'<th class="key">summary.json SHA-256</th></tr>{irow}</table>')  # fmt: skip
+    out += ["</body>", "</html>", ""]
+    path.write_text("\n".join(out), encoding="utf-8")
+
+
+def _key_value_rows(pairs: Sequence[Tuple[str, str]]) -> str:
+    """Table rows of (key, value): the key escaped, the value HTML as given."""
+    return "".join(f'<tr><td class="key">{html.escape(k)}</td><td class="text">{v}</td></tr>' for k, v in pairs)
+
+
+def _tests_table(cmp: Comparison, tests: Sequence[SourceTest]) -> str:
+    """The report's "Tests": one row per test, its headline with interval, SE, weight and where it came from."""
+    esc = html.escape
     rows = "".join(
         f'<tr><td class="key">{esc(r.label)}</td><td class="text">{esc(r.group or "")}</td>'
         f'<td class="text">{esc(r.headline.method)} {esc(r.headline.statistic)}</td><td>{_f(r.value)}</td>'
@@ -261,10 +283,14 @@ def _write_report(cmp: Comparison, tests: Sequence[SourceTest], inputs: Sequence
         f'<td>{r.headline.n}</td><td class="text">{esc(t.folder)}: {esc(t.recording)}</td></tr>'
         for r, t in zip(cmp.replicates, tests)
     )
-    out.append(
+    return (
         '<h2 id="tests">Tests</h2><table><tr><th class="key">test</th><th>group</th><th>headline</th><th>COF</th>'
         "<th>95 % interval</th><th>SE</th><th>weight</th><th>n</th><th>from</th></tr>" + rows + "</table>"
     )
+
+
+def _pooled_table(cmp: Comparison) -> str:
+    """The report's "Over the tests": the pooled mean, the scatter between the tests and the prediction."""
     pooled = [
         ("tests", str(cmp.k)),
         ("mean COF", f"{_f(cmp.mean)} (95 % interval {_f(cmp.low)} to {_f(cmp.high)})"),
@@ -274,38 +300,31 @@ def _write_report(cmp: Comparison, tests: Sequence[SourceTest], inputs: Sequence
         ("Cochran's Q, I²", f"{_f(cmp.q, 3)}, {100 * cmp.i2:.1f} %" if math.isfinite(cmp.i2) else "&ndash;"),
         ("95 % prediction for a further test", f"{_f(cmp.prediction_low)} to {_f(cmp.prediction_high)}"),
     ]
-    out.append('<h2 id="pooled">Over the tests (docs/method.md 10a)</h2><table>'
-               + "".join(f'<tr><td class="key">{esc(k)}</td><td class="text">{v}</td></tr>' for k, v in pooled)
-               + "</table>")  # fmt: skip
-    p = cmp.precision
-    if p is not None:
-        prow = "".join(
-            f'<tr><td class="key">{esc(g)}</td><td>{n}</td><td>{_f(m)}</td><td>{_f(s, 3)}</td><td>{_f(h, 3)}</td>'
-            f'<td>{_f(k, 3)}</td><td class="text">{esc(fl)}</td></tr>'
-            for g, n, m, s, h, k, fl in zip(p.groups, p.counts, p.means, p.sds, p.h, p.k, p.flags)
-        )
-        lines = [
-            ("general mean", f"{_f(p.mean)} (95 % interval {_f(p.low)} to {_f(p.high)})"),
-            ("repeatability SD s_r, limit r = 2.8 s_r", f"{_f(p.s_r, 3)}, {_f(p.r, 3)}"),
-            ("between-group SD s_L", _f(p.s_L, 3)),
-            ("reproducibility SD s_R, limit R = 2.8 s_R", f"{_f(p.s_R, 3)}, {_f(p.R, 3)}"),
-            ("h critical (1 %, 5 %)", f"{_f(p.h_critical[0], 3)}, {_f(p.h_critical[1], 3)}"),
-            ("k critical (1 %, 5 %)", f"{_f(p.k_critical[0], 3)}, {_f(p.k_critical[1], 3)}"),
-        ]
-        out.append(
-            '<h2 id="precision">Repeatability and reproducibility (ISO 5725-2, docs/method.md 10b)</h2><table>'
-            + "".join(f'<tr><td class="key">{esc(k)}</td><td class="text">{v}</td></tr>' for k, v in lines)
-            + '</table><table><tr><th class="key">group</th><th>tests</th><th>mean</th><th>SD</th><th>h</th>'
-            "<th>k</th><th>flag</th></tr>" + prow + "</table>"
-        )
-    irow = "".join(
-        f'<tr><td class="key">{esc(str(i["folder"]))}</td><td class="key">{esc(str(i["sha256"]))}</td></tr>'
-        for i in inputs
+    return '<h2 id="pooled">Over the tests (docs/method.md 10a)</h2><table>' + _key_value_rows(pooled) + "</table>"
+
+
+def _precision_section(p: Precision) -> str:
+    """The report's ISO 5725-2 section: s_r, s_L, s_R with their limits and each group's h and k statistics."""
+    esc = html.escape
+    prow = "".join(
+        f'<tr><td class="key">{esc(g)}</td><td>{n}</td><td>{_f(m)}</td><td>{_f(s, 3)}</td><td>{_f(h, 3)}</td>'
+        f'<td>{_f(k, 3)}</td><td class="text">{esc(fl)}</td></tr>'
+        for g, n, m, s, h, k, fl in zip(p.groups, p.counts, p.means, p.sds, p.h, p.k, p.flags)
     )
-    out.append('<h2 id="inputs">Inputs</h2><table><tr><th class="key">output folder</th>'
-               f'<th class="key">summary.json SHA-256</th></tr>{irow}</table>')  # fmt: skip
-    out += ["</body>", "</html>", ""]
-    path.write_text("\n".join(out), encoding="utf-8")
+    lines = [
+        ("general mean", f"{_f(p.mean)} (95 % interval {_f(p.low)} to {_f(p.high)})"),
+        ("repeatability SD s_r, limit r = 2.8 s_r", f"{_f(p.s_r, 3)}, {_f(p.r, 3)}"),
+        ("between-group SD s_L", _f(p.s_L, 3)),
+        ("reproducibility SD s_R, limit R = 2.8 s_R", f"{_f(p.s_R, 3)}, {_f(p.R, 3)}"),
+        ("h critical (1 %, 5 %)", f"{_f(p.h_critical[0], 3)}, {_f(p.h_critical[1], 3)}"),
+        ("k critical (1 %, 5 %)", f"{_f(p.k_critical[0], 3)}, {_f(p.k_critical[1], 3)}"),
+    ]
+    return (
+        '<h2 id="precision">Repeatability and reproducibility (ISO 5725-2, docs/method.md 10b)</h2><table>'
+        + _key_value_rows(lines)
+        + '</table><table><tr><th class="key">group</th><th>tests</th><th>mean</th><th>SD</th><th>h</th>'
+        "<th>k</th><th>flag</th></tr>" + prow + "</table>"
+    )
 
 
 def _name_list(text: Optional[str], what: str) -> Optional[List[str]]:
