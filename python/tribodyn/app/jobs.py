@@ -430,6 +430,15 @@ def _bokeh_head() -> str:
     return _BOKEH_HEAD["js"]
 
 
+@dataclasses.dataclass(frozen=True)
+class _DemoTest:
+    """One simulated test of the demo: the simulation, its results and its operating range."""
+
+    sim: Any
+    res: Results
+    opr: Optional[OperatingRange]
+
+
 def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: bool = False) -> Dict[str, Any]:
     """Simulates the paper's two tests, analyses them and writes every output.
 
@@ -437,13 +446,27 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
     ``overwrite`` allows replacing a folder that holds other files). Returns
     the summary (also written to ``summary.json``).
     """
-    from .. import simulate
     from .._version import version
 
     __version__ = version()
-    from .report import verdict_lines, write_report
-
     output = OutputSet(out_dir, overwrite=overwrite)  # refuses an unusable folder before the work
+    t, j = _demo_tests(seed, progress)
+    summary: Dict[str, Any] = {
+        "tribodyn_version": __version__,
+        "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
+        "seed": seed,
+        "temperature_test": _demo_test_summary(t, "temperature"),
+        "current_density_test": _demo_test_summary(j, "current_density"),
+    }
+    with output as out:
+        _write_demo(out, summary, t, j)
+    return summary
+
+
+def _demo_tests(seed: int, progress: bool) -> Tuple[_DemoTest, _DemoTest]:
+    """The paper's temperature and current-density tests simulated, analysed, and their operating ranges."""
+    from .. import simulate
+
     sim_t = simulate.temperature_test(seed=seed)
     sim_j = simulate.current_density_test(seed=seed)
     res_t = analyze(
@@ -469,66 +492,62 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
     with one_blas_thread():
         opr_t = operating_range(res_t, "temperature")
         opr_j = operating_range(res_j, "current_density")
-    summary: Dict[str, Any] = {
-        "tribodyn_version": __version__,
-        "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
-        "seed": seed,
-        "temperature_test": {
-            **res_t.summary(),
-            "operating_range": range_summary(opr_t),
-            "simulated_optimum": dict(sim_t.truth.optimum),
-            "simulated_breakpoints": _truth_breakpoints(res_t, sim_t.truth, "temperature"),
-            "params": res_t.params,
-        },
-        "current_density_test": {
-            **res_j.summary(),
-            "operating_range": range_summary(opr_j),
-            "simulated_optimum": dict(sim_j.truth.optimum),
-            "simulated_breakpoints": _truth_breakpoints(res_j, sim_j.truth, "current_density"),
-            "params": res_j.params,
-        },
+    return _DemoTest(sim_t, res_t, opr_t), _DemoTest(sim_j, res_j, opr_j)
+
+
+def _demo_test_summary(test: _DemoTest, by: str) -> Dict[str, Any]:
+    """A simulated test's summary: the results', its operating range against ``by``, the simulator's truth."""
+    return {
+        **test.res.summary(),
+        "operating_range": range_summary(test.opr),
+        "simulated_optimum": dict(test.sim.truth.optimum),
+        "simulated_breakpoints": _truth_breakpoints(test.res, test.sim.truth, by),
+        "params": test.res.params,
     }
-    with output as out:
-        ex_t = diagnostic_examples(sim_t.channels, res_t)
-        ex_j = diagnostic_examples(sim_j.channels, res_j)
-        figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, examples=ex_t)
-        figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
 
-        def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # while a child draws most figures
-            tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
-            return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
-                res_j, "current-density test", "current_density_windows.csv"
-            )
 
-        named = [(f"temperature_{s}", c, f) for s, c, f in figs_t] + [
-            (f"current_density_{s}", c, f) for s, c, f in figs_j
-        ]
-        pngs, (files, extras), _ = _save_figures(out, named, "", meanwhile)
-        png_t, png_j = pngs[: len(figs_t)], pngs[len(figs_t) :]
-        files += [name for name, _, _ in pngs]
-        summary["files"] = files + ["summary.json", "report.html"]
-        summary["columns"] = column_units()
-        write_json(summary, out.path("summary.json"))
-        s_t, s_j = summary["temperature_test"], summary["current_density_test"]
-        verdict = verdict_lines("temperature test", s_t, res_t.params, {"temperature": s_t["operating_range"]})
-        verdict += verdict_lines("current-density test", s_j, res_j.params, {"current_density": s_j["operating_range"]})
-        write_report(
-            out.path("report.html"),
-            title="tribodyn demo: the paper's rig, simulated",
-            summary=_flat_summary(summary),
-            params={"temperature test": res_t.params, "current-density test": res_j.params},
-            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(png_t)]
-            + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
-            verdict=verdict,
-            inputs=[],
-            sections=extras,
-            head_html=_bokeh_head(),
-            quality={
-                "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
-                "current-density test": s_j["gate_failures"],
-            },
+def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoTest) -> None:
+    """The demo's outputs: each test's tables, figures and report sections, summary.json and report.html."""
+    from .report import verdict_lines, write_report
+
+    res_t, res_j = t.res, j.res
+    ex_t = diagnostic_examples(t.sim.channels, res_t)
+    ex_j = diagnostic_examples(j.sim.channels, res_j)
+    figs_t = _figures(res_t, opr_t=t.opr, opr_j=None, examples=ex_t)
+    figs_j = _figures(res_j, opr_t=None, opr_j=j.opr, examples=ex_j)
+
+    def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # while a child draws most figures
+        tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
+        return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
+            res_j, "current-density test", "current_density_windows.csv"
         )
-    return summary
+
+    named = [(f"temperature_{s}", c, f) for s, c, f in figs_t] + [(f"current_density_{s}", c, f) for s, c, f in figs_j]
+    pngs, (files, extras), _ = _save_figures(out, named, "", meanwhile)
+    png_t, png_j = pngs[: len(figs_t)], pngs[len(figs_t) :]
+    files += [name for name, _, _ in pngs]
+    summary["files"] = files + ["summary.json", "report.html"]
+    summary["columns"] = column_units()
+    write_json(summary, out.path("summary.json"))
+    s_t, s_j = summary["temperature_test"], summary["current_density_test"]
+    verdict = verdict_lines("temperature test", s_t, res_t.params, {"temperature": s_t["operating_range"]})
+    verdict += verdict_lines("current-density test", s_j, res_j.params, {"current_density": s_j["operating_range"]})
+    write_report(
+        out.path("report.html"),
+        title="tribodyn demo: the paper's rig, simulated",
+        summary=_flat_summary(summary),
+        params={"temperature test": res_t.params, "current-density test": res_j.params},
+        figures=[(f"Temperature test: {c}", f) for c, f in _captioned(png_t)]
+        + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
+        verdict=verdict,
+        inputs=[],
+        sections=extras,
+        head_html=_bokeh_head(),
+        quality={
+            "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
+            "current-density test": s_j["gate_failures"],
+        },
+    )
 
 
 def _interval(ci: Any) -> str:
