@@ -21,6 +21,7 @@ from ..kernels.contact_loss import mark_contact_loss
 from ..kernels.estimators import (  # fmt: skip
     T975,
     WEAK_INSTRUMENT,
+    Slopes,
     Sums,
     gate_precision,
     line_stats,
@@ -118,9 +119,7 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     seen: Dict[str, Any] = {}
     notes: List[str] = []
     if not plan.paper:  # where the instrument lag comes from (docs/method.md 3b)
-        rpm_lag = plan.rpm is not None and plan.iv_lag == int(round(60.0 * fs / float(plan.rpm)))
-        seen["iv_lag_rule"] = ("data" if found.iv_lag else "default") if plan.iv_lag_from_data else (
-            "rpm" if rpm_lag else "given")  # fmt: skip
+        seen["iv_lag_rule"] = _iv_lag_rule(plan, found)
     stats_cols = _statistics(o, plan, found.delay, s, found=seen, notes=notes, lag=plan.lag(found))
     o.update(stats_cols)
     skew_gate = o.get("skew_lag")
@@ -133,21 +132,62 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
                 f"{100 * confidence['orientation_agreement']:.0f} % of the windows agree with s = {s:+d}; pass "
                 "orientation= if you know the sign"
             )
-
-    def nan() -> np.ndarray:  # a fresh column each time: no two table columns share memory
-        return np.full(len(centre), np.nan)
-
     cur = _current(o, aux_role, cov, centre)
-    log = cov.temperature
     cov_notes: List[str] = []  # not the dynamic method's: kept whichever COF is the headline
     speed, extra = _covariate_columns(o, cov, centre, cov_notes)
+    reasons = _more_reasons(reasons, o, plan, cur)
+    values = _window_values(o, plan, centre=centre, t_start=t_start, reasons=reasons, cur=cur, speed=speed,
+                            mean_z=moments["mean_z"])  # fmt: skip
+    table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
+    table.update(extra)  # the other covariate logs, after the declared columns (docs/method.md 7a)
+    params = plan.params()
+    params.update(orientation_used=s, start=start, stop=stop, threads=plan.threads, route=route)
+    params.update(seen)
+    params["dynamic_notes"] = list(notes)  # the dynamic method's own notes (settle drops them when it does not apply)
+    warnings = list(warnings) + notes + cov_notes
+    return Results(
+        table=table,
+        bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
+        bin_cof=o["bin_cof"],
+        fz_min=o["fz_min"],
+        fz_max=o["fz_max"],
+        orientation=s,
+        params=params,
+        moments=moments,
+        warnings=tuple(dict.fromkeys(str(w) for w in warnings)),
+    )
+
+
+def _iv_lag_rule(plan: Plan, found: Findings) -> str:
+    """Where the instrument lag comes from (docs/method.md 3b): "data", "default", "rpm" or "given"."""
+    fs = plan.fs
+    rpm_lag = plan.rpm is not None and plan.iv_lag == int(round(60.0 * fs / float(plan.rpm)))
+    return ("data" if found.iv_lag else "default") if plan.iv_lag_from_data else ("rpm" if rpm_lag else "given")
+
+
+def _more_reasons(reasons: np.ndarray, o: Stats, plan: Plan, cur: np.ndarray) -> np.ndarray:
+    """The gate's reasons with a stroke reversal (docs/method.md 6c) and contact loss (docs/method.md 7) added."""
+    cov = plan.covariates
     if "stroke_reversal" in o and np.any(o["stroke_reversal"]):  # docs/method.md 6c
         reasons = np.asarray(reasons, dtype=object).copy()
         for k in np.flatnonzero(o["stroke_reversal"]):
             reasons[k] = "; ".join(r for r in (reasons[k], "stroke reversal in the window") if r)
     if not plan.paper:  # the paper's preset keeps the paper's gate exactly
         reasons = mark_contact_loss(reasons, o, cur / cov.area_mm2 if cov.area_mm2 is not None else cur)  # method.md 7
-    values: Stats = {
+    return reasons
+
+
+def _window_values(o: Stats, plan: Plan, *, centre: np.ndarray, t_start: np.ndarray, reasons: np.ndarray,
+                   cur: np.ndarray, speed: np.ndarray, mean_z: np.ndarray) -> Stats:  # fmt: skip
+    """Every per-window column by name: the kernel's and the statistics' (``o``), time, the gate's verdict, the
+    covariates and what the kernel did not compute as NaN (:data:`tribodyn.columns.TABLE` picks them)."""
+    cov = plan.covariates
+    log = cov.temperature
+
+    def nan() -> np.ndarray:  # a fresh column each time: no two table columns share memory
+        return np.full(len(centre), np.nan)
+
+    return {
         **o,
         "time": centre,
         "t_start": t_start,
@@ -170,29 +210,11 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
         if "mu_classic" in o and (plan.paper or "mu_classical" not in o)
         else o.get("mu_classical", nan()),
         "mu_classical_median": o["mu_classical_median"] if "mu_classical_median" in o else nan(),
-        "fz_mean": o["fz_mean"] if "fz_mean" in o else (nan() if plan.raw else np.asarray(moments["mean_z"])),
+        "fz_mean": o["fz_mean"] if "fz_mean" in o else (nan() if plan.raw else np.asarray(mean_z)),
         "fz_std": o["fz_std"] if "fz_std" in o else _fz_std(o, plan),
-        "n": n_win,
+        "n": np.asarray(o["n"], dtype=np.int64),
         "acquisition": o.get("acquisition", np.zeros(len(centre), dtype=np.int64)),
     }
-    table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
-    table.update(extra)  # the other covariate logs, after the declared columns (docs/method.md 7a)
-    params = plan.params()
-    params.update(orientation_used=s, start=start, stop=stop, threads=plan.threads, route=route)
-    params.update(seen)
-    params["dynamic_notes"] = list(notes)  # the dynamic method's own notes (settle drops them when it does not apply)
-    warnings = list(warnings) + notes + cov_notes
-    return Results(
-        table=table,
-        bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
-        bin_cof=o["bin_cof"],
-        fz_min=o["fz_min"],
-        fz_max=o["fz_max"],
-        orientation=s,
-        params=params,
-        moments=moments,
-        warnings=tuple(dict.fromkeys(str(w) for w in warnings)),
-    )
 
 
 def _no_window(plan: Plan, start: int, stop: Optional[int]) -> ValueError:
@@ -262,21 +284,67 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
     """
     lag = plan.iv_lag if lag is None else int(lag)
 
-    k = len(o["n"])
     mu_ols = np.array(o["mu_r"], dtype=float)
     if plan.paper:
-        se = np.asarray(o["mu_r_stderr"], dtype=float)
-        out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - Z975 * se, "mu_r_high": mu_ols + Z975 * se}
-        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
-            out[name] = np.full(k, np.nan)
-        out["noise_z_var"] = np.full(k, np.nan)
-        out["mu_r_dnoise"] = np.zeros(k)  # OLS shares no estimate between windows
-        if "skew" in o:
-            out["skew_lag"] = o["skew"]
-        return out
+        return _paper_statistics(o, mu_ols)
     E = Sums(o.pop("ext"))
     n = np.asarray(o["n"])
     found["iv_lag_samples"] = lag
+    sl, bound = _slopes(E, n, plan, lag, found=found, notes=notes)
+    mu = s * sl.slope
+    se = sl.se
+    a2, a2_se = quadratic(E, n, instrumented=plan.estimator != "ols")
+    rel, found["gate_se_ratio"], found["gate_cof"] = gate_precision(mu, se, sl.se_white)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = {
+            "mu_r": mu,
+            "mu_r_stderr": se,
+            "noise_z_var": window_noise(E, n),
+            "mu_r_dnoise": s * sl.dnoise,
+            "mu_r_low": mu - T975 * se,
+            "mu_r_high": mu + T975 * se,
+            "mu_ols": mu_ols,
+            "attenuation_p": sl.attenuation_p,
+            "dmu_dfn": s * a2,
+            "dmu_dfn_stderr": a2_se,
+            "dmu_dfn_low": s * a2 - T975 * a2_se,
+            "dmu_dfn_high": s * a2 + T975 * a2_se,
+            "f_y0": o["mean_y"] - sl.slope * o["mean_z"],
+            "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
+            "rel_ci": rel,
+        }
+    if bound:  # least squares, attenuated by the noise on fz: up to the reverse regression (docs/method.md 3d)
+        _lower_bound(E, s, out, found)
+    if "skew" in o:
+        out["skew_lag"] = o["skew"]
+    if "spec" in o:
+        _line_columns(o.pop("spec"), plan, s, delay0, out=out, found=found, notes=notes)
+    return out
+
+
+def _paper_statistics(o: Stats, mu_ols: np.ndarray) -> Stats:
+    """The paper's preset: the least-squares slope with its normal interval, none of the later statistics."""
+    k = len(o["n"])
+    se = np.asarray(o["mu_r_stderr"], dtype=float)
+    out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - Z975 * se, "mu_r_high": mu_ols + Z975 * se}
+    for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
+        out[name] = np.full(k, np.nan)
+    out["noise_z_var"] = np.full(k, np.nan)
+    out["mu_r_dnoise"] = np.zeros(k)  # OLS shares no estimate between windows
+    if "skew" in o:
+        out["skew_lag"] = o["skew"]
+    return out
+
+
+def _slopes(E: Sums, n: np.ndarray, plan: Plan, lag: int, *, found: Dict[str, Any], notes: List[str]
+            ) -> Tuple[Slopes, bool]:  # fmt: skip
+    """The slopes by the plan's estimator, and whether they fell back to least squares (a lower bound of |mu|).
+
+    The corrected estimator measures the noise on fz (pooled over windows)
+    with the instrument, fz lagged by ``lag``; when that cannot be measured
+    (windows too short for the lag, or a weak instrument) the slopes are
+    least squares, said in ``notes`` (docs/method.md 3b).
+    """
     pooled = None
     bound = False  # the fallback to least squares: mu_r is a lower bound of |mu| (docs/method.md 3b)
     if plan.estimator == "corrected" and plan.noise is None:
@@ -310,50 +378,29 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
             f"the instrument (fz lagged by {lag} samples) is weak: median r = {found['instrument_r']:.2f}; "
             "IV slopes are imprecise; pass rpm= (a lag of one revolution) or iv_lag= (docs/method.md 3b)"
         )
-    mu = s * sl.slope
-    se = sl.se
-    a2, a2_se = quadratic(E, n, instrumented=plan.estimator != "ols")
-    rel, found["gate_se_ratio"], found["gate_cof"] = gate_precision(mu, se, sl.se_white)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = {
-            "mu_r": mu,
-            "mu_r_stderr": se,
-            "noise_z_var": window_noise(E, n),
-            "mu_r_dnoise": s * sl.dnoise,
-            "mu_r_low": mu - T975 * se,
-            "mu_r_high": mu + T975 * se,
-            "mu_ols": mu_ols,
-            "attenuation_p": sl.attenuation_p,
-            "dmu_dfn": s * a2,
-            "dmu_dfn_stderr": a2_se,
-            "dmu_dfn_low": s * a2 - T975 * a2_se,
-            "dmu_dfn_high": s * a2 + T975 * a2_se,
-            "f_y0": o["mean_y"] - sl.slope * o["mean_z"],
-            "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
-            "rel_ci": rel,
-        }
-    if bound:  # least squares, attenuated by the noise on fz: up to the reverse regression (docs/method.md 3d)
-        _lower_bound(E, s, out, found)
-    if "skew" in o:
-        out["skew_lag"] = o["skew"]
-    if "spec" in o:
-        ls = line_stats(o.pop("spec"), plan.lines, s)
-        index = dict(plan.line_index)
-        out["skew"] = ls["skew"]
-        if "f0" in index:
-            out["h1_f0"] = ls["h1"][:, index["f0"]]
-        if "fl" in index:
-            out["h1_fl"] = ls["h1"][:, index["fl"]]
-            out["coherence_fl"] = ls["coherence"][:, index["fl"]]
-        sk = ls["skew"][np.isfinite(ls["skew"])]
-        delay = float(np.median(sk)) if sk.size else float("nan")
-        found["skew_median"] = delay + delay0 if np.isfinite(delay) else delay
-        if plan.align is None and np.isfinite(delay) and abs(delay) > ALIGN_MIN:
-            notes.append(
-                f"fz lags fy by {delay:+.2f} samples (cross-spectral phase at the rig's lines, median over windows): "
-                "mu_r is biased low by it; analyze(..., align='auto') corrects it (docs/method.md 3e)"
-            )
-    return out
+    return sl, bound
+
+
+def _line_columns(spec: np.ndarray, plan: Plan, s: int, delay0: float, *, out: Stats, found: Dict[str, Any],
+                  notes: List[str]) -> None:  # fmt: skip
+    """The line statistics into ``out`` (the fz delay, H1 at f0 and fl, coherence at fl); ``found`` gets the median
+    delay, and ``notes`` says when an uncorrected delay biases mu_r (docs/method.md 3e)."""
+    ls = line_stats(spec, plan.lines, s)
+    index = dict(plan.line_index)
+    out["skew"] = ls["skew"]
+    if "f0" in index:
+        out["h1_f0"] = ls["h1"][:, index["f0"]]
+    if "fl" in index:
+        out["h1_fl"] = ls["h1"][:, index["fl"]]
+        out["coherence_fl"] = ls["coherence"][:, index["fl"]]
+    sk = ls["skew"][np.isfinite(ls["skew"])]
+    delay = float(np.median(sk)) if sk.size else float("nan")
+    found["skew_median"] = delay + delay0 if np.isfinite(delay) else delay
+    if plan.align is None and np.isfinite(delay) and abs(delay) > ALIGN_MIN:
+        notes.append(
+            f"fz lags fy by {delay:+.2f} samples (cross-spectral phase at the rig's lines, median over windows): "
+            "mu_r is biased low by it; analyze(..., align='auto') corrects it (docs/method.md 3e)"
+        )
 
 
 def _lower_bound(E: Any, s: int, out: Stats, found: Dict[str, Any]) -> None:
