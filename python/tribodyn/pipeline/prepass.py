@@ -364,18 +364,7 @@ def prepass(
     """
     tare_s = float(tare) if isinstance(tare, (int, float)) and not isinstance(tare, bool) else 0.0
     tare_n = int(round(tare_s * fs))
-    data: Optional[Dict[str, np.ndarray]] = None
-    if rec is not None:
-        data = _sample_recording(rec, ("fy", "fz"), tare_n)
-    elif isinstance(source, Mapping) and "fy" in source and "fz" in source:
-        data = {r: np.asarray(source[r], dtype=float) for r in ("fy", "fz")}
-    elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a and "fy" in a
-                                                            for a in source):  # fmt: skip
-        data = {r: np.concatenate([np.asarray(a[r], dtype=float) for a in source]) for r in ("fy", "fz")}
-    if data is not None and data["fy"].shape == data["fz"].shape and not in_range(data["fy"], data["fz"]):
-        # Finite samples within the kernel's range (docs/method.md 4): a window holding another is out of range.
-        ok = (np.abs(data["fy"]) <= _core.FORCE_LIMIT) & (np.abs(data["fz"]) <= _core.FORCE_LIMIT)
-        data = {r: v[ok] for r, v in data.items()}
+    data = _forces_sample(source, rec, tare_n)
     if data is None or data["fz"].size == 0 or data["fy"].shape != data["fz"].shape:
         # Nothing to look at (or channels of unequal lengths, which the pipeline refuses with its own error);
         # a given min_fn (and tare offsets) still define the classical COF of the windows.
@@ -384,19 +373,8 @@ def prepass(
             offsets = tare if isinstance(tare, Mapping) else {}
             out0["spec"] = ClassicalSpec(float(min_fn), float(offsets.get("fy", 0.0)), float(offsets.get("fz", 0.0)))
         return out0
-    fy, fz = data["fy"], data["fz"]
+    fy, fz, t_fy, t_fz = _tare_offsets(data["fy"], data["fz"], tare, tare_s, tare_n)
     out: Dict[str, Any] = {}
-    # tare offsets
-    t_fy = t_fz = 0.0
-    if isinstance(tare, Mapping):
-        t_fy, t_fz = float(tare.get("fy", 0.0)), float(tare.get("fz", 0.0))
-    elif tare_n > 0:
-        if tare_n >= fz.size:
-            raise ValueError(f"tare = {tare_s:g} s covers the whole recording")
-        t_fy, t_fz = float(np.mean(fy[:tare_n])), float(np.mean(fz[:tare_n]))
-        fy, fz = fy[tare_n:], fz[tare_n:]
-    elif tare is not None and not isinstance(tare, (int, float)):
-        raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
     contact: Optional[Contact] = None
     order = _order.Sorted.of(fz)  # fz sorted once: its medians and classes below (docs/method.md 6a)
     if not isinstance(tare, Mapping) and tare_n == 0 and min_fn is None:
@@ -428,6 +406,50 @@ def prepass(
         touching = np.abs(fz) >= out["spec"].min_fn
         if touching.any():
             fy = fy[touching]
+    out.update(_motion(fy, static, motion))
+    return out
+
+
+def _forces_sample(source: Any, rec: Any, tare_n: int) -> Optional[Dict[str, np.ndarray]]:
+    """fy and fz to look at: the recording's bounded sample, or a mapping's or list of mappings' arrays (None for
+    a stream); with channels of equal length, only the samples within the kernel's force range."""
+    data: Optional[Dict[str, np.ndarray]] = None
+    if rec is not None:
+        data = _sample_recording(rec, ("fy", "fz"), tare_n)
+    elif isinstance(source, Mapping) and "fy" in source and "fz" in source:
+        data = {r: np.asarray(source[r], dtype=float) for r in ("fy", "fz")}
+    elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a and "fy" in a
+                                                            for a in source):  # fmt: skip
+        data = {r: np.concatenate([np.asarray(a[r], dtype=float) for a in source]) for r in ("fy", "fz")}
+    if data is not None and data["fy"].shape == data["fz"].shape and not in_range(data["fy"], data["fz"]):
+        # Finite samples within the kernel's range (docs/method.md 4): a window holding another is out of range.
+        ok = (np.abs(data["fy"]) <= _core.FORCE_LIMIT) & (np.abs(data["fz"]) <= _core.FORCE_LIMIT)
+        data = {r: v[ok] for r, v in data.items()}
+    return data
+
+
+def _tare_offsets(
+    fy: np.ndarray, fz: np.ndarray, tare: Any, tare_s: float, tare_n: int
+) -> Tuple[np.ndarray, np.ndarray, float, float]:
+    """(fy, fz, offset of fy, offset of fz): offsets given as a mapping, or the means of the first ``tare_n``
+    samples (``tare_s`` seconds, then left out), else 0."""
+    t_fy = t_fz = 0.0
+    if isinstance(tare, Mapping):
+        t_fy, t_fz = float(tare.get("fy", 0.0)), float(tare.get("fz", 0.0))
+    elif tare_n > 0:
+        if tare_n >= fz.size:
+            raise ValueError(f"tare = {tare_s:g} s covers the whole recording")
+        t_fy, t_fz = float(np.mean(fy[:tare_n])), float(np.mean(fz[:tare_n]))
+        fy, fz = fy[tare_n:], fz[tare_n:]
+    elif tare is not None and not isinstance(tare, (int, float)):
+        raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+    return fy, fz, t_fy, t_fz
+
+
+def _motion(fy: np.ndarray, static: bool, motion: str) -> Dict[str, Any]:
+    """The share of fy's sign flips, their signal-to-noise ratio and the motion: ``motion`` as given, or with
+    "auto" reciprocating when fz has a static level and fy clearly takes both signs (docs/method.md 6c)."""
+    out: Dict[str, Any] = {}
     p95 = _order.percentile(np.abs(fy), 95) if fy.size else 0.0
     share = 0.0
     if p95 > 0:
