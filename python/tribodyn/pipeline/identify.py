@@ -17,7 +17,7 @@ from ..kernels._validate import (
     resolve_orientation,
     same_length,
 )
-from ..kernels.correlation import xcorr
+from ..kernels.correlation import XcorrResult, xcorr
 from ..kernels.deadband import parse_deadband
 from ..kernels.quantiles import Z975
 from ..kernels.estimators import T975, WEAK_INSTRUMENT, quadratic, slopes
@@ -157,16 +157,7 @@ def identify(
     s = resolve_orientation(o["orientation"], float(st["slope"][0]))
     o_st = orient(st, s)
 
-    correlations = skew = None
-    if o["max_lag"] is not None:
-        lag = check_int(o["max_lag"], "max_lag", minimum=0)
-        lag = min(lag, n - 1) if n >= 2 else 0
-        correlations = {"yz": xcorr(fy_a, fz_a, max_lag=lag, fs=fs_v, check_finite=False)}
-        if fx_a is not None:
-            correlations["xy"] = xcorr(fx_a, fy_a, max_lag=lag, fs=fs_v, check_finite=False)
-            correlations["xz"] = xcorr(fx_a, fz_a, max_lag=lag, fs=fs_v, check_finite=False)
-        c = correlations["yz"].c
-        skew = int(correlations["yz"].lags[int(np.nanargmax(np.abs(c)))]) if np.isfinite(c).any() else None
+    correlations, skew = _correlations(fx_a, fy_a, fz_a, fs_v, o["max_lag"])
     spectra = None
     rpm, n_lamellas = o["rpm"], o["n_lamellas"]
     if rpm is not None and n_lamellas is not None and n >= 8:
@@ -215,6 +206,24 @@ def identify(
         dmu_dfn=extra.get("dmu_dfn", float("nan")),
         dmu_dfn_stderr=extra.get("dmu_dfn_stderr", float("nan")),
     )
+
+
+def _correlations(fx: Optional[np.ndarray], fy: np.ndarray, fz: np.ndarray, fs: float, max_lag: Any
+                  ) -> Tuple[Optional[Dict[str, XcorrResult]], Optional[int]]:  # fmt: skip
+    """C_yz (and C_xy, C_xz with fx) for lags up to ``max_lag`` and the skew, the lag of max |C_yz|
+    (None, None without ``max_lag``; the skew None when no C_yz is finite)."""
+    if max_lag is None:
+        return None, None
+    n = fz.size
+    lag = check_int(max_lag, "max_lag", minimum=0)
+    lag = min(lag, n - 1) if n >= 2 else 0
+    correlations = {"yz": xcorr(fy, fz, max_lag=lag, fs=fs, check_finite=False)}
+    if fx is not None:
+        correlations["xy"] = xcorr(fx, fy, max_lag=lag, fs=fs, check_finite=False)
+        correlations["xz"] = xcorr(fx, fz, max_lag=lag, fs=fs, check_finite=False)
+    c = correlations["yz"].c
+    skew = int(correlations["yz"].lags[int(np.nanargmax(np.abs(c)))]) if np.isfinite(c).any() else None
+    return correlations, skew
 
 
 def _identify_options(fs: Any, plan: Any, options: Dict[str, Any]) -> Tuple[Any, Dict[str, Any]]:
