@@ -1382,17 +1382,43 @@ def conditions(
         fz += e_z
         noise_z_std = float(np.std(e_z[keep]))
 
+    channels = _cond_amplifier({"fx": fx, "fy": fy, "fz": fz}, fs, raw=raw, settled=min(pre, pad), keep=keep)
+    truth = _cond_truth(c, seed=seed, fs=fs, orientation=orientation, raw=raw, noise_z_std=noise_z_std, phi=phi,
+                        f_l=f_l)  # fmt: skip
+    return Simulation(
+        fs=float(fs),
+        channels=channels,
+        temperature_log=None,
+        area_mm2=None,
+        rpm=c.rpm,
+        n_lamellas=N_LAMELLAS,
+        orientation=int(orientation),
+        truth=truth,
+    )
+
+
+def _cond_amplifier(
+    forces: dict[str, np.ndarray], fs: float, *, raw: bool, settled: int, keep: slice
+) -> dict[str, np.ndarray]:
+    """The channels as recorded: each force through the amplifier's high-pass (started at the mean of its first
+    ``settled`` samples; none when ``raw``), cut to ``keep`` and quantised."""
     channels: dict[str, np.ndarray] = {}
     sos_hp = signal.butter(HP_ORDER, HP_CUTOFF_HZ, "highpass", fs=fs, output="sos")
     zi = signal.sosfilt_zi(sos_hp)
-    for name, x in (("fx", fx), ("fy", fy), ("fz", fz)):
+    for name, x in forces.items():
         if not raw:
-            static = float(np.mean(x[: min(pre, pad)]))
+            static = float(np.mean(x[:settled]))
             x = signal.sosfilt(sos_hp, x, zi=zi * static)[0]
         channels[name] = _quantise(x[keep], FULL_SCALE_N)
+    return channels
 
+
+def _cond_truth(
+    c: _Conditions, *, seed: int, fs: float, orientation: int, raw: bool, noise_z_std: float, phi: float, f_l: float
+) -> Truth:
+    """The truth of :func:`conditions`: the constant COF, the force dependence, the skew and every condition."""
     tg = _truth_grid(c.duration)
-    truth = Truth(
+    return Truth(
         t=tg,
         mu=np.full(tg.shape, c.mu),
         temperature=None,
@@ -1425,16 +1451,6 @@ def conditions(
             "drift_cutoff_hz": _COND_DRIFT_HZ,
             "rpm": c.rpm,
         },
-    )
-    return Simulation(
-        fs=float(fs),
-        channels=channels,
-        temperature_log=None,
-        area_mm2=None,
-        rpm=c.rpm,
-        n_lamellas=N_LAMELLAS,
-        orientation=int(orientation),
-        truth=truth,
     )
 
 
