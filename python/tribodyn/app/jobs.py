@@ -190,13 +190,6 @@ def _openblas_threads() -> List[Tuple[Any, Any]]:
     return found
 
 
-def _example_window(channels: Mapping[str, np.ndarray], fs: float, start: int, n: int) -> Dict[str, Any]:
-    ch = {k: np.asarray(v[start : start + n]) for k, v in channels.items() if k in ("fx", "fy", "fz")}
-    res = identify(ch["fy"], ch["fz"], fx=ch.get("fx"), fs=fs, max_lag=min(200, n - 1), rpm=250, n_lamellas=24,
-                   method="paper")  # fmt: skip
-    return {**ch, "fs": fs, "t0": start / fs, "result": res}
-
-
 def _write_set(out: OutputSet, prefix: str, res: Results, extra: Optional[Dict[str, Any]] = None) -> List[str]:
     names = [f"{prefix}windows.csv"]
     write_table_csv(res, out.path(names[0]), extra=extra)
