@@ -24,13 +24,21 @@ format         files                                     module
 ``delimited``  CSV/TSV/... text                          :mod:`tribodyn.io.delimited`
 ``cetr``       CETR UMT csv export (multi-step)          :mod:`tribodyn.io.delimited`
 ``compend``    COMPEND pin-on-disc tsv export            :mod:`tribodyn.io.delimited`
+``steps``      multi-step export (a header block a step)  :mod:`tribodyn.io.steps`
+``mat``        MATLAB MAT-file v4, v5/v7, v7.3 (HDF5)    :mod:`tribodyn.io.matlab`
+``spreadsheet``  Excel .xlsx/.xlsm/.xls, OpenDocument .ods  :mod:`tribodyn.io.spreadsheet`
 =============  ========================================  ===============================
 
 Detection: the content's signature decides for binary formats (TDMS
-``TDSm``, HDF5, ``\\x93NUMPY``, zip); a file with the extension of a binary
-format but not its signature is reported as corrupt. Text starting with
-``LabVIEW Measurement`` is LVM; other text is delimited (CETR and COMPEND
-recognised by their first lines).
+``TDSm``, a MAT-file's ``MATLAB 5.0``/``MATLAB 7.3`` header, HDF5,
+``\\x93NUMPY``, a zip's members: ``.npy`` members for npz, ``xl/workbook.xml``
+for an Excel workbook, an OpenDocument spreadsheet's ``mimetype``; an OLE2
+file for ``.xls``); a file with the extension of a binary format but other
+content is refused with the format its content has ("an Excel workbook", "a
+zip archive", "text"...). Text starting with ``LabVIEW Measurement`` is LVM;
+text with a ``Step N ... started at`` line is a multi-step export; other text
+is delimited (CETR and COMPEND recognised by their first lines). A version 4
+MAT-file has no signature: binary content under ``.mat`` is read as one.
 """
 
 from __future__ import annotations
@@ -69,8 +77,14 @@ __all__ = [
 ]
 
 #: Accepted values of ``format`` (besides ``"auto"``) and aliases.
-FORMATS = ("tdms", "lvm", "hdf5", "npy", "npz", "delimited", "cetr", "compend")
+FORMATS = ("tdms", "lvm", "hdf5", "npy", "npz", "delimited", "cetr", "compend", "steps", "mat", "spreadsheet")
 _ALIASES = {
+    "matlab": "mat",
+    "xlsx": "spreadsheet",
+    "xlsm": "spreadsheet",
+    "xls": "spreadsheet",
+    "ods": "spreadsheet",
+    "excel": "spreadsheet",
     "csv": "delimited",
     "tsv": "delimited",
     "text": "delimited",
@@ -94,27 +108,87 @@ _EXT = {
     ".dat": "delimited",
     ".asc": "delimited",
     ".tab": "delimited",
+    ".mat": "mat",
+    ".xlsx": "spreadsheet",
+    ".xlsm": "spreadsheet",
+    ".xls": "spreadsheet",
+    ".ods": "spreadsheet",
 }
-_BINARY = {"tdms", "hdf5", "npy", "npz"}
+_BINARY = {"tdms", "hdf5", "npy", "npz", "mat", "spreadsheet"}
 _HDF5_SIG = b"\x89HDF\r\n\x1a\n"
+_OLE2_SIG = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
+
+#: What each kind of content is, for messages (a zip's and an OLE2 file's are decided by :func:`_zip_kind`).
+_CONTENT_NAMES = {
+    "tdms": "a TDMS file",
+    "hdf5": "an HDF5 file",
+    "npy": "a NumPy .npy array",
+    "npz": "a NumPy .npz archive",
+    "mat": "a MATLAB MAT-file",
+    "spreadsheet": "a spreadsheet",
+    "lvm": "a LabVIEW Measurement text file",
+    "delimited": "text",
+    "steps": "a multi-step text export",
+}
 
 
 def _sniff(head: bytes) -> Optional[str]:
-    """Format from the first bytes, or None for unrecognised content."""
+    """Format from the first bytes (``zip`` and ``ole2`` for containers :func:`_zip_kind` looks into), or None
+    for unrecognised content."""
+    from .matlab import is_mat73, sniff_mat
+
     if head.startswith(b"TDSm"):
         return "tdms"
+    if is_mat73(head) or sniff_mat(head):
+        return "mat"
     if any(head[o : o + 8] == _HDF5_SIG for o in (0, 512, 1024, 2048)):
         return "hdf5"
     if head.startswith(b"\x93NUMPY"):
         return "npy"
     if head.startswith((b"PK\x03\x04", b"PK\x05\x06")):
-        return "npz"
+        return "zip"
+    if head.startswith(_OLE2_SIG):
+        return "ole2"
     text = head.lstrip(b"\xef\xbb\xbf")
     if text.startswith(b"LabVIEW Measurement"):
         return "lvm"
     from ._text import sniff_encoding  # UTF-8/16 (BOM or NUL pattern), CP932, CP1252; None: binary
 
-    return "delimited" if sniff_encoding(head) is not None else None
+    if sniff_encoding(head) is None:
+        return None
+    from .steps import sniff_steps
+
+    return "steps" if sniff_steps(text) else "delimited"
+
+
+def _zip_kind(p: str, kind: Optional[str]) -> Tuple[Optional[str], str]:
+    """(format, what the content is) of a sniffed kind: a zip is an npz, an Excel workbook, an OpenDocument
+    spreadsheet or another zip archive (format None); an OLE2 file is taken for an Excel 97-2003 workbook."""
+    if kind == "ole2":
+        return "spreadsheet", "an OLE2 compound file (an Excel 97-2003 workbook?)"
+    if kind != "zip":
+        return kind, _CONTENT_NAMES.get(kind or "", "binary content of no supported kind")
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(p) as z:
+            names = z.namelist()[:100_000]
+            mimetype = z.read("mimetype")[:100] if "mimetype" in names else b""
+    except (zipfile.BadZipFile, OSError, EOFError, KeyError, NotImplementedError, RuntimeError, ValueError):
+        return "npz", "a zip archive (unreadable)"  # the npz reader says what is wrong
+    if "xl/workbook.xml" in names or "xl/workbook.bin" in names:
+        return "spreadsheet", "an Excel workbook"
+    if mimetype.startswith(b"application/vnd.oasis.opendocument.spreadsheet"):
+        return "spreadsheet", "an OpenDocument spreadsheet"
+    if mimetype.startswith(b"application/vnd.oasis.opendocument"):
+        return None, "an OpenDocument document (not a spreadsheet)"
+    if "word/document.xml" in names:
+        return None, "a Word document"
+    if "ppt/presentation.xml" in names:
+        return None, "a PowerPoint presentation"
+    if any(n.endswith(".npy") for n in names) or not names:
+        return "npz", _CONTENT_NAMES["npz"]
+    return None, "a zip archive (no .npy member)"
 
 
 def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
@@ -128,16 +202,19 @@ def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
     """
     p = os.fspath(path)
     head = _read_head(p)
-    by_ext = _EXT.get(os.path.splitext(p)[1].lower())
-    by_content = _sniff(head)
+    ext = os.path.splitext(p)[1].lower()
+    by_ext = _EXT.get(ext)
+    by_content, what = _zip_kind(p, _sniff(head))
+    if by_ext == "mat" and by_content is None and what.startswith("binary"):
+        return "mat"  # a version 4 MAT-file has no signature: scipy.io tells whether it is one
     if by_ext in _BINARY and by_content != by_ext:
+        shown = ext if by_ext in ("mat", "spreadsheet") else by_ext
         raise RecordingError(
-            f"{p}: not a valid {by_ext} file (its first bytes are not a {by_ext} signature: corrupt or mislabelled)"
+            f"{p}: not a valid {shown} file: its content is {what} (corrupt or mislabelled)"
+            + (f"; read it with --format {by_content}" if by_content is not None and by_content != "delimited" else "")
         )
     if by_content is None:
-        raise RecordingError(
-            f"{p}: unknown format (binary content of no supported kind); supported: " + ", ".join(FORMATS)
-        )
+        raise RecordingError(f"{p}: unknown format ({what}); supported: " + ", ".join(FORMATS))
     if by_ext == "lvm" and by_content != "lvm":
         raise RecordingError(f"{p}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)")
     return by_content
@@ -192,7 +269,9 @@ def open_recording(
         ``units`` (role/channel -> unit string, for display), and per
         format: ``group`` (tdms, hdf5), ``layout``, ``names``,
         ``time_channel`` (npy/npz), ``delimiter``, ``decimal``,
-        ``encoding``, ``time_column`` (text), ``encoding`` (lvm).
+        ``encoding``, ``time_column`` (text), ``encoding`` (lvm),
+        ``sheet`` (spreadsheet: a sheet's name), ``time_column`` and
+        ``resample`` (text, spreadsheet, mat, steps).
 
     Returns
     -------
@@ -279,6 +358,18 @@ def _backend(fmt: str) -> Any:
         from .numpy_files import NpzRecording
 
         return NpzRecording, None
+    if fmt == "mat":
+        from .matlab import MatRecording
+
+        return MatRecording, None
+    if fmt == "spreadsheet":
+        from .spreadsheet import SpreadsheetRecording
+
+        return SpreadsheetRecording, None
+    if fmt == "steps":
+        from .steps import StepsRecording
+
+        return StepsRecording, None
     from .delimited import DelimitedRecording
 
     return DelimitedRecording, (None if fmt == "delimited" else fmt)
