@@ -428,6 +428,8 @@ def _load_config(path: str) -> Dict[str, Any]:
         raise UserError(f"config file {p.name} is not valid TOML: {exc}") from None
     except UnicodeDecodeError:
         raise UserError(f"config file {p.name} is not valid TOML: not UTF-8 text") from None
+    except RecursionError:  # issue 34: arrays or tables nested hundreds deep
+        raise UserError(f"config file {p.name}: values nested too deeply (no option takes nested values)") from None
     unknown = sorted(k for k in raw if k.replace("-", "_") not in _CONFIG_KEYS)
     if unknown:
         raise UserError(f"config file {p.name}: unknown option(s) {', '.join(unknown)}")

@@ -459,6 +459,12 @@ class DelimitedRecording(TextRecording):
         if is_wide(enc):
             self._transcode(enc)  # UTF-16/32: read from a UTF-8 copy (byte offsets of ASCII rows)
             enc = "utf-8"
+        bare = _bare_crs(self._data_path)
+        if bare:  # a CR without LF ends a line (old Mac line ends; pandas reads it so): read from a copy
+            self._split_bare_crs()
+            self.warnings.append(
+                f"{bare} bare carriage return(s) (CR without LF) read as line ends; line numbers count them"
+            )
         self._source_encoding = encoding or self._sniffed
         head_raw = self._read_head()
         self._encoding = enc
@@ -539,6 +545,29 @@ class DelimitedRecording(TextRecording):
             self._close()
             raise RecordingError(f"{self.path}: not valid {enc} text ({exc.reason} at byte {exc.start})") from None
         self._data_path = tmp
+
+    def _split_bare_crs(self) -> None:
+        """Copies the data into a private temporary file with every bare CR made an LF; reads that instead."""
+        import tempfile
+
+        fd, tmp = tempfile.mkstemp(prefix="tribodyn-", suffix=".txt")
+        try:
+            with open(self._data_path, "rb") as src, os.fdopen(fd, "wb") as dst:
+                carry = b""
+                while True:
+                    block = src.read(_CR_BLOCK)
+                    data = carry + block
+                    carry = data[-1:] if block and data.endswith(b"\r") else b""
+                    if carry:
+                        data = data[:-1]
+                    dst.write(_BARE_CR.sub(b"\n", data))
+                    if not block:
+                        break
+        except OSError as exc:
+            os.unlink(tmp)
+            raise RecordingError(f"{self.path}: cannot copy to split its bare CRs: {exc}") from None
+        self._close()  # a UTF-8 copy of a UTF-16 file, if any, is replaced
+        self._tmp = self._data_path = tmp
 
     def _close(self) -> None:
         if self._tmp is not None:
@@ -1146,6 +1175,15 @@ class DelimitedRecording(TextRecording):
         pos = 0
         factor = getattr(self, "_time_factor", 1.0)
         raw = {n: np.concatenate([b[n] for b in self._iter_blocks(names, 1 << 16)]) for n in names}
+        from .tables import check_resample_size  # the resampled size bounded before anything is allocated
+
+        total = 0
+        for a, b in self._segments:
+            t = raw[self._time_name][a:b] * factor
+            t = t[np.isfinite(t)]
+            if t.size >= 2:
+                total += check_resample_size(self.path, hz, float(t.max() - t.min()), len(names), self._n)
+        check_resample_size(self.path, hz, (total - 1) / hz, len(names), self._n)
         for a, b in self._segments:
             t = raw[self._time_name][a:b] * factor
             ok = np.isfinite(t)
@@ -1204,6 +1242,27 @@ class DelimitedRecording(TextRecording):
                         lines, nos, self._delim, self._decimal, usecols=usecols, colnames=list(names), path=self.path
                     )
                     yield {nm: a[:, c] for c, nm in enumerate(names)}
+
+
+_CR_BLOCK = 1 << 24
+_BARE_CR = re.compile(rb"\r(?!\n)")
+
+
+def _bare_crs(path: str) -> int:
+    """How many CRs of the file are not followed by an LF (two counts a 16 MiB block: no regex pass over
+    files without them)."""
+    bare = 0
+    prev_cr = False
+    with open(path, "rb") as fh:
+        while True:
+            block = fh.read(_CR_BLOCK)
+            if not block:
+                break
+            if prev_cr and block[:1] == b"\n":
+                bare -= 1  # the CR ending the previous block was a CRLF
+            bare += block.count(b"\r") - block.count(b"\r\n")
+            prev_cr = block.endswith(b"\r")
+    return bare
 
 
 def _num(s: str, decimal: str) -> float:
