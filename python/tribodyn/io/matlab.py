@@ -19,7 +19,6 @@ The file is read whole (MAT-files are compressed or laid out by variable, not by
 
 from __future__ import annotations
 
-import os
 from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
@@ -228,15 +227,3 @@ def _h5_value(path: str, obj: Any, depth: int) -> Any:
 def sniff_mat(head: bytes) -> bool:
     """True when the first bytes are a MAT-file 5/7 header (116 bytes of text starting with ``MATLAB``)."""
     return head.startswith(b"MATLAB 5.0 MAT-file") or (head.startswith(b"MATLAB") and head[124:126] == b"\x00\x01")
-
-
-def mat_version_hint(path: str) -> str:
-    """For messages: 'a MAT-file' with its version when the header says it."""
-    try:
-        with open(os.fspath(path), "rb") as fh:
-            head = fh.read(128)
-    except OSError:
-        return "a MAT-file"
-    if is_mat73(head):
-        return "a MATLAB 7.3 MAT-file (HDF5)"
-    return "a MATLAB MAT-file" if sniff_mat(head) else "a MAT-file"

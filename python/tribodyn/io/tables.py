@@ -49,7 +49,7 @@ def check_resample_size(path: str, hz: float, duration: float, n_channels: int, 
         raise RecordingError(
             f"{path}: resample={hz:g} Hz would make {samples:.3g} samples per channel from {rows} rows "
             f"({need / 2**30:.3g} GiB for {n_channels} channel(s), at most {MAX_RESAMPLED_BYTES / 2**30:g} GiB): "
-            f"choose a rate near the file's own (about {native:.3g} Hz)"
+            f"choose a rate near the file's own (about {native:.4g} Hz)"
         )
     return samples
 
@@ -71,14 +71,14 @@ def find_time_column(names: Sequence[str]) -> Optional[str]:
 
 def _time_unit(name: str, unit: Optional[str]) -> Optional[str]:
     """The time column's unit: the file's, else the one written in its name (``Time (ms)``)."""
-    from .delimited import _time_name
+    from .delimited import _time_name, _unit_from_name
 
     u = normalize_unit(unit)
     if u is None:
         hit = _time_name(name)
         u = hit[1] if hit is not None else None
-        if u is None and name.rstrip().endswith(")") and "(" in name:
-            u = normalize_unit(name[name.rindex("(") :])
+        if u is None:
+            u = _unit_from_name(name)  # 'Step Time (s)'; not 'data(:,1)'
     return u
 
 
@@ -155,7 +155,7 @@ class TableRecording(Recording):
         if f is None:
             raise RecordingError(f"{self.path}: time column {name!r} has no increasing steps")
         d = np.diff(t)
-        cuts = set(np.flatnonzero((d <= 0) | (d > GAP_FACTOR / f)) + 1)
+        cuts = {int(c) + 1 for c in np.flatnonzero((d <= 0) | (d > GAP_FACTOR / f))}
         bounds = sorted({a for a, _ in self._segments} | {b for _, b in self._segments} | cuts)
         self._segments = [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
         steps = np.concatenate([np.diff(t[a:b]) for a, b in self._segments])
