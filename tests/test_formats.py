@@ -275,6 +275,19 @@ def test_content_is_named_in_the_error(tmp_path, capsys, source, name, message):
     assert message in line and "no 1-D numeric member" not in line
 
 
+@pytest.mark.parametrize(
+    "source, fmt, message",
+    [
+        (XLSX, "mat", "not a readable MAT-file (its content is an Excel workbook)"),
+        (MAT5, "spreadsheet", "not a readable spreadsheet (its content is a MATLAB MAT-file)"),
+        (STEPS, "xlsx", "not a readable spreadsheet (its content is a multi-step text export)"),
+    ],
+)
+def test_a_format_forced_on_other_content_names_the_content(tmp_path, source, fmt, message):
+    with pytest.raises(RecordingError, match=re.escape(message)):
+        open_recording(source, format=fmt)
+
+
 def test_an_excel_workbook_read_as_npz_says_so(tmp_path):
     p = tmp_path / "x.npz"
     p.write_bytes(XLSX.read_bytes())

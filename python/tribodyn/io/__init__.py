@@ -191,6 +191,16 @@ def _zip_kind(p: str, kind: Optional[str]) -> Tuple[Optional[str], str]:
     return None, "a zip archive (no .npy member)"
 
 
+def describe_content(path: str) -> str:
+    """What a file's content is, for messages ("an Excel workbook", "text", "a MATLAB MAT-file"...)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return "unreadable"
+    return _zip_kind(path, _sniff(head))[1] if head else "empty"
+
+
 def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
     """Format name of a file (see the module docstring for the rules).
 

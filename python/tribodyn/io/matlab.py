@@ -170,8 +170,16 @@ def _read_v45(path: str, found: _Collector) -> None:
     except NotImplementedError as exc:  # "Please use HDF reader for matlab v7.3 files"
         raise RecordingError(f"{path}: cannot read this MAT-file: {exc}") from None
     except (ValueError, TypeError, OSError, EOFError, MemoryError, OverflowError, IndexError, KeyError) as exc:
+        from . import describe_content
+
         msg = " ".join(str(exc).split())[:200] or type(exc).__name__
-        raise RecordingError(f"{path}: not a readable MAT-file (corrupt or truncated?): {msg}") from None
+        what = describe_content(path)
+        hint = (
+            "corrupt or truncated?"
+            if what in ("a MATLAB MAT-file", "binary content of no supported kind")
+            else (f"its content is {what}")
+        )
+        raise RecordingError(f"{path}: not a readable MAT-file ({hint}): {msg}") from None
     for name, value in data.items():
         if not name.startswith("__"):
             found.add(name, value)

@@ -170,10 +170,16 @@ class SpreadsheetRecording(TableRecording):
             with open(self.path, "rb") as fh:  # from the content, not the extension (an .ods named .xlsx)
                 wb = pc.CalamineWorkbook.from_filelike(fh)
         except Exception as exc:  # noqa: BLE001 - calamine raises its own errors (zip, XML, password, CFB)
+            from . import describe_content
+
             msg = " ".join(str(exc).split())[:200] or type(exc).__name__
-            raise RecordingError(
-                f"{self.path}: not a readable spreadsheet (corrupt, encrypted or truncated?): {msg}"
-            ) from None
+            what = describe_content(self.path)
+            hint = (
+                f"its content is {what}"
+                if "spreadsheet" not in what and "workbook" not in what
+                else ("corrupt, encrypted or truncated?")
+            )
+            raise RecordingError(f"{self.path}: not a readable spreadsheet ({hint}): {msg}") from None
         try:
             names = list(wb.sheet_names)
             if sheet is not None:
