@@ -39,6 +39,12 @@ zip archive", "text"...). Text starting with ``LabVIEW Measurement`` is LVM;
 text with a ``Step N ... started at`` line is a multi-step export; other text
 is delimited (CETR and COMPEND recognised by their first lines). A version 4
 MAT-file has no signature: binary content under ``.mat`` is read as one.
+
+Other packages add formats through the entry-point group ``tribodyn.readers``
+(:mod:`tribodyn.io.plugins`): a file of an extension tribodyn does not know
+whose content no built-in signature recognises, or that is plain text, is
+offered to them (``.csv``, ``.txt``... stay delimited text unless
+``format=`` names the plugin's format).
 """
 
 from __future__ import annotations
@@ -223,8 +229,17 @@ def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
             f"{p}: not a valid {shown} file: its content is {what} (corrupt or mislabelled)"
             + (f"; read it with --format {by_content}" if by_content is not None and by_content != "delimited" else "")
         )
+    if by_ext is None and by_content in (None, "delimited"):
+        from .plugins import find_plugin, plugin_errors
+
+        plugin = find_plugin(p, head)  # formats added by other packages (entry points tribodyn.readers)
+        if plugin is not None:
+            return plugin
+        if by_content is None:
+            unused = "".join(f"; {e}" for e in plugin_errors().values())
+            raise RecordingError(f"{p}: unknown format ({what}); supported: {', '.join(_all_formats())}{unused}")
     if by_content is None:
-        raise RecordingError(f"{p}: unknown format ({what}); supported: " + ", ".join(FORMATS))
+        raise RecordingError(f"{p}: unknown format ({what}); supported: " + ", ".join(_all_formats()))
     if by_ext == "lvm" and by_content != "lvm":
         raise RecordingError(f"{p}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)")
     return by_content
@@ -263,7 +278,8 @@ def open_recording(
     path : str or PathLike
         The file.
     format : str
-        ``"auto"`` (default) or one of :data:`FORMATS` (aliases ``csv``,
+        ``"auto"`` (default), one of :data:`FORMATS` or of a reader plugin
+        (:mod:`tribodyn.io.plugins`) (aliases ``csv``,
         ``tsv``, ``txt`` -> delimited, ``pod`` -> compend, ``h5`` -> hdf5).
     channels : mapping, optional
         Role -> file channel name (roles ``fx``, ``fy``, ``fz``, ``i``,
@@ -306,8 +322,11 @@ def open_recording(
     fmt = _ALIASES.get(format, format)
     if fmt == "auto":
         fmt = detect_format(p)
-    elif fmt not in FORMATS:
-        raise RecordingError(f"unknown format {format!r}; use 'auto' or one of {', '.join(FORMATS)}")
+    elif fmt not in _all_formats():
+        from .plugins import plugin_errors
+
+        why = "".join(f"; {e}" for e in plugin_errors().values() if repr(fmt) in e or fmt in e.split("'"))
+        raise RecordingError(f"unknown format {format!r}; use 'auto' or one of {', '.join(_all_formats())}{why}")
     else:
         _read_head(p)  # missing / empty / directory checks
     cls, vendor = _backend(fmt)
@@ -347,7 +366,18 @@ def _check_mapping(value: Any, name: str, kinds: Tuple[type, ...], what: str) ->
             raise TypeError(f"{name}[{key!r}] must be {what}, got {type(v).__name__} {v!r}")
 
 
+def _all_formats() -> Tuple[str, ...]:
+    """tribodyn's formats and those of the reader plugins installed (:mod:`tribodyn.io.plugins`)."""
+    from .plugins import plugins
+
+    return FORMATS + tuple(sorted(plugins()))
+
+
 def _backend(fmt: str) -> Any:
+    if fmt not in FORMATS:
+        from .plugins import plugins
+
+        return plugins()[fmt], None
     if fmt == "tdms":
         from .tdms import TdmsRecording
 

@@ -148,7 +148,7 @@ class MatRecording(TableRecording):
         short = [k.rsplit(".", 1)[-1] for k in names]
         by_short = {s: k for s, k in zip(short, names) if short.count(s) == 1}
         roles = {r: by_short[s] for r, s in roles_by_name(list(by_short)).items()}
-        self._open_table(
+        self.open_table(
             cols,
             {k: None for k in names},
             channels=channels,

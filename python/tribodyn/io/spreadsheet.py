@@ -152,7 +152,7 @@ class SpreadsheetRecording(TableRecording):
         if text_columns:
             self.metadata["text_columns"] = text_columns
         self.metadata["rows"] = [start + 1, end]  # 1-based first and last data row in the sheet
-        self._open_table(
+        self.open_table(
             columns,
             col_units,
             channels=channels,

@@ -178,7 +178,7 @@ class StepsRecording(TableRecording):
         step_name = "step" if "step" not in cols else "step number"
         cols[step_name] = np.concatenate([np.full(len(s.rows), float(s.number)) for s in tests])
         units_of[step_name] = None
-        self._open_table(
+        self.open_table(
             cols,
             units_of,
             channels=channels,

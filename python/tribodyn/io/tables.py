@@ -94,7 +94,7 @@ class TableRecording(Recording):
         super().__init__(path)
         self._table: Dict[str, np.ndarray] = {}
 
-    def _open_table(
+    def open_table(
         self,
         columns: Mapping[str, np.ndarray],
         units: Mapping[str, Optional[str]],
@@ -109,7 +109,27 @@ class TableRecording(Recording):
         file_fs: Optional[Tuple[float, str]] = None,
         default_roles: Optional[Mapping[str, str]] = None,
     ) -> None:
-        """Finishes opening from the columns read (equal lengths, float64) and their units as written."""
+        """Finishes opening from the columns read: the public step of a reader (or a reader plugin) built on it.
+
+        Parameters
+        ----------
+        columns : mapping
+            Channel name -> 1-D array, all of one length, in file order.
+        units : mapping
+            Channel name -> unit as written in the file (None: none), converted to SI here.
+        channels, fs, scale, given_units
+            What :func:`~tribodyn.io.open_recording` was given (``channels``, ``fs``, ``scale``,
+            ``units``), passed on as they came.
+        time_column, resample
+            The reading options of that name (None: the time column is found by name).
+        segments : list of (int, int), optional
+            Separate acquisitions the file holds (steps), windowed apart.
+        file_fs : (float, str), optional
+            A rate the file states and where (``(1000.0, "header 'Rate'")``); else from the time column.
+        default_roles : mapping, optional
+            Role -> channel of the format's own default map; else by name
+            (:func:`~tribodyn.io.base.roles_by_name`).
+        """
         self._names = list(columns)
         if not self._names:
             raise RecordingError(f"{self.path}: no numeric column in this {self.format} file")
