@@ -300,6 +300,21 @@ def test_an_excel_workbook_read_as_npz_says_so(tmp_path):
         open_recording(z)
 
 
+def test_an_ole2_file_is_taken_for_an_excel_97_workbook(tmp_path):
+    ole2 = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(504)
+    p = tmp_path / "old.xls"
+    p.write_bytes(ole2)
+    assert detect_format(p) == "spreadsheet"
+    with pytest.raises(
+        RecordingError, match=r"old.xls: not a readable spreadsheet \(corrupt, encrypted or truncated\?\)"
+    ):
+        open_recording(p)
+    q = tmp_path / "old.npz"
+    q.write_bytes(ole2)
+    with pytest.raises(RecordingError, match=r"its content is an OLE2 compound file \(an Excel 97-2003 workbook\?\)"):
+        open_recording(q)
+
+
 def test_a_workbook_named_as_another_spreadsheet_is_read_by_content(tmp_path):
     p = tmp_path / "really_ods.xlsx"
     p.write_bytes(ODS.read_bytes())
