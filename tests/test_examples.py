@@ -9,7 +9,6 @@ import sys
 import time
 from pathlib import Path
 
-
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SCRIPTS = sorted(EXAMPLES.glob("*.py"))
 #: Seconds for all the examples together (they run side by side).

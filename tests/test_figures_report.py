@@ -1,4 +1,4 @@
-"""Tests of the figures (tribodyn.figures) and the HTML report (tribodyn.report).
+"""Tests of the figures (tribodyn.app.figures) and the HTML report (tribodyn.app.report).
 
 Figures are checked through their artists (axes, labels, lines, patches),
 not pixels; the report through its text (embedded images, numbers, no
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 import tribodyn
 from matplotlib.figure import Figure
-from tribodyn import figures as F
-from tribodyn import report as R
 from tribodyn import simulate
+from tribodyn.app import figures as F
+from tribodyn.app import report as R
 
 IMG = '<img src="data:image/png;base64,'
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -511,7 +511,7 @@ def test_a_rendering_child_that_hangs_is_killed_and_its_share_drawn_here(monkeyp
     """The CLI never hangs on its rendering child (figures.Rendering): past the timeout it is killed."""
     import time
 
-    from tribodyn import figures
+    from tribodyn.app import figures
 
     monkeypatch.setattr(figures, "_CHILD_TIMEOUT", 0.5)
     r, w = os.pipe()
@@ -533,8 +533,7 @@ def test_rendering_runs_also_once_in_the_child_or_here(monkeypatch, fork):
     """figures.Rendering(also=...): the child's extra work comes back with its figures; without a child (or
     when it fails) it is done here; the PNG bytes are those drawn here either way."""
     from matplotlib.figure import Figure
-
-    from tribodyn import figures
+    from tribodyn.app import figures
 
     def fig(k):
         f = Figure(figsize=(2, 2))
@@ -564,7 +563,7 @@ def test_rendering_runs_also_once_in_the_child_or_here(monkeypatch, fork):
 def test_fig11_shows_log_gap_windows_apart_and_no_solid_fit_without_windows(temp_res):
     """Windows whose T is interpolated across a log gap are left out of the operating range's fit; the figure
     draws them apart (hollow, "not fitted") and draws a fit solid only near the windows it used."""
-    from tribodyn import figures as F
+    from tribodyn.app import figures as F
 
     table = temp_res.table
     gap = np.asarray(table["T_gap"], dtype=bool) & np.asarray(table["ok"], dtype=bool)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tribodyn.cli import main
+from tribodyn.app.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "formats"

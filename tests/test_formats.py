@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import scipy.io
 
-from tribodyn import cli
+from tribodyn.app import cli
 from tribodyn.io import RecordingError, detect_format, open_recording
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)

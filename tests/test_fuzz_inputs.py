@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tribodyn import cli
+from tribodyn.app import cli
 from tribodyn.io import RecordingError, _h5attrs, open_recording
 from tribodyn.io.writers import save_npz
 

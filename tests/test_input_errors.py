@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import tribodyn as td
 from tribodyn import _core
-from tribodyn import reference as ref
+from tribodyn.kernels import reference as ref
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 

@@ -19,10 +19,9 @@ from unittest import mock
 
 import numpy as np
 import pytest
+import tribodyn as td
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-import tribodyn as td
 from tribodyn import _core, simulate
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.writers import save_hdf5, save_npz

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import cli, simulate
+from tribodyn import simulate
+from tribodyn.app import cli
 from tribodyn.options import OPTIONS, defaults, markdown_table, option
 
 pytestmark = pytest.mark.fast
@@ -82,7 +82,7 @@ def test_make_plan_takes_the_declared_defaults() -> None:
 def test_every_option_has_its_check_or_a_joint_one() -> None:
     """Issue 22 point 1: an option declares the rule that checks it alone (plan.CHECKS), or plan.JOINT says where
     it is checked with the options it depends on; never both, never neither, so no option comes without a check."""
-    from tribodyn.plan import CHECKS, JOINT
+    from tribodyn.pipeline.plan import CHECKS, JOINT
 
     names = {o.name for o in OPTIONS}
     assert set(JOINT) <= names, sorted(set(JOINT) - names)
@@ -103,7 +103,7 @@ BAD = {
 
 @pytest.mark.parametrize("name", sorted(BAD))
 def test_make_plan_applies_each_declared_check(name: str) -> None:
-    from tribodyn.plan import checked
+    from tribodyn.pipeline.plan import checked
 
     assert option(name).check, name
     options = {name: BAD[name], "shunt_ohm": 1.0} if name == "voltage" else {name: BAD[name]}

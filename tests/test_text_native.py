@@ -18,7 +18,6 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import pytest
-
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.delimited import DelimitedRecording
 from tribodyn.io.lvm import LvmRecording
@@ -210,7 +209,7 @@ def test_native_lvm_equals_python(tmp_path: Path) -> None:
 
 
 def test_thread_count_does_not_change_the_result(tmp_path: Path) -> None:
-    from tribodyn import threads
+    from tribodyn.kernels import threads
 
     rng = np.random.default_rng(5)
     p = tmp_path / "big.csv"

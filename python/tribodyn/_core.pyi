@@ -200,7 +200,7 @@ def windows_stats(
     Beyond the paper (docs/method.md 3a-3e), from the spec's options:
     ``ext`` (float64, (windows, 5, 16)), the block sums of the estimators
     with the instrument fz lagged by ``lag`` samples
-    (``tribodyn.estimators.PRODUCTS``); ``spec`` (float64, (windows,
+    (``tribodyn.kernels.estimators.PRODUCTS``); ``spec`` (float64, (windows,
     len(lines), 4)), the cross-spectra at ``lines`` (cycles per sample)
     averaged over ``segments``; ``delay`` advances fz by that many samples
     in every window first (a fractional-delay filter; the windows lose 16

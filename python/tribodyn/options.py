@@ -2,14 +2,14 @@
 
 Each :class:`Option` carries its default, unit, command-line flag, ``--config``
 key, the docs/method.md section that defines it and a one-line meaning.
-From this table come the defaults :func:`tribodyn.plan.make_plan` applies,
-the command line's flags and ``--config`` keys (``tribodyn.cli``), the
+From this table come the defaults :func:`tribodyn.pipeline.plan.make_plan` applies,
+the command line's flags and ``--config`` keys (``tribodyn.app.cli``), the
 report's units and the README's option list; ``analyze``'s signature and
 docstring, ``Plan``'s fields and ``Results.params`` are checked against it
 (``tests/test_options.py``). Each option names its check (``check``): a rule
-of :data:`tribodyn.plan.CHECKS` that :func:`tribodyn.plan.make_plan` applies
+of :data:`tribodyn.pipeline.plan.CHECKS` that :func:`tribodyn.pipeline.plan.make_plan` applies
 to its value alone, or "" for the few whose validity depends on other
-options, which ``make_plan`` checks together (:data:`tribodyn.plan.JOINT`
+options, which ``make_plan`` checks together (:data:`tribodyn.pipeline.plan.JOINT`
 says where). A new option is one entry here, its rule (or its joint check)
 and its use.
 
@@ -58,16 +58,16 @@ class Option:
         The ``--config`` key (the flag without dashes), None when it has none.
     cli_type : str
         How the command line parses it: "float", "int", "text", "choice",
-        or a parser of ``tribodyn.cli`` ("orientation", "deadband", "gate",
+        or a parser of ``tribodyn.app.cli`` ("orientation", "deadband", "gate",
         "pair", "tare", "log"), or "" (set by the command line itself).
     choices : tuple of str
         The values a "choice" takes.
     config_type : str
         What a ``--config`` value must be, in words.
     check : str
-        The rule of :data:`tribodyn.plan.CHECKS` that checks (and converts)
-        the value on its own; "" when :func:`tribodyn.plan.make_plan` checks
-        it together with other options (:data:`tribodyn.plan.JOINT`).
+        The rule of :data:`tribodyn.pipeline.plan.CHECKS` that checks (and converts)
+        the value on its own; "" when :func:`tribodyn.pipeline.plan.make_plan` checks
+        it together with other options (:data:`tribodyn.pipeline.plan.JOINT`).
     """
 
     name: str

@@ -600,7 +600,7 @@ def native_scan(
 ) -> Dict[str, Any]:
     """The run of data rows from byte ``start`` (see ``tribodyn._core.text_scan``)."""
     from .. import _core
-    from ..threads import read_threads
+    from ..kernels.threads import read_threads
 
     try:
         out: Dict[str, Any] = _core.text_scan(
@@ -670,7 +670,7 @@ def native_parse(
     Errors are those of :func:`parse_rows` and :func:`iter_data_lines`, worded the same.
     """
     from .. import _core
-    from ..threads import read_threads
+    from ..kernels.threads import read_threads
 
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
     try:

@@ -1,0 +1,3 @@
+"""The command line and what it writes: jobs, tables, summary.json, figures and the report
+(docs/architecture.md). The top layer: nothing in the package imports it.
+"""
