@@ -1175,7 +1175,7 @@ class DelimitedRecording(TextRecording):
         pos = 0
         factor = getattr(self, "_time_factor", 1.0)
         raw = {n: np.concatenate([b[n] for b in self._iter_blocks(names, 1 << 16)]) for n in names}
-        from .tables import check_resample_size  # the resampled size bounded before anything is allocated
+        from ._resample import check_resample_size  # the resampled size bounded before anything is allocated
 
         total = 0
         for a, b in self._segments:

@@ -24,22 +24,16 @@ from typing import Any, Dict, List, Mapping, Optional, Tuple
 import numpy as np
 
 from .base import RecordingError, equal_length_selection, rate_from_step, roles_by_name
+from .detect import MAT73_HEADER, describe_content, is_mat73, sniff_mat
 from .tables import TableRecording
 
-__all__ = ["MAT73_HEADER", "MatRecording", "is_mat73"]
+__all__ = ["MAT73_HEADER", "MatRecording", "is_mat73", "sniff_mat"]
 
-#: The text a version 7.3 MAT-file starts with (its HDF5 data follow at byte 512).
-MAT73_HEADER = b"MATLAB 7.3 MAT-file"
 #: Columns (or rows) of a matrix read as channels at most.
 _MAX_MATRIX_CHANNELS = 64
 #: Variables and struct fields looked at, at most (a file of millions of tiny variables is refused).
 _MAX_VARIABLES = 10_000
 _RATE_NAMES = {"fs": "Hz", "sampling_rate": "Hz", "samplingrate": "Hz", "srate": "Hz", "dt": "s"}
-
-
-def is_mat73(head: bytes) -> bool:
-    """True when the first bytes are a MATLAB 7.3 header (the file is HDF5 from byte 512)."""
-    return head.startswith(MAT73_HEADER)
 
 
 class _Collector:
@@ -170,8 +164,6 @@ def _read_v45(path: str, found: _Collector) -> None:
     except NotImplementedError as exc:  # "Please use HDF reader for matlab v7.3 files"
         raise RecordingError(f"{path}: cannot read this MAT-file: {exc}") from None
     except (ValueError, TypeError, OSError, EOFError, MemoryError, OverflowError, IndexError, KeyError) as exc:
-        from . import describe_content
-
         msg = " ".join(str(exc).split())[:200] or type(exc).__name__
         what = describe_content(path)
         hint = (
@@ -230,8 +222,3 @@ def _h5_value(path: str, obj: Any, depth: int) -> Any:
     except (OSError, ValueError) as exc:
         raise RecordingError(f"{path}: cannot read variable {obj.name.lstrip('/')!r}: {exc}") from None
     return np.asarray(a).T  # HDF5 holds MATLAB's column-major arrays transposed
-
-
-def sniff_mat(head: bytes) -> bool:
-    """True when the first bytes are a MAT-file 5/7 header (116 bytes of text starting with ``MATLAB``)."""
-    return head.startswith(b"MATLAB 5.0 MAT-file") or (head.startswith(b"MATLAB") and head[124:126] == b"\x00\x01")

@@ -454,7 +454,7 @@ class NpzRecording(Recording):
             else:
                 skipped.append(key)
         if not members:
-            from . import _zip_kind
+            from .detect import _zip_kind
 
             fmt, what = _zip_kind(self.path, "zip")
             if fmt != "npz":

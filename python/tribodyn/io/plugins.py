@@ -75,7 +75,7 @@ def _check(ep: Any, obj: Any, builtin: Tuple[str, ...]) -> str:
 
 
 def _load() -> Tuple[Dict[str, Any], Dict[str, str]]:
-    from . import FORMATS
+    from .detect import FORMATS
 
     found: Dict[str, Any] = {}
     errors: Dict[str, str] = {}

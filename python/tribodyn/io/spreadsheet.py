@@ -25,6 +25,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .base import RecordingError
+from .detect import describe_content
 from .tables import TableRecording, numeric_column
 from .units import is_known_unit, normalize_unit
 
@@ -170,8 +171,6 @@ class SpreadsheetRecording(TableRecording):
             with open(self.path, "rb") as fh:  # from the content, not the extension (an .ods named .xlsx)
                 wb = pc.CalamineWorkbook.from_filelike(fh)
         except Exception as exc:  # noqa: BLE001 - calamine raises its own errors (zip, XML, password, CFB)
-            from . import describe_content
-
             msg = " ".join(str(exc).split())[:200] or type(exc).__name__
             what = describe_content(self.path)
             hint = (

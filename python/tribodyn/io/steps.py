@@ -35,13 +35,12 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .base import RecordingError, base_name
+from .detect import STEP_LINE, sniff_steps
 from .tables import TableRecording, find_time_column
 from .units import is_known_unit, normalize_unit
 
 __all__ = ["StepsRecording", "sniff_steps"]
 
-#: A line opening a step: ``Step 3 started at ...`` (any words between the number and "started at").
-STEP_LINE = re.compile(r"^\s*step\s+(\d+)\b(.*?)\bstarted\s+at\b(.*)$", re.IGNORECASE)
 #: Words of a step's lines that make it a non-test step (kept apart).
 _NON_TEST = re.compile(r"\bmapper\b|\b3d\s*map\b|\bspacer\s+layer\b", re.IGNORECASE)
 #: Largest export read (bytes): these files are small; a larger one is not this layout.
@@ -52,12 +51,6 @@ _ROLES: Dict[str, Tuple[str, ...]] = {
     "fz": ("ball load", "pin load", "normal load", "normal force", "load"),
     "cof": ("traction coeff", "traction coefficient", "friction coefficient", "friction coeff", "cof", "mu"),
 }
-
-
-def sniff_steps(head: bytes) -> bool:
-    """True when a line of the first bytes opens a step (``Step N ... started at``)."""
-    text = head.decode("latin-1")
-    return any(STEP_LINE.match(ln) for ln in text.splitlines()[:200])
 
 
 def _split(line: str, delim: str) -> List[str]:
