@@ -459,14 +459,11 @@ class DelimitedRecording(TextRecording):
         if is_wide(enc):
             self._transcode(enc)  # UTF-16/32: read from a UTF-8 copy (byte offsets of ASCII rows)
             enc = "utf-8"
-        bare = _bare_crs(self._data_path)
-        if bare:  # a CR without LF ends a line (old Mac line ends; pandas reads it so): read from a copy
-            self._split_bare_crs()
-            self.warnings.append(
-                f"{bare} bare carriage return(s) (CR without LF) read as line ends; line numbers count them"
-            )
         self._source_encoding = encoding or self._sniffed
         head_raw = self._read_head()
+        if any(_has_bare_cr(r) for r in head_raw):  # a CR without LF ends a line (old Mac line ends, as pandas
+            self._split_bare_crs()  # reads them): read from a copy with LFs there
+            head_raw = self._read_head()
         self._encoding = enc
         head = [decode_header(r, enc).rstrip("\r\n") for r in head_raw]
         if head and head[0].startswith("\ufeff"):
@@ -491,7 +488,13 @@ class DelimitedRecording(TextRecording):
         self._comment = None if vendor else "#"
         try:
             self._analyse_head(head, delimiter, decimal, time_column)
-            self._scan(head_raw)
+            n_warnings = len(self.warnings)
+            try:
+                self._scan(head_raw)
+            except _BareCR:  # past the head: the lines the native scan leaves to Python are looked at
+                del self.warnings[n_warnings:]
+                self._split_bare_crs()
+                self._scan(head_raw)
             self._vendor_fixups()
             if self._resample is not None:
                 self._load_resampled(self._resample)
@@ -547,10 +550,15 @@ class DelimitedRecording(TextRecording):
         self._data_path = tmp
 
     def _split_bare_crs(self) -> None:
-        """Copies the data into a private temporary file with every bare CR made an LF; reads that instead."""
+        """Copies the data into a private temporary file with every bare CR made an LF; reads that instead.
+
+        Only a file with a bare CR in a line the native scan does not take (its head, or a line it stops
+        at: a CR inside a row makes it a row of the wrong width or a field that is no number) is copied,
+        so a file without one costs nothing more."""
         import tempfile
 
         fd, tmp = tempfile.mkstemp(prefix="tribodyn-", suffix=".txt")
+        bare = 0
         try:
             with open(self._data_path, "rb") as src, os.fdopen(fd, "wb") as dst:
                 carry = b""
@@ -560,7 +568,9 @@ class DelimitedRecording(TextRecording):
                     carry = data[-1:] if block and data.endswith(b"\r") else b""
                     if carry:
                         data = data[:-1]
-                    dst.write(_BARE_CR.sub(b"\n", data))
+                    out, k = _BARE_CR.subn(b"\n", data)
+                    dst.write(out)
+                    bare += k
                     if not block:
                         break
         except OSError as exc:
@@ -568,6 +578,9 @@ class DelimitedRecording(TextRecording):
             raise RecordingError(f"{self.path}: cannot copy to split its bare CRs: {exc}") from None
         self._close()  # a UTF-8 copy of a UTF-16 file, if any, is replaced
         self._tmp = self._data_path = tmp
+        self.warnings.append(
+            f"{bare} bare carriage return(s) (CR without LF) read as line ends; line numbers count them"
+        )
 
     def _close(self) -> None:
         if self._tmp is not None:
@@ -867,6 +880,8 @@ class DelimitedRecording(TextRecording):
                         f"{self.path}: line {st.broken[0]} has {st.broken[1]} fields, expected {self._nf} "
                         "(truncated or corrupt file)"
                     )
+                if _has_bare_cr(raw):
+                    raise _BareCR
                 fields = split_fields(raw.decode("latin-1").rstrip("\r\n"), self._delim)
                 self._scan_row(st, raw, fields, line_off=line_off, heads=(s, name_b, unit_b))
         return st
@@ -1248,21 +1263,13 @@ _CR_BLOCK = 1 << 24
 _BARE_CR = re.compile(rb"\r(?!\n)")
 
 
-def _bare_crs(path: str) -> int:
-    """How many CRs of the file are not followed by an LF (two counts a 16 MiB block: no regex pass over
-    files without them)."""
-    bare = 0
-    prev_cr = False
-    with open(path, "rb") as fh:
-        while True:
-            block = fh.read(_CR_BLOCK)
-            if not block:
-                break
-            if prev_cr and block[:1] == b"\n":
-                bare -= 1  # the CR ending the previous block was a CRLF
-            bare += block.count(b"\r") - block.count(b"\r\n")
-            prev_cr = block.endswith(b"\r")
-    return bare
+class _BareCR(Exception):
+    """A line of the scan holds a carriage return without a line feed (the file is then read from a copy)."""
+
+
+def _has_bare_cr(raw: bytes) -> bool:
+    """A CR in the line other than its line end (``\\r\\n``, or ``\\r`` ending the file)."""
+    return b"\r" in raw.rstrip(b"\r\n")
 
 
 def _num(s: str, decimal: str) -> float:
