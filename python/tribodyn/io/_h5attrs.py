@@ -180,7 +180,7 @@ class _Helper:
             ) from None
         if msg is None:
             code = self.proc.wait()
-            if self.cpu_limited and code in (-getattr(signal, "SIGXCPU", -1), -signal.SIGKILL):
+            if self.cpu_limited and code == -getattr(signal, "SIGXCPU", 0x7FFF):  # the kernel ended it at its limit
                 raise TimeoutError(f"{limit:g} s of CPU time")
             raise HelperCrashed(f"the helper process died (exit code {code})")
         out: List[Tuple[str, Any]] = msg[1]
