@@ -51,6 +51,17 @@ EXPECT = {
         ["mean COF", "95 % interval", "over 8 tests (per-stroke means)", "repeatability s_r", "Mandel's h"],
         ["compare.png", "compare.csv"],
     ),
+    "uncertainty_budget.py": (
+        [
+            "unidirectional: COF",
+            "(95 %, instrument and statistics)",
+            "(truth 0.100: outside)",
+            "misalignment_deg",
+            "cancelled by the forward/backward mean",
+            "exit status 0",
+        ],
+        ["calibration.toml", "report/report.html"],
+    ),
     "stick_slip.py": (
         ["forward strokes: static COF", "kinetic COF", "stick-slip present: 158 events", "Hz"],
         ["strokes.csv", "stick_slip.png"],

@@ -10,7 +10,8 @@ import pytest
 import tribodyn as td
 from tribodyn import simulate
 from tribodyn.io.writers import save_npy
-from tribodyn.kernels.stats import batch_mean, ratio_mean, t975
+from tribodyn.kernels.quantiles import t975
+from tribodyn.kernels.stats import batch_mean, ratio_mean
 from tribodyn.pipeline.prepass import detect_contact
 from tribodyn.results import HEADLINE_METHODS, Headline
 

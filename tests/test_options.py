@@ -97,7 +97,7 @@ BAD = {
     "fs": 0.0, "highpass": -1.0, "orientation": 0, "temperature": "x", "current": float("inf"),
     "voltage": float("nan"), "shunt_ohm": -1.0, "area_mm2": 0.0, "covariates": [1], "chunk": -1.0,
     "deadband": "x", "max_lag": -1, "threads": 0, "start": -1, "stop": 1.5, "motion": "sideways", "min_fn": -1.0,
-    "tare": "3 s", "stroke_fraction": 1.5,
+    "tare": "3 s", "stroke_fraction": 1.5, "uncertainty": {"fy_gain": 0.01},
 }  # fmt: skip
 
 
@@ -178,7 +178,7 @@ def test_cli_flags_and_config_keys_come_from_the_declaration() -> None:
 def test_cli_passes_every_plan_option_through(tmp_path: Path) -> None:
     """Each flag of kind "plan" arrives under its option's name (one declaration, no hand-kept table)."""
     values = {"float": "0.5", "int": "3", "orientation": "-1", "deadband": "0.2", "gate": "0.8", "pair": "0.1,0.2",
-              "tare": "1.5"}  # fmt: skip
+              "tare": "1.5", "uncertainty": "fy_rel=0.005"}  # fmt: skip
     argv = ["analyze", "x.npy", "--out", str(tmp_path / "o")]
     want = {}
     for o in OPTIONS:

@@ -140,7 +140,7 @@ def test_bootstrap_draws_the_noise_estimate_anew():
 
 def test_t_quantile_equals_scipy():
     from scipy import stats
-    from tribodyn.kernels.stats import t_quantile
+    from tribodyn.kernels.quantiles import t_quantile
 
     for df in (1, 2):
         assert t_quantile(0.975, df) == pytest.approx(stats.t.ppf(0.975, df), rel=1e-12)

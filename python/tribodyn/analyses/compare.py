@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, 
 
 import numpy as np
 
+from ..kernels.uncertainty import Uncertainty
 from ..results import HEADLINE_METHODS, Headline
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -249,6 +250,9 @@ class Comparison:
     pooling: str
     precision: Optional[Precision] = None
     notes: Tuple[str, ...] = ()
+    #: The instrument's part when every test carries an uncertainty budget (docs/method.md 6i, 10a): ``u`` (the
+    #: tests' weighted instrument u, common to all of them) and the mean's 95 % interval with it (``low``, ``high``).
+    instrument: Optional[Dict[str, float]] = None
 
     @property
     def k(self) -> int:
@@ -268,6 +272,9 @@ class Comparison:
             line += f"; a further test: {self.prediction_low:#.4g} to {self.prediction_high:#.4g} (95 %)"
         if self.precision is not None:
             line += f"; {self.precision.text}"
+        if self.instrument is not None:
+            line += (f"; with the instrument's shared part (u {self.instrument['u']:#.2g}): "
+                     f"{self.instrument['low']:#.4g} to {self.instrument['high']:#.4g}")  # fmt: skip
         return line
 
     def __str__(self) -> str:
@@ -297,6 +304,7 @@ class Comparison:
             "text": self.text,
             "tests": [r.to_dict() for r in self.replicates],
             "precision": self.precision.to_dict() if self.precision is not None else None,
+            "instrument": None if self.instrument is None else {k: _num(v) for k, v in self.instrument.items()},
         }
 
     def to_frame(self) -> "pd.DataFrame":
@@ -356,6 +364,13 @@ def headline_from_dict(d: Mapping[str, Any]) -> Headline:
     reasons = d.get("reasons") or ()
     if not isinstance(reasons, (list, tuple)):
         raise ValueError(f"headline reasons must be a list, got {reasons!r}")
+    unc = d.get("uncertainty")
+    if unc is not None and not isinstance(unc, Mapping):
+        raise ValueError(f"headline uncertainty must be a table or null, got {unc!r}")
+    try:
+        budget = None if unc is None else Uncertainty.from_dict(unc)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ValueError(f"headline uncertainty is not a budget ({exc})") from None
     return Headline(
         method=str(method),
         value=num("value"),
@@ -367,6 +382,7 @@ def headline_from_dict(d: Mapping[str, Any]) -> Headline:
         reasons=tuple(str(r) for r in reasons),
         estimate=str(d.get("estimate") or ""),
         interval=str(d.get("interval") or ""),
+        uncertainty=budget,
     )
 
 
@@ -634,6 +650,7 @@ def compare(
             "with groups, the tests of one group are not independent: the interval of the general mean "
             "(precision.low, precision.high) accounts for that, the random-effects interval does not"
         )
+    instrument = _instrument_part(heads, weights, st, notes)
     reps = tuple(
         Replicate(label=n, group=grp[i] if grp else None, headline=h, se=float(se[i]), weight=float(weights[i]))
         for i, (n, h) in enumerate(zip(names, heads))
@@ -655,7 +672,36 @@ def compare(
         pooling=pooling,
         precision=prec,
         notes=tuple(notes),
+        instrument=instrument,
     )
+
+
+def _instrument_part(heads: Sequence[Headline], weights: np.ndarray, st: Mapping[str, float], notes: List[str]
+                     ) -> Optional[Dict[str, float]]:  # fmt: skip
+    """The instrument's part of the tests' budgets (docs/method.md 6i): shared, so it does not average out.
+
+    The tests are compared on their statistical scatter (their headlines'
+    intervals); the instrument's standard uncertainty, common to every test
+    on one instrument (a systematic error), is the weighted mean of theirs
+    and widens the mean's interval as sqrt(h^2 + (1.96 u)^2).
+    """
+    budgets = [h.uncertainty for h in heads]
+    if all(b is None for b in budgets):
+        return None
+    if any(b is None for b in budgets):
+        notes.append("only some tests carry an uncertainty budget: the instrument's part is left out of the comparison")
+        return None
+    u = float(np.sum(weights * np.array([b.instrument_u for b in budgets if b is not None])))
+    names = {b.instrument for b in budgets if b is not None}
+    half = 0.5 * (st["high"] - st["low"])
+    h = math.hypot(half, Z975 * u)
+    notes.append(
+        "the tests are compared on their statistical scatter; the instrument's part of their budgets "
+        f"(u {u:.2g}) is common to every test"
+        + (" (one instrument)" if len(names) == 1 else " (stated for different instruments; taken as shared)")
+        + f": it does not shrink with their number; the mean with it: {st['mean'] - h:.4g} to {st['mean'] + h:.4g}"
+    )
+    return {"u": u, "low": st["mean"] - h, "high": st["mean"] + h}
 
 
 # -- the figure -------------------------------------------------------------------------

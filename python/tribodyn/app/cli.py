@@ -175,7 +175,7 @@ def _add_analysis_options(a: argparse.ArgumentParser) -> None:
         "pair": _pair, "tare": _tare,
     }  # fmt: skip
     for o in OPTIONS:
-        if o.flag is None or o.cli_type in ("map", "log", "covariate"):
+        if o.flag is None or o.cli_type in ("map", "log", "covariate", "uncertainty"):
             continue
         unit = f" [{o.unit}]" if o.unit else ""
         text = f"{o.doc}{unit}; docs/method.md {o.section}".replace("%", "%%")
@@ -183,6 +183,24 @@ def _add_analysis_options(a: argparse.ArgumentParser) -> None:
             a.add_argument(o.flag, choices=list(o.choices), help=text)
         else:
             a.add_argument(o.flag, type=parse[o.cli_type], help=text)
+
+
+def _add_budget_options(a: argparse.ArgumentParser) -> None:
+    """``--uncertainty KEY=VALUE`` (repeated) and ``--calibration FILE``: the budget (docs/method.md 6i)."""
+    a.add_argument(
+        "--uncertainty",
+        action="append",
+        dest="uncertainty_items",
+        metavar="KEY=VALUE",
+        help="the instrument's budget (docs/method.md 6i): KEY is fy_rel, fz_rel, fy_abs, fz_abs, misalignment_deg, "
+        "crosstalk (VALUE: standard uncertainty U, U:DISTRIBUTION or U:normal:DOF) or misalignment_bias_deg "
+        "(degrees, corrected); may be repeated; wins over --calibration and [uncertainty] in --config",
+    )
+    a.add_argument(
+        "--calibration",
+        metavar="FILE",
+        help='TOML file of the instrument\'s uncertainties (the --uncertainty keys; instrument = "name")',
+    )
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -239,6 +257,7 @@ def _parser() -> argparse.ArgumentParser:
         help="another log file (two columns: time in s, value) interpolated at each window into the column NAME, "
         "e.g. speed=speed.csv (m/s: the Stribeck curve); may be repeated",
     )
+    _add_budget_options(a)
     a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
     a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
@@ -384,6 +403,10 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
         if not (isinstance(v, dict) and all(isinstance(x, str) for x in v.values())):
             raise bad()
         return {_covariate_name(str(k), f"{where}: covariates"): path for k, path in v.items()}
+    if key == "uncertainty":
+        if not isinstance(v, dict):
+            raise bad()
+        return _uncertainty(v, f"{where}: [uncertainty]")
     if key == "meta":
         if not isinstance(v, dict):
             raise bad()
@@ -408,6 +431,56 @@ def _config_value(key: str, shown: str, v: Any, where: str) -> Any:
         if isinstance(f, bool) or not isinstance(f, (int, float)):
             raise UserError(f"{where}: scale.{k} must be a number, got {f!r} ({_toml_type(f)})")
     return {k: float(f) for k, f in v.items()}
+
+
+def _uncertainty(v: Dict[str, Any], where: str) -> Dict[str, Any]:
+    """An uncertainty table checked like ``analyze(uncertainty=...)`` (docs/method.md 6i), or UserError."""
+    from ..kernels.uncertainty import parse_inputs
+
+    try:
+        parse_inputs(v)
+    except (TypeError, ValueError) as exc:
+        raise UserError(f"{where}: {exc}") from None
+    return dict(v)
+
+
+def _budget_options(ns: argparse.Namespace, cfg: Dict[str, Any]) -> Dict[str, Any]:
+    """The instrument's budget: --calibration FILE, then [uncertainty] in --config, then --uncertainty (each wins)."""
+    from ..kernels.uncertainty import parse_item
+
+    out: Dict[str, Any] = {}
+    path = getattr(ns, "calibration", None)
+    if path:
+        out.update(_uncertainty(_read_toml(path, "calibration file"), f"calibration file {Path(path).name}"))
+    out.update(cfg.get("uncertainty") or {})
+    for text in getattr(ns, "uncertainty_items", None) or ():
+        try:
+            key, value = parse_item(text)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+        out[key] = value
+    return _uncertainty(out, "--uncertainty") if out else out
+
+
+def _read_toml(path: str, what: str) -> Dict[str, Any]:
+    """A TOML file as a dict, or UserError naming ``what``."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python < 3.11
+        try:
+            import tomli as tomllib
+        except ImportError:
+            raise UserError(f"{what} needs the tomli package on Python < 3.11 (pip install tomli)") from None
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"{what} not found: {p}")
+    try:
+        with open(p, "rb") as f:
+            return dict(tomllib.load(f))
+    except tomllib.TOMLDecodeError as exc:
+        raise UserError(f"{what} {p.name} is not valid TOML: {exc}") from None
+    except UnicodeDecodeError:
+        raise UserError(f"{what} {p.name} is not valid TOML: not UTF-8 text") from None
 
 
 def _load_config(path: str) -> Dict[str, Any]:
@@ -487,11 +560,14 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
             opts["meta"] = merge(cfg.get("meta") or Meta(), parse_meta(pairs, "--meta"))
         except ValueError as exc:
             raise UserError(str(exc)) from None
+    budget = _budget_options(ns, cfg)
+    if budget:
+        opts["uncertainty"] = budget
     logs: Dict[str, str] = dict(cfg.get("covariates") or {})
     for text in ns.covariate or ():  # repeated --covariate options add up; a later name wins
         name, path = _covariate_option(text)
         logs[name] = path
-    protect = [p for p in (ns.config, get("temperature"), *logs.values()) if p]
+    protect = [p for p in (ns.config, getattr(ns, "calibration", None), get("temperature"), *logs.values()) if p]
     if get("temperature") or logs:
         from .jobs import read_log
 

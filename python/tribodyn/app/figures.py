@@ -1351,139 +1351,32 @@ def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
     return buf.getvalue()
 
 
-def png_bytes_all(figs: Sequence[Figure], *, dpi: int = DPI) -> List[bytes]:
-    """:func:`png_bytes` of each figure, each drawn once; on Linux, a forked process draws half of them
-    (:class:`Rendering`)."""
-    return Rendering(figs, dpi=dpi).finish()
-
-
 class Rendering:
-    """PNG bytes of figures, each drawn once, started now and collected by :meth:`finish` (issue 25).
+    """PNG bytes of figures, each drawn once, in this process (docs/architecture.md).
 
-    Drawing is Python bound (the GIL), so on Linux with more than one core
-    a child process forked at once, with the figures already built, renders
-    a ``share`` of them (every figure whose index k has
-    ``round(k * share) < round((k + 1) * share)``) and sends back the PNG
-    bytes, the same bytes the parent would draw; the caller may do other
-    work meanwhile, then :meth:`finish` draws the rest here. ``also``: more
-    work for the child (a callable whose result pickles), after its figures;
-    :meth:`also_result` gives its result. When the child fails, its figures
-    (and ``also``) are done here too.
+    The figures are drawn when :meth:`finish` is called, after whatever the caller does meanwhile;
+    ``also`` (more work of the same job, e.g. the interactive views) runs once, on the first
+    :meth:`also_result`. Nothing is forked: a forked copy of a process with threads (the kernels', a
+    Dask worker's) may deadlock, and a child outlives a killed command line.
     """
 
-    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, share: float = 0.5,
-                 also: Optional[Callable[[], Any]] = None) -> None:  # fmt: skip
+    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, also: Optional[Callable[[], Any]] = None) -> None:
         self._figs = list(figs)
         self._dpi = dpi
         self._also = also
         self._also_done: Optional[Tuple[Any]] = None
-        n = len(self._figs)
-        self._theirs = [k for k in range(n) if round(k * share) < round((k + 1) * share)] if n > 1 else []
-        forked = (self._theirs or also is not None) and _can_fork()
-        self._child = _fork_render([self._figs[k] for k in self._theirs], dpi, also) if forked else None
-        if self._child is None:
-            self._theirs = []
 
     def finish(self) -> List[bytes]:
         """Every figure's PNG bytes, in order."""
-        out: Dict[int, bytes] = {}
-        mine = [k for k in range(len(self._figs)) if k not in set(self._theirs)]
-        try:
-            for k in mine:
-                out[k] = png_bytes(self._figs[k], dpi=self._dpi)
-        finally:
-            got = _collect(self._child)
-            self._child = None
-        if got is None or len(got[0]) != len(self._theirs):
-            got = ([png_bytes(self._figs[k], dpi=self._dpi) for k in self._theirs], None)
-        elif self._also is not None:
-            self._also_done = (got[1],)
-        out.update(zip(self._theirs, got[0]))
-        return [out[k] for k in range(len(self._figs))]
+        return [png_bytes(f, dpi=self._dpi) for f in self._figs]
 
     def also_result(self) -> Any:
-        """What ``also()`` returned (in the child, or here when the child failed); after :meth:`finish`."""
+        """What ``also()`` returned (None without ``also``), computed once."""
         if self._also is None:
             return None
         if self._also_done is None:
             self._also_done = (self._also(),)
         return self._also_done[0]
-
-
-def _can_fork() -> bool:
-    import sys
-
-    return sys.platform.startswith("linux") and hasattr(os, "fork") and (os.cpu_count() or 1) > 1
-
-
-def _fork_render(figs: Sequence[Figure], dpi: int, also: Optional[Callable[[], Any]] = None
-                 ) -> Optional[Tuple[int, int]]:  # fmt: skip
-    """(pid, read end of a pipe) of a child rendering ``figs`` to PNG (then running ``also``), or None when
-    fork failed. The child sends ``(PNG bytes, also's result)`` pickled."""
-    r, w = os.pipe()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)  # Python 3.12: fork of a threaded process
-            pid = os.fork()
-    except OSError:
-        os.close(r)
-        os.close(w)
-        return None
-    if pid == 0:  # the child: render, send, leave without running any of the parent's cleanup
-        code = 1
-        try:
-            os.close(r)
-            import pickle
-
-            pngs = [png_bytes(f, dpi=dpi) for f in figs]
-            data = pickle.dumps((pngs, also() if also is not None else None), protocol=pickle.HIGHEST_PROTOCOL)
-            with os.fdopen(w, "wb") as fh:
-                fh.write(data)
-            code = 0
-        finally:
-            os._exit(code)
-    os.close(w)
-    return pid, r
-
-
-#: Seconds the parent waits for the rendering child before it kills it and draws the figures itself.
-_CHILD_TIMEOUT = 300.0
-
-
-def _collect(child: Optional[Tuple[int, int]]) -> Optional[Tuple[List[bytes], Any]]:
-    """The child's PNG bytes and ``also``'s result, or None when it failed."""
-    if child is None:
-        return None
-    import pickle
-    import select
-    import signal
-    import time
-
-    pid, r = child
-    chunks: List[bytes] = []
-    deadline = time.monotonic() + _CHILD_TIMEOUT
-    try:
-        while True:  # read until the child closes the pipe; a child that hangs is killed and its share drawn here
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([r], [], [], left)[0]:
-                os.kill(pid, signal.SIGKILL)
-                chunks = []
-                break
-            piece = os.read(r, 1 << 20)
-            if not piece:
-                break
-            chunks.append(piece)
-    finally:
-        os.close(r)
-        _, status = os.waitpid(pid, 0)
-    data = b"".join(chunks)
-    if not (os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0):
-        return None
-    try:
-        pngs, extra = pickle.loads(data)
-    except Exception:  # noqa: BLE001 - a truncated message: draw them here
-        return None
-    return [bytes(b) for b in pngs], extra
 
 
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:

@@ -280,14 +280,12 @@ def _save_figures(
 ) -> Tuple[List[Tuple[str, str, bytes]], Any, Any]:
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
     triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); what ``meanwhile()``
-    returns, called while a forked child draws a share of the figures (``figures.Rendering``); and what
-    ``also()`` returns, run by that child after its figures (here when there is none)."""
+    returns, called before the figures are drawn (``figures.Rendering``, in this process); and what
+    ``also()`` returns."""
     from ..io.writers import atomic_write
     from .figures import Rendering
 
-    # the child's share: most figures, or fewer when it has the Bokeh views to draw as well
-    share = 0.3 if also is not None else 0.6 if meanwhile is not None else 0.5
-    render = Rendering([f for _, _, f in figs], share=share, also=also)
+    render = Rendering([f for _, _, f in figs], also=also)
     done = meanwhile() if meanwhile is not None else None
     saved = []
     for (stem, caption, _), data in zip(figs, render.finish()):
@@ -854,7 +852,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
     figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
     res_now = res
 
-    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # while a child draws figures and the Bokeh view
+    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, before the figures
         return _write_set(out, prefix, res_now), res_now.summary()
 
     pngs, (written, res_summary), (view, head) = _save_figures(

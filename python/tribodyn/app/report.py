@@ -119,13 +119,57 @@ def unit_text(unit: str) -> str:
 
 
 class HeadlineLine(str):
-    """A verdict line that is a recording's headline (docs/method.md 6e): the report sets it in bold."""
+    """A verdict line that is a recording's headline (docs/method.md 6e): the report sets it in bold.
+
+    ``budget_html``: its uncertainty budget's table (docs/method.md 6i), set under it; "" without one.
+    """
+
+    budget_html: str = ""
 
 
 def _verdict_item(line: str) -> str:
-    """A verdict line as HTML: a recording's headline (:class:`HeadlineLine`) in bold."""
+    """A verdict line as HTML: a recording's headline (:class:`HeadlineLine`) in bold, its budget under it."""
     text = html.escape(line)
-    return f"<b>{text}</b>" if isinstance(line, HeadlineLine) else text
+    return f"<b>{text}</b>{getattr(line, 'budget_html', '')}" if isinstance(line, HeadlineLine) else text
+
+
+def budget_table_html(unc: Mapping[str, Any]) -> str:
+    """The headline's uncertainty budget (``summary()["headline"]["uncertainty"]``; docs/method.md 6i) as HTML."""
+
+    def num(v: Any, fmt: str = ".3g") -> str:
+        return "" if v is None else format(v, fmt)
+
+    rows = []
+    for r in unc.get("budget") or ():
+        unit = unit_text(str(r.get("unit") or ""))
+        share = "" if r.get("share") is None else f"{100 * r['share']:.1f} %"
+        rows.append(
+            f"<tr><td class='key'>{html.escape(str(r['source']))}</td><td>{num(r.get('value'), '.4g')}"
+            f"{' ' + html.escape(unit) if unit else ''}</td><td>{html.escape(str(r.get('distribution')))}</td>"
+            f"<td>{num(r.get('dof'), '.3g') or '&infin;'}</td><td>{num(r.get('sensitivity'), '.4g')}</td>"
+            f"<td>{num(r.get('contribution'), '.3g')}</td><td>{share}</td></tr>"
+        )
+    gum = unc.get("gum") or {}
+    k = unc.get("k")
+    note = (
+        f"u<sub>c</sub> = {num(unc.get('u_c'), '.3g')}, 95 % coverage interval {num(unc.get('low'), '.4g')} to "
+        f"{num(unc.get('high'), '.4g')} (Monte Carlo, JCGM 101, {unc.get('draws')} draws, seed {unc.get('seed')}"
+        + (f"; k = {k:.2f}" if k is not None else "; asymmetric: quoted by its ends")
+        + f"). GUM's law of propagation: u<sub>c</sub> = {num(gum.get('u_c'), '.3g')}, k = {num(gum.get('k'), '.3f')}. "
+        f"The instrument's part, u = {num(unc.get('instrument_u'), '.3g')}, is shared by every test on this "
+        "instrument: it does not shrink with their number."
+    )
+    if unc.get("instrument"):
+        note = f"Instrument: {html.escape(str(unc['instrument']))}. " + note
+    if unc.get("correction"):
+        note += f" Corrected for the known misalignment: {unc['correction']:+.4g}."
+    for n in unc.get("notes") or ():
+        note += " " + html.escape(str(n)) + "."
+    head = (
+        "<tr><th class='key'>source</th><th>standard uncertainty</th><th>distribution</th><th>dof</th>"
+        "<th>sensitivity</th><th>contribution (COF)</th><th>share</th></tr>"
+    )
+    return f'<table class="budget">{head}{"".join(rows)}</table><p class="note">{note}</p>'
 
 
 def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, Any],
@@ -150,6 +194,10 @@ def verdict_lines(name: str, summary: Mapping[str, Any], params: Mapping[str, An
         lines[0] = HeadlineLine(
             f"{lines[0]} 90 % of the gated windows lie between {mu['p05']:.4f} and {mu['p95']:.4f}."
         )
+    if head.get("uncertainty"):  # the budget under the headline (docs/method.md 6i)
+        first = HeadlineLine(lines[0])
+        first.budget_html = budget_table_html(head["uncertainty"])
+        lines[0] = first
     if verdict:
         lines.append(f"{name}: {_labels.units_in_text(verdict)}")
     for by, rng in (ranges or {}).items():
@@ -559,7 +607,7 @@ def write_report(
     if verdict:
         first, rest = verdict[0], verdict[1:]
         out.append('<div class="verdict" id="verdict"><h2 style="margin-top:0">Verdict</h2>')
-        out.append(f'<p class="headline">{html.escape(first)}</p>')
+        out.append(f'<p class="headline">{html.escape(first)}</p>{getattr(first, "budget_html", "")}')
         if rest:  # the headline of every further recording in bold too (one headline per recording)
             out.append("<ul>" + "".join(f"<li>{_verdict_item(x)}</li>" for x in rest) + "</ul>")
         out.append("</div>")

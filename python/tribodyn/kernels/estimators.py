@@ -32,6 +32,8 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .quantiles import Z975
+
 #: Below this median |r| of instrument and fz the instrument is weak (docs/method.md 3b).
 WEAK_INSTRUMENT = 0.3
 
@@ -61,8 +63,6 @@ _I = {name: k for k, name in enumerate(PRODUCTS)}
 ESTIMATORS = ("corrected", "iv", "ols", "deming")
 #: Student's t quantile 0.975 with BLOCKS - 1 = 4 degrees of freedom (scipy.stats.t.ppf(0.975, 4)).
 T975 = 2.7764451051977987
-#: Normal quantile 0.975 (scipy.stats.norm.ppf(0.975)).
-Z975 = 1.959963984540054
 #: Median of chi^2 with BLOCKS - 1 = 4 degrees of freedom (scipy.stats.chi2.ppf(0.5, 4)): a batch-means
 #: variance over 5 blocks is var(b) chi^2_4 / 4 (docs/method.md 5).
 CHI2_4_MEDIAN = 3.3566939800333224

@@ -165,7 +165,7 @@ class LinFitAccumulator:
             raise TypeError(f"other must be a LinFitAccumulator, got {type(other).__name__}")
         out = LinFitAccumulator()
         with self._lock:
-            mine = _core.Moments.from_state(*self._m.state())
+            mine = _core.Moments.from_state(self._m.state())
         with other._lock:
             out._m = mine.merge(other._m)
         return out
@@ -186,7 +186,7 @@ class LinFitAccumulator:
             return self._m.state()
 
     def __setstate__(self, state: tuple[Any, ...]) -> None:
-        self._m = _core.Moments.from_state(*state)
+        self._m = _core.Moments.from_state(state)
         self._lock = threading.Lock()
 
     def __repr__(self) -> str:

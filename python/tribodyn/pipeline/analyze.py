@@ -40,6 +40,7 @@ from ..options import defaults
 from ..results import ClassicalTotals, Results
 from .covariates import align_to_recording
 from .finish import ALIGN_MIN, finish, settle
+from .budget import statistics_of, with_budget
 from .headline import classical_totals
 from .instrument import find_lag
 from .plan import Findings, Plan, make_plan
@@ -92,6 +93,7 @@ def analyze(
     tare: Any = None,
     stroke_fraction: float = 0.5,
     stick_slip: bool = False,
+    uncertainty: Optional[Mapping[str, Any]] = None,
     channels: Optional[Mapping[str, str]] = None,
 ) -> Results:
     """COF of every window of a long recording (docs/method.md 6).
@@ -151,6 +153,16 @@ def analyze(
         :func:`tribodyn.stick_slip` would find reading it again, bit for
         bit. Default False (``Results.stick_slip`` None); the command line
         sets it.
+    uncertainty : mapping, optional
+        What is known of the instrument (docs/method.md 6i): standard
+        uncertainties of ``fy_rel``, ``fz_rel`` (calibration, relative),
+        ``fy_abs``, ``fz_abs`` (offsets, N), ``misalignment_deg`` and
+        ``crosstalk``, each a number (normal) or ``{"u": ..., "distribution":
+        "normal" | "rectangular" | "triangular", "dof": ...}``, and a known
+        ``misalignment_bias_deg`` (corrected). The headline then carries
+        ``Headline.uncertainty``: the combined uncertainty of the instrument
+        and the statistics by Monte Carlo (JCGM 101) with its budget.
+        Default None: the headline's interval is statistical only.
     channels : mapping, optional
         For a DataFrame source: role -> column; for a path: role -> channel,
         as ``open_recording``'s ``channels=``.
@@ -464,7 +476,10 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     if plan.stick_slip:  # (before settle, which keeps the headline it computes: no copy after it)
         got = slip.result() if slip is not None else None  # else read again (docs/method.md 6g)
         res = dataclasses.replace(res, stick_slip=got if got is not None else find_stick_slip(source, res))
-    return settle(res, lambda: classical_pass(sums))
+    res = settle(res, lambda: classical_pass(sums))
+    if plan.uncertainty is not None:  # docs/method.md 6i: the headline's statistics, then its budget
+        res = with_budget(res, statistics_of(res, source, rec, found.classical, (c_start, c_stop)))
+    return res
 
 
 def _reading_pass(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,

@@ -30,6 +30,7 @@ from ..kernels.estimators import (  # fmt: skip
     slopes,
     window_noise,
 )
+from ..kernels.quantiles import Z975
 from ..kernels.window_stats import gate_reasons, orient
 from ..results import ClassicalTotals, Results
 from ..results.headline import instrument_check
@@ -236,8 +237,6 @@ def _covariate_columns(o: Stats, cov: Any, centre: np.ndarray, notes: List[str]
     return speed, {name: evaluate(log, centre) for name, log in logs.items()}
 
 
-#: Normal quantile 0.975: the paper's intervals (mu_r +- 1.96 OLS standard errors).
-_Z975 = 1.959963984540054
 #: A recording-wide fz delay (samples) above which align="auto" corrects it
 #: and align=None warns (docs/method.md 3e).
 ALIGN_MIN = 0.05
@@ -267,7 +266,7 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
     mu_ols = np.array(o["mu_r"], dtype=float)
     if plan.paper:
         se = np.asarray(o["mu_r_stderr"], dtype=float)
-        out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - _Z975 * se, "mu_r_high": mu_ols + _Z975 * se}
+        out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - Z975 * se, "mu_r_high": mu_ols + Z975 * se}
         for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
             out[name] = np.full(k, np.nan)
         out["noise_z_var"] = np.full(k, np.nan)

@@ -19,6 +19,7 @@ from ..kernels._validate import (
 )
 from ..kernels.correlation import xcorr
 from ..kernels.deadband import parse_deadband
+from ..kernels.quantiles import Z975
 from ..kernels.estimators import T975, WEAK_INSTRUMENT, quadratic, slopes
 from ..kernels.window_stats import compute, gate_reasons, make_spec, orient
 from ..options import option
@@ -182,7 +183,7 @@ def identify(
     if stats["gate"] == "ci":  # docs/method.md 5: the 95 % half-width relative to |mu_r|
         se = float(o_st["mu_r_stderr"][0])
         with np.errstate(invalid="ignore", divide="ignore"):
-            rel = np.array([_T975 * se / abs(float(o_st["mu_r"][0]))])
+            rel = np.array([Z975 * se / abs(float(o_st["mu_r"][0]))])
     skew_arr = None if skew is None else np.array([skew], dtype=float)
     reasons = gate_reasons(o_st, stats["gate"], skew_arr, rel_ci=rel, max_rel_ci=stats.get("max_rel_ci", 0.1))[0]
     o = o_st
@@ -245,10 +246,6 @@ def _statistics_options(fs: float, n: int, o: Dict[str, Any]) -> Dict[str, Any]:
         fs, n, method=o["method"], estimator=o["estimator"], gate=o["gate"], max_rel_ci=o["max_rel_ci"],
         iv_lag=o["iv_lag"], noise=o["noise"], rpm=o["rpm"], n_lamellas=o["n_lamellas"],
     )  # fmt: skip
-
-
-#: Normal quantile 0.975 (the OLS interval's; docs/method.md 3d).
-_T975 = 1.959963984540054
 
 
 def _estimate(fy: np.ndarray, fz: np.ndarray, s: int, stats: Dict[str, Any], o: Dict[str, np.ndarray]

@@ -24,6 +24,7 @@ from ..columns import kernel_columns
 from ..kernels._validate import check_bins, check_fs, check_gate, check_int, positive
 from ..kernels.deadband import Deadband, parse_deadband
 from ..kernels.threads import resolve_threads
+from ..kernels.uncertainty import Inputs, parse_inputs
 from .covariates import TimeLog, as_log, constant_or_log
 
 if TYPE_CHECKING:
@@ -163,6 +164,8 @@ class Plan:
         What was chosen from the rate for window and hop ('' when nothing).
     stick_slip : bool
         Also find the stick-slip events in the same reading (docs/method.md 6g).
+    uncertainty : uncertainty.Inputs or None
+        What is known of the instrument: the headline's budget (docs/method.md 6i).
     """
 
     fs: float
@@ -214,6 +217,8 @@ class Plan:
     window_note: str = ""
     #: Also find the stick-slip events, in the analysis' own reading (docs/method.md 6g).
     stick_slip: bool = False
+    #: What is known of the instrument, for the headline's uncertainty budget (docs/method.md 6i), or None.
+    uncertainty: Optional["Inputs"] = None
 
     @property
     def paper(self) -> bool:
@@ -288,6 +293,7 @@ class Plan:
             stop=self.stop,
             progress=self.progress,
             stick_slip=self.stick_slip,
+            uncertainty=None if self.uncertainty is None else self.uncertainty.to_dict(),
         )
 
 
@@ -366,6 +372,7 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         tare=c["tare"],
         stroke_fraction=c["stroke_fraction"],
         stick_slip=c["stick_slip"],
+        uncertainty=c["uncertainty"],
     )
 
 
@@ -468,6 +475,7 @@ CHECKS: Mapping[str, Callable[[Any, "Option"], Any]] = MappingProxyType({
     "force >= 0 or None": _min_fn,
     "tare": _tare,
     "fraction": _fraction,
+    "uncertainty inputs": lambda v, o: parse_inputs(v),
 })  # fmt: skip
 
 _STATISTICS = ("method", "estimator", "gate", "max_rel_ci", "align", "iv_lag", "noise", "rpm", "n_lamellas")

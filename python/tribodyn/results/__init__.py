@@ -14,6 +14,7 @@ import numpy as np
 from ..columns import UNITS, WINDOW_COLUMNS
 from ..kernels.correlation import XcorrResult
 from ..kernels.stats import bootstrap_ci, noise_resample
+from ..kernels.uncertainty import Moments
 from .headline import HEADLINE_METHODS, ClassicalTotals, Headline, choose, instrument_check
 from .verdict import verdict as _verdict
 
@@ -188,6 +189,9 @@ class Results:
     stick_slip : StickSlip or None
         The stick-slip events, found in the analysis' own reading when it
         was asked for (``analyze(stick_slip=True)``, docs/method.md 6g).
+    budget_stats : uncertainty.Moments or None
+        The headline's sufficient statistics for its uncertainty budget
+        (``analyze(uncertainty=...)``, docs/method.md 6i).
     """
 
     table: Dict[str, np.ndarray]
@@ -208,6 +212,8 @@ class Results:
     #: The stick-slip events found in the analysis' own reading (``analyze(stick_slip=True)``,
     #: docs/method.md 6g), or None when not asked for.
     stick_slip: Optional[Any] = None  # a tribodyn.StickSlip (defined in pipeline.stickslip, above this layer)
+    #: The headline's sufficient statistics for its uncertainty budget (docs/method.md 6i), or None.
+    budget_stats: Optional[Moments] = None
 
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""

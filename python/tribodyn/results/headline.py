@@ -22,6 +22,8 @@ import numpy as np
 
 from ..kernels.stats import BATCHES, batch_mean, bootstrap_ci, noise_resample, ratio_mean
 from ..kernels.strokes import cycle_means
+from ..kernels.uncertainty import Uncertainty
+from .budget import attach
 
 __all__ = ["HEADLINE_METHODS", "ClassicalTotals", "Headline", "choose", "instrument_check"]
 
@@ -67,6 +69,10 @@ class Headline:
         "lower" when the value is a lower bound of the COF (least squares
         attenuated by noise on fz that no valid instrument could measure;
         the interval then reaches up to the reverse regression, docs/method.md 3d), else "".
+    uncertainty : Uncertainty or None
+        With ``analyze(uncertainty=...)``, the combined uncertainty of the
+        instrument and the statistics and its budget (docs/method.md 6i);
+        None: ``low``, ``high`` are the statistical interval only.
     """
 
     method: str
@@ -80,6 +86,7 @@ class Headline:
     estimate: str = ""
     interval: str = ""
     bound: str = ""
+    uncertainty: Optional["Uncertainty"] = None
 
     @property
     def ok(self) -> bool:
@@ -92,8 +99,12 @@ class Headline:
         if not self.ok:
             why = "; ".join(self.reasons) if self.reasons else "nothing to compute it from"
             return f"No {self.method} COF: {why}."
-        iv = f" (95 % interval {self.low:#.4g} to {self.high:#.4g})" if math.isfinite(self.low) else ""
         lb = f" ({self.bound} bound)" if self.bound else ""
+        if self.uncertainty is not None:  # docs/method.md 6i
+            return f"COF {self.uncertainty.text}{lb}: {self.method}, {self.estimate}."
+        iv = ""
+        if math.isfinite(self.low):
+            iv = f" (95 % interval {self.low:#.4g} to {self.high:#.4g}, statistical only)"
         return f"COF {self.value:#.4g}{lb}{iv}: {self.method}, {self.estimate}."
 
     @property
@@ -101,6 +112,8 @@ class Headline:
         """'classical COF 0.1492 (95 % 0.1427 to 0.1557)' or 'no classical COF' (for ``repr``)."""
         if not self.ok:
             return f"no {self.method} COF"
+        if self.uncertainty is not None:
+            return f"{self.method} COF {self.uncertainty.text}"
         iv = f" (95 % {self.low:#.4g} to {self.high:#.4g})" if math.isfinite(self.low) else ""
         return f"{self.method} COF {self.value:#.4g}{iv}"
 
@@ -136,6 +149,7 @@ class Headline:
             "estimate": self.estimate,
             "interval": self.interval,
             "bound": self.bound,
+            "uncertainty": None if self.uncertainty is None else self.uncertainty.to_dict(),
             "text": self.text,
         }
 
@@ -226,10 +240,14 @@ def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
     total = int(total) if isinstance(total, (int, np.integer)) and total > 0 else 0
     why = tuple(str(r) for r in verdict.get("reasons") or ())
     if verdict.get("dynamic_method"):
-        return _dynamic(res, total)
-    if verdict.get("motion") == "reciprocating":
-        return _per_stroke(res, total, why)
-    return _classical(res, total, why)
+        head = _dynamic(res, total)
+    elif verdict.get("motion") == "reciprocating":
+        head = _per_stroke(res, total, why)
+    else:
+        head = _classical(res, total, why)
+    if res.params.get("uncertainty"):  # the instrument's budget (docs/method.md 6i)
+        head = attach(res, head)
+    return head
 
 
 def _dynamic(res: "Results", total: int) -> Headline:

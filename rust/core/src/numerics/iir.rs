@@ -180,7 +180,7 @@ fn filter_group(
         // for good; a finite z0 proves the input finite. Otherwise (also on
         // overflow) look at the input itself.
         let settled = state.iter().all(|s| s.first().is_none_or(|z| z[0].is_finite()));
-        settled || src.is_none_or(|src| src.iter().all(|r| crate::sums::all_finite(&r[..n])))
+        settled || src.is_none_or(|src| src.iter().all(|r| crate::numerics::sums::all_finite(&r[..n])))
     }
     match rows.len() {
         0 => true,

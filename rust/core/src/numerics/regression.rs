@@ -21,7 +21,7 @@
 //! and blocks are merged in order, whatever the thread count.
 
 use crate::error::{same_len, KernelError};
-use crate::lanes::F4;
+use crate::numerics::lanes::F4;
 use rayon::prelude::*;
 
 /// Samples reduced by one two-pass step (fits in L1 with both inputs).
@@ -99,7 +99,7 @@ pub struct LinFit {
 
 impl Moments {
     /// Moments of one block by two passes: exact means of the block first.
-    /// Sums run in four lanes of `V` (see [`crate::lanes`]).
+    /// Sums run in four lanes of `V` (see [`crate::numerics::lanes`]).
     #[inline(always)]
     fn of_block<V: F4>(x: &[f64], y: &[f64]) -> Moments {
         let n = x.len().min(y.len());
@@ -192,7 +192,7 @@ impl Moments {
     }
 
     /// One task's blocks, merged in order, in the widest vectors the CPU
-    /// has (the same bits on every CPU, see [`crate::lanes`]).
+    /// has (the same bits on every CPU, see [`crate::numerics::lanes`]).
     fn of_serial(x: &[f64], y: &[f64]) -> Moments {
         #[cfg(target_arch = "x86_64")]
         {
@@ -200,16 +200,16 @@ impl Moments {
                 // SAFETY: the CPU supports AVX2, checked just above.
                 return unsafe { Self::of_serial_avx2(x, y) };
             }
-            Self::of_serial_generic::<crate::lanes::Sse2>(x, y)
+            Self::of_serial_generic::<crate::numerics::lanes::Sse2>(x, y)
         }
         #[cfg(not(target_arch = "x86_64"))]
-        Self::of_serial_generic::<crate::lanes::Scalar>(x, y)
+        Self::of_serial_generic::<crate::numerics::lanes::Scalar>(x, y)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn of_serial_avx2(x: &[f64], y: &[f64]) -> Moments {
-        Self::of_serial_generic::<crate::lanes::Avx>(x, y)
+        Self::of_serial_generic::<crate::numerics::lanes::Avx>(x, y)
     }
 
     /// A plain loop, so that the block kernel is inlined into the caller
@@ -370,10 +370,10 @@ mod tests {
     fn vector_paths_give_the_same_bits() {
         let (x, y) = data(10_007);
         let xs: Vec<f64> = x.iter().map(|v| v * 1e3 + 12.5).collect();
-        let want = Moments::of_serial_generic::<crate::lanes::Scalar>(&xs, &y);
+        let want = Moments::of_serial_generic::<crate::numerics::lanes::Scalar>(&xs, &y);
         assert_eq!(Moments::of_serial(&xs, &y), want);
         #[cfg(target_arch = "x86_64")]
-        assert_eq!(Moments::of_serial_generic::<crate::lanes::Sse2>(&xs, &y), want);
+        assert_eq!(Moments::of_serial_generic::<crate::numerics::lanes::Sse2>(&xs, &y), want);
     }
 
     #[test]

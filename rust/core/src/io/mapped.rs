@@ -9,7 +9,7 @@
 //! windows), its windows computed in order on one thread with the next
 //! window prefetched. Blocks run in parallel (the calling thread and scoped
 //! helpers, as many in all as the caller names) and are placed in order, so
-//! the results are those of [`crate::windows::windows_stats`] on the same
+//! the results are those of [`crate::numerics::windows::windows_stats`] on the same
 //! samples, bit for bit.
 //!
 //! Reading, not memory-mapping: a file truncated or overwritten while it is
@@ -23,8 +23,8 @@
 //! same time on two threads.
 
 use crate::error::KernelError;
-use crate::iir::{self, Section};
-use crate::windows::{windows_stats_serial, Channels, WindowOptions, WindowStats};
+use crate::numerics::iir::{self, Section};
+use crate::numerics::windows::{windows_stats_serial, Channels, WindowOptions, WindowStats};
 use std::fs::File;
 
 const F64: u64 = std::mem::size_of::<f64>() as u64;
@@ -386,8 +386,12 @@ pub fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions)
     if grid.step == 0 || grid.block == 0 || opt.len == 0 {
         return Err(invalid("step, block and window length must be at least 1".into()));
     }
-    if opt.n_bins == 0 || opt.n_bins > crate::windows::MAX_BINS {
-        return Err(invalid(format!("n_bins must be in [1, {}], got {}", crate::windows::MAX_BINS, opt.n_bins)));
+    if opt.n_bins == 0 || opt.n_bins > crate::numerics::windows::MAX_BINS {
+        return Err(invalid(format!(
+            "n_bins must be in [1, {}], got {}",
+            crate::numerics::windows::MAX_BINS,
+            opt.n_bins
+        )));
     }
     if grid.k1 > grid.k0 {
         let last_end = (grid.k1 - 1).checked_mul(grid.step).and_then(|s| s.checked_add(opt.len));
@@ -702,7 +706,7 @@ fn filtered_windows(
     };
     let starts: Vec<usize> = ks.clone().map(|k| k * step - f.from).collect();
     // In parallel: the thread that filters the next block joins in when it is done.
-    crate::windows::windows_stats(&ch, &starts, opt).map_err(|err| match err {
+    crate::numerics::windows::windows_stats(&ch, &starts, opt).map_err(|err| match err {
         KernelError::NonFinite { .. } => err.shifted(f.from),
         other => invalid(format!("{other} (block from sample {})", f.from)),
     })
@@ -794,7 +798,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::windows::{windows_stats, Deadband};
+    use crate::numerics::windows::{windows_stats, Deadband};
     use std::io::Write;
 
     fn temp_file(bytes: &[u8]) -> (std::path::PathBuf, File) {
@@ -870,7 +874,7 @@ mod tests {
             n,
         };
         let sos: Vec<Section> = vec![[0.9997, -0.9997, 0.0, 1.0, -0.9994, 0.0]];
-        let zi = crate::iir::sosfilt_zi(&sos).unwrap();
+        let zi = crate::numerics::iir::sosfilt_zi(&sos).unwrap();
         let opt = WindowOptions {
             len: 400,
             orientation: 1.0,
@@ -886,7 +890,7 @@ mod tests {
             [fy[origin], fz[origin]].iter().flat_map(|&x0| zi.iter().map(move |z| [z[0] * x0, z[1] * x0])).collect();
         let src: Vec<f64> = fy[origin..].iter().chain(&fz[origin..]).copied().collect();
         let mut filt = vec![0.0; src.len()];
-        crate::iir::sosfilt_into(&sos, &src, &mut filt, 2, &mut state).unwrap();
+        crate::numerics::iir::sosfilt_into(&sos, &src, &mut filt, 2, &mut state).unwrap();
         let m = n - origin;
         let ch = Channels {
             fx: None,

@@ -17,7 +17,7 @@
 //! flipped interleaving flag) is an error naming the segment.
 
 use crate::error::KernelError;
-use crate::mapped::{read_bytes, Extent, Extents, Num};
+use crate::io::mapped::{read_bytes, Extent, Extents, Num};
 use std::collections::HashMap;
 use std::fs::File;
 use std::rc::Rc;
@@ -979,11 +979,11 @@ mod tests {
         assert_eq!(a.n, 6);
         let ext = &a.runs[0].1;
         let mut out = Vec::new();
-        let mut cache = crate::mapped::ByteCache::default();
+        let mut cache = crate::io::mapped::ByteCache::default();
         ext.read(&f, 0, 6, &mut out, &mut cache).unwrap();
         assert_eq!(out, vec![0.0, 2.0, 4.0, 0.0, 2.0, 4.0]);
         let mut scaled = idx.objects[1].runs[0].1.clone();
-        scaled.ops = vec![crate::mapped::Op::Linear { slope: 2.0, intercept: 1.0 }];
+        scaled.ops = vec![crate::io::mapped::Op::Linear { slope: 2.0, intercept: 1.0 }];
         scaled.read(&f, 1, 5, &mut out, &mut cache).unwrap();
         assert_eq!(out, vec![7.0, 11.0, 3.0, 7.0]);
         // Truncated: an error naming the segment.

@@ -5,7 +5,7 @@
 //! (normal), optionally fx (axial), an auxiliary channel (current or shunt
 //! voltage) and the raw (unfiltered) fy, fz, one task computes:
 //! - the centred moments of (fz, fy) and the regression of fy on fz
-//!   (Eqs. 6-8, as a [`crate::regression::Moments`]);
+//!   (Eqs. 6-8, as a [`crate::numerics::regression::Moments`]);
 //! - Pearson C_xy(0), C_xz(0), C_yz(0) (Eq. 1 at lag 0);
 //! - the deadband |fz| < d (d in newtons, or k times the window's fz
 //!   standard deviation) and the equal-width fz bins over [min fz, max fz]
@@ -43,8 +43,8 @@
 //! [`WindowStats::out_of_range`] set, so that the caller can say why.
 
 use crate::error::KernelError;
-use crate::extended::{self, ExtOptions};
-use crate::regression::Moments;
+use crate::numerics::extended::{self, ExtOptions};
+use crate::numerics::regression::Moments;
 use rayon::prelude::*;
 
 /// How the deadband is given (docs/method.md 4).
@@ -66,7 +66,7 @@ pub struct WindowOptions {
     pub deadband: Deadband,
     pub n_bins: usize,
     /// Statistics beyond the paper's and the delay correction
-    /// ([`crate::extended`]; docs/method.md 3a-3e). Default: none.
+    /// ([`crate::numerics::extended`]; docs/method.md 3a-3e). Default: none.
     pub ext: ExtOptions,
 }
 
@@ -806,8 +806,8 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
     let bin_cof = p.acc.iter().zip(&p.cnt).map(|(&a, &c)| mean_or_nan(a, c)).collect();
     Ok(WindowStats {
         moments: {
-            let (mean_x, mean_x_lo) = crate::regression::dd_mean(mz0, cz);
-            let (mean_y, mean_y_lo) = crate::regression::dd_mean(my0, cy);
+            let (mean_x, mean_x_lo) = crate::numerics::regression::dd_mean(mz0, cz);
+            let (mean_y, mean_y_lo) = crate::numerics::regression::dd_mean(my0, cy);
             Moments { n: n as u64, mean_x, mean_y, sxx: szz, syy, sxy: syz, sse, mean_x_lo, mean_y_lo }
         },
         c_xy,

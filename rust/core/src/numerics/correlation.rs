@@ -31,7 +31,7 @@
 //! tells the binding layer when to enter the pool.
 
 use crate::error::{same_len, KernelError};
-use crate::sums::{dot_dev, mean, par_mean, par_sum_sq_dev, sum_sq_dev};
+use crate::numerics::sums::{dot_dev, mean, par_mean, par_sum_sq_dev, sum_sq_dev};
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};

@@ -20,7 +20,7 @@
 //! chunks or the CPU's vector width).
 
 use crate::error::KernelError;
-use crate::sums;
+use crate::numerics::sums;
 use std::cell::RefCell;
 
 /// Consecutive blocks of a window for the batch-means standard errors:
@@ -112,7 +112,7 @@ impl ExtOptions {
 }
 
 /// Lanes of the block sums: sample j of a run of samples goes to lane j mod
-/// SUM_LANES (fixed, so every CPU gives the same bits; see [`crate::windows`]).
+/// SUM_LANES (fixed, so every CPU gives the same bits; see [`crate::numerics::windows`]).
 const SUM_LANES: usize = 4;
 /// Products summed per pass over a run (two passes keep the lanes in registers).
 const HALF: usize = PRODUCTS / 2;

@@ -3,7 +3,7 @@
 //! For every resample (a row of block starts), the median, mean, 5th and 95th
 //! percentiles of its values, as `tribodyn.results._resample_stats` computes
 //! them with NumPy, bit for bit: the order statistics through
-//! [`crate::order`]'s selection (NumPy's `nanmedian`/`nanpercentile`), the
+//! [`crate::numerics::order`]'s selection (NumPy's `nanmedian`/`nanpercentile`), the
 //! mean as NumPy's pairwise sum divided by the count. One pass per resample
 //! and no temporaries: the rows are independent, so the thread count never
 //! changes a result.
@@ -115,7 +115,7 @@ pub fn resample_stats(
                     buf.clear();
                     buf.extend(indices(starts, per_row, row, ell, width).map(|k| nz.var[k]).filter(|x| !x.is_nan()));
                     let mut m = 0.0;
-                    crate::order::one_row(buf, &[], &mut m, &mut []);
+                    crate::numerics::order::one_row(buf, &[], &mut m, &mut []);
                     let delta = numpy_max0(m) - nz.used;
                     vals.extend(indices(starts, per_row, row, ell, width).map(|k| {
                         let p = nz.pos[k];
@@ -142,7 +142,7 @@ pub fn resample_stats(
             buf.clear();
             buf.extend(vals.iter().copied().filter(|x| !x.is_nan()));
             let (mut med, mut q) = (0.0, [0.0; 2]);
-            crate::order::one_row(buf, &[0.05, 0.95], &mut med, &mut q);
+            crate::numerics::order::one_row(buf, &[0.05, 0.95], &mut med, &mut q);
             *o = [med, mean / count as f64, q[0], q[1]];
         },
     );
