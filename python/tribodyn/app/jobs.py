@@ -979,8 +979,12 @@ def _channel_map(rec: Any) -> Dict[str, str]:
 
 
 def _labels(paths: Sequence[Path]) -> List[str]:
-    """Sub-folder names: file stems, made unique with a counter where they repeat."""
-    stems = [p.stem for p in paths]
+    """Sub-folder names: file stems, made unique with a counter where they repeat.
+
+    A stem that is no folder name of its own (``..npz`` has the stem ``.``; ``.x.csv`` would make a hidden
+    folder) loses its leading and trailing dots, then falls back to the file name's, then to "recording"
+    (issue 34: an input named ``..npz`` lost its per-recording files)."""
+    stems = [p.stem.strip(".") or p.name.strip(".") or "recording" for p in paths]
     return [s if stems.count(s) == 1 else f"{s}-{k + 1}" for k, s in enumerate(stems)]
 
 
