@@ -364,9 +364,27 @@ class Hdf5Recording(Recording):
             self._meta(f"the storage of {k!r}", lambda: self._check_written(k, d))
         self._names = names
         self._n = n
-        # Variable-length text attributes to be read (units, the root's for the metadata): one helper request.
+        root_attrs = self._units()
+        rates = self._rates(h5py)
+        if rates:
+            vals = [r[0] for r in rates.values()]
+            if max(vals) - min(vals) > 1e-9 * max(vals):
+                detail = ", ".join(f"{k!r}: {r[0]:g} Hz" for k, r in rates.items())
+                raise RecordingError(f"{self.path}: channels have different sampling rates ({detail})")
+            self._file_fs, self._fs_source = next(iter(rates.values()))
+        elif time_channel is not None:
+            self._fs_from_time_channel(time_channel)
+        self.metadata = {"attributes": {k: _attr(self._attr_of(self._h5, "/", k, display=True)) for k in root_attrs}}
+        if skipped:
+            self.metadata["skipped"] = skipped
+        self._default_roles = roles_by_name(self._names)
+        self._setup(channels, fs, scale, units)
+
+    def _units(self) -> List[str]:
+        """Reads each channel's unit attribute (``_raw_units``) and returns the root's attribute names; the
+        variable-length texts among them (units, the root's for the metadata) in one helper request."""
         self._heap: Dict[Tuple[str, str], Tuple[str, Any]] = {}
-        root_attrs = self._meta("the attributes of '/'", lambda: list(self._h5.attrs))
+        root_attrs: List[str] = self._meta("the attributes of '/'", lambda: list(self._h5.attrs))
         texts = [(d, k, key) for k, d in self._dsets.items() for key in _UNIT_ATTRS if self._in_heap(d, k, key)]
         texts += [(self._h5, "/", key) for key in root_attrs if self._in_heap(self._h5, "/", key)]
         if texts:
@@ -379,7 +397,11 @@ class Hdf5Recording(Recording):
                 if u:
                     break
             self._raw_units[k] = u
-        # sampling rate: per channel, nearest definition up the tree
+        return root_attrs
+
+    def _rates(self, h5py: Any) -> Dict[str, Tuple[float, str]]:
+        """Sampling rate per channel (Hz, where it was found): the nearest definition up the tree, else a
+        root dataset ``fs`` for every channel; empty when none is found."""
         rates: Dict[str, Tuple[float, str]] = {}
         for k, d in self._dsets.items():
             obj = d
@@ -398,19 +420,7 @@ class Hdf5Recording(Recording):
                 v = _scalar(self._meta("dataset '/fs'", lambda: fs_d[()]))
                 if v is not None:
                     rates = {k: (v, "dataset '/fs'") for k in self._dsets}
-        if rates:
-            vals = [r[0] for r in rates.values()]
-            if max(vals) - min(vals) > 1e-9 * max(vals):
-                detail = ", ".join(f"{k!r}: {r[0]:g} Hz" for k, r in rates.items())
-                raise RecordingError(f"{self.path}: channels have different sampling rates ({detail})")
-            self._file_fs, self._fs_source = next(iter(rates.values()))
-        elif time_channel is not None:
-            self._fs_from_time_channel(time_channel)
-        self.metadata = {"attributes": {k: _attr(self._attr_of(self._h5, "/", k, display=True)) for k in root_attrs}}
-        if skipped:
-            self.metadata["skipped"] = skipped
-        self._default_roles = roles_by_name(self._names)
-        self._setup(channels, fs, scale, units)
+        return rates
 
     def _walk(self, h5py: Any, root: Any, visit: Callable[[str, Any], None]) -> None:
         """Calls ``visit(name, obj)`` for every object under ``root``, each once, in the order of

@@ -253,6 +253,49 @@ def _by_magnitude(cands: Sequence[Candidate]) -> Tuple[Candidate, Optional[Candi
     return best, nxt, bool(larger or steadier)
 
 
+def _same_signals(ft: Mapping[str, np.ndarray], names: Sequence[str], preferred: Optional[str]) -> Dict[str, str]:
+    """One signal exported twice (CETR's Ff = |Fx|): dropped channel -> the one that stands for both (the
+    preferred name, else the first)."""
+    same: Dict[str, str] = {}
+    for i, a in enumerate(names):
+        if a in same:
+            continue
+        for b in names[i + 1 :]:
+            if b in same:
+                continue
+            ok = np.isfinite(ft[a]) & np.isfinite(ft[b])
+            equal = np.isclose(np.abs(ft[a][ok]), np.abs(ft[b][ok]), rtol=1e-3, atol=0.0)
+            if equal.size and float(np.mean(equal)) >= SAME_AXIS_SHARE:
+                keep, drop = (b, a) if b == preferred else (a, b)
+                same[drop] = keep
+                if drop == a:
+                    break
+    return same
+
+
+def _candidate(name: str, f: np.ndarray, absz: np.ndarray, ref_strokes: Sequence[Tuple[int, int, int]],
+               boundaries: Sequence[Tuple[int, int]], *, same_as: Optional[str]) -> Candidate:  # fmt: skip
+    """The evidence for one tangential channel ``f`` (NaN outside contact): its |Ft|/|Fn| and whether its
+    sign follows the motion's strokes (or its own reversals without a motion channel)."""
+    from ..kernels.strokes import find_strokes
+
+    r = np.abs(f) / absz
+    r = r[np.isfinite(r)]
+    ratio = float(np.median(r)) if r.size else math.nan
+    mean = float(np.mean(r)) if r.size else 0.0
+    cv = float(np.std(r) / mean) if mean > 0 else math.nan
+    follows: Optional[float] = None
+    judged = 0
+    if ref_strokes:
+        share, judged = _stroke_signs(f, ref_strokes)
+        follows = share if judged >= MIN_STROKES else None
+    else:
+        own = find_strokes(f, boundaries=boundaries, kind="fy")
+        if _reversing(own):
+            follows, judged = _own_signs(f, own), len(own)
+    return Candidate(name, ratio, cv, follows, judged, same_as)
+
+
 def decide(
     forces: Mapping[str, np.ndarray],
     fz: np.ndarray,
@@ -285,21 +328,7 @@ def decide(
     absz = np.abs(fz)
     contact = np.isfinite(fz) & (absz >= MIN_FN_FRACTION * float(np.median(absz[np.isfinite(absz)]))) & (absz > 0)
     ft = {n: np.where(contact, np.asarray(forces[n], dtype=float), np.nan) for n in names}
-    # One signal exported twice (CETR's Ff = |Fx|): the preferred name, else the first, stands for both.
-    same: Dict[str, str] = {}
-    for i, a in enumerate(names):
-        if a in same:
-            continue
-        for b in names[i + 1 :]:
-            if b in same:
-                continue
-            ok = np.isfinite(ft[a]) & np.isfinite(ft[b])
-            equal = np.isclose(np.abs(ft[a][ok]), np.abs(ft[b][ok]), rtol=1e-3, atol=0.0)
-            if equal.size and float(np.mean(equal)) >= SAME_AXIS_SHARE:
-                keep, drop = (b, a) if b == preferred else (a, b)
-                same[drop] = keep
-                if drop == a:
-                    break
+    same = _same_signals(ft, names, preferred)
     ref_strokes: List[Tuple[int, int, int]] = []
     note = ""
     if motion is not None:
@@ -307,23 +336,7 @@ def decide(
         if not _reversing(ref_strokes):
             note = f"{motion_name or motion_kind} shows fewer than {MIN_STROKES} strokes: its sign not used"
             ref_strokes = []
-    cands: List[Candidate] = []
-    for n in names:
-        r = np.abs(ft[n]) / absz
-        r = r[np.isfinite(r)]
-        ratio = float(np.median(r)) if r.size else math.nan
-        mean = float(np.mean(r)) if r.size else 0.0
-        cv = float(np.std(r) / mean) if mean > 0 else math.nan
-        follows: Optional[float] = None
-        judged = 0
-        if ref_strokes:
-            share, judged = _stroke_signs(ft[n], ref_strokes)
-            follows = share if judged >= MIN_STROKES else None
-        else:
-            own = find_strokes(ft[n], boundaries=boundaries, kind="fy")
-            if _reversing(own):
-                follows, judged = _own_signs(ft[n], own), len(own)
-        cands.append(Candidate(n, ratio, cv, follows, judged, same.get(n)))
+    cands = [_candidate(n, ft[n], absz, ref_strokes, boundaries, same_as=same.get(n)) for n in names]
     samples = int(np.count_nonzero(contact))
     reps = [c for c in cands if c.same_as is None]
     if len(reps) == 1:

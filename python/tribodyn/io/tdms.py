@@ -780,6 +780,47 @@ class TdmsRecording(Recording):
             raise RecordingError(f"{where}: DAQmx raw data without scaling properties (NI_Scale[n]_...)")
         return dt
 
+    def _check_sizes(self, objs: Sequence[Tuple[str, Any]], implied: Mapping[str, int]) -> None:
+        """Refuses a file whose segments hold data for an object that is no channel, or whose channels' lengths
+        differ from what the segments' sizes imply (a corrupt file)."""
+        known = {str(c.path) for g in self._file.groups() for c in g.channels()}
+        lost = [p for p, k in implied.items() if k > 0 and p not in known]
+        if lost:
+            # npTDMS drops an object it cannot place in a group (e.g. a path with a flipped quote)
+            raise RecordingError(
+                f"{self.path}: corrupt TDMS file: data of object {lost[0]!r}, which is no channel of a group "
+                "(malformed object path)"
+            )
+        for gname, c in objs:
+            expect = implied.get(str(c.path))
+            if expect is not None and expect != len(c):
+                raise RecordingError(
+                    f"{self.path}: corrupt TDMS file: channel '{gname}/{c.name}' has {len(c)} samples but "
+                    f"its segments' sizes imply {expect}"
+                )
+
+    def _rate_from_increments(self) -> None:
+        """The file's rate from the channels' ``wf_increment`` (one value for all, else refused)."""
+        incs = {}
+        for nm, c in self._objs.items():
+            inc = c.properties.get("wf_increment")
+            if inc is not None:
+                try:
+                    incs[nm] = float(inc)
+                except (TypeError, ValueError):
+                    pass
+        if incs:
+            vals = list(incs.values())
+            if max(vals) - min(vals) > 1e-9 * max(abs(v) for v in vals):
+                detail = ", ".join(f"{k!r}: {v:g}" for k, v in incs.items())
+                raise RecordingError(
+                    f"{self.path}: channels have different wf_increment ({detail}); "
+                    "map channels of one rate with channels="
+                )
+            if vals[0] > 0:
+                self._file_fs = rate_from_step(vals[0])
+                self._fs_source = f"1/wf_increment ({vals[0]:g} s)"
+
     def _open(
         self,
         channels: Optional[Mapping[str, Optional[str]]],
@@ -807,21 +848,7 @@ class TdmsRecording(Recording):
                     objs.append((g.name, c))
                 else:
                     skipped.append(f"{g.name}/{c.name}")
-        known = {str(c.path) for g in self._file.groups() for c in g.channels()}
-        lost = [p for p, k in implied.items() if k > 0 and p not in known]
-        if lost:
-            # npTDMS drops an object it cannot place in a group (e.g. a path with a flipped quote)
-            raise RecordingError(
-                f"{self.path}: corrupt TDMS file: data of object {lost[0]!r}, which is no channel of a group "
-                "(malformed object path)"
-            )
-        for gname, c in objs:
-            expect = implied.get(str(c.path))
-            if expect is not None and expect != len(c):
-                raise RecordingError(
-                    f"{self.path}: corrupt TDMS file: channel '{gname}/{c.name}' has {len(c)} samples but "
-                    f"its segments' sizes imply {expect}"
-                )
+        self._check_sizes(objs, implied)
         counts: Dict[str, int] = {}
         for _, c in objs:
             counts[c.name] = counts.get(c.name, 0) + 1
@@ -848,25 +875,7 @@ class TdmsRecording(Recording):
             else None
             for nm, c in self._objs.items()
         }
-        incs = {}
-        for nm, c in self._objs.items():
-            inc = c.properties.get("wf_increment")
-            if inc is not None:
-                try:
-                    incs[nm] = float(inc)
-                except (TypeError, ValueError):
-                    pass
-        if incs:
-            vals = list(incs.values())
-            if max(vals) - min(vals) > 1e-9 * max(abs(v) for v in vals):
-                detail = ", ".join(f"{k!r}: {v:g}" for k, v in incs.items())
-                raise RecordingError(
-                    f"{self.path}: channels have different wf_increment ({detail}); "
-                    "map channels of one rate with channels="
-                )
-            if vals[0] > 0:
-                self._file_fs = rate_from_step(vals[0])
-                self._fs_source = f"1/wf_increment ({vals[0]:g} s)"
+        self._rate_from_increments()
         self.metadata = {
             "properties": {k: _plain(v) for k, v in self._file.properties.items()},
             "groups": [g.name for g in self._file.groups()],
