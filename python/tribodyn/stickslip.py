@@ -45,6 +45,11 @@ SLIP_FRACTION = 0.5
 RISE_SHARE = 0.5
 #: Share of a stick left out of its line at each end (the turns into and out of the slips).
 MARGIN_SHARE = 0.1
+#: Seconds the smoothed signal of the falls averages at least (at high rates: noise's swings within a stick
+#: stay under the threshold).
+SMOOTH_S = 0.001
+#: 10-90 % width of a half-cosine fall (1 - cos(pi u)) / 2 over its duration: (acos(-0.8) - acos(0.8)) / pi.
+HALF_COSINE_10_90 = 0.5903344
 #: Samples each stick line needs.
 MIN_FIT = 3
 #: Rounds of merging falls under half the threshold into their sticks (noise's swings within a stick).
@@ -212,6 +217,7 @@ class _Segments:
     min_fn: float
     tare_fy: float
     tare_fz: float
+    smooth: int  # samples of the smoothed signal whose peaks and troughs delimit the falls
 
 
 def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, orientation: float
@@ -402,7 +408,7 @@ def _extremes(s: np.ndarray, gate: float, wlen: int) -> Tuple[np.ndarray, np.nda
 
 
 def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, sigma: float, quantum: float,
-            k: float, drop_samples: int, wlen: int) -> _Events:  # fmt: skip
+            k: float, drop_samples: int, wlen: int, smooth: int) -> _Events:  # fmt: skip
     """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g).
 
     Per run of a segment: r smoothed over L samples; its alternating peaks and troughs whose prominence
@@ -414,7 +420,7 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     least RISE_SHARE of the drop unless the run cut it) and it was fast: b - a <= max(drop_samples,
     SLIP_FRACTION x the stick before it).
     """
-    L = SMOOTH
+    L = smooth
     thr = max(k * sigma, Q_STEPS * quantum)
     if not (thr > 0) or r.size < 2 * L:
         return _Events.none()
@@ -444,13 +450,13 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     a, b = np.concatenate(pa), np.concatenate(pb)
     run0, run1 = np.concatenate(r0), np.concatenate(r1)
     for _ in range(PRUNE_ROUNDS):
-        f = _falls(r, fn, a, b, run0, run1, wlen)
+        f = _falls(r, fn, a, b, run0, run1, wlen, L)
         weak = ~(f.drop >= 0.5 * thr)  # a fall under half the threshold is part of its stick: merged into it
         if not weak.any():
             break
         a, b, run0, run1 = a[~weak], b[~weak], run0[~weak], run1[~weak]
     else:
-        f = _falls(r, fn, a, b, run0, run1, wlen)
+        f = _falls(r, fn, a, b, run0, run1, wlen, L)
     sig = max(sigma, quantum / np.sqrt(12.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         fitted = (f.pre.count >= MIN_FIT) & (f.post.count >= MIN_FIT) & np.isfinite(f.mid)
@@ -479,9 +485,9 @@ class _FallFits:
 
 
 def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, run0: np.ndarray, run1: np.ndarray,
-           wlen: int) -> _FallFits:  # fmt: skip
-    """The stick lines, middle, duration and whole drop of each fall a..b (docs/method.md 6g)."""
-    L = SMOOTH
+           wlen: int, L: int) -> _FallFits:  # fmt: skip
+    """The stick lines, middle, duration and whole drop of each fall a..b (docs/method.md 6g); L the samples of
+    the smoothed signal."""
     same_prev = np.concatenate([[False], run0[1:] == run0[:-1]])
     same_next = np.concatenate([run0[1:] == run0[:-1], [False]])
     prev_b = np.where(same_prev, np.concatenate([[0], b[:-1]]), run0)  # the stick before: prev_b .. a
@@ -493,19 +499,20 @@ def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, run0: np
     m_post = np.maximum(1, np.round(MARGIN_SHARE * (hi_post - b)).astype(np.int64))
     pre = _lines(r, fn, lo_pre + m_pre, a - m_pre + 1)
     post = _lines(r, fn, b + m_post, hi_post - m_post + 1)
-    mid, tau = _crossings(r, a - (L - 1), b, pre, post)
+    mid, tau = _crossings(r, a - (L - 1), b, pre, post, L)
     drop = pre.at(mid - 0.5 * tau) - post.at(mid + 0.5 * tau)
     return _FallFits(pre, post, mid, tau, drop, a - prev_b, ~same_prev)
 
 
-def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, pre: "_Fit", post: "_Fit"
+def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, pre: "_Fit", post: "_Fit", L: int
                ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(middle, duration) of each fall in samples (docs/method.md 6g), from the mean of r over L samples
     starting at p .. q (centred (L - 1) / 2 later): its share of the way from the stick line before to the one
     after, f. The middle: where f first reaches 1/2 (interpolated); t10, t90: where f last rose through 0.1
-    before it and first reaches 0.9 after it; duration = max(0, (t90 - t10) / 0.8 - L) (a drop within a sample:
-    0; a ramp of D samples: about D). NaN where f never reaches 1/2."""
-    L = SMOOTH
+    before it and first reaches 0.9 after it; duration = sqrt(max(0, (t90 - t10)^2 - (0.8 L + 1)^2)) / 0.59: the
+    box's own 10-90 % width 0.8 L and a sample of the crossings' jitter taken out (widths adding in
+    quadrature), and a fall taken as a half cosine,
+    whose 10-90 % width is 0.59 of its duration (a drop within a sample: 0). NaN where f never reaches 1/2."""
     c = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(r), r, 0.0))])
     width = np.maximum(q - p + 1, 1)
     rows = np.repeat(np.arange(p.size), width)
@@ -542,7 +549,9 @@ def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, pre: "_Fit", post: "
     k10 = np.where(last >= 0, last + 1, start)
     k90 = first((f >= 0.9) & (np.arange(rows.size) >= k50[rows]))
     k90 = np.where(k90 >= 0, k90, start + width - 1)
-    tau = np.maximum(0.0, (interp(k90, 0.9) - interp(k10, 0.1)) / 0.8 - L)
+    w = interp(k90, 0.9) - interp(k10, 0.1)  # 10-90 % width of the smoothed fall
+    # the box's width taken out, and a sample more: the noise's jitter of the crossings
+    tau = np.sqrt(np.maximum(0.0, w * w - (0.8 * L + 1.0) ** 2)) / HALF_COSINE_10_90
     return mid, np.where(ok, tau, nan)
 
 
@@ -617,18 +626,23 @@ def _segments(params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarr
         mu = np.asarray(st["mu"], dtype=float)
         keep = np.isfinite(mu)
         seg = _Segments(c0[keep], c1[keep], np.asarray(st["direction"], dtype=float)[keep], mu[keep],
-                        _grid(fs), min_fn, tare_fy, tare_fz)  # fmt: skip
+                        _grid(fs), min_fn, tare_fy, tare_fz, _smooth(fs))  # fmt: skip
         return seg, f"the central {frac:g} of each stroke"
     a0 = int(p.get("start") or 0)
     b0 = int(p["stop"]) if p.get("stop") is not None else n
     seg = _Segments(np.array([a0]), np.array([b0]), np.array([1.0]), np.array([np.nan]), _grid(fs),
-                    min_fn, tare_fy, tare_fz)  # fmt: skip
+                    min_fn, tare_fy, tare_fz, _smooth(fs))  # fmt: skip
     return seg, "the samples in contact"
 
 
 def _grid(fs: float) -> int:
     """Samples of the COF grid and of the falls' window: GRID_S seconds, at least 100 samples."""
     return max(100, round(GRID_S * fs))
+
+
+def _smooth(fs: float) -> int:
+    """Samples of the smoothed signal of the falls: SMOOTH_S seconds, at least SMOOTH samples."""
+    return max(SMOOTH, round(SMOOTH_S * fs))
 
 
 def _check(k: float, drop_samples: int) -> None:
@@ -938,7 +952,7 @@ def _search_block(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], orienta
     inside = label[a - ra : b - ra] >= 0
     signsum = orientation * float(np.sum(y[a - ra : b - ra][inside]))
     found = _detect(r, fn, label, ra, sigma=sigma, quantum=quantum, k=k, drop_samples=drop_samples,
-                    wlen=seg.per_second)  # fmt: skip
+                    wlen=seg.per_second, smooth=seg.smooth)  # fmt: skip
     return found.where((found.index >= a) & (found.index < b)), signsum, int(inside.sum())
 
 
