@@ -18,6 +18,7 @@ import numpy as np
 
 FN = 20.0  # N, dead weight
 MU = 0.3
+QUANTUM = 0.0625  # N: the quantised cases' resolution (an eighth of the default amplitude)
 LEAD_IN = 1.0  # s unloaded before the load is applied (truth times count from the load)
 
 

@@ -40,7 +40,7 @@ SMOOTH = 5
 #: Samples a drop may always take (the noise's drop statistic: the gap between its two averages) ...
 DROP_SAMPLES = 3
 #: ... and longer, up to this fraction of the stick before it: a slip is fast next to its stick.
-SLIP_FRACTION = 0.5
+SLIP_FRACTION = 0.2
 #: The stick before a drop must have risen by this share of the drop (the force the slip releases).
 RISE_SHARE = 0.5
 #: Share of a stick left out of its line at each end (the turns into and out of the slips).
@@ -48,8 +48,8 @@ MARGIN_SHARE = 0.1
 #: Seconds the smoothed signal of the falls averages at least (at high rates: noise's swings within a stick
 #: stay under the threshold).
 SMOOTH_S = 0.001
-#: 10-90 % width of a half-cosine fall (1 - cos(pi u)) / 2 over its duration: (acos(-0.8) - acos(0.8)) / pi.
-HALF_COSINE_10_90 = 0.5903344
+#: 20-80 % width of a half-cosine fall (1 - cos(pi u)) / 2 over its duration: (acos(-0.6) - acos(0.6)) / pi.
+HALF_COSINE_20_80 = 0.4096655
 #: Samples each stick line needs.
 MIN_FIT = 3
 #: Rounds of merging falls under half the threshold into their sticks (noise's swings within a stick).
@@ -328,7 +328,7 @@ def _drop_statistic(r: np.ndarray, label: np.ndarray, slope: float, drop_samples
     return i, g, ok
 
 
-def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int) -> Optional[Tuple[float, float]]:
+def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int, quantum: float = 0.0) -> Optional[Tuple[float, float]]:
     """(noise SD, rise per sample) of the friction signal r, or None with fewer than 10 differences (6g).
 
     Falls: first differences (within a segment) below their median by more than :data:`FALL_SD` robust
@@ -344,18 +344,22 @@ def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int) -> Optional[Tupl
     if diffs.size < 10:
         return None
     centre = float(np.median(diffs))
-    falls = valid & (d < centre - FALL_SD * 1.4826 * float(np.median(np.abs(diffs - centre))))
+    spread = max(1.4826 * float(np.median(np.abs(diffs - centre))), quantum)
+    falls = valid & (d < centre - FALL_SD * spread)
     calm = diffs[~falls[valid]]
-    white = 1.4826 * float(np.median(np.abs(calm - np.median(calm)))) / np.sqrt(2.0)
+    if quantum > 0:  # a quantised export: its MAD moves in steps of the grid, the SD does not
+        white = float(np.std(calm)) / np.sqrt(2.0)
+    else:
+        white = 1.4826 * float(np.median(np.abs(calm - np.median(calm)))) / np.sqrt(2.0)
     i, g, ok = _drop_statistic(r, label, 0.0, D)
     nf = np.concatenate([[0], np.cumsum(falls)])  # falls among the differences m .. : nf[m1] - nf[m0]
     clean = ok & ((nf[i + D + L - 1] - nf[i - L]) == 0)
     if clean.sum() < 10:
-        return white, float(np.median(calm))
+        return white, white
     gc = g[clean]
     mid = float(np.median(gc))
     coloured = 1.4826 * float(np.median(np.abs(gc - mid))) * np.sqrt(L / 2.0)
-    return max(white, coloured), -mid / (L + D)
+    return white, max(white, coloured)
 
 
 def _quantum(x: np.ndarray) -> float:
@@ -408,20 +412,21 @@ def _extremes(s: np.ndarray, gate: float, wlen: int) -> Tuple[np.ndarray, np.nda
 
 
 def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, sigma: float, quantum: float,
-            k: float, drop_samples: int, wlen: int, smooth: int) -> _Events:  # fmt: skip
+            coloured: float, k: float, drop_samples: int, wlen: int, smooth: int) -> _Events:  # fmt: skip
     """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g).
 
     Per run of a segment: r smoothed over L samples; its alternating peaks and troughs whose prominence
     (within ``wlen`` samples) reaches half the threshold; each peak followed by a trough is a fall, from its
     last sample on the stick (a) to its first after it (b). The stick before a fall runs from the previous
     fall's b (or the run's start), the one after it to the next fall's a (or the run's end). A fall is an
-    event when its whole drop (the stick line before it at a minus the one after it at b) reaches the
-    threshold max(k sigma, Q_STEPS quantum), the stick before it rose (slope > RISE_T standard errors, by at
+    event when its whole drop (the stick line before it at a minus the one after it at b) and its swing (the
+    smoothed signal at the peak minus at the trough) reach the threshold max(k sigma, Q_STEPS quantum), the stick before it rose (slope > RISE_T standard errors, by at
     least RISE_SHARE of the drop unless the run cut it) and it was fast: b - a <= max(drop_samples,
     SLIP_FRACTION x the stick before it).
     """
     L = smooth
     thr = max(k * sigma, Q_STEPS * quantum)
+    gate = 0.5 * max(k * coloured, thr)  # (coloured noise swings more: fewer falls of noise)
     if not (thr > 0) or r.size < 2 * L:
         return _Events.none()
     starts, stops = _runs(label)
@@ -429,13 +434,14 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     pb: List[np.ndarray] = []
     r0: List[np.ndarray] = []
     r1: List[np.ndarray] = []
+    sw: List[np.ndarray] = []  # each fall's swing: the smoothed signal at its peak minus at its trough
     for s0, s1 in zip(starts.tolist(), stops.tolist()):
         if s1 - s0 < 2 * L + 2:
             continue
         x = r[s0:s1]
         c = np.concatenate([[0.0], np.cumsum(x)])
         sm = (c[L:] - c[:-L]) / L  # sm[j]: mean of x[j .. j + L - 1]
-        at, kind = _extremes(sm, 0.5 * thr, wlen)
+        at, kind = _extremes(sm, gate, wlen)
         fall = np.flatnonzero((kind[:-1] == 1) & (kind[1:] == -1))
         if fall.size == 0:
             continue
@@ -445,16 +451,19 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
         pb.append(s0 + b)
         r0.append(np.full(a.size, s0))
         r1.append(np.full(a.size, s1))
+        sw.append(sm[at[fall]] - sm[at[fall + 1]])
     if not pa:
         return _Events.none()
     a, b = np.concatenate(pa), np.concatenate(pb)
-    run0, run1 = np.concatenate(r0), np.concatenate(r1)
+    run0, run1, swing = np.concatenate(r0), np.concatenate(r1), np.concatenate(sw)
     for _ in range(PRUNE_ROUNDS):
         f = _falls(r, fn, a, b, run0, run1, wlen, L)
-        weak = ~(f.drop >= 0.5 * thr)  # a fall under half the threshold is part of its stick: merged into it
+        # a fall whose drop is under the gate and whose swing is under the threshold is part of its stick:
+        # merged into it (a real fall's swing stands out even where a neighbour spoils its lines)
+        weak = ~(f.drop >= gate) & ~(swing >= thr)
         if not weak.any():
             break
-        a, b, run0, run1 = a[~weak], b[~weak], run0[~weak], run1[~weak]
+        a, b, run0, run1, swing = a[~weak], b[~weak], run0[~weak], run1[~weak], swing[~weak]
     else:
         f = _falls(r, fn, a, b, run0, run1, wlen, L)
     sig = max(sigma, quantum / np.sqrt(12.0))
@@ -463,7 +472,10 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
         rose = f.pre.slope * np.sqrt(f.pre.sxx) >= RISE_T * sig
         enough = f.cut | (f.pre.slope * f.stick >= RISE_SHARE * f.drop)
         fast = f.tau <= np.maximum(drop_samples, SLIP_FRACTION * f.stick)
-        ok = fitted & rose & enough & fast & (f.drop >= thr)
+        # the scatter about the stick lines: the noise at the sticks' scale (coloured noise, a wander)
+        scatter = np.sqrt((f.pre.ss + f.post.ss) / np.maximum(f.pre.count + f.post.count - 4, 1))
+        floor = np.maximum(thr, k * scatter)
+        ok = fitted & rose & enough & fast & (f.drop >= floor) & (swing >= floor)
     beside = (f.pre.fn + f.post.fn) / np.maximum(f.pre.count + f.post.count, 1)
     j = np.flatnonzero(ok)
     at = np.floor(f.mid[j]).astype(np.int64) + 1  # the first sample after the drop's middle
@@ -504,15 +516,19 @@ def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, run0: np
     return _FallFits(pre, post, mid, tau, drop, a - prev_b, ~same_prev)
 
 
+#: The crossings that time a fall: LOW and 1 - LOW of the way from the stick line before to the one after.
+LOW = 0.2
+
+
 def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, pre: "_Fit", post: "_Fit", L: int
                ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(middle, duration) of each fall in samples (docs/method.md 6g), from the mean of r over L samples
     starting at p .. q (centred (L - 1) / 2 later): its share of the way from the stick line before to the one
-    after, f. The middle: where f first reaches 1/2 (interpolated); t10, t90: where f last rose through 0.1
-    before it and first reaches 0.9 after it; duration = sqrt(max(0, (t90 - t10)^2 - (0.8 L + 1)^2)) / 0.59: the
-    box's own 10-90 % width 0.8 L and a sample of the crossings' jitter taken out (widths adding in
-    quadrature), and a fall taken as a half cosine,
-    whose 10-90 % width is 0.59 of its duration (a drop within a sample: 0). NaN where f never reaches 1/2."""
+    after, f. The middle: where f first reaches 1/2 (interpolated); t20, t80: where f last rose through LOW
+    before it and first reaches 1 - LOW after it; duration = sqrt(max(0, (t80 - t20)^2 - (0.6 L + 1)^2)) / 0.41:
+    the box's own 20-80 % width 0.6 L and a sample of the crossings' jitter taken out (widths adding in
+    quadrature), and a fall taken as a half cosine, whose 20-80 % width is 0.41 of its duration (a drop within
+    a sample: 0). NaN where f never reaches 1/2."""
     c = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(r), r, 0.0))])
     width = np.maximum(q - p + 1, 1)
     rows = np.repeat(np.arange(p.size), width)
@@ -536,22 +552,22 @@ def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, pre: "_Fit", post: "
         k0 = np.maximum(k - 1, start)
         d = f[k] - f[k0]
         u = np.where(d != 0, (level - f[k0]) / np.where(d != 0, d, 1.0), 1.0)
-        return tc[k0] + np.clip(u, 0.0, 1.0) * (tc[k] - tc[k0])
+        return np.asarray(tc[k0] + np.clip(u, 0.0, 1.0) * (tc[k] - tc[k0]))
 
     k50 = first(f >= 0.5)
     ok = k50 >= 0
     k50 = np.where(ok, k50, start)
     mid = np.where(ok, interp(k50, 0.5), nan)
     # t10: after the last position before the middle with f < 0.1; t90: the first after it with f >= 0.9
-    below = (f < 0.1) & (np.arange(rows.size) < k50[rows])
+    below = (f < LOW) & (np.arange(rows.size) < k50[rows])
     k = np.where(below, np.arange(rows.size), -1)
     last = np.maximum.reduceat(k, start)
     k10 = np.where(last >= 0, last + 1, start)
-    k90 = first((f >= 0.9) & (np.arange(rows.size) >= k50[rows]))
+    k90 = first((f >= 1 - LOW) & (np.arange(rows.size) >= k50[rows]))
     k90 = np.where(k90 >= 0, k90, start + width - 1)
-    w = interp(k90, 0.9) - interp(k10, 0.1)  # 10-90 % width of the smoothed fall
+    w = interp(k90, 1 - LOW) - interp(k10, LOW)  # 20-80 % width of the smoothed fall
     # the box's width taken out, and a sample more: the noise's jitter of the crossings
-    tau = np.sqrt(np.maximum(0.0, w * w - (0.8 * L + 1.0) ** 2)) / HALF_COSINE_10_90
+    tau = np.sqrt(np.maximum(0.0, w * w - ((1 - 2 * LOW) * L + 1.0) ** 2)) / HALF_COSINE_20_80
     return mid, np.where(ok, tau, nan)
 
 
@@ -566,6 +582,7 @@ class _Fit:
     tbar: np.ndarray
     ybar: np.ndarray
     fn: np.ndarray
+    ss: np.ndarray  # the sum of squared residuals about the line
 
     def at(self, t: np.ndarray, rows: Optional[np.ndarray] = None) -> np.ndarray:
         """Each line's level at time t (samples; ``rows``: the line of each t)."""
@@ -589,7 +606,7 @@ def _lines(r: np.ndarray, fn: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> _Fi
         return np.concatenate([np.zeros(1, x.dtype), np.cumsum(x)])
 
     s1, st, stt = (running(v) for v in (fin.astype(np.int64), np.where(fin, t, 0), np.where(fin, t * t, 0)))
-    sy, sty, sfn = (running(v) for v in (rz, t * rz, np.where(fin, fn, 0.0)))
+    sy, sty, sfn, syy = (running(v) for v in (rz, t * rz, np.where(fin, fn, 0.0), rz * rz))
     lo = np.clip(lo, 0, r.size)
     hi = np.clip(np.maximum(lo, hi), 0, r.size)
     c = s1[hi] - s1[lo]
@@ -601,7 +618,9 @@ def _lines(r: np.ndarray, fn: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> _Fi
     sxy = (sty[hi] - sty[lo]) - tsum * ybar
     with np.errstate(invalid="ignore", divide="ignore"):
         slope = np.where(sxx > 0, sxy / np.where(sxx > 0, sxx, 1.0), np.nan)
-    return _Fit(c, slope, sxx, tbar, ybar, sfn[hi] - sfn[lo])
+    syy_c = (syy[hi] - syy[lo]) - ysum * ybar
+    ss = np.maximum(0.0, syy_c - np.where(sxx > 0, slope * sxy, 0.0))
+    return _Fit(c, slope, sxx, tbar, ybar, sfn[hi] - sfn[lo], ss)
 
 
 def _segments(params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarray]], n: int,
@@ -748,7 +767,7 @@ class _Search:
         return self.first is self.spans
 
     def noise(self, fetch: Callable[["_Span"], Dict[str, np.ndarray]], *, every_block: bool = True
-              ) -> Union[Tuple[float, float, float], StickSlip, None]:  # fmt: skip
+              ) -> Union[Tuple[float, "_Floors", float], StickSlip, None]:  # fmt: skip
         """Pass 1: (noise SD, the export's resolution, the recording's sign), or why it is not assessed. A sample that
         met no contact is estimated again from every block (None instead when ``every_block`` is False)."""
         D = self.drop_samples
@@ -758,29 +777,30 @@ class _Search:
                 return None
             est = [_block_noise(self.seg, s, fetch(s), D) for s in self.spans]
         sigmas = [e[0] for e, _, _ in est if e is not None]
-        quanta = [e[1] for e, _, _ in est if e is not None]
+        floors = [e[1] for e, _, _ in est if e is not None]
         if not sigmas:
             duration = sum(u for _, _, u in est) / self.fs  # pass 1 read every block here
             return _not_assessed(f"stick-slip not assessed: fewer than 10 samples in contact in {self.scope}",
                                  self.scope, duration)  # fmt: skip
         orientation = 1.0 if sum(y for _, y, _ in est) >= 0 else -1.0
-        return float(np.median(sigmas)), float(np.median(quanta)), orientation
+        median = _Floors(float(np.median([f.quantum for f in floors])), float(np.median([f.coloured for f in floors])))
+        return float(np.median(sigmas)), median, orientation
 
-    def block(self, span: "_Span", d: Dict[str, np.ndarray], orientation: float, sigma: float, quantum: float
+    def block(self, span: "_Span", d: Dict[str, np.ndarray], orientation: float, sigma: float, floors: "_Floors"
               ) -> Tuple[_Events, float, int]:  # fmt: skip
         """Pass 2 over one block: (events, sum of the friction force, samples in contact)."""
-        return _search_block(self.seg, span, d, orientation, sigma=sigma, quantum=quantum, k=self.k,
+        return _search_block(self.seg, span, d, orientation, sigma=sigma, floors=floors, k=self.k,
                              drop_samples=self.drop_samples)  # fmt: skip
 
-    def summary(self, found: List[Tuple[_Events, float, int]], orientation: float, sigma: float, quantum: float,
+    def summary(self, found: List[Tuple[_Events, float, int]], orientation: float, sigma: float, floors: "_Floors",
                 fetch: Callable[["_Span"], Dict[str, np.ndarray]]) -> StickSlip:  # fmt: skip
         """The recording's result from pass 2's blocks; a sample whose sign is not the recording's (friction
         changing sign) is searched again with the recording's."""
         events = _Events.concat([f[0] for f in found])
         signsum, used = sum(f[1] for f in found), sum(f[2] for f in found)
         if (1.0 if signsum >= 0 else -1.0) != orientation:
-            events = _Events.concat([self.block(s, fetch(s), -orientation, sigma, quantum)[0] for s in self.spans])
-        return _summarise(events, sigma=sigma, quantum=quantum, k=self.k, duration=used / self.fs, fs=self.fs,
+            events = _Events.concat([self.block(s, fetch(s), -orientation, sigma, floors)[0] for s in self.spans])
+        return _summarise(events, sigma=sigma, quantum=floors.quantum, k=self.k, duration=used / self.fs, fs=self.fs,
                           scope=self.scope)  # fmt: skip
 
     def run(self, read: Callable[[int, int], Dict[str, np.ndarray]]) -> StickSlip:
@@ -798,9 +818,9 @@ class _Search:
         if isinstance(got, StickSlip):
             return got
         assert got is not None
-        sigma, quantum, orientation = got
-        found = [self.block(s, fetch(s), orientation, sigma, quantum) for s in self.spans]
-        return self.summary(found, orientation, sigma, quantum, fetch)
+        sigma, floors, orientation = got
+        found = [self.block(s, fetch(s), orientation, sigma, floors) for s in self.spans]
+        return self.summary(found, orientation, sigma, floors, fetch)
 
 
 class ReadingPass:
@@ -823,7 +843,7 @@ class ReadingPass:
         self._found: List[Tuple[_Events, float, int]] = []
         self._broken = False
         self._done = 0  # blocks searched
-        self._noise: Union[Tuple[float, float, float], StickSlip, None] = None
+        self._noise: Union[Tuple[float, "_Floors", float], StickSlip, None] = None
         if not search.whole:
             self._noise = search.noise(lambda s: read(*s.read), every_block=False)
             self._broken = self._noise is None  # (no contact in the sample: pass 1 reads every block)
@@ -863,11 +883,11 @@ class ReadingPass:
 
     def _search_ready(self) -> None:
         assert isinstance(self._noise, tuple)
-        sigma, quantum, orientation = self._noise
+        sigma, floors, orientation = self._noise
         spans = self.search.spans
         while self._done < len(spans) and spans[self._done].read[1] <= self._next:
             span = spans[self._done]
-            self._found.append(self.search.block(span, self._take(*span.read), orientation, sigma, quantum))
+            self._found.append(self.search.block(span, self._take(*span.read), orientation, sigma, floors))
             self._done += 1
             keep_from = spans[self._done].read[0] if self._done < len(spans) else self._next
             self._pieces = [(s, d) for s, d in self._pieces if s + len(d["fz"]) > keep_from]
@@ -882,8 +902,8 @@ class ReadingPass:
         if isinstance(self._noise, StickSlip):
             return self._noise
         assert isinstance(self._noise, tuple)
-        sigma, quantum, orientation = self._noise
-        return self.search.summary(self._found, orientation, sigma, quantum, lambda s: self.read(*s.read))
+        sigma, floors, orientation = self._noise
+        return self.search.summary(self._found, orientation, sigma, floors, lambda s: self.read(*s.read))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -922,9 +942,18 @@ def _sample_spans(seg: _Segments, lo: int, hi: int, *, m: int, n: int, drop_samp
     return [_span(seg, c - m // 2, c - m // 2 + m, n, drop_samples) for c in centres]
 
 
+@dataclasses.dataclass(frozen=True)
+class _Floors:
+    """What the noise SD does not say: the export's resolution of r (N) and the noise SD its drop statistic's
+    spread implies (coloured noise, N)."""
+
+    quantum: float
+    coloured: float
+
+
 def _block_noise(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], drop_samples: int
-                 ) -> Tuple[Optional[Tuple[float, float]], float, int]:  # fmt: skip
-    """(noise SD and the export's resolution or None, sum of the friction force, samples in contact) of a
+                 ) -> Tuple[Optional[Tuple[float, _Floors]], float, int]:  # fmt: skip
+    """(noise SD and its floors or None, sum of the friction force, samples in contact) of a
     block's own samples, with the block's own sign (docs/method.md 6g).
 
     The resolution of r = F - mu Fn: the grid step of F plus mu times that of Fn (mu the median F / Fn).
@@ -936,22 +965,23 @@ def _block_noise(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], drop_sam
     ysum = float(np.sum(y[own][inside]))
     if ysum < 0:
         r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=-1.0)
-    got = _noise(r[own], label[own], drop_samples)
+    yi, fi = y[own][inside], fn[own][inside]
+    q = _quantum(yi) + float(np.median(np.abs(yi) / fi)) * _quantum(fi) if yi.size else 0.0
+    got = _noise(r[own], label[own], drop_samples, q)
     if got is None:
         return None, ysum, int(inside.sum())
-    yi, fi = y[own][inside], fn[own][inside]
-    mu = float(np.median(np.abs(yi) / fi))
-    return (got[0], _quantum(yi) + mu * _quantum(fi)), ysum, int(inside.sum())
+    return (got[0], _Floors(q, got[1])), ysum, int(inside.sum())
 
 
 def _search_block(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], orientation: float, *, sigma: float,
-                  quantum: float, k: float, drop_samples: int) -> Tuple[_Events, float, int]:  # fmt: skip
+                  floors: "_Floors", k: float, drop_samples: int) -> Tuple[_Events, float, int]:  # fmt: skip
     """(events, sum of the friction force, samples in contact) of one block's own samples."""
     (a, b), (ra, rb) = span.own, span.read
     r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=orientation)
     inside = label[a - ra : b - ra] >= 0
     signsum = orientation * float(np.sum(y[a - ra : b - ra][inside]))
-    found = _detect(r, fn, label, ra, sigma=sigma, quantum=quantum, k=k, drop_samples=drop_samples,
+    found = _detect(r, fn, label, ra, sigma=sigma, quantum=floors.quantum, coloured=floors.coloured, k=k,
+                    drop_samples=drop_samples,
                     wlen=seg.per_second, smooth=seg.smooth)  # fmt: skip
     return found.where((found.index >= a) & (found.index < b)), signsum, int(inside.sum())
 
