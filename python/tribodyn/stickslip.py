@@ -469,7 +469,11 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     sig = max(sigma, quantum / np.sqrt(12.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         fitted = (f.pre.count >= MIN_FIT) & (f.post.count >= MIN_FIT) & np.isfinite(f.mid)
-        rose = f.pre.slope * np.sqrt(f.pre.sxx) >= RISE_T * sig
+        # the sticks rose: the stick before rises, and the common slope of both lines is RISE_T standard errors
+        # above zero (both lines: a stick cut by the run's start has few samples)
+        sxx = f.pre.sxx + f.post.sxx
+        common = (f.pre.slope * f.pre.sxx + f.post.slope * f.post.sxx) / sxx
+        rose = (f.pre.slope > 0) & (common * np.sqrt(sxx) >= RISE_T * sig)
         enough = f.cut | (f.pre.slope * f.stick >= RISE_SHARE * f.drop)
         fast = f.tau <= np.maximum(drop_samples, SLIP_FRACTION * f.stick)
         # the scatter about the stick lines: the noise at the sticks' scale (coloured noise, a wander)
@@ -502,8 +506,10 @@ def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, run0: np
     the smoothed signal."""
     same_prev = np.concatenate([[False], run0[1:] == run0[:-1]])
     same_next = np.concatenate([run0[1:] == run0[:-1], [False]])
-    prev_b = np.where(same_prev, np.concatenate([[0], b[:-1]]), run0)  # the stick before: prev_b .. a
-    next_a = np.where(same_next, np.concatenate([a[1:], [0]]), run1 - 1)  # the stick after: b .. next_a
+    # the stick before: prev_b .. a; the one after: b .. next_a. No line reaches into the 2 L samples at a run's
+    # edges: a drop there shows no whole fall of the smoothed signal, and would bend the line.
+    prev_b = np.where(same_prev, np.concatenate([[0], b[:-1]]), run0 + 2 * L)
+    next_a = np.where(same_next, np.concatenate([a[1:], [0]]), run1 - 1 - 2 * L)
     cap = max(wlen, 2 * L)  # (a stick line reaches at most this far from its fall: blocks give the same result)
     lo_pre = np.maximum(prev_b, a - cap)
     hi_post = np.minimum(next_a, b + cap)
