@@ -121,8 +121,9 @@ def low_rate(seed: int, *, duration: float = 1800.0, quantum: Optional[float] = 
     return Case({c: _quantise(v, quantum) for c, v in ch.items()}, 1.0, 0.0, np.zeros(0), np.zeros(0))
 
 
-def quantised_steady(seed: int, *, fs: float = 1000.0, duration: float = 60.0, quantum: float = 0.27, noise: float = 0.1) -> Case:
-    """A steady signal quantised in steps of ``quantum`` N: noise 0.3 steps, a drift across 4 steps."""
+def quantised_steady(seed: int, *, fs: float = 1000.0, duration: float = 60.0, quantum: float = 0.27,
+                     noise: float = 0.1) -> Case:  # fmt: skip
+    """A steady signal quantised in steps of ``quantum`` N: noise ``noise`` steps, a drift across 4 steps."""
     rng = np.random.default_rng(seed)
     n = int(duration * fs)
     t = np.arange(n) / fs

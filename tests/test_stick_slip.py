@@ -12,6 +12,8 @@ import pytest
 import tribodyn as td
 from tribodyn import simulate, stickslip
 
+import stick_slip_sim as sim_ss
+
 pytestmark = pytest.mark.fast
 
 #: A drop this many samples inside a stroke's central part is counted (docs/method.md 6g: no stick line reaches
@@ -390,3 +392,55 @@ def test_stick_slip_is_not_searched_unless_asked_or_without_a_static_level():
     dyn = simulate.conditions(10, seed=1)  # the charge amplifier's high-pass: no static level
     got = td.analyze(dyn.channels, fs=dyn.fs, stick_slip=True).stick_slip
     assert got.verdict.startswith("stick-slip not assessed: fz carries no")
+
+
+# -- stick-slip by physics (issue 35 point 1): slips of 1-100 ms at 100 Hz-10 kHz, quantised exports, low rates ----
+
+
+@pytest.mark.parametrize(
+    ("fs", "slip", "quantum"),
+    [(100.0, 0.01, sim_ss.QUANTUM), (2000.0, 0.06, None), (1000.0, 0.1, sim_ss.QUANTUM), (10000.0, 0.001, None)],
+)
+def test_slips_of_many_samples_are_counted_with_their_whole_drop(fs, slip, quantum):
+    """A slip of 60 ms at 2 kHz spans 120 samples: the old 3-sample rule read it 300x too small or missed it."""
+    case = sim_ss.stick_slip(1, fs=fs, slip=slip, quantum=quantum)
+    ss = td.stick_slip(case.channels, td.analyze(case.channels, fs=case.fs, motion="unidirectional"))
+    assert ss.present and abs(ss.events / case.starts.size - 1) <= 0.05, ss.verdict
+    assert abs(ss.amplitude / case.amplitude - 1) <= 0.10, ss.verdict
+    assert near_truth(ss.times, 0.5 * (case.starts + case.ends), fs, within=max(1.5, 0.3 * slip * fs))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_single_steps_of_a_quantised_export_are_no_events(seed):
+    """A steady 1 Hz export quantised in 0.27 N steps, noise 0.2 steps: single steps after a drift are not slips
+    (the old rule found 18-25 "events" in each)."""
+    case = sim_ss.quantised_steady(seed, fs=1.0, duration=1800, noise=0.2)
+    ss = td.stick_slip(case.channels, td.analyze(case.channels, fs=case.fs, motion="unidirectional"))
+    assert ss.events == 0 and not ss.present, ss.verdict
+    # the resolution of F - mu Fn rules: the step of F plus mu times that of Fn
+    assert ss.threshold == pytest.approx(stickslip.Q_STEPS * 0.27 * (1 + sim_ss.MU), rel=0.02)
+    assert "3 steps of the export's resolution" in ss.verdict and "no slip is resolved" in ss.verdict
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda s: sim_ss.smooth(s, fs=1000.0),
+        lambda s: sim_ss.low_rate(s),
+        lambda s: sim_ss.quantised_steady(s),
+    ],
+    ids=["smooth-1kHz", "1Hz-log", "quantised-1kHz"],
+)
+def test_no_stick_slip_on_smooth_low_rate_or_quantised_steady_signals(make):
+    for seed in (1, 2):
+        case = make(seed)
+        ss = td.stick_slip(case.channels, td.analyze(case.channels, fs=case.fs, motion="unidirectional"))
+        assert not ss.present and ss.events <= 1, ss.verdict
+
+
+def test_the_export_resolution_is_read_from_the_value_grid():
+    rng = np.random.default_rng(0)
+    x = 5.0 + 0.3 * rng.standard_normal(5000)
+    assert stickslip._quantum(x) == 0.0  # float data: every value distinct
+    assert stickslip._quantum(np.round(x / 0.27) * 0.27) == pytest.approx(0.27)
+    assert stickslip._quantum(np.round(x, 1)) == pytest.approx(0.1)

@@ -37,10 +37,13 @@ Q_STEPS = 3.0
 #: Samples averaged by the smoothed signal whose peaks and troughs delimit the falls (and by the noise's
 #: drop statistic).
 SMOOTH = 5
-#: Samples a drop may always take (the noise's drop statistic: the gap between its two averages) ...
+#: Samples between the two averages of the noise's drop statistic (``drop_samples``).
 DROP_SAMPLES = 3
-#: ... and longer, up to this fraction of the stick before it: a slip is fast next to its stick.
+#: A drop may take this fraction of the stick before it at most (a slip is fast next to its stick) ...
 SLIP_FRACTION = 0.2
+#: ... and at most this many seconds (slips last milliseconds to about 0.1 s); a drop within one sample
+#: interval always may (a log sampled more slowly than a slip lasts cannot show it: the drop is a step).
+SLIP_MAX_S = 0.25
 #: The stick before a drop must have risen by this share of the drop (the force the slip releases).
 RISE_SHARE = 0.5
 #: Share of a stick left out of its line at each end (the turns into and out of the slips).
@@ -104,10 +107,12 @@ class StickSlip:
     Attributes
     ----------
     events : int
-        Stick-slip events: drops of the friction force larger than
-        ``threshold`` within ``drop_samples`` samples, after a rise.
+        Stick-slip events: fast drops of the friction force at least
+        ``threshold`` (and the scatter of their sticks' lines) ended by
+        each, after a rise (docs/method.md 6g).
     amplitude : float
-        Median drop (N): the offset between the stick lines before and after each drop.
+        Median drop (N): each the whole drop, the stick line before it at
+        the drop's start minus the stick line after it at its end.
     amplitude_cof : float
         Median drop over the mean normal force beside it (COF units).
     frequency : float
@@ -218,6 +223,7 @@ class _Segments:
     tare_fy: float
     tare_fz: float
     smooth: int  # samples of the smoothed signal whose peaks and troughs delimit the falls
+    fs: float
 
 
 def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, orientation: float
@@ -412,17 +418,20 @@ def _extremes(s: np.ndarray, gate: float, wlen: int) -> Tuple[np.ndarray, np.nda
 
 
 def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, sigma: float, quantum: float,
-            coloured: float, k: float, drop_samples: int, wlen: int, smooth: int) -> _Events:  # fmt: skip
+            coloured: float, k: float, fs: float, wlen: int, smooth: int) -> _Events:  # fmt: skip
     """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g).
 
     Per run of a segment: r smoothed over L samples; its alternating peaks and troughs whose prominence
-    (within ``wlen`` samples) reaches half the threshold; each peak followed by a trough is a fall, from its
-    last sample on the stick (a) to its first after it (b). The stick before a fall runs from the previous
-    fall's b (or the run's start), the one after it to the next fall's a (or the run's end). A fall is an
-    event when its whole drop (the stick line before it at a minus the one after it at b) and its swing (the
-    smoothed signal at the peak minus at the trough) reach the threshold max(k sigma, Q_STEPS quantum), the stick before it rose (slope > RISE_T standard errors, by at
-    least RISE_SHARE of the drop unless the run cut it) and it was fast: b - a <= max(drop_samples,
-    SLIP_FRACTION x the stick before it).
+    (within ``wlen`` samples) reaches the gate (half the larger of the threshold and k x the coloured noise
+    SD); each peak followed by a trough is a fall, from its last sample on the stick (a) to its first after it
+    (b). The stick before a fall runs from the previous fall's b (or the run's start + 2 L), the one after it
+    to the next fall's a (or the run's end - 2 L); a fall whose whole drop is under the gate and whose swing
+    (the smoothed signal at the peak minus at the trough) is under the threshold max(k sigma, Q_STEPS
+    quantum) is merged into its sticks (:data:`PRUNE_ROUNDS` rounds). A fall is an event when its whole drop
+    (:func:`_falls`) and its swing reach the threshold and k x the scatter about its two stick lines, the
+    sticks rose (the stick before rises, their common slope RISE_T standard errors above zero, the stick
+    before by at least RISE_SHARE of the drop unless the run cut it) and it was fast: its duration within a
+    sample, else at most SLIP_FRACTION of the stick before it and SLIP_MAX_S seconds.
     """
     L = smooth
     thr = max(k * sigma, Q_STEPS * quantum)
@@ -475,7 +484,9 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
         common = (f.pre.slope * f.pre.sxx + f.post.slope * f.post.sxx) / sxx
         rose = (f.pre.slope > 0) & (common * np.sqrt(sxx) >= RISE_T * sig)
         enough = f.cut | (f.pre.slope * f.stick >= RISE_SHARE * f.drop)
-        fast = f.tau <= np.maximum(drop_samples, SLIP_FRACTION * f.stick)
+        # fast: within a sample (a slip shorter than the sampling), else at most SLIP_FRACTION of the stick and
+        # SLIP_MAX_S seconds
+        fast = f.tau <= np.maximum(1.0, np.minimum(SLIP_FRACTION * f.stick, SLIP_MAX_S * fs))
         # the scatter about the stick lines: the noise at the sticks' scale (coloured noise, a wander)
         scatter = np.sqrt((f.pre.ss + f.post.ss) / np.maximum(f.pre.count + f.post.count - 4, 1))
         floor = np.maximum(thr, k * scatter)
@@ -651,12 +662,12 @@ def _segments(params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarr
         mu = np.asarray(st["mu"], dtype=float)
         keep = np.isfinite(mu)
         seg = _Segments(c0[keep], c1[keep], np.asarray(st["direction"], dtype=float)[keep], mu[keep],
-                        _grid(fs), min_fn, tare_fy, tare_fz, _smooth(fs))  # fmt: skip
+                        _grid(fs), min_fn, tare_fy, tare_fz, _smooth(fs), fs)  # fmt: skip
         return seg, f"the central {frac:g} of each stroke"
     a0 = int(p.get("start") or 0)
     b0 = int(p["stop"]) if p.get("stop") is not None else n
     seg = _Segments(np.array([a0]), np.array([b0]), np.array([1.0]), np.array([np.nan]), _grid(fs),
-                    min_fn, tare_fy, tare_fz, _smooth(fs))  # fmt: skip
+                    min_fn, tare_fy, tare_fz, _smooth(fs), fs)  # fmt: skip
     return seg, "the samples in contact"
 
 
@@ -714,7 +725,9 @@ def stick_slip(
     k : float
         A drop counts when it exceeds k noise SDs (default 5).
     drop_samples : int
-        Samples a drop may take (default 3).
+        The gap (samples) of the drop statistic whose spread gives the
+        coloured noise (default 3). A drop itself may take up to 0.2 of the
+        stick before it and 0.25 s, or lie within one sample interval.
     fraction : float, optional
         Reciprocating: the central part of each stroke searched (default the analysis' ``stroke_fraction``).
     open_options : mapping, optional
@@ -987,7 +1000,7 @@ def _search_block(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], orienta
     inside = label[a - ra : b - ra] >= 0
     signsum = orientation * float(np.sum(y[a - ra : b - ra][inside]))
     found = _detect(r, fn, label, ra, sigma=sigma, quantum=floors.quantum, coloured=floors.coloured, k=k,
-                    drop_samples=drop_samples,
+                    fs=seg.fs,
                     wlen=seg.per_second, smooth=seg.smooth)  # fmt: skip
     return found.where((found.index >= a) & (found.index < b)), signsum, int(inside.sum())
 
@@ -1015,6 +1028,8 @@ def _summarise(events: _Events, *, sigma: float, quantum: float, k: float, durat
     thr = max(k * sigma, Q_STEPS * quantum)
     floor = (f"{k:g} noise SDs ({k * sigma:.3g} N)" if k * sigma >= Q_STEPS * quantum
              else f"{Q_STEPS:g} steps of the export's resolution ({quantum:.3g} N)")  # fmt: skip
+    if fs * SLIP_MAX_S < 1:  # a slip is shorter than a sample interval: none is resolved, drops are steps
+        scope = f"{scope}; at {fs:.3g} Hz no slip is resolved, a drop is a step between two samples"
     if present:
         f_text = f"frequency {freq:.4g} Hz" if np.isfinite(freq) else "frequency unknown (no stroke holds two events)"
         verdict = (
