@@ -11,7 +11,7 @@ from scipy import stats
 
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.compare import POOLING_RE, POOLING_UNWEIGHTED, headline_from_dict, precision
+from tribodyn.compare import POOLING_RE, POOLING_RE_LINEAR, POOLING_UNWEIGHTED, headline_from_dict, precision
 from tribodyn.headline import Headline
 
 
@@ -103,6 +103,41 @@ def test_simulated_replicates_cover_the_population_mean():
         taus.append(c.tau)
     assert cover >= 0.9 * trials, cover
     assert 0.6 * tau < float(np.sqrt(np.mean(np.square(taus)))) < 1.4 * tau  # the between-test SD is recovered
+
+
+@pytest.mark.parametrize("k", [3, 8])
+def test_tests_of_one_condition_are_covered_near_95_percent(k):
+    """Tests of one condition (tau = 0): the interval covers the true mean in 0.92-0.98 of 600 comparisons (issue 35
+    point 8; with the Knapp-Hartung factor kept >= 1 it covered 100 % with 3 tests, 98.8 % with 8)."""
+    rng = np.random.default_rng(35 + k)
+    mu, trials = 0.12, 600
+    cover = 0
+    for _ in range(trials):
+        se = rng.uniform(0.001, 0.004, size=k)
+        c = td.compare([head(v, s) for v, s in zip(mu + se * rng.standard_normal(k), se)])
+        cover += c.low <= mu <= c.high
+    assert 0.92 <= cover / trials <= 0.98, cover / trials
+
+
+@pytest.mark.parametrize("values", [(0.128, 0.05), (0.05, 0.128, 0.2)])
+def test_few_tests_give_a_positive_interval_and_say_what_they_cannot_bound(values):
+    """2 or 3 tests far apart: the interval stays positive (on the COF's own scale, t(1) = 12.7 took it below zero)
+    and a note says what so few tests can and cannot bound."""
+    c = td.compare([head(v, 0.002) for v in values])
+    assert 0 < c.low < min(values) and c.high > max(values) and c.low < c.mean < c.high
+    note = next(n for n in c.notes if n.startswith(f"with {len(values)} tests"))
+    assert "cover the mean COF of the condition" in note and "cannot bound the spread between tests (tau)" in note
+    assert ("no prediction interval" in note) == (len(values) == 2)
+    if len(values) == 3:
+        assert 0 < c.prediction_low < c.prediction_high
+    four = td.compare([head(v, 0.002) for v in (*values, 0.1, 0.11)][:4])
+    assert not any(n.startswith("with 4 tests") for n in four.notes)
+
+
+def test_a_value_that_is_not_positive_is_pooled_on_its_own_scale():
+    c = td.compare([head(v, 0.01) for v in (0.004, -0.002, 0.01)])
+    assert c.pooling == POOLING_RE_LINEAR and any("not positive" in n for n in c.notes)
+    assert c.mean == pytest.approx(np.mean([0.004, -0.002, 0.01]), abs=0.004)
 
 
 def test_without_an_interval_the_mean_is_unweighted():
