@@ -490,7 +490,7 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
         # the scatter about the stick lines: the noise at the sticks' scale (coloured noise, a wander)
         scatter = np.sqrt((f.pre.ss + f.post.ss) / np.maximum(f.pre.count + f.post.count - 4, 1))
         floor = np.maximum(thr, k * scatter)
-        ok = fitted & rose & enough & fast & (f.drop >= floor) & (swing >= floor)
+        ok = fitted & rose & enough & fast & (f.drop >= floor) & (swing >= 0.5 * floor)
     beside = (f.pre.fn + f.post.fn) / np.maximum(f.pre.count + f.post.count, 1)
     j = np.flatnonzero(ok)
     at = np.floor(f.mid[j]).astype(np.int64) + 1  # the first sample after the drop's middle
