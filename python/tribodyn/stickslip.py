@@ -428,7 +428,7 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     to the next fall's a (or the run's end - 2 L); a fall whose whole drop is under the gate and whose swing
     (the smoothed signal at the peak minus at the trough) is under the threshold max(k sigma, Q_STEPS
     quantum) is merged into its sticks (:data:`PRUNE_ROUNDS` rounds). A fall is an event when its whole drop
-    (:func:`_falls`) and its swing reach the threshold and k x the scatter about its two stick lines, the
+    (:func:`_falls`) reaches the threshold and k x the scatter about its two stick lines (its swing half that), the
     sticks rose (the stick before rises, their common slope RISE_T standard errors above zero, the stick
     before by at least RISE_SHARE of the drop unless the run cut it) and it was fast: its duration within a
     sample, else at most SLIP_FRACTION of the stick before it and SLIP_MAX_S seconds.
