@@ -78,11 +78,37 @@ def simulated(n: int) -> None:
               flush=True)  # fmt: skip
 
 
+def between_tests(n: int) -> None:
+    """8 reciprocating tests, each its own COF from N(0.12, 0.004^2), forward and backward +-0.01."""
+    rng = np.random.default_rng(2035)
+    cover = 0
+    taus = []
+    worst = 0.0
+    for trial in range(n):
+        mus = 0.12 + 0.004 * rng.standard_normal(8)
+        heads = []
+        for j, m in enumerate(mus):
+            sim = simulate.reciprocating(seed=7_000_000 + 100 * trial + j, cycles=10, mu_forward=m + 0.01,
+                                         mu_backward=m - 0.01)  # fmt: skip
+            heads.append(td.analyze(sim.channels, fs=sim.fs).headline)
+        worst = max(worst, max(abs(h.value - m) for h, m in zip(heads, mus)))
+        c = td.compare(heads)
+        cover += c.low <= 0.12 <= c.high
+        taus.append(c.tau)
+    t = np.asarray(taus)
+    print(f"8 tests, tau 0.004: covered {cp(cover, n)}; tau {np.sqrt(np.mean(t * t)):.4f} (root mean square; median "
+          f"{np.median(t):.4f}); every headline within {worst:.1e} of its test's COF")  # fmt: skip
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--trials", type=int, default=3000)
     ap.add_argument("--sim", type=int, default=200)
+    ap.add_argument("--between", type=int, default=0, help="comparisons of 8 tests with tau 0.004 (only these)")
     args = ap.parse_args()
+    if args.between:
+        between_tests(args.between)
+        return 0
     synthetic(args.trials)
     print()
     simulated(args.sim)
