@@ -66,8 +66,11 @@ RISE_T = 2.0
 GRID_S = 5.0
 #: The export is quantised when its distinct values are at most this share of its samples.
 QUANT_SHARE = 0.5
-#: Stick-slip is "present" from this many events on.
+#: Stick-slip is "present" from this many events on ...
 MIN_EVENTS = 3
+#: ... whose sticks (each event's stick before it) fill at least this share of the time searched: a regime of
+#: stick and slip, not drops far apart (a smooth recording of 2500 s with a low-frequency wander held 3-8).
+MIN_STICK_SHARE = 0.05
 #: Samples per block read at once (a fixed grid: the result does not depend on a reader's chunks); at most
 #: 2^21, so that the stick lines' running integer sums of t^2 fit in int64.
 BLOCK = 1 << 20
@@ -131,7 +134,8 @@ class StickSlip:
     duration : float
         Time searched (s): the strokes' central parts, or the samples in contact.
     present : bool
-        At least :data:`MIN_EVENTS` events.
+        At least :data:`MIN_EVENTS` events whose sticks fill at least
+        :data:`MIN_STICK_SHARE` of ``duration``.
     verdict : str
         One line: "stick-slip present: N events, amplitude ..., frequency ..." or why not.
     scope : str
@@ -289,19 +293,22 @@ def _inside_any(inside: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np
 @dataclasses.dataclass(frozen=True)
 class _Events:
     """Events as columns: the sample after each drop (global), its drop (N), the mean normal force beside it (N),
-    its segment's index and the drop's middle (global, in samples: 10.5 between samples 10 and 11)."""
+    its segment's index, the drop's middle (global, in samples: 10.5 between samples 10 and 11) and the stick
+    before it (samples)."""
 
     index: np.ndarray
     drop: np.ndarray
     fn: np.ndarray
     label: np.ndarray
     mid: np.ndarray
+    stick: np.ndarray  # samples of the stick before each drop (its visible part where a segment cut it)
 
-    FIELDS = ("index", "drop", "fn", "label", "mid")
+    FIELDS = ("index", "drop", "fn", "label", "mid", "stick")
 
     @staticmethod
     def none() -> "_Events":
-        return _Events(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, np.int64), np.zeros(0))
+        i = np.zeros(0, np.int64)
+        return _Events(i, np.zeros(0), np.zeros(0), i, np.zeros(0), i)
 
     @staticmethod
     def concat(parts: Sequence["_Events"]) -> "_Events":
@@ -494,7 +501,8 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     beside = (f.pre.fn + f.post.fn) / np.maximum(f.pre.count + f.post.count, 1)
     j = np.flatnonzero(ok)
     at = np.floor(f.mid[j]).astype(np.int64) + 1  # the first sample after the drop's middle
-    return _Events(offset + at, f.drop[j], beside[j], label[at].astype(np.int64), offset + f.mid[j])
+    return _Events(offset + at, f.drop[j], beside[j], label[at].astype(np.int64), offset + f.mid[j],
+                   f.stick[j].astype(np.int64))  # fmt: skip
 
 
 @dataclasses.dataclass(frozen=True)
@@ -1022,9 +1030,11 @@ def _summarise(events: _Events, *, sigma: float, quantum: float, k: float, durat
     if intervals.size:  # the mean of the intervals near their median: robust to a missed event, finer than samples
         iv = np.asarray(intervals)
         med = float(np.median(iv))
-        freq = 1.0 / float(np.mean(iv[np.abs(iv - med) <= 0.25 * med]))
+        near = iv[np.abs(iv - med) <= 0.25 * med]
+        freq = 1.0 / (float(np.mean(near)) if near.size else med)  # (two far apart: none near their median)
     rate = len(events) / duration if duration > 0 else nan
-    present = len(events) >= MIN_EVENTS
+    share = float(np.sum(events.stick)) / fs / duration if duration > 0 else 0.0
+    present = len(events) >= MIN_EVENTS and share >= MIN_STICK_SHARE
     thr = max(k * sigma, Q_STEPS * quantum)
     floor = (f"{k:g} noise SDs ({k * sigma:.3g} N)" if k * sigma >= Q_STEPS * quantum
              else f"{Q_STEPS:g} steps of the export's resolution ({quantum:.3g} N)")  # fmt: skip
@@ -1041,5 +1051,7 @@ def _summarise(events: _Events, *, sigma: float, quantum: float, k: float, durat
             f"no stick-slip: {len(events)} drop{'s' if len(events) != 1 else ''} after a rise larger than "
             f"{floor} in {duration:.4g} s of {scope}"
         )
+        if len(events) >= MIN_EVENTS:  # drops far apart: their sticks fill little of the time
+            verdict += f" (isolated: their sticks fill {share:.1%} of it, under {MIN_STICK_SHARE:.0%})"
     return StickSlip(len(events), amp, amp_cof, freq, rate, times, drops, sigma, thr, duration, present, verdict,
                      scope)  # fmt: skip
