@@ -444,3 +444,17 @@ def test_the_export_resolution_is_read_from_the_value_grid():
     assert stickslip._quantum(x) == 0.0  # float data: every value distinct
     assert stickslip._quantum(np.round(x / 0.27) * 0.27) == pytest.approx(0.27)
     assert stickslip._quantum(np.round(x, 1)) == pytest.approx(0.1)
+
+
+def test_a_few_drops_far_apart_are_isolated_not_stick_slip():
+    """4 stick-slip cycles (0.3 s sticks, 0.5 N) in 60 s of smooth sliding: events, but their sticks fill 2 % of the
+    time (under MIN_STICK_SHARE): no stick-slip, the verdict says so; 30 cycles in the same 60 s are present."""
+    for cycles, present in ((4, False), (30, True)):
+        case = sim_ss.smooth(3, fs=1000.0)
+        saw = sim_ss.stick_slip(3, fs=1000.0, slip=0.002, cycles=cycles, noise=0.0)
+        n = min(len(saw.channels["fy"]), len(case.channels["fy"]))
+        ch = {"fy": case.channels["fy"].copy(), "fz": case.channels["fz"]}
+        ch["fy"][:n] += saw.channels["fy"][:n] + sim_ss.MU * sim_ss.FN * (np.arange(n) >= 1000)  # the saw alone
+        ss = td.stick_slip(ch, td.analyze(ch, fs=1000.0, motion="unidirectional"))
+        assert ss.present is present and ss.events >= min(cycles - 1, 4), ss.verdict
+        assert ("isolated: their sticks fill" in ss.verdict) is not present
