@@ -56,7 +56,7 @@ NAMES = ["fx", "fy", "fz", "i"]
 
 CHILD = r"""
 import json, os, resource, sys, time
-PHASES = ("prepass", "find_lag", "run", "finish", "settle")  # the steps of tribodyn.analyze._analyze_body
+PHASES = ("prepass", "find_lag", "run", "finish", "settle")  # the steps of tribodyn.pipeline.analyze._analyze_body
 job = json.loads(sys.argv[1])
 kind = job["kind"]
 out = {}
@@ -203,7 +203,6 @@ def ensure_data(data: Path) -> Dict[str, Path]:
             write_recording(data, name, secs, raw=False, formats=("npy",))
     if not paths["h10tdms"].exists():
         import numpy as np
-
         from tribodyn.io.writers import save_tdms
 
         arr = np.load(paths["h10"], mmap_mode="r")
@@ -249,7 +248,7 @@ def run(args: argparse.Namespace) -> Dict[str, Any]:
     cases["readfloor"] = lambda: child({"kind": "readfloor", "path": str(paths["h10"])}, None)
     got: Dict[str, List[Dict[str, Any]]] = {k: [] for k in cases}
     for b in builds:  # bytecode of every module the cases import (the CLI's output step included)
-        subprocess.run([sys.executable, "-c", "import tribodyn.jobs, tribodyn.cli, tribodyn.report, tribodyn.figures"],
+        subprocess.run([sys.executable, "-c", "import tribodyn.app.jobs, tribodyn.app.cli, tribodyn.app.report"],
                        env=env_for(builds[b]), check=True, cwd=tempfile.gettempdir())  # fmt: skip
     load_before = os.getloadavg()
     t0 = time.time()

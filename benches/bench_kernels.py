@@ -45,9 +45,8 @@ import numpy as np  # noqa: E402
 import scipy  # noqa: E402
 import scipy.signal as ss  # noqa: E402
 import scipy.stats as st  # noqa: E402
-
 import tribodyn as tb  # noqa: E402
-import tribodyn.reference as ref  # noqa: E402
+import tribodyn.kernels.reference as ref  # noqa: E402
 from tribodyn import _core  # noqa: E402
 
 HERE = Path(__file__).resolve().parent

@@ -7,7 +7,7 @@ file, both for dynamic forces (as the paper's charge amplifier delivers
 them) and, as ``.npy``, for raw DC-coupled forces (analysed with
 ``highpass=0.1``). Each is analysed with 2 s windows tiling the recording,
 16 bins, lag-0 correlations, the regression and J, and timed against the
-pure-NumPy reference ``tribodyn.reference.analyze_tiled`` (scipy ``sosfilt``
+pure-NumPy reference ``tribodyn.kernels.reference.analyze_tiled`` (scipy ``sosfilt``
 for the high-pass) in the same run, which must give the same table. Every
 measurement runs in a fresh subprocess, which reports its own peak RSS.
 
@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence
 
 import numpy as np
-from tribodyn.reference import TILED_COLUMNS
+from tribodyn.kernels.reference import TILED_COLUMNS
 
 FS = 1000.0
 ROLES = ("fx", "fy", "fz", "i")
@@ -72,7 +72,6 @@ def write_recording(
     HDF5 datasets (chunked, 65536 samples, uncompressed) slice by slice.
     """
     import h5py
-
     from tribodyn import simulate
 
     n = int(round(duration_s * FS))
@@ -173,7 +172,7 @@ def run_pipeline_mmap(
 
 def run_reference(path: Path, *, raw: bool) -> Dict[str, np.ndarray]:
     """The NumPy reference of the same pipeline on the memory-mapped ``.npy``."""
-    from tribodyn import reference
+    from tribodyn.kernels import reference
 
     arr = np.load(path, mmap_mode="r")
     channels = {r: arr[j] for j, r in enumerate(ROLES)}
@@ -246,7 +245,6 @@ def child(job: Dict[str, Any]) -> Dict[str, Any]:
         assert path is not None
         # Imports outside the timed part (the readers import lazily).
         import h5py  # noqa: F401
-
         import tribodyn  # noqa: F401
         import tribodyn.io  # noqa: F401
         import tribodyn.io.hdf5  # noqa: F401
@@ -264,7 +262,7 @@ def child(job: Dict[str, Any]) -> Dict[str, Any]:
             np.savez(job["save"], **table_of(res))
     elif kind == "reference":
         assert path is not None
-        import tribodyn.reference  # noqa: F401
+        import tribodyn.kernels.reference  # noqa: F401
 
         out["blas"] = _blas_info()
         t = time.perf_counter()

@@ -57,7 +57,6 @@ import argparse
 import time
 
 import numpy as np
-
 import tribodyn
 from tribodyn import simulate
 

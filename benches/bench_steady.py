@@ -20,7 +20,6 @@ import time
 from typing import Any, Dict, List, Tuple
 
 import numpy as np
-
 import tribodyn as td
 from tribodyn import simulate
 

@@ -30,7 +30,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-
 import tribodyn as td
 from tribodyn import simulate
 

@@ -70,7 +70,6 @@ def write_all(directory: Path, hours: float) -> Dict[str, Path]:
     """The rounded recording as .npy, CSV and LVM; returns the paths."""
     import pyarrow as pa
     import pyarrow.csv as pc
-
     from tribodyn import simulate
 
     n = int(round(hours * 3600 * FS))

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import tribodyn as td
 from tribodyn import simulate
+from tribodyn.app.report import write_results_report
 from tribodyn.io.writers import save_recording
-from tribodyn.report import write_results_report
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "analyse-a-recording")
 out.mkdir(parents=True, exist_ok=True)

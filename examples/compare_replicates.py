@@ -25,9 +25,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 import tribodyn as td
-from tribodyn import figures, simulate
+from tribodyn import simulate
+from tribodyn.app import figures
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "compare-replicates")
 out.mkdir(parents=True, exist_ok=True)

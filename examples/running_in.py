@@ -18,7 +18,7 @@ from pathlib import Path
 
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.figures import cof_vs_time, save_figure
+from tribodyn.app.figures import cof_vs_time, save_figure
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "running-in")
 out.mkdir(parents=True, exist_ok=True)

@@ -22,7 +22,6 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-
 import tribodyn as td  # noqa: E402
 from tribodyn import simulate  # noqa: E402
 

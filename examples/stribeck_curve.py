@@ -18,7 +18,8 @@ import sys
 from pathlib import Path
 
 import tribodyn as td
-from tribodyn import figures, simulate
+from tribodyn import simulate
+from tribodyn.app import figures
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "stribeck-curve")
 out.mkdir(parents=True, exist_ok=True)

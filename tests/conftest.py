@@ -25,9 +25,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import pytest  # noqa: E402
-from hypothesis import settings  # noqa: E402
-
 import tribodyn as td  # noqa: E402
+from hypothesis import settings  # noqa: E402
 from tribodyn import simulate  # noqa: E402
 
 settings.register_profile("ci", max_examples=40, deadline=None, derandomize=True)
@@ -70,7 +69,7 @@ def cd_res(cd_sim: simulate.Simulation) -> td.Results:
 @pytest.fixture(scope="session")
 def demo_run(tmp_path_factory: pytest.TempPathFactory) -> Tuple[Path, str]:
     """``tribodyn demo --out DIR`` once for the session: (DIR, what it printed on stdout)."""
-    from tribodyn import cli
+    from tribodyn.app import cli
 
     out = tmp_path_factory.mktemp("demo") / "out"
     printed = io.StringIO()
@@ -82,7 +81,7 @@ def demo_run(tmp_path_factory: pytest.TempPathFactory) -> Tuple[Path, str]:
 @pytest.fixture(scope="session")
 def cd_cli_run(tmp_path_factory: pytest.TempPathFactory) -> Tuple[Path, Path]:
     """``tribodyn simulate current_density`` to HDF5, then ``tribodyn analyze --area 1``: (recording, output folder)."""
-    from tribodyn import cli
+    from tribodyn.app import cli
 
     where = tmp_path_factory.mktemp("cd_cli")
     rec, out = where / "sim.h5", where / "out"

@@ -22,7 +22,8 @@ import stick_slip_sim as sim
 from scipy.stats import beta
 
 import tribodyn as td
-from tribodyn import simulate, stickslip
+from tribodyn import simulate
+from tribodyn.pipeline import stickslip
 
 
 def clopper_pearson(x: int, n: int) -> Tuple[float, float]:

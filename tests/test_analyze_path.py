@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn.io import RecordingError
 

@@ -12,10 +12,9 @@ import os
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import _core
-from tribodyn.filters import MAX_CHANNELS, MAX_ORDER
+from tribodyn.kernels.filters import MAX_CHANNELS, MAX_ORDER
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
@@ -109,7 +108,7 @@ def test_a_table_that_cannot_fit_is_refused_before_reading():
 )
 def test_n_bins_is_bounded_before_anything_is_read(window, n_bins, limit):
     """At most max(16, window samples // 4) and 1024 bins (docs/method.md 4), refused by make_plan."""
-    from tribodyn.plan import make_plan
+    from tribodyn.pipeline.plan import make_plan
 
     with pytest.raises(ValueError, match=rf"n_bins must be at most {limit} for a window of \d+ samples"):
         make_plan(fs=1000.0, window=window, n_bins=n_bins)

@@ -13,8 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from tribodyn import cli
+from tribodyn.app import cli
 
 DATA = Path(__file__).parent / "data" / "real"
 
@@ -178,7 +177,7 @@ def test_debug_shows_the_traceback(tmp_path):
 
 
 def test_no_partial_outputs_after_a_forced_failure(tmp_path, monkeypatch):
-    from tribodyn import report
+    from tribodyn.app import report
 
     def boom(*a, **k):
         raise ValueError("forced failure while writing the report")
@@ -196,7 +195,7 @@ def test_console_script_is_installed():
     r = subprocess.run([exe, "--version"], capture_output=True, text=True, check=False)
     assert r.returncode == 0 and r.stdout.startswith("tribodyn ")
     r = subprocess.run(
-        [sys.executable, "-m", "tribodyn.cli", "analyze", "nope.tdms", "--out", "x"], capture_output=True, text=True
+        [sys.executable, "-m", "tribodyn.app.cli", "analyze", "nope.tdms", "--out", "x"], capture_output=True, text=True
     )
     assert r.returncode == 2 and "Traceback" not in r.stderr
 

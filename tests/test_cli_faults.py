@@ -22,8 +22,7 @@ from typing import Dict, List
 
 import numpy as np
 import pytest
-
-from tribodyn import cli, outputs
+from tribodyn.app import cli, outputs
 from tribodyn.io.writers import save_npz
 
 DATA = Path(__file__).parent / "data" / "real"
@@ -34,7 +33,7 @@ ROLES_TEXT = "fx, fy, fz, i, u, cof, x, v"
 
 def tribodyn(*args, cwd=None) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "tribodyn.cli", *(str(a) for a in args)],
+        [sys.executable, "-m", "tribodyn.app.cli", *(str(a) for a in args)],
         capture_output=True,
         text=True,
         timeout=300,
@@ -298,7 +297,7 @@ def test_out_naming_a_file(tmp_path, rec, capsys):
 
 @pytest.mark.parametrize(
     "code, patch, path_arg",
-    [(errno.ENOSPC, "tribodyn.jobs.write_json", 1), (errno.EROFS, "tribodyn.io.writers.atomic_write", 0)],
+    [(errno.ENOSPC, "tribodyn.app.jobs.write_json", 1), (errno.EROFS, "tribodyn.io.writers.atomic_write", 0)],
 )
 def test_full_disk_and_read_only_fs_are_one_line(previous, rec, monkeypatch, capsys, code, patch, path_arg):
     """The writer fails as on a full disk / read-only file system: one line naming --out, the old set kept."""
@@ -437,7 +436,7 @@ def test_config_of_the_right_types_runs(rec, tmp_path):
 @pytest.mark.fast
 def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch, capsys):
     """--bins beyond the bound (docs/method.md 4) is refused by the plan: nothing read, nothing allocated."""
-    from tribodyn import tribometer
+    from tribodyn.pipeline import prepass as tribometer
 
     long = tmp_path / "long.npz"
     n = 600_000  # 10 min at 1 kHz: the old way allocated 300 windows x 2^20 bins
@@ -456,7 +455,7 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
 @pytest.mark.fast
 def test_toml_config_values_keep_their_types(tmp_path, monkeypatch):
     """The TOML reader of --config: numbers, strings, booleans and tables reach analyze with their types."""
-    from tribodyn import jobs
+    from tribodyn.app import jobs
 
     seen = {}
 
@@ -497,7 +496,7 @@ def test_csv_cells_are_not_formulas(tmp_path):
 
 
 def test_cell_rules():
-    from tribodyn.outputs import _cell
+    from tribodyn.app.outputs import _cell
 
     assert _cell("=cmd|' /C calc'!A0") == "'=cmd|' /C calc'!A0"
     assert [_cell(s) for s in ("+1", "-1", "@x", "\tx", "plain", "a=b")] == [

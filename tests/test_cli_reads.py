@@ -15,9 +15,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn.io as tio
-from tribodyn import cli, stickslip, tribometer
+from tribodyn.app import cli
+from tribodyn.pipeline import prepass as tribometer
+from tribodyn.pipeline import stickslip
 
 needs_proc_io = pytest.mark.skipif(
     not sys.platform.startswith("linux") or not os.path.exists("/proc/self/io"), reason="needs /proc/self/io"

@@ -7,12 +7,17 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
-
 import tribodyn as td
+from scipy import stats
 from tribodyn import simulate
-from tribodyn.compare import POOLING_RE, POOLING_RE_LINEAR, POOLING_UNWEIGHTED, headline_from_dict, precision
-from tribodyn.headline import Headline
+from tribodyn.analyses.compare import (
+    POOLING_RE,
+    POOLING_RE_LINEAR,
+    POOLING_UNWEIGHTED,
+    headline_from_dict,
+    precision,
+)
+from tribodyn.results import Headline
 
 
 def head(value: float, se: float = 0.001, method: str = "classical") -> Headline:

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import cli, simulate
-from tribodyn.headline import Headline
+from tribodyn import simulate
+from tribodyn.app import cli
+from tribodyn.app.record import FIELDS, parse_meta
 from tribodyn.io.writers import save_recording
-from tribodyn.record import FIELDS, parse_meta
+from tribodyn.results import Headline
 
 
 def run(*args: object) -> int:

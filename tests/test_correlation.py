@@ -29,7 +29,7 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from tribodyn import _core
-from tribodyn import reference as ref
+from tribodyn.kernels import reference as ref
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 

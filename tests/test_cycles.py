@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.tribometer import CYCLE_COLUMNS
+from tribodyn.kernels.strokes import CYCLE_COLUMNS
 
 pytestmark = pytest.mark.fast
 
@@ -50,7 +49,7 @@ def test_no_position_no_energy_and_no_strokes_no_cycles():
 
 
 def test_the_report_draws_the_friction_loops_and_the_energy(tmp_path):
-    from tribodyn.cli import main
+    from tribodyn.app.cli import main
     from tribodyn.io.writers import save_npz
 
     sim = simulate.reciprocating(seed=6, cycles=6)

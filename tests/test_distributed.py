@@ -9,11 +9,10 @@ import time
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.distributed import RecordingFailure, analyze_many, expand_paths
 from tribodyn.io.writers import save_recording
+from tribodyn.pipeline.distributed import RecordingFailure, analyze_many, expand_paths
 
 OPTS = dict(window=2.0, hop=5.0)
 
@@ -135,7 +134,7 @@ def test_killed_worker_loses_and_duplicates_nothing(files, client):
 
 
 def test_cli_on_a_local_cluster_with_a_bad_file(files, tmp_path):
-    from tribodyn import cli
+    from tribodyn.app import cli
 
     good, bad = files
     out = tmp_path / "out"
@@ -173,7 +172,7 @@ def test_cli_on_a_local_cluster_with_a_bad_file(files, tmp_path):
 def test_without_dask_the_error_says_how_to_install(monkeypatch):
     import builtins
 
-    from tribodyn import distributed
+    from tribodyn.pipeline import distributed
 
     real = builtins.__import__
 

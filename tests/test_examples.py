@@ -9,7 +9,6 @@ import sys
 import time
 from pathlib import Path
 
-
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 SCRIPTS = sorted(EXAMPLES.glob("*.py"))
 #: Seconds for all the examples together (they run side by side).
@@ -51,6 +50,17 @@ EXPECT = {
     "compare_replicates.py": (
         ["mean COF", "95 % interval", "over 8 tests (per-stroke means)", "repeatability s_r", "Mandel's h"],
         ["compare.png", "compare.csv"],
+    ),
+    "uncertainty_budget.py": (
+        [
+            "unidirectional: COF",
+            "(95 %, instrument and statistics)",
+            "(truth 0.100: outside)",
+            "misalignment_deg",
+            "cancelled by the forward/backward mean",
+            "exit status 0",
+        ],
+        ["calibration.toml", "report/report.html"],
     ),
     "stick_slip.py": (
         ["forward strokes: static COF", "kinetic COF", "stick-slip present: 156 events", "Hz"],

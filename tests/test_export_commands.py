@@ -10,8 +10,7 @@ from typing import Callable, Dict, List, Tuple
 
 import numpy as np
 import pytest
-
-from tribodyn.cli import main
+from tribodyn.app.cli import main
 from tribodyn.io.writers import save_tdms
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Tests of the figures (tribodyn.figures) and the HTML report (tribodyn.report).
+"""Tests of the figures (tribodyn.app.figures) and the HTML report (tribodyn.app.report).
 
 Figures are checked through their artists (axes, labels, lines, patches),
 not pixels; the report through its text (embedded images, numbers, no
@@ -17,9 +17,9 @@ import numpy as np
 import pytest
 import tribodyn
 from matplotlib.figure import Figure
-from tribodyn import figures as F
-from tribodyn import report as R
 from tribodyn import simulate
+from tribodyn.app import figures as F
+from tribodyn.app import report as R
 
 IMG = '<img src="data:image/png;base64,'
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -321,7 +321,7 @@ def test_no_pyplot_no_global_state(tmp_path):
         # to resolve the default backend: compare the raw values instead.)
         rc = matplotlib.rcParams.copy()
         import numpy as np
-        from tribodyn import figures as F
+        from tribodyn.app import figures as F
         x = np.sin(np.arange(500) * 0.1)
         fig = F.phase_plots(x, x, x)
         F.forces_vs_time(x, x, x, 100.0)
@@ -506,35 +506,11 @@ def test_cof_vs_time_of_20000_windows_renders_fast_with_the_rolling_band():
     assert failed[0].get_transform() != ax.transData
 
 
-@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork: POSIX only")
-def test_a_rendering_child_that_hangs_is_killed_and_its_share_drawn_here(monkeypatch):
-    """The CLI never hangs on its rendering child (figures.Rendering): past the timeout it is killed."""
-    import time
-
-    from tribodyn import figures
-
-    monkeypatch.setattr(figures, "_CHILD_TIMEOUT", 0.5)
-    r, w = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # a child that never answers
-        try:
-            time.sleep(30)
-        finally:
-            os._exit(0)
-    os.close(w)
-    t0 = time.monotonic()
-    assert figures._collect((pid, r)) is None
-    assert time.monotonic() - t0 < 10
-
-
-@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork: POSIX only")
-@pytest.mark.parametrize("fork", [True, False], ids=["child", "no-child"])
-def test_rendering_runs_also_once_in_the_child_or_here(monkeypatch, fork):
-    """figures.Rendering(also=...): the child's extra work comes back with its figures; without a child (or
-    when it fails) it is done here; the PNG bytes are those drawn here either way."""
+def test_rendering_draws_here_and_runs_also_once():
+    """figures.Rendering draws every figure in this process (no forked child that could deadlock on a
+    threaded parent or outlive a killed command line) and runs ``also`` once."""
     from matplotlib.figure import Figure
-
-    from tribodyn import figures
+    from tribodyn.app import figures
 
     def fig(k):
         f = Figure(figsize=(2, 2))
@@ -547,24 +523,21 @@ def test_rendering_runs_also_once_in_the_child_or_here(monkeypatch, fork):
         calls.append(os.getpid())
         return {"pid": os.getpid(), "html": "<div>x</div>"}
 
-    if not fork:
-        monkeypatch.setattr(figures, "_can_fork", lambda: False)
-    figs = [fig(k) for k in range(3)]
-    render = figures.Rendering(figs, share=0.5, also=also)
+    render = figures.Rendering([fig(k) for k in range(3)], also=also)
+    forks = []
+    if hasattr(os, "register_at_fork"):
+        os.register_at_fork(before=lambda: forks.append(1))
     got = render.finish()
     assert got == [figures.png_bytes(fig(k)) for k in range(3)]
     extra = render.also_result()
     assert extra["html"] == "<div>x</div>" and render.also_result() is extra
-    if fork and figures._can_fork():
-        assert extra["pid"] != os.getpid() and calls == []  # done in the child only
-    else:
-        assert calls == [os.getpid()]
+    assert calls == [os.getpid()] and forks == []
 
 
 def test_fig11_shows_log_gap_windows_apart_and_no_solid_fit_without_windows(temp_res):
     """Windows whose T is interpolated across a log gap are left out of the operating range's fit; the figure
     draws them apart (hollow, "not fitted") and draws a fit solid only near the windows it used."""
-    from tribodyn import figures as F
+    from tribodyn.app import figures as F
 
     table = temp_res.table
     gap = np.asarray(table["T_gap"], dtype=bool) & np.asarray(table["ok"], dtype=bool)

@@ -13,7 +13,6 @@ import warnings
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import _core
 from tribodyn.io.writers import save_npy

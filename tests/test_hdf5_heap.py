@@ -12,7 +12,6 @@ import time
 import h5py
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn.io import RecordingError, _h5attrs
 

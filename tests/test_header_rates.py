@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn.cli import main
+from tribodyn.app.cli import main
 from tribodyn.io import RecordingError
 from tribodyn.io._text import header_rate
 

@@ -7,12 +7,13 @@ import math
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.headline import HEADLINE_METHODS, Headline, batch_mean, ratio_mean, t975
 from tribodyn.io.writers import save_npy
-from tribodyn.tribometer import detect_contact
+from tribodyn.kernels.quantiles import t975
+from tribodyn.kernels.stats import batch_mean, ratio_mean
+from tribodyn.pipeline.prepass import detect_contact
+from tribodyn.results import HEADLINE_METHODS, Headline
 
 pytestmark = pytest.mark.fast
 
@@ -191,7 +192,7 @@ def test_instrument_difference_over_half_a_percent_is_explained():
 
 
 def test_cli_report_and_summary_print_the_one_headline(tmp_path, capsys):
-    from tribodyn.cli import main
+    from tribodyn.app.cli import main
 
     src = tmp_path / "pod.tsv"
     src.write_bytes(open(td_real("pod_PPS_100N_1.tsv"), "rb").read())
@@ -238,7 +239,7 @@ def test_an_unloaded_fy_that_differs_before_and_after_the_contact_is_flagged():
 
 
 def test_every_recordings_headline_is_bold_in_the_report():
-    from tribodyn.report import HeadlineLine, _verdict_item, verdict_lines
+    from tribodyn.app.report import HeadlineLine, _verdict_item, verdict_lines
 
     res = td.analyze(dead_weight(n=3000), fs=100.0)
     lines = verdict_lines("b.csv", res.summary(), res.params)
@@ -249,7 +250,7 @@ def test_every_recordings_headline_is_bold_in_the_report():
 def test_a_dynamic_headline_does_not_read_the_file_again(tmp_path, temp_sim, monkeypatch):
     import sys
 
-    from tribodyn import headline as hl
+    from tribodyn.pipeline import headline as hl
 
     p = tmp_path / "dyn.npy"
     save_npy(p, {k: temp_sim.channels[k] for k in ("fy", "fz")})
@@ -259,7 +260,7 @@ def test_a_dynamic_headline_does_not_read_the_file_again(tmp_path, temp_sim, mon
         calls.append(1)
         return hl.classical_totals(*args, **kwargs)
 
-    monkeypatch.setattr(sys.modules["tribodyn.analyze"], "classical_totals", counted)
+    monkeypatch.setattr(sys.modules["tribodyn.pipeline.analyze"], "classical_totals", counted)
     res = td.analyze(td.open_recording(p, fs=temp_sim.fs, names=["fy", "fz"]))
     assert res.headline.method == "dynamic" and res.classical is None and not calls
     res = td.analyze(dead_weight(n=3000), fs=100.0)
@@ -272,8 +273,8 @@ def test_a_classical_headline_reads_the_file_once(tmp_path, monkeypatch, threads
     6e): bitwise the totals of reading it again, whatever the chunk size, and no second read."""
     import sys
 
-    from tribodyn import headline as hl
-    from tribodyn.tribometer import ClassicalSpec
+    from tribodyn.kernels.strokes import ClassicalSpec
+    from tribodyn.pipeline import headline as hl
 
     ch = dead_weight(n=30_000)
     p = tmp_path / "dw.npy"
@@ -284,7 +285,7 @@ def test_a_classical_headline_reads_the_file_once(tmp_path, monkeypatch, threads
         calls.append(1)
         return hl.classical_totals(*args, **kwargs)
 
-    monkeypatch.setattr(sys.modules["tribodyn.analyze"], "classical_totals", counted)
+    monkeypatch.setattr(sys.modules["tribodyn.pipeline.analyze"], "classical_totals", counted)
     got = []
     for chunk in (None, 7.3, 41.0):
         with td.open_recording(p, fs=100.0, names=["fy", "fz"]) as rec:

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import tribodyn as td
 from tribodyn import _core
-from tribodyn import reference as ref
+from tribodyn.kernels import reference as ref
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
@@ -544,7 +544,7 @@ def test_core_errors_are_exceptions_not_panics(name, call, exc, match):
 
 def test_core_degenerate_input_is_a_value_not_an_error():
     assert _core.linfit(X[:0], Y[:0])[-1] is True  # empty: degenerate flag, no exception
-    m = _core.Moments.from_state(0, 1.0, 1.0, -1.0, -1.0, 0.0, 0.0)
+    m = _core.Moments.from_state((0, 1.0, 1.0, -1.0, -1.0, 0.0, 0.0))
     assert np.isnan(m.fit()[0])
     assert _core.xcorr_auto_method(0, 0) in ("direct", "fft")
     assert _core.xcorr_auto_method(2**40, 2**39) == "fft"

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 import tribodyn
 from tribodyn import simulate
-from tribodyn.estimators import BLOCKS, PRODUCTS, reverse_slope
-from tribodyn.instrument import choose_lag, lag_profile, sample_windows
+from tribodyn.kernels.estimators import BLOCKS, PRODUCTS, reverse_slope
+from tribodyn.pipeline.instrument import choose_lag, lag_profile, sample_windows
 
 MU = 0.1
 

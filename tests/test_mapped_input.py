@@ -2,7 +2,7 @@
 
 A channels-first float64 ``.npy`` opened with ``open_recording`` is analysed
 by one call of ``tribodyn._core.windows_stats_file`` (the kernel reads the
-file's pages through memory maps, rust/core/src/mapped.rs). These tests check
+file's pages through memory maps, rust/core/src/io/mapped.rs). These tests check
 that this path is taken, that its per-window table is identical, bit for
 bit, to the one of the streaming path on the same samples given as a
 mapping, that every recording it cannot read (scaled channels, another
@@ -19,10 +19,9 @@ from unittest import mock
 
 import numpy as np
 import pytest
+import tribodyn as td
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-import tribodyn as td
 from tribodyn import _core, simulate
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.writers import save_hdf5, save_npz

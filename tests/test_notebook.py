@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import html
-
 import warnings
 
 import numpy as np
@@ -43,7 +42,7 @@ def test_to_pandas_index_and_units(res):
 
 def test_parquet_field_units_round_trip(res, tmp_path):
     pq = pytest.importorskip("pyarrow.parquet")
-    from tribodyn.outputs import write_table_parquet
+    from tribodyn.app.outputs import write_table_parquet
 
     path = tmp_path / "w.parquet"
     assert write_table_parquet(res, path)

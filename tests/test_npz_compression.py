@@ -9,9 +9,8 @@ import zlib
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn.cli import main
+from tribodyn.app.cli import main
 from tribodyn.io import RecordingError
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)

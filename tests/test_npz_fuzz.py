@@ -5,10 +5,9 @@ from __future__ import annotations
 import collections
 
 import numpy as np
-
+import pytest
 import tribodyn as td
 from tribodyn.io.writers import save_npz
-import pytest
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 

@@ -11,10 +11,9 @@ import datetime as dt
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.covariates import branch, log_quality
+from tribodyn.pipeline.covariates import branch, log_quality
 
 
 def _cat(gen) -> dict:
@@ -218,7 +217,7 @@ def test_absolute_log_times_without_a_start_time_say_what_is_missing(temp_sim):
 
 
 def test_report_and_summary_show_the_fit(cd_res):
-    from tribodyn import report
+    from tribodyn.app import report
 
     opr = td.operating_range(cd_res, "current_density")
     d = opr.to_dict()
@@ -232,7 +231,7 @@ def test_report_and_summary_show_the_fit(cd_res):
 
 
 def test_log_file_with_iso_times_reads_as_epoch_seconds(tmp_path):
-    from tribodyn.jobs import read_log
+    from tribodyn.app.jobs import read_log
 
     path = tmp_path / "temp.csv"
     path.write_text("time,T\n2024-05-02T10:15:00,150.0\n2024-05-02T10:15:20,152.0\n")
@@ -244,7 +243,7 @@ def test_log_file_with_iso_times_reads_as_epoch_seconds(tmp_path):
 
 
 def test_curved_walls_recover_a_noise_free_bathtub():
-    from tribodyn.walls import bootstrap_curved, fit_curved
+    from tribodyn.analyses.walls import bootstrap_curved, fit_curved
 
     x = np.repeat(np.arange(2.0, 6.01, 0.5), 7) + np.tile(np.linspace(-0.01, 0.01, 7), 9)
     y = simulate.curved_bathtub(x, **simulate.CURVED_J)
@@ -313,7 +312,7 @@ def test_simulator_options_keep_the_defaults_unchanged():
 def _contact_loss_loop(stats, j):
     """contact_loss_mask's history rule as first written, window by window (the reference of the vectorised
     one), on the same per-window criteria."""
-    from tribodyn.contact_loss import COF_JUMP, HISTORY, criteria
+    from tribodyn.kernels.contact_loss import COF_JUMP, HISTORY, criteria
 
     crit = criteria(stats, j)
     if crit is None:
@@ -334,7 +333,7 @@ def _contact_loss_loop(stats, j):
 
 
 def test_contact_loss_mask_flags_what_the_window_by_window_rule_flags():
-    from tribodyn.contact_loss import contact_loss_mask
+    from tribodyn.kernels.contact_loss import contact_loss_mask
 
     rng = np.random.default_rng(7)
     flagged = 0

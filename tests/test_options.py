@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import cli, simulate
+from tribodyn import simulate
+from tribodyn.app import cli
 from tribodyn.options import OPTIONS, defaults, markdown_table, option
 
 pytestmark = pytest.mark.fast
@@ -82,7 +82,7 @@ def test_make_plan_takes_the_declared_defaults() -> None:
 def test_every_option_has_its_check_or_a_joint_one() -> None:
     """Issue 22 point 1: an option declares the rule that checks it alone (plan.CHECKS), or plan.JOINT says where
     it is checked with the options it depends on; never both, never neither, so no option comes without a check."""
-    from tribodyn.plan import CHECKS, JOINT
+    from tribodyn.pipeline.plan import CHECKS, JOINT
 
     names = {o.name for o in OPTIONS}
     assert set(JOINT) <= names, sorted(set(JOINT) - names)
@@ -97,13 +97,13 @@ BAD = {
     "fs": 0.0, "highpass": -1.0, "orientation": 0, "temperature": "x", "current": float("inf"),
     "voltage": float("nan"), "shunt_ohm": -1.0, "area_mm2": 0.0, "covariates": [1], "chunk": -1.0,
     "deadband": "x", "max_lag": -1, "threads": 0, "start": -1, "stop": 1.5, "motion": "sideways", "min_fn": -1.0,
-    "tare": "3 s", "stroke_fraction": 1.5,
+    "tare": "3 s", "stroke_fraction": 1.5, "uncertainty": {"fy_gain": 0.01},
 }  # fmt: skip
 
 
 @pytest.mark.parametrize("name", sorted(BAD))
 def test_make_plan_applies_each_declared_check(name: str) -> None:
-    from tribodyn.plan import checked
+    from tribodyn.pipeline.plan import checked
 
     assert option(name).check, name
     options = {name: BAD[name], "shunt_ohm": 1.0} if name == "voltage" else {name: BAD[name]}
@@ -178,7 +178,7 @@ def test_cli_flags_and_config_keys_come_from_the_declaration() -> None:
 def test_cli_passes_every_plan_option_through(tmp_path: Path) -> None:
     """Each flag of kind "plan" arrives under its option's name (one declaration, no hand-kept table)."""
     values = {"float": "0.5", "int": "3", "orientation": "-1", "deadband": "0.2", "gate": "0.8", "pair": "0.1,0.2",
-              "tare": "1.5"}  # fmt: skip
+              "tare": "1.5", "uncertainty": "fy_rel=0.005"}  # fmt: skip
     argv = ["analyze", "x.npy", "--out", str(tmp_path / "o")]
     want = {}
     for o in OPTIONS:

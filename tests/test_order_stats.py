@@ -6,9 +6,9 @@ import warnings
 
 import numpy as np
 import pytest
-
-from tribodyn import _core, _order
-from tribodyn import results as R
+from tribodyn import _core
+from tribodyn.kernels import stats as R
+from tribodyn.kernels import _order
 
 pytestmark = pytest.mark.fast
 
@@ -62,7 +62,7 @@ def test_histogram_kernel_is_numpys() -> None:
 
 
 def test_side_medians_are_numpys() -> None:
-    from tribodyn.tribometer import _side_medians
+    from tribodyn.pipeline.prepass import _side_medians
 
     rng = np.random.default_rng(5)
     for n in (1, 2, 3, 8, 1001, 1 << 16):
@@ -225,7 +225,7 @@ def test_sorted_values_give_numpys_medians_and_deviations() -> None:
 def test_histogram_of_sorted_values_is_the_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
     """Otsu's histogram from binary searches equals NumPy's (the kernel's) count, and falls back to
     the kernel where the edges are too close to tell (a range of a few ULPs)."""
-    from tribodyn.tribometer import _histogram_sorted
+    from tribodyn.pipeline.prepass import _histogram_sorted
 
     rng = np.random.default_rng(6)
     calls = []
@@ -247,7 +247,7 @@ def test_histogram_of_sorted_values_is_the_kernels(monkeypatch: pytest.MonkeyPat
 
 def test_unloaded_cluster_is_its_masked_samples() -> None:
     """The sorted cluster ``_unloaded`` returns holds exactly the samples of its mask."""
-    from tribodyn.tribometer import _unloaded
+    from tribodyn.pipeline.prepass import _unloaded
 
     rng = np.random.default_rng(8)
     n = 60_000
@@ -279,7 +279,7 @@ def test_select_ranks_is_the_same_on_every_thread_count() -> None:
 
 def test_block_sums_total_is_numpys_sum_bit_for_bit() -> None:
     """estimators.Sums adds the blocks in a loop: the same bits as ``blocks.sum(axis=2)``, signed zeros too."""
-    from tribodyn.estimators import BLOCKS, PRODUCTS, Sums
+    from tribodyn.kernels.estimators import BLOCKS, PRODUCTS, Sums
 
     rng = np.random.default_rng(11)
     shape = (3000, BLOCKS, len(PRODUCTS))

@@ -6,10 +6,9 @@ import errno
 
 import numpy as np
 import pytest
-
-from tribodyn import cli, jobs
+from tribodyn.app import cli, jobs
+from tribodyn.app.outputs import OutputSet
 from tribodyn.io.writers import save_npz
-from tribodyn.outputs import OutputSet
 
 
 @pytest.fixture
@@ -41,7 +40,7 @@ def test_a_failed_set_keeps_a_folder_that_was_there(tmp_path):
 
 
 def test_a_failed_publish_removes_the_new_folder(tmp_path, monkeypatch):
-    import tribodyn.outputs as outputs
+    import tribodyn.app.outputs as outputs
 
     def fail(stage, target):
         raise OSError(errno.EXDEV, "Invalid cross-device link", str(stage), None, str(target))

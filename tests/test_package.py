@@ -80,9 +80,9 @@ import json, types
 import tribodyn as td
 first = dir(td)
 # Documented submodules, reached as attributes after a plain `import tribodyn`.
-reached = [td.simulate.temperature_test, td.io.writers.save_npy, td.reference.window_stats,
-           td.results.verdict_text, td.columns.TABLE, td.plan.make_plan]
-import tribodyn.distributed, tribodyn.report, tribodyn.compare  # loading more submodules changes nothing visible
+reached = [td.simulate.temperature_test, td.io.writers.save_npy, td.kernels.reference.window_stats,
+           td.results.verdict_text, td.columns.TABLE, td.pipeline.plan.make_plan]
+import tribodyn.pipeline.distributed, tribodyn.app.report, tribodyn.analyses.compare  # more: no change
 values = {n: getattr(td, n) for n in td.__all__}
 star = {}
 exec("from tribodyn import *", star)

@@ -10,9 +10,8 @@ from pathlib import Path
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
-from tribodyn import cli
-from tribodyn.outputs import write_table_parquet
+from tribodyn.app import cli
+from tribodyn.app.outputs import write_table_parquet
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data" / "real"
@@ -87,7 +86,7 @@ def test_columns_built_from_buffers_equal_pyarrow_s_own_and_need_no_pandas(tmp_p
 
     code = (
         "import sys, numpy as np, pyarrow as pa\n"
-        "from tribodyn.outputs import arrow_array\n"
+        "from tribodyn.app.outputs import arrow_array\n"
         "rng = np.random.default_rng(0)\n"
         "cases = [rng.normal(size=7), np.array([np.nan, 1.0, -np.inf]), np.arange(9, dtype=np.int32),\n"
         "         np.arange(4, dtype=np.uint8), np.array([True, False, True]),\n"

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)

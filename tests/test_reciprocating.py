@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import simulate
 
@@ -49,7 +48,7 @@ def test_strokes_written(tmp_path):
     sim = simulate.reciprocating(seed=2, cycles=6)
     p = tmp_path / "recip.npz"
     save_npz(p, sim.channels, sim.fs)
-    from tribodyn.cli import main
+    from tribodyn.app.cli import main
 
     out = tmp_path / "out"
     assert main(["analyze", str(p), "--out", str(out), "-q"]) == 0

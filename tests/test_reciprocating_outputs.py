@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import figures as F
 from tribodyn import simulate
+from tribodyn.app import figures as F
 
 
 def test_strokes_figure_markers_per_direction_and_instrument():
@@ -29,7 +28,7 @@ def test_strokes_figure_markers_per_direction_and_instrument():
 
 
 def test_cli_writes_the_strokes_figure_and_the_report_shows_it(tmp_path):
-    from tribodyn.cli import main
+    from tribodyn.app.cli import main
     from tribodyn.io import save_npz
 
     sim = simulate.reciprocating(seed=2, cycles=6)
@@ -113,7 +112,7 @@ def _cetr_like(path, sim, every=5):
 
 @pytest.mark.parametrize("dynamic", [0.0, 1.0])
 def test_analyze_many_keeps_the_tribometer_params_and_verdict(tmp_path, dynamic):
-    from tribodyn.distributed import analyze_many
+    from tribodyn.pipeline.distributed import analyze_many
 
     sim = simulate.reciprocating(seed=11, cycles=10, frequency=0.5, fz_dynamic=dynamic)
     p = _cetr_like(tmp_path / "cetr_like.csv", sim, every=20)  # 50 Hz, as CETR UMT files: a window note
@@ -136,8 +135,8 @@ def test_analyze_many_keeps_the_tribometer_params_and_verdict(tmp_path, dynamic)
 
 
 def test_analyze_many_split_reciprocating_ranges_give_the_one_pass_windows(tmp_path):
-    from tribodyn.distributed import analyze_many
     from tribodyn.io import save_npz
+    from tribodyn.pipeline.distributed import analyze_many
 
     sim = simulate.reciprocating(seed=12, cycles=40, fz_dynamic=1.0)
     p = tmp_path / "recip.npz"
@@ -156,7 +155,7 @@ REAL = __import__("pathlib").Path(__file__).resolve().parent / "data" / "real"
 
 
 def test_analyze_many_on_a_real_cetr_file_gives_the_verdict_of_analyze():
-    from tribodyn.distributed import analyze_many
+    from tribodyn.pipeline.distributed import analyze_many
 
     p = REAL / "cetr_umt2_HT-2n-6-4_2_001.csv"
     one = td.analyze(td.open_recording(p))

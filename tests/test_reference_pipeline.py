@@ -2,7 +2,7 @@
 
 ``benches/bench_pipeline.py`` times ``tribodyn.analyze`` on recordings written
 by ``simulate.continuous`` to ``.npy`` and HDF5 against
-``tribodyn.reference.analyze_tiled``. Here the same code runs on a 2-minute
+``tribodyn.kernels.reference.analyze_tiled``. Here the same code runs on a 2-minute
 recording, dynamic and raw (``highpass=0.1``), read the three ways the
 benchmark reads it, and must give the reference's table: every column to
 1e-9 relative, bin counts exactly. No timing is asserted.
@@ -22,9 +22,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import reference
+from tribodyn.kernels import reference
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
@@ -96,8 +95,8 @@ def test_concurrent_spans_give_the_single_stream_table(files, monkeypatch):
     """With two threads a random-access, thread-safe recording may be read as concurrent spans (dynamic input);
     an HDF5 file read through h5py (not thread-safe) is read as one stream. Either way the table is the
     one-thread table."""
-    mod = importlib.import_module("tribodyn.routes")
-    from tribodyn.plan import make_plan
+    mod = importlib.import_module("tribodyn.pipeline.routes")
+    from tribodyn.pipeline.plan import make_plan
 
     def plan(**kw):
         return make_plan(fs=bench.FS, window=2.0, **kw)

@@ -40,7 +40,7 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy import stats
-from tribodyn import reference as ref
+from tribodyn.kernels import reference as ref
 
 EPS = np.finfo(np.float64).eps
 NORRIS = Path(__file__).parent / "data" / "nist" / "Norris.dat"

@@ -9,12 +9,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import roles as R
 from tribodyn import simulate
-from tribodyn.cli import main
+from tribodyn.app.cli import main
 from tribodyn.io import RecordingError
+from tribodyn.io import roles as R
 
 DATA = Path(__file__).resolve().parent / "data" / "real"
 CETR_COLUMNS = ["Fx", "Fy", "Fz", "Z", "Y", "X", "V1", "V2", "V3", "T", "Ff", "COF"]

@@ -11,10 +11,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import tribodyn
-from tribodyn import _core, reference, simulate
-from tribodyn.estimators import BLOCKS, PRODUCTS, Z975, gate_precision, line_frequencies, slopes
+from tribodyn import _core, simulate
+from tribodyn.kernels import reference
+from tribodyn.kernels.estimators import BLOCKS, PRODUCTS, Z975, gate_precision, line_frequencies, slopes
+from tribodyn.kernels import window_stats
 
 MU = 0.1
 
@@ -106,7 +107,7 @@ def test_summary_intervals_cover_between_recordings(snr):
 
 
 def test_bootstrap_draws_the_noise_estimate_anew():
-    from tribodyn.results import NoiseResample, bootstrap_ci, noise_resample
+    from tribodyn.kernels.stats import NoiseResample, bootstrap_ci, noise_resample
 
     rng = np.random.default_rng(4)
     var = 0.01 + 0.002 * rng.standard_normal(300)  # every window's measurement of sigma_z^2
@@ -139,8 +140,7 @@ def test_bootstrap_draws_the_noise_estimate_anew():
 
 def test_t_quantile_equals_scipy():
     from scipy import stats
-
-    from tribodyn.results import t_quantile
+    from tribodyn.kernels.quantiles import t_quantile
 
     for df in (1, 2):
         assert t_quantile(0.975, df) == pytest.approx(stats.t.ppf(0.975, df), rel=1e-12)
@@ -338,12 +338,12 @@ def test_block_sums_and_line_spectra_match_the_reference():
     fy, fz = sim.channels["fy"], sim.channels["fz"]
     starts = np.array([0, 1500, 3001, 7000], dtype=np.int64)
     lines, _ = line_frequencies(sim.fs, sim.rpm, sim.n_lamellas)
-    db = tribodyn.deadband.parse_deadband(0.35)
+    db = tribodyn.kernels.deadband.parse_deadband(0.35)
     for threads in (1, 2):
-        spec = tribodyn.window_stats.make_spec(
+        spec = window_stats.make_spec(
             2000, db, 16, ["n", "ext", "spec"], threads=threads, options=dict(lag=240, lines=list(lines), segments=4)
         )
-        st = tribodyn.window_stats.compute(spec, fy, fz, starts)
+        st = window_stats.compute(spec, fy, fz, starts)
         assert st["ext"].shape == (4, BLOCKS, len(PRODUCTS))
         for k, s0 in enumerate(starts):
             want = reference.block_sums(fy[s0 : s0 + 2000], fz[s0 : s0 + 2000], 240)
@@ -401,16 +401,19 @@ def test_kernel_rejects_bad_extended_options():
 
 
 def test_classical_cof_kernel_matches_the_reference():
-    from tribodyn.tribometer import ClassicalSpec
+    from tribodyn.kernels.strokes import ClassicalSpec
 
     sim = simulate.conditions(12, mu=MU, seed=24, raw=True, y_noise=0.01)
     fy, fz = sim.channels["fy"], sim.channels["fz"]
     starts = np.array([0, 1700, 5003], dtype=np.int64)
     spec = ClassicalSpec(min_fn=2.6, tare_fy=0.01, tare_fz=0.02)  # leaves out part of each window
-    db = tribodyn.deadband.parse_deadband(0.35)
+    db = tribodyn.kernels.deadband.parse_deadband(0.35)
     names = ["mu_classical", "mu_classical_median", "fz_mean", "fz_std"]
-    st = tribodyn.window_stats.compute(
-        tribodyn.window_stats.make_spec(2000, db, 16, names, options=dict(classical=(2.6, 0.01, 0.02))), fy, fz, starts
+    st = window_stats.compute(
+        window_stats.make_spec(2000, db, 16, names, options=dict(classical=(2.6, 0.01, 0.02))),
+        fy,
+        fz,
+        starts,
     )
     want = reference.classical_windows(fy, fz, starts, 2000, spec)
     for name in names:
@@ -419,8 +422,7 @@ def test_classical_cof_kernel_matches_the_reference():
 
 def test_student4_cdf_equals_scipy():
     from scipy import special
-
-    from tribodyn.estimators import student4_cdf
+    from tribodyn.kernels.estimators import student4_cdf
 
     t = np.r_[np.linspace(-80, 80, 20001), -np.inf, np.inf, 0.0]
     np.testing.assert_allclose(student4_cdf(t), special.stdtr(4, t), rtol=0, atol=1e-15)
@@ -428,8 +430,7 @@ def test_student4_cdf_equals_scipy():
 
 def test_quantile_constants_equal_scipy():
     from scipy import stats
-
-    from tribodyn.estimators import CHI2_4_MEDIAN, T975
+    from tribodyn.kernels.estimators import CHI2_4_MEDIAN, T975
 
     assert CHI2_4_MEDIAN == pytest.approx(stats.chi2.ppf(0.5, 4), rel=1e-15)
     assert Z975 == pytest.approx(stats.norm.ppf(0.975), rel=1e-15)

@@ -7,10 +7,9 @@ import math
 
 import numpy as np
 import pytest
-
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.steady import DELTA, VERDICTS, fit_steady, steady_series
+from tribodyn.analyses.steady import DELTA, VERDICTS, fit_steady, steady_series
 
 #: Windows of the simulated tests: tiled, 10 s (120 windows in the default 1200 s test).
 WIN = dict(window=10.0, hop=10.0)
@@ -180,7 +179,7 @@ def test_fit_steady_arguments():
 
 
 def test_cli_steady_state_prints_writes_and_shades(tmp_path, capsys):
-    from tribodyn.cli import main
+    from tribodyn.app.cli import main
     from tribodyn.io.writers import save_recording
 
     sim = simulate.running_in(seed=3, duration=600.0, t_steady=150.0)
@@ -205,8 +204,7 @@ def test_cof_figure_shades_the_running_in():
     import dataclasses
 
     from matplotlib.patches import Rectangle
-
-    from tribodyn import figures
+    from tribodyn.app import figures
 
     _, res = analysed(seed=3, duration=600.0, t_steady=150.0)
     ss = td.steady_state(res, n_boot=100)

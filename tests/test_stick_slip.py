@@ -8,9 +8,9 @@ import json
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import simulate, stickslip
+from tribodyn import simulate
+from tribodyn.pipeline import stickslip
 
 import stick_slip_sim as sim_ss
 
@@ -182,7 +182,7 @@ def test_smooth_strokes_have_a_static_cof_near_the_kinetic_one():
 
 
 def test_the_cli_reports_stick_slip_only_when_present(tmp_path, capsys):
-    from tribodyn.cli import main
+    from tribodyn.app.cli import main
     from tribodyn.io.writers import save_npz
 
     for name, kw in (("slip", {"stick_slip": 0.2, "stick_slip_period": 0.0233}), ("smooth", {})):
@@ -305,12 +305,12 @@ def _read_again(ch, res):
 def _never_read_again(monkeypatch):
     import sys
 
-    an = sys.modules["tribodyn.analyze"]  # (the package's name `analyze` is the function)
+    an = sys.modules["tribodyn.pipeline.analyze"]  # (the package's name `analyze` is the function)
 
     def refused(*a, **k):
         raise AssertionError("the analysis read the recording again for stick-slip")
 
-    monkeypatch.setattr(an, "stick_slip", refused)
+    monkeypatch.setattr(an, "find_stick_slip", refused)
 
 
 @pytest.mark.parametrize(("block", "chunk", "threads"), [(1 << 16, None, 1), (1 << 16, 7.3, 2), (1 << 20, 41.0, 2)])

@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn import figures, simulate
-from tribodyn.cli import main
+from tribodyn import simulate
+from tribodyn.app import figures
+from tribodyn.app.cli import main
 from tribodyn.columns import UNITS
 from tribodyn.io import open_recording
 
@@ -257,7 +257,7 @@ def test_stribeck_figure(res, opr):
 
 
 def test_report_has_the_stribeck_curve(res, opr):
-    from tribodyn.report import build_named_figures
+    from tribodyn.app.report import build_named_figures
 
     names = [name for name, _cap, _fig in build_named_figures(res, opr_speed=opr)]
     assert "stribeck_curve" in names

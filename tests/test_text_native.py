@@ -18,7 +18,6 @@ from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 import pytest
-
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.delimited import DelimitedRecording
 from tribodyn.io.lvm import LvmRecording
@@ -182,6 +181,20 @@ def test_native_errors_name_the_line(tmp_path: Path) -> None:
 
 
 @pytest.mark.fast
+def test_native_errors_quote_odd_bytes_and_names_as_python(tmp_path: Path) -> None:
+    """The native reader words a bad field as Python's repr of its latin-1 text (quotes, escapes,
+    bytes that are not printable, the first 40 characters) and the channel by repr of its name."""
+    p = tmp_path / "odd.csv"
+    field = b"a'b\\\xad\x7f\x85z\xe9" + b"9" * 45
+    rows = [f"{i / 1000:.3f},{i},{i},{i}".encode() for i in range(3000)]
+    rows[2500] = b"2.500,1," + field + b",3"
+    p.write_bytes(b'time,fx,fy "q",fz\n' + b"\n".join(rows) + b"\n")
+    kind, msg = _same(p)  # both readers fail at reading, with the same words
+    quoted = repr(field.decode("latin-1")[:40])
+    assert kind == "error" and f"line 2502: {quoted} in channel " in msg, msg
+
+
+@pytest.mark.fast
 def test_native_lvm_equals_python(tmp_path: Path) -> None:
     rng = np.random.default_rng(3)
     for j, decimal in enumerate((".", ",", ".")):
@@ -210,7 +223,7 @@ def test_native_lvm_equals_python(tmp_path: Path) -> None:
 
 
 def test_thread_count_does_not_change_the_result(tmp_path: Path) -> None:
-    from tribodyn import threads
+    from tribodyn.kernels import threads
 
     rng = np.random.default_rng(5)
     p = tmp_path / "big.csv"

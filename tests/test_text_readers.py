@@ -6,9 +6,8 @@ import json
 
 import numpy as np
 import pytest
-
 import tribodyn as td
-from tribodyn.cli import main
+from tribodyn.app.cli import main
 from tribodyn.io import RecordingError
 
 

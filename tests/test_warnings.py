@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
-
 import tribodyn as td
+from tribodyn.app.report import write_report
 from tribodyn.io.writers import save_hdf5
-from tribodyn.report import write_report
 
 
 def _recording(tmp_path):
@@ -51,7 +50,19 @@ def test_cli_prints_each_reader_warning_once_on_stderr(tmp_path):
     p = _recording(tmp_path)
     out = tmp_path / "out"
     r = subprocess.run(
-        [sys.executable, "-m", "tribodyn.cli", "analyze", str(p), "--out", str(out), "--fs", "1000.5", "--hop", "2"],
+        [
+            sys.executable,
+            "-m",
+            "tribodyn.app.cli",
+            "analyze",
+            str(p),
+            "--out",
+            str(out),
+            "--fs",
+            "1000.5",
+            "--hop",
+            "2",
+        ],
         capture_output=True,
         text=True,
     )

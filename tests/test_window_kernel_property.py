@@ -1,5 +1,5 @@
-"""The per-window Rust kernel (``tribodyn.window_stats.compute``) against the
-per-window NumPy reference (``tribodyn.reference.window_stats``), both at
+"""The per-window Rust kernel (``tribodyn.kernels.window_stats.compute``) against the
+per-window NumPy reference (``tribodyn.kernels.reference.window_stats``), both at
 orientation +1 (docs/method.md 3-5).
 
 What is generated
@@ -52,11 +52,11 @@ from hypothesis import assume, currently_in_test_context, given, note
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from tribodyn import _core
-from tribodyn import reference as ref
 from tribodyn.columns import KERNEL_COLUMNS, kernel_columns
-from tribodyn.deadband import parse_deadband
-from tribodyn.window_stats import compute as compute_spec
-from tribodyn.window_stats import make_spec
+from tribodyn.kernels import reference as ref
+from tribodyn.kernels.deadband import parse_deadband
+from tribodyn.kernels.window_stats import compute as compute_spec
+from tribodyn.kernels.window_stats import make_spec
 
 
 def compute(fx, fy, fz, aux, starts, length, db, n_bins, columns=None, *, raw=None, threads=None):

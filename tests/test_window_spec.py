@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import tribodyn as td
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-import tribodyn as td
 from tribodyn import _core
 from tribodyn.columns import kernel_columns
-from tribodyn.deadband import parse_deadband
-from tribodyn.window_stats import compute, make_spec
+from tribodyn.kernels.deadband import parse_deadband
+from tribodyn.kernels.window_stats import compute, make_spec
 
 COLS = list(kernel_columns(False))
 
@@ -166,7 +165,7 @@ def test_non_finite_without_naming_is_in_the_kernels_words():
 def test_raw_nan_has_one_message_on_every_route(tmp_path, threads):
     """A NaN in raw forces stops the high-pass: the file kernel (named by the binding) and the stream route
     (named in Python) say the same."""
-    from tribodyn.filters import HighPass
+    from tribodyn.kernels.filters import HighPass
 
     sim = td.simulate.conditions(30, mu=0.3, seed=5, raw=True)
     a = np.stack([sim.channels["fy"], sim.channels["fz"]])

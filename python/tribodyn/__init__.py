@@ -3,12 +3,12 @@ dynamic forces.
 
 The method (the paper's, made precise) is in docs/method.md; every public function
 cites its section. Kernels run in Rust (``tribodyn._core``); a pure-NumPy
-reference of each is in :mod:`tribodyn.reference`.
+reference of each is in :mod:`tribodyn.kernels.reference`.
 
 The namespace holds what ``__all__`` lists (and ``dir(tribodyn)`` shows
 exactly that, with the module's dunder attributes). Names are imported on
 first use (PEP 562), so ``import tribodyn`` stays light; submodules
-(``tribodyn.simulate``, ``tribodyn.io``, ``tribodyn.reference``,
+(``tribodyn.simulate``, ``tribodyn.io``, ``tribodyn.kernels.reference``,
 ``tribodyn.results``, ...) are reached as attributes or imported as usual.
 How the modules fit together: docs/architecture.md.
 """
@@ -17,54 +17,58 @@ How the modules fit together: docs/architecture.md.
 import importlib as _importlib
 import typing as _typing
 
+from .analyses.compare import compare
+
 # analyze, identify and compare share their names with their modules: loading a submodule
 # sets the package's attribute of that name, so the functions are bound first.
-from .analyze import analyze
-from .compare import compare
-from .identify import identify
+from .pipeline.analyze import analyze
+from .pipeline.identify import identify
 
 #: Public name -> the module (relative) it comes from, imported on first use.
 _LAZY = {
-    "xcorr": "correlation",
-    "XcorrResult": "correlation",
-    "pearson": "correlation",
-    "ConstantInputWarning": "correlation",
-    "HighPass": "filters",
-    "highpass": "filters",
-    "butter_highpass": "filters",
-    "linfit": "regression",
-    "LinFit": "regression",
-    "LinFitAccumulator": "regression",
-    "DegenerateInputWarning": "regression",
-    "set_threads": "threads",
-    "get_threads": "threads",
-    "max_threads": "threads",
+    "xcorr": "kernels.correlation",
+    "XcorrResult": "kernels.correlation",
+    "pearson": "kernels.correlation",
+    "ConstantInputWarning": "kernels.correlation",
+    "HighPass": "kernels.filters",
+    "highpass": "kernels.filters",
+    "butter_highpass": "kernels.filters",
+    "linfit": "kernels.regression",
+    "LinFit": "kernels.regression",
+    "LinFitAccumulator": "kernels.regression",
+    "DegenerateInputWarning": "kernels.regression",
+    "set_threads": "kernels.threads",
+    "get_threads": "kernels.threads",
+    "max_threads": "kernels.threads",
     "CofResult": "results",
     "BinTable": "results",
     "Results": "results",
     "WINDOW_COLUMNS": "results",
-    "operating_range": "ranges",
-    "OperatingRange": "ranges",
-    "RangeCurve": "ranges",
-    "BranchFit": "ranges",
-    "Hysteresis": "ranges",
-    "align_log": "covariates",
-    "Deadband": "deadband",
-    "parse_deadband": "deadband",
+    "operating_range": "analyses.ranges",
+    "OperatingRange": "analyses.ranges",
+    "RangeCurve": "analyses.ranges",
+    "BranchFit": "analyses.ranges",
+    "Hysteresis": "analyses.ranges",
+    "align_log": "pipeline.covariates",
+    "Deadband": "kernels.deadband",
+    "parse_deadband": "kernels.deadband",
     "open_recording": "io",
     "Recording": "io",
     "RecordingError": "io",
-    "analyze_many": "distributed",
-    "ManyResults": "distributed",
-    "Comparison": "compare",
-    "Precision": "compare",
-    "Replicate": "compare",
-    "stick_slip": "stickslip",
-    "StickSlip": "stickslip",
-    "steady_state": "steady",
-    "SteadyState": "steady",
-    "Plan": "plan",
-    "make_plan": "plan",
+    "analyze_many": "pipeline.distributed",
+    "ManyResults": "pipeline.distributed",
+    "Comparison": "analyses.compare",
+    "Precision": "analyses.compare",
+    "Replicate": "analyses.compare",
+    "stick_slip": "analyses.stickslip",
+    "StickSlip": "analyses.stickslip",
+    "steady_state": "analyses.steady",
+    "SteadyState": "analyses.steady",
+    "Plan": "pipeline.plan",
+    "make_plan": "pipeline.plan",
+    "Headline": "results",
+    "NonFiniteError": "errors",
+    "OutputError": "errors",
 }
 
 __all__ = [
@@ -111,37 +115,38 @@ __all__ = [
     "Replicate",
     "stick_slip",
     "StickSlip",
+    "Headline",
+    "NonFiniteError",
+    "OutputError",
     "steady_state",
     "SteadyState",
 ]
 
 if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
     from . import columns
-    from .compare import Comparison, Precision, Replicate
-    from .correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
-    from .covariates import align_log
-    from .deadband import Deadband, parse_deadband
-    from .distributed import ManyResults, analyze_many
-    from .filters import HighPass, butter_highpass, highpass
+    from .analyses.compare import Comparison, Precision, Replicate
+    from .analyses.ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating_range
+    from .analyses.steady import SteadyState, steady_state
     from .io import Recording, RecordingError, open_recording
-    from .plan import Plan, make_plan
-    from .ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating_range
-    from .regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit
-    from .steady import SteadyState, steady_state
-    from .stickslip import StickSlip, stick_slip
-    from .results import WINDOW_COLUMNS, BinTable, CofResult, Results
-    from .threads import get_threads, max_threads, set_threads
+    from .kernels.correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
+    from .kernels.deadband import Deadband, parse_deadband
+    from .kernels.filters import HighPass, butter_highpass, highpass
+    from .kernels.regression import DegenerateInputWarning, LinFit, LinFitAccumulator, linfit
+    from .kernels.threads import get_threads, max_threads, set_threads
+    from .pipeline.covariates import align_log
+    from .pipeline.distributed import ManyResults, analyze_many
+    from .pipeline.plan import Plan, make_plan
+    from .analyses.stickslip import StickSlip, stick_slip
+    from .errors import NonFiniteError, OutputError
+    from .results import WINDOW_COLUMNS, BinTable, CofResult, Headline, Results
 
     __version__: str
 
 
 def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
+    from ._version import version
 
-    try:
-        return version("tribodyn")
-    except PackageNotFoundError:  # pragma: no cover - running from a source tree
-        return "0+unknown"
+    return version()
 
 
 if not _typing.TYPE_CHECKING:  # type checkers see the imports above, and no catch-all

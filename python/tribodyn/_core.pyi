@@ -23,6 +23,8 @@ __all__ = [
     "Extents",
     "Moments",
     "NonFiniteError",
+    "TextDialect",
+    "TextScan",
     "WindowSpec",
     "all_finite",
     "get_threads",
@@ -53,7 +55,7 @@ FORCE_LIMIT: float
 
 # (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
 _FitTuple: TypeAlias = tuple[float, float, float, float, float, float, int, bool]
-# (n, mean_x, mean_y, sxx, syy, sxy, sse)
+# (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo)
 _StateTuple: TypeAlias = tuple[int, float, float, float, float, float, float, float, float]
 
 class NonFiniteError(ValueError):
@@ -200,7 +202,7 @@ def windows_stats(
     Beyond the paper (docs/method.md 3a-3e), from the spec's options:
     ``ext`` (float64, (windows, 5, 16)), the block sums of the estimators
     with the instrument fz lagged by ``lag`` samples
-    (``tribodyn.estimators.PRODUCTS``); ``spec`` (float64, (windows,
+    (``tribodyn.kernels.estimators.PRODUCTS``); ``spec`` (float64, (windows,
     len(lines), 4)), the cross-spectra at ``lines`` (cycles per sample)
     averaged over ``segments``; ``delay`` advances fz by that many samples
     in every window first (a fractional-delay filter; the windows lose 16
@@ -241,18 +243,10 @@ class Moments:
         """(n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo)."""
 
     @staticmethod
-    def from_state(
-        n: int,
-        mean_x: float,
-        mean_y: float,
-        sxx: float,
-        syy: float,
-        sxy: float,
-        sse: float,
-        mean_x_lo: float = 0.0,
-        mean_y_lo: float = 0.0,
-    ) -> Moments:
-        """Rebuilds moments from `state()` (for pickling and transport)."""
+    def from_state(state: _StateTuple | tuple[int, float, float, float, float, float, float]) -> Moments:
+        """Rebuilds moments from `state()` (for pickling and transport): the
+        tuple (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo),
+        or its first seven (the low parts then 0.0)."""
 
 def windows_stats_file(
     spec: WindowSpec,
@@ -326,40 +320,61 @@ def tdms_index(fd: int, index_fd: int | None = None) -> dict[str, Any]:
     channel's own samples, else a DAQmx scale id), why not native or None).
     A damaged file is a ValueError naming the segment."""
 
-def text_scan(
-    fd: int,
-    start: int,
-    *,
-    delimiter: str | None,
-    decimal: str,
-    comment: str | None,
-    skip_blank: bool,
-    nf: int | None,
-    probe: int,
-    time: int | None,
-    gap: float,
-    t_prev: float,
-    keep_times: int,
-    threads: int | None = None,
-) -> dict[str, Any]:
+@final
+class TextDialect:
+    """How a text file's fields are separated and which lines are skipped
+    (the rules of `text_scan` and `text_parse`), checked when it is made."""
+
+    def __new__(
+        cls, delimiter: str | None, decimal: str, comment: str | None = None, skip_blank: bool = True
+    ) -> TextDialect:
+        """`delimiter`: one ASCII character, or None for runs of whitespace;
+        `decimal`: "." or ","; `comment`: ASCII text that starts a skipped
+        line, or None; `skip_blank`: blank lines are skipped (else they end
+        a run). A bad argument is a `ValueError`."""
+
+@final
+class TextScan:
+    """What makes a line a data row of `text_scan`, and what the scan records."""
+
+    def __new__(
+        cls,
+        dialect: TextDialect,
+        *,
+        nf: int | None,
+        probe: int,
+        time: int | None = None,
+        gap: float = ...,
+        t_prev: float = ...,
+        keep_times: int = 0,
+    ) -> TextScan:
+        """`dialect`: the file's `TextDialect`; `nf`: the fields a row has (more
+        are allowed when blank; None: any); `probe`: a field that must be a
+        number or empty; `time`: the time column, whose restarts and gaps (a
+        step above `gap`; NaN: restarts only) are reported, `t_prev` the
+        time of the row before the run (NaN: none); `keep_times`: time
+        values kept from the run's first row."""
+
+def text_scan(fd: int, start: int, scan: TextScan, *, threads: int | None = None) -> dict[str, Any]:
     """Follows the run of data rows from byte `start` of the text file open as
-    `fd` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
+    `fd` by the rules of `scan` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
     "end", "times" (float64), "breaks" [(row, line, offset, prev, now)],
-    "t_prev", "checkpoints" [(row, offset, line)] and "last" ((line, offset) or None);
+    "t_prev", "checkpoints" [(row, offset, line)] (about one a MiB), "marks" (more
+    such entries, about one per 64 KiB, see `Checkpoints`) and "last" ((line, offset) or None);
     lines are counted from the run's first (0)."""
 
 def text_parse(
     fd: int,
     pieces: list[tuple[int, int, int, int]],
     usecols: list[int],
+    dialect: TextDialect,
     *,
-    delimiter: str | None,
-    decimal: str,
-    comment: str | None,
-    skip_blank: bool,
+    names: list[str] | None = None,
     threads: int | None = None,
 ) -> list[NDArray[np.float64]]:
     """Parses the rows of `pieces` [(offset, line, skip, rows)] of the text
-    file open as `fd` into one float64 array per entry of `usecols`. A row that
-    cannot be read raises ValueError with args ("fields", line, got, need),
-    ("number", line, column, text bytes) or ("eof", line, rows short)."""
+    file open as `fd` by the rules of `dialect` into one float64 array per
+    entry of `usecols`. A row that cannot be read raises ValueError in the
+    reader's words ("line 7: 'x' in channel 'fy' is not a number (corrupt
+    file?)"), each column asked for named by its entry of `names` (by its
+    index without one)."""

@@ -2,14 +2,14 @@
 
 Each :class:`Option` carries its default, unit, command-line flag, ``--config``
 key, the docs/method.md section that defines it and a one-line meaning.
-From this table come the defaults :func:`tribodyn.plan.make_plan` applies,
-the command line's flags and ``--config`` keys (``tribodyn.cli``), the
+From this table come the defaults :func:`tribodyn.pipeline.plan.make_plan` applies,
+the command line's flags and ``--config`` keys (``tribodyn.app.cli``), the
 report's units and the README's option list; ``analyze``'s signature and
 docstring, ``Plan``'s fields and ``Results.params`` are checked against it
 (``tests/test_options.py``). Each option names its check (``check``): a rule
-of :data:`tribodyn.plan.CHECKS` that :func:`tribodyn.plan.make_plan` applies
+of :data:`tribodyn.pipeline.plan.CHECKS` that :func:`tribodyn.pipeline.plan.make_plan` applies
 to its value alone, or "" for the few whose validity depends on other
-options, which ``make_plan`` checks together (:data:`tribodyn.plan.JOINT`
+options, which ``make_plan`` checks together (:data:`tribodyn.pipeline.plan.JOINT`
 says where). A new option is one entry here, its rule (or its joint check)
 and its use.
 
@@ -58,16 +58,16 @@ class Option:
         The ``--config`` key (the flag without dashes), None when it has none.
     cli_type : str
         How the command line parses it: "float", "int", "text", "choice",
-        or a parser of ``tribodyn.cli`` ("orientation", "deadband", "gate",
+        or a parser of ``tribodyn.app.cli`` ("orientation", "deadband", "gate",
         "pair", "tare", "log"), or "" (set by the command line itself).
     choices : tuple of str
         The values a "choice" takes.
     config_type : str
         What a ``--config`` value must be, in words.
     check : str
-        The rule of :data:`tribodyn.plan.CHECKS` that checks (and converts)
-        the value on its own; "" when :func:`tribodyn.plan.make_plan` checks
-        it together with other options (:data:`tribodyn.plan.JOINT`).
+        The rule of :data:`tribodyn.pipeline.plan.CHECKS` that checks (and converts)
+        the value on its own; "" when :func:`tribodyn.pipeline.plan.make_plan` checks
+        it together with other options (:data:`tribodyn.pipeline.plan.JOINT`).
     """
 
     name: str
@@ -182,6 +182,10 @@ OPTIONS: Tuple[Option, ...] = (
          check="fraction"),
     _opt(name="stick_slip", default=False, kind="plan", unit="", section="6g",
          doc="also find stick-slip events, in the same reading (Results.stick_slip)", check="truth value"),
+    _opt(name="uncertainty", default=None, kind="plan", unit="", section="6i",
+         doc="instrument budget: fy_rel, fz_rel, fy_abs, fz_abs, misalignment_deg, crosstalk (standard uncertainties)",
+         flag="--uncertainty", cli_type="uncertainty",
+         config_type="a table of key = standard uncertainty or {u, distribution, dof}", check="uncertainty inputs"),
     _opt(name="channels", default=None, kind="source", unit="", section="6f",
          doc="role -> column of a DataFrame, or channel of a file", flag="--map", cli_type="map",
          config_type='a table of role = "channel" (or a string "fy=Ft,fz=Fn")', config="map"),

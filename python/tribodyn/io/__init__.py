@@ -41,15 +41,7 @@ import stat
 from typing import Any, Mapping, Optional, Tuple, Union
 
 from .base import ChannelInfo, Recording, RecordingError, RecordingProtocol
-from .writers import (
-    atomic_write,
-    save_hdf5,
-    save_npy,
-    save_npz,
-    save_recording,
-    save_tdms,
-    sha256_file,
-)
+from .writers import atomic_write, save_hdf5, save_npy, save_npz, save_recording, save_tdms, sha256_file
 
 __all__ = [
     "FORMATS",
@@ -226,7 +218,7 @@ def open_recording(
     if vendor is not None:
         kwargs["vendor"] = vendor
     # The friction channel among several tangential ones is chosen by evidence (docs/method.md 6f).
-    from ..roles import choose_roles
+    from .roles import choose_roles
 
     rec: Optional[Recording] = None
     try:

@@ -600,13 +600,13 @@ def native_scan(
 ) -> Dict[str, Any]:
     """The run of data rows from byte ``start`` (see ``tribodyn._core.text_scan``)."""
     from .. import _core
-    from ..threads import read_threads
+    from ..kernels.threads import read_threads
 
     try:
-        out: Dict[str, Any] = _core.text_scan(
-            fd, start, nf=nf, probe=probe, time=time, gap=gap, t_prev=t_prev, keep_times=keep_times,
-            threads=read_threads(), **dialect,
-        )  # fmt: skip
+        scan = _core.TextScan(
+            _core.TextDialect(**dialect), nf=nf, probe=probe, time=time, gap=gap, t_prev=t_prev, keep_times=keep_times
+        )
+        out: Dict[str, Any] = _core.text_scan(fd, start, scan, threads=read_threads())
     except ValueError as exc:
         raise RecordingError(str(exc)) from None
     return out
@@ -667,31 +667,19 @@ def native_parse(
 ) -> List[np.ndarray]:
     """The rows of ``pieces`` as one new float64 array per column of ``usecols``, parsed natively.
 
-    Errors are those of :func:`parse_rows` and :func:`iter_data_lines`, worded the same.
+    Errors are those of :func:`parse_rows` and :func:`iter_data_lines`, worded the same (by the
+    native reader: ``tribodyn._core.text_parse``; the path is put before them here).
     """
     from .. import _core
-    from ..threads import read_threads
+    from ..kernels.threads import read_threads
 
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_BINARY", 0))
     try:
-        a: List[np.ndarray] = _core.text_parse(fd, list(pieces), list(usecols), threads=read_threads(), **dialect)
+        a: List[np.ndarray] = _core.text_parse(
+            fd, list(pieces), list(usecols), _core.TextDialect(**dialect), names=list(colnames), threads=read_threads()
+        )
         return a
     except ValueError as exc:
-        args = exc.args
-        if len(args) >= 3 and args[0] == "number":
-            s = bytes(args[3]).decode("latin-1")
-            raise RecordingError(
-                f"{path}: line {args[1]}: {s[:40]!r} in channel {colnames[args[2]]!r} is not a number (corrupt file?)"
-            ) from None
-        if len(args) >= 3 and args[0] == "fields":
-            raise RecordingError(
-                f"{path}: line {args[1]} has {args[2]} fields, expected at least {args[3]} (truncated or corrupt file)"
-            ) from None
-        if len(args) >= 3 and args[0] == "eof":
-            raise RecordingError(
-                f"{path}: file ended after line {args[1]}, {args[2]} data rows "
-                "short (file changed or truncated since it was opened?)"
-            ) from None
         raise RecordingError(f"{path}: {exc}") from None
     finally:
         os.close(fd)

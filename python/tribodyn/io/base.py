@@ -32,14 +32,11 @@ import os
 import threading
 from collections import deque
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Protocol, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Protocol, Sequence, Tuple, Union
 
 import numpy as np
 
 from .units import si_conversion
-
-if TYPE_CHECKING:
-    from ..roles import RoleChoice
 
 __all__ = [
     "KNOWN_ROLES",
@@ -76,7 +73,7 @@ _ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {
 
 
 #: Base names (see :func:`base_name`) of tangential force channels: the candidates for the friction
-#: role when the map is automatic and several compete (:mod:`tribodyn.roles`). Ft and "tangential
+#: role when the map is automatic and several compete (:mod:`tribodyn.io.roles`). Ft and "tangential
 #: force" are not names of a role by themselves (a lone Ft is mapped by the caller).
 TANGENTIAL_NAMES: Tuple[str, ...] = (
     *_ROLE_ALIASES["fx"],
@@ -238,7 +235,7 @@ class RecordingProtocol(Protocol):
     """What the pipeline needs of a recording (docs/architecture.md): its data and its declared capabilities.
 
     :class:`Recording` (every reader of :func:`tribodyn.io.open_recording`)
-    satisfies it. :func:`tribodyn.routes.choose_route` picks the route from
+    satisfies it. :func:`tribodyn.pipeline.routes.choose_route` picks the route from
     the capabilities (``acquisitions``, ``mappable``, ``random_access``,
     ``thread_safe``, ``views``) before anything is read, never from a
     format's name.
@@ -254,8 +251,8 @@ class RecordingProtocol(Protocol):
     thread_safe: bool
     mappable: bool
     views: bool
-    #: How ``fy`` was bound when the role map was chosen from the data (:class:`tribodyn.roles.RoleChoice`), or None.
-    role_choice: Optional["RoleChoice"]
+    #: How ``fy`` was bound when the role map was chosen from the data (:class:`tribodyn.io.roles.RoleChoice`), or None.
+    role_choice: Optional[Any]  # an io.roles.RoleChoice (io.roles builds on this module)
 
     @property
     def n_samples(self) -> int: ...
@@ -323,7 +320,7 @@ class Recording:
     streaming: bool = True
 
     # -- Capabilities, declared by each reader class. The pipeline chooses
-    # its route from these before it reads (tribodyn.routes.choose_route),
+    # its route from these before it reads (tribodyn.pipeline.routes.choose_route),
     # never from a format's name.
     #: Reads any range of samples directly (``chunks(start=, stop=)`` does
     #: not read what comes before), not only in order.
@@ -356,8 +353,8 @@ class Recording:
         self._segments: List[Tuple[int, int]] = []
         self._default_roles: Dict[str, str] = {}
         #: How ``fy`` was bound when the map is automatic and several tangential channels compete
-        #: (:func:`tribodyn.roles.choose_roles`, run by :func:`~tribodyn.io.open_recording`); None otherwise.
-        self.role_choice: Optional["RoleChoice"] = None
+        #: (:func:`tribodyn.io.roles.choose_roles`, run by :func:`~tribodyn.io.open_recording`); None otherwise.
+        self.role_choice: Optional[Any] = None
         self.metadata: Dict[str, Any] = {}
         self.warnings: List[str] = []
         self._block_rows = DEFAULT_BLOCK_ROWS
@@ -482,7 +479,7 @@ class Recording:
         return sorted({k for k in (*(scale or {}), *(units or {})) if k in self.roles})
 
     def _rebind(self, roles: Mapping[str, str]) -> None:
-        """Replaces the role map (the automatic choice by evidence, :mod:`tribodyn.roles`); a scale or unit
+        """Replaces the role map (the automatic choice by evidence, :mod:`tribodyn.io.roles`); a scale or unit
         given by role follows its role to the new channel."""
         roles = dict(roles)
         one_role_per_channel(roles, "role map")

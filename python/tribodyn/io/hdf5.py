@@ -51,14 +51,7 @@ import numpy as np
 from .. import _core
 from . import _h5attrs
 from ._open import closing_on_error, open_or_raise
-from .base import (
-    Recording,
-    RecordingError,
-    equal_length_selection,
-    rate_from_step,
-    resolve_name,
-    roles_by_name,
-)
+from .base import Recording, RecordingError, equal_length_selection, rate_from_step, resolve_name, roles_by_name
 
 __all__ = ["Hdf5Recording"]
 

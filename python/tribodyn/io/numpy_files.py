@@ -35,16 +35,8 @@ from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, T
 
 import numpy as np
 
-from ..threads import read_threads
-
-from .base import (
-    Recording,
-    RecordingError,
-    equal_length_selection,
-    rate_from_step,
-    resolve_name,
-    roles_by_name,
-)
+from ..kernels.threads import read_threads
+from .base import Recording, RecordingError, equal_length_selection, rate_from_step, resolve_name, roles_by_name
 
 __all__ = ["NpyRecording", "NpzRecording"]
 

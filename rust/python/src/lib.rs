@@ -9,8 +9,12 @@
 //! built in one place, from a [`Fault`] (`From<Fault> for PyErr`): kernel
 //! errors, bad arguments, memory, descriptors, text rows; a NaN or inf in
 //! a window is named there in the recording's terms when the spec says how.
+//! The messages of kernel and text-row errors are the core's own
+//! (`KernelError::named`, `ParseError::named`): this layer words none of them.
 //! Validation of user-facing options lives in the Python layer; the kernels
-//! re-check everything that could otherwise panic.
+//! re-check everything that could otherwise panic. The file readers'
+//! bindings (`Extents`, the TDMS index, the text scan and parse) are in
+//! `files.rs`.
 
 use numpy::{
     PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2,
@@ -19,20 +23,24 @@ use numpy::{
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tribodyn_core::bootstrap;
-use tribodyn_core::correlation::{self, Method};
-use tribodyn_core::extended;
-use tribodyn_core::iir;
-use tribodyn_core::mapped;
-use tribodyn_core::order;
+use tribodyn_core::io::mapped;
+use tribodyn_core::io::text;
+
+mod files;
+use files::{PyExtents, PyTextDialect, PyTextScan};
+use tribodyn_core::numerics::bootstrap;
+use tribodyn_core::numerics::correlation::{self, Method};
+use tribodyn_core::numerics::extended;
+use tribodyn_core::numerics::iir;
+use tribodyn_core::numerics::order;
+use tribodyn_core::numerics::regression::{self, LinFit, Moments};
+use tribodyn_core::numerics::sums;
+use tribodyn_core::numerics::windows::{self, Deadband, WindowOptions};
 use tribodyn_core::parallel;
-use tribodyn_core::regression::{self, LinFit, Moments};
-use tribodyn_core::sums;
-use tribodyn_core::text;
-use tribodyn_core::windows::{self, Deadband, WindowOptions};
 
 /// Values per window of the column "ext".
 const EXT_WIDTH: usize = extended::BLOCKS * extended::PRODUCTS;
+use tribodyn_core::error::Naming;
 use tribodyn_core::KernelError;
 
 pyo3::create_exception!(
@@ -59,10 +67,9 @@ enum Fault {
     Memory(String),
     /// A file descriptor that cannot be used: `OSError`.
     Os(String),
-    /// A text row that cannot be read: `ValueError` with args ("fields",
-    /// line, got, need), ("number", line, column, text bytes) or ("eof",
-    /// line, rows short).
-    Parse(text::ParseError),
+    /// A text row that cannot be read: `ValueError`, in the core's words
+    /// (`ParseError::named`), the columns asked for named by these labels.
+    Parse(text::ParseError, Vec<String>),
 }
 
 impl From<KernelError> for Fault {
@@ -80,33 +87,20 @@ impl From<Fault> for PyErr {
             Fault::Type(msg) => PyTypeError::new_err(msg),
             Fault::Memory(msg) => PyMemoryError::new_err(msg),
             Fault::Os(msg) => PyOSError::new_err(msg),
-            Fault::Parse(text::ParseError::Fields { line, got, need }) => {
-                PyValueError::new_err(("fields", line, got, need))
-            }
-            Fault::Parse(text::ParseError::Number { line, col, text }) => {
-                PyValueError::new_err(("number", line, col, text))
-            }
-            Fault::Parse(text::ParseError::Eof { line, short }) => PyValueError::new_err(("eof", line, short)),
-            Fault::Parse(text::ParseError::Io(e)) => kernel_error(e, None),
+            Fault::Parse(text::ParseError::Io(e), _) => kernel_error(e, None),
+            Fault::Parse(e, labels) => PyValueError::new_err(e.named(&labels).to_string()),
         }
     }
 }
 
-/// A kernel error as a Python exception: `NonFiniteError` (its message
-/// the one arg; attributes `channel`, `sample`, `window`: with `naming`,
-/// the channel is the recording's role and the message gives the time) or
-/// `ValueError`.
+/// A kernel error as a Python exception, in the core's words
+/// (`KernelError::named`): `NonFiniteError` (its message the one arg;
+/// attributes `channel`, `sample`, `window`: with `naming`, the channel is
+/// the recording's role and the message gives the time) or `ValueError`.
 fn kernel_error(e: KernelError, naming: Option<&Naming>) -> PyErr {
-    let (msg, channel, sample, window) = match (e, naming) {
-        (KernelError::NonFinite { channel, sample, window }, Some(n)) => {
-            let role = n.role(channel);
-            (n.non_finite(role, sample, window), role.to_owned(), sample, window)
-        }
-        (e @ KernelError::NonFinite { channel, sample, window }, None) => {
-            (e.to_string(), channel.to_owned(), sample, window)
-        }
-        (other, _) => return PyValueError::new_err(other.to_string()),
-    };
+    let msg = e.named(naming).to_string();
+    let KernelError::NonFinite { channel, sample, window } = e else { return PyValueError::new_err(msg) };
+    let channel = naming.map_or(channel, |n| n.role(channel)).to_owned();
     Python::attach(|py| {
         let err = NonFiniteError::new_err(msg);
         let value = err.value(py);
@@ -139,69 +133,6 @@ fn no_memory(msg: impl Into<String>) -> PyErr {
 /// An `OSError` (through [`Fault`]).
 fn os_error(msg: impl Into<String>) -> PyErr {
     Fault::Os(msg.into()).into()
-}
-
-/// How a window call names a NaN or inf: the auxiliary channel by its role
-/// ("i" or "u"), the raw forces as the forces, and with `fs` the time.
-#[derive(Clone, Debug, PartialEq)]
-struct Naming {
-    aux: String,
-    fs: Option<f64>,
-}
-
-impl Naming {
-    fn role<'a>(&'a self, channel: &'a str) -> &'a str {
-        if channel == "aux" {
-            &self.aux
-        } else {
-            channel.strip_suffix("_raw").unwrap_or(channel)
-        }
-    }
-
-    /// "fy contains NaN or inf in the window starting at sample 5000 (t = 5 s)".
-    fn non_finite(&self, role: &str, sample: Option<usize>, window: bool) -> String {
-        let mut msg = format!("{role} contains NaN or inf");
-        let Some(s) = sample else { return msg };
-        msg += &if window { format!(" in the window starting at sample {s}") } else { format!(" at sample {s}") };
-        if let Some(fs) = self.fs {
-            let tail = if window { "" } else { "; the high-pass filter needs every sample" };
-            msg += &format!(" (t = {} s{tail})", format_g(s as f64 / fs));
-        }
-        msg
-    }
-}
-
-/// `x` as Python's `f"{x:g}"` writes it: 6 significant digits, trailing
-/// zeros dropped, an exponent below 1e-4 and from 1e6 on.
-fn format_g(x: f64) -> String {
-    if !x.is_finite() {
-        return if x.is_nan() {
-            "nan".into()
-        } else if x > 0.0 {
-            "inf".into()
-        } else {
-            "-inf".into()
-        };
-    }
-    if x == 0.0 {
-        return if x.is_sign_negative() { "-0".into() } else { "0".into() };
-    }
-    let sci = format!("{x:.5e}"); // rounded to 6 significant digits: its exponent decides
-    let (mantissa, exp) = sci.split_once('e').unwrap_or((&sci, "0"));
-    let exp: i32 = exp.parse().unwrap_or(0);
-    let trim = |t: &str| -> String {
-        if t.contains('.') {
-            t.trim_end_matches('0').trim_end_matches('.').to_owned()
-        } else {
-            t.to_owned()
-        }
-    };
-    if (-4..6).contains(&exp) {
-        trim(&format!("{x:.*}", (5 - exp) as usize))
-    } else {
-        let sign = if exp < 0 { '-' } else { '+' };
-        format!("{}e{sign}{:02}", trim(mantissa), exp.abs())
-    }
 }
 
 /// The thread count of one call: `threads` if given (1 ..= 4 x cores),
@@ -536,29 +467,33 @@ impl PyMoments {
     }
 
     /// (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo).
-    fn state(&self) -> (u64, f64, f64, f64, f64, f64, f64, f64, f64) {
+    fn state(&self) -> StateTuple {
         let m = &self.inner;
         (m.n, m.mean_x, m.mean_y, m.sxx, m.syy, m.sxy, m.sse, m.mean_x_lo, m.mean_y_lo)
     }
 
-    /// Rebuilds moments from `state()` (for pickling and transport).
+    /// Rebuilds moments from `state()` (for pickling and transport): the
+    /// tuple (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo),
+    /// or its first seven (the low parts then 0.0).
     #[staticmethod]
-    #[pyo3(signature = (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo=0.0, mean_y_lo=0.0))]
-    #[allow(clippy::too_many_arguments)]
-    fn from_state(
-        n: u64,
-        mean_x: f64,
-        mean_y: f64,
-        sxx: f64,
-        syy: f64,
-        sxy: f64,
-        sse: f64,
-        mean_x_lo: f64,
-        mean_y_lo: f64,
-    ) -> PyMoments {
-        PyMoments { inner: Moments { n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo } }
+    fn from_state(state: &Bound<'_, PyAny>) -> PyResult<PyMoments> {
+        type Seven = (u64, f64, f64, f64, f64, f64, f64);
+        let (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo) = match state.extract::<StateTuple>() {
+            Ok(full) => full,
+            Err(_) => {
+                let (n, mx, my, sxx, syy, sxy, sse) = state.extract::<Seven>().map_err(|_| {
+                    let want = "(n, mean_x, mean_y, sxx, syy, sxy, sse[, mean_x_lo, mean_y_lo])";
+                    Fault::Type(format!("state must be a tuple {want}, got {state:?}"))
+                })?;
+                (n, mx, my, sxx, syy, sxy, sse, 0.0, 0.0)
+            }
+        };
+        Ok(PyMoments { inner: Moments { n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo } })
     }
 }
+
+/// (n, mean_x, mean_y, sxx, syy, sxy, sse, mean_x_lo, mean_y_lo)
+type StateTuple = (u64, f64, f64, f64, f64, f64, f64, f64, f64);
 
 /// (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
 type FitTuple = (f64, f64, f64, f64, f64, f64, u64, bool);
@@ -1149,244 +1084,6 @@ fn source_of(ob: &Bound<'_, PyAny>) -> PyResult<mapped::Source> {
     Ok(mapped::Source::F64(ob.extract::<u64>()?))
 }
 
-/// Where a channel's samples lie in a file: runs of one numeric type and
-/// byte order (TDMS segments, interleaved rows, DAQmx raw integers, HDF5
-/// chunks), with scaling. Read with `pread` (any number of threads).
-#[pyclass(name = "Extents", module = "tribodyn._core", frozen)]
-struct PyExtents {
-    inner: std::sync::Arc<mapped::Extents>,
-}
-
-#[pymethods]
-impl PyExtents {
-    /// Extents of `dtype` (NumPy's name: "f8", "i2", ...) stored
-    /// contiguously: `parts` is a list of (sample count, byte offset).
-    #[staticmethod]
-    fn contiguous(dtype: &str, big_endian: bool, parts: Vec<(u64, u64)>) -> PyResult<Self> {
-        let num = mapped::Num::from_name(dtype).ok_or_else(|| bad(format!("unknown numeric type {dtype:?}")))?;
-        let w = num.width();
-        let mut start = 0u64;
-        let mut out = Vec::with_capacity(parts.len());
-        for (count, offset) in parts {
-            let end = count.checked_mul(w).and_then(|b| b.checked_add(offset));
-            let end = end.ok_or_else(|| bad("extent overflows"))?;
-            out.push(mapped::Extent { start, ..mapped::Extent::single(count, offset, w, (offset, end)) });
-            start = start.checked_add(count).ok_or_else(|| bad("extent counts overflow"))?;
-        }
-        let ext = mapped::Extents { num, big_endian, parts: out, ops: Vec::new() };
-        ext.check(u64::MAX).map_err(to_py)?;
-        Ok(PyExtents { inner: std::sync::Arc::new(ext) })
-    }
-
-    /// The same samples scaled by `ops` after these' own, in order: each
-    /// ("linear", [slope, intercept]) or ("poly", [c0, c1, ...]).
-    fn scaled(&self, ops: Vec<(String, Vec<f64>)>) -> PyResult<Self> {
-        let mut ext = (*self.inner).clone();
-        for (kind, v) in ops {
-            ext.ops.push(match (kind.as_str(), v.as_slice()) {
-                ("linear", &[slope, intercept]) => mapped::Op::Linear { slope, intercept },
-                ("poly", c) => mapped::Op::Poly(c.to_vec()),
-                _ => return Err(bad(format!("unknown scaling {kind:?} with {} values", v.len()))),
-            });
-        }
-        Ok(PyExtents { inner: std::sync::Arc::new(ext) })
-    }
-
-    /// Samples [start, stop) as float64 (scaled), read from the open file `fd`.
-    fn read<'py>(&self, py: Python<'py>, fd: i32, start: u64, stop: u64) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let file = dup_fd(fd)?;
-        let inner = self.inner.clone();
-        let out = py
-            .detach(move || {
-                let mut out = Vec::new();
-                let mut cache = mapped::ByteCache::default();
-                inner.read(&file, start, stop, &mut out, &mut cache).map(|_| out)
-            })
-            .map_err(to_py)?;
-        Ok(PyArray1::from_vec(py, out))
-    }
-
-    /// Samples of the channel.
-    #[getter]
-    fn n(&self) -> u64 {
-        self.inner.len()
-    }
-
-    /// NumPy's name of the stored type ("f8", "i2", ...).
-    #[getter]
-    fn dtype(&self) -> &'static str {
-        self.inner.num.name()
-    }
-
-    /// Whether the samples are stored big-endian.
-    #[getter]
-    fn big_endian(&self) -> bool {
-        self.inner.big_endian
-    }
-
-    /// Runs of samples (one per segment or chunk; consecutive ones, and
-    /// equal ones at a fixed distance, merged).
-    #[getter]
-    fn runs(&self) -> usize {
-        self.inner.parts.len()
-    }
-
-    /// Whether scaling is applied.
-    #[getter]
-    fn is_scaled(&self) -> bool {
-        !self.inner.ops.is_empty()
-    }
-
-    /// One past the last byte read.
-    #[getter]
-    fn end(&self) -> u64 {
-        self.inner.end()
-    }
-}
-
-/// The segment index of the TDMS file open as `fd` (see `tribodyn.io.tdms`),
-/// its metadata read from the `.tdms_index` open as `index_fd` if given
-/// (and it matches the data file): a dict with "segments", "warnings" (npTDMS's log, as it would say it),
-/// "fallback" (why the file is not read natively, or None) and "objects":
-/// a list of (path, properties [(name, type code, value bytes, big-endian)],
-/// data type code or None, values, {scale key: Extents} (-1 for the
-/// channel's own samples, else a DAQmx scale id), why not native or None).
-/// A damaged file is a ValueError naming the segment.
-#[pyfunction]
-#[pyo3(signature = (fd, index_fd=None))]
-fn tdms_index<'py>(py: Python<'py>, fd: i32, index_fd: Option<i32>) -> PyResult<Bound<'py, PyDict>> {
-    use pyo3::types::{PyBytes, PyList};
-    let file = dup_fd(fd)?;
-    let index = index_fd.map(dup_fd).transpose()?;
-    let idx = py.detach(|| tribodyn_core::tdms::read_index(&file, index.as_ref())).map_err(to_py)?;
-    let d = PyDict::new(py);
-    d.set_item("segments", idx.segments)?;
-    d.set_item("warnings", idx.warnings)?;
-    d.set_item("fallback", idx.fallback)?;
-    let objs = PyList::empty(py);
-    for o in idx.objects {
-        let props = PyList::empty(py);
-        for (name, code, value, big) in o.properties {
-            props.append((name, code, PyBytes::new(py, &value), big))?;
-        }
-        let runs = PyDict::new(py);
-        for (k, ext) in o.runs {
-            ext.check(u64::MAX).map_err(to_py)?; // built consistent; checked before any read trusts it
-            runs.set_item(k, PyExtents { inner: std::sync::Arc::new(ext) })?;
-        }
-        objs.append((o.path, props, o.code, o.n, runs, o.unsupported))?;
-    }
-    d.set_item("objects", objs)?;
-    Ok(d)
-}
-
-fn dialect_of(
-    delimiter: Option<&str>,
-    decimal: &str,
-    comment: Option<&str>,
-    skip_blank: bool,
-) -> PyResult<text::Dialect> {
-    let delim = match delimiter {
-        None => None,
-        Some(d) if d.len() == 1 && d.is_ascii() => Some(d.as_bytes()[0]),
-        Some(d) => return Err(bad(format!("delimiter must be one ASCII character or None, got {d:?}"))),
-    };
-    let decimal = match decimal {
-        "." => b'.',
-        "," => b',',
-        d => return Err(bad(format!("decimal must be '.' or ',', got {d:?}"))),
-    };
-    let comment = match comment {
-        Some(c) if c.is_empty() || !c.is_ascii() => {
-            return Err(bad(format!("comment must be ASCII text or None, got {c:?}")))
-        }
-        c => c.map(|c| c.as_bytes().to_vec()),
-    };
-    Ok(text::Dialect { delim, decimal, comment, skip_blank })
-}
-
-/// Follows the run of data rows from byte `start` of the text file open as
-/// `fd` (see `tribodyn.io._text.native_scan`): a dict with "rows", "lines",
-/// "end", "times" (float64), "breaks" [(row, line, offset, prev, now)],
-/// "t_prev", "checkpoints" [(row, offset, line)] (about one a MiB), "marks" (more
-/// such entries, about one per 64 KiB, see `Checkpoints`) and "last" ((line, offset) or None);
-/// lines are counted from the run's first (0).
-#[pyfunction]
-#[pyo3(signature = (fd, start, *, delimiter, decimal, comment, skip_blank, nf, probe, time, gap, t_prev, keep_times, threads=None))]
-#[allow(clippy::too_many_arguments)]
-fn text_scan<'py>(
-    py: Python<'py>,
-    fd: i32,
-    start: u64,
-    delimiter: Option<&str>,
-    decimal: &str,
-    comment: Option<&str>,
-    skip_blank: bool,
-    nf: Option<usize>,
-    probe: usize,
-    time: Option<usize>,
-    gap: f64,
-    t_prev: f64,
-    keep_times: usize,
-    threads: Option<i64>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let dialect = dialect_of(delimiter, decimal, comment, skip_blank)?;
-    let threads = threads_of(threads)?;
-    let file = dup_fd(fd)?;
-    let spec = text::ScanSpec { dialect, nf, probe, time, gap, t_prev, keep_times };
-    let run = py.detach(|| text::scan(&file, start, &spec, threads)).map_err(to_py)?;
-    let d = PyDict::new(py);
-    d.set_item("rows", run.rows)?;
-    d.set_item("lines", run.lines)?;
-    d.set_item("end", run.end)?;
-    d.set_item("times", PyArray1::from_vec(py, run.times))?;
-    let breaks: Vec<(u64, u64, u64, f64, f64)> =
-        run.breaks.iter().map(|b| (b.row, b.line, b.offset, b.prev, b.now)).collect();
-    d.set_item("breaks", breaks)?;
-    d.set_item("t_prev", run.t_prev)?;
-    d.set_item("checkpoints", run.checkpoints)?;
-    d.set_item("marks", run.marks)?;
-    d.set_item("last", run.last)?;
-    Ok(d)
-}
-
-/// Parses the rows of `pieces` [(offset, line, skip, rows)] of the text
-/// file open as `fd` into one float64 array per entry of `usecols`. A row that
-/// cannot be read raises ValueError with args ("fields", line, got, need),
-/// ("number", line, column, text bytes) or ("eof", line, rows short).
-#[pyfunction]
-#[pyo3(signature = (fd, pieces, usecols, *, delimiter, decimal, comment, skip_blank, threads=None))]
-#[allow(clippy::too_many_arguments)]
-fn text_parse<'py>(
-    py: Python<'py>,
-    fd: i32,
-    pieces: Vec<(u64, u64, u64, u64)>,
-    usecols: Vec<usize>,
-    delimiter: Option<&str>,
-    decimal: &str,
-    comment: Option<&str>,
-    skip_blank: bool,
-    threads: Option<i64>,
-) -> PyResult<Vec<Bound<'py, PyArray1<f64>>>> {
-    let dialect = dialect_of(delimiter, decimal, comment, skip_blank)?;
-    let threads = threads_of(threads)?;
-    let file = dup_fd(fd)?;
-    let pieces: Vec<text::Piece> =
-        pieces.into_iter().map(|(offset, line, skip, rows)| text::Piece { offset, line, skip, rows }).collect();
-    let total: u64 = pieces.iter().map(|p| p.rows).sum();
-    let total = usize::try_from(total).map_err(|_| bad("too many rows"))?;
-    let mut outs: Vec<Vec<f64>> = Vec::with_capacity(usecols.len());
-    for _ in &usecols {
-        outs.push(zeros(total, "rows")?);
-    }
-    let res = py.detach(|| {
-        let mut cols: Vec<&mut [f64]> = outs.iter_mut().map(|v| v.as_mut_slice()).collect();
-        text::parse(&file, &pieces, &dialect, &usecols, &mut cols, threads)
-    });
-    res.map_err(Fault::Parse)?;
-    Ok(outs.into_iter().map(|v| PyArray1::from_vec(py, v)).collect())
-}
-
 /// Sets the thread count of calls that name none (0 = all cores; at most
 /// `max_threads()`).
 #[pyfunction]
@@ -1423,11 +1120,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(linfit, m)?)?;
     m.add_function(wrap_pyfunction!(windows_stats, m)?)?;
     m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
-    m.add_function(wrap_pyfunction!(tdms_index, m)?)?;
+    m.add_function(wrap_pyfunction!(files::tdms_index, m)?)?;
     m.add_class::<PyExtents>()?;
     m.add_class::<PyWindowSpec>()?;
-    m.add_function(wrap_pyfunction!(text_scan, m)?)?;
-    m.add_function(wrap_pyfunction!(text_parse, m)?)?;
+    m.add_class::<PyTextDialect>()?;
+    m.add_class::<PyTextScan>()?;
+    m.add_function(wrap_pyfunction!(files::text_scan, m)?)?;
+    m.add_function(wrap_pyfunction!(files::text_parse, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;
     m.add_function(wrap_pyfunction!(get_threads, m)?)?;
     m.add_function(wrap_pyfunction!(max_threads, m)?)?;

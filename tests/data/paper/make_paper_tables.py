@@ -6,7 +6,6 @@ with the build of commit b050354 to regenerate it.
 """
 
 import numpy as np
-
 import tribodyn
 from tribodyn import simulate
 

@@ -1,0 +1,1009 @@
+"""The jobs behind the command line: the demo and the analysis of files.
+
+Each job checks its output folder first (before the work: see
+:class:`tribodyn.app.outputs.OutputSet`), analyses, then writes its outputs
+all-or-nothing as one folder: per-window tables (CSV, Parquet),
+``summary.json`` (COF statistics, optimum ranges, gate statistics, every
+parameter, the tribodyn version, input names and SHA-256), figures (PNG) and
+a self-contained ``report.html``. The folder then holds this set only (the
+files of an earlier run into it are gone).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import importlib
+import os
+import threading
+from pathlib import Path
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..analyses.ranges import OperatingRange, operating_range
+from ..pipeline.analyze import analyze
+from ..pipeline.identify import identify
+from ..results import Results
+from ._labels import fmt_interval, fmt_number, fmt_range, key_text, unit_text, units_in_text
+from .outputs import (
+    Digests,
+    OutputSet,
+    fill_digests,
+    input_provenance,
+    pyarrow_modules,
+    write_json,
+    write_table_csv,
+    write_table_parquet,
+)
+from .record import Meta, metadata, record_html, summary_meta
+
+__all__ = ["run_demo", "run_analysis", "read_log", "range_summary"]
+
+
+def read_log(path: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """Reads a two-column log (time, value) from a CSV/TSV/whitespace file.
+
+    Times are seconds from the recording's start, or absolute: ISO 8601
+    (``2024-05-02T10:15:00``, also with a space for the ``T``) or epoch
+    seconds, returned as epoch seconds, which :func:`tribodyn.analyze`
+    aligns with the recording's start time (docs/method.md 6). Lines before
+    the data that do not start with a time (headers, comments) are skipped;
+    a decimal comma is accepted when the delimiter is not a comma.
+    """
+    from ..pipeline.covariates import to_epoch_seconds
+
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"log file not found: {p}")
+    t: List[float] = []
+    v: List[float] = []
+    with open(p, encoding="utf-8", errors="replace") as f:
+        for line_no, line in enumerate(f, 1):
+            s = line.strip()
+            if not s or s[0] in "#%;":
+                continue
+            for delim in ("\t", ";", ",", None):
+                parts = s.split(delim) if delim else s.split()
+                if len(parts) >= 2:
+                    break
+            if len(parts) < 2:
+                continue
+            if delim is None and len(parts) >= 3 and parts[0][:1].isdigit() and "-" in parts[0] and ":" in parts[1]:
+                parts = [f"{parts[0]}T{parts[1]}", *parts[2:]]  # date and time split by a space
+            if delim != ",":
+                parts = [parts[0], *(x.replace(",", ".") for x in parts[1:])]
+            try:
+                b = float(parts[1])
+                try:
+                    a = float(parts[0].replace(",", ".") if delim != "," else parts[0])
+                except ValueError:
+                    a = float(to_epoch_seconds(parts[0]))
+            except (ValueError, TypeError):
+                if t:  # a non-numeric row after data is an error, before it a header
+                    raise ValueError(f"{p.name}, line {line_no}: not two numbers: {s!r}") from None
+                continue
+            t.append(a)
+            v.append(b)
+    if not t:
+        raise ValueError(
+            f"{p.name}: no (time, value) rows found (times in s from the recording's start, ISO 8601 or epoch seconds)"
+        )
+    return np.asarray(t), np.asarray(v)
+
+
+def range_summary(opr: Optional[OperatingRange]) -> Optional[Dict[str, Any]]:
+    """The JSON-ready essentials of an operating range."""
+    if opr is None:
+        return None
+    out: Dict[str, Any] = dict(opr.to_dict())
+    out.update(
+        {
+            "by": opr.by,
+            "unit": opr.unit,
+            "optimum": opr.optimum,
+            "mu_min": opr.mu_min,
+            "onset": opr.onset,
+            "bin_width": opr.bin_width,
+            "tol": opr.tol,
+        }
+    )
+    for name, c in opr.curves.items():
+        if name != "all":
+            f = opr.fits.get(name)
+            out[f"optimum_{name}"] = f.optimum if f is not None else c.optimum
+    return out
+
+
+def _truth_breakpoints(res: Results, truth: Any, by: str) -> Optional[Dict[str, Any]]:
+    """The same segmented fit applied to the simulator's noise-free COF at the same windows (no bootstrap):
+    where a straight-walled bathtub puts the simulated curve's edges (its walls are curved)."""
+    table = dict(res.table)
+    table["mu_r"] = np.asarray(truth.mu_at(res["time"]), dtype=float)
+    twin = Results(table=table, bin_counts=res.bin_counts, bin_cof=res.bin_cof, fz_min=res.fz_min,
+                   fz_max=res.fz_max, orientation=res.orientation, params=res.params)  # fmt: skip
+    opr = _try_range(twin, by, n_boot=0)
+    if opr is None:
+        return None
+    return {name: {"lower": f.lower, "upper": f.upper, "mu_min": f.mu_min} for name, f in opr.fits.items()}
+
+
+def _try_range(res: Results, by: str, **kw: Any) -> Optional[OperatingRange]:
+    try:
+        with one_blas_thread():
+            return operating_range(res, by, **kw)
+    except ValueError:
+        return None
+
+
+@contextlib.contextmanager
+def one_blas_thread() -> Iterator[None]:
+    """Within the block, NumPy's OpenBLAS runs on one thread (found among the loaded libraries; nothing
+    changes without one). The bathtub fits' grid searches (docs/method.md 7) multiply small matrices
+    thousands of times: on a busy 2-core machine a second BLAS thread made them 6x slower (the
+    operating ranges of ``tribodyn demo``: 37 s against 6 s) and changed no number (the products split
+    by rows and columns, never along the sums)."""
+    saved = []
+    try:
+        for get, put in _openblas_threads():
+            n = int(get())
+            if n > 1:
+                put(1)
+                saved.append((put, n))
+        yield
+    finally:
+        for put, n in saved:
+            put(n)
+
+
+_BLAS: Optional[List[Tuple[Any, Any]]] = None
+
+
+def _openblas_threads() -> List[Tuple[Any, Any]]:
+    """(get_num_threads, set_num_threads) of each OpenBLAS this process has loaded (Linux; else none)."""
+    global _BLAS
+    if _BLAS is not None:
+        return _BLAS
+    found: List[Tuple[Any, Any]] = []
+    try:
+        import ctypes
+
+        with open("/proc/self/maps", encoding="utf-8", errors="replace") as fh:
+            paths = sorted({ln.split()[-1] for ln in fh if "openblas" in ln.lower() and ln.split()[-1].startswith("/")})
+        for path in paths:
+            lib = ctypes.CDLL(path, mode=os.RTLD_NOLOAD)
+            for name in ("scipy_openblas", "openblas"):
+                for suffix in ("64_", ""):
+                    get = getattr(lib, f"{name}_get_num_threads{suffix}", None)
+                    put = getattr(lib, f"{name}_set_num_threads{suffix}", None)
+                    if get is not None and put is not None:
+                        get.restype, get.argtypes = ctypes.c_int, []
+                        put.restype, put.argtypes = None, [ctypes.c_int]
+                        found.append((get, put))
+                        break
+                else:
+                    continue
+                break
+    except (OSError, AttributeError, ValueError):
+        found = []
+    _BLAS = found
+    return found
+
+
+def _example_window(channels: Mapping[str, np.ndarray], fs: float, start: int, n: int) -> Dict[str, Any]:
+    ch = {k: np.asarray(v[start : start + n]) for k, v in channels.items() if k in ("fx", "fy", "fz")}
+    res = identify(ch["fy"], ch["fz"], fx=ch.get("fx"), fs=fs, max_lag=min(200, n - 1), rpm=250, n_lamellas=24,
+                   method="paper")  # fmt: skip
+    return {**ch, "fs": fs, "t0": start / fs, "result": res}
+
+
+def _write_set(out: OutputSet, prefix: str, res: Results, extra: Optional[Dict[str, Any]] = None) -> List[str]:
+    names = [f"{prefix}windows.csv"]
+    write_table_csv(res, out.path(names[0]), extra=extra)
+    if write_table_parquet(res, out.path(f"{prefix}windows.parquet"), extra=extra):
+        names.append(f"{prefix}windows.parquet")
+    if res.strokes is not None:  # a reciprocating test's per-stroke table (docs/method.md 6c)
+        names += _write_strokes(out, prefix, res.strokes)
+    return names
+
+
+def _write_strokes(out: OutputSet, prefix: str, strokes: Mapping[str, np.ndarray]) -> List[str]:
+    """strokes.csv and strokes.parquet."""
+    import csv
+
+    names = [f"{prefix}strokes.csv"]
+    cols = list(strokes)
+    with open(out.path(names[0]), "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for row in zip(*(strokes[c] for c in cols)):
+            w.writerow(["" if isinstance(v, float) and v != v else repr(float(v)) if isinstance(v, float) else v
+                        for v in (x.item() if hasattr(x, "item") else x for x in row)])  # fmt: skip
+    pa, pq = pyarrow_modules()
+    pq.write_table(pa.table({c: np.asarray(strokes[c]) for c in cols}), out.path(f"{prefix}strokes.parquet"))
+    return names + [f"{prefix}strokes.parquet"]
+
+
+def _figures(
+    res: Results,
+    *,
+    opr_t: Optional[OperatingRange],
+    opr_j: Optional[OperatingRange],
+    opr_v: Optional[OperatingRange] = None,
+    example: Optional[Dict[str, Any]] = None,
+    examples: Sequence[Dict[str, Any]] = (),
+    loops: Sequence[Dict[str, Any]] = (),
+) -> List[Tuple[str, str, Any]]:
+    """(file name, caption, Figure) of every figure, named after the paper's figures."""
+    from .report import build_named_figures
+
+    exs = list(examples) + ([example] if example is not None else [])
+    return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, opr_speed=opr_v, examples=exs,
+                               loops=loops)  # fmt: skip
+
+
+def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
+                  ) -> List[Dict[str, Any]]:  # fmt: skip
+    """fy and x of the first, a middle and the last whole cycle with an energy, for the friction loops (6c).
+
+    ``source`` is an open recording, a recording path or a dict of channel
+    arrays; only those cycles' samples are read again.
+    """
+    cy = res.cycles
+    if cy is None:
+        return []
+    whole = np.flatnonzero(np.isfinite(np.asarray(cy["energy"], dtype=float)))
+    if whole.size == 0:
+        return []
+    picks = list(dict.fromkeys(int(whole[i]) for i in (0, whole.size // 2, whole.size - 1)))
+    names = {1: ("only",), 2: ("first", "last"), 3: ("first", "middle", "last")}[len(picks)]
+    total = int(res.params.get("n_samples_total") or 0)
+    out = []
+    for k, name in zip(picks, names):
+        a, b = int(cy["start"][k]), int(cy["stop"][k])
+        b = min(b + 1, total) if total else b  # the next cycle's first sample closes the loop
+        ch = _read_window(source, a, b - a, open_options or {}, roles=("fy", "x"))
+        if ch is None or "x" not in ch or "fy" not in ch:
+            return []
+        out.append({"x": ch["x"], "fy": ch["fy"], "energy": float(cy["energy"][k]),
+                    "label": f"{name} whole cycle (no. {int(cy['cycle'][k])})"})  # fmt: skip
+    return out
+
+
+def _save_figures(
+    out: OutputSet,
+    figs: Sequence[Tuple[str, str, Any]],
+    prefix: str,
+    meanwhile: Optional[Callable[[], Any]] = None,
+    *,
+    also: Optional[Callable[[], Any]] = None,
+) -> Tuple[List[Tuple[str, str, bytes]], Any, Any]:
+    """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
+    triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); what ``meanwhile()``
+    returns, called before the figures are drawn (``figures.Rendering``, in this process); and what
+    ``also()`` returns."""
+    from ..io.writers import atomic_write
+    from .figures import Rendering
+
+    render = Rendering([f for _, _, f in figs], also=also)
+    done = meanwhile() if meanwhile is not None else None
+    saved = []
+    for (stem, caption, _), data in zip(figs, render.finish()):
+        name = f"figures/{prefix}{stem}.png"
+        atomic_write(out.path(name), _bytes_writer(data))
+        saved.append((name, caption, data))
+    return saved, done, render.also_result()
+
+
+def _bytes_writer(data: bytes) -> Callable[[str], None]:
+    def write(tmp: str) -> None:
+        Path(tmp).write_bytes(data)
+
+    return write
+
+
+def _captioned(saved: Sequence[Tuple[str, str, bytes]]) -> List[Tuple[str, bytes]]:
+    """(caption naming the PNG file, PNG bytes) pairs for the report."""
+    return [(f"{cap} [{Path(name).name}]", data) for name, cap, data in saved]
+
+
+def pick_windows(res: Results) -> Dict[str, int]:
+    """The windows whose diagnostic figures the report shows (docs/method.md 5).
+
+    ``representative``: the gated window whose mu_r is closest to the median
+    of the gated windows; ``worst``: the failed window with the smallest
+    |C_yz(0)| (NaN counts as the worst). Either is absent when no window fits.
+    """
+    ok = np.asarray(res["ok"], dtype=bool)
+    mu = np.asarray(res["mu_r"], dtype=float)
+    out: Dict[str, int] = {}
+    good = np.flatnonzero(ok & np.isfinite(mu))
+    if good.size:
+        out["representative"] = int(good[np.argmin(np.abs(mu[good] - np.median(mu[good])))])
+    bad = np.flatnonzero(~ok)
+    if bad.size:
+        c = np.abs(np.asarray(res["c_yz"], dtype=float)[bad])
+        out["worst"] = int(bad[np.argmin(np.where(np.isfinite(c), c, -1.0))])
+    return out
+
+
+def diagnostic_examples(
+    source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
+) -> List[Dict[str, Any]]:
+    """Figs. 2-9 inputs for the representative gated window and the worst failing one.
+
+    ``source`` is an open recording, a recording path or a dict of channel
+    arrays; the window's samples are read again (high-passed like the analysis when it used
+    ``highpass``) and identified with the analysis's settings.
+    """
+    fs = float(res.params.get("fs") or 0.0)
+    n = int(res.params.get("window_samples") or 0)
+    if fs <= 0 or n < 3:
+        return []
+    out: List[Dict[str, Any]] = []
+    t_start = np.asarray(res["t_start"], dtype=float)
+    for tag, k in pick_windows(res).items():
+        start = int(round(float(t_start[k]) * fs)) - int(res.params.get("start") or 0)
+        if start < 0:
+            continue
+        # the window's own length: a stroke's central part can be shorter than the plan's window (method.md 6c)
+        n_k = min(n, int(np.asarray(res["n"])[k])) if "n" in res.table else n
+        ch = _read_window(source, start, n_k, open_options or {})
+        if ch is None or "fy" not in ch or "fz" not in ch or len(ch["fz"]) < 3:
+            continue
+        if res.params.get("highpass"):
+            from ..kernels.filters import highpass
+
+            ch = {r: highpass(v, fs=fs, cutoff=float(res.params["highpass"])) for r, v in ch.items()}
+        lag = max(1, min(len(ch["fz"]) - 1, int(0.5 * fs)))
+        one = identify(
+            ch["fy"],
+            ch["fz"],
+            fx=ch.get("fx"),
+            fs=fs,
+            max_lag=lag,
+            orientation=res.orientation,
+            deadband=float(np.asarray(res["deadband"])[k]) if np.isfinite(res["deadband"][k]) else 0.35,
+            method="paper",  # the diagnostic figures' own fit: the paper's, as drawn (no instrument warning)
+        )
+        t0 = float(t_start[k])
+        if tag == "representative":
+            label = f"representative gated window (no. {k}, t = {t0:g} s, COF closest to the median)"
+            gate = "passed"
+        else:
+            why = str(np.asarray(res["reasons"])[k]) or "failed"
+            label = f"worst failing window (no. {k}, t = {t0:g} s, smallest |C_yz(0)|; failed: {why})"
+            gate = f"failed ({why})"
+        out.append({**ch, "fs": fs, "t0": t0, "result": one, "label": label, "tag": tag, "gate_text": gate})
+    return out
+
+
+def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any],
+                 roles: Sequence[str] = ("fx", "fy", "fz")) -> Optional[Dict[str, np.ndarray]]:  # fmt: skip
+    if isinstance(source, Mapping):
+        return {r: np.asarray(source[r][start : start + n], dtype=float) for r in roles if r in source}
+    from ..io import Recording, open_recording
+
+    if isinstance(source, Recording):
+        return _window_of(source, start, n, roles)
+    with open_recording(source, **open_options) as rec:
+        return _window_of(rec, start, n, roles)
+
+
+def _window_of(rec: Any, start: int, n: int, roles: Sequence[str]) -> Optional[Dict[str, np.ndarray]]:
+    """Samples start..start + n of the ``roles`` an open recording has (None when it holds none of them)."""
+    have = [r for r in roles if r in dict(rec.roles)]
+    for chunk in rec.chunks(n, have, start=start, stop=start + n):
+        return {r: np.asarray(chunk[r], dtype=float) for r in have}
+    return None
+
+
+def _interactive_view(res: Results, name: str) -> Tuple[str, str]:
+    """(the interactive COF view's script and div, Bokeh's JavaScript for the report's head): all the Bokeh
+    work of a recording, which the CLI leaves to its rendering child."""
+    from ._interactive import cof_views
+
+    script, div = cof_views(res, name)
+    return script + div, _bokeh_head()
+
+
+def _report_extras(res: Results, name: str, csv_name: str, view: Optional[str] = None) -> List[Tuple[str, str]]:
+    """The interactive COF view (``view``: drawn already) and the table of windows, as report sections."""
+    from .report import windows_table_html
+
+    return [
+        (f"{name}: interactive COF against time, temperature and current density",
+         _interactive_view(res, name)[0] if view is None else view),
+        (f"{name}: table of windows", windows_table_html(res, csv_name)),
+    ]  # fmt: skip
+
+
+#: Bokeh's JavaScript for the reports' head, once rendered (here, or by a rendering child: see _recording_outputs).
+_BOKEH_HEAD: Dict[str, str] = {}
+
+
+def _bokeh_head() -> str:
+    if "js" not in _BOKEH_HEAD:
+        from ._interactive import bokeh_resources
+
+        _BOKEH_HEAD["js"] = bokeh_resources()
+    return _BOKEH_HEAD["js"]
+
+
+def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: bool = False) -> Dict[str, Any]:
+    """Simulates the paper's two tests, analyses them and writes every output.
+
+    ``out_dir`` is replaced as a whole (see :class:`~tribodyn.app.outputs.OutputSet`;
+    ``overwrite`` allows replacing a folder that holds other files). Returns
+    the summary (also written to ``summary.json``).
+    """
+    from .. import simulate
+    from .._version import version
+
+    __version__ = version()
+    from .report import verdict_lines, write_report
+
+    output = OutputSet(out_dir, overwrite=overwrite)  # refuses an unusable folder before the work
+    sim_t = simulate.temperature_test(seed=seed)
+    sim_j = simulate.current_density_test(seed=seed)
+    res_t = analyze(
+        sim_t.channels,
+        fs=sim_t.fs,
+        window=2.0,
+        hop=10.0,
+        temperature=sim_t.temperature_log,
+        rpm=sim_t.rpm,
+        n_lamellas=sim_t.n_lamellas,
+        progress=progress,
+    )
+    res_j = analyze(
+        sim_j.channels,
+        fs=sim_j.fs,
+        window=2.0,
+        hop=10.0,
+        area_mm2=sim_j.area_mm2,
+        rpm=sim_j.rpm,
+        n_lamellas=sim_j.n_lamellas,
+        progress=progress,
+    )
+    with one_blas_thread():
+        opr_t = operating_range(res_t, "temperature")
+        opr_j = operating_range(res_j, "current_density")
+    summary: Dict[str, Any] = {
+        "tribodyn_version": __version__,
+        "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
+        "seed": seed,
+        "temperature_test": {
+            **res_t.summary(),
+            "operating_range": range_summary(opr_t),
+            "simulated_optimum": dict(sim_t.truth.optimum),
+            "simulated_breakpoints": _truth_breakpoints(res_t, sim_t.truth, "temperature"),
+            "params": res_t.params,
+        },
+        "current_density_test": {
+            **res_j.summary(),
+            "operating_range": range_summary(opr_j),
+            "simulated_optimum": dict(sim_j.truth.optimum),
+            "simulated_breakpoints": _truth_breakpoints(res_j, sim_j.truth, "current_density"),
+            "params": res_j.params,
+        },
+    }
+    with output as out:
+        ex_t = diagnostic_examples(sim_t.channels, res_t)
+        ex_j = diagnostic_examples(sim_j.channels, res_j)
+        figs_t = _figures(res_t, opr_t=opr_t, opr_j=None, examples=ex_t)
+        figs_j = _figures(res_j, opr_t=None, opr_j=opr_j, examples=ex_j)
+
+        def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # while a child draws most figures
+            tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
+            return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
+                res_j, "current-density test", "current_density_windows.csv"
+            )
+
+        named = [(f"temperature_{s}", c, f) for s, c, f in figs_t] + [
+            (f"current_density_{s}", c, f) for s, c, f in figs_j
+        ]
+        pngs, (files, extras), _ = _save_figures(out, named, "", meanwhile)
+        png_t, png_j = pngs[: len(figs_t)], pngs[len(figs_t) :]
+        files += [name for name, _, _ in pngs]
+        summary["files"] = files + ["summary.json", "report.html"]
+        summary["columns"] = column_units()
+        write_json(summary, out.path("summary.json"))
+        s_t, s_j = summary["temperature_test"], summary["current_density_test"]
+        verdict = verdict_lines("temperature test", s_t, res_t.params, {"temperature": s_t["operating_range"]})
+        verdict += verdict_lines("current-density test", s_j, res_j.params, {"current_density": s_j["operating_range"]})
+        write_report(
+            out.path("report.html"),
+            title="tribodyn demo: the paper's rig, simulated",
+            summary=_flat_summary(summary),
+            params={"temperature test": res_t.params, "current-density test": res_j.params},
+            figures=[(f"Temperature test: {c}", f) for c, f in _captioned(png_t)]
+            + [(f"Current-density test: {c}", f) for c, f in _captioned(png_j)],
+            verdict=verdict,
+            inputs=[],
+            sections=extras,
+            head_html=_bokeh_head(),
+            quality={
+                "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
+                "current-density test": s_j["gate_failures"],
+            },
+        )
+    return summary
+
+
+def _interval(ci: Any) -> str:
+    iv = fmt_interval(ci)
+    return f" {iv}" if iv else ""
+
+
+_BRANCH_TEXT = {"all": "all windows", "heating": "heating branch", "cooling": "cooling branch"}
+
+
+def _breakpoint_rows(key: str, rng: Mapping[str, Any], val: Mapping[str, Any]) -> Dict[str, str]:
+    """Breakpoints with their 95 % intervals per branch, next to the simulator's truth when known."""
+    rows: Dict[str, str] = {}
+    ci = rng.get("optimum_ci")
+    if ci is None:
+        return rows
+    by, unit = rng["by"], unit_text(rng["unit"])
+    sim = val.get("simulated_optimum") or {}
+    bath = val.get("simulated_breakpoints") or {}
+    fits = {"all": rng, **{k[4:]: v for k, v in rng.items() if k.startswith("fit_")}}
+    for name, f in fits.items():
+        if not f or not f.get("optimum") or not f.get("optimum_ci"):
+            continue
+        (lo, hi), (lci, hci) = f["optimum"], f["optimum_ci"]
+        text = f"{fmt_number(lo)}{_interval(lci)} to {fmt_number(hi)}{_interval(hci)} {unit}"
+        truth = sim.get(by if name == "all" else f"{by}_{name}")
+        if truth is not None:
+            text += f"; simulated flat bottom {fmt_range(truth[0], truth[1], unit)}"
+        b = bath.get(name)
+        if b is not None:
+            lower, upper = ("none" if v is None else fmt_number(v) for v in (b["lower"], b["upper"]))
+            text += f"; the same fit of the simulated COF {lower} to {upper} {unit}"
+        branch = _BRANCH_TEXT.get(name, name)
+        rows[f"{_NAME_TEXT.get(key, key)}: {key_text(by)} breakpoints with 95 % intervals, {branch}"] = text
+    return rows
+
+
+#: The demo's two tests as words.
+_NAME_TEXT = {"temperature_test": "temperature test", "current_density_test": "current-density test"}
+#: Top-level keys of the demo's summary as words.
+_TOP_TEXT = {"tribodyn_version": "tribodyn version", "job": "job", "seed": "simulator seed"}
+
+
+def column_units() -> List[Dict[str, str]]:
+    """Name, unit and meaning of every column of ``windows.csv``, in order (``summary.json["columns"]``).
+
+    The CSV itself holds one header row of names and then numbers only, so
+    that every CSV reader and spreadsheet takes it as it is; its units are
+    here, in the Parquet schema (field metadata ``unit``) and in
+    ``Results.to_pandas().attrs["units"]``.
+    """
+    from ..columns import TABLE
+
+    return [{"name": c.name, "unit": c.unit, "meaning": c.meaning} for c in TABLE]
+
+
+def _headline_cell(head: Mapping[str, Any]) -> str:
+    """'0.1492 (95 % interval 0.1427 to 0.1557), mean of 1801 samples, 100.0 % of the recording' or why none."""
+    if head.get("value") is None:
+        return "none: " + "; ".join(str(r) for r in head.get("reasons") or ())
+    text = f"{head['value']:.4f}"
+    if head.get("low") is not None and head.get("high") is not None:
+        text += f" (95 % interval {head['low']:.4f} to {head['high']:.4f})"
+    text += f", {head.get('statistic')} of {head.get('n')}"
+    frac = head.get("fraction_used")
+    if isinstance(frac, (int, float)):
+        text += f", {100 * frac:.1f} % of the recording's samples"
+    return text
+
+
+def _flat_summary(summary: Mapping[str, Any]) -> Dict[str, Any]:
+    """A short, readable summary for the report's first table: labels in words, units as °C, A/mm², N."""
+    out: Dict[str, Any] = {}
+    for key, val in summary.items():
+        if isinstance(val, Mapping) and "mu_r" in val:
+            name = _NAME_TEXT.get(key, str(key))  # a recording's file name stays as it is
+            mu = val["mu_r"]
+            out[f"{name}: windows analysed (passed the quality gate)"] = f"{val['windows']} ({val['gated']})"
+            head = val.get("headline") or {}
+            if head:
+                out[f"{name}: COF (headline, {head.get('method')})"] = _headline_cell(head)
+                how = f"{head.get('estimate')}; interval: {head.get('interval')}"
+                out[f"{name}: how the headline is computed"] = how
+            if val.get("verdict"):
+                from ..results import verdict_text
+
+                out[f"{name}: verdict"] = units_in_text(verdict_text(val["verdict"]))
+            if mu.get("n") and head.get("method") == "dynamic":
+                out[f"{name}: COF of the gated windows [5th, 95th percentile]"] = (
+                    f"{mu['median']:.4f} [{mu['p05']:.4f}, {mu['p95']:.4f}]"
+                )
+            for rng in (val[k] for k in val if k.startswith("operating_range")):
+                if not rng:
+                    continue
+                by = key_text(rng["by"])
+                unit = unit_text(rng["unit"])
+                if rng.get("verdict"):
+                    verdict = f"{rng['verdict']}: {rng['explanation']}"
+                    out[f"{name}: verdict on the optimum {by}"] = units_in_text(verdict)
+                if not rng.get("optimum"):
+                    continue
+                lo, hi = rng["optimum"]
+                out[f"{name}: optimum {by}"] = (
+                    f"{fmt_range(lo, hi, unit, ci=rng.get('optimum_ci'))} (minimum COF {rng['mu_min']:.4f})"
+                )
+                out.update(_breakpoint_rows(key, rng, val))
+                if rng.get("onset") is not None:
+                    times = f"{1 + float(rng.get('rise') or 0.5):g} ×"
+                    label = f"{name}: {by} where the COF reaches {times} its minimum"
+                    out[label] = f"{fmt_number(rng['onset'])} {unit}"
+        elif not isinstance(val, (Mapping, list)):
+            out[_TOP_TEXT.get(key, key_text(key))] = units_in_text(val) if isinstance(val, str) else val
+    # The readers' warnings go to the report's own section (report._pop_warnings).
+    warns = [
+        f"{key}: {w}" for key, val in summary.items() if isinstance(val, Mapping) for w in val.get("warnings") or ()
+    ]
+    if warns:
+        out["warnings"] = warns
+    return out
+
+
+def run_analysis(
+    paths: Sequence[Any],
+    out_dir: Any,
+    *,
+    open_options: Optional[Dict[str, Any]] = None,
+    analyze_options: Optional[Dict[str, Any]] = None,
+    progress: bool = False,
+    client: Any = None,
+    split: Optional[float] = None,
+    overwrite: bool = False,
+    protect: Sequence[Any] = (),
+    meta: Optional[Meta] = None,
+    steady_state: bool = False,
+) -> Dict[str, Any]:
+    """Analyses recording files and writes the outputs into ``out_dir``.
+
+    ``paths`` may hold files, directories and glob patterns. One recording:
+    its tables, figures and report at the top of ``out_dir``. Several: one
+    sub-folder per recording plus a combined table (with a ``recording``
+    column), summary and report at the top. With a Dask ``client`` the
+    recordings (and ranges of ``split`` seconds of long ones) run on the
+    cluster (:func:`tribodyn.analyze_many`). A recording that fails is listed
+    in ``summary["failures"]``; if every one fails, the first error is raised.
+
+    ``out_dir`` is checked before the work and replaced as a whole (see
+    :class:`~tribodyn.app.outputs.OutputSet`): a folder holding anything but a
+    previous output set is refused unless ``overwrite``; a folder holding
+    an input file, or one of the files ``protect`` names, always.
+
+    ``meta`` is the test record (:func:`tribodyn.app.record.parse_meta`,
+    docs/method.md 10c): each recording's ``summary["recordings"][name]["meta"]``,
+    ``metadata.json`` and the report's "Test record" section.
+
+    ``steady_state``: also where each recording's running-in ends
+    (:func:`tribodyn.steady_state`, docs/method.md 6h): its ``steady_state``
+    entry in the summary, a verdict line, and the running-in shaded on the
+    COF-against-time figure.
+    """
+    from ..pipeline.distributed import expand_paths
+
+    if not paths:
+        raise ValueError("no input file given")
+    files = expand_paths(paths)
+    output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
+    # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
+    # another (both mostly outside the GIL or while the kernel runs without it).
+    digests = Digests(files)
+    imports = _import_in_background()
+    try:
+        return _run_analysis(files, output, digests, imports, open_options=open_options,
+                             analyze_options=analyze_options, progress=progress, client=client, split=split,
+                             meta=meta, steady_state=steady_state)  # fmt: skip
+    finally:
+        digests.cancel()
+
+
+def _run_analysis(
+    files: Sequence[str],
+    output: OutputSet,
+    digests: Digests,
+    imports: threading.Thread,
+    *,
+    open_options: Optional[Dict[str, Any]],
+    analyze_options: Optional[Dict[str, Any]],
+    progress: bool,
+    client: Any,
+    split: Optional[float],
+    meta: Optional[Meta],
+    steady_state: bool,
+) -> Dict[str, Any]:
+    """:func:`run_analysis` once the output folder is checked and the digests started."""
+    from .._version import version
+
+    __version__ = version()
+
+    open_options = dict(open_options or {})
+    opts = dict(analyze_options or {})
+    log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
+    cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
+    with contextlib.ExitStack() as stack:
+        # A recording is opened once: the analysis' own stays open for the figures' windows, the channel
+        # map and stick-slip (a text file's opening reads it whole; issue 22 point 5).
+        runs, failures, kept = _analyse(stack, files, open_options, opts, progress=progress, client=client,
+                                        split=split)  # fmt: skip
+        if not runs:
+            # Every recording failed: summary.json still lists every error (the CLI exits with status 3).
+            summary_failed: Dict[str, Any] = {
+                "tribodyn_version": __version__,
+                "inputs": [str(f) for f in files],
+                "open_options": open_options,
+                "recordings": {},
+                "failures": failures,
+            }
+            with output as out:
+                write_json(summary_failed, out.path("summary.json"))
+            return summary_failed
+        imports.join()  # before this thread imports any of them
+        summary: Dict[str, Any] = {
+            "tribodyn_version": __version__,
+            # the digests are waited for only when written: the outputs are drawn while the thread hashes
+            "inputs": input_provenance([p for p, _ in runs], later=True),
+            "open_options": open_options,
+            "recordings": {},
+            "failures": failures,
+        }
+        inputs = {i["file"]: i for i in summary["inputs"]}
+        for p, _ in runs:
+            inputs[p.name]["channels"] = {}  # (filled with the recording's outputs)
+            inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
+                f"{name}: {Path(f).name}" for name, f in cov_files.items()
+            ]
+        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary, digests)
+        with output as out:
+            verdict: List[str] = []
+            sections: List[Tuple[str, str]] = []
+            all_figs: List[Tuple[str, bytes]] = []
+            for (p, res), label in zip(runs, _labels([p for p, _ in runs])):
+                rec = kept[p] if p in kept else _open_once(stack, p, open_options)
+                lines, extras, captioned = _recording_outputs(out, job, (p, res), label, rec)
+                verdict += lines
+                sections += extras
+                all_figs += [(f"{p.name}: {c}", f) for c, f in captioned]
+            _write_top(out, job, runs, verdict, sections=sections, figures=all_figs)
+    return summary
+
+
+def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Dict[str, Any], opts: Dict[str, Any],
+             *, progress: bool, client: Any, split: Optional[float],
+             ) -> Tuple[List[Tuple[Path, Results]], Dict[str, Any], Dict[Path, Any]]:  # fmt: skip
+    """(path and Results of each recording analysed, failures by file name, the recordings still open by path)."""
+    from ..pipeline.distributed import analyze_many
+
+    if len(files) == 1 and client is None and split is None:
+        # One file, here: read it directly (progress bar over its samples), kept open for the outputs.
+        from ..io import open_recording
+
+        rec = stack.enter_context(open_recording(files[0], **open_options))
+        # stick-slip in the analysis' own reading (docs/method.md 6g): the recording is not read again for it
+        res = analyze(rec, progress=progress, stick_slip=True, **opts)
+        return [(Path(files[0]), res)], {}, {Path(files[0]): rec}
+    many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
+    failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
+    return [(Path(p), r) for p, r in many.results.items()], failures, {}
+
+
+def _open_once(stack: contextlib.ExitStack, path: Path, open_options: Mapping[str, Any]) -> Any:
+    """The recording opened for its outputs (closed with ``stack``), or the exception that opening raised."""
+    from ..io import open_recording
+
+    try:
+        return stack.enter_context(open_recording(path, **open_options))
+    except Exception as exc:  # noqa: BLE001 - the analysis already read it; each output says what went wrong
+        return exc
+
+
+@dataclasses.dataclass(frozen=True)
+class _Job:
+    """What every recording's outputs share."""
+
+    meta: Meta
+    steady_state: bool
+    single: bool  # one recording without failures: its outputs at the top of the folder
+    inputs: Dict[str, Dict[str, Any]]  # file name -> provenance (digest, channels, logs)
+    summary: Dict[str, Any]  # summary.json, filled recording by recording
+    digests: Digests  # the inputs' SHA-256, filled into ``inputs`` when written (fill_digests)
+
+
+def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], label: str, rec: Any
+                       ) -> Tuple[List[str], List[Tuple[str, str]], List[Tuple[str, bytes]]]:  # fmt: skip
+    """One recording's tables and figures (and, among several, its summary.json and report.html), its entry in
+    the job's summary: (verdict lines, report sections, captioned figures). ``rec`` is the open recording the
+    figures' windows and stick-slip read, or the exception that opening it raised."""
+    from ..analyses.stickslip import stick_slip
+    from .report import verdict_lines, write_report
+
+    p, res = run
+    prefix = "" if job.single else f"{label}/"
+    job.inputs[p.name]["channels"] = _channel_map(rec)
+    opr_t = _try_range(res, "temperature")
+    opr_j = _try_range(res, "current_density")
+    has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
+    opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
+    try:
+        if isinstance(rec, Exception):
+            raise rec
+        examples, loops = diagnostic_examples(rec, res), loop_examples(rec, res)
+    except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
+        examples, loops = [], []
+        res = _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+    try:  # docs/method.md 6g: found in the analysis' reading (one file), else fy and fz read again, once
+        if isinstance(rec, Exception):
+            raise rec
+        slip: Optional[Dict[str, Any]] = stick_slip(rec, res).to_dict()
+    except (OSError, ValueError) as exc:
+        slip = None
+        res = _replaced(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
+    steady = _steady_state(res) if job.steady_state else None
+    # the figures read the steady state from their Results' params (docs/method.md 6h)
+    fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
+    figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
+    res_now = res
+
+    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, before the figures
+        return _write_set(out, prefix, res_now), res_now.summary()
+
+    pngs, (written, res_summary), (view, head) = _save_figures(
+        out, figs, prefix, meanwhile, also=lambda: _interactive_view(res_now, p.name)
+    )
+    _BOKEH_HEAD.setdefault("js", head)
+    extras = _report_extras(res_now, p.name, f"{prefix}windows.csv", view)
+    written += [name for name, _, _ in pngs]
+    rec_sum = {
+        **res_summary,
+        **({"steady_state": steady} if steady else {}),
+        "operating_range_temperature": range_summary(opr_t),
+        "operating_range_current_density": range_summary(opr_j),
+        "operating_range_speed": range_summary(opr_v),
+        "params": res.params,
+        "files": written,
+        "stick_slip": slip,
+    }
+    rec_sum["meta"] = summary_meta(job.meta, rec_sum["headline"])
+    job.summary["recordings"][p.name] = rec_sum
+    ranges = {"temperature": rec_sum["operating_range_temperature"],
+              "current_density": rec_sum["operating_range_current_density"],
+              "speed": rec_sum["operating_range_speed"]}  # fmt: skip
+    lines = verdict_lines(p.name, rec_sum, res.params, ranges)
+    if steady:  # right after the headline
+        lines.insert(1, f"{p.name}: {steady['text']}.")
+    if slip and slip["present"]:
+        lines.append(f"{p.name}: {slip['verdict']}")
+    captioned = _captioned(pngs)
+    if not job.single:
+        fill_digests([job.inputs[p.name]], job.digests)
+        write_json(rec_sum, out.path(f"{prefix}summary.json"))
+        write_report(
+            out.path(f"{prefix}report.html"),
+            title=f"tribodyn: {p.name}",
+            summary=_flat_summary({p.name: rec_sum}),
+            params=res.params,
+            figures=captioned,
+            quality=rec_sum["gate_failures"],
+            verdict=lines,
+            inputs=[job.inputs[p.name]],
+            sections=_report_extras(res, p.name, "windows.csv", view),
+            head_html=_bokeh_head(),
+            record_html=record_html(job.meta, {p.name: rec_sum["headline"]}),
+        )
+    return lines, extras, captioned
+
+
+def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], verdict: List[str], *,
+               sections: List[Tuple[str, str]], figures: List[Tuple[str, bytes]]) -> None:  # fmt: skip
+    """The job's own outputs: the combined tables (several recordings), summary.json, metadata.json and
+    report.html."""
+    from .._version import version
+
+    __version__ = version()
+    from .report import write_report
+
+    summary, failures = job.summary, job.summary["failures"]
+    if not job.single:
+        combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
+        write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
+        write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
+    summary["columns"] = column_units()
+    fill_digests(summary["inputs"], job.digests)
+    write_json(summary, out.path("summary.json"))
+    heads = {n: r["headline"] for n, r in summary["recordings"].items()}
+    write_json(metadata(job.meta, summary["inputs"], heads, __version__), out.path("metadata.json"))
+    for name, f in failures.items():
+        verdict.append(f"{name}: not analysed: {f['error']}")
+    failed = [{"file": n, "sha256": "", "channels": {}, "logs": [f"failed: {f['error']}"]} for n, f in failures.items()]
+    write_report(
+        out.path("report.html"),
+        title="tribodyn: " + ", ".join([p.name for p, _ in runs] + list(failures)),
+        summary=_flat_summary(summary["recordings"]),
+        params={p.name: r.params for p, r in runs},
+        figures=figures,
+        quality={p.name: summary["recordings"][p.name]["gate_failures"] for p, _ in runs},
+        verdict=verdict,
+        inputs=list(job.inputs.values()) + failed,
+        sections=sections,
+        head_html=_bokeh_head(),
+        record_html=record_html(job.meta, heads),
+    )
+
+
+#: Modules the output step imports here (figures, tables), imported during the analysis; Bokeh is imported by
+#: the rendering child, which draws the interactive views (``_recording_outputs``).
+_OUTPUT_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg", "pyarrow", "pyarrow.parquet")
+
+
+def _import_in_background() -> threading.Thread:
+    """A started thread importing :data:`_OUTPUT_MODULES` (third-party only: the analysis imports none of them,
+    so no module is imported from two threads at once; join it before the output step)."""
+
+    def run() -> None:
+        for name in _OUTPUT_MODULES:
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001, S112 - the output step imports it again and reports what is wrong
+                continue
+
+    thread = threading.Thread(target=run, name="tribodyn-imports", daemon=True)
+    thread.start()
+    return thread
+
+
+def _replaced(res: Results, **changes: Any) -> Results:
+    """``dataclasses.replace(res, **changes)`` for new warnings or figure-only params, keeping the results
+    already computed from the rest (headline, verdict, the mu_r bootstrap): none is computed twice."""
+    out = dataclasses.replace(res, **changes)
+    for key in ("headline", "verdict", "mu_r_ci"):
+        if key in res.__dict__:
+            out.__dict__[key] = res.__dict__[key]
+    return out
+
+
+def _steady_state(res: Results) -> Dict[str, Any]:
+    """:func:`tribodyn.steady_state` of ``res`` as JSON (docs/method.md 6h)."""
+    from ..analyses.steady import steady_state
+
+    return steady_state(res).to_dict()
+
+
+def _channel_map(rec: Any) -> Dict[str, str]:
+    """Role -> 'channel (unit)' of an open recording, as the analysis read it (or why it is unavailable:
+    ``rec`` is then the exception that opening it raised)."""
+    if isinstance(rec, Exception):
+        return {"?": f"channel map unavailable: {rec}"}
+    units = {c.name: c.unit for c in rec.channels}
+    return {r: f"{c} ({units.get(c) or 'no unit'})" for r, c in dict(rec.roles).items()}
+
+
+def _labels(paths: Sequence[Path]) -> List[str]:
+    """Sub-folder names: file stems, made unique with a counter where they repeat."""
+    stems = [p.stem for p in paths]
+    return [s if stems.count(s) == 1 else f"{s}-{k + 1}" for k, s in enumerate(stems)]
+
+
+def _combine(results: Sequence[Results], names: Sequence[str]) -> Tuple[Results, np.ndarray]:
+    table = {k: np.concatenate([r.table[k] for r in results]) for k in results[0].table}
+    rec = np.concatenate([np.full(len(r), n, dtype=object) for r, n in zip(results, names)])
+    nb = max(r.bin_counts.shape[1] for r in results)
+    if any(r.bin_counts.shape[1] != nb for r in results):
+        raise ValueError("recordings analysed with different n_bins cannot be combined")
+    merged = Results(
+        table=table,
+        bin_counts=np.concatenate([r.bin_counts for r in results]),
+        bin_cof=np.concatenate([r.bin_cof for r in results]),
+        fz_min=np.concatenate([r.fz_min for r in results]),
+        fz_max=np.concatenate([r.fz_max for r in results]),
+        orientation=results[0].orientation,
+        params={"recordings": list(names)},
+    )
+    return merged, rec.astype(str)

@@ -1,0 +1,285 @@
+"""Strokes and cycles of a reciprocating test (docs/method.md 6c).
+
+* :func:`find_strokes`: the strokes of a direction signal (the sign of fy, or of a velocity).
+* :func:`stroke_table`: the classical COF of each stroke over its central ``stroke_fraction``, its
+  breakaway peak (:func:`breakaway_peak`) and, with a position, its friction work.
+* :func:`cycle_table`: one row per cycle (forward, backward, cycle COF, offset, loop energy).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+#: Default central fraction of a stroke used for its COF (docs/method.md 6c).
+STROKE_FRACTION = 0.5
+
+
+@dataclasses.dataclass(frozen=True)
+class ClassicalSpec:
+    """How the classical COF is computed (docs/method.md 6a).
+
+    Attributes
+    ----------
+    min_fn : float
+        Least |fz| (N) of a sample counted.
+    tare_fy, tare_fz : float
+        Offsets subtracted from fy and fz first (N).
+    """
+
+    min_fn: float
+    tare_fy: float = 0.0
+    tare_fz: float = 0.0
+
+
+def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int, int]] = (),
+                 kind: str = "fy") -> List[Tuple[int, int, int]]:  # fmt: skip
+    """Strokes as (start, stop, direction) from a signed signal (fy, velocity or position), per acquisition.
+
+    ``kind`` "x" (position): the direction is the sign of its slope; "v" and
+    "fy": the sign of the signal itself. A direction holds until the signal
+    crosses 30 % of its p95 magnitude with the other sign (hysteresis), so
+    noise around zero does not cut strokes.
+    """
+    sig = np.asarray(direction_signal, dtype=float)
+    if kind == "x":
+        sig = np.gradient(sig)
+    n = sig.size
+    ranges = list(boundaries) or [(0, n)]
+    out: List[Tuple[int, int, int]] = []
+    for a, b in ranges:
+        seg = sig[a:b]
+        if seg.size == 0:
+            continue
+        fin = seg[np.isfinite(seg)]
+        p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
+        thr = 0.3 * p95
+        # The direction of the last crossing of +-thr (0 before the first): a forward fill of the crossings.
+        raw = np.zeros(seg.size, dtype=np.int8)
+        with np.errstate(invalid="ignore"):
+            raw[seg > thr] = 1
+            raw[seg < -thr] = -1
+        last = np.where(raw != 0, np.arange(seg.size), 0)
+        np.maximum.accumulate(last, out=last)
+        d = raw[last]
+        # samples before the first decided direction take it
+        nz = np.flatnonzero(d)
+        if nz.size == 0:
+            out.append((a, b, 1))
+            continue
+        d[: nz[0]] = d[nz[0]]
+        cuts = np.flatnonzero(np.diff(d)) + 1
+        # The hysteresis decides a change of direction late (at 30 % of p95): the stroke starts where
+        # the signal took its new sign (the reversal), so that a stroke's central part is centred.
+        moved: List[int] = []
+        sign = np.sign(np.nan_to_num(seg, nan=0.0)).astype(np.int8).tolist()  # plain ints: a fast loop
+        dirs = d.tolist()
+        for c in cuts.tolist():
+            lo, j = (moved[-1] if moved else 0) + 1, c
+            while j > lo and sign[j - 1] == dirs[c]:
+                j -= 1
+            moved.append(j)
+        edges = [0, *moved, seg.size]
+        for s0, s1 in zip(edges[:-1], edges[1:]):
+            if s1 - s0 >= 4:
+                out.append((a + s0, a + s1, dirs[s1 - 1]))
+    return out
+
+
+def stroke_table(fy: np.ndarray, fz: np.ndarray, strokes: Sequence[Tuple[int, int, int]], fs: float, *,
+                 spec: Optional[ClassicalSpec], fraction: float, cof: Optional[np.ndarray] = None,
+                 x: Optional[np.ndarray] = None) -> Dict[str, np.ndarray]:  # fmt: skip
+    """Per stroke: time, direction and the classical COF over its central ``fraction`` (docs/method.md 6c),
+    the static (breakaway) COF before it (6c: ``stickslip.breakaway_peak``); with a position ``x`` (m), the
+    work of friction over the whole stroke and its sliding distance (6c)."""
+    from .strokes import breakaway_peak
+
+    if not (0 < fraction <= 1):
+        raise ValueError(f"stroke_fraction must be in (0, 1], got {fraction!r}")
+    spec = spec or ClassicalSpec(0.0)
+    rows: Dict[str, List[Any]] = {k: [] for k in STROKE_COLUMNS}
+    first_dir = strokes[0][2] if strokes else 1
+    cycle = 0
+    for k, (a, b, d) in enumerate(strokes):
+        if k and d == first_dir and strokes[k - 1][2] != d:
+            cycle += 1
+        m = b - a
+        c0 = a + int(round(m * (1 - fraction) / 2))
+        c1 = max(c0 + 1, a + int(round(m * (1 + fraction) / 2)))
+        y = np.abs(fy[c0:c1] - spec.tare_fy)
+        z = np.abs(fz[c0:c1] - spec.tare_fz)
+        keep = (z >= spec.min_fn) & (z > 0) & np.isfinite(y) & np.isfinite(z)
+        r = y[keep] / z[keep] if keep.any() else np.zeros(0)
+        rows["stroke"].append(k)
+        rows["cycle"].append(cycle)
+        rows["direction"].append(d)
+        rows["t_start"].append(a / fs)
+        rows["time"].append((a + b) / 2 / fs)
+        rows["duration"].append(m / fs)
+        rows["mu"].append(float(r.mean()) if r.size else np.nan)
+        # the breakaway: the first part, from the motion onset (the stroke's first sample, a reversal) to the
+        # central part; a stroke that does not follow a reversal (the first) has no onset in the record
+        peak, at = float("nan"), -1
+        if k and strokes[k - 1][1] == a and strokes[k - 1][2] != d:
+            yb = np.abs(fy[a:c0] - spec.tare_fy)
+            zb = np.abs(fz[a:c0] - spec.tare_fz)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                rb = np.where((zb >= spec.min_fn) & (zb > 0), yb / zb, np.nan)
+            peak, at = breakaway_peak(rb)
+        rows["mu_static"].append(peak)
+        rows["t_static"].append(at / fs if at >= 0 else np.nan)
+        rows["mu_median"].append(float(np.median(r)) if r.size else np.nan)
+        ci = np.abs(cof[c0:c1]) if cof is not None else np.zeros(0)
+        ci = ci[np.isfinite(ci)]
+        rows["mu_instrument"].append(float(ci.mean()) if ci.size else np.nan)
+        rows["fz_mean"].append(float(np.mean(fz[c0:c1])))
+        rows["n"].append(int(keep.sum()))
+        rows["start"].append(a)
+        rows["stop"].append(b)
+        work, dist, span = _stroke_work(fy, x, a, b, spec) if x is not None else (np.nan, np.nan, np.nan)
+        rows["work"].append(work)
+        rows["distance"].append(dist)
+        rows["x_span"].append(span)
+        rows["fz_stroke"].append(float(np.nanmean(fz[a:b] - spec.tare_fz)))
+    ints = {"stroke", "cycle", "direction", "n", "start", "stop"}
+    return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in rows.items()}
+
+
+def _stroke_work(fy: np.ndarray, x: np.ndarray, a: int, b: int, spec: ClassicalSpec) -> Tuple[float, float, float]:
+    """(work of friction sum fy dx (J), sliding distance sum |dx| (m), max x - min x (m)) over samples a..b.
+
+    Trapezoids from sample a to sample b (the next stroke's first), so the
+    strokes of a cycle add up to the whole loop (docs/method.md 6c); fy is
+    tared, but a constant offset cancels over a closed loop anyway.
+    """
+    hi = min(b + 1, len(x))
+    xs = np.asarray(x[a:hi], dtype=float)
+    ys = np.asarray(fy[a:hi], dtype=float) - spec.tare_fy
+    if xs.size < 2:
+        return float("nan"), float("nan"), float("nan")
+    dx = np.diff(xs)
+    work = float(np.nansum(0.5 * (ys[1:] + ys[:-1]) * dx))
+    return work, float(np.nansum(np.abs(dx))), float(np.nanmax(xs) - np.nanmin(xs))
+
+
+#: A cycle is whole (its loop closed) when it slides at least this fraction of twice its peak-to-peak position.
+WHOLE_CYCLE = 0.9
+
+
+#: Columns of :attr:`Results.cycles` with their units and meanings (docs/method.md 6c).
+CYCLE_COLUMNS: Dict[str, Tuple[str, str]] = {
+    "cycle": ("", "cycle number (one stroke each way)"),
+    "t": ("s", "cycle centre"),
+    "mu_forward": ("1", "per-stroke COF of the cycle's forward stroke(s) (direction +1; their mean)"),
+    "mu_backward": ("1", "the same of the backward stroke(s) (direction -1)"),
+    "mu_cycle": ("1", "(mu_forward + mu_backward) / 2: a load-cell offset cancels; the headline is its mean"),
+    "offset": ("1", "(mu_forward - mu_backward) / 2: a load-cell offset (or a direction-dependent COF) over fz"),
+    "energy": ("J", "energy dissipated: the friction loop's area, sum of fy dx over a whole cycle (with a position x)"),
+    "distance": ("m", "sliding distance of the cycle, sum of |dx|"),
+    "mu_energy": ("1", "energy COF: energy / (mean fz x distance)"),
+    "slip_amplitude": ("m", "half the peak-to-peak position in the cycle"),
+    "start": ("samples", "first sample of the cycle"),
+    "stop": ("samples", "sample after the cycle"),
+}
+
+
+def cycle_table(strokes: Mapping[str, np.ndarray]) -> Dict[str, np.ndarray]:
+    """One row per cycle of a reciprocating test (:data:`CYCLE_COLUMNS`; docs/method.md 6c).
+
+    A cycle is one stroke each way (``strokes["cycle"]``); ``mu_cycle`` is NaN
+    unless the cycle holds both directions with a COF; the energy columns
+    are NaN without a position channel or unless both directions are there.
+    """
+    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
+    d = np.asarray(strokes["direction"], dtype=np.int64)
+    cols: Dict[str, List[float]] = {k: [] for k in CYCLE_COLUMNS}
+    for c in np.unique(cyc):
+        sel = cyc == c
+        both = bool(np.any(sel & (d == 1)) and np.any(sel & (d == -1)))
+        means = []
+        for sign in (1, -1):
+            m = np.asarray(strokes["mu"], dtype=float)[sel & (d == sign)]
+            m = m[np.isfinite(m)]
+            means.append(float(m.mean()) if m.size else np.nan)
+        work = np.asarray(strokes.get("work", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        dist = np.asarray(strokes.get("distance", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        span = np.asarray(strokes.get("x_span", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        fz = np.asarray(strokes.get("fz_stroke", np.full(cyc.size, np.nan)), dtype=float)[sel]
+        # a whole cycle closes its loop: it slides about twice its peak-to-peak (a first or last part-stroke
+        # does not); only a whole cycle has an energy
+        whole = both and np.isfinite(dist).all() and float(dist.sum()) >= WHOLE_CYCLE * 2.0 * float(np.max(span))
+        energy = abs(float(work.sum())) if whole and np.isfinite(work).all() else np.nan
+        distance = float(dist.sum()) if whole else np.nan
+        fz_mean = float(np.mean(np.abs(fz))) if np.isfinite(fz).all() else np.nan
+        cols["cycle"].append(float(c))
+        cols["t"].append(float(np.mean(np.asarray(strokes["time"], dtype=float)[sel])))
+        cols["mu_forward"].append(means[0])
+        cols["mu_backward"].append(means[1])
+        cols["mu_cycle"].append(0.5 * (means[0] + means[1]))
+        cols["offset"].append(0.5 * (means[0] - means[1]))
+        cols["energy"].append(energy)
+        cols["distance"].append(distance)
+        cols["mu_energy"].append(energy / (fz_mean * distance) if distance and fz_mean else np.nan)
+        cols["slip_amplitude"].append(0.5 * float(np.max(span)) if whole else np.nan)
+        cols["start"].append(float(np.asarray(strokes.get("start", [0]))[sel].min()) if "start" in strokes else 0.0)
+        cols["stop"].append(float(np.asarray(strokes.get("stop", [0]))[sel].max()) if "stop" in strokes else 0.0)
+    ints = {"cycle", "start", "stop"}
+    return {k: np.asarray(v, dtype=np.int64 if k in ints else float) for k, v in cols.items()}
+
+
+#: Columns of :attr:`Results.strokes` with their units and meanings (docs/method.md 6c).
+STROKE_COLUMNS: Dict[str, Tuple[str, str]] = {
+    "stroke": ("", "stroke index"),
+    "cycle": ("", "cycle number (a cycle is one stroke each way)"),
+    "direction": ("", "+1 or -1: sliding direction (sign of v, of dx/dt or of fy)"),
+    "t_start": ("s", "stroke start"),
+    "time": ("s", "stroke centre"),
+    "duration": ("s", "stroke duration"),
+    "mu": ("1", "classical COF mean |fy|/|fz| over the central stroke_fraction, |fz| >= min_fn"),
+    "mu_median": ("1", "median of |fy|/|fz| over the same samples"),
+    "mu_static": ("1", "static (breakaway) COF: largest 5-sample mean of |fy|/|fz| before the central part (6c)"),
+    "t_static": ("s", "time from the motion onset (the stroke's start) to the breakaway peak"),
+    "mu_instrument": ("1", "mean of the instrument's COF column over the same samples"),
+    "fz_mean": ("N", "mean fz over the same samples"),
+    "n": ("samples", "samples used"),
+    "start": ("samples", "first sample of the stroke"),
+    "stop": ("samples", "sample after the stroke"),
+    "work": ("J", "work of friction over the whole stroke, sum of (fy - tare) dx (with a position x; 6c)"),
+    "distance": ("m", "sliding distance of the stroke, sum of |dx| (with a position x)"),
+    "x_span": ("m", "max x - min x over the stroke (with a position x)"),
+    "fz_stroke": ("N", "mean fz - tare over the whole stroke"),
+}
+
+
+#: Samples of the moving average whose maximum is the static COF (docs/method.md 6c).
+BREAKAWAY_SMOOTH = 5
+
+
+def breakaway_peak(ratio: np.ndarray, smooth: int = BREAKAWAY_SMOOTH) -> Tuple[float, int]:
+    """(static COF, index of the centre of its window) of |Ft|/Fn samples from a motion onset on (6c).
+
+    The largest mean of ``smooth`` consecutive samples (fewer when there are
+    fewer); a window holding a NaN (a sample out of contact) is skipped.
+    (NaN, -1) when no window is whole.
+    """
+    r = np.asarray(ratio, dtype=float)
+    w = min(int(smooth), r.size)
+    if w < 1:
+        return float("nan"), -1
+    fin = np.isfinite(r)
+    c = np.concatenate([[0.0], np.cumsum(np.where(fin, r, 0.0))])
+    n = np.concatenate([[0], np.cumsum(fin)])
+    mean = (c[w:] - c[:-w]) / w
+    whole = (n[w:] - n[:-w]) == w
+    if not whole.any():
+        return float("nan"), -1
+    mean[~whole] = -np.inf
+    k = int(np.argmax(mean))
+    return float(mean[k]), k + (w - 1) // 2
+
+
+def cycle_means(strokes: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Per cycle, ``mu_cycle``: the mean of its forward and backward stroke means (:func:`cycle_table`)."""
+    return cycle_table(strokes)["mu_cycle"]

@@ -1,0 +1,90 @@
+"""How many threads the Rust kernels use (docs/method.md 9).
+
+A thread count belongs to one call: ``analyze(threads=...)`` (and every
+kernel wrapper that takes ``threads=``) passes its count down to the Rust
+kernels, which run on a pool of exactly that many threads for that call
+only, so concurrent calls never change each other's count. A call that
+names none uses the ``TRIBODYN_THREADS`` environment variable, else the
+process default that :func:`set_threads` sets (every core at first).
+Counts run from 1 to :func:`max_threads` (4 x the CPU count).
+
+Kernels split work at fixed boundaries and combine it in a fixed order, so
+results never depend on the thread count.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import numbers
+import os
+from typing import Any, Iterator, Optional
+
+from .. import _core
+
+__all__ = ["set_threads", "get_threads", "max_threads", "resolve_threads", "read_threads"]
+
+#: The thread count of the analysis running in this context (its readers' native parses use it).
+_READ: contextvars.ContextVar[Optional[int]] = contextvars.ContextVar("tribodyn_read_threads", default=None)
+
+
+def max_threads() -> int:
+    """The largest thread count a call may ask for: 4 x the CPU count."""
+    return int(_core.max_threads())
+
+
+def set_threads(n: int) -> None:
+    """Sets the thread count of calls that name none, for this process (0 = all cores).
+
+    Raises ``TypeError`` for a non-integer and ``ValueError`` for n < 0 or
+    n > :func:`max_threads`.
+    """
+    _core.set_threads(_count(n, "n", minimum=0))
+
+
+def get_threads() -> int:
+    """The thread count of calls that name none (``set_threads``; every core by default)."""
+    return int(_core.get_threads())
+
+
+def resolve_threads(threads: Optional[Any] = None) -> int:
+    """The thread count of one call: ``threads``, else ``TRIBODYN_THREADS``, else :func:`get_threads`.
+
+    Raises ``TypeError`` for a non-integer and ``ValueError`` outside
+    1 .. :func:`max_threads` (naming where the count came from).
+    """
+    if threads is not None:
+        return _count(threads, "threads", minimum=1)
+    env = os.environ.get("TRIBODYN_THREADS", "").strip()
+    if env:
+        try:
+            v = int(env)
+        except ValueError:
+            raise ValueError(f"TRIBODYN_THREADS must be a whole number, got {env!r}") from None
+        return _count(v, "TRIBODYN_THREADS", minimum=1)
+    return get_threads()
+
+
+def _count(value: Any, name: str, *, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    v, top = int(value), max_threads()
+    if not minimum <= v <= top:
+        raise ValueError(f"{name} must be in [{minimum}, {top}] (4 x the {os.cpu_count()} CPUs), got {v}")
+    return v
+
+
+@contextlib.contextmanager
+def reading(n: Optional[int]) -> Iterator[None]:
+    """Within the block, :func:`read_threads` is ``n`` (None: the default) in this context."""
+    token = _READ.set(n)
+    try:
+        yield
+    finally:
+        _READ.reset(token)
+
+
+def read_threads() -> int:
+    """Threads a reader's native parse uses: the running analysis's count, else :func:`resolve_threads`."""
+    n = _READ.get()
+    return n if n is not None else resolve_threads()

@@ -1,0 +1,580 @@
+"""Long recordings: ``tribodyn.analyze`` (docs/method.md section 6; the pipeline: docs/architecture.md).
+
+Reads a recording chunk by chunk, optionally high-passes raw (DC-coupled)
+channels with the streaming filter, cuts windows of ``window`` s every
+``hop`` s, computes each window's COF statistics in the Rust kernel, joins
+temperature and current, and fixes the orientation once for the recording.
+The per-window table does not depend on the format, the chunk size or the
+thread count, and memory does not grow with the recording's length.
+
+This module orchestrates one analysis: the options are checked once into a
+:class:`~tribodyn.pipeline.plan.Plan`; the tribometer pre-pass (docs/method.md 6a-6d)
+and, for a reciprocating test, the strokes (:mod:`tribodyn.pipeline.strokes`) are
+found; :mod:`tribodyn.pipeline.routes` reads the source on the route it chooses and
+runs the kernel; :mod:`tribodyn.pipeline.finish` turns the kernel's statistics into
+the table and settles the headline.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Mapping
+from typing import Any, Dict, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+# NumPy's submodules an analysis uses (find_lag's FFT, the bootstrap's generator, np.median's NaN check
+# imports numpy.ma), imported with this module rather than inside the first call (issue 25: no imports
+# inside analyze; `import tribodyn` itself stays lazy).
+import numpy.fft  # noqa: F401
+import numpy.ma  # noqa: F401
+import numpy.random  # noqa: F401
+
+from ..io.base import RecordingProtocol
+from ..io.dataframe import from_dataframe
+from ..kernels._validate import Orientation, check_1d
+from ..kernels.deadband import DeadbandSpec
+from ..kernels.threads import reading, resolve_threads
+from ..options import defaults
+from ..results import ClassicalTotals, Results
+from .covariates import align_to_recording
+from .finish import ALIGN_MIN, finish, settle
+from .budget import statistics_of, with_budget
+from .headline import classical_totals
+from .instrument import find_lag
+from .plan import Findings, Plan, make_plan
+from .prepass import prepass
+from .routes import PIPELINE_ROLES, Tap, choose_route, concat_stats, run
+from .stickslip import ReadingPass, find_stick_slip
+from .strokes import stroke_windows
+
+__all__ = ["analyze", "analyze_partial", "combine", "Partial"]
+
+
+def _is_recording(source: Any) -> bool:
+    return hasattr(source, "chunks") and hasattr(source, "fs") and not isinstance(source, Mapping)
+
+
+def analyze(
+    source: Any,
+    plan: Optional[Plan] = None,
+    *,
+    fs: Optional[float] = None,
+    window: Optional[float] = None,
+    hop: Optional[float] = None,
+    highpass: Optional[float] = None,
+    orientation: Orientation = "auto",
+    temperature: Any = None,
+    current: Any = None,
+    voltage: Any = None,
+    shunt_ohm: Optional[float] = None,
+    area_mm2: Optional[float] = None,
+    covariates: Optional[Mapping[str, Any]] = None,
+    chunk: Optional[float] = None,
+    progress: bool = False,
+    deadband: DeadbandSpec = 0.35,
+    n_bins: int = 16,
+    gate: Union[float, str, None] = None,
+    max_lag: Optional[int] = None,
+    rpm: Optional[float] = None,
+    n_lamellas: Optional[int] = None,
+    threads: Optional[int] = None,
+    start: int = 0,
+    stop: Optional[int] = None,
+    estimator: Optional[str] = None,
+    method: Optional[str] = None,
+    max_rel_ci: Optional[float] = None,
+    align: Optional[str] = None,
+    iv_lag: Optional[float] = None,
+    noise: Any = None,
+    motion: str = "auto",
+    min_fn: Optional[float] = None,
+    tare: Any = None,
+    stroke_fraction: float = 0.5,
+    stick_slip: bool = False,
+    uncertainty: Optional[Mapping[str, Any]] = None,
+    channels: Optional[Mapping[str, str]] = None,
+) -> Results:
+    """COF of every window of a long recording (docs/method.md 6).
+
+    Parameters
+    ----------
+    source : mapping, iterable of mappings, list of acquisitions, or Recording
+        - a mapping role -> 1-D array with ``fy``, ``fz`` (required), ``fx``,
+          ``i`` (current, A) or ``u`` (shunt voltage, V), and ``cof`` (an
+          instrument's own COF column, averaged per window as
+          ``mu_instrument`` for comparison);
+        - an iterator of such mappings: consecutive chunks of one recording
+          (how a reader streams from disk);
+        - a list (or tuple) of mappings: separate acquisitions, each one
+          window (an optional scalar ``"t0"`` entry gives its start time in
+          s; otherwise acquisitions are taken as back to back);
+        - a recording from :func:`tribodyn.open_recording` (read in chunks);
+          its separate acquisitions (``Recording.acquisitions``: CETR steps,
+          time restarts, LVM segments marked discontinuous) are windowed
+          apart, each from its first sample: no window straddles two;
+        - a pandas DataFrame: columns named by role, or mapped with
+          ``channels={"fy": "Ft", ...}``; fs from a ``time`` column or the
+          index when not given;
+        - a path (str or os.PathLike): the file is opened with
+          ``tribodyn.open_recording(path, fs=fs, channels=channels)`` (its
+          other options at their defaults; open it yourself to set them),
+          analysed and closed.
+    plan : Plan, optional
+        Every option below checked once (:func:`tribodyn.make_plan`), for a
+        source sampled at ``plan.fs``; with a plan no other option is given
+        (``channels`` and ``fs`` excepted, which say how to read the source).
+        The options, their defaults, units, flags and sections are declared
+        once in :data:`tribodyn.options.OPTIONS`.
+    fs : float
+        Sampling rate in Hz (taken from a recording when omitted).
+    window, hop : float
+        Window length and start-to-start spacing in s (paper 2 and 10;
+        ``hop == window`` tiles the recording). Only complete windows count.
+        Not given: 2 s and 10 s, except for slow recordings (docs/method.md
+        6b): a window of at least 100 samples and, below 100 Hz, hop =
+        window; ``params["window_note"]`` says what was chosen.
+    motion : {"auto", "unidirectional", "reciprocating"}
+        "reciprocating" adds the per-stroke table ``Results.strokes``
+        (strokes from the sign changes of the ``v`` role, of d``x``/dt, else
+        of fy; docs/method.md 6c); "auto" detects it from fy's sign changes.
+    min_fn : float, optional
+        Classical COF: samples with |fz| below it (N) are left out (default
+        5 % of the recording's median |fz|; docs/method.md 6a).
+    tare : float or mapping, optional
+        Classical COF: seconds at the start without contact (their mean fy
+        and fz are subtracted), or explicit offsets ``{"fy": N, "fz": N}``.
+    stroke_fraction : float
+        Central part of each stroke used for its COF (default 0.5).
+    stick_slip : bool
+        Also find the stick-slip events (docs/method.md 6g) in the same
+        reading of the source: ``Results.stick_slip`` holds what
+        :func:`tribodyn.stick_slip` would find reading it again, bit for
+        bit. Default False (``Results.stick_slip`` None); the command line
+        sets it.
+    uncertainty : mapping, optional
+        What is known of the instrument (docs/method.md 6i): standard
+        uncertainties of ``fy_rel``, ``fz_rel`` (calibration, relative),
+        ``fy_abs``, ``fz_abs`` (offsets, N), ``misalignment_deg`` and
+        ``crosstalk``, each a number (normal) or ``{"u": ..., "distribution":
+        "normal" | "rectangular" | "triangular", "dof": ...}``, and a known
+        ``misalignment_bias_deg`` (corrected). The headline then carries
+        ``Headline.uncertainty``: the combined uncertainty of the instrument
+        and the statistics by Monte Carlo (JCGM 101) with its budget.
+        Default None: the headline's interval is statistical only.
+    channels : mapping, optional
+        For a DataFrame source: role -> column; for a path: role -> channel,
+        as ``open_recording``'s ``channels=``.
+    highpass : float, optional
+        Cut-off in Hz of a first-order Butterworth high-pass applied to raw,
+        DC-coupled force channels first (streaming, state carried, "steady"
+        start). None for dynamic forces as delivered by the paper's charge
+        amplifier. With it, the table's ``mu_classical`` is the classical
+        COF mean(|fy|/|fz|) of the raw forces.
+    orientation : {+1, -1, "auto"}
+        s in mu = s * slope; "auto" fixes it ONCE for the recording, as the
+        sign of the least-squares slope of fy on fz over all windows
+        (docs/method.md 0), never per window.
+    temperature : (t_s, T_degC), optional
+        Intermittent temperature log, interpolated linearly at each window
+        centre (NaN outside the log); ``branch`` is the sign of dT/dt.
+    current : (t_s, i_A) or float, optional
+        Current log or constant, when the source has no ``i`` channel.
+    voltage : (t_s, u_V) or float, optional
+        Shunt voltage log or constant (needs ``shunt_ohm``); a ``u`` channel
+        in the source is used likewise.
+    shunt_ohm : float, optional
+        Shunt resistance R: i = u / R.
+    area_mm2 : float, optional
+        Contact area; J = i / area_mm2 in A/mm^2.
+    covariates : mapping of str -> (t_s, values) or float, optional
+        Other logs, interpolated linearly at each window centre (NaN
+        outside the log; absolute times aligned as ``temperature``'s):
+        ``{"speed": (t, v)}`` fills the ``speed`` column (m/s, its
+        magnitude; it replaces the mean |v| of a velocity channel ``v``),
+        any other name a column of that name after the declared ones
+        (docs/method.md 7a). Each may be the covariate of
+        :func:`tribodyn.operating_range` (``by=NAME``).
+    chunk : float, optional
+        Seconds per chunk when reading a mapping or a recording (default
+        131072 samples, about 2 min at 1 kHz, for a recording; a mapping is
+        taken whole). For a channels-first float64 ``.npy`` the kernel reads
+        the file itself, in blocks of at most this many seconds (default 2^15
+        samples) per thread. Never changes a result.
+    progress : bool
+        Show a progress bar on stderr.
+    deadband, n_bins, max_lag
+        As for :func:`tribodyn.identify`, per window. ``max_lag`` adds the
+        lag of max |C_yz(j)| per window (costly: one correlation function
+        per window); a non-zero lag fails the gate.
+    estimator : {"corrected", "iv", "ols", "deming"}, optional
+        The slope estimator (docs/method.md 3a-3c). Default "corrected":
+        least squares corrected for the noise on fz, whose variance is
+        measured from the recording with instruments (or taken from
+        ``noise``); unbiased under noise on fz and as precise as OLS
+        without it (measured: docs/method.md 3f). "ols" is the paper's Eq. 8,
+        "iv" instrumental variables (fz lagged by ``iv_lag``), "deming"
+        needs ``noise``.
+    method : {None, "paper"}
+        "paper": the paper's method exactly (OLS, |C_yz(0)| >= 0.85, OLS
+        standard errors, no alignment), the tables of tribodyn 0.2.
+    gate : float or "ci", optional
+        Quality gate (docs/method.md 5): "ci" (default) keeps a window when
+        its expected 95 % half-width (its white-noise standard error times
+        the recording's batch-means ratio) is at most +-``max_rel_ci`` of
+        the recording's median COF; a
+        number g is the paper's |C_yz(0)| >= g (0.85 with
+        ``method="paper"``). With either, a window whose slope has the sign
+        opposite to the recording's orientation fails.
+    max_rel_ci : float, optional
+        Largest expected half-width of the 95 % interval, relative to the
+        recording's median COF, for gate "ci" (default 0.1).
+    align : {None, "auto"}
+        "auto": measure the delay of fz behind fy from the cross-spectral
+        phase at the rig's lines (needs ``rpm``), and when it exceeds 0.05
+        samples analyse again with fz advanced by it (a fractional-delay
+        filter, docs/method.md 3e); ``params["delay_samples"]`` holds it.
+        None leaves the data untouched (a measurable delay is then warned of).
+    iv_lag : float, optional
+        Instrument lag in s (default one revolution, 60 / rpm, when ``rpm``
+        is given; else a tenth of the window, at least 10 samples).
+    noise : (sigma_y, sigma_z), optional
+        Standard deviations (N) of the measurement noise on fy and fz, e.g.
+        the standard deviations of a record taken with the rig at rest
+        (docs/method.md 3c); needed by "deming".
+    rpm, n_lamellas : optional
+        Rig data: the instrument lag (one revolution) and the line
+        frequencies f0 = rpm/60, 2 f0, 3 f0, f_l = n_lamellas f0, 2 f_l of
+        the columns ``skew``, ``h1_f0``, ``h1_fl``, ``coherence_fl``.
+    threads : int, optional
+        Kernel threads for this call only, 1 to 4 x the CPU count (default:
+        the ``TRIBODYN_THREADS`` environment variable, else
+        :func:`tribodyn.get_threads`, every core unless
+        :func:`tribodyn.set_threads` changed it). Results do not depend on
+        it, and concurrent calls do not change each other's count.
+    start : int
+        Sample index, within the whole recording, of the source's first
+        sample (default 0). Windows stay on the recording's grid (starting
+        at multiples of ``hop``), so consecutive ranges of a long recording
+        analysed separately give exactly the windows of one pass (see
+        :func:`tribodyn.analyze_many`). A recording source is read from
+        ``start`` on.
+    stop : int, optional
+        For a recording source: the sample index (exclusive) where reading
+        ends (default: the end). ``start``/``stop`` analyse one range of a
+        long recording straight from the file, with the windows that lie
+        wholly inside it.
+
+    Returns
+    -------
+    Results
+        Per-window table (columns in :data:`tribodyn.columns.TABLE`), bins
+        and the parameters used (``params["route"]`` names the route taken).
+
+    Raises
+    ------
+    ValueError, TypeError
+        fs <= 0, window or hop <= 0, threads outside 1 .. 4 x the CPU count,
+        a window longer than the recording, a missing or unequal channel, a
+        NaN or inf in a window (naming the channel and the window), a bad
+        temperature log, a voltage without ``shunt_ohm``.
+    RecordingError
+        The recording cannot be read.
+    """
+    options = {k: v for k, v in locals().items() if k not in ("source", "plan")}
+    if isinstance(source, (str, os.PathLike)):  # a file: opened as open_recording does by default
+        from ..io import open_recording
+
+        with open_recording(source, fs=fs, channels=options.pop("channels")) as rec:
+            return analyze(rec, plan, **options)
+    res = _analyze(source, plan, options, partial=False)
+    assert isinstance(res, Results)
+    return res
+
+
+@dataclasses.dataclass(frozen=True)
+class Partial:
+    """The kernel's statistics of one range of a recording, before the finishing step (docs/method.md 6, 9).
+
+    What a worker of :func:`tribodyn.analyze_many` returns for a range:
+    :func:`combine` joins the ranges of one recording and finishes them
+    once, so that every recording-wide quantity (the orientation, the
+    noise on fz of the corrected estimator) comes from all its windows and
+    the table is exactly the one of a single pass.
+    """
+
+    st: Dict[str, np.ndarray]
+    aux_role: Optional[str]
+    plan: Plan
+    route: str
+    warnings: Tuple[str, ...]
+    #: What the pre-pass found and the role map (docs/method.md 6a-6d), for ``Results.params``.
+    tribo: Dict[str, Any] = dataclasses.field(default_factory=dict)
+    #: The per-stroke table of a reciprocating test (the whole recording's, the same in every range).
+    strokes: Optional[Dict[str, np.ndarray]] = None
+    #: The classical COF's block sums over this range (docs/method.md 6a, 6e), or None.
+    classical: Optional[ClassicalTotals] = None
+    #: What the pre-pass found in the data (the classical COF's threshold and tare).
+    found: Findings = Findings()
+
+
+def analyze_partial(source: Any, plan: Optional[Plan] = None, **options: Any) -> Partial:
+    """:func:`analyze` up to the finishing step (same options; ``align`` must be None)."""
+    if options.get("align") is not None or (plan is not None and plan.align is not None):
+        raise ValueError("align='auto' needs the whole recording: analyse it in one piece, or pass the delay yourself")
+    return _analyze(source, plan, options, partial=True)  # type: ignore[return-value]
+
+
+def combine(parts: Sequence[Partial]) -> Results:
+    """The ranges of one recording, in order, finished once (exactly the table of one pass over them)."""
+    if not parts:
+        raise ValueError("no ranges to combine")
+    st = concat_stats([dict(p.st) for p in parts])
+    warnings = tuple(dict.fromkeys(w for p in parts for w in p.warnings))
+    span = (parts[0].plan.start, parts[-1].plan.stop)
+    res = finish(st, parts[0].aux_role, parts[0].plan, parts[0].found, route=parts[0].route, warnings=warnings,
+                 span=span)  # fmt: skip
+    res.params.update(parts[0].tribo)
+    res.params["n_samples_total"] = sum(int(p.tribo.get("n_samples_total", 0)) for p in parts)
+    totals = [p.classical for p in parts if p.classical is not None]
+    res = dataclasses.replace(res, strokes=parts[0].strokes,
+                              classical=ClassicalTotals.merge(totals) if totals else None)  # fmt: skip
+    if len(parts) > 1:
+        res.params.update(start=0, stop=None, ranges=len(parts))
+    return settle(res)
+
+
+def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
+    """:func:`_analyze_body` with the call's thread count for the readers' native parses (text files)."""
+    if plan is not None and not isinstance(plan, Plan):
+        raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
+    try:
+        n: Optional[int] = plan.threads if plan is not None else resolve_threads(options.get("threads"))
+    except (TypeError, ValueError):
+        n = None  # the plan says why
+    with reading(n):
+        return _analyze_body(source, plan, options, partial)
+
+
+def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[RecordingProtocol], Any]:
+    """(source, recording or None, fs): a DataFrame as a mapping of its columns by role (``channels=``)."""
+    fs, channels = options.pop("fs", None), options.pop("channels", None)
+    if _is_dataframe(source):
+        source, fs = from_dataframe(source, channels, fs)
+    elif channels is not None:
+        raise TypeError("channels= maps the columns of a pandas DataFrame; map a recording's with open_recording")
+    rec: Optional[RecordingProtocol] = source if _is_recording(source) else None
+    if fs is None and rec is not None:
+        fs = rec.fs
+    if rec is None:
+        _check_shapes(source)
+    return source, rec, fs
+
+
+def _check_shapes(source: Any) -> None:
+    """A mapping's (or a list of mappings') channels are 1-D, checked before the pre-pass and the lag search
+    look at them (the message is the pipeline's own, which names each chunk)."""
+    acqs = [source] if isinstance(source, Mapping) else source if isinstance(source, (list, tuple)) else ()
+    for i, chunk in enumerate(acqs):
+        if not isinstance(chunk, Mapping):
+            return  # the pipeline names what a chunk must be
+        for k, v in chunk.items():
+            if k in PIPELINE_ROLES:
+                check_1d(np.shape(v), f"chunk {i}[{k!r}]")
+
+
+def _plan_of(given: Optional[Plan], fs: Any, rec: Optional[RecordingProtocol], options: Dict[str, Any]) -> Plan:
+    """The analysis's plan: ``given`` (no other option with it), else made from ``options`` (docs/method.md 6)."""
+    if given is not None:
+        default = defaults()
+        changed = sorted(k for k, v in options.items() if not _is_default(v, default.get(k)))
+        if changed:
+            raise TypeError(f"analyze(..., plan=...) takes no other options; make the plan with them: {changed}")
+        if fs is not None and float(fs) != given.fs:
+            raise ValueError(f"the plan is for fs = {given.fs:g} Hz, the source is sampled at {float(fs):g} Hz")
+        return given
+    if fs is None:
+        raise TypeError("analyze needs fs= (the sampling rate in Hz)")
+    if rec is not None:  # logs with absolute times start at the reader's start time (docs/method.md 6)
+        for name in ("temperature", "current", "voltage"):
+            options[name] = align_to_recording(options.get(name), rec, name)
+        logs = options.get("covariates")
+        if isinstance(logs, Mapping):
+            options["covariates"] = {k: align_to_recording(x, rec, f"covariates[{k!r}]") for k, x in logs.items()}
+    return make_plan(fs=fs, **options)
+
+
+def _is_default(value: Any, default: Any) -> bool:
+    """Whether an option was left at its default (a value compared only when it is a plain scalar)."""
+    plain = (type(None), bool, int, float, str)
+    return value is default or (type(value) in plain and type(default) in plain and value == default)
+
+
+def _check_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> None:
+    """``stop=`` applies to a recording, within its samples."""
+    if plan.stop is None:
+        return
+    if rec is None:
+        raise ValueError(
+            "stop= applies to a recording source (a mapping or a stream of chunks ends where it ends; slice it instead)"
+        )
+    if plan.stop > rec.n_samples:
+        raise ValueError(
+            f"stop must satisfy start <= stop <= {rec.n_samples} (the recording's samples), "
+            f"got start={plan.start}, stop={plan.stop}"
+        )
+
+
+def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], partial: bool
+                  ) -> Union[Results, Partial]:  # fmt: skip
+    """:func:`analyze`'s body: ``options`` are its keyword arguments (without ``plan``)."""
+    source, rec, fs = _as_source(source, options)
+    plan = _plan_of(given, fs, rec, options)
+    _check_range(source, rec, plan)
+    pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
+    found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # docs/method.md 3b
+    tribo = _tribometer_params(rec, pre, plan.window_note)
+    strokes: Optional[Dict[str, np.ndarray]] = None
+    run_source, run_rec = source, rec
+    if pre.get("motion") == "reciprocating":
+        tribo["stroke_fraction"] = plan.stroke_fraction
+        cut = stroke_windows(source, rec, plan, found, partition=partial)
+        if cut is not None:
+            # docs/method.md 6c: the windows are the strokes' central parts, fy rectified (an acquisition each).
+            strokes, run_source = cut
+            run_rec = None
+            tribo["rectified"] = True
+            if not run_source:
+                raise ValueError("no stroke's central part holds 3 samples: no window to analyse")
+    contact = pre.get("contact")
+    own = tuple(w for w in (plan.window_note, contact.note if contact is not None else "") if w)  # its notes
+    c_start, c_stop = _sample_range(source, rec, plan, partial)
+    tribo["n_samples_total"] = c_stop - c_start
+
+    def classical_pass(sums: Optional[ClassicalTotals]) -> Optional[ClassicalTotals]:  # docs/method.md 6a, 6e
+        """The classical COF's sums over every sample in contact: the main pass's, else read again."""
+        if found.classical is None or strokes is not None:
+            return None
+        return sums if sums is not None else classical_totals(source, rec, found.classical, c_start, c_stop)
+
+    span = (c_start, c_stop) if strokes is None else None
+    if partial:  # the ranges are combined elsewhere, without the file: the sums are taken here
+        k = run(run_source, run_rec, plan, found, span)
+        warnings = k.warnings + tuple(rec.warnings if rec is not None else ()) + own
+        return Partial(k.st, k.aux_role, plan, k.route, tuple(dict.fromkeys(warnings)), tribo=tribo,
+                       strokes=strokes, classical=classical_pass(k.classical), found=found)  # fmt: skip
+    slip = _reading_pass(source, rec, plan, found, params={**tribo, "fs": plan.fs, "start": plan.start,
+                         "stop": plan.stop}, strokes=strokes)  # fmt: skip
+    res, sums = _analyze_aligned(run_source, run_rec, plan, found, span, taps=() if slip is None else (slip,))
+    if run_rec is not rec and rec is not None:
+        res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
+    res.params.update(tribo)
+    if own:
+        res = dataclasses.replace(res, warnings=res.warnings + own)
+    res = dataclasses.replace(res, strokes=strokes)
+    if plan.stick_slip:  # (before settle, which keeps the headline it computes: no copy after it)
+        got = slip.result() if slip is not None else None  # else read again (docs/method.md 6g)
+        res = dataclasses.replace(res, stick_slip=got if got is not None else find_stick_slip(source, res))
+    res = settle(res, lambda: classical_pass(sums))
+    if plan.uncertainty is not None:  # docs/method.md 6i: the headline's statistics, then its budget
+        res = with_budget(res, statistics_of(res, source, rec, found.classical, (c_start, c_stop)))
+    return res
+
+
+def _reading_pass(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
+                  params: Dict[str, Any], strokes: Optional[Dict[str, np.ndarray]]
+                  ) -> Optional[ReadingPass]:  # fmt: skip
+    """Stick-slip found in the main pass's chunks (docs/method.md 6g) when the plan asks for it and the route
+    reads a unidirectional recording with its static level in order; None otherwise."""
+    if not (plan.stick_slip and params.get("static_fz") and found.classical is not None and strokes is None):
+        return None
+    if not (rec is not None or isinstance(source, Mapping)) or choose_route(source, rec, plan, found) != "stream":
+        return None
+    return ReadingPass.of(params, source, start=plan.start, stop=plan.stop)
+
+
+def _sample_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partial: bool) -> Tuple[int, int]:
+    """The samples ``(a, b)`` the headline's classical pass covers (docs/method.md 6e); (0, 0) for a stream.
+
+    The analysed range ``plan.start``..``plan.stop``; for a range of
+    :func:`tribodyn.analyze_many` (``partial``), up to the next range's
+    first window (ranges of overlapping or spaced windows partition the
+    samples), and the last one to the end of the recording.
+    """
+    if rec is not None:
+        n = int(rec.n_samples)
+    elif isinstance(source, Mapping) and "fz" in source:
+        n = len(source["fz"])
+    elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) and "fz" in a for a in source):
+        n = sum(len(a["fz"]) for a in source)
+    else:
+        return 0, 0
+    stop = n if plan.stop is None else min(int(plan.stop), n)
+    if partial and plan.stop is not None:
+        nxt = int(plan.stop) - plan.length + plan.step
+        stop = n if nxt + plan.length > n else min(nxt, n)
+    start = min(int(plan.start), stop)
+    return start, stop
+
+
+def _is_dataframe(source: Any) -> bool:
+    return type(source).__name__ == "DataFrame" and hasattr(source, "columns") and hasattr(source, "index")
+
+
+def _tribometer_params(rec: Optional[RecordingProtocol], pre: Dict[str, Any], window_note: str) -> Dict[str, Any]:
+    """What the pre-pass found and the role map, for ``Results.params`` (docs/method.md 6a-6d)."""
+    out: Dict[str, Any] = {"motion": pre.get("motion", "unidirectional"),
+                           "motion_detected": bool(pre.get("motion_detected"))}  # fmt: skip
+    if "sign_flip_share" in pre:
+        out["sign_flip_share"] = pre["sign_flip_share"]
+    if "static" in pre:
+        out["static_fz"] = bool(pre["static"])
+    spec = pre.get("spec")
+    if spec is not None:
+        out["min_fn"] = spec.min_fn
+        out["tare_offsets"] = {"fy": spec.tare_fy, "fz": spec.tare_fz}
+    contact = pre.get("contact")
+    if contact is not None:
+        out["contact"] = {"rule": contact.rule, "unloaded_fraction": contact.unloaded_fraction,
+                          "excluded_fraction": contact.excluded_fraction, "note": contact.note}  # fmt: skip
+    if window_note:
+        out["window_note"] = window_note
+    if rec is not None:
+        out["roles"] = dict(rec.roles)
+        out["roles_source"] = rec.roles_source
+        choice = rec.role_choice
+        if choice is not None:  # docs/method.md 6e
+            out["roles_evidence"] = choice.as_dict()
+    return out
+
+
+def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
+                     span: Optional[Tuple[int, int]] = None, *, taps: Sequence[Tap] = ()
+                     ) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
+    """The analysis, with align="auto"'s second pass when the plan asks for it (docs/method.md 3e), and the
+    classical COF's sums over ``span`` when the main pass took them (:func:`tribodyn.pipeline.routes.run`); ``taps``
+    take the first pass's raw chunks."""
+    if plan.align == "auto":
+        if not (rec is not None or isinstance(source, (Mapping, list, tuple))):
+            raise ValueError(
+                "align='auto' reads the source twice (to measure the delay, then to correct it): pass a mapping of "
+                "arrays, a list of acquisitions or a recording, not a one-pass stream of chunks"
+            )
+        first, sums = _analyze_plan(source, rec, plan, found, span, taps=taps)
+        delay = float(first.params.get("skew_median", float("nan")))
+        if not (np.isfinite(delay) and abs(delay) > ALIGN_MIN):
+            first.params.update(align="auto", delay_samples=0.0 if not np.isfinite(delay) else delay, aligned=False)
+            return first, sums
+        res, _ = _analyze_plan(source, rec, plan, dataclasses.replace(found, delay=delay))
+        res.params.update(delay_samples=delay, aligned=True)
+        return res, sums  # the sums are of the raw samples: the delay does not change them
+    return _analyze_plan(source, rec, plan, found, span, taps=taps)
+
+
+def _analyze_plan(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings,
+                  span: Optional[Tuple[int, int]] = None, *, taps: Sequence[Tap] = ()
+                  ) -> Tuple[Results, Optional[ClassicalTotals]]:  # fmt: skip
+    """The windows of ``source`` on their route, finished, and the classical COF's sums of ``span`` (or None)."""
+    k = run(source, rec, plan, found, span, taps=taps)
+    return finish(k.st, k.aux_role, plan, found, route=k.route, warnings=k.warnings), k.classical

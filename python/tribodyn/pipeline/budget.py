@@ -1,0 +1,116 @@
+"""The headline's statistics for its uncertainty budget, read again from the data (docs/method.md 6i).
+
+:func:`statistics_of` reads the sufficient statistics
+(:class:`~tribodyn.kernels.uncertainty.Moments`) of a Results' headline: the
+classical COF's samples in contact (:func:`classical_moments`), the per-stroke
+COF's stroke centres (:func:`stroke_moments`) or the dynamic COF's table;
+:func:`with_budget` sets them as ``Results.budget_stats`` and gives the
+headline its budget (``results/budget.py``'s ``attach``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Mapping, Optional, Tuple
+
+import numpy as np
+
+from ..kernels.strokes import ClassicalSpec
+from ..kernels.uncertainty import NO_BUDGET, SHAPE, Moments, in_contact, ratio_sums
+from ..results import Results
+from ..results.budget import attach, dynamic_moments
+from .headline import _blocks
+
+__all__ = ["classical_moments", "statistics_of", "stroke_moments", "with_budget"]
+
+
+def classical_moments(source: Any, rec: Any, spec: Any, start: int = 0, stop: Optional[int] = None
+                      ) -> Optional[Moments]:  # fmt: skip
+    """The classical COF's statistics over the samples in contact of ``start``..``stop`` (one more reading)."""
+    got = _blocks(source, rec, int(start), stop)
+    if got is None:
+        return None
+    total = np.zeros(SHAPE)
+    for _, piece in got[1]:
+        y, z = in_contact(piece["fy"], piece["fz"], spec)
+        total += ratio_sums(y, z)
+    n = int(round(total[:, 0, 0].sum()))
+    return Moments("classical", total / n, n) if n else None
+
+
+def _read_forces(source: Any, rec: Any) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+    if rec is not None:
+        d = rec.read(["fy", "fz"])
+        return np.asarray(d["fy"], dtype=float), np.asarray(d["fz"], dtype=float)
+    if isinstance(source, Mapping):
+        return np.asarray(source["fy"], dtype=float), np.asarray(source["fz"], dtype=float)
+    if isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) for a in source):
+        return (np.concatenate([np.asarray(a["fy"], dtype=float) for a in source]),
+                np.concatenate([np.asarray(a["fz"], dtype=float) for a in source]))  # fmt: skip
+    return None
+
+
+def stroke_moments(source: Any, rec: Any, strokes: Mapping[str, np.ndarray], spec: Any, fraction: float
+                   ) -> Optional[Moments]:  # fmt: skip
+    """The per-stroke COF's statistics: each stroke's central samples weighted as the mean over cycles weighs them.
+
+    The headline is the mean over the cycles holding both directions of
+    (forward mean + backward mean) / 2, each direction's mean over its
+    strokes in the cycle (``kernels.strokes.cycle_table``): a stroke's samples
+    weigh 1 / (2 C m n) (C cycles, m strokes of its direction in its
+    cycle, n its samples).
+    """
+    forces = _read_forces(source, rec)
+    if forces is None:
+        return None
+    fy, fz = forces
+    spec = spec or ClassicalSpec(0.0)
+    cyc = np.asarray(strokes["cycle"], dtype=np.int64)
+    d = np.asarray(strokes["direction"], dtype=np.int64)
+    mu = np.asarray(strokes["mu"], dtype=float)
+    ok = np.isfinite(mu)
+    valid = [c for c in np.unique(cyc) if np.any(ok & (cyc == c) & (d == 1)) and np.any(ok & (cyc == c) & (d == -1))]
+    if not valid:
+        return None
+    total = np.zeros(SHAPE)
+    n_used = 0
+    for c in valid:
+        for sign in (1, -1):
+            ks = np.flatnonzero(ok & (cyc == c) & (d == sign))
+            for k in ks.tolist():
+                a, b = int(strokes["start"][k]), int(strokes["stop"][k])
+                m = b - a
+                c0 = a + int(round(m * (1 - fraction) / 2))
+                c1 = max(c0 + 1, a + int(round(m * (1 + fraction) / 2)))
+                y, z = in_contact(fy[c0:c1], fz[c0:c1], spec)
+                if not y.size:
+                    continue
+                n_used += y.size
+                total += ratio_sums(y, z) / (2.0 * len(valid) * ks.size * y.size)
+    return Moments("per-stroke", total, n_used)
+
+
+def statistics_of(res: Results, source: Any, rec: Any, spec: Any, span: Tuple[int, Optional[int]]
+                  ) -> Optional[Moments]:  # fmt: skip
+    """The statistics of ``res``'s headline read from ``source`` (classical, per-stroke) or its table (dynamic)."""
+    head = res.headline
+    if head.method == "dynamic":
+        return dynamic_moments(res)
+    if head.method == "per-stroke" and res.strokes is not None:
+        return stroke_moments(source, rec, res.strokes, spec, float(res.params.get("stroke_fraction", 0.5)))
+    if head.method == "classical" and spec is not None and res.classical is not None:
+        return classical_moments(source, rec, spec, span[0], span[1])
+    return None
+
+
+def with_budget(res: Results, stats: Optional[Moments]) -> Results:
+    """``res`` holding ``stats``, its headline with the budget (the dynamic bootstrap is not run again)."""
+    out = dataclasses.replace(res, budget_stats=stats)
+    for key in ("verdict", "mu_r_ci"):  # cached results that the statistics do not change
+        if key in res.__dict__:
+            out.__dict__[key] = res.__dict__[key]
+    if "headline" in res.__dict__:
+        head = res.__dict__["headline"]
+        kept = tuple(r for r in head.reasons if not r.startswith(NO_BUDGET))
+        out.__dict__["headline"] = attach(out, dataclasses.replace(head, uncertainty=None, reasons=kept))
+    return out

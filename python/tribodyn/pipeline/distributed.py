@@ -1,0 +1,385 @@
+"""Many recordings, and very long ones, on a Dask cluster: ``analyze_many``.
+
+Scaling out rests on two properties of :func:`tribodyn.analyze`: a window's
+result depends only on its own samples, and ranges of a recording analysed
+separately give exactly the windows of one pass when they are cut on the
+window grid (``analyze(start=...)``). So the work is split into pure tasks,
+one per recording or per range of a long recording, that take a *path*
+(workers read the files themselves; no arrays cross the network) and return
+the kernel's per-window statistics, not yet finished. Each recording's
+ranges are then joined and finished once (``tribodyn.pipeline.analyze.combine``):
+its orientation (docs/method.md 0) and the noise on fz of the corrected
+estimator (docs/method.md 3c) come from all its windows, exactly as one
+serial pass would.
+
+Tasks are pure (same input, same output, no side effects), so a task lost
+with a worker is simply recomputed: nothing is lost or counted twice. A
+recording that fails (corrupt file, missing channel) is reported with its
+error and does not stop the others.
+
+Dask is optional (``pip install "tribodyn[dask]"``); with ``client=None`` the
+same tasks run serially in this process.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import glob
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, cast
+
+import numpy as np
+
+from ..results import Results
+from .analyze import Partial, analyze_partial, combine
+from .plan import Plan, make_plan
+
+__all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
+
+DASK_HINT = 'this needs Dask: pip install "tribodyn[dask]"'
+
+
+@dataclass(frozen=True)
+class RecordingFailure:
+    """A recording that could not be analysed: its error, as text."""
+
+    path: str
+    error: str
+    kind: str
+
+
+@dataclass(frozen=True)
+class ManyResults:
+    """Results of :func:`analyze_many`.
+
+    Attributes
+    ----------
+    results : dict of str -> Results
+        Per recording (keyed by the path as given), in input order.
+    failures : dict of str -> RecordingFailure
+        Recordings that failed, with their error.
+    tasks : int
+        Tasks run (recordings x ranges).
+    """
+
+    results: Dict[str, Results]
+    failures: Dict[str, RecordingFailure] = field(default_factory=dict)
+    tasks: int = 0
+
+    @property
+    def table(self) -> Dict[str, np.ndarray]:
+        """All windows of all recordings in one table, with a ``recording`` column first."""
+        if not self.results:
+            return {"recording": np.zeros(0, dtype=str)}
+        names = list(self.results)
+        first = self.results[names[0]]
+        out: Dict[str, np.ndarray] = {"recording": np.concatenate([np.full(len(self.results[n]), n) for n in names])}
+        for col in first.table:
+            out[col] = np.concatenate([self.results[n].table[col] for n in names])
+        return out
+
+    @property
+    def headlines(self) -> Dict[str, np.ndarray]:
+        """One row per recording: its headline (:class:`tribodyn.Headline`, docs/method.md 6e), in input order.
+
+        Columns ``recording``, ``method``, ``value``, ``low``, ``high``,
+        ``statistic``, ``n`` and ``fraction_used``; a failed recording is
+        not a row (see :attr:`failures`).
+        """
+        heads = [(name, r.headline) for name, r in self.results.items()]
+        cols: Dict[str, np.ndarray] = {"recording": np.asarray([n for n, _ in heads], dtype=str)}
+        for key in ("method", "statistic"):
+            cols[key] = np.asarray([getattr(h, key) for _, h in heads], dtype=str)
+        for key in ("value", "low", "high", "fraction_used"):
+            cols[key] = np.asarray([getattr(h, key) for _, h in heads], dtype=float)
+        cols["n"] = np.asarray([h.n for _, h in heads], dtype=np.int64)
+        return cols
+
+    def to_pandas(self) -> Any:
+        """The combined table as a ``pandas.DataFrame``."""
+        import pandas as pd
+
+        return pd.DataFrame(self.table)
+
+    def summary(self) -> Dict[str, Any]:
+        """Per-recording summaries and the failures."""
+        return {
+            "recordings": {name: r.summary() for name, r in self.results.items()},
+            "failures": {name: {"error": f.error, "kind": f.kind} for name, f in self.failures.items()},
+            "tasks": self.tasks,
+        }
+
+
+def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]]) -> List[str]:
+    """Files from paths, directories (their files, sorted) and glob patterns, in order, without repeats."""
+    items = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
+    out: List[str] = []
+    for item in items:
+        s = str(item)
+        p = Path(s)
+        if p.is_dir():
+            found = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
+        elif any(c in s for c in "*?["):
+            found = sorted(q for q in glob.glob(s) if Path(q).is_file())
+            if not found:
+                raise FileNotFoundError(f"no file matches {s!r}")
+        else:
+            found = [s]
+        out.extend(q for q in found if q not in out)
+    if not out:
+        raise FileNotFoundError(f"no input files in {inputs!r}")
+    return out
+
+
+# -- tasks (module-level and pure, so Dask can ship and retry them) -----------
+
+
+def _failure(path: str, exc: BaseException) -> RecordingFailure:
+    return RecordingFailure(path=path, error=f"{type(exc).__name__}: {exc}", kind=type(exc).__name__)
+
+
+def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float], RecordingFailure]:
+    """(n_samples, fs) of a recording, read from its header, or its failure."""
+    from ..io import open_recording
+
+    try:
+        with open_recording(path, **open_options) as rec:
+            return int(rec.n_samples), float(rec.fs)
+    except Exception as exc:  # a task reports, never raises: one bad file must not stop the rest
+        return _failure(path, exc)
+
+
+def range_task(
+    path: str, open_options: Dict[str, Any], options: Union[Dict[str, Any], Plan], start: int, stop: Optional[int]
+) -> Union[Partial, RecordingFailure]:
+    """The kernel's statistics of the windows of samples ``start:stop`` of one recording, not yet finished.
+
+    The ranges of a recording are finished together by :func:`_combine`
+    (recording-wide orientation and noise on fz, docs/method.md 3c).
+    ``options`` are analyze's options, or a :class:`~tribodyn.Plan` (this
+    range's copy of it: its ``start`` and ``stop`` are the range's).
+    """
+    from ..io import open_recording
+
+    try:
+        with open_recording(path, **open_options) as rec:
+            if isinstance(options, Plan):
+                return analyze_partial(rec, dataclasses.replace(options, start=start, stop=stop))
+            fs = options.get("fs") or rec.fs
+            opts = {k: v for k, v in options.items() if k != "fs"}
+            # The recording itself, so that analyze reads the range the
+            # fastest way its format allows (a float64 .npy: straight from
+            # the file's pages).
+            return analyze_partial(rec, fs=fs, start=start, stop=stop, **opts)
+    except Exception as exc:  # reported per recording, see plan_task
+        return _failure(path, exc)
+
+
+def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Optional[float]
+            ) -> List[Tuple[int, Optional[int]]]:  # fmt: skip
+    """Sample ranges on the window grid, each holding whole windows: none lost, none twice.
+
+    The grid is the analysis's: the plan's, or window and hop as ``analyze``
+    chooses them from the options and the rate (docs/method.md 6b).
+    """
+    if split_s is None:
+        return [(0, None)]
+    if isinstance(options, Plan):
+        grid = options
+    else:
+        try:
+            grid = make_plan(fs=fs, window=options.get("window"), hop=options.get("hop"))
+        except (TypeError, ValueError):
+            return [(0, None)]  # a bad window or hop: the task reports it, per recording
+    length, step, hop = grid.length, grid.step, grid.hop
+    n_windows = 0 if n < length else (n - length) // step + 1
+    per = max(1, int(split_s // hop))  # windows per range
+    out: List[Tuple[int, Optional[int]]] = []
+    for k0 in range(0, n_windows, per):
+        k1 = min(k0 + per, n_windows)
+        out.append((k0 * step, (k1 - 1) * step + length))
+    return out or [(0, None)]
+
+
+def _combine(parts: List[Partial]) -> Results:
+    """One recording's ranges joined in order and finished once (docs/method.md 0, 3c): the one-pass table.
+
+    Each part's plan carries the orientation asked for; "auto" is fixed
+    here, from all the windows.
+    """
+    return combine(parts)
+
+
+def _runner(client: Any, progress: bool) -> Callable[[Callable[..., Any], List[Tuple[Any, ...]]], List[Any]]:
+    if client is not None and not (callable(getattr(client, "submit", None)) and hasattr(client, "gather")):
+        raise TypeError(
+            f"client must be a dask.distributed.Client (or None to run serially), got {type(client).__name__}; "
+            "tribodyn.pipeline.distributed.local_client() starts a local cluster"
+        )
+    if client is None:
+
+        def serial(fn: Callable[..., Any], args: List[Tuple[Any, ...]]) -> List[Any]:
+            if not progress:
+                return [fn(*a) for a in args]
+            from ._progress import progress_bar
+
+            bar = progress_bar(len(args), unit="task", desc=fn.__name__.replace("_task", ""))
+            out = []
+            for a in args:
+                out.append(fn(*a))
+                if bar is not None:
+                    bar.update(1)
+            if bar is not None:
+                bar.close()
+            return out
+
+        return serial
+
+    def run(fn: Callable[..., Any], args: List[Tuple[Any, ...]]) -> List[Any]:
+        # The tasks are pure functions of their arguments, so a task lost with
+        # its worker is simply recomputed (retries). Keys are unique per call
+        # (pure=False) so each call computes afresh rather than reusing a
+        # result the cluster still holds from an earlier call.
+        futures = [client.submit(fn, *a, pure=False, retries=3) for a in args]
+        if progress:
+            from dask.distributed import progress as show
+
+            cast(Any, show)(futures)
+        out: List[Any] = client.gather(futures)
+        return out
+
+    return run
+
+
+def analyze_many(
+    paths: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]],
+    plan: Optional[Plan] = None,
+    *,
+    client: Any = None,
+    open_options: Optional[Dict[str, Any]] = None,
+    split: Optional[float] = None,
+    chunk: Optional[float] = None,
+    progress: bool = False,
+    **analyze_options: Any,
+) -> ManyResults:
+    """Analyses many recordings, and long ones in ranges, serially or on Dask.
+
+    Parameters
+    ----------
+    paths : path, directory, glob pattern, or a sequence of them
+        Recording files (see :func:`tribodyn.open_recording`).
+    plan : Plan, optional
+        The analysis's settings checked once (:func:`tribodyn.make_plan`),
+        for recordings sampled at ``plan.fs``; no other analysis option with it.
+    client : dask.distributed.Client, optional
+        Run the tasks on this cluster (workers must reach the files at the
+        same paths). None: run them here, one after the other.
+    open_options : dict, optional
+        Passed to ``open_recording`` (channels, scale, fs, format, ...).
+    split : float, optional
+        Cut each recording into ranges of about this many seconds (aligned
+        to the window grid), one task each, so a very long recording uses
+        several workers. None: one task per recording.
+    chunk : float, optional
+        Seconds read per chunk inside a task (``analyze``'s ``chunk``;
+        default: its own). Never changes a result.
+    progress : bool
+        Show the tasks' progress (Dask's progress bar on a cluster).
+    **analyze_options
+        Options of :func:`tribodyn.analyze` (window, hop, highpass,
+        orientation, temperature, area_mm2, ...). A temperature log applies
+        to every recording.
+
+    Returns
+    -------
+    ManyResults
+        Per-recording results identical to ``analyze`` run on each file
+        serially, and the failures with their errors.
+    """
+    files = expand_paths(paths)
+    open_options = dict(open_options or {})
+    options = dict(analyze_options)
+    options.pop("start", None)
+    if plan is not None:
+        if not isinstance(plan, Plan):
+            raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
+        if options:
+            raise TypeError(f"analyze_many(..., plan=...) takes no other analysis options: {sorted(options)}")
+        if plan.align is not None:
+            raise ValueError("analyze_many does not align (align='auto' reads a recording twice): use analyze per file")
+        if chunk is not None:
+            plan = dataclasses.replace(plan, chunk=max(1, int(round(chunk * plan.fs))))
+    if options.get("align") is not None:
+        raise ValueError("analyze_many does not align (align='auto' reads a recording twice): use analyze per file")
+    if options.get("stick_slip") or (plan is not None and plan.stick_slip):
+        raise ValueError("analyze_many analyses ranges apart, not stick-slip (stick_slip=True): call "
+                         "tribodyn.stick_slip(path, res) for each recording, or analyze per file")  # fmt: skip
+    if split is not None and not split > 0:
+        raise ValueError(f"split must be > 0 seconds, got {split!r}")
+    run = _runner(client, progress)
+
+    if split is None:
+        plans: List[Any] = [None] * len(files)  # the files' (n_samples, fs), read only to split them
+    else:
+        plans = run(plan_task, [(f, open_options) for f in files])
+    jobs: List[Tuple[int, Tuple[Any, ...]]] = []
+    failures: Dict[str, RecordingFailure] = {}
+    for i, (f, head) in enumerate(zip(files, plans)):
+        if isinstance(head, RecordingFailure):
+            failures[f] = head
+            continue
+        if head is None:
+            ranges: List[Tuple[int, Optional[int]]] = [(0, None)]
+        else:
+            n, fs = head
+            fs = options.get("fs") or fs
+            ranges = _ranges(n, fs, plan if plan is not None else options, split)
+        opts: Union[Dict[str, Any], Plan]
+        if plan is not None:
+            opts = plan
+        else:
+            opts = dict(options, chunk=chunk) if chunk is not None else dict(options)
+        for a, b in ranges:
+            jobs.append((i, (f, open_options, opts, a, b)))
+    outputs = run(range_task, [args for _, args in jobs])
+
+    by_file: Dict[int, List[Any]] = {}
+    for (i, _), out in zip(jobs, outputs):
+        by_file.setdefault(i, []).append(out)
+    results: Dict[str, Results] = {}
+    for i, f in enumerate(files):
+        if f in failures or i not in by_file:
+            continue
+        parts = by_file[i]
+        bad = next((p for p in parts if isinstance(p, RecordingFailure)), None)
+        if bad is not None:
+            failures[f] = bad
+            continue
+        results[f] = _combine(parts)
+    ordered_failures = {f: failures[f] for f in files if f in failures}
+    return ManyResults(results=results, failures=ordered_failures, tasks=len(jobs))
+
+
+def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
+    """A ``dask.distributed.Client`` on a LocalCluster of worker processes."""
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:
+        raise ImportError(DASK_HINT) from exc
+    cluster = cast(Any, LocalCluster)(
+        n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0"
+    )
+    return cast(Any, Client)(cluster)
+
+
+def connect(address: str, workers: int = 2) -> Any:
+    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes)."""
+    if address == "local":
+        return local_client(workers)
+    try:
+        from dask.distributed import Client
+    except ImportError as exc:
+        raise ImportError(DASK_HINT) from exc
+    return cast(Any, Client)(address)

@@ -1,0 +1,394 @@
+"""The finishing step of :func:`tribodyn.analyze`: the kernel's statistics as a table (docs/method.md 0, 3-7).
+
+:func:`finish` fixes the orientation once for the recording, computes each
+window's mu_r by the plan's estimator with its interval (docs/method.md
+3a-3e), applies the gate (5), joins the covariates (6, 7a) and lays the
+table out as :data:`tribodyn.columns.TABLE` declares it. :func:`settle`
+then adds the headline's sums and keeps the warnings of the method in use
+(6e).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..columns import TABLE
+from ..kernels._validate import resolve_orientation
+from ..kernels.contact_loss import mark_contact_loss
+from ..kernels.estimators import (  # fmt: skip
+    T975,
+    WEAK_INSTRUMENT,
+    Sums,
+    gate_precision,
+    line_stats,
+    pooled_noise,
+    quadratic,
+    reverse_slope,
+    slopes,
+    window_noise,
+)
+from ..kernels.quantiles import Z975
+from ..kernels.window_stats import gate_reasons, orient
+from ..results import ClassicalTotals, Results
+from ..results.headline import instrument_check
+from .covariates import branch, evaluate, interpolate, log_quality
+from .plan import Covariates, Findings, Plan
+
+__all__ = ["finish", "settle", "sign_of_total_slope", "WEAK_INSTRUMENT", "ALIGN_MIN"]
+
+Stats = Dict[str, np.ndarray]
+
+
+def settle(res: Results, classical: Optional[Callable[[], Optional[ClassicalTotals]]] = None) -> Results:
+    """The results with their headline's sums and the warnings of the method in use (docs/method.md 6e).
+
+    ``classical`` reads the classical COF's sums over the whole recording;
+    it is called only when the verdict makes the classical COF the headline
+    (a recording whose headline is the dynamic COF is not read again). The
+    dynamic estimator's notes (``params["dynamic_notes"]``) are dropped
+    when the headline is not the dynamic COF; a difference of the
+    instrument's COF from the headline over 0.5 % is explained in a warning.
+    """
+    v = res.verdict
+    if classical is not None and res.classical is None and not v["dynamic_method"] and v["motion"] != "reciprocating":
+        res = dataclasses.replace(res, classical=classical())
+    head = res.headline
+    notes = set(res.params.get("dynamic_notes") or ())
+    kept = [w for w in res.warnings if head.method == "dynamic" or w not in notes]
+    _, more = instrument_check(res, head)
+    out = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*kept, *more))))
+    for key in ("headline", "verdict", "mu_r_ci"):  # cached results that do not depend on the warnings
+        if key in res.__dict__:
+            out.__dict__[key] = res.__dict__[key]
+    return out
+
+
+def _merged(st: Stats, a: str, b: str) -> float:
+    """The centred cross-product S_ab of all windows merged (within + between windows; a, b in "z", "y").
+
+    ``st`` holds per-window ``n``, ``mean_z``, ``mean_y`` and the within-window
+    sums ``szz``, ``syy``, ``syz``.
+    """
+    n = np.asarray(st["n"], dtype=float)
+    ma, mb = st[f"mean_{a}"], st[f"mean_{b}"]
+    within = st["syz"] if {a, b} == {"z", "y"} else st[f"s{a}{b}"]
+    if "out_of_range" in st and np.any(st["out_of_range"]):  # NaN moments (docs/method.md 4): left out
+        keep = ~np.asarray(st["out_of_range"], dtype=bool)
+        n, ma, mb, within = n[keep], ma[keep], mb[keep], within[keep]
+    if n.sum() == 0:
+        return float("nan")
+    w = n / n.sum()
+    da = ma - np.sum(w * ma)
+    db = mb - np.sum(w * mb)
+    return float(np.sum(within) + np.sum(n * da * db))
+
+
+def sign_of_total_slope(st: Stats) -> float:
+    """S_xy of fy on fz of all windows merged (within + between parts): its sign is the slope's.
+
+    ``st`` holds per-window ``n``, ``mean_z``, ``mean_y`` and ``syz``.
+    """
+    return _merged(st, "z", "y")
+
+
+def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, route: str = "",
+           warnings: Sequence[str] = (), span: Optional[Tuple[int, Optional[int]]] = None) -> Results:  # fmt: skip
+    """The kernel's per-window statistics (orientation +1) as a :class:`Results` (docs/method.md 0, 5, 6).
+
+    Fixes the orientation once for all windows, applies the gate, joins the
+    covariates and lays the table out as :data:`tribodyn.columns.TABLE`
+    declares it. ``st`` is consumed (its arrays are flipped in place).
+    ``warnings`` (the reader's) are kept, each once. ``span``: the sample
+    range analysed when not the plan's (the ranges of :func:`tribodyn.combine`).
+    """
+    start, stop = span if span is not None else (plan.start, plan.stop)
+    if len(st["n"]) == 0:
+        raise _no_window(plan, start, stop)
+    fs, cov = plan.fs, plan.covariates
+    s = resolve_orientation(plan.orientation, sign_of_total_slope(st))
+    moments = {k: np.asarray(st[k], dtype=float) for k in ("n", "mean_z", "mean_y", "syz")}
+    confidence = _orientation_confidence(st, s) if plan.orientation == "auto" and not plan.paper else {}
+    o = orient(st, s, inplace=True)
+    t_start = o["t0"] if "t0" in o else o["start"] / fs
+    n_win = np.asarray(o["n"], dtype=np.int64)
+    centre = t_start + 0.5 * n_win / fs
+    seen: Dict[str, Any] = {}
+    notes: List[str] = []
+    if not plan.paper:  # where the instrument lag comes from (docs/method.md 3b)
+        rpm_lag = plan.rpm is not None and plan.iv_lag == int(round(60.0 * fs / float(plan.rpm)))
+        seen["iv_lag_rule"] = ("data" if found.iv_lag else "default") if plan.iv_lag_from_data else (
+            "rpm" if rpm_lag else "given")  # fmt: skip
+    stats_cols = _statistics(o, plan, found.delay, s, found=seen, notes=notes, lag=plan.lag(found))
+    o.update(stats_cols)
+    skew_gate = o.get("skew_lag")
+    reasons = gate_reasons(o, plan.gate, skew_gate, rel_ci=stats_cols.get("rel_ci"), max_rel_ci=plan.max_rel_ci)
+    if confidence:
+        seen.update(confidence)
+        if confidence["orientation_agreement"] < 0.9 or abs(confidence["orientation_r"]) < 0.2:
+            notes.append(
+                f"orientation 'auto' is uncertain: the whole recording's r is {confidence['orientation_r']:+.2f} and "
+                f"{100 * confidence['orientation_agreement']:.0f} % of the windows agree with s = {s:+d}; pass "
+                "orientation= if you know the sign"
+            )
+
+    def nan() -> np.ndarray:  # a fresh column each time: no two table columns share memory
+        return np.full(len(centre), np.nan)
+
+    cur = _current(o, aux_role, cov, centre)
+    log = cov.temperature
+    cov_notes: List[str] = []  # not the dynamic method's: kept whichever COF is the headline
+    speed, extra = _covariate_columns(o, cov, centre, cov_notes)
+    if "stroke_reversal" in o and np.any(o["stroke_reversal"]):  # docs/method.md 6c
+        reasons = np.asarray(reasons, dtype=object).copy()
+        for k in np.flatnonzero(o["stroke_reversal"]):
+            reasons[k] = "; ".join(r for r in (reasons[k], "stroke reversal in the window") if r)
+    if not plan.paper:  # the paper's preset keeps the paper's gate exactly
+        reasons = mark_contact_loss(reasons, o, cur / cov.area_mm2 if cov.area_mm2 is not None else cur)  # method.md 7
+    values: Stats = {
+        **o,
+        "time": centre,
+        "t_start": t_start,
+        "skew": o["skew"] if "skew" in o else nan(),
+        "h1_f0": o.get("h1_f0", nan()),
+        "h1_fl": o.get("h1_fl", nan()),
+        "coherence_fl": o.get("coherence_fl", nan()),
+        "ok": np.asarray(reasons == "", dtype=bool),
+        "reasons": reasons.astype(str),
+        "T": interpolate(log, centre) if log is not None else nan(),
+        "branch": branch(log, centre) if log is not None else np.zeros(len(centre), dtype=np.int8),
+        **log_quality(log, centre),  # T_uncertainty, T_gap (docs/method.md 6)
+        "i": cur,
+        "J": cur / cov.area_mm2 if cov.area_mm2 is not None else nan(),
+        "speed": speed,
+        "mu_instrument": o["mu_instrument"] if "mu_instrument" in o else nan(),
+        # one classical column (docs/method.md 6a): the contact rule's; the paper's Sec. 5 mean over fz != 0 of
+        # the raw forces with method="paper" or without a contact rule (highpass on a fz with no static level)
+        "mu_classical": o["mu_classic"]
+        if "mu_classic" in o and (plan.paper or "mu_classical" not in o)
+        else o.get("mu_classical", nan()),
+        "mu_classical_median": o["mu_classical_median"] if "mu_classical_median" in o else nan(),
+        "fz_mean": o["fz_mean"] if "fz_mean" in o else (nan() if plan.raw else np.asarray(moments["mean_z"])),
+        "fz_std": o["fz_std"] if "fz_std" in o else _fz_std(o, plan),
+        "n": n_win,
+        "acquisition": o.get("acquisition", np.zeros(len(centre), dtype=np.int64)),
+    }
+    table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
+    table.update(extra)  # the other covariate logs, after the declared columns (docs/method.md 7a)
+    params = plan.params()
+    params.update(orientation_used=s, start=start, stop=stop, threads=plan.threads, route=route)
+    params.update(seen)
+    params["dynamic_notes"] = list(notes)  # the dynamic method's own notes (settle drops them when it does not apply)
+    warnings = list(warnings) + notes + cov_notes
+    return Results(
+        table=table,
+        bin_counts=np.asarray(o["bin_count"], dtype=np.int64),
+        bin_cof=o["bin_cof"],
+        fz_min=o["fz_min"],
+        fz_max=o["fz_max"],
+        orientation=s,
+        params=params,
+        moments=moments,
+        warnings=tuple(dict.fromkeys(str(w) for w in warnings)),
+    )
+
+
+def _no_window(plan: Plan, start: int, stop: Optional[int]) -> ValueError:
+    """The error of an analysis that holds no whole window."""
+    w = plan.window
+    if stop is not None:
+        return ValueError(
+            f"samples {start}..{stop} hold no whole window ({w:g} s = {plan.length} samples, "
+            f"starting every {plan.step} samples from sample 0): no window to analyse"
+        )
+    return ValueError(
+        f"the recording is shorter than one window ({w:g} s = {plan.length} samples): no window to analyse"
+    )
+
+
+def _current(o: Stats, aux_role: Optional[str], cov: Covariates, centre: np.ndarray) -> np.ndarray:
+    """The current at each window (A): the source's i or u channel, else its log (docs/method.md 6)."""
+    if aux_role == "i":
+        return np.asarray(o["aux_mean"])
+    if aux_role == "u":
+        return np.asarray(o["aux_mean"] / float(cov.shunt_ohm or np.nan))
+    if cov.current is not None:
+        return evaluate(cov.current, centre)
+    if cov.voltage is not None:
+        return np.asarray(evaluate(cov.voltage, centre) / float(cov.shunt_ohm or np.nan))
+    return np.full(len(centre), np.nan)
+
+
+def _covariate_columns(o: Stats, cov: Any, centre: np.ndarray, notes: List[str]
+                       ) -> Tuple[np.ndarray, Dict[str, np.ndarray]]:  # fmt: skip
+    """The ``speed`` column and the other covariate logs' columns at the window centres (docs/method.md 7a).
+
+    The speed is the kernel's mean |v| of a velocity channel, unless a speed
+    log is given: that log's magnitude then (said in a note when both exist).
+    """
+    logs = dict(cov.logs)
+    speed = np.asarray(o["speed"], dtype=float) if "speed" in o else np.full(len(centre), np.nan)
+    if "speed" in logs:
+        if "speed" in o:
+            notes.append("the speed log given replaces the mean |v| of the velocity channel v in the speed column")
+        speed = np.abs(evaluate(logs.pop("speed"), centre))
+    return speed, {name: evaluate(log, centre) for name, log in logs.items()}
+
+
+#: A recording-wide fz delay (samples) above which align="auto" corrects it
+#: and align=None warns (docs/method.md 3e).
+ALIGN_MIN = 0.05
+
+
+def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str, Any], notes: List[str],
+                lag: Optional[int] = None) -> Stats:  # fmt: skip
+    """mu_r by the plan's estimator, its interval, the force dependence and the line statistics (docs/method.md 3a-3e).
+
+    ``o`` holds the oriented kernel statistics (``mu_r`` = s * OLS slope);
+    returns the columns that replace or join them. ``found`` gets what the
+    recording revealed (for ``params``), ``notes`` the warnings; ``delay0`` is
+    the fz delay already corrected in every window (``align="auto"``); ``lag``
+    the instrument lag of the kernel's sums (default ``plan.iv_lag``).
+
+    When the noise on fz cannot be measured (no valid instrument) and the
+    estimator falls back to least squares, that slope is a lower bound of
+    |mu|: each window's interval then reaches up to the reverse regression's
+    slope (``mu_r_high``), and ``params["mu_r_bound"] = "lower"`` with
+    ``params["attenuation_gap"]`` (median over windows of the reverse minus
+    the least-squares slope) widen the summary's and the headline's
+    intervals (docs/method.md 3b, 3d).
+    """
+    lag = plan.iv_lag if lag is None else int(lag)
+
+    k = len(o["n"])
+    mu_ols = np.array(o["mu_r"], dtype=float)
+    if plan.paper:
+        se = np.asarray(o["mu_r_stderr"], dtype=float)
+        out: Stats = {"mu_ols": mu_ols, "mu_r_low": mu_ols - Z975 * se, "mu_r_high": mu_ols + Z975 * se}
+        for name in ("attenuation_p", "dmu_dfn", "dmu_dfn_stderr", "dmu_dfn_low", "dmu_dfn_high"):
+            out[name] = np.full(k, np.nan)
+        out["noise_z_var"] = np.full(k, np.nan)
+        out["mu_r_dnoise"] = np.zeros(k)  # OLS shares no estimate between windows
+        if "skew" in o:
+            out["skew_lag"] = o["skew"]
+        return out
+    E = Sums(o.pop("ext"))
+    n = np.asarray(o["n"])
+    found["iv_lag_samples"] = lag
+    pooled = None
+    bound = False  # the fallback to least squares: mu_r is a lower bound of |mu| (docs/method.md 3b)
+    if plan.estimator == "corrected" and plan.noise is None:
+        pooled = pooled_noise(E, n)
+        if not np.isfinite(pooled[0]):
+            notes.append(
+                f"the noise on fz could not be measured (instrument lag {lag} samples needs windows longer "
+                "than twice it): mu_r is the least-squares slope, a lower bound; pass iv_lag= or noise="
+            )
+            pooled = (0.0, 0.0)
+            bound = True
+        found["noise_z_std"] = float(np.sqrt(pooled[0]))
+    sl = slopes(E, n, plan.estimator, noise=plan.noise, pooled=pooled)
+    r_inst = sl.instrument_r[np.isfinite(sl.instrument_r)]
+    found["instrument_r"] = float(np.median(r_inst)) if r_inst.size else float("nan")
+    weak = bool(r_inst.size) and abs(found["instrument_r"]) < WEAK_INSTRUMENT
+    if weak and pooled is not None and pooled != (0.0, 0.0):
+        # A weak instrument cannot measure the noise on fz: least squares, said so.
+        pooled = (0.0, 0.0)
+        found["noise_z_std"] = 0.0
+        sl = slopes(E, n, plan.estimator, noise=plan.noise, pooled=pooled)
+        bound = True
+        notes.append(
+            f"the noise on fz could not be measured: the instrument (fz lagged by {lag} samples) is weak "
+            f"(median r = {found['instrument_r']:.2f}), so mu_r is the least-squares slope, a lower bound (its "
+            "intervals reach up to the reverse regression's slope); pass rpm= (a lag of one revolution), iv_lag= "
+            "or noise= (docs/method.md 3b)"
+        )
+    elif weak and plan.estimator == "iv":
+        notes.append(
+            f"the instrument (fz lagged by {lag} samples) is weak: median r = {found['instrument_r']:.2f}; "
+            "IV slopes are imprecise; pass rpm= (a lag of one revolution) or iv_lag= (docs/method.md 3b)"
+        )
+    mu = s * sl.slope
+    se = sl.se
+    a2, a2_se = quadratic(E, n, instrumented=plan.estimator != "ols")
+    rel, found["gate_se_ratio"], found["gate_cof"] = gate_precision(mu, se, sl.se_white)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = {
+            "mu_r": mu,
+            "mu_r_stderr": se,
+            "noise_z_var": window_noise(E, n),
+            "mu_r_dnoise": s * sl.dnoise,
+            "mu_r_low": mu - T975 * se,
+            "mu_r_high": mu + T975 * se,
+            "mu_ols": mu_ols,
+            "attenuation_p": sl.attenuation_p,
+            "dmu_dfn": s * a2,
+            "dmu_dfn_stderr": a2_se,
+            "dmu_dfn_low": s * a2 - T975 * a2_se,
+            "dmu_dfn_high": s * a2 + T975 * a2_se,
+            "f_y0": o["mean_y"] - sl.slope * o["mean_z"],
+            "force_dependence": (o["mu_b"] - o["mu_a"]) / mu,
+            "rel_ci": rel,
+        }
+    if bound:  # least squares, attenuated by the noise on fz: up to the reverse regression (docs/method.md 3d)
+        _lower_bound(E, s, out, found)
+    if "skew" in o:
+        out["skew_lag"] = o["skew"]
+    if "spec" in o:
+        ls = line_stats(o.pop("spec"), plan.lines, s)
+        index = dict(plan.line_index)
+        out["skew"] = ls["skew"]
+        if "f0" in index:
+            out["h1_f0"] = ls["h1"][:, index["f0"]]
+        if "fl" in index:
+            out["h1_fl"] = ls["h1"][:, index["fl"]]
+            out["coherence_fl"] = ls["coherence"][:, index["fl"]]
+        sk = ls["skew"][np.isfinite(ls["skew"])]
+        delay = float(np.median(sk)) if sk.size else float("nan")
+        found["skew_median"] = delay + delay0 if np.isfinite(delay) else delay
+        if plan.align is None and np.isfinite(delay) and abs(delay) > ALIGN_MIN:
+            notes.append(
+                f"fz lags fy by {delay:+.2f} samples (cross-spectral phase at the rig's lines, median over windows): "
+                "mu_r is biased low by it; analyze(..., align='auto') corrects it (docs/method.md 3e)"
+            )
+    return out
+
+
+def _lower_bound(E: Any, s: int, out: Stats, found: Dict[str, Any]) -> None:
+    """Least squares as a lower bound (docs/method.md 3b, 3d): each window's ``mu_r_high`` up to the reverse
+    regression's slope plus t_{0.975,4} of its standard error; ``found`` gets ``mu_r_bound`` and the
+    median gap between the reverse and the least-squares slope (``attenuation_gap``)."""
+
+    b_rev, se_rev = reverse_slope(E)
+    high = s * b_rev + T975 * se_rev
+    out["mu_r_high"] = np.where(np.isfinite(high), np.maximum(high, out["mu_r_high"]), out["mu_r_high"])
+    gap = s * b_rev - out["mu_r"]
+    gap = gap[np.isfinite(gap)]
+    found["mu_r_bound"] = "lower"
+    found["attenuation_gap"] = float(max(np.median(gap), 0.0)) if gap.size else float("nan")
+
+
+def _fz_std(o: Stats, plan: Plan) -> np.ndarray:
+    """Per-window standard deviation of fz from the kernel's centred sum of squares (NaN without it)."""
+    if "szz" not in o:
+        return np.full(len(o["n"]), np.nan)
+    n = np.asarray(o["n"], dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        std: np.ndarray = np.sqrt(np.asarray(o["szz"], dtype=float) / n)
+        return std
+
+
+def _orientation_confidence(st: Stats, s: int) -> Dict[str, float]:
+    """The recording's Pearson r of fy and fz (windows merged) and the fraction of windows whose slope has sign s."""
+    n = np.asarray(st["n"], dtype=float)
+    slope = np.asarray(st["slope"], dtype=float)
+    good = np.isfinite(slope) & (slope != 0)
+    agree = float(np.mean(np.sign(slope[good]) == s)) if good.any() else float("nan")
+    r = float("nan")
+    if "szz" in st and "syy" in st and n.sum() > 0:
+        szz, syy = _merged(st, "z", "z"), _merged(st, "y", "y")
+        if szz > 0 and syy > 0:
+            r = _merged(st, "z", "y") / float(np.sqrt(szz * syy))
+    return {"orientation_r": r, "orientation_agreement": agree}

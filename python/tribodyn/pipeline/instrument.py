@@ -1,0 +1,185 @@
+"""The instrument's lag chosen from the data before the windows (docs/method.md 3b).
+
+:func:`lag_profile` measures, on a bounded sample of windows (pooled over
+acquisitions), the instrument's strength r(L) and the IV slope b(L) of fy on
+fz lagged by L, for every lag L < n / 2; :func:`choose_lag` takes the
+shortest lag past the noise's correlation time at which the instrument is
+strong; :func:`sample_windows` reads the windows the profile is measured on.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Any, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+__all__ = ["STRONG", "AGREE_T", "SAMPLE_WINDOWS", "LagProfile", "lag_profile", "choose_lag", "sample_windows"]
+
+#: The instrument is strong at a lag where the median over windows of |r(w, fz)| is at least this.
+STRONG = 0.5
+#: A lag is past the noise's correlation time when its IV slope differs from the reference lag's by at
+#: most this many standard errors of the difference (and so does every strong lag up to twice it).
+AGREE_T = 3.0
+#: Windows read for the profile at most (the first ones of the analysed samples, acquisition by acquisition).
+SAMPLE_WINDOWS = 64
+
+
+@dataclass(frozen=True)
+class LagProfile:
+    """r(L) and b(L) for L = 0..max_lag (index = lag) over ``windows`` windows; ``t`` against ``ref``."""
+
+    r: np.ndarray
+    b: np.ndarray
+    t: np.ndarray
+    ref: int
+    windows: int
+
+
+def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int) -> Optional[LagProfile]:
+    """The instrument's strength and IV slope at every lag 0..max_lag over ``segments`` (fy, fz) of equal length.
+
+    Per window (centred), A(L) = sum_t z_t z_{t-L} and C(L) = sum_t y_t z_{t-L}
+    (t >= L; by FFT); r(L) = median over windows of (A(L) / (n - L)) / (A(0) / n);
+    b(L) = sum C(L) / sum A(L) over the windows. The reference lag is the
+    strongest among the longer half (L >= max_lag / 2); t(L) is
+    (b(L) - b(ref)) over the batch-means standard error of that difference
+    with the windows as batches. None with fewer than 4 windows or max_lag < 2.
+    """
+    segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
+    from .. import _core
+
+    lim = float(_core.FORCE_LIMIT)  # a window holding a sample beyond it is out of range (docs/method.md 4)
+    segs = [(y, z) for y, z in segs if y.size == z.size and y.size > 2 * max_lag
+            and np.all(np.abs(y) <= lim) and np.all(np.abs(z) <= lim)]  # fmt: skip
+    if len(segs) < 4 or max_lag < 2:
+        return None
+    n = segs[0][0].size
+    segs = [(y, z) for y, z in segs if y.size == n]
+    m = 1 << int(np.ceil(np.log2(2 * n)))
+    scale = max(float(np.max(np.abs(z))) for _, z in segs) or 1.0  # r and b do not depend on a common scale
+    segs = [(y / scale, z / scale) for y, z in segs]
+    Y = np.fft.rfft(np.stack([y - y.mean() for y, _ in segs]), m)
+    Z = np.fft.rfft(np.stack([z - z.mean() for _, z in segs]), m)
+    A = np.fft.irfft(Z * np.conj(Z), m)[:, : max_lag + 1]
+    C = np.fft.irfft(Y * np.conj(Z), m)[:, : max_lag + 1]
+    lags = np.arange(max_lag + 1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = np.median((A / (n - lags)) / (A[:, :1] / n), axis=0)
+        sa = A.sum(axis=0)
+        b = C.sum(axis=0) / sa
+        lo = max(2, max_lag // 2)
+        if not np.isfinite(r[lo:]).any():
+            return None
+        ref = lo + int(np.nanargmax(np.abs(r[lo:])))
+        U = C - b * A
+        phi = U / sa - (U[:, ref] / sa[ref])[:, None]
+        k = len(segs)
+        se = np.sqrt(k / (k - 1) * np.sum(phi * phi, axis=0))
+        t = (b - b[ref]) / se
+    t[ref] = 0.0
+    return LagProfile(r=r, b=b, t=t, ref=ref, windows=k)
+
+
+def choose_lag(p: Optional[LagProfile], weak: float) -> Optional[int]:
+    """The shortest lag past the noise's correlation time at which the instrument is strong (docs/method.md 3b).
+
+    Past the correlation time: the lag's IV slope agrees with the reference
+    lag's (|t| <= :data:`AGREE_T`), and so does every strong lag up to twice
+    it. Strong: |r| >= :data:`STRONG`. None when no lag qualifies or the
+    reference lag itself is weak (|r| < ``weak``): no valid instrument found.
+    """
+    if p is None or not abs(p.r[p.ref]) >= weak:
+        return None
+    strong = np.abs(p.r) >= STRONG
+    agree = np.abs(p.t) <= AGREE_T
+    ok = np.where(strong, agree, True)
+    top = len(p.r) - 1
+    for L in range(2, top + 1):
+        if strong[L] and np.all(ok[L : min(2 * L, top) + 1]):
+            return L
+    return None
+
+
+def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: Optional[int] = None,
+                   limit: int = SAMPLE_WINDOWS) -> List[Tuple[np.ndarray, np.ndarray]]:  # fmt: skip
+    """The first ``limit`` windows of ``length`` samples of (fy, fz), tiling, never across two acquisitions.
+
+    ``source`` a mapping of arrays or a list of them (acquisitions), or
+    ``rec`` a recording (its segments are acquisitions); [] for a one-pass
+    stream (which cannot be read twice: the plan's default lag then).
+    """
+    if rec is not None:
+        if not all(r in getattr(rec, "roles", {}) for r in ("fy", "fz")):
+            return []
+        n_tot = int(rec.n_samples) if stop is None else min(int(stop), int(rec.n_samples))
+        segs = getattr(rec, "segments", None) or [(0, n_tot)]
+        ranges = _spread([(max(a, start), min(b, n_tot)) for a, b in segs], length, limit)
+        if not ranges:
+            return []
+        lo, hi = ranges[0][0], ranges[-1][1]
+        if getattr(rec, "random_access", False) and hasattr(rec, "read_ranges"):  # as the pre-pass reads
+            got = rec.read_ranges(ranges, ["fy", "fz"])
+            fy, fz = np.asarray(got["fy"], float), np.asarray(got["fz"], float)
+            return [(fy[k * length : (k + 1) * length], fz[k * length : (k + 1) * length]) for k in range(len(ranges))]
+        if getattr(rec, "random_access", False):
+            parts = list(rec.chunks(hi - lo, ["fy", "fz"], start=lo, stop=hi))
+        else:  # from the start: the first windows only
+            parts, lo = list(rec.chunks(hi, ["fy", "fz"], stop=hi)), 0
+        fy = np.concatenate([np.asarray(p["fy"], float) for p in parts])
+        fz = np.concatenate([np.asarray(p["fz"], float) for p in parts])
+        return [(fy[a - lo : b - lo], fz[a - lo : b - lo]) for a, b in ranges]
+    if isinstance(source, Mapping):
+        acqs: Sequence[Any] = [source]
+    elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) for a in source):
+        acqs = source
+    else:
+        return []
+    if not all("fy" in a and "fz" in a for a in acqs):
+        return []
+    bounds, at = [], 0
+    for a in acqs:
+        size = min(len(a["fy"]), len(a["fz"]))
+        bounds.append((at, at + size))
+        at += size
+    if len(acqs) == 1:
+        bounds = [(max(start, 0), bounds[0][1] if stop is None else min(stop, bounds[0][1]))]
+    out = []
+    for a, b in _spread(bounds, length, limit):
+        k = next(i for i, (u, v) in enumerate(bounds) if u <= a < v) if len(acqs) > 1 else 0
+        off = a - (bounds[k][0] if len(acqs) > 1 else 0)
+        acq = acqs[k]
+        out.append((np.asarray(acq["fy"][off : off + length], float), np.asarray(acq["fz"][off : off + length], float)))
+    return out
+
+
+def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[Tuple[int, int]]:
+    """The first ``limit`` ranges of ``length`` samples tiling the (start, stop) bounds.
+
+    The first ones, whatever the source: a mapping, a random-access or a
+    sequential recording of the same samples give the same lag.
+    """
+    tiles = ((a + j * length, a + (j + 1) * length) for a, b in bounds if b - a >= length
+             for j in range((b - a) // length))  # fmt: skip
+    return list(itertools.islice(tiles, limit))
+
+
+def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bool = False) -> Optional[int]:
+    """:func:`choose_lag` on :func:`sample_windows` of the analysed samples, when the plan leaves the lag to the data.
+
+    ``whole``: from the recording's first windows, not the plan's range
+    (the ranges of one recording, :func:`tribodyn.analyze_partial`, then share
+    one lag with the analysis of the whole). None (the plan's default lag) with ``method="paper"``, a given ``iv_lag``
+    or ``rpm``, a reciprocating test, a one-pass stream or no valid lag.
+    """
+    from ..kernels.estimators import WEAK_INSTRUMENT
+
+    if plan.paper or not plan.iv_lag_from_data or pre.get("motion") == "reciprocating":
+        return None
+    n = int(plan.length)
+    if rec is not None and not whole:
+        windows = sample_windows(source, rec, n, start=plan.start, stop=plan.stop)
+    else:
+        windows = sample_windows(source, rec, n)
+    return choose_lag(lag_profile(windows, (n - 1) // 2), WEAK_INSTRUMENT)

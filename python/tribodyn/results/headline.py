@@ -1,0 +1,391 @@
+"""The one COF a user reads first: :class:`Headline`, chosen from a Results by its verdict
+(docs/method.md 6e).
+
+* :class:`ClassicalTotals`: the classical COF's sums per block of the whole recording (read in one pass
+  by :func:`tribodyn.pipeline.headline.classical_totals`, docs/method.md 6a).
+* :func:`choose`: the headline of a :class:`tribodyn.Results`: the dynamic COF when the dynamic method
+  applies, else the classical COF of the whole recording (unidirectional) or the per-stroke COF
+  (reciprocating).
+* :func:`instrument_check`: the instrument's own COF over the headline's samples.
+
+Every function here reads a Results' fields (duck-typed: ``table``, ``params``, ``strokes``,
+``classical``, ``mu_r_ci``, ``gated``) and imports only the kernels below it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..kernels.stats import BATCHES, batch_mean, bootstrap_ci, noise_resample, ratio_mean
+from ..kernels.strokes import cycle_means
+from ..kernels.uncertainty import Uncertainty
+from .budget import attach
+
+__all__ = ["HEADLINE_METHODS", "ClassicalTotals", "Headline", "choose", "instrument_check"]
+
+Results = Any  # a tribodyn.Results (this module sits below it: results/__init__.py imports it)
+
+
+#: The methods a headline can come from (docs/method.md 6e).
+HEADLINE_METHODS = ("dynamic", "classical", "per-stroke")
+
+
+#: An instrument COF that differs from the classical COF by more than this (relative) is explained in a warning.
+INSTRUMENT_TOLERANCE = 0.005
+
+
+@dataclass(frozen=True)
+class Headline:
+    """The COF of a recording that a user reads first (docs/method.md 6e).
+
+    Attributes
+    ----------
+    method : str
+        "dynamic" (regression of the dynamic forces, docs/method.md 3-5),
+        "classical" (mean |fy|/|fz| over every sample in contact, 6a) or
+        "per-stroke" (mean over cycles of the forward/backward stroke means, 6c).
+    value : float
+        The COF; NaN when the method that applies yields none (``reasons`` says why).
+    low, high : float
+        Its 95 % interval (``interval`` says how it is computed).
+    statistic : str
+        "median" (dynamic: the paper's median over gated windows) or "mean"
+        (classical and per-stroke, as instruments report).
+    n : int
+        Windows (dynamic), samples (classical) or cycles (per-stroke) behind the value.
+    fraction_used : float
+        Share of the recording's samples that the value uses.
+    reasons : tuple of str
+        Why the dynamic method does not apply, and why there is no value (with what to pass).
+    estimate : str
+        How the value is computed, in words.
+    interval : str
+        How the interval is computed, in words.
+    bound : str
+        "lower" when the value is a lower bound of the COF (least squares
+        attenuated by noise on fz that no valid instrument could measure;
+        the interval then reaches up to the reverse regression, docs/method.md 3d), else "".
+    uncertainty : Uncertainty or None
+        With ``analyze(uncertainty=...)``, the combined uncertainty of the
+        instrument and the statistics and its budget (docs/method.md 6i);
+        None: ``low``, ``high`` are the statistical interval only.
+    """
+
+    method: str
+    value: float
+    low: float
+    high: float
+    statistic: str
+    n: int
+    fraction_used: float
+    reasons: Tuple[str, ...] = ()
+    estimate: str = ""
+    interval: str = ""
+    bound: str = ""
+    uncertainty: Optional["Uncertainty"] = None
+
+    @property
+    def ok(self) -> bool:
+        """True when there is a value."""
+        return math.isfinite(self.value)
+
+    @property
+    def text(self) -> str:
+        """The headline in one line, e.g. 'COF 0.1492 (95 % interval 0.1481 to 0.1503): classical, mean ...'."""
+        if not self.ok:
+            why = "; ".join(self.reasons) if self.reasons else "nothing to compute it from"
+            return f"No {self.method} COF: {why}."
+        lb = f" ({self.bound} bound)" if self.bound else ""
+        if self.uncertainty is not None:  # docs/method.md 6i
+            return f"COF {self.uncertainty.text}{lb}: {self.method}, {self.estimate}."
+        iv = ""
+        if math.isfinite(self.low):
+            iv = f" (95 % interval {self.low:#.4g} to {self.high:#.4g}, statistical only)"
+        return f"COF {self.value:#.4g}{lb}{iv}: {self.method}, {self.estimate}."
+
+    @property
+    def short(self) -> str:
+        """'classical COF 0.1492 (95 % 0.1427 to 0.1557)' or 'no classical COF' (for ``repr``)."""
+        if not self.ok:
+            return f"no {self.method} COF"
+        if self.uncertainty is not None:
+            return f"{self.method} COF {self.uncertainty.text}"
+        iv = f" (95 % {self.low:#.4g} to {self.high:#.4g})" if math.isfinite(self.low) else ""
+        return f"{self.method} COF {self.value:#.4g}{iv}"
+
+    def __str__(self) -> str:
+        return self.text
+
+    def __call__(self) -> str:
+        """``res.headline()`` was a method returning the text: it still does, with a DeprecationWarning."""
+        import warnings
+
+        warnings.warn(
+            "Results.headline is a Headline object now: use res.headline.text (or str(res.headline))",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return self.text
+
+    def to_dict(self) -> Dict[str, Any]:
+        """JSON-ready: NaN as None, ``text`` added."""
+
+        def num(v: float) -> Optional[float]:
+            return float(v) if math.isfinite(v) else None
+
+        return {
+            "method": self.method,
+            "value": num(self.value),
+            "low": num(self.low),
+            "high": num(self.high),
+            "statistic": self.statistic,
+            "n": int(self.n),
+            "fraction_used": num(self.fraction_used),
+            "reasons": list(self.reasons),
+            "estimate": self.estimate,
+            "interval": self.interval,
+            "bound": self.bound,
+            "uncertainty": None if self.uncertainty is None else self.uncertainty.to_dict(),
+            "text": self.text,
+        }
+
+
+@dataclass(frozen=True)
+class ClassicalTotals:
+    """The classical COF's sums per block of the recording (docs/method.md 6a, 6e).
+
+    Block k holds samples ``k * block`` .. ``(k + 1) * block`` of the
+    recording (the grid does not depend on the analysed range, so that the
+    ranges of :func:`tribodyn.analyze_many` add up). A sample is in contact
+    when fy and fz are finite and ``|fz - tare_fz| >= min_fn`` (and > 0).
+    """
+
+    block: int
+    ids: np.ndarray
+    count: np.ndarray
+    ratio_sum: np.ndarray
+    signed_sum: np.ndarray
+    inst_count: np.ndarray
+    inst_sum: np.ndarray
+    samples: int
+
+    @property
+    def contact(self) -> int:
+        """Samples in contact."""
+        return int(self.count.sum())
+
+    def mean(self) -> Tuple[float, float, float, int]:
+        """:func:`ratio_mean` of the blocks."""
+        return ratio_mean(self.ratio_sum, self.count)
+
+    def instrument_mean(self) -> float:
+        n = float(self.inst_count.sum())
+        return float(self.inst_sum.sum()) / n if n > 0 else float("nan")
+
+    def signed_mean(self) -> float:
+        n = float(self.count.sum())
+        return float(self.signed_sum.sum()) / n if n > 0 else float("nan")
+
+    @staticmethod
+    def merge(parts: Sequence["ClassicalTotals"]) -> "ClassicalTotals":
+        """The totals of consecutive ranges of one recording (blocks cut by a range edge are added)."""
+        ids = np.unique(np.concatenate([p.ids for p in parts]))
+        out = {k: np.zeros(ids.size) for k in ("count", "ratio_sum", "signed_sum", "inst_count", "inst_sum")}
+        for p in parts:
+            pos = np.searchsorted(ids, p.ids)
+            for k in out:
+                np.add.at(out[k], pos, getattr(p, k))
+        return ClassicalTotals(block=parts[0].block, ids=ids, samples=sum(p.samples for p in parts), **out)
+
+
+def instrument_check(res: "Results", head: Headline) -> Tuple[Dict[str, Any], List[str]]:
+    """The instrument's COF over the headline's samples, and a warning when it differs by over 0.5 %."""
+    out: Dict[str, Any] = {}
+    notes: List[str] = []
+    tot = res.classical
+    if head.method == "classical" and tot is not None and tot.inst_count.sum() > 0 and head.ok:
+        inst = tot.instrument_mean()
+        out = {"mean": inst, "n": int(tot.inst_count.sum()), "over": "the headline's samples"}
+    elif head.method == "per-stroke" and res.strokes is not None and head.ok:
+        st = res.strokes
+        ins = np.asarray(st.get("mu_instrument", []), dtype=float)
+        if np.isfinite(ins).any():
+            inst = float(np.nanmean(cycle_means({**st, "mu": ins})))
+            out = {"mean": inst, "n": int(np.isfinite(ins).sum()), "over": "the same stroke centres, per cycle"}
+    if not out or not np.isfinite(out["mean"]):
+        return {}, []
+    diff = (out["mean"] - head.value) / head.value if head.value else float("nan")
+    out["difference"] = diff
+    if np.isfinite(diff) and abs(diff) > INSTRUMENT_TOLERANCE:
+        hint = ""
+        if head.method == "classical" and tot is not None:
+            sm = tot.signed_mean()
+            if np.isfinite(sm) and abs(abs(sm) - out["mean"]) < abs(head.value - out["mean"]):
+                hint = f"; the signed mean fy/fz ({sm:.4g}) is closer: the instrument may keep the sign"
+        notes.append(
+            f"the instrument's COF column averages {out['mean']:.4g} over {out['over']}, {100 * diff:+.2f} % from "
+            f"the {head.method} COF {head.value:.4g}: the instrument may use another tare, normal-force threshold, "
+            f"filter or averaging{hint}"
+        )
+    return out, notes
+
+
+def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
+    """The headline of ``res``, chosen by ``verdict`` (``tribometer.verdict``; docs/method.md 6e)."""
+    total = res.params.get("n_samples_total")
+    total = int(total) if isinstance(total, (int, np.integer)) and total > 0 else 0
+    why = tuple(str(r) for r in verdict.get("reasons") or ())
+    if verdict.get("dynamic_method"):
+        head = _dynamic(res, total)
+    elif verdict.get("motion") == "reciprocating":
+        head = _per_stroke(res, total, why)
+    else:
+        head = _classical(res, total, why)
+    if res.params.get("uncertainty"):  # the instrument's budget (docs/method.md 6i)
+        head = attach(res, head)
+    return head
+
+
+def _dynamic(res: "Results", total: int) -> Headline:
+
+    ok = np.asarray(res.table["ok"], dtype=bool)
+    mu = np.asarray(res.table["mu_r"], dtype=float)
+    keep = ok & np.isfinite(mu)
+    v = mu[keep]
+    est = res.params.get("estimator") or "ols"
+    used = float(np.asarray(res.table["n"])[keep].sum())
+    frac = used / total if total else float("nan")
+    interval = "moving-block bootstrap of the median over the gated windows (docs/method.md 3d)"
+    st = res.strokes
+    if res.params.get("rectified") and st is not None and len(st.get("direction", [])):
+        # Reciprocating (docs/method.md 6e): each direction's median, then their mean (a cycle's COF); the
+        # median of the pooled two-valued set would be one direction's value.
+        d = np.asarray(st["direction"])[np.asarray(res.table["acquisition"], dtype=np.int64)[keep]]
+        meds, halves = [], []
+        for sign in (1, -1):
+            part = v[d == sign]
+            sel = keep.copy()
+            sel[keep] = d == sign
+            ci = bootstrap_ci(part, noise=noise_resample(res.table, sel), threads=res._threads).get("median")
+            if part.size:
+                meds.append(float(np.median(part)))
+                halves.append(0.5 * (ci[1] - ci[0]) if ci else float("nan"))
+        if len(meds) == 2:
+            m = 0.5 * (meds[0] + meds[1])
+            h = 0.5 * float(np.hypot(halves[0], halves[1]))
+            return Headline(
+                method="dynamic", value=m, low=m - h, high=m + h, statistic="median", n=int(v.size),
+                fraction_used=frac,
+                estimate=(f"mean of the forward ({meds[0]:.4g}) and backward ({meds[1]:.4g}) medians of mu_r "
+                          f"({est} estimator, direction-rectified strokes) over {v.size} gated windows of {len(res)}"),
+                interval="each direction's median by moving-block bootstrap, half-widths combined in quadrature / 2",
+            )  # fmt: skip
+    # the recording's fz-noise estimate is drawn anew in each resample (docs/method.md 3d); summary() shares it
+    ci = res.mu_r_ci.get("median")
+    rect = ", direction-rectified strokes" if res.params.get("rectified") else ""
+    bound = "lower" if res.params.get("mu_r_bound") == "lower" else ""
+    if bound:  # docs/method.md 3d: least squares attenuated by the noise on fz, which no instrument could measure
+        rect += "; least squares, a lower bound: no valid instrument measured the noise on fz"
+        interval += ", its upper end raised to the reverse regression's slope"
+    return Headline(
+        method="dynamic",
+        value=float(np.median(v)) if v.size else float("nan"),
+        low=ci[0] if ci else float("nan"),
+        high=ci[1] if ci else float("nan"),
+        statistic="median",
+        n=int(v.size),
+        fraction_used=frac,
+        estimate=f"median of mu_r ({est} estimator{rect}) over {v.size} gated windows of {len(res)}",
+        interval=interval,
+        bound=bound,
+    )
+
+
+def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
+    tot: Optional[ClassicalTotals] = res.classical
+    interval = f"batch means over up to {BATCHES} contiguous blocks of the recording (docs/method.md 6e)"
+    note = (res.params.get("contact") or {}).get("note")
+    if note:  # the tare from the unloaded samples is uncertain (docs/method.md 6a)
+        why = why + (str(note),)
+    if tot is not None and tot.contact:
+        m, lo, hi, b = tot.mean()
+        excluded = tot.samples - tot.contact
+        return Headline(
+            method="classical",
+            value=m,
+            low=lo,
+            high=hi,
+            statistic="mean",
+            n=tot.contact,
+            fraction_used=tot.contact / total if total else float("nan"),
+            reasons=why,
+            estimate=(
+                f"mean |fy|/|fz| over the {tot.contact} samples in contact of the whole recording"
+                + (f" ({excluded} samples without contact excluded)" if excluded else "")
+            ),
+            interval=interval,
+        )
+    c = np.asarray(res.table.get("mu_classical", []), dtype=float)
+    n = np.asarray(res.table.get("n", []), dtype=float)
+    fin = np.isfinite(c)
+    if tot is None and fin.any():  # a one-pass stream: only the windows were seen
+        m, lo, hi, b = ratio_mean(np.where(fin, c * n, 0.0), np.where(fin, n, 0.0))
+        return Headline(
+            method="classical", value=m, low=lo, high=hi, statistic="mean", n=int(n[fin].sum()),
+            fraction_used=float(n[fin].sum()) / total if total else float("nan"),
+            reasons=why + ("a one-pass stream: the classical COF is the mean over the windows' samples only",),
+            estimate="sample-weighted mean of the windows' classical COF", interval=interval,
+        )  # fmt: skip
+    if "static_fz" not in res.params and "min_fn" not in res.params:
+        need = (
+            "a one-pass stream cannot be looked at before the windows: pass min_fn= (and tare= offsets) for the "
+            "classical COF of its windows"
+        )
+    elif res.params.get("static_fz") is False or "min_fn" not in res.params:
+        need = (
+            "fz carries no static level (high-passed or AC-coupled forces?): the classical COF needs the raw "
+            "normal force; record it DC-coupled, or pass min_fn= / --min-fn N if fz is raw"
+        )
+    else:
+        need = (
+            f"no sample has |fz| >= min_fn = {res.params.get('min_fn'):.4g} N: pass a lower min_fn= / --min-fn N "
+            "or the tare (--tare)"
+        )
+    return Headline(method="classical", value=float("nan"), low=float("nan"), high=float("nan"), statistic="mean",
+                    n=0, fraction_used=0.0, reasons=why + (need,), estimate="", interval=interval)  # fmt: skip
+
+
+def _per_stroke(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
+    st = res.strokes
+    interval = f"batch means over up to {BATCHES} contiguous groups of cycles (docs/method.md 6e)"
+    if st is None or not len(st.get("mu", [])):
+        need = "no strokes were found (a one-pass stream cannot be cut into strokes: pass arrays or a file)"
+        return Headline(method="per-stroke", value=float("nan"), low=float("nan"), high=float("nan"),
+                        statistic="mean", n=0, fraction_used=0.0, reasons=why + (need,), interval=interval)  # fmt: skip
+    cyc = cycle_means(st)
+    m, lo, hi, b = batch_mean(cyc)
+    used = float(np.asarray(st["n"], dtype=float).sum())
+    n_cyc = int(np.isfinite(cyc).sum())
+    if not n_cyc:
+        need = "no cycle holds a forward and a backward stroke with samples in contact"
+        return Headline(method="per-stroke", value=float("nan"), low=float("nan"), high=float("nan"),
+                        statistic="mean", n=0, fraction_used=0.0, interval=interval, reasons=why + (need,))  # fmt: skip
+    return Headline(
+        method="per-stroke",
+        value=m,
+        low=lo,
+        high=hi,
+        statistic="mean",
+        n=n_cyc,
+        fraction_used=used / total if total else float("nan"),
+        reasons=why,
+        estimate=(
+            f"mean over {n_cyc} cycle{'s' if n_cyc != 1 else ''} of the mean of the forward and backward "
+            f"strokes' mean |fy|/|fz| (central {res.params.get('stroke_fraction', 0.5):g} of each stroke)"
+        ),
+        interval=interval,
+    )

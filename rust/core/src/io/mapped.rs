@@ -1,0 +1,913 @@
+//! Windows of a recording whose channels are runs of little-endian f64 in
+//! one file (a channels-first float64 `.npy`, say), read by the kernel
+//! itself block by block, with no Python per chunk, so memory stays flat
+//! whatever the recording's length.
+//!
+//! A block is a run of consecutive windows. Its samples of every channel
+//! are read with `pread` into buffers each thread keeps from one block to
+//! the next (small enough to stay in cache between the read and the
+//! windows), its windows computed in order on one thread with the next
+//! window prefetched. Blocks run in parallel (the calling thread and scoped
+//! helpers, as many in all as the caller names) and are placed in order, so
+//! the results are those of [`crate::numerics::windows::windows_stats`] on the same
+//! samples, bit for bit.
+//!
+//! Reading, not memory-mapping: a file truncated or overwritten while it is
+//! read gives an error (a short read), never a SIGBUS that kills the
+//! process, as touching a mapped page past the end of a file does.
+//!
+//! Raw (DC-coupled) forces are high-passed on the way
+//! ([`windows_stats_mapped_highpass`]): the filter runs through the blocks
+//! in order, carrying its state, one block ahead of the windows, so that
+//! filtering block b + 1 and computing the windows of block b run at the
+//! same time on two threads.
+
+use crate::error::KernelError;
+use crate::numerics::iir::{self, Section};
+use crate::numerics::windows::{windows_stats_serial, Channels, WindowOptions, WindowStats};
+use std::fs::File;
+
+const F64: u64 = std::mem::size_of::<f64>() as u64;
+
+/// Where a channel's samples lie in the file.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// Sample 0 at this byte; the samples follow contiguously as little-endian f64.
+    F64(u64),
+    /// Any layout: runs of samples of one numeric type (see [`Extents`]).
+    Extents(std::sync::Arc<Extents>),
+}
+
+impl From<u64> for Source {
+    fn from(off: u64) -> Self {
+        Source::F64(off)
+    }
+}
+
+/// Where each channel's samples lie in the file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FileLayout {
+    pub fx: Option<Source>,
+    pub fy: Source,
+    pub fz: Source,
+    /// Auxiliary channel (current or shunt voltage), averaged per window.
+    pub aux: Option<Source>,
+    /// Samples per channel.
+    pub n: usize,
+}
+
+impl FileLayout {
+    fn sources(&self) -> [Option<&Source>; 4] {
+        [self.fx.as_ref(), Some(&self.fy), Some(&self.fz), self.aux.as_ref()]
+    }
+}
+
+/// Numeric types a channel's samples may be stored as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Num {
+    I8,
+    I16,
+    I32,
+    I64,
+    U8,
+    U16,
+    U32,
+    U64,
+    F32,
+    F64,
+}
+
+impl Num {
+    /// Bytes per sample.
+    pub fn width(self) -> u64 {
+        match self {
+            Num::I8 | Num::U8 => 1,
+            Num::I16 | Num::U16 => 2,
+            Num::I32 | Num::U32 | Num::F32 => 4,
+            Num::I64 | Num::U64 | Num::F64 => 8,
+        }
+    }
+
+    /// NumPy's name of the type ("i2", "f8", ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            Num::I8 => "i1",
+            Num::I16 => "i2",
+            Num::I32 => "i4",
+            Num::I64 => "i8",
+            Num::U8 => "u1",
+            Num::U16 => "u2",
+            Num::U32 => "u4",
+            Num::U64 => "u8",
+            Num::F32 => "f4",
+            Num::F64 => "f8",
+        }
+    }
+
+    /// The type of NumPy's name ("i2", "f8", ...).
+    pub fn from_name(s: &str) -> Option<Num> {
+        [Num::I8, Num::I16, Num::I32, Num::I64, Num::U8, Num::U16, Num::U32, Num::U64, Num::F32, Num::F64]
+            .into_iter()
+            .find(|n| n.name() == s)
+    }
+}
+
+/// Runs of samples of a channel: samples `start .. start + count` lie at
+/// `offset + i * stride`, inside the byte range `chunk` (the file's block
+/// that holds them with other channels' samples: read once for all
+/// channels when it is small); then, `reps` times in all, the next `count`
+/// samples lie the same way `period` bytes further (segments of equal
+/// layout one after another, as a logger writes them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Extent {
+    pub start: u64,
+    pub count: u64,
+    pub offset: u64,
+    pub stride: u64,
+    pub chunk: (u64, u64),
+    pub reps: u64,
+    pub period: u64,
+}
+
+impl Extent {
+    /// One run (`reps` 1).
+    pub fn single(count: u64, offset: u64, stride: u64, chunk: (u64, u64)) -> Self {
+        Extent { start: 0, count, offset, stride, chunk, reps: 1, period: 0 }
+    }
+
+    /// Samples in all repetitions.
+    pub fn total(&self) -> u64 {
+        self.count.saturating_mul(self.reps)
+    }
+
+    /// Offset and chunk of repetition `r`.
+    fn rep(&self, r: u64) -> (u64, (u64, u64)) {
+        let d = r * self.period;
+        (self.offset + d, (self.chunk.0 + d, self.chunk.1 + d))
+    }
+}
+
+/// Scaling applied to the samples after conversion to f64, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Op {
+    /// `x * slope + intercept`.
+    Linear { slope: f64, intercept: f64 },
+    /// `c[0] + x * (c[1] + x * (...))`, evaluated as NumPy's `polyval`
+    /// (Horner, starting from `c[last] + x * 0`); no coefficients give 0.
+    Poly(Vec<f64>),
+}
+
+/// A channel stored as extents of one numeric type and byte order, with
+/// scaling: a TDMS channel (segments, interleaved rows, DAQmx raw
+/// integers), an HDF5 dataset's chunks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Extents {
+    pub num: Num,
+    pub big_endian: bool,
+    /// In order of `start`, from 0, without gaps.
+    pub parts: Vec<Extent>,
+    pub ops: Vec<Op>,
+}
+
+/// A chunk at most this long is read whole, once for all channels.
+const SMALL_CHUNK: u64 = 1 << 20;
+
+impl Extents {
+    /// Samples of the channel.
+    pub fn len(&self) -> u64 {
+        self.parts.last().map_or(0, |e| e.start + e.total())
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// One past the last byte the extents read.
+    pub fn end(&self) -> u64 {
+        let last = |e: &Extent| e.reps.saturating_sub(1).saturating_mul(e.period);
+        self.parts.iter().map(|e| e.chunk.1.max(self.part_end(e)).saturating_add(last(e))).max().unwrap_or(0)
+    }
+
+    fn part_end(&self, e: &Extent) -> u64 {
+        if e.count == 0 {
+            e.offset
+        } else {
+            e.offset.saturating_add((e.count - 1).saturating_mul(e.stride)).saturating_add(self.num.width())
+        }
+    }
+
+    /// Checks the extents are in order without gaps, lie inside their
+    /// chunks (each sample inside its row), and end by byte `size`.
+    pub fn check(&self, size: u64) -> Result<(), KernelError> {
+        let mut next = 0u64;
+        let w = self.num.width();
+        for e in &self.parts {
+            if e.start != next {
+                return Err(invalid(format!("extent at sample {} does not follow sample {next}", e.start)));
+            }
+            let outside = e.stride < w
+                || e.offset < e.chunk.0
+                || self.part_end(e) > e.chunk.1
+                || (e.stride > w && (e.offset - e.chunk.0) % e.stride + w > e.stride);
+            if e.count > 0 && outside {
+                return Err(invalid(format!("extent at byte {} lies outside its block", e.offset)));
+            }
+            let last_end =
+                e.reps.checked_sub(1).and_then(|r| r.checked_mul(e.period)).and_then(|d| e.chunk.1.checked_add(d));
+            if e.reps == 0 || last_end.is_none_or(|x| x > size) || e.chunk.0 > e.chunk.1 {
+                return Err(invalid(format!(
+                    "a channel's block {}..{} ({} times every {} bytes) runs past the file's {size} bytes",
+                    e.chunk.0, e.chunk.1, e.reps, e.period
+                )));
+            }
+            let total = e.count.checked_mul(e.reps);
+            next =
+                total.and_then(|t| e.start.checked_add(t)).ok_or_else(|| invalid("extent counts overflow".into()))?;
+        }
+        Ok(())
+    }
+
+    fn plain_f64(&self) -> bool {
+        self.num == Num::F64 && !self.big_endian && self.ops.is_empty() && cfg!(target_endian = "little")
+    }
+
+    /// Samples [a, b) as f64, scaled, into `out` (cleared first). The
+    /// extents must have passed [`Extents::check`] (for any size: a file
+    /// shorter than they say is a read error here).
+    pub fn read(
+        &self,
+        file: &File,
+        a: u64,
+        b: u64,
+        out: &mut Vec<f64>,
+        cache: &mut ByteCache,
+    ) -> Result<(), KernelError> {
+        out.clear();
+        if b <= a {
+            return Ok(());
+        }
+        if b > self.len() {
+            return Err(invalid(format!("samples {a}..{b} of a channel of {} samples", self.len())));
+        }
+        out.reserve((b - a) as usize);
+        let mut i = self.parts.partition_point(|e| e.start + e.total() <= a);
+        let mut pos = a;
+        let w = self.num.width();
+        while pos < b {
+            let e = &self.parts[i];
+            if e.count == 0 || pos >= e.start + e.total() {
+                i += 1;
+                continue;
+            }
+            let r = (pos - e.start) / e.count;
+            let s = (pos - e.start) % e.count;
+            let (offset, chunk) = e.rep(r);
+            let k = (e.count - s).min(b - pos);
+            if chunk.1 - chunk.0 <= SMALL_CHUNK {
+                let bytes = cache.get(file, chunk.0, chunk.1 - chunk.0)?;
+                let from = (offset - chunk.0 + s * e.stride) as usize;
+                decode(self.num, self.big_endian, &bytes[from..], e.stride as usize, k as usize, out);
+            } else if self.plain_f64() && e.stride == F64 {
+                let at = out.len();
+                out.resize(at + k as usize, 0.0);
+                read_f64s_into(file, offset + s * F64, &mut out[at..])?;
+            } else {
+                // Whole rows of an interleaved block (shared by its channels).
+                let col = if e.stride > w { (offset - chunk.0) % e.stride } else { 0 };
+                let lo = offset - col + s * e.stride;
+                let bytes = cache.get(file, lo, k * e.stride)?;
+                decode(self.num, self.big_endian, &bytes[col as usize..], e.stride as usize, k as usize, out);
+            }
+            pos += k;
+        }
+        for op in &self.ops {
+            match op {
+                Op::Linear { slope, intercept } => out.iter_mut().for_each(|x| *x = *x * slope + intercept),
+                Op::Poly(c) => match c.split_last() {
+                    None => out.iter_mut().for_each(|x| *x = 0.0),
+                    Some((last, rest)) => out.iter_mut().for_each(|x| {
+                        let v = *x;
+                        let mut acc = last + v * 0.0;
+                        for ci in rest.iter().rev() {
+                            acc = ci + acc * v;
+                        }
+                        *x = acc;
+                    }),
+                },
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Appends `k` values of type `num` found every `stride` bytes from `bytes[0]` to `out`.
+fn decode(num: Num, big: bool, bytes: &[u8], stride: usize, k: usize, out: &mut Vec<f64>) {
+    macro_rules! conv {
+        ($t:ty) => {{
+            const W: usize = std::mem::size_of::<$t>();
+            let get = |p: &[u8]| -> f64 {
+                let a: [u8; W] = p[..W].try_into().expect("W bytes");
+                (if big { <$t>::from_be_bytes(a) } else { <$t>::from_le_bytes(a) }) as f64
+            };
+            if stride == W {
+                out.extend(bytes[..k * W].chunks_exact(W).map(get));
+            } else {
+                out.extend((0..k).map(|j| get(&bytes[j * stride..])));
+            }
+        }};
+    }
+    match num {
+        Num::I8 => conv!(i8),
+        Num::I16 => conv!(i16),
+        Num::I32 => conv!(i32),
+        Num::I64 => conv!(i64),
+        Num::U8 => conv!(u8),
+        Num::U16 => conv!(u16),
+        Num::U32 => conv!(u32),
+        Num::U64 => conv!(u64),
+        Num::F32 => conv!(f32),
+        Num::F64 => conv!(f64),
+    }
+}
+
+/// Byte ranges read for one block of samples, kept until the next block
+/// so the channels of one chunk (interleaved rows, a small segment) read
+/// it once; their memory is reused from block to block.
+#[derive(Default, Debug)]
+pub struct ByteCache {
+    entries: Vec<(u64, u64, Vec<u8>)>,
+    used: usize,
+}
+
+impl ByteCache {
+    /// Forgets the ranges read (keeps the memory).
+    pub fn begin(&mut self) {
+        self.used = 0;
+    }
+
+    fn get(&mut self, file: &File, at: u64, len: u64) -> Result<&[u8], KernelError> {
+        if let Some(i) = self.entries[..self.used].iter().position(|e| e.0 == at && e.1 == len) {
+            return Ok(&self.entries[i].2);
+        }
+        if self.used == self.entries.len() {
+            self.entries.push((0, 0, Vec::new()));
+        }
+        let slot = &mut self.entries[self.used];
+        slot.2.resize(len as usize, 0);
+        read_bytes(file, at, &mut slot.2)?;
+        slot.0 = at;
+        slot.1 = len;
+        self.used += 1;
+        Ok(&self.entries[self.used - 1].2)
+    }
+}
+
+/// Window k of the recording is samples [k * step, k * step + opt.len).
+#[derive(Debug, Clone, Copy)]
+pub struct Grid {
+    /// First window (index k) and one past the last.
+    pub k0: usize,
+    pub k1: usize,
+    pub step: usize,
+    /// Windows per block (one block is mapped and computed by one thread).
+    pub block: usize,
+}
+
+fn invalid(msg: String) -> KernelError {
+    KernelError::Invalid(msg)
+}
+
+/// Checks a layout and a grid against the file (done by every entry point;
+/// public so that callers can check before they allocate for the results).
+pub fn check(file: &File, layout: &FileLayout, grid: &Grid, opt: &WindowOptions) -> Result<(), KernelError> {
+    if cfg!(target_endian = "big") && layout.sources().into_iter().flatten().any(|s| matches!(s, Source::F64(_))) {
+        return Err(invalid("mapped files are read as little-endian f64: not on this machine".into()));
+    }
+    if grid.step == 0 || grid.block == 0 || opt.len == 0 {
+        return Err(invalid("step, block and window length must be at least 1".into()));
+    }
+    if opt.n_bins == 0 || opt.n_bins > crate::numerics::windows::MAX_BINS {
+        return Err(invalid(format!(
+            "n_bins must be in [1, {}], got {}",
+            crate::numerics::windows::MAX_BINS,
+            opt.n_bins
+        )));
+    }
+    if grid.k1 > grid.k0 {
+        let last_end = (grid.k1 - 1).checked_mul(grid.step).and_then(|s| s.checked_add(opt.len));
+        if last_end.is_none_or(|e| e > layout.n) {
+            return Err(invalid(format!(
+                "windows {}..{} of {} samples every {} run past the {} samples of the file",
+                grid.k0, grid.k1, opt.len, grid.step, layout.n
+            )));
+        }
+    }
+    let size = file.metadata().map_err(|e| invalid(format!("cannot read the file's length: {e}")))?.len();
+    for src in layout.sources().into_iter().flatten() {
+        match src {
+            Source::F64(off) => {
+                let off = *off;
+                if off % F64 != 0 {
+                    return Err(invalid(format!("channel offset {off} is not a multiple of 8 bytes")));
+                }
+                let end = (layout.n as u64).checked_mul(F64).and_then(|b| b.checked_add(off));
+                if end.is_none_or(|e| e > size) {
+                    return Err(invalid(format!(
+                        "a channel at byte {off} with {} samples runs past the file's {size} bytes",
+                        layout.n
+                    )));
+                }
+            }
+            Source::Extents(ext) => {
+                ext.check(size)?;
+                if ext.len() < layout.n as u64 {
+                    return Err(invalid(format!("a channel has {} samples, not {}", ext.len(), layout.n)));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The samples [a, b) of a layout's channels, read into buffers that are
+/// kept from one block to the next (fresh memory costs a page fault per
+/// 4 KiB on its first touch).
+#[derive(Default)]
+struct Samples {
+    /// fx, fy, fz, aux; empty where the layout has no such channel.
+    bufs: [Vec<f64>; 4],
+    present: [bool; 4],
+    cache: ByteCache,
+}
+
+impl Samples {
+    fn read(&mut self, file: &File, layout: &FileLayout, a: usize, b: usize) -> Result<(), KernelError> {
+        self.cache.begin();
+        for (i, src) in layout.sources().into_iter().enumerate() {
+            self.present[i] = src.is_some();
+            match src {
+                Some(Source::F64(off)) => read_f64s(file, off + a as u64 * F64, b - a, &mut self.bufs[i])?,
+                Some(Source::Extents(ext)) => ext.read(file, a as u64, b as u64, &mut self.bufs[i], &mut self.cache)?,
+                None => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Channel `i` (0 fx, 1 fy, 2 fz, 3 aux), None where the layout has none.
+    fn get(&self, i: usize) -> Option<&[f64]> {
+        self.present[i].then(|| self.bufs[i].as_slice())
+    }
+}
+
+/// Reads `n` little-endian f64 from byte `at` of `file` into `buf`
+/// (resized to `n`; its memory reused). A file that ends before is an
+/// error naming the bytes missing, as is any other failed read.
+fn read_f64s(file: &File, at: u64, n: usize, buf: &mut Vec<f64>) -> Result<(), KernelError> {
+    buf.resize(n, 0.0);
+    read_f64s_into(file, at, buf)
+}
+
+/// Fills `buf` with the little-endian f64 from byte `at` of `file`.
+fn read_f64s_into(file: &File, at: u64, buf: &mut [f64]) -> Result<(), KernelError> {
+    // SAFETY: the byte view covers exactly the initialised f64 of `buf`,
+    // which it borrows mutably; every byte pattern is a valid f64.
+    let bytes = unsafe { std::slice::from_raw_parts_mut(buf.as_mut_ptr() as *mut u8, std::mem::size_of_val(buf)) };
+    read_bytes(file, at, bytes)
+}
+
+/// Fills `bytes` from byte `at` of `file` (pread: no shared file position,
+/// so any number of threads may read one file).
+#[cfg(unix)]
+pub(crate) fn read_bytes(file: &File, at: u64, bytes: &mut [u8]) -> Result<(), KernelError> {
+    use std::os::unix::fs::FileExt;
+    file.read_exact_at(bytes, at).map_err(|e| {
+        let end = at + bytes.len() as u64;
+        if e.kind() == std::io::ErrorKind::UnexpectedEof {
+            invalid(format!("the file ends before byte {end}: it was truncated while it was read"))
+        } else {
+            invalid(format!("cannot read bytes {at}..{end} of the file: {e}"))
+        }
+    })
+}
+
+#[cfg(not(unix))]
+pub(crate) fn read_bytes(_file: &File, _at: u64, _bytes: &mut [u8]) -> Result<(), KernelError> {
+    Err(invalid("reading a file's samples directly needs a Unix system".into()))
+}
+
+fn block(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    b: usize,
+    samples: &mut Samples,
+) -> Result<Vec<WindowStats>, KernelError> {
+    let kb = grid.k0 + b * grid.block;
+    let ke = (kb + grid.block).min(grid.k1);
+    let a = kb * grid.step;
+    let e = (ke - 1) * grid.step + opt.len;
+    samples.read(file, layout, a, e)?;
+    let sl = |i: usize| samples.get(i);
+    let (fy, fz) = (sl(1).unwrap_or(&[]), sl(2).unwrap_or(&[]));
+    let ch = Channels { fx: sl(0), fy, fz, aux: sl(3), raw: None };
+    let starts: Vec<usize> = (kb..ke).map(|k| k * grid.step - a).collect();
+    windows_stats_serial(&ch, &starts, opt).map_err(|err| match err {
+        KernelError::NonFinite { .. } => err.shifted(a),
+        other => invalid(format!("{other} (block of samples {a}..{e})")),
+    })
+}
+
+/// Statistics of windows `grid.k0 .. grid.k1` of the channels in `file`,
+/// in order, computed on `threads` threads, a block of `grid.block`
+/// windows per task.
+pub fn windows_stats_mapped(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    threads: usize,
+) -> Result<Vec<WindowStats>, KernelError> {
+    let parts = std::sync::Mutex::new(Vec::new());
+    windows_stats_mapped_each(file, layout, grid, opt, threads, &|first, stats| {
+        parts.lock().unwrap_or_else(|e| e.into_inner()).push((first, stats));
+    })?;
+    let mut parts = parts.into_inner().unwrap_or_else(|e| e.into_inner());
+    parts.sort_by_key(|p| p.0);
+    Ok(parts.into_iter().flat_map(|p| p.1).collect())
+}
+
+/// [`windows_stats_mapped`] handing each block's windows to `sink` as soon
+/// as they are computed, on the thread that computed them:
+/// `sink(first, stats)` with `first` the index (from 0 at `grid.k0`) of
+/// `stats[0]`. Blocks arrive in any order; the caller places them. Nothing
+/// is kept here, so the memory of a block's results is reused by the next.
+pub fn windows_stats_mapped_each<F>(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    threads: usize,
+    sink: &F,
+) -> Result<(), KernelError>
+where
+    F: Fn(usize, Vec<WindowStats>) + Sync,
+{
+    check(file, layout, grid, opt)?;
+    crate::parallel::check_threads(threads)?;
+    if grid.k1 <= grid.k0 {
+        return Ok(());
+    }
+    let blocks = (grid.k1 - grid.k0).div_ceil(grid.block);
+    for_each_block(blocks, threads, |b, samples: &mut Samples| {
+        sink(b * grid.block, block(file, layout, grid, opt, b, samples)?);
+        Ok(())
+    })
+}
+
+/// Runs `f(0, s) .. f(blocks - 1, s)` on `threads` threads: the calling
+/// thread and `threads - 1` scoped helpers, each taking the next block from
+/// a shared counter and passing its own state `s` (buffers it reuses). The caller starts at once (a pool would first have to
+/// wake a sleeping worker, which on a virtual machine can cost as much as
+/// a short recording's whole analysis), and blocks are handed out one at a
+/// time, so the threads finish together. After an error no new block is
+/// started; the error of the lowest failed block is returned.
+fn for_each_block<S, F>(blocks: usize, threads: usize, f: F) -> Result<(), KernelError>
+where
+    S: Default,
+    F: Fn(usize, &mut S) -> Result<(), KernelError> + Sync,
+{
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let failed: std::sync::Mutex<Option<(usize, KernelError)>> = std::sync::Mutex::new(None);
+    let work = || {
+        let mut state = S::default();
+        while !stop.load(Ordering::Relaxed) {
+            let b = next.fetch_add(1, Ordering::Relaxed);
+            if b >= blocks {
+                break;
+            }
+            if let Err(e) = f(b, &mut state) {
+                stop.store(true, Ordering::Relaxed);
+                let mut slot = failed.lock().unwrap_or_else(|p| p.into_inner());
+                if slot.as_ref().is_none_or(|(k, _)| b < *k) {
+                    *slot = Some((b, e));
+                }
+            }
+        }
+    };
+    let helpers = threads.clamp(1, blocks.max(1)) - 1;
+    std::thread::scope(|s| {
+        for _ in 0..helpers {
+            s.spawn(work);
+        }
+        work();
+    });
+    match failed.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        Some((_, e)) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// How raw forces are high-passed before the windows (see
+/// [`windows_stats_mapped_highpass`]).
+#[derive(Debug, Clone)]
+pub struct HighPass<'a> {
+    pub sos: &'a [Section],
+    /// Initial state per section for a unit input: each force channel
+    /// starts at `zi * x[origin]` (the steady state of its first sample,
+    /// as `tribodyn.HighPass(init="steady")`).
+    pub zi: &'a [[f64; 2]],
+    /// Sample where filtering starts (at or before the first window).
+    pub origin: usize,
+}
+
+/// One block of the high-pass pipeline: its raw samples and filtered forces.
+#[derive(Default)]
+struct Filtered {
+    /// Samples [from, to) of the recording.
+    from: usize,
+    raw: Samples,
+    forces: Vec<Vec<f64>>,
+}
+
+/// Reads samples [from, to) into `buf`'s raw samples and filters the
+/// forces, carrying `state`, into its `forces` (the buffers of an earlier
+/// block, reused: fresh ones would cost a page fault per 4 KiB on first
+/// touch).
+#[allow(clippy::too_many_arguments)]
+fn filter_block(
+    file: &File,
+    layout: &FileLayout,
+    hp: &HighPass<'_>,
+    from: usize,
+    to: usize,
+    state: &mut [Vec<[f64; 2]>],
+    buf: Filtered,
+) -> Result<Filtered, KernelError> {
+    let Filtered { mut raw, mut forces, .. } = buf;
+    raw.read(file, layout, from, to)?;
+    let src: Vec<&[f64]> = (0..3).filter_map(|i| raw.get(i)).collect();
+    forces.resize_with(src.len(), Vec::new);
+    for (buf, s) in forces.iter_mut().zip(&src) {
+        // Every sample is overwritten by the filter; only a length change
+        // (the last block) writes zeros first.
+        buf.resize(s.len(), 0.0);
+    }
+    if from == hp.origin {
+        for (st, x) in state.iter_mut().zip(&src) {
+            for (z, zi) in st.iter_mut().zip(hp.zi) {
+                *z = [zi[0] * x[0], zi[1] * x[0]];
+            }
+        }
+    }
+    let mut outs: Vec<&mut [f64]> = forces.iter_mut().map(|v| v.as_mut_slice()).collect();
+    let mut states: Vec<&mut [[f64; 2]]> = state.iter_mut().map(|v| v.as_mut_slice()).collect();
+    if !iir::filter_rows(hp.sos, &src, &mut outs, &mut states) {
+        return Err(first_non_finite(layout, &src, from));
+    }
+    drop(src);
+    Ok(Filtered { from, raw, forces })
+}
+
+/// The first NaN or inf of the raw forces `src` (fx if present, fy, fz)
+/// that start at sample `from`, by sample and then channel.
+fn first_non_finite(layout: &FileLayout, src: &[&[f64]], from: usize) -> KernelError {
+    let names: &[&'static str] = if layout.fx.is_some() { &["fx", "fy", "fz"] } else { &["fy", "fz"] };
+    let n = src.first().map_or(0, |c| c.len());
+    for i in 0..n {
+        for (name, c) in names.iter().zip(src) {
+            if !c[i].is_finite() {
+                return KernelError::NonFinite { channel: name, sample: Some(from + i), window: false };
+            }
+        }
+    }
+    invalid(format!("the high-pass filter diverged in samples from {from}"))
+}
+
+/// The windows of one filtered block.
+fn filtered_windows(
+    f: &Filtered,
+    layout: &FileLayout,
+    ks: std::ops::Range<usize>,
+    step: usize,
+    opt: &WindowOptions,
+) -> Result<Vec<WindowStats>, KernelError> {
+    let raw = |i: usize| f.raw.get(i);
+    let x = usize::from(layout.fx.is_some());
+    let ch = Channels {
+        fx: layout.fx.as_ref().map(|_| f.forces[0].as_slice()),
+        fy: &f.forces[x],
+        fz: &f.forces[x + 1],
+        aux: raw(3),
+        raw: Some((raw(1).unwrap_or(&[]), raw(2).unwrap_or(&[]))),
+    };
+    let starts: Vec<usize> = ks.clone().map(|k| k * step - f.from).collect();
+    // In parallel: the thread that filters the next block joins in when it is done.
+    crate::numerics::windows::windows_stats(&ch, &starts, opt).map_err(|err| match err {
+        KernelError::NonFinite { .. } => err.shifted(f.from),
+        other => invalid(format!("{other} (block from sample {})", f.from)),
+    })
+}
+
+/// Statistics of windows `grid.k0 .. grid.k1` of raw forces high-passed
+/// from sample `hp.origin` on (state carried across blocks, bitwise as one
+/// call of the filter), with the classical COF of the raw forces. Needs
+/// `grid.step >= opt.len` (windows that do not overlap), so each block's
+/// windows lie in its own filtered samples.
+pub fn windows_stats_mapped_highpass(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    hp: &HighPass<'_>,
+) -> Result<Vec<WindowStats>, KernelError> {
+    let out = std::sync::Mutex::new(Vec::with_capacity(grid.k1.saturating_sub(grid.k0)));
+    windows_stats_mapped_highpass_each(file, layout, grid, opt, hp, &|_, stats| {
+        out.lock().unwrap_or_else(|e| e.into_inner()).extend(stats);
+    })?;
+    Ok(out.into_inner().unwrap_or_else(|e| e.into_inner()))
+}
+
+/// [`windows_stats_mapped_highpass`] handing each block's windows to `sink`
+/// (as [`windows_stats_mapped_each`]; here the blocks arrive in order).
+pub fn windows_stats_mapped_highpass_each<F>(
+    file: &File,
+    layout: &FileLayout,
+    grid: &Grid,
+    opt: &WindowOptions,
+    hp: &HighPass<'_>,
+    sink: &F,
+) -> Result<(), KernelError>
+where
+    F: Fn(usize, Vec<WindowStats>) + Sync,
+{
+    check(file, layout, grid, opt)?;
+    iir::validate_sos(hp.sos)?;
+    if hp.zi.len() != hp.sos.len() {
+        return Err(invalid(format!("zi must hold {} section states, got {}", hp.sos.len(), hp.zi.len())));
+    }
+    if grid.step < opt.len {
+        return Err(invalid("the high-passed file path needs windows that do not overlap (step >= length)".into()));
+    }
+    if grid.k1 <= grid.k0 {
+        return Ok(());
+    }
+    if hp.origin > grid.k0 * grid.step {
+        return Err(invalid(format!("filtering starts at sample {} after the first window", hp.origin)));
+    }
+    let blocks = (grid.k1 - grid.k0).div_ceil(grid.block);
+    let ks = |b: usize| (grid.k0 + b * grid.block)..(grid.k0 + (b + 1) * grid.block).min(grid.k1);
+    // Block b filters [F_b, F_{b+1}): F_0 = origin, F_b = start of its first
+    // window, the last ends with the last window.
+    let bound = |b: usize| {
+        if b == 0 {
+            hp.origin
+        } else if b == blocks {
+            (grid.k1 - 1) * grid.step + opt.len
+        } else {
+            ks(b).start * grid.step
+        }
+    };
+    let forces = 2 + usize::from(layout.fx.is_some()); // fx (if any), fy, fz
+    let mut state: Vec<Vec<[f64; 2]>> = vec![vec![[0.0; 2]; hp.sos.len()]; forces];
+    let mut cur = filter_block(file, layout, hp, bound(0), bound(1), &mut state, Filtered::default())?;
+    let mut spare = Filtered::default();
+    for b in 0..blocks {
+        // Filter the next block while this one's windows are computed.
+        let bufs = std::mem::take(&mut spare);
+        let (next, stats) = rayon::join(
+            || {
+                (b + 1 < blocks)
+                    .then(|| filter_block(file, layout, hp, bound(b + 1), bound(b + 2), &mut state, bufs))
+                    .transpose()
+            },
+            || filtered_windows(&cur, layout, ks(b), grid.step, opt),
+        );
+        sink(b * grid.block, stats?);
+        match next? {
+            Some(n) => spare = std::mem::replace(&mut cur, n),
+            None => break,
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::numerics::windows::{windows_stats, Deadband};
+    use std::io::Write;
+
+    fn temp_file(bytes: &[u8]) -> (std::path::PathBuf, File) {
+        let path = std::env::temp_dir().join(format!("tribodyn-mapped-{}-{}", std::process::id(), bytes.len()));
+        std::fs::File::create(&path).unwrap().write_all(bytes).unwrap();
+        let f = File::open(&path).unwrap();
+        (path, f)
+    }
+
+    #[test]
+    fn same_bits_as_the_in_memory_kernel() {
+        let n = 10_007;
+        let fz: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() + 0.2 * (i as f64 * 1.7).cos()).collect();
+        let fy: Vec<f64> = fz.iter().enumerate().map(|(i, z)| -0.15 * z + 0.02 * (i as f64 * 3.1).sin()).collect();
+        let fx: Vec<f64> = (0..n).map(|i| (i as f64 * 0.11).cos()).collect();
+        let aux: Vec<f64> = (0..n).map(|i| 4.0 + (i as f64 * 0.01).sin()).collect();
+        // A 128-byte header, then the channels one after another.
+        let mut bytes = vec![0u8; 128];
+        for ch in [&fx, &fy, &fz, &aux] {
+            bytes.extend(ch.iter().flat_map(|v| v.to_le_bytes()));
+        }
+        let (path, file) = temp_file(&bytes);
+        let row = (n * 8) as u64;
+        let layout = FileLayout {
+            fx: Some(Source::F64(128)),
+            fy: Source::F64(128 + row),
+            fz: Source::F64(128 + 2 * row),
+            aux: Some(Source::F64(128 + 3 * row)),
+            n,
+        };
+        let opt = WindowOptions {
+            len: 300,
+            orientation: 1.0,
+            deadband: Deadband::Force(0.1),
+            n_bins: 8,
+            ext: Default::default(),
+        };
+        let step = 250;
+        let k1 = (n - opt.len) / step + 1;
+        let ch = Channels { fx: Some(&fx), fy: &fy, fz: &fz, aux: Some(&aux), raw: None };
+        let starts: Vec<usize> = (3..k1).map(|k| k * step).collect();
+        let want = windows_stats(&ch, &starts, &opt).unwrap();
+        for block in [1, 7, 1000] {
+            let got = windows_stats_mapped(&file, &layout, &Grid { k0: 3, k1, step, block }, &opt, 2).unwrap();
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "block {block}");
+        }
+        // Bad layouts are errors, not panics.
+        let past = FileLayout { n: n + 1, ..layout.clone() };
+        assert!(windows_stats_mapped(&file, &past, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt, 2).is_err());
+        let odd = FileLayout { fy: Source::F64(129), ..layout.clone() };
+        assert!(windows_stats_mapped(&file, &odd, &Grid { k0: 0, k1: 1, step, block: 4 }, &opt, 2).is_err());
+        assert!(windows_stats_mapped(&file, &layout, &Grid { k0: 0, k1: k1 + 1, step, block: 4 }, &opt, 2).is_err());
+        std::fs::remove_file(path).unwrap();
+    }
+
+    #[test]
+    fn highpass_path_matches_filter_then_kernel() {
+        let n = 9_001;
+        let fz: Vec<f64> = (0..n).map(|i| 20.0 + (i as f64 * 0.37).sin() + 0.001 * i as f64).collect();
+        let fy: Vec<f64> = fz.iter().enumerate().map(|(i, z)| -0.15 * z + 0.02 * (i as f64 * 3.1).sin()).collect();
+        let aux: Vec<f64> = (0..n).map(|i| 4.0 + (i as f64 * 0.01).sin()).collect();
+        let mut bytes = vec![0u8; 64];
+        for ch in [&fy, &fz, &aux] {
+            bytes.extend(ch.iter().flat_map(|v| v.to_le_bytes()));
+        }
+        let (path, file) = temp_file(&bytes);
+        let row = (n * 8) as u64;
+        let layout = FileLayout {
+            fx: None,
+            fy: Source::F64(64),
+            fz: Source::F64(64 + row),
+            aux: Some(Source::F64(64 + 2 * row)),
+            n,
+        };
+        let sos: Vec<Section> = vec![[0.9997, -0.9997, 0.0, 1.0, -0.9994, 0.0]];
+        let zi = crate::numerics::iir::sosfilt_zi(&sos).unwrap();
+        let opt = WindowOptions {
+            len: 400,
+            orientation: 1.0,
+            deadband: Deadband::Force(0.1),
+            n_bins: 8,
+            ext: Default::default(),
+        };
+        let (step, origin) = (450, 7);
+        let k0 = 1;
+        let k1 = (n - opt.len) / step + 1;
+        // By hand: filter [origin, n) in one call, then the kernel.
+        let mut state: Vec<[f64; 2]> =
+            [fy[origin], fz[origin]].iter().flat_map(|&x0| zi.iter().map(move |z| [z[0] * x0, z[1] * x0])).collect();
+        let src: Vec<f64> = fy[origin..].iter().chain(&fz[origin..]).copied().collect();
+        let mut filt = vec![0.0; src.len()];
+        crate::numerics::iir::sosfilt_into(&sos, &src, &mut filt, 2, &mut state).unwrap();
+        let m = n - origin;
+        let ch = Channels {
+            fx: None,
+            fy: &filt[..m],
+            fz: &filt[m..],
+            aux: Some(&aux[origin..]),
+            raw: Some((&fy[origin..], &fz[origin..])),
+        };
+        let starts: Vec<usize> = (k0..k1).map(|k| k * step - origin).collect();
+        let want = windows_stats(&ch, &starts, &opt).unwrap();
+        let hp = HighPass { sos: &sos, zi: &zi, origin };
+        for block in [1, 3, 100] {
+            let got = windows_stats_mapped_highpass(&file, &layout, &Grid { k0, k1, step, block }, &opt, &hp).unwrap();
+            assert_eq!(format!("{got:?}"), format!("{want:?}"), "block {block}");
+        }
+        let overlap = Grid { k0, k1, step: 100, block: 4 };
+        assert!(windows_stats_mapped_highpass(&file, &layout, &overlap, &opt, &hp).is_err());
+        std::fs::remove_file(path).unwrap();
+    }
+}
