@@ -374,25 +374,30 @@ def _runs(label: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     return starts[keep], stops[keep]
 
 
-def _extremes(s: np.ndarray, gate: float, wlen: int) -> Tuple[np.ndarray, np.ndarray]:
+def _extremes(s: np.ndarray, run: np.ndarray, gate: float, wlen: int) -> Tuple[np.ndarray, np.ndarray]:
     """(index, +1 peak / -1 trough) of the alternating extremes of the smoothed signal s whose prominence
-    (within ``wlen`` samples) is at least ``gate``; of consecutive peaks the highest, of troughs the lowest."""
+    (within ``wlen`` samples) is at least ``gate``; of consecutive peaks of one run the highest, of troughs the
+    lowest. ``s`` holds every run's smoothed signal, each followed by a separator (NaN; ``run`` its run's
+    number, -1 at the separators): +inf to the peaks' search and to the troughs', so that no extreme lies at a
+    run's edge and no prominence reaches past it (as each run searched alone)."""
     from scipy.signal import find_peaks
 
     w = max(3, wlen | 1)
-    pk = find_peaks(s, prominence=gate, wlen=w)[0]
-    tr = find_peaks(-s, prominence=gate, wlen=w)[0]
+    sep = run < 0
+    pk = find_peaks(np.where(sep, np.inf, s), prominence=gate, wlen=w)[0]
+    tr = find_peaks(np.where(sep, np.inf, -s), prominence=gate, wlen=w)[0]
+    pk, tr = pk[~sep[pk]], tr[~sep[tr]]
     at = np.concatenate([pk, tr])
     kind = np.concatenate([np.ones(pk.size, np.int64), -np.ones(tr.size, np.int64)])
     if at.size == 0:
         return at.astype(np.int64), kind
     o = np.argsort(at, kind="stable")
     at, kind = at[o], kind[o]
-    first = np.concatenate([[0], np.flatnonzero(np.diff(kind) != 0) + 1])  # runs of one kind
-    run = np.repeat(np.arange(first.size), np.diff(np.append(first, at.size)))
-    score = s[at] * kind  # the highest peak, the lowest trough of each run
-    best = score == np.maximum.reduceat(score, first)[run]
-    _, pick = np.unique(run[best], return_index=True)
+    first = np.concatenate([[0], np.flatnonzero((np.diff(kind) != 0) | (np.diff(run[at]) != 0)) + 1])
+    group = np.repeat(np.arange(first.size), np.diff(np.append(first, at.size)))  # runs of one kind in one run
+    score = s[at] * kind  # the highest peak, the lowest trough of each group
+    best = score == np.maximum.reduceat(score, first)[group]
+    _, pick = np.unique(group[best], return_index=True)
     chosen = np.flatnonzero(best)[pick]
     return at[chosen].astype(np.int64), kind[chosen]
 
@@ -419,32 +424,29 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     if not (thr > 0) or r.size < 2 * L:
         return _Events.none()
     starts, stops = _runs(label)
-    pa: List[np.ndarray] = []  # each fall's a, b and its run's start and stop
-    pb: List[np.ndarray] = []
-    r0: List[np.ndarray] = []
-    r1: List[np.ndarray] = []
-    sw: List[np.ndarray] = []  # each fall's swing: the smoothed signal at its peak minus at its trough
-    for s0, s1 in zip(starts.tolist(), stops.tolist()):
-        if s1 - s0 < 2 * L + 2:
-            continue
-        x = r[s0:s1]
-        c = np.concatenate([[0.0], np.cumsum(x)])
-        sm = (c[L:] - c[:-L]) / L  # sm[j]: mean of x[j .. j + L - 1]
-        at, kind = _extremes(sm, gate, wlen)
-        fall = np.flatnonzero((kind[:-1] == 1) & (kind[1:] == -1))
-        if fall.size == 0:
-            continue
-        a = at[fall] + L - 1  # the last sample of the window ending at the peak: the stick's last sample
-        b = np.maximum(at[fall + 1], a + 1)  # the first sample of the window starting at the trough
-        pa.append(s0 + a)
-        pb.append(s0 + b)
-        r0.append(np.full(a.size, s0))
-        r1.append(np.full(a.size, s1))
-        sw.append(sm[at[fall]] - sm[at[fall + 1]])
-    if not pa:
+    keep = stops - starts >= 2 * L + 2
+    starts, stops = starts[keep], stops[keep]
+    if starts.size == 0:
         return _Events.none()
-    a, b = np.concatenate(pa), np.concatenate(pb)
-    run0, run1, swing = np.concatenate(r0), np.concatenate(r1), np.concatenate(sw)
+    # every run's mean over L samples (positions j: samples j .. j + L - 1 of one run), each run followed by a
+    # separator; from running sums over the block
+    m = stops - starts - L + 1
+    slot0 = np.cumsum(m + 1) - (m + 1)  # each run's first slot
+    run = np.repeat(np.arange(starts.size), m + 1)
+    j = np.arange(run.size) - np.repeat(slot0, m + 1) + np.repeat(starts, m + 1)
+    run[slot0 + m] = -1  # the separators
+    j = np.where(run >= 0, j, 0)
+    c = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(r), r, 0.0))])
+    sm = np.where(run >= 0, (c[j + L] - c[j]) / L, np.nan)
+    at, kind = _extremes(sm, run, gate, wlen)
+    fall = np.flatnonzero((kind[:-1] == 1) & (kind[1:] == -1) & (run[at[:-1]] == run[at[1:]]))
+    if fall.size == 0:
+        return _Events.none()
+    a = j[at[fall]] + L - 1  # the last sample of the window ending at the peak: the stick's last sample
+    b = np.maximum(j[at[fall + 1]], a + 1)  # the first sample of the window starting at the trough
+    ri = run[at[fall]]
+    run0, run1 = starts[ri], stops[ri]
+    swing = sm[at[fall]] - sm[at[fall + 1]]  # the smoothed signal at the peak minus at the trough
     for _ in range(PRUNE_ROUNDS):
         f = _falls(r, fn, a, b, run0, run1, wlen, L)
         # a fall whose drop is under the gate and whose swing is under the threshold is part of its stick:
