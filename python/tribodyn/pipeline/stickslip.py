@@ -3,8 +3,9 @@
 * :func:`breakaway_peak`: the static COF of one stroke, the largest moving
   average of |Ft|/Fn between its motion onset and its central part
   (``tribometer.stroke_table`` calls it for the ``mu_static`` column).
-* :func:`stick_slip`: the stick-slip events of a recording (a slow rise of
-  the friction force, then a sudden drop), their count, median amplitude
+* :func:`stick_slip`: the stick-slip events of a recording (a rise of the
+  friction force while the contact sticks, ended by a drop as it slips,
+  within a sample or over many; issue 35), their count, median whole drop
   and frequency, as a :class:`StickSlip`. It reads fy and fz again, once
   (in blocks; the noise of a long recording from a bounded sample), so
   :func:`tribodyn.analyze` stays as cheap as it was.
@@ -70,7 +71,7 @@ MIN_STICK_SHARE = 0.05
 #: Samples per block read at once (a fixed grid: the result does not depend on a reader's chunks); at most
 #: 2^21, so that the stick lines' running integer sums of t^2 fit in int64.
 BLOCK = 1 << 20
-#: The noise and rise of a longer search come from a sample of this many samples (docs/method.md 6g) ...
+#: The noise and resolution of a longer search come from a sample of this many samples (docs/method.md 6g) ...
 SAMPLE = 1 << 20
 #: ... in this many evenly spread pieces.
 SAMPLE_PIECES = 8
@@ -315,13 +316,15 @@ def _drop_statistic(r: np.ndarray, label: np.ndarray, slope: float, drop_samples
 
 
 def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int, quantum: float = 0.0) -> Optional[Tuple[float, float]]:
-    """(noise SD, rise per sample) of the friction signal r, or None with fewer than 10 differences (6g).
+    """(white noise SD, coloured noise SD) of the friction signal r, or None with fewer than 10 differences
+    (docs/method.md 6g).
 
-    Falls: first differences (within a segment) below their median by more than :data:`FALL_SD` robust
-    SDs (the drops). White noise: the robust SD of the other differences / sqrt 2. Rise and coloured noise from
-    the drop statistic g (without the rise) where neither average holds a fall: rise = -median(g) /
-    (L + D), and sqrt(L / 2) x robust SD(g) is the white-noise SD that its spread implies (coloured
-    noise spreads g more than its differences tell). The noise SD is the larger of the two.
+    Falls: first differences (within a segment) below their median by more than :data:`FALL_SD` spreads (the
+    drops; the spread 1.4826 MAD, at least ``quantum``). White noise: the robust SD of the other differences
+    / sqrt 2 (their SD / sqrt 2 for a quantised export, ``quantum`` > 0: a MAD of quantised differences moves
+    in whole steps). Coloured noise: sqrt(L / 2) x the robust SD of the drop statistic g (without a rise)
+    where neither average holds a fall (coloured noise spreads g more than its differences tell), at least
+    the white SD.
     """
     L, D = SMOOTH, drop_samples
     d = np.diff(r)
@@ -795,7 +798,7 @@ class _Search:
 class ReadingPass:
     """Stick-slip found in the analysis' own reading (``analyze(stick_slip=True)``, docs/method.md 6g).
 
-    Built before the main pass: the noise and rise of a long search come from
+    Built before the main pass: the noise and resolution of a long search come from
     their sample then (read through ``read``), a short search keeps its
     blocks. The main pass then hands over every chunk of raw fy, fz in order
     (:meth:`push`, as :class:`tribodyn.pipeline.headline.BlockSums`); each block is
