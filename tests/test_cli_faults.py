@@ -436,7 +436,7 @@ def test_config_of_the_right_types_runs(rec, tmp_path):
 @pytest.mark.fast
 def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch, capsys):
     """--bins beyond the bound (docs/method.md 4) is refused by the plan: nothing read, nothing allocated."""
-    from tribodyn.pipeline import prepass as tribometer
+    from tribodyn.pipeline import analyze as analyze_module
 
     long = tmp_path / "long.npz"
     n = 600_000  # 10 min at 1 kHz: the old way allocated 300 windows x 2^20 bins
@@ -445,7 +445,7 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
     def read(*args, **kwargs):
         raise AssertionError("the recording was read before the options were checked")
 
-    monkeypatch.setattr(tribometer, "prepass", read)
+    monkeypatch.setattr(analyze_module, "prepass", read)  # the name analyze calls
     assert cli.main(["analyze", str(long), "--out", str(tmp_path / "out"), "--bins", "1048576"]) == 2
     line = error_line(capsys.readouterr().err)
     assert "n_bins must be at most 500 for a window of 2000 samples" in line and "1048576" in line

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import tribodyn.io as tio
 from tribodyn.app import cli
-from tribodyn.pipeline import prepass as tribometer
+from tribodyn.io import sample as prepass_sample
 from tribodyn.pipeline import stickslip
 
 needs_proc_io = pytest.mark.skipif(
@@ -64,7 +64,7 @@ def test_the_cli_reads_a_recording_twice_and_bounded_samples(tmp_path, monkeypat
     # blocks and samples far shorter than the recordings (4 and 8 stick-slip blocks), as for hours at 1 kHz
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
-    monkeypatch.setattr(tribometer, "PREPASS_SAMPLES", 1 << 14)
+    monkeypatch.setattr(prepass_sample, "PREPASS_SAMPLES", 1 << 14)
     n = 1 << 18
     small, s1 = cli_reads(tmp_path, n)
     big, s2 = cli_reads(tmp_path, 2 * n)
@@ -72,7 +72,6 @@ def test_the_cli_reads_a_recording_twice_and_bounded_samples(tmp_path, monkeypat
     per_byte = (big - again) / (s2 - s1)
     assert per_byte <= WHOLE_READS + TOLERANCE, f"the CLI read the recording {per_byte:.2f} times"
     assert per_byte >= WHOLE_READS - TOLERANCE  # the measurement sees the reads it bounds
-    # (the rendering child, a new process each run, imports Bokeh every time: the runs differ by little)
     assert small >= again - (1 << 20)
 
 

@@ -143,12 +143,6 @@ if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
     __version__: str
 
 
-def _version() -> str:
-    from ._version import version
-
-    return version()
-
-
 if not _typing.TYPE_CHECKING:  # type checkers see the imports above, and no catch-all
 
     def __getattr__(name: str) -> object:
@@ -156,7 +150,9 @@ if not _typing.TYPE_CHECKING:  # type checkers see the imports above, and no cat
         if name in _LAZY:
             value = getattr(_importlib.import_module(f".{_LAZY[name]}", __name__), name)
         elif name == "__version__":
-            value = _version()
+            from ._version import version  # (the submodule's name: no function of that name here)
+
+            value = version()
         elif name.isidentifier() and not name.startswith("__"):
             try:
                 return _importlib.import_module(f".{name}", __name__)

@@ -226,7 +226,7 @@ def _parser() -> argparse.ArgumentParser:
         "files",
         nargs="+",
         metavar="FILE",
-        help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV), directories or glob patterns",
+        help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV, MAT, XLSX/XLS/ODS), directories or glob patterns",
     )
     a.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
     a.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
@@ -247,6 +247,7 @@ def _parser() -> argparse.ArgumentParser:
     a.add_argument("--time-column", help="text files: the column holding time (gives fs; restarts split segments)")
     a.add_argument("--encoding", help="text files: the encoding (default: detected; e.g. cp932, utf-16, latin-1)")
     a.add_argument("--resample", type=float, help="text files with irregular time: interpolate linearly at HZ")
+    a.add_argument("--sheet", help=_SHEET_HELP)
     _add_analysis_options(a)
     a.add_argument("--temperature", help="temperature log file: two columns, time in s and degC")
     a.add_argument(
@@ -294,6 +295,7 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--json", action="store_true", help="print one JSON document (a list, one object per file)")
     i.add_argument("--format", help="file format (default: detected)")
     i.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
+    i.add_argument("--sheet", help=_SHEET_HELP)
 
     s = sub.add_parser("simulate", parents=[common], help="write a simulated recording (npz, h5 or tdms)")
     s.add_argument("scenario", choices=["temperature", "current_density"], help="which test of the paper")
@@ -305,6 +307,7 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+_SHEET_HELP = "spreadsheets: the sheet to read, by name (default: the first sheet holding a numeric table)"
 _QUIET_HELP = "no progress bar or summary (before or after the command)"
 _DEBUG_HELP = "show tracebacks of errors (before or after the command)"
 _OVERWRITE_HELP = "replace --out even when it holds files that are not a previous tribodyn output set"
@@ -323,6 +326,7 @@ def _config_keys() -> Dict[str, str]:
         "time_column": _TEXT,
         "encoding": _TEXT,
         "resample": _NUMBER,
+        "sheet": _TEXT,
         "meta": "a table of field = text or number (the test record, docs/method.md 10c)",
     }
     keys.update({o.config: o.config_type for o in OPTIONS if o.config is not None})
@@ -497,6 +501,8 @@ def _load_config(path: str) -> Dict[str, Any]:
         raise UserError(f"config file {p.name} is not valid TOML: {exc}") from None
     except UnicodeDecodeError:
         raise UserError(f"config file {p.name} is not valid TOML: not UTF-8 text") from None
+    except RecursionError:  # issue 34: arrays or tables nested hundreds deep
+        raise UserError(f"config file {p.name}: values nested too deeply (no option takes nested values)") from None
     unknown = sorted(k for k in raw if k.replace("-", "_") not in _CONFIG_KEYS)
     if unknown:
         raise UserError(f"config file {p.name}: unknown option(s) {', '.join(unknown)}")
@@ -529,7 +535,7 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
     fs = get("fs")
     if fs is not None:
         open_opts["fs"] = float(fs)
-    for key in ("time_column", "encoding", "resample"):
+    for key in ("time_column", "encoding", "resample", "sheet"):
         if get(key) is not None:
             open_opts[key] = get(key)
     opts: Dict[str, Any] = {}
@@ -879,6 +885,8 @@ def _run_info(ns: argparse.Namespace) -> int:
         kw["format"] = ns.format
     if ns.fs is not None:
         kw["fs"] = ns.fs
+    if ns.sheet is not None:
+        kw["sheet"] = ns.sheet
     files = expand_paths(ns.files)
     _check_regular(files)
     infos: List[Dict[str, Any]] = []

@@ -81,6 +81,8 @@ def read_tests(folders: Sequence[str]) -> Tuple[List[SourceTest], List[str], Lis
             raise ValueError(f"{path} is not a tribodyn summary (not UTF-8 text)") from None
         except json.JSONDecodeError as exc:
             raise ValueError(f"{path} is not valid JSON (line {exc.lineno}: {exc.msg})") from None
+        except RecursionError:  # issue 34: a document nested thousands deep
+            raise ValueError(f"{path} is not a tribodyn summary (JSON nested too deeply to read)") from None
         recs = data.get("recordings") if isinstance(data, dict) else None
         if not isinstance(recs, dict):
             raise ValueError(

@@ -190,13 +190,6 @@ def _openblas_threads() -> List[Tuple[Any, Any]]:
     return found
 
 
-def _example_window(channels: Mapping[str, np.ndarray], fs: float, start: int, n: int) -> Dict[str, Any]:
-    ch = {k: np.asarray(v[start : start + n]) for k, v in channels.items() if k in ("fx", "fy", "fz")}
-    res = identify(ch["fy"], ch["fz"], fx=ch.get("fx"), fs=fs, max_lag=min(200, n - 1), rpm=250, n_lamellas=24,
-                   method="paper")  # fmt: skip
-    return {**ch, "fs": fs, "t0": start / fs, "result": res}
-
-
 def _write_set(out: OutputSet, prefix: str, res: Results, extra: Optional[Dict[str, Any]] = None) -> List[str]:
     names = [f"{prefix}windows.csv"]
     write_table_csv(res, out.path(names[0]), extra=extra)
@@ -986,8 +979,12 @@ def _channel_map(rec: Any) -> Dict[str, str]:
 
 
 def _labels(paths: Sequence[Path]) -> List[str]:
-    """Sub-folder names: file stems, made unique with a counter where they repeat."""
-    stems = [p.stem for p in paths]
+    """Sub-folder names: file stems, made unique with a counter where they repeat.
+
+    A stem that is no folder name of its own (``..npz`` has the stem ``.``; ``.x.csv`` would make a hidden
+    folder) loses its leading and trailing dots, then falls back to the file name's, then to "recording"
+    (issue 34: an input named ``..npz`` lost its per-recording files)."""
+    stems = [p.stem.strip(".") or p.name.strip(".") or "recording" for p in paths]
     return [s if stems.count(s) == 1 else f"{s}-{k + 1}" for k, s in enumerate(stems)]
 
 

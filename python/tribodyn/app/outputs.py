@@ -104,7 +104,7 @@ def _read_marker(folder: Path) -> Optional[Set[str]]:
         if not stat.S_ISREG(os.lstat(p).st_mode):
             return None
         data = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):  # RecursionError: a marker nested thousands deep
         return None
     files = data.get("files") if isinstance(data, dict) else None
     if not isinstance(files, list) or not all(isinstance(f, str) for f in files):

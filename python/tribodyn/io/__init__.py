@@ -24,13 +24,27 @@ format         files                                     module
 ``delimited``  CSV/TSV/... text                          :mod:`tribodyn.io.delimited`
 ``cetr``       CETR UMT csv export (multi-step)          :mod:`tribodyn.io.delimited`
 ``compend``    COMPEND pin-on-disc tsv export            :mod:`tribodyn.io.delimited`
+``steps``      multi-step export (a header block a step)  :mod:`tribodyn.io.steps`
+``mat``        MATLAB MAT-file v4, v5/v7, v7.3 (HDF5)    :mod:`tribodyn.io.matlab`
+``spreadsheet``  Excel .xlsx/.xlsm/.xls, OpenDocument .ods  :mod:`tribodyn.io.spreadsheet`
 =============  ========================================  ===============================
 
 Detection: the content's signature decides for binary formats (TDMS
-``TDSm``, HDF5, ``\\x93NUMPY``, zip); a file with the extension of a binary
-format but not its signature is reported as corrupt. Text starting with
-``LabVIEW Measurement`` is LVM; other text is delimited (CETR and COMPEND
-recognised by their first lines).
+``TDSm``, a MAT-file's ``MATLAB 5.0``/``MATLAB 7.3`` header, HDF5,
+``\\x93NUMPY``, a zip's members: ``.npy`` members for npz, ``xl/workbook.xml``
+for an Excel workbook, an OpenDocument spreadsheet's ``mimetype``; an OLE2
+file for ``.xls``); a file with the extension of a binary format but other
+content is refused with the format its content has ("an Excel workbook", "a
+zip archive", "text"...). Text starting with ``LabVIEW Measurement`` is LVM;
+text with a ``Step N ... started at`` line is a multi-step export; other text
+is delimited (CETR and COMPEND recognised by their first lines). A version 4
+MAT-file has no signature: binary content under ``.mat`` is read as one.
+
+Other packages add formats through the entry-point group ``tribodyn.readers``
+(:mod:`tribodyn.io.plugins`): a file of an extension tribodyn does not know
+whose content no built-in signature recognises, or that is plain text, is
+offered to them (``.csv``, ``.txt``... stay delimited text unless
+``format=`` names the plugin's format).
 """
 
 from __future__ import annotations
@@ -41,6 +55,7 @@ import stat
 from typing import Any, Mapping, Optional, Tuple, Union
 
 from .base import ChannelInfo, Recording, RecordingError, RecordingProtocol
+from .detect import _ALIASES, _BINARY, _EXT, FORMATS, _sniff, _zip_kind
 from .writers import atomic_write, save_hdf5, save_npy, save_npz, save_recording, save_tdms, sha256_file
 
 __all__ = [
@@ -60,54 +75,6 @@ __all__ = [
     "sha256_file",
 ]
 
-#: Accepted values of ``format`` (besides ``"auto"``) and aliases.
-FORMATS = ("tdms", "lvm", "hdf5", "npy", "npz", "delimited", "cetr", "compend")
-_ALIASES = {
-    "csv": "delimited",
-    "tsv": "delimited",
-    "text": "delimited",
-    "txt": "delimited",
-    "h5": "hdf5",
-    "pod": "compend",
-}
-
-_EXT = {
-    ".tdms": "tdms",
-    ".lvm": "lvm",
-    ".h5": "hdf5",
-    ".hdf5": "hdf5",
-    ".hdf": "hdf5",
-    ".he5": "hdf5",
-    ".npy": "npy",
-    ".npz": "npz",
-    ".csv": "delimited",
-    ".tsv": "delimited",
-    ".txt": "delimited",
-    ".dat": "delimited",
-    ".asc": "delimited",
-    ".tab": "delimited",
-}
-_BINARY = {"tdms", "hdf5", "npy", "npz"}
-_HDF5_SIG = b"\x89HDF\r\n\x1a\n"
-
-
-def _sniff(head: bytes) -> Optional[str]:
-    """Format from the first bytes, or None for unrecognised content."""
-    if head.startswith(b"TDSm"):
-        return "tdms"
-    if any(head[o : o + 8] == _HDF5_SIG for o in (0, 512, 1024, 2048)):
-        return "hdf5"
-    if head.startswith(b"\x93NUMPY"):
-        return "npy"
-    if head.startswith((b"PK\x03\x04", b"PK\x05\x06")):
-        return "npz"
-    text = head.lstrip(b"\xef\xbb\xbf")
-    if text.startswith(b"LabVIEW Measurement"):
-        return "lvm"
-    from ._text import sniff_encoding  # UTF-8/16 (BOM or NUL pattern), CP932, CP1252; None: binary
-
-    return "delimited" if sniff_encoding(head) is not None else None
-
 
 def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
     """Format name of a file (see the module docstring for the rules).
@@ -120,16 +87,28 @@ def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
     """
     p = os.fspath(path)
     head = _read_head(p)
-    by_ext = _EXT.get(os.path.splitext(p)[1].lower())
-    by_content = _sniff(head)
+    ext = os.path.splitext(p)[1].lower()
+    by_ext = _EXT.get(ext)
+    by_content, what = _zip_kind(p, _sniff(head))
+    if by_ext == "mat" and by_content is None and what.startswith("binary"):
+        return "mat"  # a version 4 MAT-file has no signature: scipy.io tells whether it is one
     if by_ext in _BINARY and by_content != by_ext:
+        shown = ext if by_ext in ("mat", "spreadsheet") else by_ext
         raise RecordingError(
-            f"{p}: not a valid {by_ext} file (its first bytes are not a {by_ext} signature: corrupt or mislabelled)"
+            f"{p}: not a valid {shown} file: its content is {what} (corrupt or mislabelled)"
+            + (f"; read it with --format {by_content}" if by_content is not None and by_content != "delimited" else "")
         )
+    if by_ext is None and by_content in (None, "delimited"):
+        from .plugins import find_plugin, plugin_errors
+
+        plugin = find_plugin(p, head)  # formats added by other packages (entry points tribodyn.readers)
+        if plugin is not None:
+            return plugin
+        if by_content is None:
+            unused = "".join(f"; {e}" for e in plugin_errors().values())
+            raise RecordingError(f"{p}: unknown format ({what}); supported: {', '.join(_all_formats())}{unused}")
     if by_content is None:
-        raise RecordingError(
-            f"{p}: unknown format (binary content of no supported kind); supported: " + ", ".join(FORMATS)
-        )
+        raise RecordingError(f"{p}: unknown format ({what}); supported: " + ", ".join(_all_formats()))
     if by_ext == "lvm" and by_content != "lvm":
         raise RecordingError(f"{p}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)")
     return by_content
@@ -168,7 +147,8 @@ def open_recording(
     path : str or PathLike
         The file.
     format : str
-        ``"auto"`` (default) or one of :data:`FORMATS` (aliases ``csv``,
+        ``"auto"`` (default), one of :data:`FORMATS` or of a reader plugin
+        (:mod:`tribodyn.io.plugins`) (aliases ``csv``,
         ``tsv``, ``txt`` -> delimited, ``pod`` -> compend, ``h5`` -> hdf5).
     channels : mapping, optional
         Role -> file channel name (roles ``fx``, ``fy``, ``fz``, ``i``,
@@ -184,7 +164,9 @@ def open_recording(
         ``units`` (role/channel -> unit string, for display), and per
         format: ``group`` (tdms, hdf5), ``layout``, ``names``,
         ``time_channel`` (npy/npz), ``delimiter``, ``decimal``,
-        ``encoding``, ``time_column`` (text), ``encoding`` (lvm).
+        ``encoding``, ``time_column`` (text), ``encoding`` (lvm),
+        ``sheet`` (spreadsheet: a sheet's name), ``time_column`` and
+        ``resample`` (text, spreadsheet, mat, steps).
 
     Returns
     -------
@@ -209,8 +191,11 @@ def open_recording(
     fmt = _ALIASES.get(format, format)
     if fmt == "auto":
         fmt = detect_format(p)
-    elif fmt not in FORMATS:
-        raise RecordingError(f"unknown format {format!r}; use 'auto' or one of {', '.join(FORMATS)}")
+    elif fmt not in _all_formats():
+        from .plugins import plugin_errors
+
+        why = "".join(f"; {e}" for e in plugin_errors().values() if repr(fmt) in e or fmt in e.split("'"))
+        raise RecordingError(f"unknown format {format!r}; use 'auto' or one of {', '.join(_all_formats())}{why}")
     else:
         _read_head(p)  # missing / empty / directory checks
     cls, vendor = _backend(fmt)
@@ -250,7 +235,18 @@ def _check_mapping(value: Any, name: str, kinds: Tuple[type, ...], what: str) ->
             raise TypeError(f"{name}[{key!r}] must be {what}, got {type(v).__name__} {v!r}")
 
 
+def _all_formats() -> Tuple[str, ...]:
+    """tribodyn's formats and those of the reader plugins installed (:mod:`tribodyn.io.plugins`)."""
+    from .plugins import plugins
+
+    return FORMATS + tuple(sorted(plugins()))
+
+
 def _backend(fmt: str) -> Any:
+    if fmt not in FORMATS:
+        from .plugins import plugins
+
+        return plugins()[fmt], None
     if fmt == "tdms":
         from .tdms import TdmsRecording
 
@@ -271,6 +267,18 @@ def _backend(fmt: str) -> Any:
         from .numpy_files import NpzRecording
 
         return NpzRecording, None
+    if fmt == "mat":
+        from .matlab import MatRecording
+
+        return MatRecording, None
+    if fmt == "spreadsheet":
+        from .spreadsheet import SpreadsheetRecording
+
+        return SpreadsheetRecording, None
+    if fmt == "steps":
+        from .steps import StepsRecording
+
+        return StepsRecording, None
     from .delimited import DelimitedRecording
 
     return DelimitedRecording, (None if fmt == "delimited" else fmt)

@@ -9,6 +9,14 @@ the process cannot go on. Such attributes (what h5py writes for a Python
 file refused. Numbers and fixed-length text are stored in the attribute
 message itself, never in the global heap: the reader reads those in-process.
 
+The limit is on the helper's CPU time where the system can limit it
+(``RLIMIT_CPU``: Linux, macOS): a loop in libhdf5 spends CPU time, a valid
+file read on a loaded machine does not, so a busy machine no longer makes a
+valid file fail (issue 34). The kernel ends a helper that passes its limit
+(``SIGXCPU``); the wall-clock wait is then :data:`WALL_FACTOR` times longer,
+for a read stalled in the file system. Where CPU time cannot be limited the
+limit is wall-clock, as before.
+
 One helper serves the whole process: it is started on first use (about
 0.2 s: Python and h5py start), reused by every later open (a request costs
 about a millisecond), replaced after a timeout or a crash, and ends when
@@ -23,6 +31,7 @@ import atexit
 import os
 import pickle
 import queue
+import signal
 import struct
 import subprocess
 import sys
@@ -31,9 +40,12 @@ from typing import IO, Any, List, Optional, Sequence, Tuple
 
 __all__ = ["TIME_LIMIT", "HelperCrashed", "HelperUnavailable", "read_attributes"]
 
-#: Seconds a request may take before the helper is killed and the file refused (a healthy read of a
-#: few attributes takes milliseconds; the margin is for a loaded machine or a slow file system).
+#: CPU seconds a request may take before the helper is stopped and the file refused (wall-clock seconds
+#: where CPU time cannot be limited); a healthy read of a few attributes takes milliseconds.
 TIME_LIMIT = 30.0
+#: With a CPU-time limit, the wall-clock wait is this many times :data:`TIME_LIMIT` (a read stalled in
+#: the file system spends no CPU time).
+WALL_FACTOR = 10.0
 #: Seconds the helper may take to start (import h5py) before it is given up as unavailable.
 START_LIMIT = 60.0
 
@@ -45,6 +57,19 @@ import sys
 if sys.path and sys.path[0] in ("", "."):
     del sys.path[0]  # not the working directory's modules
 import pickle, struct
+try:
+    import resource
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))  # no core file when the CPU limit ends the helper
+    def limit_cpu(seconds):
+        u = resource.getrusage(resource.RUSAGE_SELF)
+        hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
+        soft = int(u.ru_utime + u.ru_stime + seconds) + 1
+        if hard != resource.RLIM_INFINITY:
+            soft = min(soft, hard)
+        resource.setrlimit(resource.RLIMIT_CPU, (soft, hard))
+    limit_cpu(3600)
+except Exception:
+    limit_cpu = None
 inp, out = sys.stdin.buffer, sys.stdout.buffer
 def send(obj):
     b = pickle.dumps(obj, protocol=4)
@@ -53,12 +78,14 @@ def send(obj):
 def one_line(e):
     return " ".join(str(e).split()) or type(e).__name__
 import h5py
-send(("ready", h5py.__version__))
+send(("ready", h5py.__version__, limit_cpu is not None))
 while True:
     head = inp.read(8)
     if len(head) < 8:
         break
-    path, items = pickle.loads(inp.read(struct.unpack("<Q", head)[0]))
+    path, items, cpu = pickle.loads(inp.read(struct.unpack("<Q", head)[0]))
+    if limit_cpu is not None:
+        limit_cpu(cpu)
     try:
         with h5py.File(path, "r") as f:
             res = []
@@ -115,6 +142,8 @@ class _Helper:
         if not (isinstance(first, tuple) and first[:1] == ("ready",)):
             self.kill()
             raise HelperUnavailable("the helper process did not start (h5py not importable by sys.executable?)")
+        #: Whether the helper's CPU time is limited (else the limit is wall-clock).
+        self.cpu_limited = len(first) > 2 and first[2] is True
 
     def _pump(self) -> None:
         stdout = self.proc.stdout
@@ -137,15 +166,23 @@ class _Helper:
     def ask(self, path: str, items: Sequence[Tuple[str, str]], limit: float) -> List[Tuple[str, Any]]:
         stdin = self.proc.stdin
         assert stdin is not None
-        body = pickle.dumps((path, list(items)), protocol=4)
+        body = pickle.dumps((path, list(items), limit), protocol=4)
         try:
             stdin.write(struct.pack("<Q", len(body)) + body)
             stdin.flush()
         except OSError:
             raise HelperCrashed("the helper process is gone") from None
-        msg = self._answer(limit)
+        try:
+            msg = self._answer(limit * WALL_FACTOR if self.cpu_limited else limit)
+        except TimeoutError:
+            raise TimeoutError(
+                f"{limit:g} s" + (f" ({limit * WALL_FACTOR:g} s of wall-clock time)" if self.cpu_limited else "")
+            ) from None
         if msg is None:
-            raise HelperCrashed(f"the helper process died (exit code {self.proc.wait()})")
+            code = self.proc.wait()
+            if self.cpu_limited and code == -getattr(signal, "SIGXCPU", 0x7FFF):  # the kernel ended it at its limit
+                raise TimeoutError(f"{limit:g} s of CPU time")
+            raise HelperCrashed(f"the helper process died (exit code {code})")
         out: List[Tuple[str, Any]] = msg[1]
         return out
 
@@ -175,7 +212,8 @@ def read_attributes(
     Raises
     ------
     TimeoutError
-        No answer within ``limit`` s (default :data:`TIME_LIMIT`); the helper was killed.
+        No answer within ``limit`` s of CPU time (default :data:`TIME_LIMIT`; wall-clock where CPU time cannot
+        be limited); the helper was stopped. Its message says which limit.
     HelperCrashed
         The helper died reading (e.g. the HDF5 library crashed on the file).
     HelperUnavailable

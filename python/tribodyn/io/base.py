@@ -285,8 +285,8 @@ class Recording:
     path : str
         The file.
     format : str
-        ``tdms``, ``lvm``, ``hdf5``, ``npy``, ``npz``, ``delimited``, ``cetr`` or
-        ``compend``.
+        ``tdms``, ``lvm``, ``hdf5``, ``npy``, ``npz``, ``delimited``, ``cetr``,
+        ``compend``, ``steps``, ``mat``, ``spreadsheet``, or a reader plugin's.
     fs : float
         Sampling rate in Hz.
     n_samples : int

@@ -461,6 +461,9 @@ class DelimitedRecording(TextRecording):
             enc = "utf-8"
         self._source_encoding = encoding or self._sniffed
         head_raw = self._read_head()
+        if any(_has_bare_cr(r) for r in head_raw):  # a CR without LF ends a line (old Mac line ends, as pandas
+            self._split_bare_crs()  # reads them): read from a copy with LFs there
+            head_raw = self._read_head()
         self._encoding = enc
         head = [decode_header(r, enc).rstrip("\r\n") for r in head_raw]
         if head and head[0].startswith("\ufeff"):
@@ -485,7 +488,13 @@ class DelimitedRecording(TextRecording):
         self._comment = None if vendor else "#"
         try:
             self._analyse_head(head, delimiter, decimal, time_column)
-            self._scan(head_raw)
+            n_warnings = len(self.warnings)
+            try:
+                self._scan(head_raw)
+            except _BareCR:  # past the head: the lines the native scan leaves to Python are looked at
+                del self.warnings[n_warnings:]
+                self._split_bare_crs()
+                self._scan(head_raw)
             self._vendor_fixups()
             if self._resample is not None:
                 self._load_resampled(self._resample)
@@ -539,6 +548,39 @@ class DelimitedRecording(TextRecording):
             self._close()
             raise RecordingError(f"{self.path}: not valid {enc} text ({exc.reason} at byte {exc.start})") from None
         self._data_path = tmp
+
+    def _split_bare_crs(self) -> None:
+        """Copies the data into a private temporary file with every bare CR made an LF; reads that instead.
+
+        Only a file with a bare CR in a line the native scan does not take (its head, or a line it stops
+        at: a CR inside a row makes it a row of the wrong width or a field that is no number) is copied,
+        so a file without one costs nothing more."""
+        import tempfile
+
+        fd, tmp = tempfile.mkstemp(prefix="tribodyn-", suffix=".txt")
+        bare = 0
+        try:
+            with open(self._data_path, "rb") as src, os.fdopen(fd, "wb") as dst:
+                carry = b""
+                while True:
+                    block = src.read(_CR_BLOCK)
+                    data = carry + block
+                    carry = data[-1:] if block and data.endswith(b"\r") else b""
+                    if carry:
+                        data = data[:-1]
+                    out, k = _BARE_CR.subn(b"\n", data)
+                    dst.write(out)
+                    bare += k
+                    if not block:
+                        break
+        except OSError as exc:
+            os.unlink(tmp)
+            raise RecordingError(f"{self.path}: cannot copy to split its bare CRs: {exc}") from None
+        self._close()  # a UTF-8 copy of a UTF-16 file, if any, is replaced
+        self._tmp = self._data_path = tmp
+        self.warnings.append(
+            f"{bare} bare carriage return(s) (CR without LF) read as line ends; line numbers count them"
+        )
 
     def _close(self) -> None:
         if self._tmp is not None:
@@ -838,6 +880,8 @@ class DelimitedRecording(TextRecording):
                         f"{self.path}: line {st.broken[0]} has {st.broken[1]} fields, expected {self._nf} "
                         "(truncated or corrupt file)"
                     )
+                if _has_bare_cr(raw):
+                    raise _BareCR
                 fields = split_fields(raw.decode("latin-1").rstrip("\r\n"), self._delim)
                 self._scan_row(st, raw, fields, line_off=line_off, heads=(s, name_b, unit_b))
         return st
@@ -1146,6 +1190,15 @@ class DelimitedRecording(TextRecording):
         pos = 0
         factor = getattr(self, "_time_factor", 1.0)
         raw = {n: np.concatenate([b[n] for b in self._iter_blocks(names, 1 << 16)]) for n in names}
+        from ._resample import check_resample_size  # the resampled size bounded before anything is allocated
+
+        total = 0
+        for a, b in self._segments:
+            t = raw[self._time_name][a:b] * factor
+            t = t[np.isfinite(t)]
+            if t.size >= 2:
+                total += check_resample_size(self.path, hz, float(t.max() - t.min()), len(names), self._n)
+        check_resample_size(self.path, hz, (total - 1) / hz, len(names), self._n)
         for a, b in self._segments:
             t = raw[self._time_name][a:b] * factor
             ok = np.isfinite(t)
@@ -1204,6 +1257,19 @@ class DelimitedRecording(TextRecording):
                         lines, nos, self._delim, self._decimal, usecols=usecols, colnames=list(names), path=self.path
                     )
                     yield {nm: a[:, c] for c, nm in enumerate(names)}
+
+
+_CR_BLOCK = 1 << 24
+_BARE_CR = re.compile(rb"\r(?!\n)")
+
+
+class _BareCR(Exception):
+    """A line of the scan holds a carriage return without a line feed (the file is then read from a copy)."""
+
+
+def _has_bare_cr(raw: bytes) -> bool:
+    """A CR in the line other than its line end (``\\r\\n``, or ``\\r`` ending the file)."""
+    return b"\r" in raw.rstrip(b"\r\n")
 
 
 def _num(s: str, decimal: str) -> float:

@@ -6,6 +6,13 @@ component alone is accepted where unique. All channels must have one length
 (datasets of other lengths are skipped when the mapped channels agree, see
 :func:`~tribodyn.io.base.equal_length_selection`).
 
+Groups nested more than :data:`MAX_DEPTH` deep or more than
+:data:`MAX_OBJECTS` objects are refused (a walk of libhdf5's own takes minutes on
+thousands of nested groups). A channel with samples never written (chunks not
+allocated: HDF5 reads its fill value) is read with a warning, and refused when
+those are most of it and more than :data:`MAX_UNWRITTEN` (a small file declaring
+billions of samples).
+
 The sampling rate is looked up on each channel's dataset, then its parent
 groups up to the file root, as an attribute ``fs``, ``sampling_rate`` or
 ``sample_rate`` (Hz) or ``dt`` / ``wf_increment`` (s); a scalar dataset
@@ -22,7 +29,7 @@ variable-length sequence, which h5py crashes the process reading) is refused
 unread. Variable-length text attributes (what h5py writes for a ``str``)
 live in the file's global heap, which libhdf5 can loop on forever when it
 is corrupt: they are read by a helper process with a time limit
-(:mod:`tribodyn.io._h5attrs`, 30 s), a file whose read does not finish or
+(:mod:`tribodyn.io._h5attrs`, 30 s of CPU time), a file whose read does not finish or
 crashes the helper is refused, and they are never read where a number is
 looked for (a rate). The file's size, mtime and inode are taken at open and checked again
 after every read (:meth:`~tribodyn.io.base.Recording.check_unchanged`): HDF5
@@ -44,7 +51,7 @@ from __future__ import annotations
 import math
 import os
 import sys
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, TypeVar
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 
@@ -59,6 +66,11 @@ _T = TypeVar("_T")
 
 #: What h5py raises on corrupt metadata (RecordingError, a ValueError, is passed on as it is).
 _H5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+#: Depth of groups, and objects in all, looked through at most for channels (issue 34).
+MAX_DEPTH = 64
+MAX_OBJECTS = 200_000
+#: Samples of a channel that may be never written (fill values) when they are also most of it.
+MAX_UNWRITTEN = 10_000_000
 
 _RATE_ATTRS = ("fs", "sampling_rate", "sample_rate")
 _STEP_ATTRS = ("dt", "wf_increment")
@@ -276,10 +288,10 @@ class Hdf5Recording(Recording):
             what += f" and {len(todo) - 4} more" if len(todo) > 4 else ""
             try:
                 answers = _h5attrs.read_attributes(self.path, [k for k, _w in todo])
-            except TimeoutError:
+            except TimeoutError as exc:
                 raise RecordingError(
                     f"{self.path}: reading the text attribute(s) {what} did not finish within "
-                    f"{_h5attrs.TIME_LIMIT:g} s (corrupt global heap?): file refused"
+                    f"{str(exc) or f'{_h5attrs.TIME_LIMIT:g} s'} (corrupt global heap?): file refused"
                 ) from None
             except _h5attrs.HelperCrashed:
                 raise RecordingError(
@@ -337,7 +349,7 @@ class Hdf5Recording(Recording):
 
             self._meta(f"object {name!r}", describe)
 
-        self._meta("the object tree", lambda: root.visititems(visit))
+        self._meta("the object tree", lambda: self._walk(h5py, root, visit))
         if not found:
             raise RecordingError(f"{self.path}: no 1-D numeric dataset in this HDF5 file")
         wanted = [
@@ -348,6 +360,8 @@ class Hdf5Recording(Recording):
         names, n, other = equal_length_selection(self.path, lengths, wanted)
         skipped += other
         self._dsets = {k: found[k] for k in names}
+        for k, d in self._dsets.items():
+            self._meta(f"the storage of {k!r}", lambda: self._check_written(k, d))
         self._names = names
         self._n = n
         # Variable-length text attributes to be read (units, the root's for the metadata): one helper request.
@@ -397,6 +411,63 @@ class Hdf5Recording(Recording):
             self.metadata["skipped"] = skipped
         self._default_roles = roles_by_name(self._names)
         self._setup(channels, fs, scale, units)
+
+    def _walk(self, h5py: Any, root: Any, visit: Callable[[str, Any], None]) -> None:
+        """Calls ``visit(name, obj)`` for every object under ``root``, each once, in the order of
+        ``visititems`` (depth first, by name), refusing a tree deeper than :data:`MAX_DEPTH` groups or of
+        more than :data:`MAX_OBJECTS` objects (libhdf5's own ``visititems`` takes minutes on groups nested
+        thousands deep: issue 34)."""
+        seen = {hash(root.id)}
+        stack: List[Tuple[Any, Iterator[str], str]] = [(root, iter(list(root)), "")]
+        count = 0
+        while stack:
+            group, keys, prefix = stack[-1]
+            key = next(keys, None)
+            if key is None:
+                stack.pop()
+                continue
+            count += 1
+            if count > MAX_OBJECTS:
+                raise RecordingError(f"{self.path}: more than {MAX_OBJECTS} HDF5 objects: not a recording layout")
+            obj = group.get(key)
+            if obj is None:  # a dangling soft or external link
+                continue
+            ident = hash(obj.id)  # h5py hashes an object by file and address: a hard link twice is one object
+            if ident in seen:
+                continue
+            seen.add(ident)
+            name = f"{prefix}{key}"
+            visit(name, obj)
+            if isinstance(obj, h5py.Group):
+                if len(stack) >= MAX_DEPTH:
+                    raise RecordingError(
+                        f"{self.path}: HDF5 groups nested more than {MAX_DEPTH} deep (at {name[:80]!r}...): "
+                        "not a recording layout"
+                    )
+                stack.append((obj, iter(list(obj)), name + "/"))
+
+    def _check_written(self, name: str, d: Any) -> None:
+        """Warns of samples never written (HDF5 reads its fill value there) and refuses a channel mostly
+        unwritten beyond :data:`MAX_UNWRITTEN` samples (a 1 kB file declaring 3e11 samples: issue 34)."""
+        n = int(d.shape[0])
+        if d.chunks is not None:
+            written = min(n, int(d.id.get_num_chunks()) * int(d.chunks[0]))
+        elif d.external:
+            return
+        else:
+            written = n if d.id.get_storage_size() > 0 else 0
+        unwritten = n - written
+        if unwritten <= 0:
+            return
+        if unwritten > MAX_UNWRITTEN and unwritten > written:
+            raise RecordingError(
+                f"{self.path}: dataset {name!r} declares {n} samples of which {unwritten} were never written "
+                f"(no storage allocated; the file is {os.path.getsize(self.path)} bytes): truncated or "
+                "pre-allocated and never filled"
+            )
+        self.warnings.append(
+            f"{name}: {unwritten} of {n} samples were never written: HDF5 reads its fill value ({d.fillvalue!r}) there"
+        )
 
     _owned_reads = True  # h5py returns a new array for every slice
 

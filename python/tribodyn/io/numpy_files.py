@@ -10,7 +10,8 @@
     carries no sampling rate: pass ``fs=`` or ``time_channel='ch0'`` (fs from
     the median step of that channel).
 ``.npz``
-    Each 1-D numeric member is a channel named by its key. Scalar members
+    Each 1-D numeric member (or one of shape ``(N, 1)`` or ``(1, N)``) is a
+    channel named by its key. Scalar members
     ``fs`` (Hz) or ``dt`` (s) give the sampling rate, a 0-d text member
     ``units`` a JSON object channel -> unit (as written by
     :func:`tribodyn.io.writers.save_npz`). A zip member cannot be
@@ -445,12 +446,19 @@ class NpzRecording(Recording):
                     except ValueError:
                         self.warnings.append("member 'units' is not JSON; ignored")
                 continue
+            if len(shape) == 2 and min(shape) == 1:  # (N, 1) or (1, N): the bytes of a 1-D array
+                shape = (max(shape),)
             if len(shape) == 1 and dtype.kind in "biuf" and not dtype.hasobject and shape[0] > 0:
                 members[key] = (zi.filename, dtype, offset, shape[0])
                 lengths[key] = shape[0]
             else:
                 skipped.append(key)
         if not members:
+            from .detect import _zip_kind
+
+            fmt, what = _zip_kind(self.path, "zip")
+            if fmt != "npz":
+                raise RecordingError(f"{self.path}: not a .npz: its content is {what}")
             raise RecordingError(f"{self.path}: no 1-D numeric member in this .npz")
         wanted = [
             resolve_name(self.path, list(members), v, f"channel for role {k!r}")

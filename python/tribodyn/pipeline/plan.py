@@ -39,7 +39,6 @@ __all__ = [
     "make_plan",
     "check_orientation",
     "check_covariate_logs",
-    "check_tribometer",
     "checked",
 ]
 
@@ -374,14 +373,6 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         stick_slip=c["stick_slip"],
         uncertainty=c["uncertainty"],
     )
-
-
-def check_tribometer(motion: Any, min_fn: Any, tare: Any, stroke_fraction: Any) -> Dict[str, Any]:
-    """The tribometer options checked (docs/method.md 6a, 6c): motion, min_fn, tare, stroke_fraction."""
-    from ..options import option
-
-    given = dict(motion=motion, min_fn=min_fn, tare=tare, stroke_fraction=stroke_fraction)
-    return {name: checked(option(name), value) for name, value in given.items()}
 
 
 # -- each option's own check (tribodyn.options.Option.check) -----------------------------------------------------
