@@ -451,7 +451,7 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
     run0, run1 = starts[ri], stops[ri]
     swing = sm[at[fall]] - sm[at[fall + 1]]  # the smoothed signal at the peak minus at the trough
     for _ in range(PRUNE_ROUNDS):
-        f = _falls(r, fn, a, b, run0, run1, wlen, L)
+        f = _falls(r, fn, a, b, run0=run0, run1=run1, wlen=wlen, L=L)
         # a fall whose drop is under the gate and whose swing is under the threshold is part of its stick:
         # merged into it (a real fall's swing stands out even where a neighbour spoils its lines)
         weak = ~(f.drop >= gate) & ~(swing >= thr)
@@ -459,7 +459,7 @@ def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, si
             break
         a, b, run0, run1, swing = a[~weak], b[~weak], run0[~weak], run1[~weak], swing[~weak]
     else:
-        f = _falls(r, fn, a, b, run0, run1, wlen, L)
+        f = _falls(r, fn, a, b, run0=run0, run1=run1, wlen=wlen, L=L)
     sig = max(sigma, quantum / np.sqrt(12.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         fitted = (f.pre.count >= MIN_FIT) & (f.post.count >= MIN_FIT) & np.isfinite(f.mid)
@@ -497,7 +497,7 @@ class _FallFits:
     cut: np.ndarray
 
 
-def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, run0: np.ndarray, run1: np.ndarray,
+def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, *, run0: np.ndarray, run1: np.ndarray,
            wlen: int, L: int) -> _FallFits:  # fmt: skip
     """The stick lines, middle, duration and whole drop of each fall a..b (docs/method.md 6g); L the samples of
     the smoothed signal."""
@@ -514,7 +514,7 @@ def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, run0: np
     m_post = np.maximum(1, np.round(MARGIN_SHARE * (hi_post - b)).astype(np.int64))
     pre = _lines(r, fn, lo_pre + m_pre, a - m_pre + 1)
     post = _lines(r, fn, b + m_post, hi_post - m_post + 1)
-    mid, tau = _crossings(r, a - (L - 1), b, pre, post, L)
+    mid, tau = _crossings(r, a - (L - 1), b, pre=pre, post=post, L=L)
     drop = pre.at(mid - 0.5 * tau) - post.at(mid + 0.5 * tau)
     return _FallFits(pre, post, mid, tau, drop, a - prev_b, ~same_prev)
 
@@ -523,7 +523,7 @@ def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, run0: np
 LOW = 0.2
 
 
-def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, pre: "_Fit", post: "_Fit", L: int
+def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, *, pre: "_Fit", post: "_Fit", L: int
                ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
     """(middle, duration) of each fall in samples (docs/method.md 6g), from the mean of r over L samples
     starting at p .. q (centred (L - 1) / 2 later): its share of the way from the stick line before to the one
