@@ -63,7 +63,7 @@ EXPECT = {
         ["calibration.toml", "report/report.html"],
     ),
     "stick_slip.py": (
-        ["forward strokes: static COF", "kinetic COF", "stick-slip present: 158 events", "Hz"],
+        ["forward strokes: static COF", "kinetic COF", "stick-slip present: 156 events", "Hz"],
         ["strokes.csv", "stick_slip.png"],
     ),
 }

@@ -12,10 +12,19 @@ import tribodyn as td
 from tribodyn import simulate
 from tribodyn.pipeline import stickslip
 
+import stick_slip_sim as sim_ss
+
 pytestmark = pytest.mark.fast
 
-#: A drop is counted when it lies at least this many samples inside a stroke's central part (docs/method.md 6g).
+#: A drop this many samples inside a stroke's central part is counted (docs/method.md 6g: no stick line reaches
+#: into the 2 L samples at a segment's edges; a stick needs MIN_FIT samples and margins).
 EDGE = 2 * (stickslip.SMOOTH + stickslip.DROP_SAMPLES - 1)
+
+
+def near_truth(times, truth, fs, within=1.5):
+    """Whether every event's middle lies within ``within`` samples of a simulated drop."""
+    gap = np.abs(np.asarray(times)[:, None] - np.asarray(truth)[None, :]).min(axis=1) * fs
+    return bool(gap.max() <= within)
 
 
 def expected_events(sim, res, fraction=0.5):
@@ -34,17 +43,17 @@ def expected_events(sim, res, fraction=0.5):
 
 
 @pytest.mark.parametrize(("seed", "period"), [(1, 0.0307), (2, 0.0233), (3, 0.0271)])
-def test_events_counted_exactly_at_20_db(seed, period):
+def test_events_counted_at_20_db(seed, period):
     amp, noise = 0.2, 0.02  # SNR 20 log10(0.2 / 0.02) = 20 dB
     sim = simulate.reciprocating(seed=seed, stick_slip=amp, stick_slip_period=period, noise=noise)
     res = td.analyze(sim.channels, fs=sim.fs)
     ss = td.stick_slip(sim.channels, res)
     sure, unsure = expected_events(sim, res)
     assert not unsure.any()  # the truth is unambiguous here
-    assert ss.events == int(sure.sum()) > 100 and ss.present
-    # each event is a true drop, within a sample
-    gap = np.abs(ss.times[:, None] - sim.slip_times[sure][None, :]).min(axis=1) * sim.fs
-    assert gap.max() <= 1.0
+    # the drops inside the central halves, but for a few at their edges; each event a true drop, its middle
+    # within 1.5 samples (the smoothed fall's half-way crossing)
+    assert abs(ss.events - int(sure.sum())) <= 0.02 * sure.sum() and sure.sum() > 100 and ss.present
+    assert near_truth(ss.times, sim.slip_times, sim.fs)
     assert abs(ss.amplitude / amp - 1) < 0.03
     assert abs(ss.amplitude_cof / (amp / 10.0) - 1) < 0.03
     assert abs(ss.frequency * period - 1) < 0.015
@@ -57,7 +66,8 @@ def test_amplitude_with_a_dynamic_load_and_a_breakaway():
     res = td.analyze(sim.channels, fs=sim.fs)
     ss = td.stick_slip(sim.channels, res)
     sure, unsure = expected_events(sim, res)
-    assert ss.events == int(sure.sum()) and not unsure.any()
+    assert abs(ss.events - int(sure.sum())) <= 0.02 * sure.sum() and not unsure.any()
+    assert near_truth(ss.times, sim.slip_times, sim.fs)
     assert abs(ss.amplitude / 0.2 - 1) < 0.03
 
 
@@ -95,8 +105,10 @@ def test_unidirectional_events_counted_exactly():
     res = td.analyze(ch, fs=1000.0, motion="unidirectional")
     ss = td.stick_slip(ch, res)
     inner = drops[(drops > EDGE + 1) & (drops < 20000 - EDGE - 1)]
-    assert ss.events == inner.size
-    assert np.abs(ss.times * 1000.0 - inner).max() <= 1.0
+    assert abs(ss.events - inner.size) <= 1  # (a drop at the recording's edges)
+    inner = inner[np.abs(inner[:, None] - ss.times[None, :] * 1000.0).min(axis=1) <= 1.5]
+    assert inner.size == ss.events
+    assert np.abs(ss.times * 1000.0 - inner).max() <= 1.5
     assert abs(ss.amplitude / 0.3 - 1) < 0.03 and abs(ss.frequency * 0.0373 - 1) < 0.015
     assert abs(ss.rate - inner.size / 20.0) < 1e-9
 
@@ -112,8 +124,11 @@ def test_blocks_and_a_recording_give_the_same_events(tmp_path, monkeypatch):
     monkeypatch.setattr(stickslip, "BLOCK", 700)  # blocks much shorter than the recording, edges inside strokes
     for source in (sim.channels, str(p)):
         parts = td.stick_slip(source, res)
-        np.testing.assert_array_equal(parts.times, whole.times)
-        np.testing.assert_allclose(parts.drops, whole.drops, rtol=1e-12)
+        # the noise is each block's median, so a drop within 1 % of either threshold may count in one only
+        clear = max(parts.threshold, whole.threshold) * 1.01
+        np.testing.assert_allclose(parts.times[parts.drops > clear], whole.times[whole.drops > clear], rtol=1e-12)
+        np.testing.assert_allclose(parts.drops[parts.drops > clear], whole.drops[whole.drops > clear], rtol=1e-12)
+        assert abs(parts.events - whole.events) <= 2
 
 
 def test_without_results_it_analyses_first_and_bad_input_is_refused():
@@ -205,7 +220,20 @@ def _counting_reader(monkeypatch):
     return got
 
 
-def test_a_long_recording_is_read_once_and_a_bounded_sample(monkeypatch):
+@pytest.fixture
+def one_second_grid(monkeypatch):
+    """A COF grid (and falls' window) of 1 s: the sample's pieces of these tests stay 4096 samples long."""
+    monkeypatch.setattr(stickslip, "GRID_S", 1.0)
+
+
+def _read_once(ch, res):
+    """(samples of every block with its margins, samples of the sample's pieces) of a search."""
+    search = stickslip._Search.of(res.params, None, len(ch["fz"]), None, k=5.0, drop_samples=3)
+    blocks = sum(s.read[1] - s.read[0] for s in search.spans)
+    return blocks, (0 if search.whole else sum(s.read[1] - s.read[0] for s in search.first))
+
+
+def test_a_long_recording_is_read_once_and_a_bounded_sample(monkeypatch, one_second_grid):
     ch, drops = _unidirectional_saw(9, n=400_000)
     res = td.analyze(ch, fs=1000.0, motion="unidirectional")
     whole = td.stick_slip(ch, res)  # one block: the statistics of every sample
@@ -213,14 +241,16 @@ def test_a_long_recording_is_read_once_and_a_bounded_sample(monkeypatch):
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)  # pieces of 4096 samples: 8 x 4096 + margins
     part = td.stick_slip(ch, res)
-    assert 400_000 < got[0] < 400_000 * 1.25  # before: every block twice
-    np.testing.assert_array_equal(part.times, whole.times)
+    blocks, pieces = _read_once(ch, res)
+    assert got[0] == blocks + pieces and blocks < 400_000 * 1.3 and pieces < 8 * 12_200  # before: every block twice
+    # the same events; their middles to rounding (interpolated in each block's own sample numbers)
+    np.testing.assert_allclose(part.times, whole.times, rtol=1e-12)
     assert part.noise == pytest.approx(whole.noise, rel=0.05) and part.duration == whole.duration
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 20)  # a recording within the sample: both passes read it all
     got[0] = 0
     two = td.stick_slip(ch, res)
     assert got[0] > 2 * 400_000
-    np.testing.assert_array_equal(two.times, whole.times)
+    np.testing.assert_allclose(two.times, whole.times, rtol=1e-12)
 
 
 def _other_sign_at_the_sample(n=400_000, m=4096):
@@ -233,7 +263,7 @@ def _other_sign_at_the_sample(n=400_000, m=4096):
     return {"fy": np.where(near, -1.0, 1.0) * ch["fy"], "fz": ch["fz"]}, near
 
 
-def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch):
+def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch, one_second_grid):
     ch, near = _other_sign_at_the_sample()
     res = td.analyze(ch, fs=1000.0, motion="unidirectional")
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
@@ -253,7 +283,7 @@ def test_a_sample_whose_sign_is_not_the_recordings_is_searched_again(monkeypatch
     assert (~near[at]).sum() > 7500  # the drops where friction has the recording's sign (8157 simulated)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 20)  # both passes over every block: the recording's sign
     signs.clear()
-    assert td.stick_slip(ch, res).events > 8000 and signs == [-1.0]
+    assert td.stick_slip(ch, res).events > 7800 and signs == [-1.0]  # (8157 simulated, some in the other sign)
 
 
 # -- stick-slip in the analysis' own reading (analyze(stick_slip=True), docs/method.md 6g) -------------------------
@@ -284,7 +314,7 @@ def _never_read_again(monkeypatch):
 
 
 @pytest.mark.parametrize(("block", "chunk", "threads"), [(1 << 16, None, 1), (1 << 16, 7.3, 2), (1 << 20, 41.0, 2)])
-def test_the_analysis_finds_what_reading_again_finds(monkeypatch, block, chunk, threads):
+def test_the_analysis_finds_what_reading_again_finds(monkeypatch, block, chunk, threads, one_second_grid):
     # blocks of 2^16 with a sample of 2^15: pass 1 from the sample, pass 2 from the main pass's chunks;
     # one block of 2^20: both passes over the block kept (a short search)
     monkeypatch.setattr(stickslip, "BLOCK", block)
@@ -299,7 +329,7 @@ def test_the_analysis_finds_what_reading_again_finds(monkeypatch, block, chunk, 
     assert td.stick_slip(ch, res, k=4.0).events >= res.stick_slip.events  # other settings: searched again
 
 
-def test_a_recording_is_read_once_for_the_analysis_and_stick_slip(tmp_path, monkeypatch):
+def test_a_recording_is_read_once_for_the_analysis_and_stick_slip(tmp_path, monkeypatch, one_second_grid):
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
     ch, _ = _unidirectional_saw(12, n=300_000)
@@ -328,12 +358,15 @@ def test_a_recording_is_read_once_for_the_analysis_and_stick_slip(tmp_path, monk
         _never_read_again(m)
         both, res = samples_read(stick_slip=True)
     assert res.params["route"] == "stream" and res.stick_slip.events > 7000
-    # stick-slip adds its sample alone: 8 pieces of 2^12 samples, each with its margins rounded out to seconds
-    piece = 4096 + 2 * (2 * (stickslip.SMOOTH + stickslip.DROP_SAMPLES) + stickslip.FIT_MAX + 2) + 4 * 1000
+    # stick-slip adds its sample alone: 8 pieces of 2^12 samples, each with its margins rounded out to whole
+    # cells of the COF grid, plus one cell each side
+    grid = stickslip._grid(1000.0)
+    margin = 2 * grid + 2 * (stickslip.SMOOTH + stickslip.DROP_SAMPLES) + 2
+    piece = 4096 + 2 * (margin + 2 * grid)
     assert 0 < both - alone <= 8 * piece
 
 
-def test_a_sample_of_the_other_sign_and_a_range_read_again(tmp_path, monkeypatch):
+def test_a_sample_of_the_other_sign_and_a_range_read_again(tmp_path, monkeypatch, one_second_grid):
     n = 400_000
     ch, _ = _other_sign_at_the_sample(n)
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
@@ -359,3 +392,69 @@ def test_stick_slip_is_not_searched_unless_asked_or_without_a_static_level():
     dyn = simulate.conditions(10, seed=1)  # the charge amplifier's high-pass: no static level
     got = td.analyze(dyn.channels, fs=dyn.fs, stick_slip=True).stick_slip
     assert got.verdict.startswith("stick-slip not assessed: fz carries no")
+
+
+# -- stick-slip by physics (issue 35 point 1): slips of 1-100 ms at 100 Hz-10 kHz, quantised exports, low rates ----
+
+
+@pytest.mark.parametrize(
+    ("fs", "slip", "quantum"),
+    [(100.0, 0.01, sim_ss.QUANTUM), (2000.0, 0.06, None), (1000.0, 0.1, sim_ss.QUANTUM), (10000.0, 0.001, None)],
+)
+def test_slips_of_many_samples_are_counted_with_their_whole_drop(fs, slip, quantum):
+    """A slip of 60 ms at 2 kHz spans 120 samples: the old 3-sample rule read it 300x too small or missed it."""
+    case = sim_ss.stick_slip(1, fs=fs, slip=slip, quantum=quantum)
+    ss = td.stick_slip(case.channels, td.analyze(case.channels, fs=case.fs, motion="unidirectional"))
+    assert ss.present and abs(ss.events / case.starts.size - 1) <= 0.05, ss.verdict
+    assert abs(ss.amplitude / case.amplitude - 1) <= 0.10, ss.verdict
+    assert near_truth(ss.times, 0.5 * (case.starts + case.ends), fs, within=max(1.5, 0.3 * slip * fs))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_single_steps_of_a_quantised_export_are_no_events(seed):
+    """A steady 1 Hz export quantised in 0.27 N steps, noise 0.2 steps: single steps after a drift are not slips
+    (the old rule found 18-25 "events" in each)."""
+    case = sim_ss.quantised_steady(seed, fs=1.0, duration=1800, noise=0.2)
+    ss = td.stick_slip(case.channels, td.analyze(case.channels, fs=case.fs, motion="unidirectional"))
+    assert ss.events == 0 and not ss.present, ss.verdict
+    # the resolution of F - mu Fn rules: the step of F plus mu times that of Fn
+    assert ss.threshold == pytest.approx(stickslip.Q_STEPS * 0.27 * (1 + sim_ss.MU), rel=0.02)
+    assert "3 steps of the export's resolution" in ss.verdict and "no slip is resolved" in ss.verdict
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda s: sim_ss.smooth(s, fs=1000.0),
+        lambda s: sim_ss.low_rate(s),
+        lambda s: sim_ss.quantised_steady(s),
+    ],
+    ids=["smooth-1kHz", "1Hz-log", "quantised-1kHz"],
+)
+def test_no_stick_slip_on_smooth_low_rate_or_quantised_steady_signals(make):
+    for seed in (1, 2):
+        case = make(seed)
+        ss = td.stick_slip(case.channels, td.analyze(case.channels, fs=case.fs, motion="unidirectional"))
+        assert not ss.present and ss.events <= 1, ss.verdict
+
+
+def test_the_export_resolution_is_read_from_the_value_grid():
+    rng = np.random.default_rng(0)
+    x = 5.0 + 0.3 * rng.standard_normal(5000)
+    assert stickslip._quantum(x) == 0.0  # float data: every value distinct
+    assert stickslip._quantum(np.round(x / 0.27) * 0.27) == pytest.approx(0.27)
+    assert stickslip._quantum(np.round(x, 1)) == pytest.approx(0.1)
+
+
+def test_a_few_drops_far_apart_are_isolated_not_stick_slip():
+    """4 stick-slip cycles (0.3 s sticks, 0.5 N) in 60 s of smooth sliding: events, but their sticks fill 2 % of the
+    time (under MIN_STICK_SHARE): no stick-slip, the verdict says so; 30 cycles in the same 60 s are present."""
+    for cycles, present in ((4, False), (30, True)):
+        case = sim_ss.smooth(3, fs=1000.0)
+        saw = sim_ss.stick_slip(3, fs=1000.0, slip=0.002, cycles=cycles, noise=0.0)
+        n = min(len(saw.channels["fy"]), len(case.channels["fy"]))
+        ch = {"fy": case.channels["fy"].copy(), "fz": case.channels["fz"]}
+        ch["fy"][:n] += saw.channels["fy"][:n] + sim_ss.MU * sim_ss.FN * (np.arange(n) >= 1000)  # the saw alone
+        ss = td.stick_slip(ch, td.analyze(ch, fs=1000.0, motion="unidirectional"))
+        assert ss.present is present and ss.events >= min(cycles - 1, 4), ss.verdict
+        assert ("isolated: their sticks fill" in ss.verdict) is not present

@@ -43,9 +43,14 @@ LIMIT_FACTOR = 2.8
 #: Significance levels of Mandel's h and k: outlier (1 %) and straggler (5 %), as ISO 5725-2 7.3.
 LEVELS = (0.01, 0.05)
 
-#: How the mean and its interval are computed (``Comparison.pooling``).
-POOLING_RE = "random effects: DerSimonian-Laird tau^2, Hartung-Knapp interval (factor >= 1) with t(k - 1)"
-POOLING_UNWEIGHTED = "unweighted mean of the tests' values, t(k - 1) interval from their sample SD"
+#: How the mean and its interval are computed (``Comparison.pooling``): on the log scale (a COF is positive, so
+#: are its intervals), or on the COF's own scale when a value is not positive.
+POOLING_RE = "random effects on the log scale: DerSimonian-Laird tau^2, Hartung-Knapp interval with t(k - 1)"
+POOLING_UNWEIGHTED = "unweighted mean of the tests' log values, t(k - 1) interval from their sample SD"
+POOLING_RE_LINEAR = "random effects: DerSimonian-Laird tau^2, Hartung-Knapp interval with t(k - 1)"
+POOLING_UNWEIGHTED_LINEAR = "unweighted mean of the tests' values, t(k - 1) interval from their sample SD"
+#: From this many tests on, the comparison says nothing more about what few tests can bound.
+FEW_TESTS = 3
 
 HeadlineLike = Union["Results", Headline, Mapping[str, Any]]
 
@@ -437,13 +442,49 @@ def random_effects(y: np.ndarray, v: np.ndarray) -> Dict[str, float]:
     tau2 = max(0.0, (q - (k - 1)) / c) if c > 0 else 0.0
     ws = 1.0 / (v + tau2)
     mu = float(np.sum(ws * y) / np.sum(ws))
-    # Knapp-Hartung: the weighted residual variance scales Var(mu); kept >= 1 (Roever et al. 2015) so the
-    # interval is never narrower than the DerSimonian-Laird one when the tests agree better than expected.
-    factor = max(1.0, float(np.sum(ws * (y - mu) ** 2)) / (k - 1))
+    # Hartung-Knapp: the weighted residual variance scales Var(mu), not kept >= 1: with the factor truncated the
+    # interval covered 98.6-100 % of tests of one condition (docs/method.md 10a)
+    factor = float(np.sum(ws * (y - mu) ** 2)) / (k - 1)
     se = math.sqrt(factor / float(np.sum(ws)))
     h = _t975(k - 1) * se
     i2 = max(0.0, (q - (k - 1)) / q) if q > 0 else 0.0
     return {"mean": mu, "low": mu - h, "high": mu + h, "se": se, "tau2": tau2, "q": q, "i2": i2}
+
+
+def _scaled(st: Dict[str, float], log: bool) -> Dict[str, float]:
+    """Log-scale statistics back on the COF's scale (``log``): mean, low and high exponentiated (a geometric mean
+    and an interval that stays positive), the standard error and tau times the mean (the delta method)."""
+    if not log:
+        return st
+    m = math.exp(st["mean"])
+    tau2 = st["tau2"] * m * m if math.isfinite(st["tau2"]) else st["tau2"]
+    return {**st, "mean": m, "low": math.exp(st["low"]), "high": math.exp(st["high"]), "se": m * st["se"],
+            "tau2": tau2}  # fmt: skip
+
+
+def _random_effects_scaled(y: np.ndarray, se: np.ndarray, log: bool) -> Tuple[Dict[str, float], np.ndarray]:
+    """(random effects on the log scale or the COF's own, normalised weights): a test's log value has the
+    variance (se / y)^2 (the delta method)."""
+    z, v = (np.log(y), (se / y) ** 2) if log else (y, se**2)
+    st = random_effects(z, v)
+    w = 1.0 / (v + st["tau2"])
+    return _scaled(st, log), w / w.sum()
+
+
+def _few_tests(k: int) -> str:
+    """What 2 or 3 tests can and cannot bound (docs/method.md 10a)."""
+    df = f"{k - 1} degree{'s' if k > 2 else ''} of freedom"
+    further = (
+        "nor where a further test will land (no prediction interval from 2 tests)"
+        if k < 3
+        else "and the interval of a further test is wide and itself uncertain"
+    )
+    return (
+        f"with {k} tests the interval rests on the spread of {k} values ({df}): 95 % of such intervals cover the "
+        "mean COF of the condition these tests sample, but their width varies widely (tests that agree by chance "
+        "give a narrow one); they cannot bound the spread between tests (tau), "
+        f"{further}; more tests narrow the interval and make its width reliable"
+    )
 
 
 def _unweighted(y: np.ndarray) -> Dict[str, float]:
@@ -626,15 +667,19 @@ def compare(
     y = np.array([h.value for h in heads], dtype=float)
     se = np.array([(h.high - h.low) / (2 * Z975) for h in heads], dtype=float)
     usable = np.isfinite(se) & (se > 0)
+    log = bool(np.all(y > 0))
+    if not log:
+        notes.append(
+            "a test's value is not positive: the mean and its intervals are computed on the COF's own scale and "
+            "may reach below zero"
+        )
     if usable.all():
-        st = random_effects(y, se**2)
-        w = 1.0 / (se**2 + st["tau2"])
-        weights = w / w.sum()
-        pooling = POOLING_RE
+        st, weights = _random_effects_scaled(y, se, log)
+        pooling = POOLING_RE if log else POOLING_RE_LINEAR
     else:
-        st = _unweighted(y)
+        st = _scaled(_unweighted(np.log(y)), log) if log else _unweighted(y)
         weights = np.full(k, 1.0 / k)
-        pooling = POOLING_UNWEIGHTED
+        pooling = POOLING_UNWEIGHTED if log else POOLING_UNWEIGHTED_LINEAR
         without = [n for n, u in zip(names, usable) if not u]
         notes.append(
             f"no usable 95 % interval for {', '.join(without)}: the tests' own uncertainties are not used, the "
@@ -643,7 +688,9 @@ def compare(
     sd = float(np.std(y, ddof=1))
     if sd == 0:
         notes.append("the tests' values are identical: the intervals from their spread have zero width")
-    pred = prediction(y)
+    pred = tuple(float(np.exp(p)) for p in prediction(np.log(y))) if log else prediction(y)
+    if k <= FEW_TESTS:
+        notes.append(_few_tests(k))
     prec = precision(y.tolist(), grp) if grp is not None else None
     if prec is not None:
         notes.append(

@@ -25,8 +25,8 @@ def stick_slip(
     fraction: Optional[float] = None,
     open_options: Optional[Mapping[str, Any]] = None,
 ) -> StickSlip:
-    """Stick-slip events of a recording: slow rises of the friction force, each ended by a sudden drop
-    (docs/method.md 6g).
+    """Stick-slip events of a recording: rises of the friction force while the contact sticks, each ended by
+    a drop as it slips, within a sample or over many (docs/method.md 6g).
 
     Parameters
     ----------
@@ -42,7 +42,9 @@ def stick_slip(
     k : float
         A drop counts when it exceeds k noise SDs (default 5).
     drop_samples : int
-        Samples a drop may take (default 3).
+        The gap (samples) of the drop statistic whose spread gives the
+        coloured noise (default 3). A drop itself may take up to 0.2 of the
+        stick before it and 0.25 s, or lie within one sample interval.
     fraction : float, optional
         Reciprocating: the central part of each stroke searched (default the analysis' ``stroke_fraction``).
     open_options : mapping, optional
@@ -51,7 +53,8 @@ def stick_slip(
     Returns
     -------
     StickSlip
-        ``present`` with at least 3 events; ``verdict`` is its one line. Forces without their static
+        ``present`` with at least 3 events whose sticks fill 5 % of the time searched; ``verdict`` is its
+        one line. Forces without their static
         level (high-passed) are not assessed (``events`` 0, NaN amounts, the verdict says why).
     """
     if res is None:

@@ -3,8 +3,9 @@
 * :func:`breakaway_peak`: the static COF of one stroke, the largest moving
   average of |Ft|/Fn between its motion onset and its central part
   (``tribometer.stroke_table`` calls it for the ``mu_static`` column).
-* :func:`stick_slip`: the stick-slip events of a recording (a slow rise of
-  the friction force, then a sudden drop), their count, median amplitude
+* :func:`stick_slip`: the stick-slip events of a recording (a rise of the
+  friction force while the contact sticks, ended by a drop as it slips,
+  within a sample or over many; issue 35), their count, median whole drop
   and frequency, as a :class:`StickSlip`. It reads fy and fz again, once
   (in blocks; the noise of a long recording from a bounded sample), so
   :func:`tribodyn.analyze` stays as cheap as it was.
@@ -26,26 +27,51 @@ __all__ = [
     "find_stick_slip",
 ]
 
-#: A drop counts when the detrended drop statistic exceeds this many noise SDs (docs/method.md 6g).
+#: A drop counts when its whole drop exceeds this many noise SDs (docs/method.md 6g).
 K_SIGMA = 5.0
-#: A drop statistic above this many noise SDs (but under k) still bounds its neighbours' stick lines.
-BOUND_K = 2.5
-#: Samples averaged on each side of a drop by the drop statistic.
+#: ... and this many steps of the export's resolution (a step of the value grid is no event).
+Q_STEPS = 3.0
+#: Samples averaged by the smoothed signal whose peaks and troughs delimit the falls (and by the noise's
+#: drop statistic).
 SMOOTH = 5
-#: Samples a drop may take (the gap between the two averages).
+#: Samples between the two averages of the noise's drop statistic (``drop_samples``).
 DROP_SAMPLES = 3
+#: A drop may take this fraction of the stick before it at most (a slip is fast next to its stick) ...
+SLIP_FRACTION = 0.2
+#: ... and at most this many seconds (slips last milliseconds to about 0.1 s); a drop within one sample
+#: interval always may (a log sampled more slowly than a slip lasts cannot show it: the drop is a step).
+SLIP_MAX_S = 0.25
+#: The stick before a drop must have risen by this share of the drop (the force the slip releases).
+RISE_SHARE = 0.5
+#: Share of a stick left out of its line at each end (the turns into and out of the slips).
+MARGIN_SHARE = 0.1
+#: Seconds the smoothed signal of the falls averages at least (at high rates: noise's swings within a stick
+#: stay under the threshold).
+SMOOTH_S = 0.001
+#: 20-80 % width of a half-cosine fall (1 - cos(pi u)) / 2 over its duration: (acos(-0.6) - acos(0.6)) / pi.
+HALF_COSINE_20_80 = 0.4096655
+#: Samples each stick line needs.
+MIN_FIT = 3
+#: Rounds of merging falls under half the threshold into their sticks (noise's swings within a stick).
+PRUNE_ROUNDS = 4
 #: A first difference this many robust SDs below the median is a fall (a drop), left out of the noise.
 FALL_SD = 3.5
-#: Most samples of each stick line fitted beside a drop.
-FIT_MAX = 200
-#: The common slope of the two stick lines must be positive by this many standard errors (a rise).
+#: The slope of the stick before a drop must be positive by this many standard errors (a rise).
 RISE_T = 2.0
-#: Stick-slip is "present" from this many events on.
+#: Seconds of a unidirectional test's COF grid (the COF subtracted, a median per this many seconds) and of
+#: the window of the falls' prominence and of the stick lines (a stick-slip cycle up to about half of it).
+GRID_S = 5.0
+#: The export is quantised when its distinct values are at most this share of its samples.
+QUANT_SHARE = 0.5
+#: Stick-slip is "present" from this many events on ...
 MIN_EVENTS = 3
+#: ... whose sticks (each event's stick before it) fill at least this share of the time searched: a regime of
+#: stick and slip, not drops far apart (a smooth recording of 2500 s with a low-frequency wander held 3-8).
+MIN_STICK_SHARE = 0.05
 #: Samples per block read at once (a fixed grid: the result does not depend on a reader's chunks); at most
 #: 2^21, so that the stick lines' running integer sums of t^2 fit in int64.
 BLOCK = 1 << 20
-#: The noise and rise of a longer search come from a sample of this many samples (docs/method.md 6g) ...
+#: The noise and resolution of a longer search come from a sample of this many samples (docs/method.md 6g) ...
 SAMPLE = 1 << 20
 #: ... in this many evenly spread pieces.
 SAMPLE_PIECES = 8
@@ -58,10 +84,12 @@ class StickSlip:
     Attributes
     ----------
     events : int
-        Stick-slip events: drops of the friction force larger than
-        ``threshold`` within ``drop_samples`` samples, after a rise.
+        Stick-slip events: fast drops of the friction force at least
+        ``threshold`` (and the scatter of their sticks' lines) ended by
+        each, after a rise (docs/method.md 6g).
     amplitude : float
-        Median drop (N): the offset between the stick lines before and after each drop.
+        Median drop (N): each the whole drop, the stick line before it at
+        the drop's start minus the stick line after it at its end.
     amplitude_cof : float
         Median drop over the mean normal force beside it (COF units).
     frequency : float
@@ -80,7 +108,8 @@ class StickSlip:
     duration : float
         Time searched (s): the strokes' central parts, or the samples in contact.
     present : bool
-        At least :data:`MIN_EVENTS` events.
+        At least :data:`MIN_EVENTS` events whose sticks fill at least
+        :data:`MIN_STICK_SHARE` of ``duration``.
     verdict : str
         One line: "stick-slip present: N events, amplitude ..., frequency ..." or why not.
     scope : str
@@ -171,6 +200,8 @@ class _Segments:
     min_fn: float
     tare_fy: float
     tare_fz: float
+    smooth: int  # samples of the smoothed signal whose peaks and troughs delimit the falls
+    fs: float
 
 
 def _signal(seg: _Segments, a: int, b: int, fy: np.ndarray, fz: np.ndarray, *, orientation: float
@@ -235,26 +266,32 @@ def _inside_any(inside: np.ndarray, starts: np.ndarray, stops: np.ndarray) -> np
 
 @dataclasses.dataclass(frozen=True)
 class _Events:
-    """Events as columns: the sample after each drop (global), its drop (N), the mean normal force beside it (N)
-    and its segment's index."""
+    """Events as columns: the sample after each drop (global), its drop (N), the mean normal force beside it (N),
+    its segment's index, the drop's middle (global, in samples: 10.5 between samples 10 and 11) and the stick
+    before it (samples)."""
 
     index: np.ndarray
     drop: np.ndarray
     fn: np.ndarray
     label: np.ndarray
+    mid: np.ndarray
+    stick: np.ndarray  # samples of the stick before each drop (its visible part where a segment cut it)
+
+    FIELDS = ("index", "drop", "fn", "label", "mid", "stick")
 
     @staticmethod
     def none() -> "_Events":
-        return _Events(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros(0, np.int64))
+        i = np.zeros(0, np.int64)
+        return _Events(i, np.zeros(0), np.zeros(0), i, np.zeros(0), i)
 
     @staticmethod
     def concat(parts: Sequence["_Events"]) -> "_Events":
         if not parts:
             return _Events.none()
-        return _Events(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("index", "drop", "fn", "label")))
+        return _Events(*(np.concatenate([getattr(p, f) for p in parts]) for f in _Events.FIELDS))
 
     def where(self, keep: np.ndarray) -> "_Events":
-        return _Events(self.index[keep], self.drop[keep], self.fn[keep], self.label[keep])
+        return _Events(*(getattr(self, f)[keep] for f in _Events.FIELDS))
 
     def __len__(self) -> int:
         return int(self.index.size)
@@ -278,14 +315,16 @@ def _drop_statistic(r: np.ndarray, label: np.ndarray, slope: float, drop_samples
     return i, g, ok
 
 
-def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int) -> Optional[Tuple[float, float]]:
-    """(noise SD, rise per sample) of the friction signal r, or None with fewer than 10 differences (6g).
+def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int, quantum: float = 0.0) -> Optional[Tuple[float, float]]:
+    """(white noise SD, coloured noise SD) of the friction signal r, or None with fewer than 10 differences
+    (docs/method.md 6g).
 
-    Falls: first differences (within a segment) below their median by more than :data:`FALL_SD` robust
-    SDs (the drops). White noise: the robust SD of the other differences / sqrt 2. Rise and coloured noise from
-    the drop statistic g (without the rise) where neither average holds a fall: rise = -median(g) /
-    (L + D), and sqrt(L / 2) x robust SD(g) is the white-noise SD that its spread implies (coloured
-    noise spreads g more than its differences tell). The noise SD is the larger of the two.
+    Falls: first differences (within a segment) below their median by more than :data:`FALL_SD` spreads (the
+    drops; the spread 1.4826 MAD, at least ``quantum``). White noise: the robust SD of the other differences
+    / sqrt 2 (their SD / sqrt 2 for a quantised export, ``quantum`` > 0: a MAD of quantised differences moves
+    in whole steps). Coloured noise: sqrt(L / 2) x the robust SD of the drop statistic g (without a rise)
+    where neither average holds a fall (coloured noise spreads g more than its differences tell), at least
+    the white SD.
     """
     L, D = SMOOTH, drop_samples
     d = np.diff(r)
@@ -294,90 +333,272 @@ def _noise(r: np.ndarray, label: np.ndarray, drop_samples: int) -> Optional[Tupl
     if diffs.size < 10:
         return None
     centre = float(np.median(diffs))
-    falls = valid & (d < centre - FALL_SD * 1.4826 * float(np.median(np.abs(diffs - centre))))
+    spread = max(1.4826 * float(np.median(np.abs(diffs - centre))), quantum)
+    falls = valid & (d < centre - FALL_SD * spread)
     calm = diffs[~falls[valid]]
-    white = 1.4826 * float(np.median(np.abs(calm - np.median(calm)))) / np.sqrt(2.0)
+    if quantum > 0:  # a quantised export: its MAD moves in steps of the grid, the SD does not
+        white = float(np.std(calm)) / np.sqrt(2.0)
+    else:
+        white = 1.4826 * float(np.median(np.abs(calm - np.median(calm)))) / np.sqrt(2.0)
     i, g, ok = _drop_statistic(r, label, 0.0, D)
     nf = np.concatenate([[0], np.cumsum(falls)])  # falls among the differences m .. : nf[m1] - nf[m0]
     clean = ok & ((nf[i + D + L - 1] - nf[i - L]) == 0)
     if clean.sum() < 10:
-        return white, float(np.median(calm))
+        return white, white
     gc = g[clean]
     mid = float(np.median(gc))
     coloured = 1.4826 * float(np.median(np.abs(gc - mid))) * np.sqrt(L / 2.0)
-    return max(white, coloured), -mid / (L + D)
+    return white, max(white, coloured)
 
 
-def _candidates(r: np.ndarray, i: np.ndarray, g: np.ndarray, ok: np.ndarray, *, sigma: float, k: float,
-                drop_samples: int) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """(the drop's sample of each candidate, whether it is strong: g > k sigma), in order (docs/method.md 6g).
+def _quantum(x: np.ndarray) -> float:
+    """The resolution of an export: the step of the grid its values lie on (0: not quantised; 6g).
 
-    Each run of consecutive positions with g > min(k, BOUND_K) sigma gives one candidate at its (first)
-    maximum; its drop's sample is the largest single fall among the samples the statistic saw there (near a
-    segment's edge the statistic may see a drop in one of its averages, not in its gap). Consecutive runs that
-    name the same sample are one candidate, strong when any of them is.
+    Values on a grid repeat: when the distinct values are at most half the samples, the step is the median
+    gap between consecutive distinct values (a grid partly occupied reads larger: the floor is then the
+    safer). Float data (nearly every value distinct) reads 0.
     """
-    L, D = SMOOTH, drop_samples
-    idx = np.flatnonzero(ok & (g > min(k, BOUND_K) * sigma))
-    if idx.size == 0:
-        return np.zeros(0, np.int64), np.zeros(0, bool)
-    first = np.concatenate([[0], np.flatnonzero(np.diff(idx) > 1) + 1])  # each run's first position in idx
-    gi = g[idx]
-    run = np.repeat(np.arange(first.size), np.diff(np.append(first, idx.size)))
-    top = gi == np.maximum.reduceat(gi, first)[run]
-    _, at_top = np.unique(run[top], return_index=True)  # each run's first maximum (np.argmax's)
-    peaks = idx[np.flatnonzero(top)[at_top]]
-    ci = i[peaks]
-    # the samples ci - L .. ci + D + L - 1 (inside r: i runs from L to r.size - D - L)
-    falls = np.diff(r[ci[:, None] + np.arange(-L, D + L)[None, :]], axis=1)
-    seen = np.isfinite(falls).any(axis=1)
-    at = np.where(seen, ci - L + 1 + np.argmin(np.where(np.isnan(falls), np.inf, falls), axis=1), ci)
-    strong = g[peaks] > k * sigma
-    new = np.concatenate([[True], at[1:] != at[:-1]])  # a run naming the previous run's sample joins it
-    starts = np.flatnonzero(new)
-    return at[starts], np.logical_or.reduceat(strong, starts)
+    v = x[np.isfinite(x)]
+    if v.size < 20:
+        return 0.0
+    u = np.unique(v)
+    if u.size < 2 or u.size > QUANT_SHARE * v.size:
+        return 0.0
+    return float(np.median(np.diff(u)))
 
 
-def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, sigma: float, slope: float,
-            k: float, drop_samples: int) -> _Events:  # fmt: skip
-    """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g)."""
-    n, L, D = r.size, SMOOTH, drop_samples
-    if n < 2 * L + D or not (sigma > 0):
-        return _Events.none()
-    i, g, ok = _drop_statistic(r, label, slope, D)
-    if not (ok & (g > k * sigma)).any():
-        return _Events.none()
-    cands, strong = _candidates(r, i, g, ok, sigma=sigma, k=k, drop_samples=D)
-    # segment bounds of each sample: a run of one label
+def _runs(label: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """(start, stop) of each run of one segment's samples (label >= 0), in order."""
+    n = label.size
     change = np.flatnonzero(np.diff(label) != 0) + 1
     starts = np.concatenate([[0], change])
     stops = np.concatenate([change, [n]])
-    edge = L + D - 1  # a drop this near a segment's edge may go unseen: no stick line reaches into it
-    s = np.searchsorted(starts, cands, side="right") - 1
-    # the stick lines: before the slip (at most D steps, one of them at) and after it, up to the neighbours
-    prev = np.concatenate([[0], cands[:-1] + D - 1])
-    nxt = np.concatenate([cands[1:] - D + 1, [n]])
-    p0 = np.maximum.reduce([cands - D + 1 - FIT_MAX, starts[s] + edge, prev])
-    q1 = np.minimum.reduce([cands + D - 1 + FIT_MAX, stops[s] - edge, nxt])
-    j = np.flatnonzero(strong)
-    drop, beside = _stick_lines(r, fn, cands[j], p0[j], q1[j], sigma=sigma, drop_samples=D)
-    at = cands[j]
-    keep = np.isfinite(drop)
-    return _Events(offset + at[keep], drop[keep], beside[keep], label[at[keep]].astype(np.int64))
+    keep = label[starts] >= 0
+    return starts[keep], stops[keep]
 
 
-def _stick_lines(r: np.ndarray, fn: np.ndarray, at: np.ndarray, p0: np.ndarray, q1: np.ndarray, *, sigma: float,
-                 drop_samples: int) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """(drop, mean Fn beside it) of each candidate from its two stick lines (docs/method.md 6g); NaN where it is
-    no event: fewer than L finite samples on a side, or no rise by RISE_T standard errors.
+def _extremes(s: np.ndarray, run: np.ndarray, gate: float, wlen: int) -> Tuple[np.ndarray, np.ndarray]:
+    """(index, +1 peak / -1 trough) of the alternating extremes of the smoothed signal s whose prominence
+    (within ``wlen`` samples) is at least ``gate``; of consecutive peaks of one run the highest, of troughs the
+    lowest. ``s`` holds every run's smoothed signal, each followed by a separator (NaN; ``run`` its run's
+    number, -1 at the separators): +inf to the peaks' search and to the troughs', so that no extreme lies at a
+    run's edge and no prominence reaches past it (as each run searched alone)."""
+    from scipy.signal import find_peaks
 
-    The stick before the slip is samples p0 .. at - D, the one after it at + D - 1 .. q1 - 1; their finite
-    samples are fitted by two parallel lines (a common slope). Every candidate's sums come from running sums
-    over the block: of 1, t and t^2 in integers (exact), of r, t r and Fn in floats (r is centred by the COF
-    subtracted, so t r's running sum stays small: the drops agree with a direct fit of each line to about
-    1e-9 relative, docs/method.md 6g).
+    w = max(3, wlen | 1)
+    sep = run < 0
+    pk = find_peaks(np.where(sep, np.inf, s), prominence=gate, wlen=w)[0]
+    tr = find_peaks(np.where(sep, np.inf, -s), prominence=gate, wlen=w)[0]
+    pk, tr = pk[~sep[pk]], tr[~sep[tr]]
+    at = np.concatenate([pk, tr])
+    kind = np.concatenate([np.ones(pk.size, np.int64), -np.ones(tr.size, np.int64)])
+    if at.size == 0:
+        return at.astype(np.int64), kind
+    o = np.argsort(at, kind="stable")
+    at, kind = at[o], kind[o]
+    first = np.concatenate([[0], np.flatnonzero((np.diff(kind) != 0) | (np.diff(run[at]) != 0)) + 1])
+    group = np.repeat(np.arange(first.size), np.diff(np.append(first, at.size)))  # runs of one kind in one run
+    score = s[at] * kind  # the highest peak, the lowest trough of each group
+    best = score == np.maximum.reduceat(score, first)[group]
+    _, pick = np.unique(group[best], return_index=True)
+    chosen = np.flatnonzero(best)[pick]
+    return at[chosen].astype(np.int64), kind[chosen]
+
+
+def _detect(r: np.ndarray, fn: np.ndarray, label: np.ndarray, offset: int, *, sigma: float, quantum: float,
+            coloured: float, k: float, fs: float, wlen: int, smooth: int) -> _Events:  # fmt: skip
+    """The events of samples ``offset`` .. ``offset + len(r)`` (docs/method.md 6g).
+
+    Per run of a segment: r smoothed over L samples; its alternating peaks and troughs whose prominence
+    (within ``wlen`` samples) reaches the gate (half the larger of the threshold and k x the coloured noise
+    SD); each peak followed by a trough is a fall, from its last sample on the stick (a) to its first after it
+    (b). The stick before a fall runs from the previous fall's b (or the run's start + 2 L), the one after it
+    to the next fall's a (or the run's end - 2 L); a fall whose whole drop is under the gate and whose swing
+    (the smoothed signal at the peak minus at the trough) is under the threshold max(k sigma, Q_STEPS
+    quantum) is merged into its sticks (:data:`PRUNE_ROUNDS` rounds). A fall is an event when its whole drop
+    (:func:`_falls`) reaches the threshold and k x the scatter about its two stick lines (its swing half that), the
+    sticks rose (the stick before rises, their common slope RISE_T standard errors above zero, the stick
+    before by at least RISE_SHARE of the drop unless the run cut it) and it was fast: its duration within a
+    sample, else at most SLIP_FRACTION of the stick before it and SLIP_MAX_S seconds.
     """
-    D = drop_samples
+    L = smooth
+    thr = max(k * sigma, Q_STEPS * quantum)
+    gate = 0.5 * max(k * coloured, thr)  # (coloured noise swings more: fewer falls of noise)
+    if not (thr > 0) or r.size < 2 * L:
+        return _Events.none()
+    starts, stops = _runs(label)
+    keep = stops - starts >= 2 * L + 2
+    starts, stops = starts[keep], stops[keep]
+    if starts.size == 0:
+        return _Events.none()
+    # every run's mean over L samples (positions j: samples j .. j + L - 1 of one run), each run followed by a
+    # separator; from running sums over the block
+    m = stops - starts - L + 1
+    slot0 = np.cumsum(m + 1) - (m + 1)  # each run's first slot
+    run = np.repeat(np.arange(starts.size), m + 1)
+    j = np.arange(run.size) - np.repeat(slot0, m + 1) + np.repeat(starts, m + 1)
+    run[slot0 + m] = -1  # the separators
+    j = np.where(run >= 0, j, 0)
+    c = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(r), r, 0.0))])
+    sm = np.where(run >= 0, (c[j + L] - c[j]) / L, np.nan)
+    at, kind = _extremes(sm, run, gate, wlen)
+    fall = np.flatnonzero((kind[:-1] == 1) & (kind[1:] == -1) & (run[at[:-1]] == run[at[1:]]))
+    if fall.size == 0:
+        return _Events.none()
+    a = j[at[fall]] + L - 1  # the last sample of the window ending at the peak: the stick's last sample
+    b = np.maximum(j[at[fall + 1]], a + 1)  # the first sample of the window starting at the trough
+    ri = run[at[fall]]
+    run0, run1 = starts[ri], stops[ri]
+    swing = sm[at[fall]] - sm[at[fall + 1]]  # the smoothed signal at the peak minus at the trough
+    for _ in range(PRUNE_ROUNDS):
+        f = _falls(r, fn, a, b, run0=run0, run1=run1, wlen=wlen, L=L)
+        # a fall whose drop is under the gate and whose swing is under the threshold is part of its stick:
+        # merged into it (a real fall's swing stands out even where a neighbour spoils its lines)
+        weak = ~(f.drop >= gate) & ~(swing >= thr)
+        if not weak.any():
+            break
+        a, b, run0, run1, swing = a[~weak], b[~weak], run0[~weak], run1[~weak], swing[~weak]
+    else:
+        f = _falls(r, fn, a, b, run0=run0, run1=run1, wlen=wlen, L=L)
+    sig = max(sigma, quantum / np.sqrt(12.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        fitted = (f.pre.count >= MIN_FIT) & (f.post.count >= MIN_FIT) & np.isfinite(f.mid)
+        # the sticks rose: the stick before rises, and the common slope of both lines is RISE_T standard errors
+        # above zero (both lines: a stick cut by the run's start has few samples)
+        sxx = f.pre.sxx + f.post.sxx
+        common = (f.pre.slope * f.pre.sxx + f.post.slope * f.post.sxx) / sxx
+        rose = (f.pre.slope > 0) & (common * np.sqrt(sxx) >= RISE_T * sig)
+        enough = f.cut | (f.pre.slope * f.stick >= RISE_SHARE * f.drop)
+        # fast: within a sample (a slip shorter than the sampling), else at most SLIP_FRACTION of the stick and
+        # SLIP_MAX_S seconds
+        fast = f.tau <= np.maximum(1.0, np.minimum(SLIP_FRACTION * f.stick, SLIP_MAX_S * fs))
+        # the scatter about the stick lines: the noise at the sticks' scale (coloured noise, a wander)
+        scatter = np.sqrt((f.pre.ss + f.post.ss) / np.maximum(f.pre.count + f.post.count - 4, 1))
+        floor = np.maximum(thr, k * scatter)
+        ok = fitted & rose & enough & fast & (f.drop >= floor) & (swing >= 0.5 * floor)
+    beside = (f.pre.fn + f.post.fn) / np.maximum(f.pre.count + f.post.count, 1)
+    j = np.flatnonzero(ok)
+    at = np.floor(f.mid[j]).astype(np.int64) + 1  # the first sample after the drop's middle
+    return _Events(offset + at, f.drop[j], beside[j], label[at].astype(np.int64), offset + f.mid[j],
+                   f.stick[j].astype(np.int64))  # fmt: skip
+
+
+@dataclasses.dataclass(frozen=True)
+class _FallFits:
+    """Per fall: its stick lines before and after, its middle and duration (samples), whole drop, the stick
+    before it (samples) and whether the run cut that stick."""
+
+    pre: "_Fit"
+    post: "_Fit"
+    mid: np.ndarray
+    tau: np.ndarray
+    drop: np.ndarray
+    stick: np.ndarray
+    cut: np.ndarray
+
+
+def _falls(r: np.ndarray, fn: np.ndarray, a: np.ndarray, b: np.ndarray, *, run0: np.ndarray, run1: np.ndarray,
+           wlen: int, L: int) -> _FallFits:  # fmt: skip
+    """The stick lines, middle, duration and whole drop of each fall a..b (docs/method.md 6g); L the samples of
+    the smoothed signal."""
+    same_prev = np.concatenate([[False], run0[1:] == run0[:-1]])
+    same_next = np.concatenate([run0[1:] == run0[:-1], [False]])
+    # the stick before: prev_b .. a; the one after: b .. next_a. No line reaches into the 2 L samples at a run's
+    # edges: a drop there shows no whole fall of the smoothed signal, and would bend the line.
+    prev_b = np.where(same_prev, np.concatenate([[0], b[:-1]]), run0 + 2 * L)
+    next_a = np.where(same_next, np.concatenate([a[1:], [0]]), run1 - 1 - 2 * L)
+    cap = max(wlen, 2 * L)  # (a stick line reaches at most this far from its fall: blocks give the same result)
+    lo_pre = np.maximum(prev_b, a - cap)
+    hi_post = np.minimum(next_a, b + cap)
+    m_pre = np.maximum(1, np.round(MARGIN_SHARE * (a - lo_pre)).astype(np.int64))
+    m_post = np.maximum(1, np.round(MARGIN_SHARE * (hi_post - b)).astype(np.int64))
+    pre = _lines(r, fn, lo_pre + m_pre, a - m_pre + 1)
+    post = _lines(r, fn, b + m_post, hi_post - m_post + 1)
+    mid, tau = _crossings(r, a - (L - 1), b, pre=pre, post=post, L=L)
+    drop = pre.at(mid - 0.5 * tau) - post.at(mid + 0.5 * tau)
+    return _FallFits(pre, post, mid, tau, drop, a - prev_b, ~same_prev)
+
+
+#: The crossings that time a fall: LOW and 1 - LOW of the way from the stick line before to the one after.
+LOW = 0.2
+
+
+def _crossings(r: np.ndarray, p: np.ndarray, q: np.ndarray, *, pre: "_Fit", post: "_Fit", L: int
+               ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(middle, duration) of each fall in samples (docs/method.md 6g), from the mean of r over L samples
+    starting at p .. q (centred (L - 1) / 2 later): its share of the way from the stick line before to the one
+    after, f. The middle: where f first reaches 1/2 (interpolated); t20, t80: where f last rose through LOW
+    before it and first reaches 1 - LOW after it; duration = sqrt(max(0, (t80 - t20)^2 - (0.6 L + 1)^2)) / 0.41:
+    the box's own 20-80 % width 0.6 L and a sample of the crossings' jitter taken out (widths adding in
+    quadrature), and a fall taken as a half cosine, whose 20-80 % width is 0.41 of its duration (a drop within
+    a sample: 0). NaN where f never reaches 1/2."""
+    c = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(r), r, 0.0))])
+    width = np.maximum(q - p + 1, 1)
+    rows = np.repeat(np.arange(p.size), width)
+    j = np.arange(rows.size) - np.repeat(np.cumsum(width) - width, width) + np.repeat(p, width)
+    j = np.clip(j, 0, r.size - L)
+    tc = j + 0.5 * (L - 1)
+    sm = (c[j + L] - c[j]) / L
+    hi, lo = pre.at(tc, rows), post.at(tc, rows)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        f = (hi - sm) / (hi - lo)
+    f = np.where(np.isfinite(f), f, 0.0)
+    start = np.cumsum(width) - width
+    nan = np.full(p.size, np.nan)
+
+    def first(mask: np.ndarray) -> np.ndarray:  # each row's first position where mask holds (-1: none)
+        k = np.where(mask, np.arange(rows.size), rows.size)
+        m = np.minimum.reduceat(k, start)
+        return np.where(m < rows.size, m, -1)
+
+    def interp(k: np.ndarray, level: float) -> np.ndarray:  # the crossing of `level` between k - 1 and k
+        k0 = np.maximum(k - 1, start)
+        d = f[k] - f[k0]
+        u = np.where(d != 0, (level - f[k0]) / np.where(d != 0, d, 1.0), 1.0)
+        return np.asarray(tc[k0] + np.clip(u, 0.0, 1.0) * (tc[k] - tc[k0]))
+
+    k50 = first(f >= 0.5)
+    ok = k50 >= 0
+    k50 = np.where(ok, k50, start)
+    mid = np.where(ok, interp(k50, 0.5), nan)
+    # t10: after the last position before the middle with f < 0.1; t90: the first after it with f >= 0.9
+    below = (f < LOW) & (np.arange(rows.size) < k50[rows])
+    k = np.where(below, np.arange(rows.size), -1)
+    last = np.maximum.reduceat(k, start)
+    k10 = np.where(last >= 0, last + 1, start)
+    k90 = first((f >= 1 - LOW) & (np.arange(rows.size) >= k50[rows]))
+    k90 = np.where(k90 >= 0, k90, start + width - 1)
+    w = interp(k90, 1 - LOW) - interp(k10, LOW)  # 20-80 % width of the smoothed fall
+    # the box's width taken out, and a sample more: the noise's jitter of the crossings
+    tau = np.sqrt(np.maximum(0.0, w * w - ((1 - 2 * LOW) * L + 1.0) ** 2)) / HALF_COSINE_20_80
+    return mid, np.where(ok, tau, nan)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Fit:
+    """Least-squares lines of r over sample ranges: samples, slope, its sum of squares of times, the line's
+    level at a given sample, the sum of Fn."""
+
+    count: np.ndarray
+    slope: np.ndarray
+    sxx: np.ndarray
+    tbar: np.ndarray
+    ybar: np.ndarray
+    fn: np.ndarray
+    ss: np.ndarray  # the sum of squared residuals about the line
+
+    def at(self, t: np.ndarray, rows: Optional[np.ndarray] = None) -> np.ndarray:
+        """Each line's level at time t (samples; ``rows``: the line of each t)."""
+        sel = slice(None) if rows is None else rows
+        return np.asarray(self.ybar[sel] + self.slope[sel] * (t - self.tbar[sel]))
+
+
+def _lines(r: np.ndarray, fn: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> _Fit:
+    """The line fitted to the finite samples lo..hi-1 of r (each range).
+
+    Sums of 1, t and t^2 are running integer sums (exact); of r, t r and Fn running float sums, with t
+    counted from each range's start through the identity sum (t - t0) r = sum t r - t0 sum r.
+    """
     if r.size >= 3_000_000:  # sum of t^2 over the block < 2^63 (BLOCK <= 2^21 with its margins)
         raise ValueError(f"stick-slip blocks hold at most 3e6 samples, got {r.size}")
     fin = np.isfinite(r)
@@ -387,25 +608,22 @@ def _stick_lines(r: np.ndarray, fn: np.ndarray, at: np.ndarray, p0: np.ndarray, 
     def running(x: np.ndarray) -> np.ndarray:
         return np.concatenate([np.zeros(1, x.dtype), np.cumsum(x)])
 
-    sums = [running(v) for v in (fin.astype(np.int64), np.where(fin, t, 0), np.where(fin, t * t, 0))]
-    sums += [running(v) for v in (rz, t * rz, np.where(fin, fn, 0.0))]
-
-    def side(lo: np.ndarray, hi: np.ndarray) -> Tuple[np.ndarray, ...]:
-        hi = np.maximum(lo, hi)
-        c, st, stt, sy, sty, sfn = (x[hi] - x[lo] for x in sums)
-        n = np.maximum(c, 1)
-        sxx = (n * stt - st * st) / n  # (integers: exact)
-        return c, st / n, sy / n, sxx, sty - st * (sy / n), sfn
-
-    c_pre, m_pre, y_pre, sxx_pre, sxy_pre, fn_pre = side(p0, at - D + 1)
-    c_post, m_post, y_post, sxx_post, sxy_post, fn_post = side(at + D - 1, q1)
-    sxx, sxy = sxx_pre + sxx_post, sxy_pre + sxy_post
+    s1, st, stt = (running(v) for v in (fin.astype(np.int64), np.where(fin, t, 0), np.where(fin, t * t, 0)))
+    sy, sty, sfn, syy = (running(v) for v in (rz, t * rz, np.where(fin, fn, 0.0), rz * rz))
+    lo = np.clip(lo, 0, r.size)
+    hi = np.clip(np.maximum(lo, hi), 0, r.size)
+    c = s1[hi] - s1[lo]
+    n = np.maximum(c, 1)
+    tsum = st[hi] - st[lo]
+    sxx = (n * (stt[hi] - stt[lo]) - tsum * tsum) / n
+    ysum = sy[hi] - sy[lo]
+    tbar, ybar = tsum / n, ysum / n
+    sxy = (sty[hi] - sty[lo]) - tsum * ybar
     with np.errstate(invalid="ignore", divide="ignore"):
-        b = sxy / sxx  # the common slope of the two stick lines
-        rose = (c_pre >= SMOOTH) & (c_post >= SMOOTH) & (sxx > 0) & (b * np.sqrt(sxx) >= RISE_T * sigma)
-        drop = (y_pre - y_post) + b * (m_post - m_pre)  # the parallel lines' offset (a step, a fall: no event)
-    beside = (fn_pre + fn_post) / np.maximum(c_pre + c_post, 1)
-    return np.where(rose, drop, np.nan), np.where(rose, beside, np.nan)
+        slope = np.where(sxx > 0, sxy / np.where(sxx > 0, sxx, 1.0), np.nan)
+    syy_c = (syy[hi] - syy[lo]) - ysum * ybar
+    ss = np.maximum(0.0, syy_c - np.where(sxx > 0, slope * sxy, 0.0))
+    return _Fit(c, slope, sxx, tbar, ybar, sfn[hi] - sfn[lo], ss)
 
 
 def _segments(params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarray]], n: int,
@@ -430,13 +648,23 @@ def _segments(params: Mapping[str, Any], strokes: Optional[Mapping[str, np.ndarr
         mu = np.asarray(st["mu"], dtype=float)
         keep = np.isfinite(mu)
         seg = _Segments(c0[keep], c1[keep], np.asarray(st["direction"], dtype=float)[keep], mu[keep],
-                        max(100, round(fs)), min_fn, tare_fy, tare_fz)  # fmt: skip
+                        _grid(fs), min_fn, tare_fy, tare_fz, _smooth(fs), fs)  # fmt: skip
         return seg, f"the central {frac:g} of each stroke"
     a0 = int(p.get("start") or 0)
     b0 = int(p["stop"]) if p.get("stop") is not None else n
-    seg = _Segments(np.array([a0]), np.array([b0]), np.array([1.0]), np.array([np.nan]), max(100, round(fs)),
-                    min_fn, tare_fy, tare_fz)  # fmt: skip
+    seg = _Segments(np.array([a0]), np.array([b0]), np.array([1.0]), np.array([np.nan]), _grid(fs),
+                    min_fn, tare_fy, tare_fz, _smooth(fs), fs)  # fmt: skip
     return seg, "the samples in contact"
+
+
+def _grid(fs: float) -> int:
+    """Samples of the COF grid and of the falls' window: GRID_S seconds, at least 100 samples."""
+    return max(100, round(GRID_S * fs))
+
+
+def _smooth(fs: float) -> int:
+    """Samples of the smoothed signal of the falls: SMOOTH_S seconds, at least SMOOTH samples."""
+    return max(SMOOTH, round(SMOOTH_S * fs))
 
 
 def _check(k: float, drop_samples: int) -> None:
@@ -511,8 +739,8 @@ class _Search:
         return self.first is self.spans
 
     def noise(self, fetch: Callable[["_Span"], Dict[str, np.ndarray]], *, every_block: bool = True
-              ) -> Union[Tuple[float, float, float], StickSlip, None]:  # fmt: skip
-        """Pass 1: (noise SD, rise per sample, the recording's sign), or why it is not assessed. A sample that
+              ) -> Union[Tuple[float, "_Floors", float], StickSlip, None]:  # fmt: skip
+        """Pass 1: (noise SD, the export's resolution, the recording's sign), or why it is not assessed. A sample that
         met no contact is estimated again from every block (None instead when ``every_block`` is False)."""
         D = self.drop_samples
         est = [_block_noise(self.seg, s, fetch(s), D) for s in self.first]
@@ -521,29 +749,31 @@ class _Search:
                 return None
             est = [_block_noise(self.seg, s, fetch(s), D) for s in self.spans]
         sigmas = [e[0] for e, _, _ in est if e is not None]
-        slopes = [e[1] for e, _, _ in est if e is not None]
+        floors = [e[1] for e, _, _ in est if e is not None]
         if not sigmas:
             duration = sum(u for _, _, u in est) / self.fs  # pass 1 read every block here
             return _not_assessed(f"stick-slip not assessed: fewer than 10 samples in contact in {self.scope}",
                                  self.scope, duration)  # fmt: skip
         orientation = 1.0 if sum(y for _, y, _ in est) >= 0 else -1.0
-        return float(np.median(sigmas)), float(np.median(slopes)), orientation
+        median = _Floors(float(np.median([f.quantum for f in floors])), float(np.median([f.coloured for f in floors])))
+        return float(np.median(sigmas)), median, orientation
 
-    def block(self, span: "_Span", d: Dict[str, np.ndarray], orientation: float, sigma: float, slope: float
+    def block(self, span: "_Span", d: Dict[str, np.ndarray], orientation: float, sigma: float, floors: "_Floors"
               ) -> Tuple[_Events, float, int]:  # fmt: skip
         """Pass 2 over one block: (events, sum of the friction force, samples in contact)."""
-        return _search_block(self.seg, span, d, orientation, sigma=sigma, slope=slope, k=self.k,
+        return _search_block(self.seg, span, d, orientation, sigma=sigma, floors=floors, k=self.k,
                              drop_samples=self.drop_samples)  # fmt: skip
 
-    def summary(self, found: List[Tuple[_Events, float, int]], orientation: float, sigma: float, slope: float,
+    def summary(self, found: List[Tuple[_Events, float, int]], orientation: float, sigma: float, floors: "_Floors",
                 fetch: Callable[["_Span"], Dict[str, np.ndarray]]) -> StickSlip:  # fmt: skip
         """The recording's result from pass 2's blocks; a sample whose sign is not the recording's (friction
         changing sign) is searched again with the recording's."""
         events = _Events.concat([f[0] for f in found])
         signsum, used = sum(f[1] for f in found), sum(f[2] for f in found)
         if (1.0 if signsum >= 0 else -1.0) != orientation:
-            events = _Events.concat([self.block(s, fetch(s), -orientation, sigma, slope)[0] for s in self.spans])
-        return _summarise(events, sigma=sigma, k=self.k, duration=used / self.fs, fs=self.fs, scope=self.scope)
+            events = _Events.concat([self.block(s, fetch(s), -orientation, sigma, floors)[0] for s in self.spans])
+        return _summarise(events, sigma=sigma, quantum=floors.quantum, k=self.k, duration=used / self.fs, fs=self.fs,
+                          scope=self.scope)  # fmt: skip
 
     def run(self, read: Callable[[int, int], Dict[str, np.ndarray]]) -> StickSlip:
         """Both passes, reading with ``read(a, b)``: a search of one block reads it once for both."""
@@ -560,15 +790,15 @@ class _Search:
         if isinstance(got, StickSlip):
             return got
         assert got is not None
-        sigma, slope, orientation = got
-        found = [self.block(s, fetch(s), orientation, sigma, slope) for s in self.spans]
-        return self.summary(found, orientation, sigma, slope, fetch)
+        sigma, floors, orientation = got
+        found = [self.block(s, fetch(s), orientation, sigma, floors) for s in self.spans]
+        return self.summary(found, orientation, sigma, floors, fetch)
 
 
 class ReadingPass:
     """Stick-slip found in the analysis' own reading (``analyze(stick_slip=True)``, docs/method.md 6g).
 
-    Built before the main pass: the noise and rise of a long search come from
+    Built before the main pass: the noise and resolution of a long search come from
     their sample then (read through ``read``), a short search keeps its
     blocks. The main pass then hands over every chunk of raw fy, fz in order
     (:meth:`push`, as :class:`tribodyn.pipeline.headline.BlockSums`); each block is
@@ -585,7 +815,7 @@ class ReadingPass:
         self._found: List[Tuple[_Events, float, int]] = []
         self._broken = False
         self._done = 0  # blocks searched
-        self._noise: Union[Tuple[float, float, float], StickSlip, None] = None
+        self._noise: Union[Tuple[float, "_Floors", float], StickSlip, None] = None
         if not search.whole:
             self._noise = search.noise(lambda s: read(*s.read), every_block=False)
             self._broken = self._noise is None  # (no contact in the sample: pass 1 reads every block)
@@ -625,11 +855,11 @@ class ReadingPass:
 
     def _search_ready(self) -> None:
         assert isinstance(self._noise, tuple)
-        sigma, slope, orientation = self._noise
+        sigma, floors, orientation = self._noise
         spans = self.search.spans
         while self._done < len(spans) and spans[self._done].read[1] <= self._next:
             span = spans[self._done]
-            self._found.append(self.search.block(span, self._take(*span.read), orientation, sigma, slope))
+            self._found.append(self.search.block(span, self._take(*span.read), orientation, sigma, floors))
             self._done += 1
             keep_from = spans[self._done].read[0] if self._done < len(spans) else self._next
             self._pieces = [(s, d) for s, d in self._pieces if s + len(d["fz"]) > keep_from]
@@ -644,8 +874,8 @@ class ReadingPass:
         if isinstance(self._noise, StickSlip):
             return self._noise
         assert isinstance(self._noise, tuple)
-        sigma, slope, orientation = self._noise
-        return self.search.summary(self._found, orientation, sigma, slope, lambda s: self.read(*s.read))
+        sigma, floors, orientation = self._noise
+        return self.search.summary(self._found, orientation, sigma, floors, lambda s: self.read(*s.read))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -658,8 +888,8 @@ class _Span:
 
 def _span(seg: _Segments, a: int, b: int, n: int, drop_samples: int) -> _Span:
     """Samples a..b with a margin (whole seconds of the COF grid) so that an event near its edge is seen whole."""
-    margin = 2 * (SMOOTH + drop_samples) + FIT_MAX + 2
     p = seg.per_second
+    margin = 2 * p + 2 * (SMOOTH + drop_samples) + 2  # (the falls' window and the stick lines: p each)
     # (one more second each side: the COF interpolated between seconds needs its neighbours)
     return _Span((a, b), (max(0, ((a - margin) // p - 1) * p), min(n, (-(-(b + margin) // p) + 1) * p)))
 
@@ -684,10 +914,22 @@ def _sample_spans(seg: _Segments, lo: int, hi: int, *, m: int, n: int, drop_samp
     return [_span(seg, c - m // 2, c - m // 2 + m, n, drop_samples) for c in centres]
 
 
+@dataclasses.dataclass(frozen=True)
+class _Floors:
+    """What the noise SD does not say: the export's resolution of r (N) and the noise SD its drop statistic's
+    spread implies (coloured noise, N)."""
+
+    quantum: float
+    coloured: float
+
+
 def _block_noise(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], drop_samples: int
-                 ) -> Tuple[Optional[Tuple[float, float]], float, int]:  # fmt: skip
-    """(noise SD and rise per sample or None, sum of the friction force, samples in contact) of a block's
-    own samples, with the block's own sign (docs/method.md 6g)."""
+                 ) -> Tuple[Optional[Tuple[float, _Floors]], float, int]:  # fmt: skip
+    """(noise SD and its floors or None, sum of the friction force, samples in contact) of a
+    block's own samples, with the block's own sign (docs/method.md 6g).
+
+    The resolution of r = F - mu Fn: the grid step of F plus mu times that of Fn (mu the median F / Fn).
+    """
     (a, b), (ra, rb) = span.own, span.read
     own = slice(a - ra, b - ra)
     r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=1.0)
@@ -695,24 +937,32 @@ def _block_noise(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], drop_sam
     ysum = float(np.sum(y[own][inside]))
     if ysum < 0:
         r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=-1.0)
-    return _noise(r[own], label[own], drop_samples), ysum, int(inside.sum())
+    yi, fi = y[own][inside], fn[own][inside]
+    q = _quantum(yi) + float(np.median(np.abs(yi) / fi)) * _quantum(fi) if yi.size else 0.0
+    got = _noise(r[own], label[own], drop_samples, q)
+    if got is None:
+        return None, ysum, int(inside.sum())
+    return (got[0], _Floors(q, got[1])), ysum, int(inside.sum())
 
 
 def _search_block(seg: _Segments, span: _Span, d: Dict[str, np.ndarray], orientation: float, *, sigma: float,
-                  slope: float, k: float, drop_samples: int) -> Tuple[_Events, float, int]:  # fmt: skip
+                  floors: "_Floors", k: float, drop_samples: int) -> Tuple[_Events, float, int]:  # fmt: skip
     """(events, sum of the friction force, samples in contact) of one block's own samples."""
     (a, b), (ra, rb) = span.own, span.read
     r, fn, label, y = _signal(seg, ra, rb, d["fy"], d["fz"], orientation=orientation)
     inside = label[a - ra : b - ra] >= 0
     signsum = orientation * float(np.sum(y[a - ra : b - ra][inside]))
-    found = _detect(r, fn, label, ra, sigma=sigma, slope=slope, k=k, drop_samples=drop_samples)
+    found = _detect(r, fn, label, ra, sigma=sigma, quantum=floors.quantum, coloured=floors.coloured, k=k,
+                    fs=seg.fs,
+                    wlen=seg.per_second, smooth=seg.smooth)  # fmt: skip
     return found.where((found.index >= a) & (found.index < b)), signsum, int(inside.sum())
 
 
-def _summarise(events: _Events, *, sigma: float, k: float, duration: float, fs: float, scope: str) -> StickSlip:
+def _summarise(events: _Events, *, sigma: float, quantum: float, k: float, duration: float, fs: float, scope: str
+               ) -> StickSlip:  # fmt: skip
     """The recording's numbers and verdict from its events (docs/method.md 6g)."""
     events = events.where(np.argsort(events.index, kind="stable"))
-    times = (events.index - 0.5) / fs
+    times = events.mid / fs  # the drop's middle (a drop within a sample: between two samples)
     drops = events.drop
     cofs = (events.drop / events.fn)[events.fn > 0]
     idx, lab = events.index, events.label
@@ -725,10 +975,16 @@ def _summarise(events: _Events, *, sigma: float, k: float, duration: float, fs: 
     if intervals.size:  # the mean of the intervals near their median: robust to a missed event, finer than samples
         iv = np.asarray(intervals)
         med = float(np.median(iv))
-        freq = 1.0 / float(np.mean(iv[np.abs(iv - med) <= 0.25 * med]))
+        near = iv[np.abs(iv - med) <= 0.25 * med]
+        freq = 1.0 / (float(np.mean(near)) if near.size else med)  # (two far apart: none near their median)
     rate = len(events) / duration if duration > 0 else nan
-    present = len(events) >= MIN_EVENTS
-    thr = k * sigma
+    share = float(np.sum(events.stick)) / fs / duration if duration > 0 else 0.0
+    present = len(events) >= MIN_EVENTS and share >= MIN_STICK_SHARE
+    thr = max(k * sigma, Q_STEPS * quantum)
+    floor = (f"{k:g} noise SDs ({k * sigma:.3g} N)" if k * sigma >= Q_STEPS * quantum
+             else f"{Q_STEPS:g} steps of the export's resolution ({quantum:.3g} N)")  # fmt: skip
+    if fs * SLIP_MAX_S < 1:  # a slip is shorter than a sample interval: none is resolved, drops are steps
+        scope = f"{scope}; at {fs:.3g} Hz no slip is resolved, a drop is a step between two samples"
     if present:
         f_text = f"frequency {freq:.4g} Hz" if np.isfinite(freq) else "frequency unknown (no stroke holds two events)"
         verdict = (
@@ -738,7 +994,9 @@ def _summarise(events: _Events, *, sigma: float, k: float, duration: float, fs: 
     else:
         verdict = (
             f"no stick-slip: {len(events)} drop{'s' if len(events) != 1 else ''} after a rise larger than "
-            f"{k:g} noise SDs ({thr:.3g} N) in {duration:.4g} s of {scope}"
+            f"{floor} in {duration:.4g} s of {scope}"
         )
+        if len(events) >= MIN_EVENTS:  # drops far apart: their sticks fill little of the time
+            verdict += f" (isolated: their sticks fill {share:.1%} of it, under {MIN_STICK_SHARE:.0%})"
     return StickSlip(len(events), amp, amp_cof, freq, rate, times, drops, sigma, thr, duration, present, verdict,
                      scope)  # fmt: skip
