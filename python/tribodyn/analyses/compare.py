@@ -592,6 +592,43 @@ def precision(values: Sequence[float], groups: Sequence[str]) -> Precision:
 # -- compare --------------------------------------------------------------------------
 
 
+def _tests_and_labels(
+    results: Union[Sequence[HeadlineLike], Mapping[str, HeadlineLike]], labels: Optional[Sequence[str]]
+) -> Tuple[List[HeadlineLike], List[str]]:
+    """The tests (at least 2) and their unique labels (given, the mapping's keys, or "test 1", ...)."""
+    if isinstance(results, Mapping):
+        items = list(results.items())
+        default = [str(k) for k, _ in items]
+        tests = [v for _, v in items]
+    elif isinstance(results, (str, bytes)) or not isinstance(results, Sequence):
+        raise TypeError(f"results must be a list of Results (or Headlines), got {type(results).__name__}")
+    else:
+        tests = list(results)
+        default = [f"test {i + 1}" for i in range(len(tests))]
+    k = len(tests)
+    if k < 2:
+        raise ValueError(f"compare needs at least 2 tests, got {k}")
+    names = _names(labels, k, "labels") or default
+    dup = sorted({x for x in names if names.count(x) > 1})
+    if dup:
+        raise ValueError(f"labels must be unique: {', '.join(repr(x) for x in dup)} given twice")
+    return tests, names
+
+
+def _methods(names: Sequence[str], heads: Sequence[Headline], allow_mixed: bool, notes: List[str]) -> List[str]:
+    """The headlines' methods, in order; mixed methods refused unless ``allow_mixed`` (then noted)."""
+    methods = list(dict.fromkeys(h.method for h in heads))
+    if len(methods) > 1:
+        by = "; ".join(f"{m}: {', '.join(n for n, h in zip(names, heads) if h.method == m)}" for m in methods)
+        if not allow_mixed:
+            raise ValueError(
+                f"the tests' headlines come from different methods ({by}): a dynamic median and a classical mean "
+                "are different quantities; compare tests of one method, or pass allow_mixed=True"
+            )
+        notes.append(f"mixed headline methods ({by}): the mean pools different quantities")
+    return methods
+
+
 def compare(
     results: Union[Sequence[HeadlineLike], Mapping[str, HeadlineLike]],
     labels: Optional[Sequence[str]] = None,
@@ -629,22 +666,8 @@ def compare(
     TypeError
         A test that is neither a Results, a Headline nor a headline dict.
     """
-    if isinstance(results, Mapping):
-        items = list(results.items())
-        default = [str(k) for k, _ in items]
-        tests = [v for _, v in items]
-    elif isinstance(results, (str, bytes)) or not isinstance(results, Sequence):
-        raise TypeError(f"results must be a list of Results (or Headlines), got {type(results).__name__}")
-    else:
-        tests = list(results)
-        default = [f"test {i + 1}" for i in range(len(tests))]
+    tests, names = _tests_and_labels(results, labels)
     k = len(tests)
-    if k < 2:
-        raise ValueError(f"compare needs at least 2 tests, got {k}")
-    names = _names(labels, k, "labels") or default
-    dup = sorted({x for x in names if names.count(x) > 1})
-    if dup:
-        raise ValueError(f"labels must be unique: {', '.join(repr(x) for x in dup)} given twice")
     grp = _names(groups, k, "groups")
     heads = [_as_headline(t, names[i]) for i, t in enumerate(tests)]
     empty = [(n, h) for n, h in zip(names, heads) if not h.ok]
@@ -652,16 +675,8 @@ def compare(
         n, h = empty[0]
         why = "; ".join(h.reasons) or "no value"
         raise ValueError(f"test {n!r} has no COF ({why}): leave it out of the comparison")
-    methods = list(dict.fromkeys(h.method for h in heads))
     notes: List[str] = []
-    if len(methods) > 1:
-        by = "; ".join(f"{m}: {', '.join(n for n, h in zip(names, heads) if h.method == m)}" for m in methods)
-        if not allow_mixed:
-            raise ValueError(
-                f"the tests' headlines come from different methods ({by}): a dynamic median and a classical mean "
-                "are different quantities; compare tests of one method, or pass allow_mixed=True"
-            )
-        notes.append(f"mixed headline methods ({by}): the mean pools different quantities")
+    methods = _methods(names, heads, allow_mixed, notes)
     statistics = list(dict.fromkeys(h.statistic for h in heads))
 
     y = np.array([h.value for h in heads], dtype=float)

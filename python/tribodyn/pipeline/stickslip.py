@@ -1,10 +1,8 @@
-"""Breakaway (static) COF per stroke and stick-slip events (docs/method.md 6c, 6g).
+"""Stick-slip events (docs/method.md 6g); the breakaway COF per stroke is
+``kernels.strokes.breakaway_peak`` (6c).
 
-* :func:`breakaway_peak`: the static COF of one stroke, the largest moving
-  average of |Ft|/Fn between its motion onset and its central part
-  (``tribometer.stroke_table`` calls it for the ``mu_static`` column).
-* :func:`stick_slip`: the stick-slip events of a recording (a rise of the
-  friction force while the contact sticks, ended by a drop as it slips,
+* :func:`find_stick_slip` (the search behind :func:`tribodyn.stick_slip`): the
+  stick-slip events of a recording (a rise of the friction force while the contact sticks, ended by a drop as it slips,
   within a sample or over many; issue 35), their count, median whole drop
   and frequency, as a :class:`StickSlip`. It reads fy and fz again, once
   (in blocks; the noise of a long recording from a bounded sample), so
