@@ -275,3 +275,95 @@ def test_a_flipped_orientation_flips_the_budget_with_the_headline(dyn: td.Result
     assert np.sign(flipped.value) == np.sign(flipped.uncertainty.value) == -np.sign(head.value)
     assert flipped.uncertainty.low <= flipped.value <= flipped.uncertainty.high
     assert flipped.uncertainty.u_c == pytest.approx(head.uncertainty.u_c, rel=0.01)  # the same spread
+
+
+# -- read once (docs/method.md 6i) ---------------------------------------------------------------------------------
+
+
+def _counted(rec: Any, seen: Dict[str, int]) -> Any:
+    """``rec`` whose readers add the fz samples they hand out to ``seen["fz"]``."""
+    chunks, read = rec.chunks, rec.read
+
+    def counted_chunks(*args: Any, **kwargs: Any) -> Any:
+        for piece in chunks(*args, **kwargs):
+            seen["fz"] += len(piece.get("fz", ()))
+            yield piece
+
+    def counted_read(*args: Any, **kwargs: Any) -> Any:
+        got = read(*args, **kwargs)
+        seen["fz"] += len(got.get("fz", ()))
+        return got
+
+    rec.chunks, rec.read = counted_chunks, counted_read
+    return rec
+
+
+def _spec(res: td.Results) -> Any:
+    from tribodyn.kernels.strokes import ClassicalSpec
+
+    tare = res.params["tare_offsets"]
+    return ClassicalSpec(res.params["min_fn"], tare["fy"], tare["fz"])
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_classical_budget_reads_the_file_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, threads: int) -> None:
+    """The budget's sums of a classical headline come from the main pass: no more samples read than without inputs,
+    the fallback never called, and bitwise the sums of reading the file again, whatever the chunk size."""
+    import sys
+
+    from tribodyn.io.writers import save_npy
+    from tribodyn.pipeline import budget
+
+    p = tmp_path / "uni.npy"
+    save_npy(p, _unidirectional(unc.Instrument(g_y=0.004, theta=0.004, o_y=0.01), 5, 12.0))
+    mod = sys.modules["tribodyn.pipeline.budget"]
+    calls: list = []
+    reread = budget.classical_moments
+    monkeypatch.setattr(mod, "classical_moments", lambda *a, **k: calls.append(a) or reread(*a, **k))
+    for chunk in (None, 7.3, 41.0):
+        seen = {"fz": 0}
+        with td.open_recording(p, fs=FS, names=["fy", "fz"]) as rec:
+            plain = td.analyze(_counted(rec, seen), chunk=chunk, threads=threads, motion="unidirectional")
+        without = seen["fz"]
+        seen["fz"] = 0
+        with td.open_recording(p, fs=FS, names=["fy", "fz"]) as rec:
+            res = td.analyze(_counted(rec, seen), chunk=chunk, threads=threads, motion="unidirectional",
+                             uncertainty=STATEMENT)  # fmt: skip
+            assert seen["fz"] == without and not calls
+            again = reread(rec, rec, _spec(res), 0, rec.n_samples)
+        assert res.headline.method == "classical" and res.budget_stats is not None and again is not None
+        assert res.budget_stats.n == again.n == res.classical.contact
+        np.testing.assert_array_equal(res.budget_stats.t, again.t)  # the same blocks, summed in the same order
+        assert res.headline.value == plain.headline.value and res.headline.low == plain.headline.low
+        assert res.table.keys() == plain.table.keys()
+        for name, col in res.table.items():
+            np.testing.assert_array_equal(col, plain.table[name], err_msg=name)
+        assert res.headline.uncertainty is not None
+
+
+def test_a_per_stroke_budget_reads_the_file_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The per-stroke budget's sums come from the forces the strokes' reading holds: bitwise the re-read's."""
+    import sys
+
+    from tribodyn.io.writers import save_npy
+    from tribodyn.pipeline import budget
+
+    ch = _reciprocating(unc.Instrument(g_y=0.004, theta=0.005, o_y=0.02), 2)
+    p = tmp_path / "rec.npy"
+    save_npy(p, {k: ch[k] for k in ("fy", "fz", "x")})
+    mod = sys.modules["tribodyn.pipeline.budget"]
+    calls: list = []
+    reread = budget.stroke_moments
+    monkeypatch.setattr(mod, "stroke_moments", lambda *a, **k: calls.append(a) or reread(*a, **k))
+    counts = []
+    for given in (None, STATEMENT):
+        seen = {"fz": 0}
+        with td.open_recording(p, fs=FS, names=["fy", "fz", "x"]) as rec:
+            res = td.analyze(_counted(rec, seen), motion="reciprocating", uncertainty=given)
+            counts.append(seen["fz"])
+            if given is not None:
+                again = reread(rec, rec, res.strokes, _spec(res), res.params["stroke_fraction"])
+    assert counts[0] == counts[1] and not calls
+    assert res.headline.method == "per-stroke" and res.budget_stats is not None and again is not None
+    assert res.budget_stats.n == again.n
+    np.testing.assert_array_equal(res.budget_stats.t, again.t)

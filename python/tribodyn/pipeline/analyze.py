@@ -436,13 +436,14 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # docs/method.md 3b
     tribo = _tribometer_params(rec, pre, plan.window_note)
     strokes: Optional[Dict[str, np.ndarray]] = None
+    stroke_stats = None  # the per-stroke COF's statistics for its budget (docs/method.md 6i)
     run_source, run_rec = source, rec
     if pre.get("motion") == "reciprocating":
         tribo["stroke_fraction"] = plan.stroke_fraction
         cut = stroke_windows(source, rec, plan, found, partition=partial)
         if cut is not None:
             # docs/method.md 6c: the windows are the strokes' central parts, fy rectified (an acquisition each).
-            strokes, run_source = cut
+            strokes, run_source, stroke_stats = cut
             run_rec = None
             tribo["rectified"] = True
             if not run_source:
@@ -478,7 +479,8 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
         res = dataclasses.replace(res, stick_slip=got if got is not None else find_stick_slip(source, res))
     res = settle(res, lambda: classical_pass(sums))
     if plan.uncertainty is not None:  # docs/method.md 6i: the headline's statistics, then its budget
-        res = with_budget(res, statistics_of(res, source, rec, found.classical, (c_start, c_stop)))
+        res = with_budget(res, statistics_of(res, source, rec, found.classical, (c_start, c_stop),
+                                             strokes=stroke_stats))  # fmt: skip
     return res
 
 

@@ -1,11 +1,16 @@
-"""The headline's statistics for its uncertainty budget, read again from the data (docs/method.md 6i).
+"""The headline's statistics for its uncertainty budget (docs/method.md 6i), without reading the file again.
 
-:func:`statistics_of` reads the sufficient statistics
-(:class:`~tribodyn.kernels.uncertainty.Moments`) of a Results' headline: the
-classical COF's samples in contact (:func:`classical_moments`), the per-stroke
-COF's stroke centres (:func:`stroke_moments`) or the dynamic COF's table;
-:func:`with_budget` sets them as ``Results.budget_stats`` and gives the
-headline its budget (``results/budget.py``'s ``attach``).
+:func:`statistics_of` gives the sufficient statistics
+(:class:`~tribodyn.kernels.uncertainty.Moments`) of a Results' headline:
+the classical COF's from the sums the main pass took
+(``ClassicalTotals.budget``, :class:`tribodyn.pipeline.headline.BlockSums`),
+the per-stroke COF's from the forces the strokes' reading already holds
+(:func:`stroke_sums`, called by ``pipeline/strokes.py``), the dynamic COF's
+from its table. Only where the main pass could not take them (a range not
+seen whole, an in-memory source) are they read again
+(:func:`classical_moments`, :func:`stroke_moments`). :func:`with_budget`
+sets them as ``Results.budget_stats`` and gives the headline its budget
+(``results/budget.py``'s ``attach``).
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from ..results import Results
 from ..results.budget import attach, dynamic_moments
 from .headline import _blocks
 
-__all__ = ["classical_moments", "statistics_of", "stroke_moments", "with_budget"]
+__all__ = ["classical_moments", "from_sums", "statistics_of", "stroke_moments", "stroke_sums", "with_budget"]
 
 
 def classical_moments(source: Any, rec: Any, spec: Any, start: int = 0, stop: Optional[int] = None
@@ -34,6 +39,11 @@ def classical_moments(source: Any, rec: Any, spec: Any, start: int = 0, stop: Op
     for _, piece in got[1]:
         y, z = in_contact(piece["fy"], piece["fz"], spec)
         total += ratio_sums(y, z)
+    return from_sums(total)
+
+
+def from_sums(total: np.ndarray) -> Optional[Moments]:
+    """The classical COF's statistics from the unweighted sums over its samples in contact (each weighs 1 / n)."""
     n = int(round(total[:, 0, 0].sum()))
     return Moments("classical", total / n, n) if n else None
 
@@ -61,9 +71,12 @@ def stroke_moments(source: Any, rec: Any, strokes: Mapping[str, np.ndarray], spe
     cycle, n its samples).
     """
     forces = _read_forces(source, rec)
-    if forces is None:
-        return None
-    fy, fz = forces
+    return None if forces is None else stroke_sums(forces[0], forces[1], strokes, spec, fraction)
+
+
+def stroke_sums(fy: np.ndarray, fz: np.ndarray, strokes: Mapping[str, np.ndarray], spec: Any, fraction: float
+                ) -> Optional[Moments]:  # fmt: skip
+    """:func:`stroke_moments` of the whole recording's forces ``fy``, ``fz`` already read (the strokes' reading)."""
     spec = spec or ClassicalSpec(0.0)
     cyc = np.asarray(strokes["cycle"], dtype=np.int64)
     d = np.asarray(strokes["direction"], dtype=np.int64)
@@ -90,15 +103,21 @@ def stroke_moments(source: Any, rec: Any, strokes: Mapping[str, np.ndarray], spe
     return Moments("per-stroke", total, n_used)
 
 
-def statistics_of(res: Results, source: Any, rec: Any, spec: Any, span: Tuple[int, Optional[int]]
-                  ) -> Optional[Moments]:  # fmt: skip
-    """The statistics of ``res``'s headline read from ``source`` (classical, per-stroke) or its table (dynamic)."""
+def statistics_of(res: Results, source: Any, rec: Any, spec: Any, span: Tuple[int, Optional[int]], *,
+                  strokes: Optional[Moments] = None) -> Optional[Moments]:  # fmt: skip
+    """The statistics of ``res``'s headline: the main pass's (classical: ``res.classical.budget``; per-stroke:
+    ``strokes``, taken by the strokes' reading) or its table's (dynamic); read again from ``source`` only when
+    those are missing."""
     head = res.headline
     if head.method == "dynamic":
         return dynamic_moments(res)
     if head.method == "per-stroke" and res.strokes is not None:
+        if strokes is not None:
+            return strokes
         return stroke_moments(source, rec, res.strokes, spec, float(res.params.get("stroke_fraction", 0.5)))
     if head.method == "classical" and spec is not None and res.classical is not None:
+        if res.classical.budget is not None:
+            return from_sums(res.classical.budget)
         return classical_moments(source, rec, spec, span[0], span[1])
     return None
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from .. import _core
 from ..kernels.stats import BATCHES
+from ..kernels.uncertainty import SHAPE, in_contact, ratio_sums
 from ..results import ClassicalTotals
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -123,11 +124,16 @@ class BlockSums:
     Chunks of the samples ``lo``..``hi`` arrive in any size (from one reader
     thread); each block of the grid of :func:`block_length` is summed once,
     when its last sample has arrived, so the totals are bitwise those of
-    :func:`classical_totals` reading the file again.
+    :func:`classical_totals` reading the file again. With ``budget`` (a plan
+    with uncertainty inputs) each block also adds its samples in contact to
+    the uncertainty budget's sums (``kernels.uncertainty.ratio_sums``,
+    docs/method.md 6i): :attr:`budget_sums`, block by block in the order
+    ``pipeline/budget.py``'s ``classical_moments`` would read them again.
     """
 
-    def __init__(self, spec: Any, n_total: int, lo: int, hi: int) -> None:
+    def __init__(self, spec: Any, n_total: int, lo: int, hi: int, *, budget: bool = False) -> None:
         self.spec, self.lo, self.hi = spec, int(lo), int(hi)
+        self._budget: Optional[np.ndarray] = np.zeros(SHAPE) if budget else None
         self.length = block_length(n_total)
         self._pending: List[Tuple[int, Dict[str, np.ndarray]]] = []  # pieces of the block being filled
         self._rows: Dict[int, Tuple[float, ...]] = {}
@@ -162,7 +168,17 @@ class BlockSums:
         else:
             block = {k: np.concatenate([p[k] for _, p in self._pending]) for k in keys}
         self._rows[first // self.length] = _block_sums(block, self.spec)
+        if self._budget is not None:
+            self._budget += ratio_sums(*in_contact(block["fy"], block["fz"], self.spec))
         self._pending = []
+
+    def budget_sums(self) -> Optional[np.ndarray]:
+        """The budget's sums (``SHAPE``, unweighted) over every sample in contact seen; None when not asked for or
+        when the range was not seen whole (docs/method.md 6i)."""
+        self._close()
+        if self._budget is None or self._broken or self._next != self.hi:
+            return None
+        return self._budget.copy()
 
     def totals(self) -> Optional[ClassicalTotals]:
         """The totals of every sample seen; None when the range was not seen whole."""
@@ -174,7 +190,7 @@ class BlockSums:
         samples = int(sum(self._rows[k][5] for k in ids.tolist()))
         return ClassicalTotals(block=self.length, ids=ids, count=cols[:, 0], ratio_sum=cols[:, 1],
                                signed_sum=cols[:, 2], inst_count=cols[:, 3], inst_sum=cols[:, 4],
-                               samples=samples)  # fmt: skip
+                               samples=samples, budget=self.budget_sums())  # fmt: skip
 
 
 def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]:

@@ -163,7 +163,8 @@ def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findin
     delay of ``align="auto"``) completes the kernel's options. With
     ``classical_range`` and a recording whose pre-pass found the classical
     COF's contact threshold, the chunks read also give the classical COF's
-    block sums over that range (``KernelRun.classical``): the file is read once.
+    block sums over that range (``KernelRun.classical``), and with the plan's
+    uncertainty inputs the budget's sums too (docs/method.md 6i): the file is read once.
     On the route "stream" every raw chunk also goes to each of ``taps``
     (e.g. :class:`tribodyn.pipeline.stickslip.ReadingPass`), in order; elsewhere
     they get nothing (and say so: their result is None).
@@ -179,7 +180,7 @@ def run(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findin
         and classical_range is not None
         and route in ("stream", "segments")
     ):
-        sums = BlockSums(found.classical, rec.n_samples, *classical_range)
+        sums = BlockSums(found.classical, rec.n_samples, *classical_range, budget=plan.uncertainty is not None)
     if route == "acquisitions":
         st, aux_role = _acquisitions(source, ks)
     elif rec is not None and route == "segments":

@@ -8,6 +8,8 @@ from typing import Any, Dict, List, Optional, Tuple
 import numpy as np
 
 from ..io.base import RecordingProtocol
+from ..kernels.uncertainty import Moments
+from .budget import stroke_sums
 from .plan import Findings, Plan
 from .routes import PIPELINE_ROLES
 
@@ -22,8 +24,9 @@ REVERSAL_SHARE = 0.05
 
 
 def stroke_windows(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, partition: bool = False
-             ) -> Optional[Tuple[Dict[str, np.ndarray], List[Dict[str, Any]]]]:  # fmt: skip
-    """The per-stroke table of a reciprocating test and its windows as acquisitions (docs/method.md 6c).
+             ) -> Optional[Tuple[Dict[str, np.ndarray], List[Dict[str, Any]], Optional[Moments]]]:  # fmt: skip
+    """The per-stroke table of a reciprocating test, its windows as acquisitions (docs/method.md 6c) and, when the
+    plan has uncertainty inputs, the per-stroke COF's statistics for its budget (6i; else None).
 
     Reads the whole fy, fz (and fx, i, u, cof, x, v when present). The
     windows are the central ``plan.stroke_fraction`` of each stroke (cut into windows of
@@ -34,7 +37,9 @@ def stroke_windows(source: Any, rec: Optional[RecordingProtocol], plan: Plan, fo
     ``partition`` (a range of :func:`tribodyn.analyze_many`), those starting
     in ``plan.start`` .. the next range's start (``stop - length + step``),
     so that consecutive ranges keep each window once. None for a one-pass
-    stream of chunks.
+    stream of chunks. The statistics come from the forces read here
+    (``pipeline/budget.py``'s :func:`~tribodyn.pipeline.budget.stroke_sums`):
+    the file is not read again for the budget.
     """
     from ..kernels.strokes import ClassicalSpec, find_strokes, stroke_table
 
@@ -83,4 +88,7 @@ def stroke_windows(source: Any, rec: Optional[RecordingProtocol], plan: Plan, fo
             with np.errstate(invalid="ignore"):
                 piece["reversal"] = bool(np.any(d * dsig[s0:s1] < -limit))
             pieces.append(piece)
-    return table, pieces
+    stats = None
+    if plan.uncertainty is not None and not partition:  # docs/method.md 6i (analyze_many gives no budget)
+        stats = stroke_sums(data["fy"], data["fz"], table, found.classical, fraction)
+    return table, pieces, stats

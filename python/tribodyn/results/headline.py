@@ -172,6 +172,9 @@ class ClassicalTotals:
     inst_count: np.ndarray
     inst_sum: np.ndarray
     samples: int
+    #: The uncertainty budget's sums of r^j u^k over the samples in contact (``kernels.uncertainty.SHAPE``,
+    #: unweighted) when the main pass took them for a plan with uncertainty inputs (docs/method.md 6i), else None.
+    budget: Optional[np.ndarray] = None
 
     @property
     def contact(self) -> int:
