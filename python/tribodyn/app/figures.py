@@ -724,30 +724,33 @@ def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tu
     return handles + _running_in(ax, results), tops
 
 
-def _cof_and_covariate_vs_time(
-    results: Any, column: str, *, title: str, extra: Optional[Tuple[np.ndarray, np.ndarray]] = None
-) -> Figure:
-    spec = _COVARIATE[column]
-    fig, axes = _figure(1, 1, figsize=(10.0, 5.0))
+def _cof_time_frame(
+    results: Any, title: str, figsize: Tuple[float, float]
+) -> Tuple[Figure, Any, np.ndarray, List[Any]]:
+    """A one-panel figure of the COF against time: (figure, axes, window times, legend handles); axes None
+    (and the figure saying so) when there are no windows. Says on the axes when no window passed the gate."""
+    fig, axes = _figure(1, 1, figsize=figsize)
     ax = axes[0, 0]
     fig.suptitle(title)
     table = getattr(results, "table", results)
     t = np.asarray(table["time"], dtype=float) if "time" in table else np.empty(0)
     if t.size == 0 or not np.isfinite(t).any():
         _no_data(ax, "no windows")
-        return fig
+        return fig, None, t, []
     handles, tops = _cof_time_axes(ax, results)
     if not tops:
-        ax.text(
-            0.5,
-            0.5,
-            "no window passed the quality gate",
-            transform=ax.transAxes,
-            ha="center",
-            va="center",
-            color="0.4",
-            style="italic",
-        )
+        ax.text(0.5, 0.5, "no window passed the quality gate", transform=ax.transAxes, ha="center", va="center",
+                color="0.4", style="italic")  # fmt: skip
+    return fig, ax, t, list(handles)
+
+
+def _cof_and_covariate_vs_time(
+    results: Any, column: str, *, title: str, extra: Optional[Tuple[np.ndarray, np.ndarray]] = None
+) -> Figure:
+    spec = _COVARIATE[column]
+    fig, ax, t, handles = _cof_time_frame(results, title, (10.0, 5.0))
+    if ax is None:
+        return fig
     cov = _column(results, column, t.size)
     keep = np.isfinite(cov) & np.isfinite(t)
     if keep.any() or extra is not None:
@@ -818,26 +821,9 @@ def cof_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    fig, axes = _figure(1, 1, figsize=(10.0, 4.6))
-    ax = axes[0, 0]
-    fig.suptitle(title or "COF against time")
-    table = getattr(results, "table", results)
-    t = np.asarray(table["time"], dtype=float) if "time" in table else np.empty(0)
-    if t.size == 0 or not np.isfinite(t).any():
-        _no_data(ax, "no windows")
+    fig, ax, _, handles = _cof_time_frame(results, title or "COF against time", (10.0, 4.6))
+    if ax is None:
         return fig
-    handles, tops = _cof_time_axes(ax, results)
-    if not tops:
-        ax.text(
-            0.5,
-            0.5,
-            "no window passed the quality gate",
-            transform=ax.transAxes,
-            ha="center",
-            va="center",
-            color="0.4",
-            style="italic",
-        )
     _legend_above(ax, handles, ncol=4)
     return fig
 
