@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from tribodyn import simulate
 from tribodyn.app import cli
 
 DATA = Path(__file__).parent / "data" / "real"
@@ -78,7 +79,6 @@ def test_demo_prints_a_summary(demo_run):
     assert re.search(r"^temperature test: COF 0\.\d{4} \(95 % interval .*\): dynamic, median of mu_r", out, re.M), out
 
 
-@pytest.mark.fast
 @pytest.mark.parametrize("name", ["cetr_umt2_HT-2n-6-4_2_001.csv", "cetr_umt2_HT-2n-6-4_2_002.csv"])
 def test_cetr_classical_cof_matches_instrument(tmp_path, name):
     out = tmp_path / "out"
@@ -104,13 +104,27 @@ def test_pin_on_disc_classical_cof_matches_instrument(tmp_path, name):
     np.testing.assert_allclose(classic[1:], instrument[1:], rtol=0.02)
 
 
+# The two LVM files are a modal test's force and acceleration: mapped as fy and fz their units differ (m/s^2, N),
+# which analyze refuses (issue 34 point 4) unless the caller says the scale (--scale fy=1: taken as given).
 @pytest.mark.parametrize(
     "name, options",
     [
-        ("lvm_read_long_single_header_multi_ch.lvm", ["--map", "fz=F,fy=m_1", "--window", "1", "--hop", "1"]),
+        (
+            "lvm_read_long_single_header_multi_ch.lvm",
+            ["--map", "fz=F,fy=m_1", "--scale", "fy=1", "--window", "1", "--hop", "1"],
+        ),
         (
             "lvm_read_short.lvm",
-            ["--map", "fz=Excitation (Trigger),fy=Response (Trigger)", "--window", "0.0003", "--hop", "0.0003"],
+            [
+                "--map",
+                "fz=Excitation (Trigger),fy=Response (Trigger)",
+                "--scale",
+                "fy=1",
+                "--window",
+                "0.0003",
+                "--hop",
+                "0.0003",
+            ],  # fmt: skip
         ),
         ("nptdms_raw1_daqmx.tdms", ["--map", "fz=First  Channel,fy=Second Chan", "--window", "0.01", "--hop", "0.01"]),
         ("pyfrf_measurements_1.npy", ["--map", "fz=ch1,fy=ch2", "--fs", "25600", "--window", "0.1", "--hop", "0.1"]),
@@ -121,6 +135,14 @@ def test_analyze_reads_every_real_file(tmp_path, name, options):
     assert run("analyze", DATA / name, "--out", out, "--quiet", *options) == 0
     assert (out / "windows.csv").is_file() and (out / "report.html").is_file()
     assert len(read_csv(out / "windows.csv")["mu_r"]) >= 1
+
+
+@pytest.mark.fast
+def test_an_acceleration_as_friction_is_refused_in_one_line(tmp_path, capsys):
+    opts = ["--map", "fz=F,fy=m_1", "--window", "1", "--hop", "1"]
+    assert run("analyze", DATA / "lvm_read_long_single_header_multi_ch.lvm", "--out", tmp_path / "o", *opts) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "fy ('m_1') is in m/s^2 and fz ('F') in N" in err and not (tmp_path / "o").exists()
 
 
 def test_several_files_and_config(tmp_path):
@@ -215,3 +237,44 @@ def test_npy_without_rate_asks_for_the_cli_option(tmp_path, capsys):
     assert "sampling rate unknown" in err and "give --fs HZ" in err and "fs=..." not in err
     assert cli.main(["info", str(p), "--fs", "1000"]) == 0
     assert "sampling rate: 1000 Hz" in capsys.readouterr().out
+
+
+# -- the outputs of reciprocating and stick-slip recordings (moved from the analyses' fast files: CLI runs)
+
+
+def test_the_cli_reports_stick_slip_only_when_present(tmp_path, capsys):
+    from tribodyn.app.cli import main
+    from tribodyn.io.writers import save_npz
+
+    for name, kw in (("slip", {"stick_slip": 0.2, "stick_slip_period": 0.0233}), ("smooth", {})):
+        sim = simulate.reciprocating(seed=11, cycles=4, **kw)
+        p = tmp_path / f"{name}.npz"
+        save_npz(p, sim.channels, sim.fs)
+        assert main(["analyze", str(p), "--out", str(tmp_path / name)]) == 0
+        out = capsys.readouterr().out
+        summary = json.loads((tmp_path / name / "summary.json").read_text())
+        ss = summary["recordings"][f"{name}.npz"]["stick_slip"]
+        html = (tmp_path / name / "report.html").read_text()
+        if name == "slip":
+            assert ss["present"] and ss["events"] > 20
+            assert "stick-slip present:" in out and "stick-slip present:" in html
+        else:
+            assert not ss["present"] and ss["events"] == 0
+            assert "stick-slip" not in out and "stick-slip present" not in html
+
+
+def test_the_report_draws_the_friction_loops_and_the_energy(tmp_path):
+    from tribodyn.app.cli import main
+    from tribodyn.io.writers import save_npz
+
+    sim = simulate.reciprocating(seed=6, cycles=6)
+    p = tmp_path / "recip.npz"
+    save_npz(p, sim.channels, sim.fs)
+    # an npz carries no unit: the position's is said (metres), else no energy or loop (issue 34 point 4)
+    assert main(["analyze", str(p), "--out", str(tmp_path / "u"), "--map", "x=x", "-q"]) == 0
+    assert "friction_loops.png" not in {f.name for f in (tmp_path / "u" / "figures").iterdir()}
+    assert main(["analyze", str(p), "--out", str(tmp_path / "o"), "--map", "x=x", "--scale", "x=1", "-q"]) == 0
+    figs = {f.name for f in (tmp_path / "o" / "figures").iterdir()}
+    assert {"friction_loops.png", "energy_vs_cycle.png", "strokes_cof_vs_cycle.png"} <= figs
+    html = (tmp_path / "o" / "report.html").read_text()
+    assert "Friction loops" in html and "Energy dissipated per cycle" in html

@@ -46,17 +46,3 @@ def test_no_position_no_energy_and_no_strokes_no_cycles():
     assert np.isfinite(res.cycles["mu_cycle"]).sum() >= 18
     uni = td.analyze({"fy": np.abs(sim.channels["fy"]), "fz": sim.channels["fz"]}, fs=sim.fs)
     assert uni.cycles is None
-
-
-def test_the_report_draws_the_friction_loops_and_the_energy(tmp_path):
-    from tribodyn.app.cli import main
-    from tribodyn.io.writers import save_npz
-
-    sim = simulate.reciprocating(seed=6, cycles=6)
-    p = tmp_path / "recip.npz"
-    save_npz(p, sim.channels, sim.fs)
-    assert main(["analyze", str(p), "--out", str(tmp_path / "o"), "--map", "x=x", "-q"]) == 0
-    figs = {f.name for f in (tmp_path / "o" / "figures").iterdir()}
-    assert {"friction_loops.png", "energy_vs_cycle.png", "strokes_cof_vs_cycle.png"} <= figs
-    html = (tmp_path / "o" / "report.html").read_text()
-    assert "Friction loops" in html and "Energy dissipated per cycle" in html

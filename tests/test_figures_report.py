@@ -558,3 +558,17 @@ def test_fig11_shows_log_gap_windows_apart_and_no_solid_fit_without_windows(temp
             solid = x[np.isfinite(y)]
             # every solid point lies within a bin width of a window the fit used
             assert np.all(np.min(np.abs(solid[:, None] - used[None, :]), axis=1) <= width + 1e-9)
+
+
+def test_an_exports_report_leads_with_its_cof_and_the_diagnostics_follow(results, window):
+    # issue 34 point 9: where the dynamic method gives no headline, COF against time comes first
+    ex = {k: window[k] for k in ("fx", "fy", "fz", "fs")}
+    rng = np.random.default_rng(0)
+    fz = 10.0 + 0.01 * rng.standard_normal(6000)  # a dead weight: the classical COF is the headline
+    dead = tribodyn.analyze({"fy": 0.2 * fz, "fz": fz}, fs=100.0)
+    assert dead.headline.method == "classical"
+    names = [n for n, _, _ in R.build_named_figures(dead, examples=[{**ex, "tag": "worst"}])]
+    assert names[0] == "cof_vs_time" and names[1].startswith("fig02_forces")
+    assert results.headline.method == "dynamic"  # the paper's test: its diagnostics lead
+    names = [n for n, _, _ in R.build_named_figures(results, examples=[{**ex, "tag": "worst"}])]
+    assert names[0].startswith("fig02_forces") and names[4] == "fig10_cof_temperature_vs_time"

@@ -146,7 +146,6 @@ _SLOW_READY = (
 )
 
 
-@pytest.mark.fast
 def test_a_slow_but_idle_helper_is_waited_for(tmp_path, monkeypatch):
     """A helper that spends no CPU time (a loaded machine, a slow disk) past the limit still answers."""
     _h5attrs._stop()
@@ -157,7 +156,6 @@ def test_a_slow_but_idle_helper_is_waited_for(tmp_path, monkeypatch):
     _h5attrs._stop()
 
 
-@pytest.mark.fast
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="RLIMIT_CPU checked on Linux")
 def test_a_helper_spinning_past_its_cpu_limit_is_stopped(tmp_path, monkeypatch):
     hook = "    if limit_cpu is not None:\n        limit_cpu(cpu)\n"

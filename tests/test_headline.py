@@ -102,6 +102,36 @@ def test_contact_below_a_low_load_step_finds_the_lift_off_level():
     assert abs(c.tare_fz + 0.12) < 0.01 and abs(c.excluded_fraction - 1600 / 4800) < 0.01
 
 
+@pytest.mark.parametrize(("low", "mu_low"), [(50.0, 0.16), (20.0, 0.20)])
+def test_a_lower_load_step_is_contact_not_tare(low, mu_low):
+    # issue 34 point 5: a run at 50 N before 180 N was taken as the unloaded level (-19.8 % on a real file);
+    # 50 N is 28 % of the load (above TARE_MAX_SHARE); 20 N is 11 % with friction proportional to the load
+    rng = np.random.default_rng(3)
+    n1, n2 = 3400, 20000
+    fz = np.r_[np.full(n1, low), np.full(n2, 180.0)] * (1 + 0.01 * rng.standard_normal(n1 + n2))
+    fy = np.r_[np.full(n1, mu_low), np.full(n2, 0.20)] * fz * (1 + 0.02 * rng.standard_normal(n1 + n2))
+    c = detect_contact(fy, fz)
+    assert c.tare_fz == 0.0 and c.tare_fy == 0.0 and c.excluded_fraction == 0.0
+    assert "lower load step, in contact, not a tare" in c.rule and f"{low:.4g}" in c.rule
+    res = td.analyze({"fy": fy, "fz": fz}, fs=100.0)
+    exact = float(np.mean(np.abs(fy) / np.abs(fz)))
+    assert res.headline.method == "classical" and res.headline.value == pytest.approx(exact, rel=1e-9)
+    # a true zero before the steps is still the tare, found inside the lower step's class
+    z0 = 0.01 * rng.standard_normal(500)
+    c = detect_contact(np.r_[0.2 + 0.001 * rng.standard_normal(500), fy], np.r_[z0, fz])
+    assert abs(c.tare_fz) < 0.01 and abs(c.tare_fy - 0.2) < 0.01 and "lower load step" not in c.rule
+
+
+def test_an_offset_on_the_load_side_without_proportional_friction_stays_a_tare():
+    # a sensor zero at 11 % of the load whose fy is an offset, not friction: still the tare
+    rng = np.random.default_rng(5)
+    loaded = np.r_[np.zeros(1500, bool), np.ones(3000, bool)]
+    fz = 0.6 + np.where(loaded, 5.0 + 0.05 * rng.standard_normal(4500), 0.002 * rng.standard_normal(4500))
+    fy = -0.3 + np.where(loaded, 1.0, 0.0) + 0.001 * rng.standard_normal(4500)
+    c = detect_contact(fy, fz)
+    assert abs(c.tare_fz - 0.6) < 0.01 and abs(c.tare_fy + 0.3) < 0.01
+
+
 def test_dynamic_headline_is_the_median_of_the_gated_windows(temp_sim, temp_res):
     sim, res = temp_sim, temp_res
     head = res.headline
@@ -191,6 +221,7 @@ def test_instrument_difference_over_half_a_percent_is_explained():
     assert not any("instrument's COF column" in w for w in res.warnings)
 
 
+@pytest.mark.slow  # a command-line run with its report
 def test_cli_report_and_summary_print_the_one_headline(tmp_path, capsys):
     from tribodyn.app.cli import main
 

@@ -170,6 +170,7 @@ def _resample_cases(rng: np.random.Generator):
         yield w, R.NoiseResample(var=np.full(m, np.nan), index=index, dnoise=dn)  # no noise estimate at all
 
 
+@pytest.mark.slow  # NumPy's resample statistics of every case, twice
 @pytest.mark.parametrize("threads", [1, 2])
 def test_resample_stats_kernel_is_the_numpy_path(threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """The bootstrap's resample statistics: the Rust kernel gives _resample_stats' values bit for bit."""

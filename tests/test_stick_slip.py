@@ -181,27 +181,6 @@ def test_smooth_strokes_have_a_static_cof_near_the_kinetic_one():
     assert np.all((excess > 0) & (excess < 0.04))  # only the noise's maximum over the first quarter
 
 
-def test_the_cli_reports_stick_slip_only_when_present(tmp_path, capsys):
-    from tribodyn.app.cli import main
-    from tribodyn.io.writers import save_npz
-
-    for name, kw in (("slip", {"stick_slip": 0.2, "stick_slip_period": 0.0233}), ("smooth", {})):
-        sim = simulate.reciprocating(seed=11, cycles=4, **kw)
-        p = tmp_path / f"{name}.npz"
-        save_npz(p, sim.channels, sim.fs)
-        assert main(["analyze", str(p), "--out", str(tmp_path / name)]) == 0
-        out = capsys.readouterr().out
-        summary = json.loads((tmp_path / name / "summary.json").read_text())
-        ss = summary["recordings"][f"{name}.npz"]["stick_slip"]
-        html = (tmp_path / name / "report.html").read_text()
-        if name == "slip":
-            assert ss["present"] and ss["events"] > 20
-            assert "stick-slip present:" in out and "stick-slip present:" in html
-        else:
-            assert not ss["present"] and ss["events"] == 0
-            assert "stick-slip" not in out and "stick-slip present" not in html
-
-
 def _counting_reader(monkeypatch):
     """Counts the samples stick_slip reads (a list holding the total)."""
     got = [0]

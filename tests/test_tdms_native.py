@@ -348,6 +348,7 @@ def test_real_files(path, monkeypatch):
     assert compare(path, monkeypatch) == "read"
 
 
+@pytest.mark.slow  # a whole simulated test written by the command line
 @pytest.mark.parametrize("raw", [False, True])
 def test_simulator_output(tmp_path, monkeypatch, raw):
     p = tmp_path / "sim.tdms"

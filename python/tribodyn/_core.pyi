@@ -87,6 +87,9 @@ def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None, threads
 def histogram_uniform(x: _F64, edges: _F64) -> NDArray[np.int64]:
     """NumPy's histogram of x over uniform edges (np.linspace), bit for bit."""
 
+def find_peaks(x: _F64, *, prominence: float, wlen: int) -> NDArray[np.int64]:
+    """scipy.signal.find_peaks(x, prominence=prominence, wlen=wlen)[0], index for index."""
+
 def resample_stats(
     v: _F64,
     starts: NDArray[np.int64],

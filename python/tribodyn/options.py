@@ -186,6 +186,8 @@ OPTIONS: Tuple[Option, ...] = (
          doc="instrument budget: fy_rel, fz_rel, fy_abs, fz_abs, misalignment_deg, crosstalk (standard uncertainties)",
          flag="--uncertainty", cli_type="uncertainty",
          config_type="a table of key = standard uncertainty or {u, distribution, dof}", check="uncertainty inputs"),
+    _opt(name="load", default=None, kind="source", unit="N", section="6a",
+         doc="a constant normal force for a file without a load channel (fz)", flag="--load", cli_type="float"),
     _opt(name="channels", default=None, kind="source", unit="", section="6f",
          doc="role -> column of a DataFrame, or channel of a file", flag="--map", cli_type="map",
          config_type='a table of role = "channel" (or a string "fy=Ft,fz=Fn")', config="map"),

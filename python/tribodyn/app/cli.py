@@ -234,6 +234,8 @@ def _parser() -> argparse.ArgumentParser:
     i.add_argument("--format", help="file format (default: detected)")
     i.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
     i.add_argument("--sheet", help=_SHEET_HELP)
+    i.add_argument("--load", type=float, help="a constant normal force [N] for a file without a load channel (as "
+                   "analyze's --load: fz is then that constant); docs/method.md 6a")  # fmt: skip
 
     s = sub.add_parser("simulate", parents=[common], help="write a simulated recording (npz, h5 or tdms)")
     s.add_argument("scenario", choices=["temperature", "current_density"], help="which test of the paper")
@@ -555,7 +557,7 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
     fs = get("fs")
     if fs is not None:
         open_opts["fs"] = float(fs)
-    for key in ("time_column", "encoding", "resample", "sheet"):
+    for key in ("time_column", "encoding", "resample", "sheet", "load"):
         if get(key) is not None:
             open_opts[key] = get(key)
     opts: Dict[str, Any] = {}
@@ -662,6 +664,7 @@ def _channels_hint(message: str, files: Sequence[str], open_opts: Dict[str, Any]
     return (
         f"{Path(path).name} {_MISSING_CHANNELS} {', '.join(missing)} (mapped: {mapped}); "
         f"its channels: {shown}; map them with --map ROLE=CHANNEL, e.g. --map {example}"
+        + ("; or, for a test whose load is a constant, give it with --load N" if missing == ["fz"] else "")
     )
 
 
@@ -924,6 +927,8 @@ def _run_info(ns: argparse.Namespace) -> int:
         kw["fs"] = ns.fs
     if ns.sheet is not None:
         kw["sheet"] = ns.sheet
+    if getattr(ns, "load", None) is not None:
+        kw["load"] = ns.load
     files = expand_paths(ns.files)
     _check_regular(files)
     infos: List[Dict[str, Any]] = []

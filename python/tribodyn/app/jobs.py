@@ -375,9 +375,10 @@ def _read_window(source: Any, start: int, n: int, open_options: Dict[str, Any],
                  roles: Sequence[str] = ("fx", "fy", "fz")) -> Optional[Dict[str, np.ndarray]]:  # fmt: skip
     if isinstance(source, Mapping):
         return {r: np.asarray(source[r][start : start + n], dtype=float) for r in roles if r in source}
-    from ..io import Recording, open_recording
+    from ..io import open_recording
+    from ..io.constant import is_recording
 
-    if isinstance(source, Recording):
+    if is_recording(source):
         return _window_of(source, start, n, roles)
     with open_recording(source, **open_options) as rec:
         return _window_of(rec, start, n, roles)

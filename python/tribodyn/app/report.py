@@ -839,15 +839,22 @@ def build_named_figures(
 
     Each example window (a dict as ``example`` there, plus ``label``, e.g.
     "representative gated window", and ``tag`` for the file name) gives
-    Figs. 2-9 named ``fig02_forces_<tag>``, ``fig03-05_correlations_<tag>``,
-    ``fig06-08_phase_plots_<tag>``, ``fig09_cof_vs_normal_force_<tag>``; then
+    Figs. 2-9 (first when the headline is the dynamic COF, else after the
+    COF, stroke, cycle and loop figures: issue 34 point 9) named
+    ``fig02_forces_<tag>``, ``fig03-05_correlations_<tag>``, ``fig06-08_phase_plots_<tag>``,
+    ``fig09_cof_vs_normal_force_<tag>``; then
     ``fig10_cof_temperature_vs_time``, ``fig11_cof_vs_temperature``,
     ``fig12_cof_current_density_vs_time``, ``sec4-2_cof_vs_current_density``
     or ``cof_vs_time``.
     """
     out: List[Tuple[str, str, Figure]] = []
-    for ex in examples:
-        out += _example_figures(ex)
+    head = getattr(results, "headline", None)
+    # issue 34 point 9: the paper's per-window diagnostics lead only when the dynamic method gives the headline;
+    # an export's report opens with its COF against time (and its strokes, cycles and loops), they follow
+    dynamic_first = head is None or head.method == "dynamic"
+    diagnostics = [f for ex in examples for f in _example_figures(ex)]
+    if dynamic_first:
+        out += diagnostics
     has_t, has_j = _finite_any(results, "T"), _finite_any(results, "J")
     n = len(getattr(results, "table", results)["time"])
     ok = int(np.sum(np.asarray(getattr(results, "table", results).get("ok", np.ones(n)), dtype=bool)))
@@ -855,7 +862,6 @@ def build_named_figures(
     what = (f"{n} windows, {ok} passed the quality gate"
             + ("; line and shaded band: running median and 5-95 % of the gated windows" if many else "")
             + "; failed windows as grey ticks in the strip at the top, with their commonest reasons")  # fmt: skip
-    head = getattr(results, "headline", None)
     if head is not None and head.method != "dynamic":  # the figure shows the classical COF (docs/method.md 6e)
         what = (f"{n} windows: the classical COF of each and the instrument's where the file has it; black line "
                 f"and grey band: the headline ({head.method} COF, {head.statistic}) and its 95 % interval")  # fmt: skip
@@ -905,6 +911,8 @@ def build_named_figures(
         cap = ("Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, energy / "
                "(mean F_n x sliding distance), against cycle number (docs/method.md 6c).")  # fmt: skip
         out.append(("energy_vs_cycle", cap, _figs.energy_vs_cycle(results)))
+    if not dynamic_first:
+        out += diagnostics
     return out
 
 

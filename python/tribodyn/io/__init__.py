@@ -55,6 +55,8 @@ import stat
 from typing import Any, Mapping, Optional, Tuple, Union
 
 from .base import ChannelInfo, Recording, RecordingError, RecordingProtocol
+from .constant import with_load
+from .units import check_role_units
 from .detect import _ALIASES, _BINARY, _EXT, FORMATS, _sniff, _zip_kind
 from .writers import atomic_write, save_hdf5, save_npy, save_npz, save_recording, save_tdms, sha256_file
 
@@ -138,6 +140,7 @@ def open_recording(
     channels: Optional[Mapping[str, Optional[str]]] = None,
     fs: Optional[float] = None,
     scale: Optional[Mapping[str, float]] = None,
+    load: Optional[float] = None,
     **options: Any,
 ) -> Recording:
     """Opens a recording file.
@@ -160,6 +163,11 @@ def open_recording(
     scale : mapping, optional
         Role or channel -> factor to SI, replacing any automatic conversion
         (e.g. ``{"fy": 9.80665e-3}`` for gram-force).
+    load : float, optional
+        A known constant normal force (N) for a file without a load
+        channel: the role ``fz`` is then that constant
+        (:class:`tribodyn.io.constant.ConstantLoad`; docs/method.md 6a).
+        A file whose ``fz`` is mapped is refused.
     **options
         ``units`` (role/channel -> unit string, for display), and per
         format: ``group`` (tdms, hdf5), ``layout``, ``names``,
@@ -209,6 +217,8 @@ def open_recording(
     try:
         rec = cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
         rec.role_choice = choose_roles(rec, channels)
+        rec = with_load(rec, load)
+        rec.warnings.extend(w for w in check_role_units(rec.channels)[1] if w not in rec.warnings)
         return rec
     except BaseException as exc:
         if rec is not None:

@@ -36,7 +36,7 @@ from typing import Any, Dict, Iterator, List, Mapping, Optional, Protocol, Seque
 
 import numpy as np
 
-from .units import si_conversion
+from .units import GRAM_FORCE, normalize_unit, si_conversion
 
 __all__ = [
     "KNOWN_ROLES",
@@ -52,6 +52,8 @@ __all__ = [
 
 #: Roles the analysis knows; other role names are accepted as well.
 KNOWN_ROLES: Tuple[str, ...] = ("fx", "fy", "fz", "i", "u", "cof")
+#: The roles that hold forces (N after conversion).
+FORCE_ROLES: Tuple[str, ...] = ("fx", "fy", "fz")
 
 #: Rows a backend reads at once when the requested chunk is smaller: bounds
 #: the per-call overhead of tiny chunks while keeping memory O(block).
@@ -455,6 +457,9 @@ class Recording:
                 note = f"scaled by the caller (x{f:g})"
             elif name in self._auto:
                 f, unit, note = self._auto[name]
+            elif role_of.get(name) in FORCE_ROLES and normalize_unit(raw) in ("g", "G"):
+                # a force in "g" can only be gram-force (standard gravity is no force): issue 34 point 4
+                f, unit, note = GRAM_FORCE, "N", "'g' on a force channel is gram-force: converted to N (x9.80665e-3)"
             else:
                 f, unit, note = si_conversion(raw)
             if name in user_units:

@@ -11,9 +11,9 @@ with scale 1.
 
 from __future__ import annotations
 
-from typing import Dict, Optional, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
-__all__ = ["GRAM_FORCE", "TIME_TO_S", "si_conversion"]
+__all__ = ["GRAM_FORCE", "TIME_TO_S", "check_role_units", "si_conversion"]
 
 #: One gram-force in newtons (standard gravity 9.80665 m/s^2).
 GRAM_FORCE = 9.80665e-3
@@ -129,3 +129,53 @@ def is_known_unit(token: str) -> bool:
         "m/s^2",
         "g/s",
     }
+
+
+#: Rotational speeds: a sliding speed needs the track radius (v = 2 pi r n / 60).
+ROTATIONAL = ("rpm", "1/min", "r/min", "rev/min", "u/min", "min^-1", "min-1", "rps", "r/s", "rev/s", "rad/s")
+
+
+def check_role_units(channels: Sequence[Any]) -> Tuple[List[str], List[str]]:
+    """(errors, warnings) about the units of a recording's role channels (issue 34 point 4; docs/method.md 6f).
+
+    ``channels`` are :class:`~tribodyn.io.base.ChannelInfo` (name, unit after conversion, role, scale, note).
+    Errors: a velocity ``v`` in a rotational speed (rpm is no sliding speed); fy and fz in different units
+    after conversion (the COF is their ratio). Warnings: one of fy, fz without a unit when the other has one;
+    a force role in a unit that is no force (e.g. V: a ratio of two such channels is right only when both
+    carry the same sensitivity); a position ``x`` without a unit (no energy or loop then).
+    """
+    by_role = {c.role: c for c in channels if c.role}
+    errors: List[str] = []
+    warnings: List[str] = []
+    v = by_role.get("v")
+    if v is not None and v.unit is not None and v.unit.strip().lower() in ROTATIONAL:
+        errors.append(
+            f"the velocity channel {v.name!r} is in {v.unit}, a rotational speed, not a sliding speed: convert it "
+            "to m/s (2 pi r / 60 per rpm, r the track radius in m) with --scale v=FACTOR (scale=), or map v to a "
+            "sliding speed"
+        )
+    fy, fz = by_role.get("fy"), by_role.get("fz")
+    if fy is not None and fz is not None:
+        uy, uz = (fy.unit or "").strip(), (fz.unit or "").strip()
+        if uy and uz and uy.lower() != uz.lower():
+            errors.append(
+                f"fy ({fy.name!r}) is in {uy} and fz ({fz.name!r}) in {uz}: the COF is the ratio of two forces in "
+                "one unit; give the conversion with --scale ROLE=FACTOR (scale=) or map the right channels"
+            )
+        elif bool(uy) != bool(uz):
+            have, lack = (fy, fz) if uy else (fz, fy)
+            warnings.append(
+                f"{have.role} ({have.name!r}) is in {have.unit} but {lack.role} ({lack.name!r}) has no unit: the "
+                f"COF takes them as the same unit"
+            )
+        elif uy and uy != "N" and uy.lower() == uz.lower():
+            warnings.append(f"fy and fz are in {uy}, not a force: the COF is their ratio, right only when both "
+                            "channels have the same sensitivity (else give --scale ROLE=FACTOR)")  # fmt: skip
+    x = by_role.get("x")
+    if x is not None and x.unit != "m" and "by the caller" not in (x.note or ""):
+        what = f"is in {x.unit}, not a length" if x.unit else "has no unit"
+        warnings.append(
+            f"the position channel {x.name!r} {what}: no sliding distance, energy or friction loop is "
+            "computed from it (give its factor to metres with --scale x=FACTOR, e.g. 1e-3 for mm, 1 for m)"
+        )
+    return errors, warnings

@@ -33,6 +33,8 @@ import numpy.random  # noqa: F401
 
 from ..io.base import RecordingProtocol
 from ..io.dataframe import from_dataframe
+from ..io.constant import mapping_with_load, with_load
+from ..io.units import check_role_units
 from ..kernels._validate import Orientation, check_1d
 from ..kernels.deadband import DeadbandSpec
 from ..kernels.threads import reading, resolve_threads
@@ -94,6 +96,7 @@ def analyze(
     stroke_fraction: float = 0.5,
     stick_slip: bool = False,
     uncertainty: Optional[Mapping[str, Any]] = None,
+    load: Optional[float] = None,
     channels: Optional[Mapping[str, str]] = None,
 ) -> Results:
     """COF of every window of a long recording (docs/method.md 6).
@@ -163,6 +166,13 @@ def analyze(
         ``Headline.uncertainty``: the combined uncertainty of the instrument
         and the statistics by Monte Carlo (JCGM 101) with its budget.
         Default None: the headline's interval is statistical only.
+    load : float, optional
+        A known constant normal force (N) for a source without a load
+        channel (a pin-on-disc export whose load is a test parameter): it
+        becomes the channel ``fz``, so the headline is the classical COF
+        mean |fy| / load over the samples in contact and the instrument's
+        COF column is checked against it (docs/method.md 6a). A source that
+        has fz is refused (map it away with ``channels={"fz": None}``).
     channels : mapping, optional
         For a DataFrame source: role -> column; for a path: role -> channel,
         as ``open_recording``'s ``channels=``.
@@ -286,7 +296,7 @@ def analyze(
     if isinstance(source, (str, os.PathLike)):  # a file: opened as open_recording does by default
         from ..io import open_recording
 
-        with open_recording(source, fs=fs, channels=options.pop("channels")) as rec:
+        with open_recording(source, fs=fs, channels=options.pop("channels"), load=options.pop("load")) as rec:
             return analyze(rec, plan, **options)
     res = _analyze(source, plan, options, partial=False)
     assert isinstance(res, Results)
@@ -359,12 +369,18 @@ def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial
 
 def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[RecordingProtocol], Any]:
     """(source, recording or None, fs): a DataFrame as a mapping of its columns by role (``channels=``)."""
-    fs, channels = options.pop("fs", None), options.pop("channels", None)
+    fs, channels, load = options.pop("fs", None), options.pop("channels", None), options.pop("load", None)
     if _is_dataframe(source):
         source, fs = from_dataframe(source, channels, fs)
     elif channels is not None:
         raise TypeError("channels= maps the columns of a pandas DataFrame; map a recording's with open_recording")
+    if load is not None:  # docs/method.md 6a: the given load is the channel fz
+        source = with_load(source, load) if _is_recording(source) else mapping_with_load(source, load)
     rec: Optional[RecordingProtocol] = source if _is_recording(source) else None
+    if rec is not None and hasattr(rec, "channels"):  # units that make the COF wrong (docs/method.md 6f)
+        errors = check_role_units(rec.channels)[0]
+        if errors:
+            raise ValueError(f"{os.path.basename(str(rec.path))}: {errors[0]}")
     if fs is None and rec is not None:
         fs = rec.fs
     if rec is None:
@@ -530,6 +546,8 @@ def _tribometer_params(rec: Optional[RecordingProtocol], pre: Dict[str, Any], wi
                            "motion_detected": bool(pre.get("motion_detected"))}  # fmt: skip
     if "sign_flip_share" in pre:
         out["sign_flip_share"] = pre["sign_flip_share"]
+    if pre.get("motion_evidence"):
+        out["motion_evidence"] = pre["motion_evidence"]
     if "static" in pre:
         out["static_fz"] = bool(pre["static"])
     spec = pre.get("spec")

@@ -19,7 +19,7 @@ are aligned with the recording's start time by :func:`align_log`.
 from __future__ import annotations
 
 import datetime as _dt
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -30,6 +30,7 @@ __all__ = [
     "branch",
     "log_noise",
     "log_quality",
+    "coverage_notes",
     "align_log",
     "to_epoch_seconds",
     "MAX_RATE",
@@ -342,3 +343,38 @@ def evaluate(log: TimeLog, at: np.ndarray) -> np.ndarray:
     if t.size == 1 and np.isneginf(t[0]):
         return np.full(len(at), v[0])
     return interpolate(log, at)
+
+
+def _covered(log: TimeLog, at: np.ndarray) -> float:
+    """Share of the times ``at`` inside the log's span (1 for a constant, 0 for no time)."""
+    t, _ = log
+    if at.size == 0 or (t.size == 1 and np.isneginf(t[0])):
+        return 1.0
+    return float(np.mean((at >= t[0]) & (at <= t[-1])))
+
+
+def coverage_notes(logs: Dict[str, Optional[TimeLog]], at: np.ndarray) -> List[str]:
+    """A warning for each log that covers only part of the window centres ``at`` (issue 34 point 7;
+    docs/method.md 6): the share covered and both spans, for the windows outside it have no value (NaN)."""
+    out = []
+    at = np.asarray(at, dtype=float)
+    for name, log in logs.items():
+        if log is None:
+            continue
+        share = _covered(log, at)
+        if share >= 1.0:
+            continue
+        t = log[0]
+        span = f"t = {t[0]:.6g} to {t[-1]:.6g} s" if t.size else "no reading"
+        rec = f"{at.min():.6g} to {at.max():.6g} s" if at.size else "none"
+        if share == 0.0:
+            out.append(
+                f"the {name} log ({span}) does not overlap the windows (centres {rec}): no window has a "
+                f"{name}; check the log's time base (seconds from the recording's start, or absolute times)"
+            )
+        else:
+            out.append(
+                f"the {name} log ({span}) covers {100 * share:.1f} % of the windows (centres {rec}); "
+                f"the others have no {name} (NaN) and stay out of the fits against it"
+            )
+    return out

@@ -35,7 +35,7 @@ from ..kernels.quantiles import Z975
 from ..kernels.window_stats import gate_reasons, orient
 from ..results import ClassicalTotals, Results
 from ..results.headline import instrument_check
-from .covariates import branch, evaluate, interpolate, log_quality
+from .covariates import branch, coverage_notes, evaluate, interpolate, log_quality
 from .plan import Covariates, Findings, Plan
 
 __all__ = ["finish", "settle", "sign_of_total_slope", "WEAK_INSTRUMENT", "ALIGN_MIN"]
@@ -135,6 +135,8 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     cur = _current(o, aux_role, cov, centre)
     cov_notes: List[str] = []  # not the dynamic method's: kept whichever COF is the headline
     speed, extra = _covariate_columns(o, cov, centre, cov_notes)
+    cov_notes += coverage_notes({"temperature": cov.temperature, "current": None if aux_role else cov.current,
+                                 "voltage": None if aux_role else cov.voltage, **dict(cov.logs)}, centre)  # fmt: skip
     reasons = _more_reasons(reasons, o, plan, cur)
     values = _window_values(o, plan, centre=centre, t_start=t_start, reasons=reasons, cur=cur, speed=speed,
                             mean_z=moments["mean_z"])  # fmt: skip

@@ -479,6 +479,7 @@ JOINT: Mapping[str, str] = MappingProxyType({
     **dict.fromkeys(_STATISTICS, "check_statistics: the paper's preset (method='paper') fixes, refuses or ignores "
                                  "them; the instrument lag and the rig's lines need fs and rpm"),
     "channels": "where the source is opened (open_recording, a DataFrame's columns); make_plan does not take it",
+    "load": "where the source is opened (io.constant.check_load: a finite force > 0 N, and no fz beside it)",
 })  # fmt: skip
 
 

@@ -19,7 +19,7 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Dict, List, Mapping, Optional, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -38,6 +38,9 @@ SLOW_RATE = 100.0
 SIGN_FLIP_SHARE = 0.15
 #: Reciprocating needs the median |fy| of each sign at least this many noise SDs (sample-to-sample differences).
 RECIPROCATING_SNR = 5.0
+#: ... and at least this many reversals of the sliding direction (with the strokes' hysteresis, 30 % of p95):
+#: a disc that stops once, or a friction that changes sign once, is not a reciprocating test (issue 34 point 6).
+MIN_REVERSALS = 3
 
 
 def auto_window(fs: float, window: Optional[float], hop: Optional[float]) -> Tuple[float, float, str]:
@@ -75,6 +78,13 @@ def auto_window(fs: float, window: Optional[float], hop: Optional[float]) -> Tup
 UNLOADED_TIGHT = 0.1
 #: Least share of the samples an unloaded cluster holds (and at least 5 samples).
 UNLOADED_MIN_SHARE = 0.005
+#: A cluster on the load's side of zero above this share of the loaded median is a lower load step (contact),
+#: never a tare (issue 34 point 5: a 50 N run-in before 180 N was taken as unloaded, -19.8 %).
+TARE_MAX_SHARE = 0.2
+#: ... and above TARE_PROPORTIONAL_SHARE when fy / fz in it is within TARE_RATIO_TOLERANCE of the loaded ratio
+#: (friction proportional to the load: a load step; a sensor's zero offsets carry no such ratio).
+TARE_PROPORTIONAL_SHARE = 0.05
+TARE_RATIO_TOLERANCE = 0.25
 #: min_fn beyond an unloaded level: this many of its robust standard deviations ...
 CONTACT_SIGMAS = 6.0
 #: ... and at least this fraction of the distance between the unloaded level and the loaded median.
@@ -183,7 +193,41 @@ def _otsu(v: _order.Sorted, bins: int = 1024) -> float:
     return float(edges[int(np.argmax(between)) + 1])
 
 
-def _unloaded(z: np.ndarray, order: _order.Sorted) -> Optional[Tuple[np.ndarray, _order.Sorted]]:
+def _mask_of(z: np.ndarray, steps: List[Tuple[float, bool]]) -> np.ndarray:
+    """The samples of ``z`` on the kept side of every (threshold, low side) narrowing step."""
+    mask = np.ones(z.size, dtype=bool)
+    for thr, side in steps:
+        mask &= (z <= thr) if side else ~(z <= thr)
+    return mask
+
+
+def _is_lower_step(fy: Optional[np.ndarray], z: np.ndarray) -> Callable[[float, float, List[Tuple[float, bool]]], bool]:
+    """Whether a tight cluster at ``level`` (its samples: ``steps``) is a lower load step, not a tare, against
+    the loaded median ``loaded`` (docs/method.md 6a): on the load's side of zero and above TARE_MAX_SHARE of
+    it, or above TARE_PROPORTIONAL_SHARE with fy / fz there within TARE_RATIO_TOLERANCE of the loaded ratio."""
+
+    def lower_step(level: float, loaded: float, steps: List[Tuple[float, bool]]) -> bool:
+        if not (level * loaded > 0):  # zero, or across zero from the load: an offset, never a load
+            return False
+        share = level / loaded
+        if share > TARE_MAX_SHARE:
+            return True
+        if fy is None or share <= TARE_PROPORTIONAL_SHARE:
+            return False
+        inside = _mask_of(z, steps)
+        rest = ~inside
+        if inside.sum() < 5 or rest.sum() < 5:
+            return False
+        r_in = _order.median(fy[inside]) / level
+        r_out = _order.median(fy[rest]) / _order.median(z[rest])
+        return bool(r_out != 0 and abs(r_in / r_out - 1.0) <= TARE_RATIO_TOLERANCE)
+
+    return lower_step
+
+
+def _unloaded(z: np.ndarray, order: _order.Sorted, fy: Optional[np.ndarray] = None,
+              steps_seen: Optional[List[Tuple[float, float]]] = None
+              ) -> Optional[Tuple[np.ndarray, _order.Sorted]]:  # fmt: skip
     """The mask of the unloaded cluster of the finite ``z`` (``order``: ``z`` sorted) and its values
     sorted, or None (docs/method.md 6a).
 
@@ -191,9 +235,12 @@ def _unloaded(z: np.ndarray, order: _order.Sorted) -> Optional[Tuple[np.ndarray,
     unloaded cluster when it holds at least UNLOADED_MIN_SHARE of the
     samples and its robust spread is under UNLOADED_TIGHT of the distance
     between the two classes' medians. A cluster that splits again the same
-    way (lift-off below a low load step) is narrowed to its part nearer zero.
+    way (lift-off below a low load step) is narrowed to its part nearer zero. A tight cluster that is a
+    lower load step (:func:`_is_lower_step`) is contact, not a tare: the search narrows on into it, and
+    ``steps_seen`` gets its (level, loaded median).
     """
     n = z.size
+    lower_step = _is_lower_step(fy, z)
     # The classes are value ranges: each step keeps the values of one side of a threshold, a run of
     # the sorted values; the samples are selected by the thresholds' conditions at the end.
     v = order
@@ -214,17 +261,17 @@ def _unloaded(z: np.ndarray, order: _order.Sorted) -> Optional[Tuple[np.ndarray,
         if u.size < max(5, UNLOADED_MIN_SHARE * n) or not gap > 0:
             break
         if _sorted_robust_sd(u, mu_u) <= UNLOADED_TIGHT * gap:
-            found = ([*steps, (thr, side)], u)
+            if not lower_step(mu_u, other, [*steps, (thr, side)]):
+                found = ([*steps, (thr, side)], u)
+            elif steps_seen is not None:
+                steps_seen.append((float(mu_u), float(other)))
         elif found is not None:
             break
         v = u  # narrow: the class nearer zero may still hold a tighter cluster (lift-off below a low step)
         steps.append((thr, side))
     if found is None:
         return None
-    mask = np.ones(n, dtype=bool)
-    for thr, side in found[0]:
-        mask &= (z <= thr) if side else ~(z <= thr)
-    return mask, found[1]
+    return _mask_of(z, found[0]), found[1]
 
 
 def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
@@ -246,6 +293,17 @@ def detect_contact(fy: np.ndarray, fz: np.ndarray) -> Contact:
     return _contact(fy, fz, _order.Sorted.of(fz))[0]
 
 
+def _steps_words(seen: List[Tuple[float, float]]) -> str:
+    """The rule's words for the lower load steps taken as contact ('' for none)."""
+    if not seen:
+        return ""
+    said = ", ".join(f"fz = {lv:.4g} N ({100 * lv / ld:.0f} % of the load above it)" for lv, ld in seen)
+    return (
+        f"; the tight cluster at {said} is a lower load step, in contact, not a tare (a tare lies near zero: "
+        f"at most {100 * TARE_MAX_SHARE:.0f} % of the load; pass --tare fy=N,fz=N if it is the sensor's zero)"
+    )
+
+
 def _shifted(order: _order.Sorted, tare: float) -> _order.Sorted:
     """The sorted values of :func:`_untared` (the whole of ``order``): ``value - tare`` keeps the order."""
     return order if tare == 0.0 and not np.signbit(tare) else _order.Sorted(order.values() - tare)
@@ -257,7 +315,8 @@ def _contact(fy: np.ndarray, fz: np.ndarray, order: _order.Sorted) -> Tuple[Cont
     n = fz.size
     if n == 0:
         return Contact(0.0, 0.0, 0.0, 0.0, 0.0, False, "no samples"), order
-    got = _unloaded(fz, order) if np.isfinite(order.ranks([0, n - 1])).all() else None
+    seen: List[Tuple[float, float]] = []
+    got = _unloaded(fz, order, fy, seen) if np.isfinite(order.ranks([0, n - 1])).all() else None
     note = ""
     if got is not None:
         unl, cluster = got
@@ -297,6 +356,7 @@ def _contact(fy: np.ndarray, fz: np.ndarray, order: _order.Sorted) -> Tuple[Cont
         noise = _robust_sd(np.diff(fz)) / np.sqrt(2.0) if n > 1 else 0.0
         thr = min(max(4.0 * noise, CONTACT_FLOOR_FRACTION * absz), MIN_FN_FRACTION * absz)
         rule = f"no unloaded cluster: in contact when |fz| >= {thr:.4g} N (4 noise SDs, within 1-5 % of median |fz|)"
+        rule += _steps_words(seen)
         v = order.values()
         if thr > 0:  # |fz| >= thr: at or above thr, or at or below -thr
             pos, neg = n - int(np.searchsorted(v, thr, "left")), int(np.searchsorted(v, -thr, "right"))
@@ -406,8 +466,50 @@ def prepass(
         touching = np.abs(fz) >= out["spec"].min_fn
         if touching.any():
             fy = fy[touching]
-    out.update(_motion(fy, static, motion))
+    out.update(_motion(fy, static, motion, _motion_channel(source, rec)))
     return out
+
+
+def _motion_channel(source: Any, rec: Any) -> Optional[Tuple[str, np.ndarray, List[Tuple[int, int]]]]:
+    """(role, its direction signal, contiguous runs) of a velocity ``v`` or position ``x`` channel, which says
+    the sliding direction better than fy (issue 34 point 6; docs/method.md 6c): the pre-pass sample of the
+    recording (pieces apart), or a mapping's array; None without one. A position's direction is its slope."""
+    from ..io.sample import sample_channels
+
+    for role in ("v", "x"):
+        if rec is not None and role in getattr(rec, "roles", {}):
+            data, runs = sample_channels(rec, [role])
+            sig = np.asarray(data[role], dtype=float)
+        elif isinstance(source, Mapping) and role in source:
+            sig = np.asarray(source[role], dtype=float)
+            runs = [(0, sig.size)]
+        else:
+            continue
+        if role == "x":
+            d = np.full(sig.size, np.nan)
+            for a, b in runs:
+                if b - a >= 2:
+                    d[a:b] = np.gradient(sig[a:b])
+            sig = d
+        return role, sig, list(runs)
+    return None
+
+
+def _reversals(sig: np.ndarray, runs: List[Tuple[int, int]]) -> int:
+    """Changes of direction of ``sig`` (a signed direction signal) with the strokes' hysteresis: the sign
+    holds until the signal crosses 30 % of its p95 magnitude with the other sign (``find_strokes``)."""
+    fin = np.abs(sig[np.isfinite(sig)])
+    if fin.size == 0:
+        return 0
+    thr = 0.3 * float(np.percentile(fin, 95))
+    count = 0
+    for a, b in runs:
+        seg = sig[a:b]
+        with np.errstate(invalid="ignore"):
+            raw = np.where(seg > thr, 1, np.where(seg < -thr, -1, 0))
+        decided = raw[raw != 0]
+        count += int(np.count_nonzero(np.diff(decided)))
+    return count
 
 
 def _forces_sample(source: Any, rec: Any, tare_n: int) -> Optional[Dict[str, np.ndarray]]:
@@ -446,10 +548,25 @@ def _tare_offsets(
     return fy, fz, t_fy, t_fz
 
 
-def _motion(fy: np.ndarray, static: bool, motion: str) -> Dict[str, Any]:
+def _motion(fy: np.ndarray, static: bool, motion: str,
+            channel: Optional[Tuple[str, np.ndarray, List[Tuple[int, int]]]] = None) -> Dict[str, Any]:  # fmt: skip
     """The share of fy's sign flips, their signal-to-noise ratio and the motion: ``motion`` as given, or with
-    "auto" reciprocating when fz has a static level and fy clearly takes both signs (docs/method.md 6c)."""
+    "auto" from a velocity or position ``channel`` when there is one (both directions, each at least
+    SIGN_FLIP_SHARE of the samples, and MIN_REVERSALS reversals), else reciprocating when fz has a static level
+    and fy clearly takes both signs, MIN_REVERSALS times or more (docs/method.md 6c)."""
     out: Dict[str, Any] = {}
+    if channel is not None and motion == "auto":
+        role, sig, runs = channel
+        fin = sig[np.isfinite(sig)]
+        p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
+        both = min(float(np.mean(fin > 0.3 * p95)), float(np.mean(fin < -0.3 * p95))) if p95 > 0 else 0.0
+        turns = _reversals(sig, runs)
+        recip = both >= SIGN_FLIP_SHARE and turns >= MIN_REVERSALS
+        what = {"v": "the velocity channel v", "x": "the slope of the position channel x"}[role]
+        out.update(motion="reciprocating" if recip else "unidirectional", motion_detected=True, sign_flip_share=both,
+                   motion_evidence=f"{what}: {100 * both:.0f} % of the samples in its rarer direction, "
+                                   f"{turns} reversal{'' if turns == 1 else 's'}")  # fmt: skip
+        return out
     p95 = _order.percentile(np.abs(fy), 95) if fy.size else 0.0
     share = 0.0
     if p95 > 0:
@@ -467,8 +584,13 @@ def _motion(fy: np.ndarray, static: bool, motion: str) -> Dict[str, Any]:
         # Only forces with their static level tell the sliding direction: a
         # dynamic (high-passed) fy changes sign with every oscillation.
         recip = static and share >= SIGN_FLIP_SHARE and snr >= RECIPROCATING_SNR
+        turns = _reversals(fy, [(0, fy.size)]) if recip else 0
+        recip = recip and turns >= MIN_REVERSALS
         out["motion"] = "reciprocating" if recip else "unidirectional"
         out["motion_detected"] = True
+        said = f", {turns} reversal{'' if turns == 1 else 's'}" if turns else ""
+        out["motion_evidence"] = (f"fy: {100 * share:.0f} % of the samples in its rarer sign, both sides "
+                                  f"{snr:.3g} noise SDs{said}")  # fmt: skip
     else:
         out["motion"] = motion
         out["motion_detected"] = False

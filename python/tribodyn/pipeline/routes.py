@@ -345,8 +345,10 @@ def _check_chunk(chunk: Any, where: str) -> Dict[str, np.ndarray]:
         )
     missing = [r for r in ("fy", "fz") if r not in chunk]
     if missing:
+        hint = "; a test whose load is a constant: pass load= (--load N)" if missing == ["fz"] and "fy" in chunk else ""
         raise ValueError(
             f"{where} lacks the required channel(s) {', '.join(missing)} (has {', '.join(map(str, chunk)) or 'none'})"
+            + hint
         )
     # No NaN/inf scan here: the kernel refuses a non-finite sample in any
     # window as it sums it, and the high-pass filter checks every sample it

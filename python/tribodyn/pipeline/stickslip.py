@@ -19,6 +19,7 @@ from typing import Any, Callable, Dict, List, Optional, Tuple, Union
 import numpy as np
 
 from ..kernels._order import row_quantiles
+from ..kernels.peaks import find_peaks
 
 __all__ = [
     "StickSlip",
@@ -166,9 +167,10 @@ def _reader(source: Any, open_options: Optional[Mapping[str, Any]]
         return (lambda a, b: {r: v[a:b] for r, v in data.items()}), int(data["fz"].size), (lambda: None)
     if isinstance(source, Iterator):
         raise ValueError("stick_slip reads the recording again: pass a mapping, a recording or a path, not a stream")
-    from ..io import Recording, open_recording
+    from ..io import open_recording
+    from ..io.constant import is_recording
 
-    rec = source if isinstance(source, Recording) else None
+    rec = source if is_recording(source) else None
     close: Callable[[], None] = lambda: None  # noqa: E731
     if rec is None:
         if not isinstance(source, (str, os.PathLike)):
@@ -381,12 +383,10 @@ def _extremes(s: np.ndarray, run: np.ndarray, gate: float, wlen: int) -> Tuple[n
     lowest. ``s`` holds every run's smoothed signal, each followed by a separator (NaN; ``run`` its run's
     number, -1 at the separators): +inf to the peaks' search and to the troughs', so that no extreme lies at a
     run's edge and no prominence reaches past it (as each run searched alone)."""
-    from scipy.signal import find_peaks
-
     w = max(3, wlen | 1)
     sep = run < 0
-    pk = find_peaks(np.where(sep, np.inf, s), prominence=gate, wlen=w)[0]
-    tr = find_peaks(np.where(sep, np.inf, -s), prominence=gate, wlen=w)[0]
+    pk = find_peaks(np.where(sep, np.inf, s), prominence=gate, wlen=w)
+    tr = find_peaks(np.where(sep, np.inf, -s), prominence=gate, wlen=w)
     pk, tr = pk[~sep[pk]], tr[~sep[tr]]
     at = np.concatenate([pk, tr])
     kind = np.concatenate([np.ones(pk.size, np.int64), -np.ones(tr.size, np.int64)])

@@ -61,7 +61,7 @@ def stroke_windows(source: Any, rec: Optional[RecordingProtocol], plan: Plan, fo
     kind, sig = ("v", data["v"]) if "v" in data else (("x", data["x"]) if "x" in data else ("fy", data["fy"]))
     strokes = find_strokes(sig, boundaries=bounds, kind=kind)
     table = stroke_table(data["fy"], data["fz"], strokes, plan.fs, spec=found.classical, fraction=fraction,
-                         cof=data.get("cof"), x=data.get("x"))  # fmt: skip
+                         cof=data.get("cof"), x=data.get("x") if _metres(rec) else None)  # fmt: skip
     # The windows: each stroke's central part, fy rectified.
     dsig = np.gradient(np.asarray(sig, dtype=float)) if kind == "x" else np.asarray(sig, dtype=float)
     fin = np.abs(dsig[np.isfinite(dsig)])
@@ -92,3 +92,13 @@ def stroke_windows(source: Any, rec: Optional[RecordingProtocol], plan: Plan, fo
     if plan.uncertainty is not None and not partition:  # docs/method.md 6i (analyze_many gives no budget)
         stats = stroke_sums(data["fy"], data["fz"], table, found.classical, fraction)
     return table, pieces, stats
+
+
+def _metres(rec: Any) -> bool:
+    """Whether a recording's position channel ``x`` is in metres: a unit from the file or a scale given by the
+    caller (a mapping's arrays are SI by contract); without, no distance or energy comes from it (docs/method.md
+    6c; the warning is the reader's, ``tribodyn.io.units.check_role_units``)."""
+    if rec is None:
+        return True
+    info = next((c for c in getattr(rec, "channels", ()) if c.role == "x"), None)
+    return info is None or info.unit == "m" or "by the caller" in (info.note or "")

@@ -42,10 +42,9 @@ def verdict(table: Mapping[str, np.ndarray], params: Mapping[str, Any], strokes:
             reasons.append("no dynamic normal-force excitation above the noise on fz")
     rectified = bool(params.get("rectified"))
     if motion == "reciprocating" and not rectified:  # a one-pass stream: fy could not be rectified
-        reasons.append(
-            "reciprocating motion: friction changes sign with the sliding direction"
-            + (" (detected from fy's sign changes)" if params.get("motion_detected") else "")
-        )
+        evidence = params.get("motion_evidence") or "fy's sign changes"
+        detected = f" (detected from {evidence})" if params.get("motion_detected") else ""
+        reasons.append("reciprocating motion: friction changes sign with the sliding direction" + detected)
     if gated < MIN_GATED:
         reasons.append(f"too few gated windows ({gated} < {MIN_GATED})")
     agree, r = params.get("orientation_agreement"), params.get("orientation_r")

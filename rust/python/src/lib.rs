@@ -33,6 +33,7 @@ use tribodyn_core::numerics::correlation::{self, Method};
 use tribodyn_core::numerics::extended;
 use tribodyn_core::numerics::iir;
 use tribodyn_core::numerics::order;
+use tribodyn_core::numerics::peaks;
 use tribodyn_core::numerics::regression::{self, LinFit, Moments};
 use tribodyn_core::numerics::sums;
 use tribodyn_core::numerics::windows::{self, Deadband, WindowOptions};
@@ -235,6 +236,21 @@ fn histogram_uniform<'py>(
     let es = edges.as_slice().map_err(slice_err("edges"))?;
     let counts = py.detach(|| order::histogram_uniform(xs, es)).map_err(to_py)?;
     Ok(PyArray1::from_vec(py, counts))
+}
+
+/// The local maxima of a 1-D float64 array whose prominence within `wlen` samples is at least `prominence`:
+/// `scipy.signal.find_peaks(x, prominence=prominence, wlen=wlen)[0]`, index for index (tribodyn.kernels.peaks).
+#[pyfunction]
+#[pyo3(signature = (x, *, prominence, wlen))]
+fn find_peaks<'py>(
+    py: Python<'py>,
+    x: PyReadonlyArray1<'py, f64>,
+    prominence: f64,
+    wlen: usize,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    let xs = x.as_slice().map_err(slice_err("x"))?;
+    let at = py.detach(|| peaks::find_peaks(xs, prominence, wlen));
+    Ok(PyArray1::from_vec(py, at.into_iter().map(|i| i as i64).collect()))
 }
 
 /// The fz-noise part of a resample: (var, pos, dnoise, used), see `tribodyn.results.NoiseResample`.
@@ -1114,6 +1130,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(resample_stats, m)?)?;
     m.add_function(wrap_pyfunction!(select_ranks, m)?)?;
     m.add_function(wrap_pyfunction!(histogram_uniform, m)?)?;
+    m.add_function(wrap_pyfunction!(find_peaks, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_inplace, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_into, m)?)?;
     m.add_function(wrap_pyfunction!(all_finite, m)?)?;

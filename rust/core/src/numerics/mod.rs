@@ -6,6 +6,7 @@
 //! - [`windows`]: per-window statistics of a recording (docs/method.md 4-6);
 //! - [`extended`]: sums for the estimators beyond the paper, line spectra and
 //!   the fractional-delay correction (docs/method.md 3a-3e);
+//! - [`peaks`]: local maxima and their prominence (the stick-slip search);
 //! - [`order`]: per-row medians and percentiles as NumPy's (the bootstrap);
 //! - [`bootstrap`]: the moving-block bootstrap's resample statistics;
 //! - [`sums`]: lane-split sums and the corrected two-pass mean;
@@ -19,6 +20,7 @@ pub mod extended;
 pub mod iir;
 mod lanes;
 pub mod order;
+pub mod peaks;
 pub mod regression;
 pub mod sums;
 pub mod windows;

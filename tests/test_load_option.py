@@ -1,0 +1,73 @@
+"""A known constant load for files without a load channel (issue 34 point 2; docs/method.md 6a)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import tribodyn as td
+from tribodyn.app import cli
+
+LOAD, MU = 20.0, 0.35
+
+
+@pytest.fixture(scope="module")
+def pod_csv(tmp_path_factory: pytest.TempPathFactory):
+    """A pin-on-disc export: time, friction force and the instrument's COF, no load (it is a dead weight)."""
+    rng = np.random.default_rng(1)
+    n = 3000
+    fy = MU * LOAD * (1 + 0.05 * rng.standard_normal(n))
+    cof = fy / LOAD * (1 + 0.001 * rng.standard_normal(n))
+    p = tmp_path_factory.mktemp("load") / "pod.csv"
+    np.savetxt(p, np.c_[np.arange(n) / 10.0, fy, cof], delimiter=",", comments="",
+               header="Time (s),Friction Force (N),Friction Coefficient")  # fmt: skip
+    return p, fy, cof
+
+
+@pytest.mark.fast
+def test_load_makes_the_classical_cof_of_a_file_without_fz(pod_csv) -> None:
+    p, fy, cof = pod_csv
+    with pytest.raises(ValueError, match=r"lacks the required channel\(s\) fz .*pass load="):
+        td.analyze(p)
+    res = td.analyze(p, load=LOAD)
+    assert res.headline.method == "classical"
+    assert res.headline.value == pytest.approx(float(np.mean(np.abs(fy))) / LOAD, rel=1e-12)
+    assert res.headline.low < float(np.mean(cof)) < res.headline.high
+    assert res.params["roles"]["fz"] == "load (given)"
+    with td.open_recording(p, load=LOAD) as rec:  # the same through an open recording and a mapping
+        a = td.analyze(rec)
+        assert rec.roles["fz"] == "load (given)" and rec.channels[-1].role == "fz"
+        assert rec.read(["fz"])["fz"].tolist() == [LOAD] * 3000
+        ranges = rec.read_ranges([(0, 5), (10, 12)], ["fz", "fy"]) if rec.random_access else None
+        assert ranges is None or ranges["fz"].tolist() == [LOAD] * 7
+    b = td.analyze({"fy": fy, "cof": cof}, fs=10.0, load=LOAD)
+    assert a.headline.value == res.headline.value == pytest.approx(b.headline.value, rel=1e-12)
+
+
+@pytest.mark.fast
+def test_load_is_refused_where_it_cannot_apply(pod_csv) -> None:
+    p, fy, _ = pod_csv
+    with pytest.raises(ValueError, match="finite force > 0"):
+        td.analyze(p, load=-1.0)
+    with pytest.raises(TypeError, match="number of newtons"):
+        td.analyze(p, load="20")
+    with pytest.raises(ValueError, match="has fz"):
+        td.analyze({"fy": fy, "fz": np.full(fy.size, LOAD)}, fs=10.0, load=LOAD)
+    with pytest.raises(td.RecordingError, match="without a normal-force channel; fz is mapped"):
+        td.open_recording(p, channels={"fz": "Friction Coefficient"}, load=LOAD)
+
+
+def test_cli_load_and_info(pod_csv, tmp_path, capsys) -> None:
+    p, fy, _ = pod_csv
+    assert cli.main(["analyze", str(p), "--out", str(tmp_path / "bad"), "-q"]) == 2
+    assert "--load N" in capsys.readouterr().err
+    assert cli.main(["analyze", str(p), "--load", "20", "--out", str(tmp_path / "out"), "-q"]) == 0
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    head = s["recordings"]["pod.csv"]["headline"]
+    assert head["method"] == "classical" and head["value"] == pytest.approx(float(np.mean(np.abs(fy))) / LOAD)
+    assert s["open_options"]["load"] == 20.0
+    capsys.readouterr()
+    assert cli.main(["info", str(p), "--load", "20", "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)[0]
+    assert info["roles"]["fz"] == "load (given)" and info["channels"][-1]["unit"] == "N"
