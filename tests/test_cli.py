@@ -278,3 +278,14 @@ def test_the_report_draws_the_friction_loops_and_the_energy(tmp_path):
     assert {"friction_loops.png", "energy_vs_cycle.png", "strokes_cof_vs_cycle.png"} <= figs
     html = (tmp_path / "o" / "report.html").read_text()
     assert "Friction loops" in html and "Energy dissipated per cycle" in html
+
+
+@pytest.mark.fast
+def test_info_takes_the_reading_options_of_analyze_and_says_what_it_refuses(capsys):
+    lvm = DATA / "lvm_read_long_single_header_multi_ch.lvm"
+    assert run("info", lvm, "--map", "fz=F,fy=m_1", "--json") == 0
+    info = json.loads(capsys.readouterr().out)[0]
+    assert info["roles"] == {"fz": "F", "fy": "m_1"} and "fy ('m_1') is in m/s^2" in info["analyze_refuses"][0]
+    assert run("info", lvm, "--map", "fz=F,fy=m_1", "--scale", "fy=1") == 0
+    out = capsys.readouterr().out
+    assert "analyze refuses" not in out and "scaled by the caller" in out

@@ -330,3 +330,15 @@ def test_a_classical_headline_reads_the_file_once(tmp_path, monkeypatch, threads
             np.testing.assert_array_equal(getattr(res.classical, name), getattr(again, name), err_msg=name)
         got.append(res.headline.value)
     assert got[0] == got[1] == got[2]
+
+
+def test_a_classical_interval_never_reaches_below_zero():
+    # issue 34 point 5: a mean of |fy|/|fz| dominated by one block; its t interval reached -0.069
+    rng = np.random.default_rng(0)
+    n = 20000
+    fz = 10 + 0.01 * rng.standard_normal(n)
+    fy = 0.001 * fz + 0.0001 * rng.standard_normal(n)
+    fy[:1000] = 3.0 * fz[:1000]
+    head = td.analyze({"fy": fy, "fz": fz}, fs=100.0).headline
+    assert head.method == "classical" and head.low == 0.0 < head.value < head.high
+    assert "raised to 0: a mean of |fy|/|fz| is not negative" in head.interval

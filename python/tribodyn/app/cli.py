@@ -185,6 +185,57 @@ def _add_analysis_options(a: argparse.ArgumentParser) -> None:
             a.add_argument(o.flag, type=parse[o.cli_type], help=text)
 
 
+def _add_reading_options(a: argparse.ArgumentParser) -> None:
+    """How a file is read, the same flags for ``analyze`` and ``info`` (``--fs`` and ``--load`` are options of
+    :data:`tribodyn.options.OPTIONS`, added with the analysis's; ``info`` adds them itself)."""
+    a.add_argument("--format", help="file format (default: from the extension and content)")
+    a.add_argument(
+        "--map",
+        action="append",
+        help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof, x position, v velocity; any case); "
+        "may be repeated",
+    )
+    a.add_argument(
+        "--scale",
+        action="append",
+        help="unit factors to SI, ROLE=FACTOR,... (e.g. fz=0.00980665 for gram-force; replaces the reader's "
+        "own conversion); may be repeated",
+    )
+    a.add_argument("--time-column", help="text files: the column holding time (gives fs; restarts split segments)")
+    a.add_argument("--encoding", help="text files: the encoding (default: detected; e.g. cp932, utf-16, latin-1)")
+    a.add_argument("--resample", type=float, help="text files with irregular time: interpolate linearly at HZ")
+    a.add_argument("--sheet", help=_SHEET_HELP)
+
+
+def _open_options(ns: argparse.Namespace, cfg: Mapping[str, Any]) -> Dict[str, Any]:
+    """The keywords of ``open_recording`` from the reading flags (``--config`` values where a flag is not
+    given): one builder for ``analyze`` and ``info``, so that ``info`` shows what ``analyze`` reads."""
+
+    def get(key: str) -> Any:
+        return getattr(ns, key) if getattr(ns, key, None) is not None else cfg.get(key)
+
+    channels: Dict[str, str] = dict(cfg.get("map") or {})
+    for text in getattr(ns, "map", None) or ():  # repeated --map options add up; a later role wins
+        channels.update(_role_map(_kv(text, "map"), "--map"))
+    scale: Dict[str, float] = dict(cfg.get("scale") or {})
+    for text in getattr(ns, "scale", None) or ():
+        scale.update(_kv(text, "scale", float))
+    open_opts: Dict[str, Any] = {}
+    if get("format"):
+        open_opts["format"] = get("format")
+    if channels:
+        open_opts["channels"] = channels
+    if scale:
+        open_opts["scale"] = scale
+    fs = get("fs")
+    if fs is not None:
+        open_opts["fs"] = float(fs)
+    for key in ("time_column", "encoding", "resample", "sheet", "load"):
+        if get(key) is not None:
+            open_opts[key] = get(key)
+    return open_opts
+
+
 def _add_budget_options(a: argparse.ArgumentParser) -> None:
     """``--uncertainty KEY=VALUE`` (repeated) and ``--calibration FILE``: the budget (docs/method.md 6i)."""
     a.add_argument(
@@ -231,9 +282,8 @@ def _parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of files")
     i.add_argument("files", nargs="+", metavar="FILE", help="recordings, directories or glob patterns")
     i.add_argument("--json", action="store_true", help="print one JSON document (a list, one object per file)")
-    i.add_argument("--format", help="file format (default: detected)")
+    _add_reading_options(i)  # the same reading flags as analyze: info shows what analyze reads
     i.add_argument("--fs", type=float, help="sampling rate in Hz (when the file has none)")
-    i.add_argument("--sheet", help=_SHEET_HELP)
     i.add_argument("--load", type=float, help="a constant normal force [N] for a file without a load channel (as "
                    "analyze's --load: fz is then that constant); docs/method.md 6a")  # fmt: skip
 
@@ -259,23 +309,7 @@ def _add_analyze_command(a: argparse.ArgumentParser) -> None:
     a.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
     a.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
     a.add_argument("--config", help="TOML file with any of these options (command-line options win)")
-    a.add_argument("--format", help="file format (default: from the extension and content)")
-    a.add_argument(
-        "--map",
-        action="append",
-        help="channel map ROLE=CHANNEL,... (roles fx, fy, fz, i, u, cof, x position, v velocity; any case); "
-        "may be repeated",
-    )
-    a.add_argument(
-        "--scale",
-        action="append",
-        help="unit factors to SI, ROLE=FACTOR,... (e.g. fz=0.00980665 for gram-force; replaces the reader's "
-        "own conversion); may be repeated",
-    )
-    a.add_argument("--time-column", help="text files: the column holding time (gives fs; restarts split segments)")
-    a.add_argument("--encoding", help="text files: the encoding (default: detected; e.g. cp932, utf-16, latin-1)")
-    a.add_argument("--resample", type=float, help="text files with irregular time: interpolate linearly at HZ")
-    a.add_argument("--sheet", help=_SHEET_HELP)
+    _add_reading_options(a)
     _add_analysis_options(a)
     a.add_argument("--temperature", help="temperature log file: two columns, time in s and degC")
     a.add_argument(
@@ -541,25 +575,7 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
     def get(key: str) -> Any:
         return getattr(ns, key) if getattr(ns, key, None) is not None else cfg.get(key)
 
-    channels: Dict[str, str] = dict(cfg.get("map") or {})
-    for text in ns.map or ():  # repeated --map options add up; a later role wins
-        channels.update(_role_map(_kv(text, "map"), "--map"))
-    scale: Dict[str, float] = dict(cfg.get("scale") or {})
-    for text in ns.scale or ():
-        scale.update(_kv(text, "scale", float))
-    open_opts: Dict[str, Any] = {}
-    if get("format"):
-        open_opts["format"] = get("format")
-    if channels:
-        open_opts["channels"] = channels
-    if scale:
-        open_opts["scale"] = scale
-    fs = get("fs")
-    if fs is not None:
-        open_opts["fs"] = float(fs)
-    for key in ("time_column", "encoding", "resample", "sheet", "load"):
-        if get(key) is not None:
-            open_opts[key] = get(key)
+    open_opts = _open_options(ns, cfg)
     opts: Dict[str, Any] = {}
     for o in OPTIONS:  # the analysis's options by flag or config key (one declaration: tribodyn.options)
         if o.kind == "plan" and o.config is not None:
@@ -920,15 +936,7 @@ def _run_info(ns: argparse.Namespace) -> int:
     from ..io import open_recording
     from ..pipeline.distributed import expand_paths
 
-    kw: Dict[str, Any] = {}
-    if ns.format:
-        kw["format"] = ns.format
-    if ns.fs is not None:
-        kw["fs"] = ns.fs
-    if ns.sheet is not None:
-        kw["sheet"] = ns.sheet
-    if getattr(ns, "load", None) is not None:
-        kw["load"] = ns.load
+    kw = _open_options(ns, {})
     files = expand_paths(ns.files)
     _check_regular(files)
     infos: List[Dict[str, Any]] = []
@@ -957,9 +965,12 @@ def _run_info(ns: argparse.Namespace) -> int:
 
 def _file_info(open_recording: Any, path: str, kw: Dict[str, Any]) -> Dict[str, Any]:
     """``Recording.info()``; a file that does not carry its sampling rate is still described (fs unknown)."""
+    from ..io.units import check_role_units
+
     try:
         with open_recording(path, **kw) as rec:
-            return dict(rec.info())
+            # what analyze refuses of this map (docs/method.md 6f): said here too, so info shows what analyze reads
+            return {**rec.info(), "analyze_refuses": check_role_units(rec.channels)[0]}
     except Exception as exc:
         if "fs" in kw or "sampling rate unknown" not in str(exc):
             raise
@@ -1046,6 +1057,8 @@ def _print_info(info: Dict[str, Any]) -> None:
             print(f"    ... and {len(meta) - 40} more (--json shows all)")
     for wtext in info.get("warnings") or ():
         print(f"  warning: {wtext}")
+    for etext in info.get("analyze_refuses") or ():
+        print(f"  analyze refuses: {etext}")
 
 
 def _user_errors() -> Tuple[Type[BaseException], ...]:

@@ -31,6 +31,8 @@ __all__ = [
     "log_noise",
     "log_quality",
     "coverage_notes",
+    "window_mean",
+    "sweep_notes",
     "align_log",
     "to_epoch_seconds",
     "MAX_RATE",
@@ -337,6 +339,34 @@ def constant_or_log(value: Any, name: str) -> Optional[TimeLog]:
     return as_log(value, name)
 
 
+def window_mean(log: TimeLog, start: np.ndarray, stop: np.ndarray) -> np.ndarray:
+    """The mean of the log's linear interpolation over each window ``start`` .. ``stop`` (s), as the COF is a
+    mean over the window's samples (issue 35 point 7; docs/method.md 7a): exact for the piecewise-linear log
+    (its integral, from the knots' cumulative trapezoids and the partial segments at each end). The part of a
+    window outside the log is left out; a window whose centre lies outside the log is NaN, as :func:`interpolate`
+    gives there. A flat log (a constant) holds everywhere."""
+    t, v = log
+    start, stop = np.asarray(start, dtype=float), np.asarray(stop, dtype=float)
+    centre = 0.5 * (start + stop)
+    if t.size == 1 and np.isneginf(t[0]):
+        return np.full(centre.size, v[0])
+    out = interpolate(log, centre)
+    if t.size < 2:
+        return out
+    knots = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+
+    def primitive(x: np.ndarray) -> np.ndarray:  # the integral of the interpolation from t[0] to x
+        k = np.clip(np.searchsorted(t, x, side="right") - 1, 0, t.size - 2)
+        dx = x - t[k]
+        slope = (v[k + 1] - v[k]) / (t[k + 1] - t[k])
+        return np.asarray(knots[k] + dx * (v[k] + 0.5 * slope * dx))
+
+    a, b = np.clip(start, t[0], t[-1]), np.clip(stop, t[0], t[-1])
+    wide = np.isfinite(out) & (b > a)
+    out[wide] = (primitive(b[wide]) - primitive(a[wide])) / (b[wide] - a[wide])
+    return out
+
+
 def evaluate(log: TimeLog, at: np.ndarray) -> np.ndarray:
     """Like :func:`interpolate`, but a flat log (from a scalar) holds everywhere."""
     t, v = log
@@ -376,5 +406,37 @@ def coverage_notes(logs: Dict[str, Optional[TimeLog]], at: np.ndarray) -> List[s
             out.append(
                 f"the {name} log ({span}) covers {100 * share:.1f} % of the windows (centres {rec}); "
                 f"the others have no {name} (NaN) and stay out of the fits against it"
+            )
+    return out
+
+
+#: A log whose median swing within one window exceeds this share of its whole range sweeps faster than a window.
+FAST_SWEEP = 0.25
+
+
+def sweep_notes(logs: Dict[str, Optional[TimeLog]], start: np.ndarray, stop: np.ndarray) -> List[str]:
+    """A note for each log that sweeps a large part of its range within one window (issue 35 point 7;
+    docs/method.md 7b): the per-window COF is then a mean over a span of the covariate, and the per-window
+    curve flattens the dependence; :func:`tribodyn.cof_curve` bins the COF per sample instead. The swing of a
+    window is the range of the interpolated log at 17 points across it (median over the windows)."""
+    out: List[str] = []
+    start, stop = np.asarray(start, dtype=float), np.asarray(stop, dtype=float)
+    if start.size == 0:
+        return out
+    grid = start[:, None] + (stop - start)[:, None] * np.linspace(0.0, 1.0, 17)[None, :]
+    for name, log in logs.items():
+        if log is None or log[0].size < 2 or np.isneginf(log[0][0]):
+            continue
+        full = float(np.ptp(log[1]))
+        if not full > 0:
+            continue
+        at = np.interp(grid, log[0], log[1], left=np.nan, right=np.nan)
+        swing = np.nanmax(at, axis=1) - np.nanmin(at, axis=1) if np.isfinite(at).any() else np.zeros(0)
+        swing = swing[np.isfinite(swing)]
+        if swing.size and float(np.median(swing)) > FAST_SWEEP * full:
+            out.append(
+                f"the {name} log sweeps {100 * float(np.median(swing)) / full:.0f} % of its range within a "
+                f"window (median): each window's COF is a mean over that span, the per-window curve "
+                f"flattens the dependence; tribodyn.cof_curve bins the COF per sample (docs/method.md 7b)"
             )
     return out

@@ -35,7 +35,7 @@ from ..kernels.quantiles import Z975
 from ..kernels.window_stats import gate_reasons, orient
 from ..results import ClassicalTotals, Results
 from ..results.headline import instrument_check
-from .covariates import branch, coverage_notes, evaluate, interpolate, log_quality
+from .covariates import branch, coverage_notes, log_quality, sweep_notes, window_mean
 from .plan import Covariates, Findings, Plan
 
 __all__ = ["finish", "settle", "sign_of_total_slope", "WEAK_INSTRUMENT", "ALIGN_MIN"]
@@ -116,6 +116,7 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     t_start = o["t0"] if "t0" in o else o["start"] / fs
     n_win = np.asarray(o["n"], dtype=np.int64)
     centre = t_start + 0.5 * n_win / fs
+    within = (t_start, t_start + n_win / fs)  # each window's samples, each holding 1/fs: the logs' means over it
     seen: Dict[str, Any] = {}
     notes: List[str] = []
     if not plan.paper:  # where the instrument lag comes from (docs/method.md 3b)
@@ -132,13 +133,14 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
                 f"{100 * confidence['orientation_agreement']:.0f} % of the windows agree with s = {s:+d}; pass "
                 "orientation= if you know the sign"
             )
-    cur = _current(o, aux_role, cov, centre)
+    cur = _current(o, aux_role, cov, within)
     cov_notes: List[str] = []  # not the dynamic method's: kept whichever COF is the headline
-    speed, extra = _covariate_columns(o, cov, centre, cov_notes)
+    speed, extra = _covariate_columns(o, cov, within, cov_notes)
     cov_notes += coverage_notes({"temperature": cov.temperature, "current": None if aux_role else cov.current,
                                  "voltage": None if aux_role else cov.voltage, **dict(cov.logs)}, centre)  # fmt: skip
+    cov_notes += sweep_notes({"temperature": cov.temperature, **dict(cov.logs)}, *within)
     reasons = _more_reasons(reasons, o, plan, cur)
-    values = _window_values(o, plan, centre=centre, t_start=t_start, reasons=reasons, cur=cur, speed=speed,
+    values = _window_values(o, plan, centre=centre, span=within, reasons=reasons, cur=cur, speed=speed,
                             mean_z=moments["mean_z"])  # fmt: skip
     table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
     table.update(extra)  # the other covariate logs, after the declared columns (docs/method.md 7a)
@@ -179,8 +181,8 @@ def _more_reasons(reasons: np.ndarray, o: Stats, plan: Plan, cur: np.ndarray) ->
     return reasons
 
 
-def _window_values(o: Stats, plan: Plan, *, centre: np.ndarray, t_start: np.ndarray, reasons: np.ndarray,
-                   cur: np.ndarray, speed: np.ndarray, mean_z: np.ndarray) -> Stats:  # fmt: skip
+def _window_values(o: Stats, plan: Plan, *, centre: np.ndarray, span: Tuple[np.ndarray, np.ndarray],
+                   reasons: np.ndarray, cur: np.ndarray, speed: np.ndarray, mean_z: np.ndarray) -> Stats:  # fmt: skip
     """Every per-window column by name: the kernel's and the statistics' (``o``), time, the gate's verdict, the
     covariates and what the kernel did not compute as NaN (:data:`tribodyn.columns.TABLE` picks them)."""
     cov = plan.covariates
@@ -192,14 +194,14 @@ def _window_values(o: Stats, plan: Plan, *, centre: np.ndarray, t_start: np.ndar
     return {
         **o,
         "time": centre,
-        "t_start": t_start,
+        "t_start": span[0],
         "skew": o["skew"] if "skew" in o else nan(),
         "h1_f0": o.get("h1_f0", nan()),
         "h1_fl": o.get("h1_fl", nan()),
         "coherence_fl": o.get("coherence_fl", nan()),
         "ok": np.asarray(reasons == "", dtype=bool),
         "reasons": reasons.astype(str),
-        "T": interpolate(log, centre) if log is not None else nan(),
+        "T": window_mean(log, *span) if log is not None else nan(),  # the mean over the window (7a)
         "branch": branch(log, centre) if log is not None else np.zeros(len(centre), dtype=np.int8),
         **log_quality(log, centre),  # T_uncertainty, T_gap (docs/method.md 6)
         "i": cur,
@@ -232,20 +234,20 @@ def _no_window(plan: Plan, start: int, stop: Optional[int]) -> ValueError:
     )
 
 
-def _current(o: Stats, aux_role: Optional[str], cov: Covariates, centre: np.ndarray) -> np.ndarray:
+def _current(o: Stats, aux_role: Optional[str], cov: Covariates, span: Tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """The current at each window (A): the source's i or u channel, else its log (docs/method.md 6)."""
     if aux_role == "i":
         return np.asarray(o["aux_mean"])
     if aux_role == "u":
         return np.asarray(o["aux_mean"] / float(cov.shunt_ohm or np.nan))
     if cov.current is not None:
-        return evaluate(cov.current, centre)
+        return window_mean(cov.current, *span)
     if cov.voltage is not None:
-        return np.asarray(evaluate(cov.voltage, centre) / float(cov.shunt_ohm or np.nan))
-    return np.full(len(centre), np.nan)
+        return np.asarray(window_mean(cov.voltage, *span) / float(cov.shunt_ohm or np.nan))
+    return np.full(len(span[0]), np.nan)
 
 
-def _covariate_columns(o: Stats, cov: Any, centre: np.ndarray, notes: List[str]
+def _covariate_columns(o: Stats, cov: Any, span: Tuple[np.ndarray, np.ndarray], notes: List[str]
                        ) -> Tuple[np.ndarray, Dict[str, np.ndarray]]:  # fmt: skip
     """The ``speed`` column and the other covariate logs' columns at the window centres (docs/method.md 7a).
 
@@ -253,12 +255,13 @@ def _covariate_columns(o: Stats, cov: Any, centre: np.ndarray, notes: List[str]
     log is given: that log's magnitude then (said in a note when both exist).
     """
     logs = dict(cov.logs)
-    speed = np.asarray(o["speed"], dtype=float) if "speed" in o else np.full(len(centre), np.nan)
+    speed = np.asarray(o["speed"], dtype=float) if "speed" in o else np.full(len(span[0]), np.nan)
     if "speed" in logs:
         if "speed" in o:
             notes.append("the speed log given replaces the mean |v| of the velocity channel v in the speed column")
-        speed = np.abs(evaluate(logs.pop("speed"), centre))
-    return speed, {name: evaluate(log, centre) for name, log in logs.items()}
+        t, v = logs.pop("speed")
+        speed = window_mean((t, np.abs(v)), *span)  # the mean |v| over the window, as the kernel's of a channel
+    return speed, {name: window_mean(log, *span) for name, log in logs.items()}
 
 
 #: A recording-wide fz delay (samples) above which align="auto" corrects it

@@ -308,6 +308,14 @@ def _dynamic(res: "Results", total: int) -> Headline:
     )
 
 
+def _not_below_zero(lo: float, interval: str) -> Tuple[float, str]:
+    """The lower end of a mean of |fy|/|fz| (never negative) and the interval's words: a lower end below zero
+    (a t interval of few batches and a wide spread) is set to 0 and said (issue 34 point 5)."""
+    if lo < 0:
+        return 0.0, interval + f"; its lower end, {lo:.3g}, raised to 0: a mean of |fy|/|fz| is not negative"
+    return lo, interval
+
+
 def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
     tot: Optional[ClassicalTotals] = res.classical
     interval = f"batch means over up to {BATCHES} contiguous blocks of the recording (docs/method.md 6e)"
@@ -316,6 +324,7 @@ def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
         why = why + (str(note),)
     if tot is not None and tot.contact:
         m, lo, hi, b = tot.mean()
+        lo, interval = _not_below_zero(lo, interval)
         excluded = tot.samples - tot.contact
         return Headline(
             method="classical",
@@ -337,6 +346,7 @@ def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
     fin = np.isfinite(c)
     if tot is None and fin.any():  # a one-pass stream: only the windows were seen
         m, lo, hi, b = ratio_mean(np.where(fin, c * n, 0.0), np.where(fin, n, 0.0))
+        lo, interval = _not_below_zero(lo, interval)
         return Headline(
             method="classical", value=m, low=lo, high=hi, statistic="mean", n=int(n[fin].sum()),
             fraction_used=float(n[fin].sum()) / total if total else float("nan"),
@@ -371,6 +381,7 @@ def _per_stroke(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
                         statistic="mean", n=0, fraction_used=0.0, reasons=why + (need,), interval=interval)  # fmt: skip
     cyc = cycle_means(st)
     m, lo, hi, b = batch_mean(cyc)
+    lo, interval = _not_below_zero(lo, interval)
     used = float(np.asarray(st["n"], dtype=float).sum())
     n_cyc = int(np.isfinite(cyc).sum())
     if not n_cyc:
