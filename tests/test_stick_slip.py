@@ -166,6 +166,21 @@ def test_mu_static_within_two_percent_of_the_breakaway_peak(seed):
     assert np.all((t > 0.005) & (t < 0.02))  # the peak about breakaway_time after the onset
 
 
+@pytest.mark.slow  # 10 simulated tests
+@pytest.mark.parametrize(("noise", "limit"), [(0.2, 0.01), (0.4, 0.02)])
+def test_mu_static_without_the_noise_peak_bias(noise, limit):
+    # issue 35 point 6: the largest 5-sample mean of a noisy breakaway was +5.4 % (noise 0.2 N on 10 N, 18 dB)
+    # and +14.9 % (0.4 N, 12 dB) above the noise-free peak; the correction leaves +0.3 % and +0.9 % (400 strokes)
+    errs = []
+    for seed in range(5):
+        sim = simulate.reciprocating(seed=seed, breakaway=0.04, noise=noise, cycles=20)
+        st = td.analyze(sim.channels, fs=sim.fs).strokes
+        truth = np.where(st["direction"] > 0, sim.mu_static_forward, sim.mu_static_backward)
+        ok = np.isfinite(st["mu_static"])
+        errs.append(st["mu_static"][ok] / truth[ok] - 1)
+    assert abs(np.mean(np.concatenate(errs))) < limit
+
+
 def test_mu_static_from_the_force_alone_and_with_position():
     sim = simulate.reciprocating(seed=9, breakaway=0.04)
     for keys in (("fy", "fz"), ("fy", "fz", "x")):

@@ -255,29 +255,107 @@ STROKE_COLUMNS: Dict[str, Tuple[str, str]] = {
 
 #: Samples of the moving average whose maximum is the static COF (docs/method.md 6c).
 BREAKAWAY_SMOOTH = 5
+#: The noise-bias correction of the static COF (docs/method.md 6c; issue 35 point 6): resamples of the noise, the
+#: half-width (samples) of the local quadratic fit that gives the breakaway's shape, and the generator's seed
+#: (results are reproducible).
+BREAKAWAY_RESAMPLES = 200
+BREAKAWAY_SHAPE_HALF = 12
+BREAKAWAY_SEED = 20061136
 
 
-def breakaway_peak(ratio: np.ndarray, smooth: int = BREAKAWAY_SMOOTH) -> Tuple[float, int]:
+def _window_max(m: np.ndarray, w: int) -> Tuple[np.ndarray, np.ndarray]:
+    """Per row of ``m``: (the largest mean of ``w`` consecutive finite samples, its window's first index);
+    -inf and 0 for a row without a whole window (a window holding a NaN is skipped)."""
+    fin = np.isfinite(m)
+    c = np.concatenate([np.zeros((m.shape[0], 1)), np.cumsum(np.where(fin, m, 0.0), axis=1)], axis=1)
+    n = np.concatenate([np.zeros((m.shape[0], 1), dtype=np.int64), np.cumsum(fin, axis=1)], axis=1)
+    mean = (c[:, w:] - c[:, :-w]) / w
+    mean[(n[:, w:] - n[:, :-w]) != w] = -np.inf
+    k = np.argmax(mean, axis=1)
+    return mean[np.arange(m.shape[0]), k], k
+
+
+def _quadratic_shape(r: np.ndarray, h: int) -> np.ndarray:
+    """The value at each sample of a least-squares parabola through the finite samples within ``h`` of it (a
+    Savitzky-Golay smoothing that keeps a peak's height; NaN where fewer than 4 lie there)."""
+    out = np.full(r.size, np.nan)
+    fin = np.isfinite(r)
+    todo = np.ones(r.size, dtype=bool)
+    if r.size > 2 * h:  # whole finite windows: the Savitzky-Golay weights of a parabola's centre value
+        x = np.arange(-h, h + 1, dtype=float)
+        weights = (3.0 * (3 * h * h + 3 * h - 1) - 15.0 * x * x) / ((2 * h + 1) * (4 * h * h + 4 * h - 3))
+        whole = np.convolve(fin.astype(float), np.ones(2 * h + 1), mode="valid") == 2 * h + 1
+        smooth = np.convolve(np.where(fin, r, 0.0), weights[::-1], mode="valid")
+        out[h : r.size - h][whole] = smooth[whole]
+        todo[h : r.size - h][whole] = False
+    rows = np.flatnonzero(todo)  # the rest (the ends, windows holding a NaN): the normal equations, row by row
+    if rows.size:
+        x = np.arange(-h, h + 1, dtype=float)
+        idx = rows[:, None] + np.arange(-h, h + 1)[None, :]
+        inside = (idx >= 0) & (idx < r.size)
+        ok = inside & fin[np.clip(idx, 0, r.size - 1)]
+        y = np.where(ok, r[np.clip(idx, 0, r.size - 1)], 0.0)
+        m = [np.sum(ok * x**k, axis=1) for k in range(5)]
+        a = np.stack([np.stack([m[0], m[1], m[2]], -1), np.stack([m[1], m[2], m[3]], -1),
+                      np.stack([m[2], m[3], m[4]], -1)], -2)  # fmt: skip
+        rhs = np.stack([np.sum(y * x**k, axis=1) for k in range(3)], -1)
+        enough = ok.sum(axis=1) >= 4
+        if enough.any():
+            out[rows[enough]] = np.linalg.solve(a[enough], rhs[enough][..., None])[:, 0, 0]
+    return out
+
+
+def _noise_bias(r: np.ndarray, w: int) -> float:
+    """The expected excess of the largest ``w``-sample mean of ``r`` over its noise-free value: the noise's
+    upward bias of a maximum (docs/method.md 6c). The shape is :func:`_quadratic_shape` of ``r``; the noise SD
+    comes from r's second differences (1.4826 MAD / sqrt 6: white noise, the shape's curvature negligible); the
+    bias is the mean over BREAKAWAY_RESAMPLES of the shape plus fresh noise, less the shape's own maximum, on
+    the windows that could hold the maximum (within 8 noise SDs of a w-mean of the shape's top). 0 with fewer
+    than 3 w finite samples or no noise."""
+    fin = np.isfinite(r)
+    if fin.sum() < 3 * w:
+        return 0.0
+    d2 = (r[2:] - 2 * r[1:-1] + r[:-2])[fin[2:] & fin[1:-1] & fin[:-2]]
+    if d2.size < 3:
+        return 0.0
+    sigma = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
+    shape = _quadratic_shape(r, BREAKAWAY_SHAPE_HALF)
+    shape[~fin] = np.nan  # the sims skip the windows the data skip
+    if not (sigma > 0) or not np.isfinite(shape).any():
+        return 0.0
+    means, _ = _window_max(shape[None, :], w)
+    top = float(means[0])
+    if not np.isfinite(top):
+        return 0.0
+    c = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(shape), shape, -np.inf))])
+    window = (c[w:] - c[:-w]) / w
+    near = np.flatnonzero(window >= top - 8.0 * sigma / np.sqrt(w))
+    a, b = int(near.min()), int(near.max()) + w
+    part = shape[a:b]
+    rng = np.random.default_rng(BREAKAWAY_SEED)
+    sims = part[None, :] + sigma * rng.standard_normal((BREAKAWAY_RESAMPLES, part.size))
+    got, _ = _window_max(sims, w)
+    return float(np.mean(got[np.isfinite(got)]) - top) if np.isfinite(got).any() else 0.0
+
+
+def breakaway_peak(ratio: np.ndarray, smooth: int = BREAKAWAY_SMOOTH, *, correct: bool = True) -> Tuple[float, int]:
     """(static COF, index of the centre of its window) of |Ft|/Fn samples from a motion onset on (6c).
 
     The largest mean of ``smooth`` consecutive samples (fewer when there are
     fewer); a window holding a NaN (a sample out of contact) is skipped.
-    (NaN, -1) when no window is whole.
+    (NaN, -1) when no window is whole. With ``correct`` (the default), less
+    the noise's upward bias of that maximum (:func:`_noise_bias`; issue 35
+    point 6).
     """
     r = np.asarray(ratio, dtype=float)
     w = min(int(smooth), r.size)
     if w < 1:
         return float("nan"), -1
-    fin = np.isfinite(r)
-    c = np.concatenate([[0.0], np.cumsum(np.where(fin, r, 0.0))])
-    n = np.concatenate([[0], np.cumsum(fin)])
-    mean = (c[w:] - c[:-w]) / w
-    whole = (n[w:] - n[:-w]) == w
-    if not whole.any():
+    got, k = _window_max(r[None, :], w)
+    if not np.isfinite(got[0]):
         return float("nan"), -1
-    mean[~whole] = -np.inf
-    k = int(np.argmax(mean))
-    return float(mean[k]), k + (w - 1) // 2
+    peak = float(got[0]) - (_noise_bias(r, w) if correct else 0.0)
+    return peak, int(k[0]) + (w - 1) // 2
 
 
 def cycle_means(strokes: Mapping[str, np.ndarray]) -> np.ndarray:
