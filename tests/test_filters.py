@@ -85,7 +85,7 @@ def test_matches_scipy_sosfilt(case):
     assert y.shape == x.shape and y.dtype == np.float64
     assert_close_to_scipy(y, scipy_filter(sos, x, init), x)
     # The one-shot function and the reference agree too.
-    assert_close_to_scipy(td.highpass(x, fs, cutoff=cutoff, order=order, init=init), y, x)
+    assert_close_to_scipy(td.highpass(x, fs=fs, cutoff=cutoff, order=order, init=init), y, x)
     r = ref.HighPass(fs, cutoff=cutoff, order=order, channels=x.shape[0], init=init).process(x)
     assert_close_to_scipy(r, y, x)
     np.testing.assert_array_equal(ref.highpass(x, fs, cutoff=cutoff, order=order, init=init), r)
@@ -127,7 +127,7 @@ def test_custom_sos(sos, init):
     np.testing.assert_array_equal(hp.sos, sos)
     assert hp.n_sections == sos.shape[0]
     assert_close_to_scipy(y, scipy_filter(sos, x, init), x)
-    np.testing.assert_array_equal(td.highpass(x, 1000.0, sos=sos, init=init), y)
+    np.testing.assert_array_equal(td.highpass(x, fs=1000.0, sos=sos, init=init), y)
     np.testing.assert_array_equal(ref.HighPass(1000.0, sos=sos, channels=2, init=init).process(x), y)
 
 
@@ -193,8 +193,8 @@ def test_steady_init_removes_dc_transient(order):
     fs = 1000.0
     t = np.arange(int(2 * fs)) / fs
     x = 5.0 + 0.01 * np.sin(2 * np.pi * 10.0 * t)  # a big DC part, a small signal
-    steady = td.highpass(x, fs, order=order)
-    zero = td.highpass(x, fs, order=order, init="zero")
+    steady = td.highpass(x, fs=fs, order=order)
+    zero = td.highpass(x, fs=fs, order=order, init="zero")
     # "steady": the output starts near 0 and stays at the sine's size. (Not
     # exactly 0: scipy's sosfilt_zi solves a system whose condition grows as
     # (fs / cutoff)^2 for the poles near z = 1; ~1e-9 of the DC level.)
@@ -207,7 +207,7 @@ def test_steady_init_removes_dc_transient(order):
     if order == 1:  # a plain RC decay: still above 5 exp(-2 pi 0.1) after 1 s
         assert np.all(zero[: int(fs)] > 2.6)
     # An exactly constant input stays at (numerically) 0 with "steady".
-    assert np.max(np.abs(td.highpass(np.full(3000, -7.25), fs, order=order))) < 1e-6 * 7.25
+    assert np.max(np.abs(td.highpass(np.full(3000, -7.25), fs=fs, order=order))) < 1e-6 * 7.25
 
 
 def test_state_round_trip_resumes_identically():
@@ -259,7 +259,7 @@ def test_process_does_not_modify_its_input():
     x = np.linspace(0.0, 1.0, 100)
     keep = x.copy()
     td.HighPass(100.0).process(x)
-    td.highpass(x, 100.0)
+    td.highpass(x, fs=100.0)
     np.testing.assert_array_equal(x, keep)
 
 
@@ -267,15 +267,15 @@ def test_empty_chunks_and_signals():
     hp = td.HighPass(100.0, channels=2)
     out = hp.process(np.empty((2, 0)))
     assert out.shape == (2, 0) and out.dtype == np.float64
-    assert td.highpass(np.empty(0), 100.0).shape == (0,)
-    assert td.highpass(np.empty((0, 5)), 100.0).shape == (0, 5)
+    assert td.highpass(np.empty(0), fs=100.0).shape == (0,)
+    assert td.highpass(np.empty((0, 5)), fs=100.0).shape == (0, 5)
 
 
 @pytest.mark.parametrize("axis", [0, 1, 2, -1, -2])
 def test_highpass_axis(axis):
     rng = np.random.default_rng(5)
     x = rng.standard_normal((3, 4, 50)) + 1.0
-    y = td.highpass(x, 100.0, cutoff=3.0, order=2, axis=axis)
+    y = td.highpass(x, fs=100.0, cutoff=3.0, order=2, axis=axis)
     assert y.shape == x.shape
     want = np.moveaxis(
         scipy_filter(

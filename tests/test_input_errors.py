@@ -240,7 +240,7 @@ def bad_pairs(mod):
             TypeError,
             "real numbers",
         ),
-        ("highpass-nan", lambda: mod.highpass([1.0, np.nan, 2.0], 100.0), ValueError, "NaN or inf"),
+        ("highpass-nan", lambda: mod.highpass([1.0, np.nan, 2.0], fs=100.0), ValueError, "NaN or inf"),
     ]
 
 
@@ -285,20 +285,20 @@ FAST_ONLY = [
     ),
     (
         "highpass-axis",
-        lambda: td.highpass(np.ones((2, 5)), 100.0, axis=2),
+        lambda: td.highpass(np.ones((2, 5)), fs=100.0, axis=2),
         ValueError,
         "axis 2 is out of range",
     ),
-    ("highpass-0-D", lambda: td.highpass(3.0, 100.0), ValueError, "at least one dimension"),
-    ("highpass-strings", lambda: td.highpass(["a", "b"], 100.0), TypeError, "real numbers"),
-    ("highpass-complex", lambda: td.highpass(np.ones(4) * 1j, 100.0), TypeError, "real numbers"),
+    ("highpass-0-D", lambda: td.highpass(3.0, fs=100.0), ValueError, "at least one dimension"),
+    ("highpass-strings", lambda: td.highpass(["a", "b"], fs=100.0), TypeError, "real numbers"),
+    ("highpass-complex", lambda: td.highpass(np.ones(4) * 1j, fs=100.0), TypeError, "real numbers"),
     (
         "highpass-object",
-        lambda: td.highpass(np.ones(4, dtype=object), 100.0),
+        lambda: td.highpass(np.ones(4, dtype=object), fs=100.0),
         TypeError,
         "real numbers",
     ),
-    ("highpass-fs", lambda: td.highpass(np.ones(4), 0.0), ValueError, "fs must be"),
+    ("highpass-fs", lambda: td.highpass(np.ones(4), fs=0.0), ValueError, "fs must be"),
     ("butter-cutoff", lambda: td.butter_highpass(10.0, cutoff=5.0), ValueError, "cutoff"),
     ("merge-type", lambda: td.LinFitAccumulator().merge(object()), TypeError, "LinFitAccumulator"),
 ]
@@ -353,7 +353,7 @@ def test_check_finite_false_propagates_nan():
     assert acc.n == 10
     y = td.HighPass(100.0).process(np.r_[1.0, 2.0, np.nan, 3.0], check_finite=False)
     assert np.isfinite(y[:2]).all() and np.isnan(y[2:]).all()
-    y = td.highpass(np.r_[1.0, np.inf], 100.0, check_finite=False)
+    y = td.highpass(np.r_[1.0, np.inf], fs=100.0, check_finite=False)
     assert np.isfinite(y[0]) and not np.isfinite(y[1])
     assert np.isnan(ref.xcorr(xn, Y, check_finite=False).c).all()
 
@@ -392,7 +392,7 @@ def test_accepted_inputs_equal_float64(kind):
         acc = td.LinFitAccumulator().update(xv, yv)
         assert acc.result() == td.linfit(xf, yf) or acc.result().degenerate
     np.testing.assert_array_equal(td.HighPass(100.0).process(xv), td.HighPass(100.0).process(xf))
-    np.testing.assert_array_equal(td.highpass(xv, 100.0), td.highpass(xf, 100.0))
+    np.testing.assert_array_equal(td.highpass(xv, fs=100.0), td.highpass(xf, fs=100.0))
     if isinstance(xv, np.ndarray):
         np.testing.assert_array_equal(np.asarray(xv), ACCEPTED[kind](xa))  # inputs untouched
 
@@ -402,14 +402,14 @@ def test_fortran_ordered_2d_for_highpass():
     c = rng.standard_normal((3, 500)) + 2.0
     f = np.asfortranarray(c)
     assert not f.flags.c_contiguous
-    want = td.highpass(c, 1000.0, order=2)
-    np.testing.assert_array_equal(td.highpass(f, 1000.0, order=2), want)
+    want = td.highpass(c, fs=1000.0, order=2)
+    np.testing.assert_array_equal(td.highpass(f, fs=1000.0, order=2), want)
     np.testing.assert_array_equal(td.HighPass(1000.0, order=2, channels=3).process(f), want)
     # Transposed (samples, channels) with axis=0: the same filter per channel.
-    np.testing.assert_array_equal(td.highpass(c.T, 1000.0, order=2, axis=0), want.T)
+    np.testing.assert_array_equal(td.highpass(c.T, fs=1000.0, order=2, axis=0), want.T)
     # A strided view of channels.
     big = rng.standard_normal((6, 1000))
-    np.testing.assert_array_equal(td.highpass(big[::2, ::2], 10.0), td.highpass(big[::2, ::2].copy(), 10.0))
+    np.testing.assert_array_equal(td.highpass(big[::2, ::2], fs=10.0), td.highpass(big[::2, ::2].copy(), fs=10.0))
 
 
 def test_numpy_scalars_as_options():

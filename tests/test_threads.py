@@ -56,7 +56,7 @@ def run_job(job: dict) -> dict:
         "acc": acc.result(),
         "hp": np.concatenate([first, rest], axis=1),
         "hp_state": hp.state,
-        "highpass": td.highpass(job["chunk"], 250.0, cutoff=1.0, order=3),
+        "highpass": td.highpass(job["chunk"], fs=250.0, cutoff=1.0, order=3),
     }
 
 

@@ -8,8 +8,9 @@ work through :func:`positional_options`, which names the replacement.
 
 from __future__ import annotations
 
-import warnings
 from typing import Any, Dict, Sequence
+
+from .._deprecation import deprecated
 
 __all__ = ["positional_options"]
 
@@ -30,9 +31,6 @@ def positional_options(func: str, args: Sequence[Any], names: Sequence[str], giv
         if given.get(name) is not None:
             raise TypeError(f"{func}() got multiple values for argument {name!r}")
     shown = ", ".join(f"{k}=..." for k in out)
-    warnings.warn(
-        f"{func}(): pass {shown} by keyword; the positional form is deprecated and will be removed",
-        DeprecationWarning,
-        stacklevel=3,
-    )
+    deprecated(f"{func}(): pass {shown} by keyword; the positional form is deprecated and will be removed",
+               stacklevel=3)  # fmt: skip
     return out

@@ -23,6 +23,7 @@ from ..kernels.quantiles import Z975
 from ..kernels.estimators import T975, WEAK_INSTRUMENT, quadratic, slopes
 from ..kernels.window_stats import compute, gate_reasons, make_spec, orient
 from ..options import option
+from .._deprecation import deprecated
 from ..results import BinTable, CofResult
 from .plan import Plan, check_statistics
 
@@ -137,11 +138,7 @@ def identify(
     if more:
         if len(more) != 1 or fx is not None:
             raise TypeError("identify() takes the forces as identify(fy, fz, fx=None, fs=...)")
-        warnings.warn(
-            "identify(fx, fy, fz, ...) is deprecated: use identify(fy, fz, fx=fx, fs=...)",
-            DeprecationWarning,
-            stacklevel=2,
-        )
+        deprecated("identify(fx, fy, fz, ...) is deprecated: use identify(fy, fz, fx=fx, fs=...)")
         fx, fy, fz = fy, fz, more[0]
     fs, o = _identify_options(fs, plan, options)
     fs_v = check_fs(fs)

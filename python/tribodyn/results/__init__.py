@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import html as _html
-import warnings as _warnings
 import dataclasses
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -11,6 +10,7 @@ from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
+from .._deprecation import deprecated
 from ..columns import UNITS, WINDOW_COLUMNS
 from ..kernels.correlation import XcorrResult
 from ..kernels.stats import bootstrap_ci, noise_resample
@@ -137,9 +137,7 @@ class GatedMask(np.ndarray):
     """
 
     def __call__(self) -> np.ndarray:
-        _warnings.warn(
-            "Results.gated is a property now: use res.gated instead of res.gated()", DeprecationWarning, stacklevel=2
-        )
+        deprecated("Results.gated is a property now: use res.gated instead of res.gated()")
         return self.view(np.ndarray)
 
     def __array_wrap__(self, obj: Any, context: Any = None, return_scalar: bool = False) -> Any:
@@ -239,7 +237,7 @@ class Results:
     def __getitem__(self, column: str) -> np.ndarray:
         if column not in self.table and column in DEPRECATED_COLUMNS:
             new = DEPRECATED_COLUMNS[column]
-            _warnings.warn(f"column {column!r} is {new!r} now", DeprecationWarning, stacklevel=2)
+            deprecated(f"column {column!r} is {new!r} now")
             column = new
         return self.table[column]
 

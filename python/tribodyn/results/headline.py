@@ -20,6 +20,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .._deprecation import deprecated
 from ..kernels.stats import BATCHES, batch_mean, bootstrap_ci, noise_resample, ratio_mean
 from ..kernels.strokes import cycle_means
 from ..kernels.uncertainty import Uncertainty
@@ -122,13 +123,7 @@ class Headline:
 
     def __call__(self) -> str:
         """``res.headline()`` was a method returning the text: it still does, with a DeprecationWarning."""
-        import warnings
-
-        warnings.warn(
-            "Results.headline is a Headline object now: use res.headline.text (or str(res.headline))",
-            DeprecationWarning,
-            stacklevel=2,
-        )
+        deprecated("Results.headline is a Headline object now: use res.headline.text (or str(res.headline))")
         return self.text
 
     def to_dict(self) -> Dict[str, Any]:
