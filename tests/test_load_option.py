@@ -71,3 +71,35 @@ def test_cli_load_and_info(pod_csv, tmp_path, capsys) -> None:
     assert cli.main(["info", str(p), "--load", "20", "--json"]) == 0
     info = json.loads(capsys.readouterr().out)[0]
     assert info["roles"]["fz"] == "load (given)" and info["channels"][-1]["unit"] == "N"
+
+
+@pytest.mark.fast
+def test_a_cof_only_export_gets_the_instruments_own_cof(tmp_path) -> None:
+    # issue 34 point 2: a file whose only friction information is its COF column
+    rng = np.random.default_rng(2)
+    n = 3000
+    cof = 0.35 * (1 + 0.05 * rng.standard_normal(n))
+    p = tmp_path / "cof.csv"
+    np.savetxt(p, np.c_[np.arange(n) / 10.0, cof], delimiter=",", comments="", header="Time (s),Friction Coefficient")
+    for res in (td.analyze(p), td.analyze(p, load=LOAD), td.analyze({"cof": cof}, fs=10.0)):
+        head = res.headline
+        assert head.method == "instrument" and head.value == pytest.approx(float(np.mean(np.abs(cof))), rel=1e-12)
+        assert head.low < head.value < head.high and not res.verdict["dynamic_method"]
+        assert any("only friction information is its COF column" in r for r in head.reasons)
+    # with a load channel: the samples in contact only (a lift-off at the start and the end)
+    fz = np.r_[np.zeros(300), np.full(n - 600, 10.0), np.zeros(300)] + 0.01 * rng.standard_normal(n)
+    c = np.where(fz > 5, cof, 0.02 * rng.standard_normal(n))
+    res = td.analyze({"cof": c, "fz": fz}, fs=10.0)
+    assert res.headline.method == "instrument" and res.headline.n == n - 600
+    assert res.headline.value == pytest.approx(float(np.mean(np.abs(c[300:-300]))), rel=1e-12)
+
+
+@pytest.mark.fast
+def test_a_reciprocating_cof_only_export_is_averaged_per_cycle() -> None:
+    from tribodyn import simulate
+
+    sim = simulate.reciprocating(seed=3)
+    cof = sim.channels["fy"] / sim.channels["fz"]  # the signed COF an instrument exports
+    res = td.analyze({"cof": cof, "fz": sim.channels["fz"]}, fs=sim.fs)
+    assert res.params["motion"] == "reciprocating" and res.headline.method == "instrument"
+    assert res.headline.value == pytest.approx(0.11, rel=0.01) and "cycles" in res.headline.estimate

@@ -211,7 +211,7 @@ class Comparison:
     replicates : tuple of Replicate
         Per test: label, group, headline, standard error and weight.
     method : str
-        The headlines' method ("dynamic", "classical", "per-stroke"), or "mixed".
+        The headlines' method ("dynamic", "classical", "per-stroke", "instrument"), or "mixed".
     statistic : str
         "median" or "mean" (the headlines'), or "mixed".
     mean : float

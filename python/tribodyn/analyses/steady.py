@@ -97,7 +97,8 @@ class SteadyState:
     cof_initial : float
         The fitted COF at the start (t0); NaN when too short.
     method : str
-        The headline method whose series was used ("dynamic", "classical", "per-stroke"; "" for arrays).
+        The headline method whose series was used ("dynamic", "classical", "per-stroke", "instrument"; "" for
+        arrays).
     model : str
         "flat", "exponential" or "linear" (:data:`MODELS`); "" when too short.
     n, n_steady : int
@@ -206,11 +207,14 @@ def steady_series(res: "Results") -> Tuple[np.ndarray, np.ndarray, float, str, s
         mu = cycle_means(st)
         t0 = float(np.min(np.asarray(st["t_start"], dtype=float)))
         return times, mu, t0, head.method, "per-cycle COF (mean of the forward and backward strokes)"
-    if head.method == "classical":
-        v = np.asarray(table.get("mu_classical", np.full(t.size, np.nan)), dtype=float)
+    if head.method in ("classical", "instrument"):  # a COF-only export: its COF column per window (6e)
+        column = "mu_classical" if head.method == "classical" else "mu_instrument"
+        v = np.asarray(table.get(column, np.full(t.size, np.nan)), dtype=float)
         keep = np.isfinite(v) & np.isfinite(t)
         t0 = float(t_start[keep][0]) if keep.any() else float("nan")
-        return t[keep], v[keep], t0, head.method, "classical COF of each window (mu_classical)"
+        what = "classical COF of each window (mu_classical)" if column == "mu_classical" else (
+            "the instrument's COF of each window (mu_instrument)")  # fmt: skip
+        return t[keep], v[keep], t0, head.method, what
     ok = np.asarray(table["ok"], dtype=bool)
     mu = np.asarray(table["mu_r"], dtype=float)
     keep = ok & np.isfinite(mu) & np.isfinite(t)

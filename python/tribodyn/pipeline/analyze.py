@@ -374,8 +374,9 @@ def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[Reco
         source, fs = from_dataframe(source, channels, fs)
     elif channels is not None:
         raise TypeError("channels= maps the columns of a pandas DataFrame; map a recording's with open_recording")
-    if load is not None:  # docs/method.md 6a: the given load is the channel fz
-        source = with_load(source, load) if _is_recording(source) else mapping_with_load(source, load)
+    # docs/method.md 6a: a given load is the channel fz; a COF-only source's fy is its COF x fz (the headline is
+    # then the instrument's COF: params["friction_from"])
+    source = with_load(source, load) if _is_recording(source) else mapping_with_load(source, load)
     rec: Optional[RecordingProtocol] = source if _is_recording(source) else None
     if rec is not None and hasattr(rec, "channels"):  # units that make the COF wrong (docs/method.md 6f)
         errors = check_role_units(rec.channels)[0]
@@ -445,12 +446,16 @@ def _check_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> N
 def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], partial: bool
                   ) -> Union[Results, Partial]:  # fmt: skip
     """:func:`analyze`'s body: ``options`` are its keyword arguments (without ``plan``)."""
+    from_cof = _cof_only(source)  # before _as_source derives fy from the COF (docs/method.md 6a)
     source, rec, fs = _as_source(source, options)
     plan = _plan_of(given, fs, rec, options)
     _check_range(source, rec, plan)
     pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
     found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # docs/method.md 3b
     tribo = _tribometer_params(rec, pre, plan.window_note)
+    if from_cof:  # the headline is the instrument's own COF (docs/method.md 6e)
+        tribo["friction_from"] = "cof"
+        tribo["cof_channel"] = str(rec.roles["cof"]) if rec is not None else "cof"
     strokes: Optional[Dict[str, np.ndarray]] = None
     stroke_stats = None  # the per-stroke COF's statistics for its budget (docs/method.md 6i)
     run_source, run_rec = source, rec
@@ -538,6 +543,17 @@ def _sample_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan, par
 
 def _is_dataframe(source: Any) -> bool:
     return type(source).__name__ == "DataFrame" and hasattr(source, "columns") and hasattr(source, "index")
+
+
+def _cof_only(source: Any) -> bool:
+    """Whether the source's only friction information is a COF column (``cof`` and no ``fy``)."""
+    if isinstance(source, Mapping):
+        return "cof" in source and "fy" not in source
+    if isinstance(source, (list, tuple)) and source and all(isinstance(c, Mapping) for c in source):
+        return all("cof" in c and "fy" not in c for c in source)
+    if _is_recording(source):
+        return bool(getattr(source, "friction_from_cof", False)) or ("cof" in source.roles and "fy" not in source.roles)
+    return False
 
 
 def _tribometer_params(rec: Optional[RecordingProtocol], pre: Dict[str, Any], window_note: str) -> Dict[str, Any]:

@@ -32,7 +32,7 @@ Results = Any  # a tribodyn.Results (this module sits below it: results/__init__
 
 
 #: The methods a headline can come from (docs/method.md 6e).
-HEADLINE_METHODS = ("dynamic", "classical", "per-stroke")
+HEADLINE_METHODS = ("dynamic", "classical", "per-stroke", "instrument")
 
 
 #: An instrument COF that differs from the classical COF by more than this (relative) is explained in a warning.
@@ -47,8 +47,9 @@ class Headline:
     ----------
     method : str
         "dynamic" (regression of the dynamic forces, docs/method.md 3-5),
-        "classical" (mean |fy|/|fz| over every sample in contact, 6a) or
-        "per-stroke" (mean over cycles of the forward/backward stroke means, 6c).
+        "classical" (mean |fy|/|fz| over every sample in contact, 6a),
+        "per-stroke" (mean over cycles of the forward/backward stroke means, 6c) or
+        "instrument" (a COF-only export: the mean |COF| of its COF column, 6e).
     value : float
         The COF; NaN when the method that applies yields none (``reasons`` says why).
     low, high : float
@@ -205,6 +206,8 @@ def instrument_check(res: "Results", head: Headline) -> Tuple[Dict[str, Any], Li
     out: Dict[str, Any] = {}
     notes: List[str] = []
     tot = res.classical
+    if head.method == "instrument":  # the headline is the instrument's COF itself
+        return {}, []
     if head.method == "classical" and tot is not None and tot.inst_count.sum() > 0 and head.ok:
         inst = tot.instrument_mean()
         out = {"mean": inst, "n": int(tot.inst_count.sum()), "over": "the headline's samples"}
@@ -237,7 +240,9 @@ def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
     total = res.params.get("n_samples_total")
     total = int(total) if isinstance(total, (int, np.integer)) and total > 0 else 0
     why = tuple(str(r) for r in verdict.get("reasons") or ())
-    if verdict.get("dynamic_method"):
+    if res.params.get("friction_from") == "cof":  # a COF-only export: its own COF (docs/method.md 6e)
+        head = _instrument(res, total, why, reciprocating=verdict.get("motion") == "reciprocating")
+    elif verdict.get("dynamic_method"):
         head = _dynamic(res, total)
     elif verdict.get("motion") == "reciprocating":
         head = _per_stroke(res, total, why)
@@ -365,6 +370,41 @@ def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
         )
     return Headline(method="classical", value=float("nan"), low=float("nan"), high=float("nan"), statistic="mean",
                     n=0, fraction_used=0.0, reasons=why + (need,), estimate="", interval=interval)  # fmt: skip
+
+
+def _instrument(res: "Results", total: int, why: Tuple[str, ...], *, reciprocating: bool) -> Headline:
+    """A COF-only export's headline: the mean |COF| of its COF column over the samples in contact (per cycle of
+    the strokes' centres for a reciprocating test), batch-means interval (docs/method.md 6e; issue 34 point 2)."""
+    column = res.params.get("cof_channel", "cof")
+    given = (res.params.get("roles") or {}).get("fz") in ("load (given)", "unit load (derived)")
+    contact = "every sample (a constant load: no contact rule)" if given else "the samples in contact"
+    why = why + (f"the file's only friction information is its COF column {column!r}: the headline is the "
+                 "instrument's own COF",)  # fmt: skip
+    st = res.strokes
+    if reciprocating and st is not None and np.isfinite(np.asarray(st.get("mu_instrument", []), dtype=float)).any():
+        cyc = cycle_means({**st, "mu": np.asarray(st["mu_instrument"], dtype=float)})
+        m, lo, hi, b = batch_mean(cyc)
+        interval, n = f"batch means over up to {BATCHES} contiguous groups of cycles (docs/method.md 6e)", int(
+            np.isfinite(cyc).sum())  # fmt: skip
+        lo, interval = _not_below_zero(lo, interval)
+        used = float(np.asarray(st["n"], dtype=float).sum())
+        return Headline(method="instrument", value=m, low=lo, high=hi, statistic="mean", n=n,
+                        fraction_used=used / total if total else float("nan"), reasons=why,
+                        estimate=f"mean over {n} cycles of the forward and backward strokes' mean |COF| of the "
+                                 f"column {column!r} (their central parts)", interval=interval)  # fmt: skip
+    tot: Optional[ClassicalTotals] = res.classical
+    interval = f"batch means over up to {BATCHES} contiguous blocks of the recording (docs/method.md 6e)"
+    if tot is None or not tot.inst_count.sum():
+        return Headline(method="instrument", value=float("nan"), low=float("nan"), high=float("nan"),
+                        statistic="mean", n=0, fraction_used=0.0, interval=interval,
+                        reasons=why + ("no sample of the COF column is in contact",))  # fmt: skip
+    m, lo, hi, b = ratio_mean(tot.inst_sum, tot.inst_count)
+    lo, interval = _not_below_zero(lo, interval)
+    n = int(tot.inst_count.sum())
+    return Headline(method="instrument", value=m, low=lo, high=hi, statistic="mean", n=n,
+                    fraction_used=n / total if total else float("nan"), reasons=why,
+                    estimate=f"mean |COF| of the column {column!r} over {contact} ({n} samples)",
+                    interval=interval)  # fmt: skip
 
 
 def _per_stroke(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:

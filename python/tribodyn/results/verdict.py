@@ -45,6 +45,9 @@ def verdict(table: Mapping[str, np.ndarray], params: Mapping[str, Any], strokes:
         evidence = params.get("motion_evidence") or "fy's sign changes"
         detected = f" (detected from {evidence})" if params.get("motion_detected") else ""
         reasons.append("reciprocating motion: friction changes sign with the sliding direction" + detected)
+    if params.get("friction_from") == "cof":  # docs/method.md 6e: fy is the COF x fz, not a measured force
+        reasons.append("the friction force is derived from the instrument's COF column: no measured dynamic "
+                       "friction to regress")  # fmt: skip
     if gated < MIN_GATED:
         reasons.append(f"too few gated windows ({gated} < {MIN_GATED})")
     agree, r = params.get("orientation_agreement"), params.get("orientation_r")
