@@ -157,8 +157,12 @@ def test_sheet_option_in_the_api_the_cli_and_the_config(tmp_path, capsys):
     cfg.write_text('sheet = "Info"\n')
     assert cli.main(["analyze", str(XLSX), "--out", str(tmp_path / "o"), "--config", str(cfg), "-q"]) == 2
     assert "sheet 'Info' holds no numeric table" in one_error(capsys)
-    with pytest.raises(TypeError, match="option not accepted for format 'npz'"):
-        open_recording(DATA.parent / "paper" / "paper_tables.npz", sheet="Data")
+    # another format has no sheets: ignored with a warning, so that a job of several files can name it
+    with open_recording(DATA / "matlab_v5_pin_on_disc.mat", sheet="Data") as rec:
+        assert "sheet='Data' ignored: a mat file has no sheets" in rec.warnings
+    pod = DATA.parent / "real" / "pod_PPS_60N_1.tsv"
+    assert cli.main(["analyze", str(XLSX), str(pod), "--sheet", "Data", "--out", str(tmp_path / "mix"), "-q"]) == 0
+    assert "sheet='Data' ignored: a delimited file has no sheets" in capsys.readouterr().err
 
 
 def _xlsx(path: Path, rows: List[List[object]]) -> None:

@@ -173,7 +173,8 @@ def open_recording(
         format: ``group`` (tdms, hdf5), ``layout``, ``names``,
         ``time_channel`` (npy/npz), ``delimiter``, ``decimal``,
         ``encoding``, ``time_column`` (text), ``encoding`` (lvm),
-        ``sheet`` (spreadsheet: a sheet's name), ``time_column`` and
+        ``sheet`` (spreadsheet: a sheet's name; ignored with a warning for
+        other formats, so a job of several files can name it), ``time_column`` and
         ``resample`` (text, spreadsheet, mat, steps).
 
     Returns
@@ -208,6 +209,9 @@ def open_recording(
         _read_head(p)  # missing / empty / directory checks
     cls, vendor = _backend(fmt)
     kwargs = dict(options)
+    # a sheet names a spreadsheet's table: a job of several files gives it to the spreadsheets among them
+    ignored = [f"sheet={kwargs.pop('sheet')!r} ignored: a {fmt} file has no sheets"] if (
+        "sheet" in kwargs and fmt != "spreadsheet") else []  # fmt: skip
     if vendor is not None:
         kwargs["vendor"] = vendor
     # The friction channel among several tangential ones is chosen by evidence (docs/method.md 6f).
@@ -218,7 +222,7 @@ def open_recording(
         rec = cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
         rec.role_choice = choose_roles(rec, channels)
         rec = with_load(rec, load)
-        rec.warnings.extend(w for w in check_role_units(rec.channels)[1] if w not in rec.warnings)
+        rec.warnings.extend(w for w in [*ignored, *check_role_units(rec.channels)[1]] if w not in rec.warnings)
         return rec
     except BaseException as exc:
         if rec is not None:
