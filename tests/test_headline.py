@@ -342,3 +342,20 @@ def test_a_classical_interval_never_reaches_below_zero():
     head = td.analyze({"fy": fy, "fz": fz}, fs=100.0).headline
     assert head.method == "classical" and head.low == 0.0 < head.value < head.high
     assert "raised to 0: a mean of |fy|/|fz| is not negative" in head.interval
+
+
+def test_a_drag_as_large_as_the_friction_is_said_with_the_cof_without_it():
+    # issue 34 point 5: a turning disc's drag before the contact, taken as fy's tare, halves the COF
+    rng = np.random.default_rng(5)
+    n = 20000
+    load = np.r_[np.zeros(2000), np.full(n - 4000, 5.0), np.zeros(2000)]
+    fz = load + 0.005 * rng.standard_normal(n)
+    fy = 0.3 + np.where(load > 0, 0.3, 0.0) + 0.003 * rng.standard_normal(n)
+    res = td.analyze({"fy": fy, "fz": fz}, fs=100.0)
+    assert res.headline.value == pytest.approx(0.06, rel=1e-3)
+    loaded = np.abs(fz - res.params["tare_offsets"]["fz"]) >= res.params["min_fn"]
+    raw = float(np.mean(np.abs(fy[loaded]) / np.abs(fz[loaded] - res.params["tare_offsets"]["fz"])))
+    assert res.summary()["classical"]["without_fy_tare"] == pytest.approx(raw, rel=1e-12)
+    assert any("without it the classical COF is 0.12 (+100 %" in r for r in res.headline.reasons)
+    small = td.analyze({"fy": fy - 0.29, "fz": fz}, fs=100.0)  # an unloaded level of 0.01 N: not said
+    assert not any("unloaded level" in r for r in small.headline.reasons)

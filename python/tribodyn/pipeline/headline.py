@@ -108,14 +108,14 @@ def classical_totals(source: Any, rec: Any, spec: Any, start: int = 0, stop: Opt
             sel = slice(int(np.searchsorted(ids, k)), int(np.searchsorted(ids, k, side="right")))
             row = _block_sums({r: v[sel] for r, v in piece.items()}, spec)
             samples += int(row[5])
-            acc = sums.setdefault(int(k), [0.0] * 5)
-            for j in range(5):
-                acc[j] += row[j]
+            acc = sums.setdefault(int(k), [0.0] * 6)
+            for j, v in enumerate((*row[:5], row[6])):
+                acc[j] += v
     ids_arr = np.asarray(sorted(sums), dtype=np.int64)
-    cols = np.asarray([sums[k] for k in ids_arr.tolist()], dtype=float).reshape(-1, 5)
+    cols = np.asarray([sums[k] for k in ids_arr.tolist()], dtype=float).reshape(-1, 6)
     return ClassicalTotals(block=length, ids=ids_arr, count=cols[:, 0], ratio_sum=cols[:, 1],
                            signed_sum=cols[:, 2], inst_count=cols[:, 3], inst_sum=cols[:, 4],
-                           samples=samples)  # fmt: skip
+                           samples=samples, raw_sum=cols[:, 5])  # fmt: skip
 
 
 class BlockSums:
@@ -186,15 +186,16 @@ class BlockSums:
         if self._broken or self._next != self.hi:
             return None
         ids = np.asarray(sorted(self._rows), dtype=np.int64)
-        cols = np.asarray([self._rows[k][:5] for k in ids.tolist()], dtype=float).reshape(-1, 5)
+        cols = np.asarray([(*self._rows[k][:5], self._rows[k][6]) for k in ids.tolist()], dtype=float).reshape(-1, 6)
         samples = int(sum(self._rows[k][5] for k in ids.tolist()))
         return ClassicalTotals(block=self.length, ids=ids, count=cols[:, 0], ratio_sum=cols[:, 1],
                                signed_sum=cols[:, 2], inst_count=cols[:, 3], inst_sum=cols[:, 4],
-                               samples=samples, budget=self.budget_sums())  # fmt: skip
+                               samples=samples, budget=self.budget_sums(), raw_sum=cols[:, 5])  # fmt: skip
 
 
 def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]:
-    """(contact count, sum |fy|/|fz|, sum fy/fz, instrument count, instrument sum, finite samples) of one block."""
+    """(contact count, sum |fy|/|fz|, sum fy/fz, instrument count, instrument sum, finite samples, sum of
+    |fy|/|fz| with fy's raw level, its tare not subtracted) of one block (docs/method.md 6a)."""
     y = np.asarray(piece["fy"], dtype=float) - spec.tare_fy
     z = np.asarray(piece["fz"], dtype=float) - spec.tare_fz
     az = np.abs(z)
@@ -204,12 +205,14 @@ def _block_sums(piece: Mapping[str, np.ndarray], spec: Any) -> Tuple[float, ...]
         r = y[keep] / z[keep]
     ratio = float(np.abs(r).sum())
     signed = float(r.sum())
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # the unloaded level kept (a drag)
+        raw = float(np.abs((y[keep] + spec.tare_fy) / z[keep]).sum())
     ic = isum = 0.0
     if "cof" in piece:
         c = np.abs(np.asarray(piece["cof"], dtype=float)[keep])
         c = c[np.isfinite(c)]
         ic, isum = float(c.size), float(c.sum())
-    return float(keep.sum()), ratio, signed, ic, isum, float(fin.sum())
+    return float(keep.sum()), ratio, signed, ic, isum, float(fin.sum()), raw
 
 
 # -- the choice -------------------------------------------------------------------------

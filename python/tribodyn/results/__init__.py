@@ -447,6 +447,9 @@ class Results:
                     out[key]["median_of_medians"] = float(np.nanmedian(med)) if np.isfinite(med).any() else None
                     out[key]["min_fn"] = self.params.get("min_fn")
                     out[key]["tare"] = self.params.get("tare_offsets")
+                    raw = self.classical.without_fy_tare() if self.classical is not None else float("nan")
+                    # the whole recording's classical COF with fy's tare not subtracted (a drag; 6a)
+                    out[key]["without_fy_tare"] = raw if np.isfinite(raw) else None
         if self.strokes is not None and len(self.strokes.get("mu", [])):
             st = self.strokes
             per: Dict[str, Any] = {"n": int(len(st["mu"]))}

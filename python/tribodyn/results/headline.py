@@ -37,6 +37,9 @@ HEADLINE_METHODS = ("dynamic", "classical", "per-stroke", "instrument")
 
 #: An instrument COF that differs from the classical COF by more than this (relative) is explained in a warning.
 INSTRUMENT_TOLERANCE = 0.005
+#: fy's unloaded level (its tare: a turning disc's drag, an offset) that changes the classical COF by more than
+#: this (relative) is said among the headline's reasons, with the COF without it (issue 34 point 5).
+DRAG_SHARE = 0.10
 
 
 @dataclass(frozen=True)
@@ -171,6 +174,14 @@ class ClassicalTotals:
     #: The uncertainty budget's sums of r^j u^k over the samples in contact (``kernels.uncertainty.SHAPE``,
     #: unweighted) when the main pass took them for a plan with uncertainty inputs (docs/method.md 6i), else None.
     budget: Optional[np.ndarray] = None
+    #: Per block, the sum of |fy| / |fz - tare_fz| with fy's unloaded level kept (its tare not subtracted: a
+    #: turning disc's drag, issue 34 point 5), or None.
+    raw_sum: Optional[np.ndarray] = None
+
+    def without_fy_tare(self) -> float:
+        """The classical COF with fy's tare not subtracted (NaN without the sums or a sample in contact)."""
+        n = float(self.count.sum())
+        return float(self.raw_sum.sum()) / n if self.raw_sum is not None and n > 0 else float("nan")
 
     @property
     def contact(self) -> int:
@@ -193,7 +204,10 @@ class ClassicalTotals:
     def merge(parts: Sequence["ClassicalTotals"]) -> "ClassicalTotals":
         """The totals of consecutive ranges of one recording (blocks cut by a range edge are added)."""
         ids = np.unique(np.concatenate([p.ids for p in parts]))
-        out = {k: np.zeros(ids.size) for k in ("count", "ratio_sum", "signed_sum", "inst_count", "inst_sum")}
+        keys = ["count", "ratio_sum", "signed_sum", "inst_count", "inst_sum"]
+        if all(p.raw_sum is not None for p in parts):
+            keys.append("raw_sum")
+        out = {k: np.zeros(ids.size) for k in keys}
         for p in parts:
             pos = np.searchsorted(ids, p.ids)
             for k in out:
@@ -316,6 +330,20 @@ def _not_below_zero(lo: float, interval: str) -> Tuple[float, str]:
     return lo, interval
 
 
+def _drag_reason(res: "Results", tot: ClassicalTotals, m: float) -> Tuple[str, ...]:
+    """The reason to give when fy's tare changes the classical COF by more than DRAG_SHARE (docs/method.md 6a)."""
+    t_fy = float((res.params.get("tare_offsets") or {}).get("fy", 0.0))
+    raw = tot.without_fy_tare()
+    if t_fy == 0.0 or not (np.isfinite(raw) and m > 0) or abs(raw - m) <= DRAG_SHARE * m:
+        return ()
+    said = (
+        f"fy's unloaded level ({t_fy:.4g} N: a turning disc's drag, or an offset) is subtracted as its tare; "
+        f"without it the classical COF is {raw:.4g} ({100 * (raw / m - 1):+.0f} %; summary.json: "
+        "classical.without_fy_tare): pass --tare fy=0,fz=N (tare=) if the drag is part of the friction"
+    )
+    return (said,)
+
+
 def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
     tot: Optional[ClassicalTotals] = res.classical
     interval = f"batch means over up to {BATCHES} contiguous blocks of the recording (docs/method.md 6e)"
@@ -325,6 +353,7 @@ def _classical(res: "Results", total: int, why: Tuple[str, ...]) -> Headline:
     if tot is not None and tot.contact:
         m, lo, hi, b = tot.mean()
         lo, interval = _not_below_zero(lo, interval)
+        why = why + _drag_reason(res, tot, m)
         excluded = tot.samples - tot.contact
         return Headline(
             method="classical",
