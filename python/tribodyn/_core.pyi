@@ -35,6 +35,7 @@ __all__ = [
     "resample_stats",
     "select_ranks",
     "histogram_uniform",
+    "find_peaks",
     "set_threads",
     "tdms_index",
     "text_parse",
