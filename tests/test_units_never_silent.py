@@ -39,6 +39,9 @@ def test_fy_and_fz_in_different_units_are_refused(tmp_path, forces) -> None:
     p = _csv(tmp_path / "mixed.csv", ["Time [s]", "Ff [V]", "Fn [N]"], [t, fy, fz])
     with pytest.raises(ValueError, match=r"fy \('Ff \[V\]'\) is in V and fz \('Fn \[N\]'\) in N"):
         td.analyze(p, channels={"fy": "Ff [V]", "fz": "Fn [N]"})
+    torque = _csv(tmp_path / "torque.csv", ["Time [s]", "Torque [N m]", "Fn [N]"], [t, fy * 0.02, fz])
+    with pytest.raises(ValueError, match=r"a friction torque: --scale fy=1/r"):
+        td.analyze(torque, channels={"fy": "Torque [N m]", "fz": "Fn [N]"})
     # one side without a unit: analysed, with the reason said
     q = _csv(tmp_path / "half.csv", ["Time [s]", "Ff", "Fn [N]"], [t, fy, fz])
     res = td.analyze(q, channels={"fy": "Ff", "fz": "Fn [N]"})

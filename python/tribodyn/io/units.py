@@ -131,6 +131,8 @@ def is_known_unit(token: str) -> bool:
     }
 
 
+#: Torques (spaces, dots and middle dots removed): a friction torque over the track radius is the friction force.
+TORQUE = ("nm", "nmm", "mnm", "knm")
 #: Rotational speeds: a sliding speed needs the track radius (v = 2 pi r n / 60).
 ROTATIONAL = ("rpm", "1/min", "r/min", "rev/min", "u/min", "min^-1", "min-1", "rps", "r/s", "rev/s", "rad/s")
 
@@ -158,9 +160,11 @@ def check_role_units(channels: Sequence[Any]) -> Tuple[List[str], List[str]]:
     if fy is not None and fz is not None:
         uy, uz = (fy.unit or "").strip(), (fz.unit or "").strip()
         if uy and uz and uy.lower() != uz.lower():
+            torque = uy.lower().replace(" ", "").replace("\u00b7", "").replace("*", "").replace(".", "") in TORQUE
             errors.append(
                 f"fy ({fy.name!r}) is in {uy} and fz ({fz.name!r}) in {uz}: the COF is the ratio of two forces in "
                 "one unit; give the conversion with --scale ROLE=FACTOR (scale=) or map the right channels"
+                + ("; a friction torque: --scale fy=1/r (r the track radius in m) makes it a force" if torque else "")
             )
         elif bool(uy) != bool(uz):
             have, lack = (fy, fz) if uy else (fz, fy)
