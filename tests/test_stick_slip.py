@@ -452,3 +452,15 @@ def test_a_few_drops_far_apart_are_isolated_not_stick_slip():
         ss = td.stick_slip(ch, td.analyze(ch, fs=1000.0, motion="unidirectional"))
         assert ss.present is present and ss.events >= min(cycles - 1, 4), ss.verdict
         assert ("isolated: their sticks fill" in ss.verdict) is not present
+
+
+def test_the_breakaway_correction_with_a_sample_out_of_contact_before_the_peak():
+    # a NaN (a sample out of contact) before the peak: the windows after it still compete (it raised before)
+    from tribodyn.kernels.strokes import breakaway_peak
+
+    rng = np.random.default_rng(0)
+    r = 0.1 + 0.04 * np.exp(-(((np.arange(80) - 30) / 6.0) ** 2)) + 0.005 * rng.standard_normal(80)
+    r[5] = np.nan
+    peak, at = breakaway_peak(r)
+    raw, at_raw = breakaway_peak(r, correct=False)
+    assert at == at_raw and 0.13 < peak < raw  # the noise's excess taken off (the peak, 0.14, flattened)

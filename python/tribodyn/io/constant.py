@@ -17,13 +17,21 @@ or "derived".
 from __future__ import annotations
 
 import math
-from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from .base import ChannelInfo, Recording, RecordingError, _as_str_list
 
-__all__ = ["ConstantLoad", "FRICTION_CHANNEL", "LOAD_CHANNEL", "UNIT_LOAD_CHANNEL", "is_recording", "with_load"]
+__all__ = [
+    "ConstantLoad",
+    "FRICTION_CHANNEL",
+    "LOAD_CHANNEL",
+    "UNIT_LOAD_CHANNEL",
+    "derive",
+    "is_recording",
+    "with_load",
+]
 
 #: The name under which the given load appears among the recording's channels.
 LOAD_CHANNEL = "load (given)"
@@ -41,6 +49,17 @@ def check_load(load: Any) -> float:
     if not (math.isfinite(v) and v > 0):
         raise ValueError(f"load must be a finite force > 0 N, got {load!r}")
     return v
+
+
+def derive(got: Mapping[str, np.ndarray], load: Optional[float], from_cof: bool) -> Dict[str, np.ndarray]:
+    """The derived channels of one read (the module's rules): ``fz`` the constant ``load`` (when given), ``fy``
+    the COF times fz (the load, else ``got``'s fz) with the COF's sign kept (when ``from_cof``)."""
+    n = len(next(iter(got.values())))
+    fz = np.full(n, float(load)) if load is not None else np.asarray(got.get("fz", np.ones(n)), dtype=float)
+    out = {"fz": fz} if load is not None else {}
+    if from_cof:
+        out["fy"] = np.asarray(got["cof"], dtype=float) * fz
+    return out
 
 
 class ConstantLoad:
@@ -119,13 +138,8 @@ class ConstantLoad:
         return keys, inner
 
     def _with(self, keys: List[str], got: Dict[str, np.ndarray]) -> Dict[str, np.ndarray]:
-        n = len(next(iter(got.values())))
-        fz = np.full(n, self.load) if self.load is not None else got.get("fz", np.ones(n))
-        out = {}
-        for k in keys:
-            d = self._derived(k)
-            out[k] = fz.copy() if d == "fz" else got["cof"] * fz if d == "fy" else got[k]  # the COF's sign kept
-        return out
+        derived = derive(got, self.load, self.friction_from_cof)
+        return {k: got[k] if self._derived(k) is None else derived[str(self._derived(k))].copy() for k in keys}
 
     def chunks(self, size: int, roles: Union[None, str, Sequence[str]] = None, *, start: int = 0,
                stop: Optional[int] = None, copy: bool = True) -> Iterator[Dict[str, np.ndarray]]:  # fmt: skip
@@ -185,14 +199,10 @@ def mapping_with_load(source: Any, load: Optional[float]) -> Any:
             raise ValueError("load= is for a source without a normal force; this one has fz (drop it to use the load)")
         if v is not None and "fy" not in ch and "cof" not in ch:
             raise ValueError("load= needs the friction force fy (or the instrument's COF, cof) to go with it")
-        out = dict(ch)
-        if v is not None:
-            out["fz"] = np.full(len(ch["fy"] if "fy" in ch else ch["cof"]), v)
-        if "fy" not in out and "cof" in out:
-            cof = np.asarray(out["cof"], dtype=float)
-            out["fy"] = cof * (np.asarray(out["fz"], dtype=float) if "fz" in out else np.ones(cof.size))
-            out.setdefault("fz", np.ones(cof.size))
-        return out
+        from_cof = "fy" not in ch and "cof" in ch
+        # the mapping's own fz, else the load, else (a COF-only mapping without either) a unit load
+        load = v if v is not None else (1.0 if from_cof and "fz" not in ch else None)
+        return {**ch, **derive({k: ch[k] for k in ("fy", "cof", "fz") if k in ch}, load, from_cof)}
 
     if isinstance(source, Mapping):
         return one(source) if (v is not None or ("cof" in source and "fy" not in source)) else source

@@ -263,45 +263,40 @@ BREAKAWAY_SHAPE_HALF = 12
 BREAKAWAY_SEED = 20061136
 
 
-def _window_max(m: np.ndarray, w: int) -> Tuple[np.ndarray, np.ndarray]:
-    """Per row of ``m``: (the largest mean of ``w`` consecutive finite samples, its window's first index);
-    -inf and 0 for a row without a whole window (a window holding a NaN is skipped)."""
+def _window_means(m: np.ndarray, w: int) -> np.ndarray:
+    """Per row of ``m``, the mean of each run of ``w`` consecutive samples; -inf where the run holds a NaN."""
     fin = np.isfinite(m)
     c = np.concatenate([np.zeros((m.shape[0], 1)), np.cumsum(np.where(fin, m, 0.0), axis=1)], axis=1)
     n = np.concatenate([np.zeros((m.shape[0], 1), dtype=np.int64), np.cumsum(fin, axis=1)], axis=1)
-    mean = (c[:, w:] - c[:, :-w]) / w
+    mean: np.ndarray = (c[:, w:] - c[:, :-w]) / w
     mean[(n[:, w:] - n[:, :-w]) != w] = -np.inf
+    return mean
+
+
+def _window_max(m: np.ndarray, w: int) -> Tuple[np.ndarray, np.ndarray]:
+    """Per row of ``m``: (the largest mean of ``w`` consecutive finite samples, its window's first index);
+    -inf and 0 for a row without a whole window (a window holding a NaN is skipped)."""
+    mean = _window_means(m, w)
     k = np.argmax(mean, axis=1)
     return mean[np.arange(m.shape[0]), k], k
 
 
 def _quadratic_shape(r: np.ndarray, h: int) -> np.ndarray:
     """The value at each sample of a least-squares parabola through the finite samples within ``h`` of it (a
-    Savitzky-Golay smoothing that keeps a peak's height; NaN where fewer than 4 lie there)."""
+    Savitzky-Golay smoothing that keeps a peak's height, the ends and NaN included: each sample's normal
+    equations; NaN where fewer than 4 samples lie there)."""
     out = np.full(r.size, np.nan)
-    fin = np.isfinite(r)
-    todo = np.ones(r.size, dtype=bool)
-    if r.size > 2 * h:  # whole finite windows: the Savitzky-Golay weights of a parabola's centre value
-        x = np.arange(-h, h + 1, dtype=float)
-        weights = (3.0 * (3 * h * h + 3 * h - 1) - 15.0 * x * x) / ((2 * h + 1) * (4 * h * h + 4 * h - 3))
-        whole = np.convolve(fin.astype(float), np.ones(2 * h + 1), mode="valid") == 2 * h + 1
-        smooth = np.convolve(np.where(fin, r, 0.0), weights[::-1], mode="valid")
-        out[h : r.size - h][whole] = smooth[whole]
-        todo[h : r.size - h][whole] = False
-    rows = np.flatnonzero(todo)  # the rest (the ends, windows holding a NaN): the normal equations, row by row
-    if rows.size:
-        x = np.arange(-h, h + 1, dtype=float)
-        idx = rows[:, None] + np.arange(-h, h + 1)[None, :]
-        inside = (idx >= 0) & (idx < r.size)
-        ok = inside & fin[np.clip(idx, 0, r.size - 1)]
-        y = np.where(ok, r[np.clip(idx, 0, r.size - 1)], 0.0)
-        m = [np.sum(ok * x**k, axis=1) for k in range(5)]
-        a = np.stack([np.stack([m[0], m[1], m[2]], -1), np.stack([m[1], m[2], m[3]], -1),
-                      np.stack([m[2], m[3], m[4]], -1)], -2)  # fmt: skip
-        rhs = np.stack([np.sum(y * x**k, axis=1) for k in range(3)], -1)
-        enough = ok.sum(axis=1) >= 4
-        if enough.any():
-            out[rows[enough]] = np.linalg.solve(a[enough], rhs[enough][..., None])[:, 0, 0]
+    x = np.arange(-h, h + 1, dtype=float)
+    idx = np.arange(r.size)[:, None] + np.arange(-h, h + 1)[None, :]
+    inside = np.clip(idx, 0, r.size - 1)
+    ok = (idx >= 0) & (idx < r.size) & np.isfinite(r[inside])
+    y = np.where(ok, r[inside], 0.0)
+    m = [np.sum(ok * x**k, axis=1) for k in range(5)]
+    a = np.stack([np.stack(m[j : j + 3], -1) for j in range(3)], -2)
+    rhs = np.stack([np.sum(y * x**k, axis=1) for k in range(3)], -1)
+    enough = ok.sum(axis=1) >= 4
+    if enough.any():
+        out[enough] = np.linalg.solve(a[enough], rhs[enough][..., None])[:, 0, 0]
     return out
 
 
@@ -321,17 +316,12 @@ def _noise_bias(r: np.ndarray, w: int) -> float:
     sigma = 1.4826 * float(np.median(np.abs(d2 - np.median(d2)))) / np.sqrt(6.0)
     shape = _quadratic_shape(r, BREAKAWAY_SHAPE_HALF)
     shape[~fin] = np.nan  # the sims skip the windows the data skip
-    if not (sigma > 0) or not np.isfinite(shape).any():
+    window = _window_means(shape[None, :], w)[0]
+    top = float(window.max())
+    if not (sigma > 0 and np.isfinite(top)):
         return 0.0
-    means, _ = _window_max(shape[None, :], w)
-    top = float(means[0])
-    if not np.isfinite(top):
-        return 0.0
-    c = np.concatenate([[0.0], np.cumsum(np.where(np.isfinite(shape), shape, -np.inf))])
-    window = (c[w:] - c[:-w]) / w
-    near = np.flatnonzero(window >= top - 8.0 * sigma / np.sqrt(w))
-    a, b = int(near.min()), int(near.max()) + w
-    part = shape[a:b]
+    near = np.flatnonzero(window >= top - 8.0 * sigma / np.sqrt(w))  # holds the top's own window
+    part = shape[int(near.min()) : int(near.max()) + w]
     rng = np.random.default_rng(BREAKAWAY_SEED)
     sims = part[None, :] + sigma * rng.standard_normal((BREAKAWAY_RESAMPLES, part.size))
     got, _ = _window_max(sims, w)

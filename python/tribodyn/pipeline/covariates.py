@@ -367,14 +367,6 @@ def window_mean(log: TimeLog, start: np.ndarray, stop: np.ndarray) -> np.ndarray
     return out
 
 
-def evaluate(log: TimeLog, at: np.ndarray) -> np.ndarray:
-    """Like :func:`interpolate`, but a flat log (from a scalar) holds everywhere."""
-    t, v = log
-    if t.size == 1 and np.isneginf(t[0]):
-        return np.full(len(at), v[0])
-    return interpolate(log, at)
-
-
 def _covered(log: TimeLog, at: np.ndarray) -> float:
     """Share of the times ``at`` inside the log's span (1 for a constant, 0 for no time)."""
     t, _ = log

@@ -136,9 +136,13 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     cur = _current(o, aux_role, cov, within)
     cov_notes: List[str] = []  # not the dynamic method's: kept whichever COF is the headline
     speed, extra = _covariate_columns(o, cov, within, cov_notes)
-    cov_notes += coverage_notes({"temperature": cov.temperature, "current": None if aux_role else cov.current,
-                                 "voltage": None if aux_role else cov.voltage, **dict(cov.logs)}, centre)  # fmt: skip
-    cov_notes += sweep_notes({"temperature": cov.temperature, **dict(cov.logs)}, *within)
+    logs = {
+        "temperature": cov.temperature,
+        "current": None if aux_role else cov.current,
+        "voltage": None if aux_role else cov.voltage,
+        **dict(cov.logs),
+    }  # the logs the table reads
+    cov_notes += coverage_notes(logs, centre) + sweep_notes(logs, *within)
     reasons = _more_reasons(reasons, o, plan, cur)
     values = _window_values(o, plan, centre=centre, span=within, reasons=reasons, cur=cur, speed=speed,
                             mean_z=moments["mean_z"])  # fmt: skip

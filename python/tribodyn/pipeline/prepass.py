@@ -19,7 +19,7 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple
+from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -201,28 +201,25 @@ def _mask_of(z: np.ndarray, steps: List[Tuple[float, bool]]) -> np.ndarray:
     return mask
 
 
-def _is_lower_step(fy: Optional[np.ndarray], z: np.ndarray) -> Callable[[float, float, List[Tuple[float, bool]]], bool]:
-    """Whether a tight cluster at ``level`` (its samples: ``steps``) is a lower load step, not a tare, against
-    the loaded median ``loaded`` (docs/method.md 6a): on the load's side of zero and above TARE_MAX_SHARE of
-    it, or above TARE_PROPORTIONAL_SHARE with fy / fz there within TARE_RATIO_TOLERANCE of the loaded ratio."""
-
-    def lower_step(level: float, loaded: float, steps: List[Tuple[float, bool]]) -> bool:
-        if not (level * loaded > 0):  # zero, or across zero from the load: an offset, never a load
-            return False
-        share = level / loaded
-        if share > TARE_MAX_SHARE:
-            return True
-        if fy is None or share <= TARE_PROPORTIONAL_SHARE:
-            return False
-        inside = _mask_of(z, steps)
-        rest = ~inside
-        if inside.sum() < 5 or rest.sum() < 5:
-            return False
-        r_in = _order.median(fy[inside]) / level
-        r_out = _order.median(fy[rest]) / _order.median(z[rest])
-        return bool(r_out != 0 and abs(r_in / r_out - 1.0) <= TARE_RATIO_TOLERANCE)
-
-    return lower_step
+def _is_lower_step(fy: Optional[np.ndarray], z: np.ndarray, level: float, loaded: float,
+                   steps: List[Tuple[float, bool]]) -> bool:  # fmt: skip
+    """Whether a tight cluster of ``z`` at ``level`` (its samples: ``steps``) is a lower load step, not a tare,
+    against the loaded median ``loaded`` (docs/method.md 6a): on the load's side of zero and above TARE_MAX_SHARE
+    of it, or above TARE_PROPORTIONAL_SHARE with fy / fz there within TARE_RATIO_TOLERANCE of the loaded ratio."""
+    if not (level * loaded > 0):  # zero, or across zero from the load: an offset, never a load
+        return False
+    share = level / loaded
+    if share > TARE_MAX_SHARE:
+        return True
+    if fy is None or share <= TARE_PROPORTIONAL_SHARE:
+        return False
+    inside = _mask_of(z, steps)
+    rest = ~inside
+    if inside.sum() < 5 or rest.sum() < 5:
+        return False
+    r_in = _order.median(fy[inside]) / level
+    r_out = _order.median(fy[rest]) / _order.median(z[rest])
+    return bool(r_out != 0 and abs(r_in / r_out - 1.0) <= TARE_RATIO_TOLERANCE)
 
 
 def _unloaded(z: np.ndarray, order: _order.Sorted, fy: Optional[np.ndarray] = None,
@@ -240,7 +237,6 @@ def _unloaded(z: np.ndarray, order: _order.Sorted, fy: Optional[np.ndarray] = No
     ``steps_seen`` gets its (level, loaded median).
     """
     n = z.size
-    lower_step = _is_lower_step(fy, z)
     # The classes are value ranges: each step keeps the values of one side of a threshold, a run of
     # the sorted values; the samples are selected by the thresholds' conditions at the end.
     v = order
@@ -261,7 +257,7 @@ def _unloaded(z: np.ndarray, order: _order.Sorted, fy: Optional[np.ndarray] = No
         if u.size < max(5, UNLOADED_MIN_SHARE * n) or not gap > 0:
             break
         if _sorted_robust_sd(u, mu_u) <= UNLOADED_TIGHT * gap:
-            if not lower_step(mu_u, other, [*steps, (thr, side)]):
+            if not _is_lower_step(fy, z, mu_u, other, [*steps, (thr, side)]):
                 found = ([*steps, (thr, side)], u)
             elif steps_seen is not None:
                 steps_seen.append((float(mu_u), float(other)))
