@@ -279,6 +279,14 @@ def _parser() -> argparse.ArgumentParser:
         sub.add_parser("compare", parents=[common], help="compare replicate tests (output folders of analyze)")
     )
 
+    _add_watch_command(
+        sub.add_parser(
+            "watch",
+            parents=[common],
+            help="follow a recording being written: its COF as it grows, trip rules, a live page",
+        )  # fmt: skip
+    )
+
     i = sub.add_parser("info", parents=[common], help="channels, units, fs, duration and size of files")
     i.add_argument("files", nargs="+", metavar="FILE", help="recordings, directories or glob patterns")
     i.add_argument("--json", action="store_true", help="print one JSON document (a list, one object per file)")
@@ -335,6 +343,34 @@ def _add_analyze_command(a: argparse.ArgumentParser) -> None:
         help="test record field (materials, counterpart, load, speed, stroke, distance, temperature, humidity, "
         "lubricant, duration, operator, or your own key); may be repeated (docs/method.md 10c)",
     )
+
+
+def _add_watch_command(w: argparse.ArgumentParser) -> None:
+    """The arguments of ``watch`` (docs/method.md 11): the file, the output, the update and trip flags, and
+    analyze's reading and analysis flags."""
+    w.add_argument("file", metavar="FILE", help="the recording being written (CSV/TSV/LVM, TDMS, HDF5, ...)")
+    w.add_argument("--out", required=True, help="output directory (replaced at each update; a second watch of it "
+                   "is refused)")  # fmt: skip
+    w.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
+    w.add_argument("--config", help="TOML file with any of these options (command-line options win)")
+    w.add_argument("--interval", type=float, default=2.0, help="seconds between updates (default 2)")
+    w.add_argument(
+        "--until-idle",
+        type=float,
+        metavar="S",
+        help="stop when the file has not grown for S seconds (default: run until interrupted)",
+    )
+    w.add_argument("--trip", action="append", metavar="RULE",
+                   help="stop with status 3 when RULE holds: cof>X, cof<X, fn<X (each optionally 'for S s'), "
+                   "stick-slip, contact-loss, 'no-data for S s'; may be repeated (docs/method.md 11)")  # fmt: skip
+    w.add_argument("--on-trip", metavar="CMD", help="shell command run when a rule trips (environment: "
+                   "TRIBODYN_TRIP_RULE, TRIBODYN_TRIP_TIME, TRIBODYN_TRIP_VALUE, TRIBODYN_OUT)")  # fmt: skip
+    _add_reading_options(w)
+    _add_analysis_options(w)
+    w.add_argument("--temperature", help="temperature log file: two columns, time in s and degC")
+    w.add_argument("--covariate", action="append", metavar="NAME=FILE", help="another log file (as analyze's)")
+    _add_budget_options(w)
+    w.add_argument("--meta", action="append", metavar="KEY=VALUE", help="test record field (as analyze's)")
 
 
 def _add_compare_command(c: argparse.ArgumentParser) -> None:
@@ -821,6 +857,8 @@ def _run(ns: argparse.Namespace) -> int:
         return cli_compare(ns)
     if ns.command == "info":
         return _run_info(ns)
+    if ns.command == "watch":
+        return _run_watch(ns)
     if ns.command == "simulate":
         return _run_simulate(ns)
     raise UserError("no command given (try: tribodyn demo)")
@@ -869,6 +907,16 @@ def _run_analyze(ns: argparse.Namespace) -> int:
         _print_analysis(summary, ns.out)
     _print_problems(summary, files, open_opts)
     return EXIT_SOME_FAILED if summary.get("failures") else 0
+
+
+def _run_watch(ns: argparse.Namespace) -> int:
+    """``watch``: a recording being written, its COF at each update, the analysis of the complete file at the end;
+    status 3 when a trip rule ended it (docs/method.md 11)."""
+    from .watch_job import run_watch
+
+    open_opts, opts, protect = _analysis_options(ns)
+    _check_regular([ns.file])
+    return run_watch(ns, open_opts, opts, protect)
 
 
 def _dask_client(ns: argparse.Namespace) -> Any:

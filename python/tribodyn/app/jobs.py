@@ -752,7 +752,7 @@ def _run_analysis(
             summary_failed: Dict[str, Any] = {
                 "tribodyn_version": __version__,
                 "inputs": [str(f) for f in files],
-                "open_options": open_options,
+                "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
                 "recordings": {},
                 "failures": failures,
             }
@@ -764,7 +764,7 @@ def _run_analysis(
             "tribodyn_version": __version__,
             # the digests are waited for only when written: the outputs are drawn while the thread hashes
             "inputs": input_provenance([p for p, _ in runs], later=True),
-            "open_options": open_options,
+            "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
             "recordings": {},
             "failures": failures,
         }

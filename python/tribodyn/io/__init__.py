@@ -54,7 +54,7 @@ import os
 import stat
 from typing import Any, Mapping, Optional, Tuple, Union
 
-from .base import ChannelInfo, Recording, RecordingError, RecordingProtocol
+from .base import APPENDING, ChannelInfo, Recording, RecordingError, RecordingProtocol
 from .constant import with_load
 from .units import check_role_units
 from .detect import _ALIASES, _BINARY, _EXT, FORMATS, _sniff, _zip_kind
@@ -175,7 +175,10 @@ def open_recording(
         ``encoding``, ``time_column`` (text), ``encoding`` (lvm),
         ``sheet`` (spreadsheet: a sheet's name; ignored with a warning for
         other formats, so a job of several files can name it), ``time_column`` and
-        ``resample`` (text, spreadsheet, mat, steps).
+        ``resample`` (text, spreadsheet, mat, steps); ``appending=True``: the
+        file is still being written (``tribodyn watch``, docs/method.md 11):
+        its samples at opening are read, and it may grow meanwhile (it must
+        not shrink or be replaced).
 
     Returns
     -------
@@ -209,6 +212,7 @@ def open_recording(
         _read_head(p)  # missing / empty / directory checks
     cls, vendor = _backend(fmt)
     kwargs = dict(options)
+    appending = bool(kwargs.pop("appending", False))
     # a sheet names a spreadsheet's table: a job of several files gives it to the spreadsheets among them
     ignored = [f"sheet={kwargs.pop('sheet')!r} ignored: a {fmt} file has no sheets"] if (
         "sheet" in kwargs and fmt != "spreadsheet") else []  # fmt: skip
@@ -219,7 +223,11 @@ def open_recording(
 
     rec: Optional[Recording] = None
     try:
-        rec = cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
+        token = APPENDING.set(appending)
+        try:
+            rec = cls(p, channels=channels, fs=fs, scale=scale, **kwargs)
+        finally:
+            APPENDING.reset(token)
         rec.role_choice = choose_roles(rec, channels)
         rec = with_load(rec, load)
         rec.warnings.extend(w for w in [*ignored, *check_role_units(rec.channels)[1]] if w not in rec.warnings)

@@ -26,6 +26,7 @@ lengths) are raised as :class:`RecordingError` with a one-line message.
 
 from __future__ import annotations
 
+import contextvars
 import math
 import operator
 import os
@@ -84,6 +85,10 @@ TANGENTIAL_NAMES: Tuple[str, ...] = (
     "tangential force",
     "tangential_force",
 )
+
+
+#: True while :func:`tribodyn.io.open_recording` opens a file that is still being written (``appending=True``).
+APPENDING: contextvars.ContextVar[bool] = contextvars.ContextVar("tribodyn_appending", default=False)
 
 
 class RecordingError(ValueError):
@@ -345,6 +350,10 @@ class Recording:
 
     def __init__(self, path: Union[str, "os.PathLike[str]"]) -> None:
         self.path: str = os.fspath(path)
+        #: The file may grow while it is read, never shrink or be replaced (``open_recording(appending=True)``,
+        #: :class:`tribodyn.io.follow.Follower`): :meth:`check_unchanged` then allows a larger size and a later
+        #: modification time, and an HDF5 file is opened for a single writer's readers (SWMR).
+        self._appending: bool = APPENDING.get()
         self._closed = False
         self._names: List[str] = []
         self._raw_units: Dict[str, Optional[str]] = {}
@@ -516,6 +525,8 @@ class Recording:
         now = self._identity()
         if before is None or now == before:
             return
+        if self._appending and now is not None and now[0] >= before[0] and now[2:] == before[2:]:
+            return  # a followed file (tribodyn.io.follow) grows; what was read stays as it was
         what = [
             name for name, a, b in zip(("size", "modification time", "inode", "device"), before, now or ()) if a != b
         ]

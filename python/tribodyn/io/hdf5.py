@@ -176,7 +176,7 @@ class Hdf5Recording(Recording):
         self._h5py: Any = h5py
         identity = self._identity()  # before anything is read: a change during the opening counts too
         self._h5 = open_or_raise(
-            lambda: h5py.File(self.path, "r"),
+            lambda: _open_h5(h5py, self.path, self._appending),
             self.path,
             "cannot open as HDF5 (truncated or corrupt?)",
             _H5_ERRORS,
@@ -525,3 +525,14 @@ def _attr(v: Any) -> Any:
     if s is not None:
         return s
     return str(v)
+
+
+def _open_h5(h5py: Any, path: str, appending: bool) -> Any:
+    """The file for reading; one still being written (``appending``) as a reader of its single writer (SWMR) when
+    the writer allows it (an HDF5 file of the latest format in SWMR mode), plainly otherwise."""
+    if appending:
+        try:
+            return h5py.File(path, "r", swmr=True)
+        except (OSError, ValueError):
+            pass  # not an SWMR file: read plainly
+    return h5py.File(path, "r")

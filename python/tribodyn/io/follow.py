@@ -1,0 +1,256 @@
+"""A recording that another program is still writing: :class:`Follower` (docs/method.md 11).
+
+A DAQ or a tribometer appends to its file while the test runs. A follower
+opens the file once it can be read and, at each :meth:`Follower.poll`, makes
+the samples written since visible, whole samples only:
+
+- **text** (CSV/TSV/LVM, read natively): the rows after the last whole line
+  already seen are scanned (only the new bytes), and a row still being
+  written (no line end yet) waits for its end. The recording object grows:
+  its checkpoints, sample count and identity are extended, so reads of the
+  new rows go through the reader's own parse, units and roles.
+- **every other format** (TDMS, HDF5, ...): the file is opened again with the
+  role map of the first opening (its metadata only: a TDMS index, an HDF5
+  dataset's length; no role is chosen from the data again). A TDMS segment
+  or an HDF5 dataset that is not yet whole is what the reader cannot open:
+  the follower waits for it (:attr:`Follower.waiting` says why).
+
+A file that shrinks, or is replaced by another (inode), is an error
+(:class:`~tribodyn.io.base.RecordingError`), never a table of mixed data.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any, Callable, Dict, List, Optional, Tuple
+
+from ._text import Checkpoints, TextRecording, native_scan
+from .base import Recording, RecordingError
+
+__all__ = ["Follower"]
+
+#: Bytes read at most per poll of a text file (a poll after a long pause takes the rest at the next one).
+MAX_POLL_BYTES = 256 * 1024 * 1024
+
+
+class Follower:
+    """Follows a growing recording file (docs/method.md 11).
+
+    Parameters
+    ----------
+    path : str
+        The file being written.
+    opener : callable
+        ``opener(path, **kw)`` returns a :class:`~tribodyn.io.base.Recording`
+        (``tribodyn.io.open_recording`` with the reading options bound); it
+        is called again with ``channels=`` the first opening's role map for
+        formats that are re-opened.
+    clock : callable
+        Seconds (``time.monotonic``); tests pass their own.
+
+    Attributes
+    ----------
+    recording : Recording or None
+        The file's whole samples so far (None until it can be opened).
+    waiting : str
+        Why the last poll saw no new sample ('' when it did).
+    grown_at : float
+        ``clock()`` when new samples were last seen (or the follower was made).
+    """
+
+    def __init__(self, path: str, opener: Callable[..., Recording], *,
+                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+        self.path = os.fspath(path)
+        self._opener = opener
+        self._clock = clock
+        self.recording: Optional[Recording] = None
+        self.waiting = "the file does not exist yet"
+        self.grown_at = clock()
+        self._inode: Optional[Tuple[int, int]] = None
+        self._size = 0
+        self._text: Optional[_TextTail] = None
+        self._roles: Optional[Dict[str, str]] = None  # the first opening's role map
+        self._seen = 0  # samples seen while the file is being opened again
+
+    @property
+    def n_samples(self) -> int:
+        """Whole samples seen so far."""
+        return self._seen if self.recording is None else int(self.recording.n_samples)
+
+    def poll(self) -> int:
+        """Makes the samples written since the last poll visible; returns how many are new (0: none yet)."""
+        try:
+            st = os.stat(self.path)
+        except FileNotFoundError:
+            if self._inode is not None:
+                raise RecordingError(f"{self.path}: the file was removed while it was watched") from None
+            self.waiting = "the file does not exist yet"
+            return 0
+        self._check_same_file(st)
+        if st.st_size == self._size and self.recording is not None and self._size:
+            self.waiting = "no new data"
+            return 0
+        before = self.n_samples
+        if self._roles is None:
+            self._first_open()
+        elif self._text is not None and isinstance(self.recording, TextRecording):
+            self._text.extend(self.recording)
+        else:
+            self._reopen()
+        self._size = st.st_size
+        new = self.n_samples - before
+        if new > 0:
+            self.grown_at = self._clock()
+            self.waiting = ""
+        elif not self.waiting:
+            self.waiting = "no whole new sample (a row or segment still being written)"
+        return new
+
+    def _check_same_file(self, st: os.stat_result) -> None:
+        ident = (st.st_ino, st.st_dev)
+        if self._inode is not None and ident != self._inode:
+            raise RecordingError(f"{self.path}: the file was replaced by another while it was watched")
+        if st.st_size < self._size:
+            raise RecordingError(
+                f"{self.path}: the file shrank from {self._size} to {st.st_size} bytes while it was watched "
+                "(truncated or rewritten): the samples read no longer hold"
+            )
+        self._inode = ident
+
+    def _first_open(self) -> None:
+        try:
+            rec = self._opener(self.path)
+        except (RecordingError, ValueError, OSError) as exc:  # not yet readable: a header or a segment in writing
+            self.waiting = f"cannot be read yet: {exc}"
+            return
+        rec._appending = True
+        rec.warnings[:] = [w for w in rec.warnings if "possibly cut off" not in w]  # the row being written
+        self.recording = rec
+        self._roles = dict(rec.roles)
+        if isinstance(rec, TextRecording) and _TextTail.supports(rec):
+            self._text = _TextTail(rec)
+        self.waiting = ""
+
+    def _reopen(self) -> None:
+        # The earlier opening is closed first: a library that keeps one handle a file (HDF5) would give the
+        # new opening the old one's view of it.
+        if self.recording is not None:
+            self._seen = int(self.recording.n_samples)
+            self.recording.close()
+            self.recording = None
+        try:
+            rec = self._opener(self.path, channels=self._roles)
+        except (RecordingError, ValueError, OSError) as exc:  # a segment or dataset still being written
+            self.waiting = f"waiting for the writer: {exc}"
+            return
+        if rec.n_samples < self._seen:
+            rec.close()
+            raise RecordingError(
+                f"{self.path}: the file now holds {rec.n_samples} samples, fewer than the {self._seen} "
+                "already read (rewritten while it was watched)"
+            )
+        rec._appending = True
+        self.recording = rec
+
+    def close(self) -> None:
+        """Closes the recording."""
+        if self.recording is not None:
+            self.recording.close()
+
+
+class _TextTail:
+    """The end of a text recording's data rows, extended by the rows appended since (native layouts)."""
+
+    def __init__(self, rec: TextRecording) -> None:
+        cp = rec._checkpoints
+        assert cp is not None and len(cp.sample)
+        # The rows of the last checkpoint on, scanned again to find where the last whole row ends.
+        self.cps: List[Tuple[int, int, int]] = [
+            (int(s), int(o), int(ln)) for s, o, ln in zip(cp.sample, cp.offset, cp.line)
+        ]
+        self.marks: List[Tuple[int, int, int]] = [
+            (int(s), int(o), int(ln)) for s, o, ln in zip(cp.mark_sample, cp.mark_offset, cp.mark_line)
+        ]
+        s, off, line = self.cps[-1]
+        run = self._scan(rec, off)
+        rows = min(int(run["rows"]), rec.n_samples - s)
+        #: Byte offset after the last whole row seen, and the lines before it.
+        self.end, self.line = _after_rows(rec, off, line - 1, rows)
+
+    @staticmethod
+    def supports(rec: TextRecording) -> bool:
+        """Whether the recording is read natively, as one acquisition without a time break."""
+        cp = rec._checkpoints
+        return (cp is not None and rec._parse_dialect is not None and len(cp.sample) > 0
+                and len(rec.segments) == 1)  # fmt: skip
+
+    @staticmethod
+    def _scan(rec: TextRecording, start: int) -> Dict[str, Any]:
+        nf = getattr(rec, "_nf", None)
+        fd = os.open(rec._text_path(), os.O_RDONLY | getattr(os, "O_BINARY", 0))
+        try:
+            assert rec._parse_dialect is not None
+            return native_scan(fd, start, rec._parse_dialect, nf=nf, probe=int(rec._usecols[0]))
+        finally:
+            os.close(fd)
+
+    def extend(self, rec: TextRecording) -> None:
+        """Adds the whole rows written after :attr:`end` to ``rec`` (its checkpoints, sample count, identity)."""
+        size = os.path.getsize(rec._text_path())
+        if size <= self.end:
+            return
+        with open(rec._text_path(), "rb") as fh:
+            fh.seek(self.end)
+            tail = fh.read(min(size - self.end, MAX_POLL_BYTES))
+        cut = max(tail.rfind(b"\n"), tail.rfind(b"\r"))
+        if cut < 0:
+            return  # a row still being written
+        whole = tail[: cut + 1]
+        run = self._scan(rec, self.end)
+        # rows whose line end is within the whole bytes; a row cut at the end waits for its line end
+        lines = whole.splitlines()
+        expected = sum(1 for s in (ln.strip() for ln in lines) if s and not _is_comment(rec, s))
+        rows = min(int(run["rows"]), expected)
+        if rows < expected:
+            raise RecordingError(
+                f"{rec.path}: line {self.line + 1 + int(run['lines'])} is not a data row like those before it "
+                "(the writer changed the layout or wrote a footer): watching stops here; analyse the file"
+            )
+        n0 = rec.n_samples
+        for r, o, ln in run["checkpoints"]:
+            if int(r) < rows:
+                self.cps.append((n0 + int(r), int(o), self.line + 1 + int(ln)))
+        self.marks += [(n0 + int(r), int(o), self.line + 1 + int(ln)) for r, o, ln in run["marks"] if int(r) < rows]
+        if not any(s == n0 for s, _, _ in self.cps):
+            self.cps.append((n0, self.end, self.line + 1))
+        n = n0 + rows
+        rec._checkpoints = Checkpoints(self.cps, n, self.marks)
+        rec._n = n
+        a = rec._segments[-1][0] if rec._segments else 0
+        rec._segments = [*rec._segments[:-1], (a, n)]
+        self.end, self.line = self.end + len(whole), self.line + len(lines)
+        rec._identity_at_open = rec._identity()
+
+
+def _is_comment(rec: Recording, stripped: bytes) -> bool:
+    dialect = getattr(rec, "_parse_dialect", None) or {}
+    comment = dialect.get("comment")
+    return bool(comment) and stripped.startswith(str(comment).encode())
+
+
+def _after_rows(rec: TextRecording, off: int, lines_before: int, rows: int) -> Tuple[int, int]:
+    """(byte offset, lines before it) just after ``rows`` whole data rows from byte ``off``."""
+    pos, ln, seen = off, lines_before, 0
+    with open(rec._text_path(), "rb") as fh:
+        fh.seek(off)
+        while seen < rows:
+            raw = fh.readline()
+            if not raw.endswith((b"\n", b"\r")):
+                break  # a row still being written
+            pos += len(raw)
+            ln += 1
+            s = raw.strip()
+            if s and not _is_comment(rec, s):
+                seen += 1
+    return pos, ln
