@@ -183,7 +183,7 @@ class _TextTail:
         """Whether the recording is read natively, as one acquisition without a time break."""
         cp = rec._checkpoints
         return (cp is not None and rec._parse_dialect is not None and len(cp.sample) > 0
-                and len(rec.segments) == 1)  # fmt: skip
+                and len(rec.segments) == 1 and rec._text_path() == rec.path)  # fmt: skip
 
     @staticmethod
     def _scan(rec: TextRecording, start: int) -> Dict[str, Any]:
@@ -207,29 +207,31 @@ class _TextTail:
         if cut < 0:
             return  # a row still being written
         whole = tail[: cut + 1]
+        whole_end = self.end + len(whole)
         run = self._scan(rec, self.end)
-        # rows whose line end is within the whole bytes; a row cut at the end waits for its line end
-        lines = whole.splitlines()
-        expected = sum(1 for s in (ln.strip() for ln in lines) if s and not _is_comment(rec, s))
-        rows = min(int(run["rows"]), expected)
-        if rows < expected:
+        rows = int(run["rows"])
+        last = run.get("last")
+        if rows and last is not None and int(last[1]) >= whole_end:
+            rows -= 1  # the row after the last line end: still being written
+        stop = int(run["end"])
+        if stop < whole_end and whole[stop - self.end :].strip():
+            line = self.line + 1 + whole[: stop - self.end].count(b"\n")
             raise RecordingError(
-                f"{rec.path}: line {self.line + 1 + int(run['lines'])} is not a data row like those before it "
-                "(the writer changed the layout or wrote a footer): watching stops here; analyse the file"
+                f"{rec.path}: line {line} is not a data row like those before it (the writer changed the layout "
+                "or wrote a footer): watching stops here; analyse the file"
             )
         n0 = rec.n_samples
-        for r, o, ln in run["checkpoints"]:
-            if int(r) < rows:
-                self.cps.append((n0 + int(r), int(o), self.line + 1 + int(ln)))
-        self.marks += [(n0 + int(r), int(o), self.line + 1 + int(ln)) for r, o, ln in run["marks"] if int(r) < rows]
-        if not any(s == n0 for s, _, _ in self.cps):
-            self.cps.append((n0, self.end, self.line + 1))
+        first = self.line + 1
+        self.cps += [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["checkpoints"] if int(r) < rows]
+        self.marks += [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["marks"] if int(r) < rows]
+        if not any(s == n0 for s, _, _ in self.cps[-4:]):
+            self.cps.append((n0, self.end, first))
         n = n0 + rows
         rec._checkpoints = Checkpoints(self.cps, n, self.marks)
         rec._n = n
         a = rec._segments[-1][0] if rec._segments else 0
         rec._segments = [*rec._segments[:-1], (a, n)]
-        self.end, self.line = self.end + len(whole), self.line + len(lines)
+        self.end, self.line = whole_end, self.line + whole.count(b"\n")
         rec._identity_at_open = rec._identity()
 
 

@@ -327,13 +327,20 @@ class Partial:
     classical: Optional[ClassicalTotals] = None
     #: What the pre-pass found in the data (the classical COF's threshold and tare).
     found: Findings = Findings()
+    #: The pre-pass's own result (motion, contact, tare; docs/method.md 6a-6d), for a later range's ``reuse``.
+    pre: Dict[str, Any] = dataclasses.field(default_factory=dict)
 
 
-def analyze_partial(source: Any, plan: Optional[Plan] = None, **options: Any) -> Partial:
-    """:func:`analyze` up to the finishing step (same options; ``align`` must be None)."""
+def analyze_partial(source: Any, plan: Optional[Plan] = None, *, reuse: Optional[Partial] = None,
+                    **options: Any) -> Partial:  # fmt: skip
+    """:func:`analyze` up to the finishing step (same options; ``align`` must be None).
+
+    ``reuse``: an earlier range of the same recording whose pre-pass findings and instrument lag this range
+    takes as they are, without looking at the data again (a watched recording, docs/method.md 11).
+    """
     if options.get("align") is not None or (plan is not None and plan.align is not None):
         raise ValueError("align='auto' needs the whole recording: analyse it in one piece, or pass the delay yourself")
-    return _analyze(source, plan, options, partial=True)  # type: ignore[return-value]
+    return _analyze(source, plan, options, partial=True, reuse=reuse)  # type: ignore[return-value]
 
 
 def combine(parts: Sequence[Partial]) -> Results:
@@ -355,7 +362,8 @@ def combine(parts: Sequence[Partial]) -> Results:
     return settle(res)
 
 
-def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial: bool) -> Union[Results, Partial]:
+def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial: bool,
+             reuse: Optional[Partial] = None) -> Union[Results, Partial]:  # fmt: skip
     """:func:`_analyze_body` with the call's thread count for the readers' native parses (text files)."""
     if plan is not None and not isinstance(plan, Plan):
         raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
@@ -364,7 +372,7 @@ def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial
     except (TypeError, ValueError):
         n = None  # the plan says why
     with reading(n):
-        return _analyze_body(source, plan, options, partial)
+        return _analyze_body(source, plan, options, partial, reuse)
 
 
 def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[RecordingProtocol], Any]:
@@ -443,15 +451,19 @@ def _check_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> N
         )
 
 
-def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], partial: bool
-                  ) -> Union[Results, Partial]:  # fmt: skip
-    """:func:`analyze`'s body: ``options`` are its keyword arguments (without ``plan``)."""
+def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], partial: bool,
+                  reuse: Optional[Partial] = None) -> Union[Results, Partial]:  # fmt: skip
+    """:func:`analyze`'s body: ``options`` are its keyword arguments (without ``plan``); ``reuse``: an earlier
+    range whose findings this one takes (:func:`analyze_partial`)."""
     from_cof = _cof_only(source)  # before _as_source derives fy from the COF (docs/method.md 6a)
     source, rec, fs = _as_source(source, options)
     plan = _plan_of(given, fs, rec, options)
     _check_range(source, rec, plan)
-    pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
-    found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # docs/method.md 3b
+    if reuse is not None and reuse.pre:
+        pre, found = reuse.pre, reuse.found
+    else:
+        pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
+        found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # method.md 3b
     tribo = _tribometer_params(rec, pre, plan.window_note)
     if from_cof:  # the headline is the instrument's own COF (docs/method.md 6e)
         tribo["friction_from"] = "cof"
@@ -485,7 +497,7 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
         k = run(run_source, run_rec, plan, found, span)
         warnings = k.warnings + tuple(rec.warnings if rec is not None else ()) + own
         return Partial(k.st, k.aux_role, plan, k.route, tuple(dict.fromkeys(warnings)), tribo=tribo,
-                       strokes=strokes, classical=classical_pass(k.classical), found=found)  # fmt: skip
+                       strokes=strokes, classical=classical_pass(k.classical), found=found, pre=pre)  # fmt: skip
     slip = _reading_pass(source, rec, plan, found, params={**tribo, "fs": plan.fs, "start": plan.start,
                          "stop": plan.stop}, strokes=strokes)  # fmt: skip
     res, sums = _analyze_aligned(run_source, run_rec, plan, found, span, taps=() if slip is None else (slip,))

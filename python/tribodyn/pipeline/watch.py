@@ -27,9 +27,10 @@ import numpy as np
 
 from ..io.base import Recording
 from ..io.follow import Follower
-from ..results import Results
+from ..results import ClassicalTotals, Results
 from .analyze import Partial, analyze, analyze_partial, combine
 from .plan import make_plan
+from .routes import concat_stats
 from .stickslip import find_stick_slip
 
 __all__ = ["watch", "Watch", "TripRule", "Trip", "parse_trip", "TRIP_RULES", "DEFAULT_INTERVAL"]
@@ -170,9 +171,12 @@ class Watch:
         self.follower = Follower(self.path, self._open, clock=clock)
         self.rules = tuple(trips)
         self._states = [_TripState(r) for r in self.rules if r.quantity in ("cof", "fn")]
-        self.parts: List[Partial] = []
+        self._acc: Optional[Partial] = None  # the ranges analysed so far, joined (one Partial: an update's cost
+        self._ranges = 0  # does not grow with the ranges before it)
         self._done = 0  # windows analysed
         self._rows = 0  # windows whose trips were checked
+        self._found: Optional[Partial] = None  # the range whose findings the next ranges take
+        self._found_at = 0  # the samples seen when they were found
         self._grid: Optional[Tuple[int, int]] = None
         self.tripped: Optional[Trip] = None
         self.reason = ""
@@ -253,9 +257,18 @@ class Watch:
         if upto <= self._done:
             return None
         start, stop = self._done * step, (upto - 1) * step + length
-        self.parts.append(analyze_partial(rec, start=start, stop=stop, **self.options))
+        # What the pre-pass finds (tare, contact, motion) and the instrument lag are looked for again each time
+        # the recording has doubled since they were found, else taken from that range (docs/method.md 11).
+        fresh = self._found_at == 0 or n >= 2 * self._found_at
+        part = analyze_partial(rec, start=start, stop=stop, reuse=None if fresh else self._found, **self.options)
+        if fresh:
+            self._found, self._found_at = part, n
+        self._acc = part if self._acc is None else _join(self._acc, part)
+        self._ranges += 1
         self._done = upto
-        snap = combine(self.parts)
+        snap = combine([self._acc])
+        if self._ranges > 1:
+            snap.params.update(start=0, stop=None, ranges=self._ranges)
         snap.params["watch"] = {"samples": n, "final": False, "updates": self.updates + 1,
                                 "samples_analysed": stop}  # fmt: skip
         return snap
@@ -336,6 +349,25 @@ class Watch:
         res.params["watch"] = {"samples": res.params.get("n_samples_total"), "final": True,
                                "updates": self.updates, "reason": self.reason}  # fmt: skip
         return res
+
+
+def _join(a: Partial, b: Partial) -> Partial:
+    """Two consecutive ranges of one recording as one (what :func:`~tribodyn.pipeline.analyze.combine` of all the
+    ranges joins: the statistics in order, the classical sums added block by block, the warnings once)."""
+    classical = [p.classical for p in (a, b) if p.classical is not None]
+    tribo = {
+        **a.tribo,
+        "n_samples_total": int(a.tribo.get("n_samples_total", 0)) + int(b.tribo.get("n_samples_total", 0)),
+    }
+    return dataclasses.replace(
+        a,
+        st=concat_stats([dict(a.st), dict(b.st)]),
+        plan=dataclasses.replace(a.plan, stop=b.plan.stop),
+        warnings=tuple(dict.fromkeys((*a.warnings, *b.warnings))),
+        tribo=tribo,
+        strokes=b.strokes if b.strokes is not None else a.strokes,
+        classical=ClassicalTotals.merge(classical) if classical else None,
+    )
 
 
 def _range_of(rec: Recording, a: int, b: int) -> Dict[str, np.ndarray]:

@@ -1,0 +1,443 @@
+"""Watching a running test (docs/method.md 11; issue 37): ``tribodyn.watch`` and ``tribodyn watch``.
+
+A writer process appends to a recording (CSV rows, TDMS segments, an HDF5
+dataset under SWMR) in random pieces, faster than real time, while the file
+is watched; the last Results must be the analysis of the complete file, bit
+for bit, and every snapshot's windows the first windows of that analysis (an
+update reads only what is new, and reads it right). The trip and the fault
+cases are driven in this process: the watch's ``sleep`` writes the next piece.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+from typing import Callable, List
+
+import numpy as np
+import pytest
+import tribodyn as td
+from tribodyn.app.cli import main
+from tribodyn.io import RecordingError
+from tribodyn.io.follow import Follower
+from tribodyn.pipeline.watch import parse_trip
+
+pytestmark = pytest.mark.fast
+
+FS = 1000.0
+OPTS = {"window": 2.0, "hop": 1.0}
+
+
+def _forces(n: int, mu: Callable[[np.ndarray], np.ndarray], seed: int = 0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / FS
+    fz = 10.0 + rng.normal(0.0, 1.0, n)
+    fy = mu(t) * fz + rng.normal(0.0, 0.05, n)
+    return t, fy, fz
+
+
+def _csv_bytes(n: int, mu=lambda t: np.full(t.shape, 0.2), seed: int = 0) -> bytes:
+    t, fy, fz = _forces(n, mu, seed)
+    rows = "\n".join(f"{a:.4f},{b:.6f},{c:.6f}" for a, b, c in zip(t, fy, fz))
+    return ("time,fy,fz\n" + rows + "\n").encode()
+
+
+def _pieces(data: bytes, seed: int, lo: int = 200, hi: int = 40_000) -> List[bytes]:
+    """``data`` cut at random places (inside rows too)."""
+    rng = np.random.default_rng(seed)
+    cuts, pos = [], 0
+    while pos < len(data):
+        k = int(rng.integers(lo, hi))
+        cuts.append(data[pos : pos + k])
+        pos += k
+    return cuts
+
+
+def _same_as_offline(path: Path, final: td.Results, snaps: List[td.Results], **opts) -> None:
+    with td.open_recording(path) as rec:
+        full = td.analyze(rec, **opts)
+    assert final.params["watch"]["final"] is True
+    for col in ("mu_r", "mu_r_low", "mu_r_high", "time", "fz_mean", "ok"):
+        np.testing.assert_array_equal(np.asarray(final[col]), np.asarray(full[col]), err_msg=col)
+    assert final.headline == full.headline
+    for snap in snaps:  # each snapshot: the first windows of the complete file's (this recording: no tare)
+        k = len(snap)
+        np.testing.assert_array_equal(np.asarray(snap["mu_r"]), np.asarray(full["mu_r"])[:k])
+
+
+# -- writer processes -----------------------------------------------------------------------------------
+
+_TEXT_WRITER = """
+import sys, time
+src, dst, seed = sys.argv[1], sys.argv[2], int(sys.argv[3])
+import random
+random.seed(seed)
+data = open(src, 'rb').read()
+open(dst + ".ready", "w").close()
+pos = 0
+while pos < len(data):
+    k = random.randint(200, 40000)
+    with open(dst, 'ab') as fh:
+        fh.write(data[pos:pos + k])
+    pos += k
+    time.sleep(random.uniform(0.0, 0.03))
+"""
+
+_TDMS_WRITER = """
+import io, sys, time, random
+import numpy as np
+from nptdms import TdmsWriter, ChannelObject
+dst, seed = sys.argv[1], int(sys.argv[2])
+random.seed(seed)
+rng = np.random.default_rng(seed)
+open(dst + ".ready", "w").close()
+for i in range(12):
+    n = random.randint(1500, 6000)
+    fz = 10 + rng.normal(0, 1, n)
+    fy = 0.2 * fz + rng.normal(0, 0.05, n)
+    buf = io.BytesIO()
+    with TdmsWriter(buf) as w:
+        props = {"wf_increment": 0.001}
+        w.write_segment([ChannelObject("g", k, v, properties=props) for k, v in (("fy", fy), ("fz", fz))])
+    b = buf.getvalue()
+    cut = random.randint(1, len(b) - 1)
+    with open(dst, 'ab') as fh:
+        fh.write(b[:cut]); fh.flush()      # a segment in writing
+        time.sleep(random.uniform(0.0, 0.05))
+        fh.write(b[cut:])
+    time.sleep(random.uniform(0.0, 0.03))
+"""
+
+_HDF5_WRITER = """
+import sys, time, random
+import numpy as np, h5py
+dst, seed = sys.argv[1], int(sys.argv[2])
+random.seed(seed)
+rng = np.random.default_rng(seed)
+f = h5py.File(dst, "w", libver="latest")
+for k in ("fy", "fz"):
+    f.create_dataset(k, shape=(0,), maxshape=(None,), dtype="f8", chunks=(4096,))
+f.attrs["fs"] = 1000.0
+f.swmr_mode = True
+open(dst + ".ready", "w").close()
+for i in range(12):
+    n = random.randint(1500, 6000)
+    fz = 10 + rng.normal(0, 1, n)
+    fy = 0.2 * fz + rng.normal(0, 0.05, n)
+    for k, v in (("fy", fy), ("fz", fz)):
+        d = f[k]; d.resize((d.shape[0] + n,)); d[-n:] = v; d.flush()
+    time.sleep(random.uniform(0.0, 0.05))
+f.close()
+"""
+
+
+def _watch_writer(path: Path, args: List[str], code: str, **opts) -> None:
+    """Watches ``path`` while a writer process runs ``code`` (from when it has imported its modules and says
+    so); the writer ends first (its pauses are under 0.1 s), then the file idles."""
+    proc = subprocess.Popen([sys.executable, "-c", textwrap.dedent(code), *args])
+    ready = Path(str(path) + ".ready")
+    try:
+        for _ in range(600):
+            if ready.exists() or proc.poll() is not None:
+                break
+            time.sleep(0.05)
+        snaps = list(td.watch(path, interval=0.05, until_idle=2.0, **opts))
+    finally:
+        assert proc.wait(timeout=60) == 0
+    assert len(snaps) >= 3, "the watch saw the file grow in several updates"
+    final = snaps[-1]
+    _same_as_offline(path, final, snaps[:-1], **opts)
+
+
+@pytest.mark.slow
+def test_csv_rows_written_in_random_pieces_end_as_the_offline_analysis(tmp_path: Path) -> None:
+    src = tmp_path / "complete.csv"
+    src.write_bytes(_csv_bytes(30_000, seed=1))
+    dst = tmp_path / "run.csv"
+    dst.write_bytes(b"")
+    _watch_writer(dst, [str(src), str(dst), "3"], _TEXT_WRITER, **OPTS)
+    assert dst.read_bytes() == src.read_bytes()
+
+
+@pytest.mark.slow
+def test_tdms_segments_in_writing_end_as_the_offline_analysis(tmp_path: Path) -> None:
+    pytest.importorskip("nptdms")
+    dst = tmp_path / "run.tdms"
+    dst.write_bytes(b"")
+    _watch_writer(dst, [str(dst), "4"], _TDMS_WRITER, window=1.0, hop=0.5)
+
+
+@pytest.mark.slow
+def test_hdf5_dataset_growing_under_swmr_ends_as_the_offline_analysis(tmp_path: Path) -> None:
+    h5py = pytest.importorskip("h5py")
+    if not h5py.version.hdf5_version_tuple >= (1, 10, 0):
+        pytest.skip("SWMR needs HDF5 1.10")
+    dst = tmp_path / "run.h5"
+    _watch_writer(dst, [str(dst), "5"], _HDF5_WRITER, window=1.0, hop=0.5)
+
+
+# -- driven in this process ------------------------------------------------------------------------------
+
+
+class _Writer:
+    """Appends the next piece of ``data`` to ``path`` at each call (the watch's ``sleep``); a fake clock."""
+
+    def __init__(self, path: Path, pieces: List[bytes], dt: float) -> None:
+        self.path, self.pieces, self.dt, self.now = path, list(pieces), dt, 0.0
+
+    def clock(self) -> float:
+        return self.now
+
+    def sleep(self, s: float) -> None:
+        self.now += s
+        if self.pieces:
+            with open(self.path, "ab") as fh:
+                fh.write(self.pieces.pop(0))
+
+
+def test_a_cof_step_trips_within_an_interval_and_a_window(tmp_path: Path) -> None:
+    step_t, interval = 40.0, 2.0
+    data = _csv_bytes(60_000, mu=lambda t: np.where(t < step_t, 0.2, 0.35))
+    # written at 10x real time: an interval of 2 s brings 20 s of data
+    rows = data.split(b"\n")
+    per = int(interval * 10 * FS)
+    pieces = [b"\n".join(rows[i : i + per]) + b"\n" for i in range(0, len(rows), per)]
+    path = tmp_path / "run.csv"
+    w = _Writer(path, pieces, interval)
+    w.sleep(0.0)
+    watch = td.watch(path, interval=interval, until_idle=10.0, trips=["cof>0.3"], clock=w.clock, sleep=w.sleep,
+                     final=False, **OPTS)  # fmt: skip
+    snaps = list(watch)
+    assert watch.reason == "trip" and watch.tripped is not None
+    trip = watch.tripped
+    assert trip.rule == "cof>0.3" and trip.value > 0.3
+    # the first window wholly after the step trips it: within a window (and a hop) of the step
+    assert step_t <= trip.time <= step_t + OPTS["window"] + OPTS["hop"]
+    seen = snaps[-1].params["watch"]["samples"] / FS  # the data the tripping update had
+    assert seen - step_t <= 10 * interval + OPTS["window"] + OPTS["hop"]
+
+
+def test_a_rule_held_for_a_duration(tmp_path: Path) -> None:
+    data = _csv_bytes(40_000, mu=lambda t: np.where((t > 10) & (t < 13), 0.4, np.where(t > 25, 0.4, 0.2)))
+    path = tmp_path / "run.csv"
+    w = _Writer(path, _pieces(data, 2, 20_000, 60_000), 1.0)
+    w.sleep(0.0)
+    watch = td.watch(path, interval=1.0, until_idle=5.0, trips=["cof>0.3 for 5s"], clock=w.clock,
+                     sleep=w.sleep, final=False, **OPTS)  # fmt: skip
+    list(watch)
+    assert watch.tripped is not None
+    assert 29.0 <= watch.tripped.time <= 32.0  # not the 3 s excursion at 10-13 s; 5 s after 25 s
+
+
+def test_no_data_trips_and_idle_ends(tmp_path: Path) -> None:
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(8_000)
+    w = _Writer(path, [data], 1.0)
+    w.sleep(0.0)
+    watch = td.watch(path, interval=1.0, trips=["no-data for 5s"], clock=w.clock, sleep=w.sleep, final=False,
+                     **OPTS)  # fmt: skip
+    list(watch)
+    assert watch.reason == "trip" and watch.tripped is not None and watch.tripped.rule == "no-data for 5s"
+    w2 = _Writer(path, [], 1.0)
+    idle = td.watch(path, interval=1.0, until_idle=3.0, clock=w2.clock, sleep=w2.sleep, **OPTS)
+    snaps = list(idle)
+    assert idle.reason == "idle" and snaps[-1].params["watch"]["final"]
+
+
+def test_a_partial_last_row_waits_for_its_line_end(tmp_path: Path) -> None:
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(5_000)
+    cut = data.index(b"\n", 30_000) + 7  # inside a row
+    path.write_bytes(data[:cut])
+    f = Follower(str(path), td.open_recording)
+    f.poll()
+    n0 = f.n_samples
+    with td.open_recording(path) as rec:  # the reader drops the cut row
+        assert rec.n_samples == n0
+    with open(path, "ab") as fh:
+        fh.write(data[cut:])
+    f.poll()
+    assert f.n_samples == 5_000
+    whole = f.recording.read(["fy", "fz"])
+    with td.open_recording(path) as rec:
+        ref = rec.read(["fy", "fz"])
+    for k in ref:
+        np.testing.assert_array_equal(whole[k], ref[k])
+    assert not any("cut off" in w for w in f.recording.warnings)
+
+
+def test_a_truncated_or_replaced_file_is_an_error_never_a_table(tmp_path: Path) -> None:
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(5_000)
+    path.write_bytes(data[:60_000])
+    f = Follower(str(path), td.open_recording)
+    f.poll()
+    path.write_bytes(data[:20_000])  # rewritten shorter
+    with pytest.raises(RecordingError, match="shrank"):
+        f.poll()
+    g = Follower(str(path), td.open_recording)
+    g.poll()
+    other = tmp_path / "other.csv"
+    other.write_bytes(data)
+    os.replace(other, path)
+    with pytest.raises(RecordingError, match="replaced"):
+        g.poll()
+
+
+def test_a_footer_written_after_the_rows_stops_the_watch(tmp_path: Path) -> None:
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(5_000)
+    path.write_bytes(data)
+    f = Follower(str(path), td.open_recording)
+    f.poll()
+    with open(path, "ab") as fh:
+        fh.write(b"1,2,3\nEnd of test: 5000 rows\n")
+    with pytest.raises(RecordingError, match="not a data row"):
+        f.poll()
+
+
+@pytest.mark.parametrize(
+    "text, q, op, limit, d",
+    [("cof>0.3", "cof", ">", 0.3, 0.0), ("COF < 0.05", "cof", "<", 0.05, 0.0),
+     ("cof>0.3 for 10s", "cof", ">", 0.3, 10.0), ("fn<1", "fn", "<", 1.0, 0.0),
+     ("no-data for 30s", "no-data", "", float("nan"), 30.0)],
+)  # fmt: skip
+def test_trip_rules_parse(text: str, q: str, op: str, limit: float, d: float) -> None:
+    r = parse_trip(text)
+    assert (r.quantity, r.op, r.duration) == (q, op, d)
+    assert r.limit == limit or (np.isnan(r.limit) and np.isnan(limit))
+
+
+@pytest.mark.parametrize("text", ["cof>>0.3", "mu>0.3", "no-data", "cof>x", "cof>0.3 for -1s", "stick slip"])
+def test_bad_trip_rules_are_refused_in_words(text: str) -> None:
+    with pytest.raises(ValueError, match="trip rule"):
+        parse_trip(text)
+
+
+def test_watch_checks_its_arguments_before_waiting(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="interval"):
+        td.watch(tmp_path / "x.csv", interval=0)
+    with pytest.raises(TypeError, match="analyze does not take"):
+        td.watch(tmp_path / "x.csv", windw=2.0)
+    with pytest.raises(ValueError, match="align"):
+        td.watch(tmp_path / "x.csv", align="auto")
+
+
+# -- the command line ---------------------------------------------------------------------------------------
+
+
+def _cli(argv: List[str], capsys) -> tuple:
+    code = main(argv)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.mark.slow
+def test_cli_watch_until_idle_writes_what_analyze_writes(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "run.csv"
+    path.write_bytes(_csv_bytes(12_000))
+    code, out, err = _cli(["watch", str(path), "--out", str(tmp_path / "w"), "--until-idle", "0.2",
+                           "--interval", "0.1", "--window", "2", "--hop", "1"], capsys)  # fmt: skip
+    assert code == 0, err
+    assert "COF" in out and "watch ended (idle)" in out
+    code, _, err = _cli(["analyze", str(path), "--out", str(tmp_path / "a"), "--window", "2", "--hop", "1", "-q"],
+                        capsys)  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "w" / "windows.csv").read_bytes() == (tmp_path / "a" / "windows.csv").read_bytes()
+    s_w = json.loads((tmp_path / "w" / "summary.json").read_text())
+    s_a = json.loads((tmp_path / "a" / "summary.json").read_text())
+    assert s_w["recordings"] == s_a["recordings"] and s_w["open_options"] == s_a["open_options"]
+    live = (tmp_path / "w" / "live.html").read_text()
+    assert "Watching ended (idle)" in live and "report.html" in live
+    marker = json.loads((tmp_path / "w" / ".tribodyn-output").read_text())
+    assert "live.html" in marker["files"]
+
+
+@pytest.mark.slow
+def test_cli_trip_prints_one_line_runs_the_command_and_exits_3(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "run.csv"
+    path.write_bytes(_csv_bytes(12_000, mu=lambda t: np.full(t.shape, 0.4)))
+    flag = tmp_path / "tripped.txt"
+    cmd = f"{sys.executable} -c \"import os; open(r'{flag}', 'w').write(os.environ['TRIBODYN_TRIP_RULE'])\""
+    code, out, err = _cli(["watch", str(path), "--out", str(tmp_path / "w"), "--trip", "cof>0.3", "--on-trip", cmd,
+                           "--window", "2", "--hop", "1", "-q"], capsys)  # fmt: skip
+    assert code == 3
+    lines = [ln for ln in err.splitlines() if "trip" in ln]
+    assert len(lines) == 1 and "cof>0.3" in lines[0] and "t = " in lines[0]
+    assert flag.read_text() == "cof>0.3"
+    assert (tmp_path / "w" / "report.html").is_file()
+
+
+@pytest.mark.slow
+def test_cli_a_second_watch_of_the_same_out_is_refused(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "run.csv"
+    path.write_bytes(_csv_bytes(3_000))
+    lock = tmp_path / ".w.tribodyn-watch"
+    lock.write_text(str(os.getpid()))  # a live process holds it
+    code, _, err = _cli(["watch", str(path), "--out", str(tmp_path / "w"), "--until-idle", "0.1"], capsys)
+    assert code == 2 and "another tribodyn watch" in err and err.count("\n") == 1
+    lock.write_text("999999999")  # a process that has ended: taken over
+    code, _, err = _cli(["watch", str(path), "--out", str(tmp_path / "w"), "--until-idle", "0.1", "--interval",
+                         "0.05", "-q"], capsys)  # fmt: skip
+    assert code == 0, err
+    assert not lock.exists()
+
+
+def test_cli_bad_trip_rule_is_one_line(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "run.csv"
+    path.write_bytes(_csv_bytes(3_000))
+    code, _, err = _cli(["watch", str(path), "--out", str(tmp_path / "w"), "--trip", "cof>>1"], capsys)
+    assert code == 2 and err.startswith("tribodyn: error: trip rule") and err.count("\n") == 1
+    assert not (tmp_path / "w").exists()
+
+
+def test_live_page_shows_the_headline_band_and_limits(tmp_path: Path) -> None:
+    from tribodyn.app.watch_job import _watch_info, live_page
+
+    path = tmp_path / "run.csv"
+    path.write_bytes(_csv_bytes(12_000))
+    w = td.watch(path, interval=1.0, trips=["cof>0.3", "fn<1"], final=False, **OPTS)
+    snap = w.update()
+    assert snap is not None
+    page = live_page(snap, w, _watch_info(w, 0.0), interval=2.0)
+    assert "http-equiv='refresh' content='2'" in page
+    assert "trip cof&gt;0.3" in page and "<svg" in page and "last data arrived" in page
+    assert f"{snap.headline.value:.4f}" in page
+
+
+def test_writer_pieces_helper_is_exact() -> None:  # the helper the tests above rely on
+    data = _csv_bytes(2_000)
+    assert b"".join(_pieces(data, 0)) == data
+    buf = io.BytesIO()
+    for p in _pieces(data, 1, 1, 50):
+        buf.write(p)
+    assert buf.getvalue() == data
+
+
+def _lvm_bytes(n: int, seed: int = 0) -> bytes:
+    _, fy, fz = _forces(n, lambda t: np.full(t.shape, 0.25), seed)
+    head = (
+        "LabVIEW Measurement\t\nWriter_Version\t2\nReader_Version\t2\nSeparator\tTab\nDecimal_Separator\t.\n"
+        "Multi_Headings\tNo\nX_Columns\tOne\nTime_Pref\tRelative\n***End_of_Header***\t\n\n"
+        "Channels\t2\t\t\nY_Unit_Label\tN\tN\t\nX_Dimension\tTime\tTime\t\n"
+        "X0\t0\t0\t\nDelta_X\t0.001\t0.001\t\n***End_of_Header***\t\t\t\nX_Value\tfy\tfz\tComment\n"
+    )
+    body = "".join(f"{r / FS:.3f}\t{a:.6f}\t{b:.6f}\n" for r, (a, b) in enumerate(zip(fy, fz)))
+    return (head + body).encode()
+
+
+def test_lvm_rows_written_in_random_pieces_end_as_the_offline_analysis(tmp_path: Path) -> None:
+    path = tmp_path / "run.lvm"
+    w = _Writer(path, _pieces(_lvm_bytes(20_000), 7, 500, 30_000), 0.1)
+    w.sleep(0.0)
+    watch = td.watch(path, interval=0.1, until_idle=1.0, clock=w.clock, sleep=w.sleep, **OPTS)
+    snaps = list(watch)
+    assert len(snaps) >= 5 and watch.reason == "idle"
+    assert watch.follower._text is not None  # followed by its new rows, not opened again
+    _same_as_offline(path, snaps[-1], snaps[:-1], **OPTS)
