@@ -62,6 +62,10 @@ EXPECT = {
         ],
         ["calibration.toml", "report/report.html"],
     ),
+    "watch_running_test.py": (
+        ["(so far): COF", "(complete file): COF", "watch ended: trip", "trip 'cof>0.3 for 5s' at t = 122.5 s"],
+        ["run.csv"],
+    ),
     "stick_slip.py": (
         ["forward strokes: static COF", "kinetic COF", "stick-slip present: 156 events", "Hz"],
         ["strokes.csv", "stick_slip.png"],

@@ -441,3 +441,27 @@ def test_lvm_rows_written_in_random_pieces_end_as_the_offline_analysis(tmp_path:
     assert len(snaps) >= 5 and watch.reason == "idle"
     assert watch.follower._text is not None  # followed by its new rows, not opened again
     _same_as_offline(path, snaps[-1], snaps[:-1], **OPTS)
+
+
+def _case_csv(case, path: Path) -> bytes:
+    fy, fz = case.channels["fy"], case.channels["fz"]
+    t = np.arange(len(fy)) / case.fs
+    rows = "".join(f"{a:.5f},{b:.5f},{c:.5f}\n" for a, b, c in zip(t, fy, fz))
+    return ("time,fy,fz\n" + rows).encode()
+
+
+@pytest.mark.parametrize("kind", ["stick-slip", "smooth"])
+def test_the_stick_slip_rule_trips_on_stick_slip_only(tmp_path: Path, kind: str) -> None:
+    from stick_slip_sim import smooth, stick_slip
+
+    case = stick_slip(1, fs=500.0, slip=0.02, cycles=40) if kind == "stick-slip" else smooth(1, fs=500.0, duration=40)
+    path = tmp_path / "run.csv"
+    w = _Writer(path, _pieces(_case_csv(case, path), 3, 40_000, 80_000), 1.0)
+    w.sleep(0.0)
+    watch = td.watch(path, interval=1.0, until_idle=3.0, trips=["stick-slip"], clock=w.clock, sleep=w.sleep,
+                     final=False, window=2.0, hop=1.0)  # fmt: skip
+    list(watch)
+    if kind == "stick-slip":
+        assert watch.tripped is not None and "stick-slip present" in watch.tripped.message
+    else:
+        assert watch.tripped is None and watch.reason == "idle"
