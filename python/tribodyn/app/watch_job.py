@@ -199,6 +199,13 @@ def _watch_info(w: Watch, now: float) -> Dict[str, Any]:
     }
 
 
+def _clock_time(iso: str) -> str:
+    """'2026-11-27T12:26:36+00:00' -> '12:26:36' (the day when it is not today)."""
+    day, _, rest = iso.partition("T")
+    today = datetime.date.today().isoformat()
+    return rest[:8] if day == today else f"{day} {rest[:8]}"
+
+
 def _iso(t: float) -> str:
     return datetime.datetime.fromtimestamp(t).astimezone().isoformat(timespec="seconds")
 
@@ -207,9 +214,10 @@ def _add_end_page(out: str, rec: Dict[str, Any], w: Watch) -> None:
     """live.html in the final set: the test ended, why, and the report (the set's marker lists it)."""
     head = rec.get("headline", {})
     trip = f"<p class='trip'>{html.escape(w.tripped.message)}</p>" if w.tripped is not None else ""
+    whole = "the complete file" if w.reason == "idle" else "the file as it was when watching ended"
     body = (f"<h1>tribodyn watch: {html.escape(Path(w.path).name)}</h1>"
             f"<p>Watching ended ({html.escape(w.reason or 'stopped')}) after {w.n_samples} samples. The outputs are "
-            f"those of <code>tribodyn analyze</code> of the complete file.</p>{trip}"
+            f"those of <code>tribodyn analyze</code> of {whole}.</p>{trip}"
             f"<p class='head'>COF {_num(head.get('value'))} [{_num(head.get('low'))}, {_num(head.get('high'))}] "
             f"({html.escape(str(head.get('method', '')))})</p>"
             "<p><a href='report.html'>The report</a> · <a href='summary.json'>summary.json</a></p>")  # fmt: skip
@@ -258,8 +266,9 @@ def live_page(res: Results, w: Watch, info: Dict[str, Any], *, interval: float) 
             f"({html.escape(h.method)}, {h.n} {'windows' if h.method == 'dynamic' else 'samples/cycles'})</span></p>"
             f"<p>{verdict}</p>"
             f"<p class='muted'>{info['samples']} samples ({info['seconds']:.1f} s of the test), {len(res)} windows; "
-            f"last data arrived {info['last_data']} ({info['seconds_since_data']:.0f} s before this update at "
-            f"{info['updated']}); trip rules: {rules}. This page reloads every {max(1, int(math.ceil(interval)))} s; "
+            f"last data arrived at {_clock_time(info['last_data'])} ({info['seconds_since_data']:.0f} s before "
+            f"this update at {_clock_time(info['updated'])}); trip rules: {rules}. This page reloads every "
+            f"{max(1, int(math.ceil(interval)))} s; "
             f"the analysis so far: what the pre-pass finds is found again from the complete file at the end.</p>"
             f"{svg}{notes}")  # fmt: skip
     return _page(body, refresh=interval)
@@ -308,7 +317,8 @@ def _cof_svg(t: np.ndarray, mu: np.ndarray, ok: np.ndarray, head: Tuple[float, f
     parts.append(f"<line x1='{left}' x2='{left}' y1='{top}' y2='{height - bottom}' stroke='#888'/>"
                  f"<line x1='{left}' x2='{width - right}' y1='{height - bottom}' y2='{height - bottom}' "
                  f"stroke='#888'/><text x='{(left + width) / 2}' y='{height - 6}' text-anchor='middle' "
-                 "font-size='12'>time [s] (filled: windows that pass the gate)</text>"
+                 "font-size='12'>time [s]; line and band: the headline and its 95 % interval; filled: windows "
+                 "that pass the gate</text>"
                  f"<text x='14' y='{(top + height) / 2}' font-size='12' transform='rotate(-90 14 "
                  f"{(top + height) / 2})' text-anchor='middle'>COF</text></svg>")  # fmt: skip
     return "".join(parts)
