@@ -465,3 +465,17 @@ def test_the_stick_slip_rule_trips_on_stick_slip_only(tmp_path: Path, kind: str)
         assert watch.tripped is not None and "stick-slip present" in watch.tripped.message
     else:
         assert watch.tripped is None and watch.reason == "idle"
+
+
+def test_a_rewritten_header_is_an_error(tmp_path: Path) -> None:
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(5_000)
+    path.write_bytes(data[:60_000])
+    f = Follower(str(path), td.open_recording)
+    f.poll()
+    with open(path, "r+b") as fh:
+        fh.write(b"TIME,FY,FZ")  # same length, other names
+        fh.seek(0, 2)
+        fh.write(data[60_000:])
+    with pytest.raises(RecordingError, match="header was rewritten"):
+        f.poll()

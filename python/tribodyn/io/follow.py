@@ -172,6 +172,8 @@ class _TextTail:
         self.marks: List[Tuple[int, int, int]] = [
             (int(s), int(o), int(ln)) for s, o, ln in zip(cp.mark_sample, cp.mark_offset, cp.mark_line)
         ]
+        #: The bytes before the first data row (the header), which a writer must not rewrite.
+        self.head = _read_bytes(rec._text_path(), 0, self.cps[0][1])
         s, off, line = self.cps[-1]
         run = self._scan(rec, off)
         rows = min(int(run["rows"]), rec.n_samples - s)
@@ -200,6 +202,11 @@ class _TextTail:
         size = os.path.getsize(rec._text_path())
         if size <= self.end:
             return
+        if _read_bytes(rec._text_path(), 0, len(self.head)) != self.head:
+            raise RecordingError(
+                f"{rec.path}: the header was rewritten while the file was watched: the rows read may no longer "
+                "hold; analyse the file once it is complete"
+            )
         with open(rec._text_path(), "rb") as fh:
             fh.seek(self.end)
             tail = fh.read(min(size - self.end, MAX_POLL_BYTES))
@@ -256,3 +263,9 @@ def _after_rows(rec: TextRecording, off: int, lines_before: int, rows: int) -> T
             if s and not _is_comment(rec, s):
                 seen += 1
     return pos, ln
+
+
+def _read_bytes(path: str, start: int, n: int) -> bytes:
+    with open(path, "rb") as fh:
+        fh.seek(start)
+        return fh.read(n)
