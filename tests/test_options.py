@@ -75,8 +75,10 @@ def test_make_plan_takes_the_declared_defaults() -> None:
         td.make_plan(fs=1000.0, motion="sideways")
     with pytest.raises(ValueError, match="min_fn"):
         td.make_plan(fs=1000.0, min_fn=-1.0)
-    with pytest.raises(TypeError, match="tare"):
+    with pytest.raises(ValueError, match="tare must be one of auto, start, none"):  # a string names a mode
         td.make_plan(fs=1000.0, tare="3 s")
+    with pytest.raises(TypeError, match="tare"):
+        td.make_plan(fs=1000.0, tare=[3.0])
 
 
 def test_every_option_has_its_check_or_a_joint_one() -> None:

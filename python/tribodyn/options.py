@@ -175,8 +175,10 @@ OPTIONS: Tuple[Option, ...] = (
          doc="classical COF: least |fz| in contact (default from the data)", flag="--min-fn", cli_type="float",
          check="force >= 0 or None"),
     _opt(name="tare", default=None, kind="plan", unit="s or N", section="6a",
-         doc="classical COF: seconds without contact at the start, or offsets", flag="--tare", cli_type="tare",
-         config_type="a number of seconds or a table of offsets", check="tare"),
+         doc="classical COF: auto (unloaded samples, before the first contact when there are some), start (only "
+             "before the first contact), none (fy not tared: a drag stays in the friction), seconds without contact "
+             "at the start, or offsets fy=N,fz=N", flag="--tare", cli_type="tare",
+         config_type="auto, start, none, a number of seconds or a table of offsets", check="tare"),
     _opt(name="stroke_fraction", default=0.5, kind="plan", unit="", section="6c",
          doc="reciprocating: central part of each stroke", flag="--stroke-fraction", cli_type="float",
          check="fraction"),

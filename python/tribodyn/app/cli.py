@@ -144,6 +144,8 @@ def _pair(text: str) -> Any:
 
 
 def _tare(text: str) -> Any:
+    if text.strip().lower() in ("auto", "start", "none"):
+        return text.strip().lower()
     try:
         return float(text)
     except ValueError:
@@ -151,7 +153,9 @@ def _tare(text: str) -> Any:
     try:
         return {k: float(v) for k, v in _kv(text, "tare", float).items()}
     except UserError as exc:
-        raise argparse.ArgumentTypeError(f"tare must be seconds or fy=N,fz=N offsets ({exc})") from None
+        raise argparse.ArgumentTypeError(
+            f"tare must be auto, start, none, seconds or fy=N,fz=N offsets ({exc})"
+        ) from None
 
 
 def _deadband(text: str) -> Any:

@@ -417,10 +417,21 @@ def _min_fn(value: Any, opt: "Option") -> Optional[float]:
     return fn
 
 
+_TARE_TYPES = "tare must be 'auto', 'start', 'none', seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets"
+#: The tare's modes by name (docs/method.md 6a): "auto" is the default (None).
+TARE_MODES = ("auto", "start", "none")
+
+
 def _tare(tare: Any, opt: "Option") -> Any:
-    """Seconds >= 0 without contact at the start, a read-only mapping of offsets {"fy": N, "fz": N}, or None."""
+    """Seconds >= 0 without contact at the start, a read-only mapping of offsets {"fy": N, "fz": N}, a mode
+    ("start", "none"; "auto" is None), or None."""
     if tare is None:
         return None
+    if isinstance(tare, str):
+        mode = tare.strip().lower()
+        if mode not in TARE_MODES:
+            raise ValueError(f"tare must be one of {', '.join(TARE_MODES)}, seconds or fy=N,fz=N offsets, got {tare!r}")
+        return None if mode == "auto" else mode
     if isinstance(tare, Mapping):
         bad = [
             k
@@ -428,10 +439,10 @@ def _tare(tare: Any, opt: "Option") -> Any:
             if k not in ("fy", "fz") or isinstance(v, bool) or not isinstance(v, (int, float))
         ]
         if bad:
-            raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+            raise TypeError(_TARE_TYPES)
         return MappingProxyType({str(k): float(v) for k, v in tare.items()})
     if isinstance(tare, bool) or not isinstance(tare, (int, float)):
-        raise TypeError("tare must be seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets")
+        raise TypeError(_TARE_TYPES)
     if not (np.isfinite(tare) and tare >= 0):
         raise ValueError(f"tare must be seconds >= 0, got {tare!r}")
     return float(tare)

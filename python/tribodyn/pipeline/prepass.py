@@ -127,6 +127,9 @@ class Contact:
     rule: str
     #: A warning about the tare ('' when none): the unloaded fy differs before and after the contact.
     note: str = ""
+    #: Where the tare comes from: "start" (the unloaded samples before the first contact), "all" (every
+    #: unloaded sample: fewer than 5 before the first contact), "" (no unloaded cluster).
+    tare_from: str = ""
 
 
 def _robust_sd(v: np.ndarray, centre: Optional[float] = None) -> float:
@@ -371,10 +374,27 @@ def _contact(fy: np.ndarray, fz: np.ndarray, order: _order.Sorted) -> Tuple[Cont
     else:  # fz == tare
         raw = order.values()
         inside = int(np.searchsorted(raw, t_fz, "right")) - int(np.searchsorted(raw, t_fz, "left"))
-    return Contact(float(thr), t_fy, t_fz, unl_frac, inside / n, static, rule, note), tared
+    tare_from = "" if got is None else ("start" if ref is before else "all")
+    return Contact(float(thr), t_fy, t_fz, unl_frac, inside / n, static, rule, note, tare_from), tared
 
 
 # -- pre-pass -------------------------------------------------------------------------
+
+
+def _tare_mode(contact: Contact, mode: str) -> Contact:
+    """The contact's tare under ``tare="start"`` (only the unloaded samples before the first contact) or
+    ``"none"`` (fy not tared; fz's zero still decides the contact); as found otherwise (docs/method.md 6a)."""
+    if mode == "start":
+        if contact.tare_from != "start":
+            raise ValueError(
+                "tare='start': no unloaded samples before the first contact (at least 5 are needed); the recording "
+                "starts in contact: use tare='auto' (the unloaded samples after it) or give the offsets fy=N,fz=N"
+            )
+        return contact
+    if mode == "none":
+        rule = contact.rule + f"; fy not tared (tare='none': its unloaded level {contact.tare_fy:.4g} N stays in it)"
+        return dataclasses.replace(contact, tare_fy=0.0, rule=rule, note="")
+    return contact
 
 
 def _untared(v: np.ndarray, tare: float) -> np.ndarray:
@@ -429,12 +449,17 @@ def prepass(
             offsets = tare if isinstance(tare, Mapping) else {}
             out0["spec"] = ClassicalSpec(float(min_fn), float(offsets.get("fy", 0.0)), float(offsets.get("fz", 0.0)))
         return out0
-    fy, fz, t_fy, t_fz = _tare_offsets(data["fy"], data["fz"], tare, tare_s, tare_n)
+    mode = tare if isinstance(tare, str) else ""  # "start", "none" (docs/method.md 6a)
+    if mode and min_fn is not None:
+        raise ValueError(f"tare={mode!r} finds the tare with the contact, from the unloaded samples: give min_fn "
+                         "without it, or tare as offsets fy=N,fz=N")  # fmt: skip
+    fy, fz, t_fy, t_fz = _tare_offsets(data["fy"], data["fz"], None if mode else tare, tare_s, tare_n)
     out: Dict[str, Any] = {}
     contact: Optional[Contact] = None
     order = _order.Sorted.of(fz)  # fz sorted once: its medians and classes below (docs/method.md 6a)
     if not isinstance(tare, Mapping) and tare_n == 0 and min_fn is None:
         contact, order = _contact(fy, fz, order)
+        contact = _tare_mode(contact, mode)
         t_fy, t_fz = contact.tare_fy, contact.tare_fz
     else:
         order = _shifted(order, t_fz)
@@ -447,7 +472,7 @@ def prepass(
     out["median_abs_fz"] = absz
     if contact is not None:
         out["contact"] = contact
-    if static or min_fn is not None or tare is not None:
+    if static or min_fn is not None or (tare is not None and not mode):
         if min_fn is not None:
             thr = float(min_fn)
         elif contact is not None:

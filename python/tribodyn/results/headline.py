@@ -339,7 +339,7 @@ def _drag_reason(res: "Results", tot: ClassicalTotals, m: float) -> Tuple[str, .
     said = (
         f"fy's unloaded level ({t_fy:.4g} N: a turning disc's drag, or an offset) is subtracted as its tare; "
         f"without it the classical COF is {raw:.4g} ({100 * (raw / m - 1):+.0f} %; summary.json: "
-        "classical.without_fy_tare): pass --tare fy=0,fz=N (tare=) if the drag is part of the friction"
+        "classical.without_fy_tare): pass --tare none (tare='none') if the drag is part of the friction"
     )
     return (said,)
 
