@@ -87,3 +87,17 @@ def test_cli_tare_none(tmp_path: Path, capsys) -> None:
         head = json.loads((out / "summary.json").read_text())["recordings"]["pod.csv"]["headline"]
         assert head["value"] == pytest.approx(want, rel=3e-3)
     capsys.readouterr()
+
+
+def test_config_tare_mode(tmp_path: Path) -> None:
+    d = _drag_test()
+    t = np.arange(d["fy"].size) / FS
+    p = tmp_path / "pod.csv"
+    p.write_text("time,fy,fz\n" + "".join(f"{a:.2f},{b:.5f},{c:.5f}\n" for a, b, c in zip(t, d["fy"], d["fz"])))
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('tare = "none"\n')
+    assert main(["analyze", str(p), "--out", str(tmp_path / "o"), "--config", str(cfg), "-q"]) == 0
+    import json
+
+    head = json.loads((tmp_path / "o" / "summary.json").read_text())["recordings"]["pod.csv"]["headline"]
+    assert head["value"] == pytest.approx(0.25, rel=3e-3)

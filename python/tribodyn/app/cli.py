@@ -488,6 +488,8 @@ def _option_config_value(key: str, v: Any, is_int: bool) -> Any:
             return float(v)
         if isinstance(v, dict) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v.values()):
             return {str(k): float(x) for k, x in v.items()}
+        if isinstance(v, str) and v.strip().lower() in ("auto", "start", "none"):
+            return v.strip().lower()
         return _BAD
     # deadband
     if is_int or isinstance(v, float):
