@@ -287,3 +287,23 @@ def test_real_cetr_friction_is_ff_one_axis_with_fx(name):
     instrument_mean = float(np.mean(raw["COF"]))
     assert abs(s["classical"]["mean"] / instrument_mean - 1) < 0.01
     assert abs(s["verdict"]["cof"]["value"] / instrument_mean - 1) < 0.01
+
+
+@pytest.mark.parametrize(
+    "names, want",
+    [
+        (["Zeit (s)", "Reibkraft (N)", "Normalkraft (N)", "Reibwert (-)"],
+         {"fy": "Reibkraft (N)", "fz": "Normalkraft (N)", "cof": "Reibwert (-)"}),
+        (["Step Time (s)", "Traction Force (N)", "Ball Load (N)", "Pin Load (N)", "Traction Coeff (-)"],
+         {"fy": "Traction Force (N)", "fz": "Ball Load (N)", "cof": "Traction Coeff (-)"}),
+        (["t", "FrictionForce", "Pin Load (N)"], {"fy": "FrictionForce", "fz": "Pin Load (N)"}),
+        # the first tier wins over the later ones; two names of one tier leave the role to the caller
+        (["t", "Fz", "Normal Load"], {"fz": "Fz"}),
+        (["t", "Fz", "Load"], {}),
+    ],
+)  # fmt: skip
+def test_the_vocabulary_maps_by_its_tiers(names, want) -> None:
+    from tribodyn.io.base import roles_by_name
+
+    got = roles_by_name(names)
+    assert {r: c for r, c in got.items() if r in ("fy", "fz", "cof")} == want

@@ -42,6 +42,7 @@ from .units import GRAM_FORCE, normalize_unit, si_conversion
 __all__ = [
     "KNOWN_ROLES",
     "TANGENTIAL_NAMES",
+    "ROLE_NAMES",
     "ChannelInfo",
     "Recording",
     "RecordingError",
@@ -62,17 +63,35 @@ DEFAULT_BLOCK_ROWS = 65536
 
 # Channel-name aliases used to map roles by name when a format has no
 # vendor-specific default (exact, case-insensitive, unit suffix stripped).
-_ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {
-    "fx": ("fx",),
-    "fy": ("fy", "friction force", "friction_force", "ff"),
-    "fz": ("fz", "normal force", "normal_force", "load", "fn"),
-    "i": ("i", "current"),
-    "u": ("u", "voltage"),
-    "cof": ("cof", "mu", "friction coefficient", "coefficient of friction"),
+#: The channel vocabulary: per role, tiers of base names (:func:`base_name`: lower case, unit stripped) in
+#: order of precedence (docs/method.md 6f). The first tier that names exactly one of a file's channels maps
+#: the role; a tier that names two or more leaves it unmapped (ambiguous: the caller maps it), and so does
+#: none. Every reader's default map by name comes from here (:func:`roles_by_name`); vendor layouts with
+#: fixed columns (CETR, COMPEND) keep their exact maps in their reader.
+ROLE_NAMES: Dict[str, Tuple[Tuple[str, ...], ...]] = {
+    "fx": (("fx",),),
+    "fy": (
+        ("fy", "friction force", "friction_force", "ff"),
+        ("frictionforce", "reibkraft", "reibungskraft", "traction force", "tractionforce"),
+    ),
+    "fz": (
+        ("fz", "normal force", "normal_force", "load", "fn"),
+        ("normalforce", "normal load", "normalkraft", "applied load"),
+        ("ball load",),
+        ("pin load",),
+    ),
+    "i": (("i", "current"), ("strom",)),
+    "u": (("u", "voltage"), ("spannung",)),
+    "cof": (
+        ("cof", "mu", "friction coefficient", "coefficient of friction"),
+        ("traction coeff", "traction coefficient", "friction coeff", "reibwert", "reibungskoeffizient", "reibungszahl"),
+    ),
     # a bare "x" or "v" is not taken (CETR's X is a constant radius): --map x=CHANNEL
-    "x": ("position", "displacement"),
-    "v": ("velocity", "sliding velocity"),
+    "x": (("position", "displacement"), ("weg",)),
+    "v": (("velocity", "sliding velocity"), ("geschwindigkeit",)),
 }
+#: Every base name of a role, over its tiers.
+_ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {r: tuple(n for tier in t for n in tier) for r, t in ROLE_NAMES.items()}
 
 
 #: Base names (see :func:`base_name`) of tangential force channels: the candidates for the friction
@@ -170,16 +189,20 @@ def base_name(name: str) -> str:
 def roles_by_name(names: Sequence[str]) -> Dict[str, str]:
     """Default role map from channel names alone (used where no vendor map applies).
 
-    A role is mapped only when exactly one channel's base name (see
-    :func:`base_name`) matches one of the role's aliases, so nothing is
-    guessed when the names are ambiguous.
+    A role is mapped by the first tier of :data:`ROLE_NAMES` that names
+    exactly one channel (base names, see :func:`base_name`); a tier naming
+    two or more leaves it unmapped, so nothing is guessed when the names are
+    ambiguous. A channel mapped to one role is not taken for another.
     """
     out: Dict[str, str] = {}
     bases = [base_name(n) for n in names]
-    for role, aliases in _ROLE_ALIASES.items():
-        hits = [n for n, b in zip(names, bases) if b in aliases]
-        if len(hits) == 1:
-            out[role] = hits[0]
+    for role, tiers in ROLE_NAMES.items():
+        for tier in tiers:
+            hits = [n for n, b in zip(names, bases) if b in tier and n not in out.values()]
+            if hits:
+                if len(hits) == 1:
+                    out[role] = hits[0]
+                break
     return out
 
 

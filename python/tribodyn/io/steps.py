@@ -34,7 +34,7 @@ from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .base import RecordingError, base_name
+from .base import RecordingError, roles_by_name
 from .detect import STEP_LINE, sniff_steps
 from .tables import TableRecording, find_time_column
 from .units import is_known_unit, normalize_unit
@@ -45,12 +45,6 @@ __all__ = ["StepsRecording", "sniff_steps"]
 _NON_TEST = re.compile(r"\bmapper\b|\b3d\s*map\b|\bspacer\s+layer\b", re.IGNORECASE)
 #: Largest export read (bytes): these files are small; a larger one is not this layout.
 _MAX_BYTES = 1 << 30
-#: Default roles: base names (lower case, unit stripped) of each role's column.
-_ROLES: Dict[str, Tuple[str, ...]] = {
-    "fy": ("traction force", "friction force", "tangential force"),
-    "fz": ("ball load", "pin load", "normal load", "normal force", "load"),
-    "cof": ("traction coeff", "traction coefficient", "friction coefficient", "friction coeff", "cof", "mu"),
-}
 
 
 def _split(line: str, delim: str) -> List[str]:
@@ -181,7 +175,7 @@ class StepsRecording(TableRecording):
             time_column=tname,
             resample=resample,
             segments=bounds,
-            default_roles=_default_roles(common),
+            default_roles=roles_by_name(common),  # the vocabulary (io/base.py ROLE_NAMES)
         )
 
     def _parse(self, encoding: Optional[str]) -> Tuple[List[str], List[_Step], List[str]]:
@@ -306,17 +300,3 @@ def _continuous(t: np.ndarray, bounds: Sequence[Tuple[int, int]]) -> List[float]
         else:
             shifts.append(0.0)
     return shifts
-
-
-def _default_roles(names: Sequence[str]) -> Dict[str, str]:
-    out: Dict[str, str] = {}
-    bases = [base_name(n) for n in names]
-    for role, words in _ROLES.items():
-        for w in words:
-            hits = [n for n, b in zip(names, bases) if b == w]
-            if len(hits) == 1:
-                out[role] = hits[0]
-                break
-            if len(hits) > 1:
-                break
-    return out
