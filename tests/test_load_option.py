@@ -103,3 +103,19 @@ def test_a_reciprocating_cof_only_export_is_averaged_per_cycle() -> None:
     res = td.analyze({"cof": cof, "fz": sim.channels["fz"]}, fs=sim.fs)
     assert res.params["motion"] == "reciprocating" and res.headline.method == "instrument"
     assert res.headline.value == pytest.approx(0.11, rel=0.01) and "cycles" in res.headline.estimate
+
+
+def test_other_cof_definitions_are_named_not_used(tmp_path) -> None:
+    """issue 34 point 2: the headline names the COF column it used and lists the file's other COF columns."""
+    rng = np.random.default_rng(4)
+    n = 2000
+    cof = 0.3 + rng.normal(0.0, 0.01, n)
+    p = tmp_path / "pod.csv"
+    rows = "".join(f"{k / 10:.1f},{c:.5f},{c + 0.05:.5f},{c * 0.9:.5f},{20 + k / 1e3:.3f}\n" for k, c in enumerate(cof))
+    p.write_text("Time (s),COF,Peak COF,mu_eff,Temperature (C)\n" + rows)
+    res = td.analyze(td.open_recording(p, load=10.0))
+    assert res.headline.method == "instrument"
+    assert res.headline.value == pytest.approx(np.mean(np.abs(np.round(cof, 5))), rel=1e-9)
+    text = " ".join(res.headline.reasons)
+    assert "'COF'" in text and "other COF definitions, not used: 'Peak COF', 'mu_eff'" in text
+    assert "Temperature" not in text

@@ -30,6 +30,7 @@ import contextvars
 import math
 import operator
 import os
+import re
 import threading
 from collections import deque
 from dataclasses import dataclass
@@ -43,6 +44,7 @@ __all__ = [
     "KNOWN_ROLES",
     "TANGENTIAL_NAMES",
     "ROLE_NAMES",
+    "cof_like",
     "ChannelInfo",
     "Recording",
     "RecordingError",
@@ -203,6 +205,22 @@ def roles_by_name(names: Sequence[str]) -> Dict[str, str]:
                 if len(hits) == 1:
                     out[role] = hits[0]
                 break
+    return out
+
+
+#: Words of a base name that make a channel a COF (another definition than the mapped ``cof``: a peak COF,
+#: an effective-value COF, a traction coefficient).
+_COF_WORDS = ("cof", "coefficient", "coeff", "reibwert", "reibungszahl", "reibungskoeffizient")
+
+
+def cof_like(names: Sequence[str]) -> List[str]:
+    """The channels whose names say they hold a COF (``Peak COF``, ``mu_eff``, ``Friction coefficient RMS``)."""
+    out = []
+    for n in names:
+        b = base_name(n)
+        words = set(re.split(r"[^a-z0-9µ]+", b))
+        if any(w in b for w in _COF_WORDS) or words & {"mu", "µ"} or b.startswith(("mu_", "µ_")):
+            out.append(n)
     return out
 
 

@@ -31,7 +31,7 @@ import numpy.fft  # noqa: F401
 import numpy.ma  # noqa: F401
 import numpy.random  # noqa: F401
 
-from ..io.base import RecordingProtocol
+from ..io.base import RecordingProtocol, cof_like
 from ..io.dataframe import from_dataframe
 from ..io.constant import mapping_with_load, with_load
 from ..io.units import check_role_units
@@ -591,6 +591,11 @@ def _tribometer_params(rec: Optional[RecordingProtocol], pre: Dict[str, Any], wi
     if rec is not None:
         out["roles"] = dict(rec.roles)
         out["roles_source"] = rec.roles_source
+        cof = rec.roles.get("cof")
+        names = list(getattr(rec, "channel_names", None) or [])
+        others = [c for c in cof_like(names) if c != cof and c not in rec.roles.values()]
+        if cof is not None and others:  # docs/method.md 6e: the COF column used is named, the others listed
+            out["other_cof_channels"] = others
         choice = rec.role_choice
         if choice is not None:  # docs/method.md 6e
             out["roles_evidence"] = choice.as_dict()

@@ -409,6 +409,10 @@ def _instrument(res: "Results", total: int, why: Tuple[str, ...], *, reciprocati
     contact = "every sample (a constant load: no contact rule)" if given else "the samples in contact"
     why = why + (f"the file's only friction information is its COF column {column!r}: the headline is the "
                  "instrument's own COF",)  # fmt: skip
+    others = res.params.get("other_cof_channels") or []
+    if others:  # docs/method.md 6e: other COF definitions of the file are named, not used
+        listed = ", ".join(repr(str(c)) for c in others)
+        why = why + (f"the file holds other COF definitions, not used: {listed} (map one with --map cof=NAME)",)
     st = res.strokes
     if reciprocating and st is not None and np.isfinite(np.asarray(st.get("mu_instrument", []), dtype=float)).any():
         cyc = cycle_means({**st, "mu": np.asarray(st["mu_instrument"], dtype=float)})
