@@ -22,7 +22,12 @@ COMMANDS = [
     ("excel_reciprocating.xlsx", [], "COF 0.1099 (95 % interval 0.1097 to 0.1102, statistical only): per-stroke"),
     ("opendocument_pin_on_disc.ods", [], "COF 0.5532 (95 % interval 0.5447 to 0.5859, statistical only): dynamic"),
     ("multistep_traction.txt", [], "COF 0.06193 (95 % interval 0.06170 to 0.06216, statistical only): classical"),
-]
+    ("cof_only_pin_on_disc.csv", ["--load", "10"],
+     "COF 0.3650 (95 % interval 0.3541 to 0.3760, statistical only): instrument"),
+    ("load_step_reciprocating.csv", [], "COF 0.1100 (95 % interval 0.1100 to 0.1100, statistical only): per-stroke"),
+    ("drag_rotational.csv", [], "COF 0.05992 (95 % interval 0.05989 to 0.05995, statistical only): classical"),
+    ("gram_force_ball_on_disc.csv", [], "COF 0.2000 (95 % interval 0.1999 to 0.2001, statistical only): classical"),
+]  # fmt: skip
 
 
 def test_the_page_names_every_file_its_command_and_headline():

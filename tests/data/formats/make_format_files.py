@@ -1,6 +1,7 @@
 """Writes the generated test files of tests/data/formats (issue 34): no public file of these layouts with
 a compatible licence was found, so each is generated here to the layout its reader documents
-(python/tribodyn/io/matlab.py, spreadsheet.py, steps.py), from a seeded simulation of a sliding
+(python/tribodyn/io/matlab.py, spreadsheet.py, steps.py; the CSV files to the layouts of the exports
+whose faults issue 34 names: a COF-only export, a load step, a disc's drag, gram-force), from a seeded simulation of a sliding
 contact (friction = mu x load + noise). Run from the repository root:
 
     python tests/data/formats/make_format_files.py
@@ -265,6 +266,61 @@ def write_steps() -> None:
     _write("multistep_traction.txt", ("\r\n".join(lines) + "\r\n").encode("utf-8"))
 
 
+def _csv(name: str, header: Sequence[str], cols: Sequence[np.ndarray], fmts: Sequence[str]) -> None:
+    rows = ["".join(",".join(f.format(c[k]) for f, c in zip(fmts, cols))) for k in range(len(cols[0]))]
+    _write(name, (",".join(header) + "\n" + "\n".join(rows) + "\n").encode("utf-8"))
+
+
+def write_cof_only() -> None:
+    """A pin-on-disc export with a COF column and a peak COF, no load channel (the load, 10 N, is a test
+    parameter): 10 Hz, 10 min, the COF running in from 0.5 to 0.35."""
+    rng = np.random.default_rng(21)
+    fs, n = 10.0, 6000
+    t = np.arange(n) / fs
+    cof = 0.35 + 0.15 * np.exp(-t / 60.0) + rng.normal(0.0, 0.01, n)
+    peak = cof + np.abs(rng.normal(0.03, 0.01, n))
+    _csv("cof_only_pin_on_disc.csv", ["Time (s)", "COF", "Peak COF"], [t, cof, peak], ["{:.1f}", "{:.5f}", "{:.5f}"])
+
+
+def write_load_step() -> None:
+    """A reciprocating test (2 Hz strokes of 10 mm, 100 Hz) at 50 N for 34 s, then 180 N: friction signed with
+    the sliding direction (mu 0.11), an x-Position in mm and an x-Velocity in mm/s; the first 2 s unloaded."""
+    rng = np.random.default_rng(22)
+    fs, n = 100.0, 12_000
+    t = np.arange(n) / fs
+    x = 5.0 * np.sin(2 * np.pi * 1.0 * t)  # mm; a stroke each way per second
+    v = 2 * np.pi * 5.0 * np.cos(2 * np.pi * 1.0 * t)  # mm/s
+    load = np.where(t < 2.0, 0.0, np.where(t < 36.0, 50.0, 180.0))
+    fz = load + rng.normal(0.0, 0.2, n)
+    fy = np.where(load > 0, 0.11 * load * np.sign(v), 0.0) + rng.normal(0.0, 0.05, n)
+    _csv("load_step_reciprocating.csv", ["Time (s)", "Friction force (N)", "Normal force (N)", "x-Position (mm)",
+         "x-Velocity (mm/s)"], [t, fy, fz, x, v], ["{:.2f}", "{:.4f}", "{:.3f}", "{:.4f}", "{:.3f}"])  # fmt: skip
+
+
+def write_drag() -> None:
+    """A rotational test whose disc turns before the load: 5 s of drag 0.3 N unloaded, then a friction of 0.3 N
+    at 5 N (mu 0.06) on top of the same drag; 50 Hz, 2 min."""
+    rng = np.random.default_rng(23)
+    fs, n = 50.0, 6000
+    t = np.arange(n) / fs
+    loaded = t >= 5.0
+    fz = np.where(loaded, 5.0, 0.0) + rng.normal(0.0, 0.01, n)
+    fy = 0.3 + np.where(loaded, 0.06 * fz, 0.0) + rng.normal(0.0, 0.005, n)
+    _csv("drag_rotational.csv", ["Time (s)", "Friction force (N)", "Normal force (N)"], [t, fy, fz],
+         ["{:.2f}", "{:.4f}", "{:.4f}"])  # fmt: skip
+
+
+def write_gram_force() -> None:
+    """A ball-on-disc log whose friction is in gram-force and load in newtons (mu 0.2 at 2 N), 5 Hz, 10 min."""
+    rng = np.random.default_rng(24)
+    fs, n = 5.0, 3000
+    t = np.arange(n) / fs
+    fz = 2.0 + rng.normal(0.0, 0.01, n)
+    fy_gf = 0.2 * fz / 9.80665e-3 + rng.normal(0.0, 0.5, n)
+    _csv("gram_force_ball_on_disc.csv", ["Time [s]", "Friction force [gf]", "Normal force [N]"], [t, fy_gf, fz],
+         ["{:.1f}", "{:.2f}", "{:.4f}"])  # fmt: skip
+
+
 def _write(name: str, data: bytes) -> None:
     with open(os.path.join(HERE, name), "wb") as fh:
         fh.write(data)
@@ -277,6 +333,10 @@ if __name__ == "__main__":
     write_xlsx()
     write_ods()
     write_steps()
+    write_cof_only()
+    write_load_step()
+    write_drag()
+    write_gram_force()
     for f in sorted(os.listdir(HERE)):
         if not f.endswith(".py"):
             print(f"{f}: {os.path.getsize(os.path.join(HERE, f))} bytes")
