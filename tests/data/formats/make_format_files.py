@@ -1,8 +1,8 @@
 """Writes the generated test files of tests/data/formats (issue 34): no public file of these layouts with
 a compatible licence was found, so each is generated here to the layout its reader documents
 (python/tribodyn/io/matlab.py, spreadsheet.py, steps.py; the CSV files to the layouts of the exports
-whose faults issue 34 names: a COF-only export, a load step, a disc's drag, gram-force), from a seeded simulation of a sliding
-contact (friction = mu x load + noise). Run from the repository root:
+whose faults issue 34 names: a COF-only export, a load step, a disc's drag, gram-force), from a seeded
+simulation of a sliding contact (friction = mu x load + noise). Run from the repository root:
 
     python tests/data/formats/make_format_files.py
 
