@@ -307,3 +307,14 @@ def test_the_vocabulary_maps_by_its_tiers(names, want) -> None:
 
     got = roles_by_name(names)
     assert {r: c for r, c in got.items() if r in ("fy", "fz", "cof")} == want
+
+
+def test_a_unit_with_a_slash_is_stripped_before_the_path() -> None:
+    from tribodyn.io.base import base_name, roles_by_name
+
+    assert base_name("x-Velocity (mm/s)") == "x-velocity"
+    assert base_name("/group/fy [N]") == "fy"
+    assert base_name("Speed [m/s]") == "speed"
+    got = roles_by_name(["Time (s)", "Friction force (N)", "Normal force (N)", "x-Position (mm)", "x-Velocity (mm/s)"])
+    assert got == {"fy": "Friction force (N)", "fz": "Normal force (N)", "x": "x-Position (mm)",
+                   "v": "x-Velocity (mm/s)"}  # fmt: skip

@@ -89,8 +89,9 @@ ROLE_NAMES: Dict[str, Tuple[Tuple[str, ...], ...]] = {
         ("traction coeff", "traction coefficient", "friction coeff", "reibwert", "reibungskoeffizient", "reibungszahl"),
     ),
     # a bare "x" or "v" is not taken (CETR's X is a constant radius): --map x=CHANNEL
-    "x": (("position", "displacement"), ("weg",)),
-    "v": (("velocity", "sliding velocity"), ("geschwindigkeit",)),
+    "x": (("position", "displacement"), ("x-position", "x position", "x_position", "position x", "weg")),
+    "v": (("velocity", "sliding velocity"), ("x-velocity", "x velocity", "x_velocity", "velocity x",
+                                              "geschwindigkeit")),
 }
 #: Every base name of a role, over its tiers.
 _ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {r: tuple(n for tier in t for n in tier) for r, t in ROLE_NAMES.items()}
@@ -181,11 +182,11 @@ def rate_from_step(step: float) -> float:
 
 def base_name(name: str) -> str:
     """Lower-case name without a group/dataset path and without a unit suffix."""
-    s = name.rsplit("/", 1)[-1].strip().lower()
-    for o, c in (("[", "]"), ("(", ")")):
+    s = name.strip().lower()
+    for o, c in (("[", "]"), ("(", ")")):  # the unit first: it may hold a "/" (mm/s, N/m)
         if s.endswith(c) and o in s:
             s = s[: s.rindex(o)].strip()
-    return s
+    return s.rsplit("/", 1)[-1].strip()
 
 
 def roles_by_name(names: Sequence[str]) -> Dict[str, str]:
