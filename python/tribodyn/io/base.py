@@ -90,8 +90,10 @@ ROLE_NAMES: Dict[str, Tuple[Tuple[str, ...], ...]] = {
     ),
     # a bare "x" or "v" is not taken (CETR's X is a constant radius): --map x=CHANNEL
     "x": (("position", "displacement"), ("x-position", "x position", "x_position", "position x", "weg")),
-    "v": (("velocity", "sliding velocity"), ("x-velocity", "x velocity", "x_velocity", "velocity x",
-                                              "geschwindigkeit")),
+    "v": (
+        ("velocity", "sliding velocity"),
+        ("x-velocity", "x velocity", "x_velocity", "velocity x", "geschwindigkeit"),
+    ),
 }
 #: Every base name of a role, over its tiers.
 _ROLE_ALIASES: Dict[str, Tuple[str, ...]] = {r: tuple(n for tier in t for n in tier) for r, t in ROLE_NAMES.items()}
