@@ -15,6 +15,7 @@ import contextlib
 import dataclasses
 import importlib
 import os
+import re
 import threading
 from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
@@ -995,7 +996,17 @@ def _channel_map(rec: Any) -> Dict[str, str]:
     if isinstance(rec, Exception):
         return {"?": f"channel map unavailable: {rec}"}
     units = {c.name: c.unit for c in rec.channels}
-    return {r: f"{c} ({units.get(c) or 'no unit'})" for r, c in dict(rec.roles).items()}
+    return {r: _with_unit(str(c), units.get(c)) for r, c in dict(rec.roles).items()}
+
+
+def _with_unit(name: str, unit: Optional[str]) -> str:
+    """'Fn (N)' once, not 'Fn (N) (N)'; a unit the reader converted to after the name's own: 'x (mm) -> m'."""
+    m = re.search(r"[\(\[]([^\(\)\[\]]*)[\)\]]\s*$", name)
+    if unit is None:
+        return f"{name} (no unit)"
+    if m is None:
+        return f"{name} ({unit})"
+    return name if m.group(1).strip() == unit else f"{name} -> {unit}"
 
 
 def _labels(paths: Sequence[Path]) -> List[str]:
