@@ -359,3 +359,31 @@ def test_a_drag_as_large_as_the_friction_is_said_with_the_cof_without_it():
     assert any("without it the classical COF is 0.12 (+100 %" in r for r in res.headline.reasons)
     small = td.analyze({"fy": fy - 0.29, "fz": fz}, fs=100.0)  # an unloaded level of 0.01 N: not said
     assert not any("unloaded level" in r for r in small.headline.reasons)
+
+
+def test_windows_each_too_imprecise_are_pooled_when_they_agree() -> None:
+    """issue 35 point 4 (docs/method.md 5): no window passes alone, 20 agree: the pooled median, its interval."""
+    from tribodyn import simulate
+
+    sim = simulate.conditions(200.0, seed=101, drift=0.1, snr_z=10)
+    res = td.analyze(sim.channels, fs=sim.fs)
+    assert int(res.gated.sum()) == 0
+    v = res.verdict
+    assert v["dynamic_method"] and v["pooled"]["agree"] and v["pooled"]["n"] >= 10
+    h = res.headline
+    assert h.method == "dynamic" and h.low <= 0.1 <= h.high and h.low < h.value < h.high
+    assert any("pooled" in r for r in h.reasons)
+
+
+def test_imprecise_windows_that_disagree_are_not_pooled() -> None:
+    from tribodyn.results.verdict import pooled
+
+    n = 20
+    table = {"mu_r": np.where(np.arange(n) % 2 == 0, 0.1, 0.2), "mu_r_stderr": np.full(n, 0.005),
+             "reasons": np.array(["imprecise: expected 95 % interval +-20 % > +-10 %"] * n, dtype=object)}  # fmt: skip
+    got = pooled(table)
+    assert got is not None and not got["agree"] and got["p"] < 1e-6
+    table["mu_r"] = 0.1 + np.random.default_rng(0).normal(0.0, 0.005, n)
+    assert pooled(table)["agree"]
+    table["reasons"][:15] = "low correlation: |C_yz(0)| = 0.3 < 0.85"
+    assert pooled(table) is None  # fewer than 10 fail only as imprecise

@@ -60,9 +60,13 @@ class Follower:
     """
 
     def __init__(self, path: str, opener: Callable[..., Recording], *,
-                 clock: Callable[[], float] = time.monotonic) -> None:  # fmt: skip
+                 clock: Callable[[], float] = time.monotonic,
+                 usable: Optional[Callable[[Recording], str]] = None) -> None:  # fmt: skip
         self.path = os.fspath(path)
         self._opener = opener
+        #: ``usable(rec)``: '' when the first opening holds what the caller needs, else why not yet (a writer
+        #: that creates its channels one after the other); the follower then opens the file again later.
+        self._usable = usable
         self._clock = clock
         self.recording: Optional[Recording] = None
         self.waiting = "the file does not exist yet"
@@ -123,6 +127,11 @@ class Follower:
             rec = self._opener(self.path)
         except (RecordingError, ValueError, OSError) as exc:  # not yet readable: a header or a segment in writing
             self.waiting = f"cannot be read yet: {exc}"
+            return
+        why = self._usable(rec) if self._usable is not None else ""
+        if why:
+            rec.close()
+            self.waiting = f"cannot be used yet: {why}"
             return
         rec._appending = True
         rec.warnings[:] = [w for w in rec.warnings if "possibly cut off" not in w]  # the row being written

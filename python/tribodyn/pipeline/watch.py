@@ -168,7 +168,7 @@ class Watch:
         self.interval, self.until_idle, self.final_wanted = interval, until_idle, final
         self.open_options, self.options = dict(open_options), dict(options)
         self._clock, self._sleep = clock, sleep
-        self.follower = Follower(self.path, self._open, clock=clock)
+        self.follower = Follower(self.path, self._open, clock=clock, usable=self._usable)
         self.rules = tuple(trips)
         self._states = [_TripState(r) for r in self.rules if r.quantity in ("cof", "fn")]
         self._acc: Optional[Partial] = None  # the ranges analysed so far, joined (one Partial: an update's cost
@@ -185,6 +185,14 @@ class Watch:
         self.latest: Optional[Results] = None
         self.notes: List[str] = []
         self._stop = False
+
+    def _usable(self, rec: Recording) -> str:
+        """Why the first opening cannot be analysed yet ('' when it can): a writer that has not yet created
+        the friction or the normal-force channel (an HDF5 file's datasets, made one after the other)."""
+        roles = rec.roles
+        have = {"fy": "fy" in roles or "cof" in roles, "fz": "fz" in roles or self.options.get("load") is not None}
+        missing = [r for r, ok in have.items() if not ok]
+        return f"its channels do not (yet) include {' and '.join(missing)}" if missing else ""
 
     def _open(self, path: str, **kw: Any) -> Recording:
         from ..io import open_recording

@@ -499,4 +499,8 @@ def verdict_text(verdict: Any) -> str:
     reasons = [str(r) for r in verdict.get("reasons") or ()]
     if reasons:
         text += " " + "; ".join(reasons) + "."
+    pool = verdict.get("pooled")
+    if isinstance(pool, Mapping):  # docs/method.md 5
+        text += (f" No window passes the gate alone: its COF pools the {pool.get('n')} windows that fail only as "
+                 f"imprecise, which agree (homogeneity p = {float(pool.get('p', float('nan'))):.2g}).")  # fmt: skip
     return text

@@ -256,6 +256,8 @@ def choose(res: "Results", verdict: Mapping[str, Any]) -> Headline:
     why = tuple(str(r) for r in verdict.get("reasons") or ())
     if res.params.get("friction_from") == "cof":  # a COF-only export: its own COF (docs/method.md 6e)
         head = _instrument(res, total, why, reciprocating=verdict.get("motion") == "reciprocating")
+    elif verdict.get("dynamic_method") and verdict.get("pooled"):
+        head = _pooled(res, total, verdict["pooled"])
     elif verdict.get("dynamic_method"):
         head = _dynamic(res, total)
     elif verdict.get("motion") == "reciprocating":
@@ -320,6 +322,31 @@ def _dynamic(res: "Results", total: int) -> Headline:
         interval=interval,
         bound=bound,
     )
+
+
+def _pooled(res: "Results", total: int, info: Mapping[str, Any]) -> Headline:
+    """The dynamic COF from windows each too imprecise to pass the gate alone, which agree (docs/method.md 5):
+    the median of their mu_r, its interval by the moving-block bootstrap over them."""
+    from .verdict import pooled
+
+    got = pooled(res.table)
+    assert got is not None, "the verdict pooled these windows"
+    keep = got["mask"]
+    v = np.asarray(res.table["mu_r"], dtype=float)[keep]
+    ci = bootstrap_ci(v, noise=noise_resample(res.table, keep), threads=res._threads).get("median")
+    used = float(np.asarray(res.table["n"])[keep].sum())
+    est = res.params.get("estimator") or "ols"
+    why = (f"no window passes the gate alone (each window's expected 95 % interval about "
+           f"+-{100 * info['rel_half_width']:.0f} % of the COF); the {got['n']} windows that fail only as "
+           f"imprecise agree within their standard errors (homogeneity p = {got['p']:.2g}): "
+           "they are pooled",)  # fmt: skip
+    return Headline(
+        method="dynamic", value=float(np.median(v)), low=ci[0] if ci else float("nan"),
+        high=ci[1] if ci else float("nan"), statistic="median", n=int(v.size),
+        fraction_used=used / total if total else float("nan"), reasons=why,
+        estimate=f"median of mu_r ({est} estimator) over {v.size} pooled windows of {len(res)} (none gated alone)",
+        interval="moving-block bootstrap of the median over the pooled windows (docs/method.md 3d, 5)",
+    )  # fmt: skip
 
 
 def _not_below_zero(lo: float, interval: str) -> Tuple[float, str]:
