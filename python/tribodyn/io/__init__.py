@@ -57,7 +57,7 @@ from typing import Any, Mapping, Optional, Tuple, Union
 from .base import APPENDING, ChannelInfo, Recording, RecordingError, RecordingProtocol
 from .constant import with_load
 from .units import check_role_units
-from .detect import _ALIASES, _BINARY, _EXT, FORMATS, _sniff, _zip_kind
+from .detect import _ALIASES, _BINARY, _EXT, FORMATS, _sniff, _zip_kind, reader_class
 from .writers import atomic_write, save_hdf5, save_npy, save_npz, save_recording, save_tdms, sha256_file
 
 __all__ = [
@@ -265,42 +265,10 @@ def _all_formats() -> Tuple[str, ...]:
 
 
 def _backend(fmt: str) -> Any:
+    """(Recording class, vendor variant) of a format: a built-in one's row of :data:`~tribodyn.io.detect.READERS`,
+    else a reader plugin's."""
     if fmt not in FORMATS:
         from .plugins import plugins
 
         return plugins()[fmt], None
-    if fmt == "tdms":
-        from .tdms import TdmsRecording
-
-        return TdmsRecording, None
-    if fmt == "lvm":
-        from .lvm import LvmRecording
-
-        return LvmRecording, None
-    if fmt == "hdf5":
-        from .hdf5 import Hdf5Recording
-
-        return Hdf5Recording, None
-    if fmt == "npy":
-        from .numpy_files import NpyRecording
-
-        return NpyRecording, None
-    if fmt == "npz":
-        from .numpy_files import NpzRecording
-
-        return NpzRecording, None
-    if fmt == "mat":
-        from .matlab import MatRecording
-
-        return MatRecording, None
-    if fmt == "spreadsheet":
-        from .spreadsheet import SpreadsheetRecording
-
-        return SpreadsheetRecording, None
-    if fmt == "steps":
-        from .steps import StepsRecording
-
-        return StepsRecording, None
-    from .delimited import DelimitedRecording
-
-    return DelimitedRecording, (None if fmt == "delimited" else fmt)
+    return reader_class(fmt)

@@ -5,64 +5,93 @@ is in words for messages (:func:`describe_content`). The rules are in :mod:`trib
 from __future__ import annotations
 
 import re
-from typing import Optional, Tuple
+from dataclasses import dataclass
+from typing import Any, Optional, Tuple
 
-__all__ = ["FORMATS", "MAT73_HEADER", "STEP_LINE", "describe_content", "is_mat73", "sniff_mat", "sniff_steps"]
+__all__ = [
+    "FORMATS",
+    "READERS",
+    "Reader",
+    "MAT73_HEADER",
+    "STEP_LINE",
+    "describe_content",
+    "is_mat73",
+    "reader_class",
+    "sniff_mat",
+    "sniff_steps",
+]
 
-#: Accepted values of ``format`` (besides ``"auto"``) and aliases.
-FORMATS = ("tdms", "lvm", "hdf5", "npy", "npz", "delimited", "cetr", "compend", "steps", "mat", "spreadsheet")
-_ALIASES = {
-    "matlab": "mat",
-    "xlsx": "spreadsheet",
-    "xlsm": "spreadsheet",
-    "xls": "spreadsheet",
-    "ods": "spreadsheet",
-    "excel": "spreadsheet",
-    "csv": "delimited",
-    "tsv": "delimited",
-    "text": "delimited",
-    "txt": "delimited",
-    "h5": "hdf5",
-    "pod": "compend",
-}
 
-_EXT = {
-    ".tdms": "tdms",
-    ".lvm": "lvm",
-    ".h5": "hdf5",
-    ".hdf5": "hdf5",
-    ".hdf": "hdf5",
-    ".he5": "hdf5",
-    ".npy": "npy",
-    ".npz": "npz",
-    ".csv": "delimited",
-    ".tsv": "delimited",
-    ".txt": "delimited",
-    ".dat": "delimited",
-    ".asc": "delimited",
-    ".tab": "delimited",
-    ".mat": "mat",
-    ".xlsx": "spreadsheet",
-    ".xlsm": "spreadsheet",
-    ".xls": "spreadsheet",
-    ".ods": "spreadsheet",
-}
-_BINARY = {"tdms", "hdf5", "npy", "npz", "mat", "spreadsheet"}
+@dataclass(frozen=True)
+class Reader:
+    """One built-in format: a row of :data:`READERS`, the registry of tribodyn's readers (docs/architecture.md).
+
+    A new reader is its module under ``io/`` plus one row here (a package of its own adds one through the
+    ``tribodyn.readers`` entry points instead: :mod:`tribodyn.io.plugins`).
+
+    Attributes
+    ----------
+    format : str
+        The value of ``format=`` / ``--format``.
+    target : str
+        ``"module:Class"`` of its :class:`~tribodyn.io.base.Recording` under ``tribodyn.io``, imported on first use.
+    extensions : tuple of str
+        File extensions (lower case, with the dot) that select it.
+    aliases : tuple of str
+        Other names ``format=`` takes for it.
+    content : str
+        What a file of this content is called in messages ("" for a variant sharing another's content).
+    binary : bool
+        A binary format: a file of its extension whose content is another is refused, naming the content.
+    vendor : str or None
+        The vendor variant the target reads (its ``vendor=`` keyword), None for none.
+    """
+
+    format: str
+    target: str
+    extensions: Tuple[str, ...] = ()
+    aliases: Tuple[str, ...] = ()
+    content: str = ""
+    binary: bool = False
+    vendor: Optional[str] = None
+
+
+#: The readers, in the order of ``FORMATS``. Content signatures are looked at by :func:`_sniff`.
+READERS: Tuple[Reader, ...] = (
+    Reader("tdms", "tdms:TdmsRecording", (".tdms",), content="a TDMS file", binary=True),
+    Reader("lvm", "lvm:LvmRecording", (".lvm",), content="a LabVIEW Measurement text file"),
+    Reader("hdf5", "hdf5:Hdf5Recording", (".h5", ".hdf5", ".hdf", ".he5"), ("h5",), "an HDF5 file", True),
+    Reader("npy", "numpy_files:NpyRecording", (".npy",), content="a NumPy .npy array", binary=True),
+    Reader("npz", "numpy_files:NpzRecording", (".npz",), content="a NumPy .npz archive", binary=True),
+    Reader("delimited", "delimited:DelimitedRecording", (".csv", ".tsv", ".txt", ".dat", ".asc", ".tab"),
+           ("csv", "tsv", "text", "txt"), "text"),
+    Reader("cetr", "delimited:DelimitedRecording", vendor="cetr"),
+    Reader("compend", "delimited:DelimitedRecording", aliases=("pod",), vendor="compend"),
+    Reader("steps", "steps:StepsRecording", content="a multi-step text export"),
+    Reader("mat", "matlab:MatRecording", (".mat",), ("matlab",), "a MATLAB MAT-file", True),
+    Reader("spreadsheet", "spreadsheet:SpreadsheetRecording", (".xlsx", ".xlsm", ".xls", ".ods"),
+           ("xlsx", "xlsm", "xls", "ods", "excel"), "a spreadsheet", True),
+)  # fmt: skip
+
+#: Accepted values of ``format`` (besides ``"auto"``) and aliases, from :data:`READERS`.
+FORMATS = tuple(r.format for r in READERS)
+_ALIASES = {a: r.format for r in READERS for a in r.aliases}
+_EXT = {e: r.format for r in READERS for e in r.extensions}
+_BINARY = {r.format for r in READERS if r.binary}
 _HDF5_SIG = b"\x89HDF\r\n\x1a\n"
 _OLE2_SIG = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"
 
 #: What each kind of content is, for messages (a zip's and an OLE2 file's are decided by :func:`_zip_kind`).
-_CONTENT_NAMES = {
-    "tdms": "a TDMS file",
-    "hdf5": "an HDF5 file",
-    "npy": "a NumPy .npy array",
-    "npz": "a NumPy .npz archive",
-    "mat": "a MATLAB MAT-file",
-    "spreadsheet": "a spreadsheet",
-    "lvm": "a LabVIEW Measurement text file",
-    "delimited": "text",
-    "steps": "a multi-step text export",
-}
+_CONTENT_NAMES = {r.format: r.content for r in READERS if r.content}
+
+
+def reader_class(fmt: str) -> Tuple[Any, Optional[str]]:
+    """(the Recording class of built-in format ``fmt``, its vendor variant or None), imported on first use."""
+    import importlib
+
+    row = next(r for r in READERS if r.format == fmt)
+    module, cls = row.target.split(":")
+    return getattr(importlib.import_module(f"{__package__}.{module}"), cls), row.vendor
 
 
 def _sniff(head: bytes) -> Optional[str]:
