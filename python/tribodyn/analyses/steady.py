@@ -25,8 +25,10 @@ quantile of F(2, df), ``df = n (1 - rho^2) / (1 + rho^2) - 3``.
 Intervals: the chosen fit plus AR(1) noise like its residuals (their
 bias-corrected ``rho``, their innovations resampled, their variance with
 the degrees of freedom of the fit restored) is refitted, with the model
-choice, ``n_boot`` times; an interval is the estimate +- t(0.975, df) times
-the replicates' standard deviation. The steady COF is the mean of the points
+choice, ``n_boot`` times; t_steady's interval is the replicates' percentiles
+at Phi(-t(0.975, df)) and Phi(t(0.975, df)) (its sampling distribution is
+skewed), the steady COF's the estimate +- t(0.975, df) times their standard
+deviation. The steady COF is the mean of the points
 at or after t_steady less the fitted transient's tail there (at most 2 % of
 its initial size); each replicate uses its own t_steady, so the interval
 holds where the steady part starts as well as the autocorrelation.
@@ -470,8 +472,9 @@ def fit_steady(
     start = float(t0) if t0 is not None and math.isfinite(t0) else (float(t[0]) if t.size else nan)
     if t.size and start > t[0]:
         start = float(t[0])
-    interval = (f"estimate +- t(0.975, df) x the standard deviation of {n_boot} bootstrap refits (the fit "
-                "plus AR(1) noise like its residuals, docs/method.md 6h)")  # fmt: skip
+    interval = (f"t_steady: the {n_boot} bootstrap refits' percentiles at Phi(-+t(0.975, df)); the steady COF: "
+                "estimate +- t(0.975, df) x their standard deviation (the refits: the fit plus AR(1) noise like its "
+                "residuals, docs/method.md 6h)")  # fmt: skip
     common: Dict[str, Any] = dict(method=method, series=series, interval=interval, time=t, values=y)
     if t.size < MIN_POINTS or not t[-1] > start:
         why = f"{t.size} point{'s' if t.size != 1 else ''} of the {series}, at least {MIN_POINTS} needed"
@@ -502,8 +505,8 @@ def fit_steady(
     n_steady = int(steady.sum())
     drift, drift_p = _drift(t[steady], resid[steady]) if n_steady >= MIN_STEADY_POINTS else (nan, nan)
     cof_mean = float((resid + m)[steady].mean()) if n_steady else nan
-    t_half = tq * float(np.std(ts_b, ddof=1))
-    reasons, drift, drift_p = _why_not_steady(t, resid, ts, _Steady(model, t_half, cof_mean), drift=(drift, drift_p))
+    t_lo, t_hi = _percentiles(ts_b, ts, tq, start)
+    reasons, drift, drift_p = _why_not_steady(t, resid, ts, _Steady(model, t_hi - ts, cof_mean), drift=(drift, drift_p))
     estimate = (f"least-squares fit of the {series}{averaged} from t0 = {start:.4g} s: {_model_text(code, tau)}; the "
                 f"steady COF is the mean of the {n_steady} points at or after t_steady less the fitted transient's "
                 "tail")  # fmt: skip
@@ -513,8 +516,21 @@ def fit_steady(
         return SteadyState(VERDICTS[1], nan, nan, nan, nan, nan, nan, reasons=tuple(reasons), **common)
     fin = cof_b[np.isfinite(cof_b)]
     c_half = tq * float(np.std(fin, ddof=1)) if fin.size > 1 else nan
-    return SteadyState(VERDICTS[0], ts, max(start, ts - t_half), ts + t_half, cof_mean, cof_mean - c_half,
-                       cof_mean + c_half, **common)  # fmt: skip
+    return SteadyState(VERDICTS[0], ts, t_lo, t_hi, cof_mean, cof_mean - c_half, cof_mean + c_half,
+                       **common)  # fmt: skip
+
+
+def _percentiles(ts_b: np.ndarray, ts: float, tq: float, start: float) -> Tuple[float, float]:
+    """t_steady's interval: the replicates' expanded percentiles, the levels Phi(-tq) and Phi(tq) (the percentile
+    interval widened for the fit's degrees of freedom, as Sec. 3d's bootstrap), holding the estimate and not
+    before t0 (docs/method.md 6h). The replicates' distribution is skewed where the COF's wander hides the
+    transient's tail: a symmetric interval covered 0.90 there, these 0.96."""
+    fin = ts_b[np.isfinite(ts_b)]
+    if fin.size < 2:
+        return float("nan"), float("nan")
+    a = 0.5 * math.erfc(tq / math.sqrt(2.0))
+    lo, hi = (float(v) for v in np.quantile(fin, [a, 1.0 - a]))
+    return max(start, min(lo, ts)), max(hi, ts)
 
 
 def _in_time_order(time: Any, cof: Any) -> Tuple[np.ndarray, np.ndarray]:
@@ -552,7 +568,7 @@ class _Steady:
     """What the fit found: its model's name, the half-width of t_steady's interval and the steady COF."""
 
     model: str
-    t_half: float
+    t_half: float  # the upper end of t_steady's interval less t_steady
     cof_mean: float
 
 
