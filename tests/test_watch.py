@@ -272,12 +272,18 @@ def test_a_partial_last_row_waits_for_its_line_end(tmp_path: Path) -> None:
     assert not any("cut off" in w for w in f.recording.warnings)
 
 
-def test_a_truncated_or_replaced_file_is_an_error_never_a_table(tmp_path: Path) -> None:
+def _followed(tmp_path: Path, upto: int = 60_000) -> tuple:
+    """(path, its whole bytes, a Follower that has read the first ``upto`` of them)."""
     path = tmp_path / "run.csv"
     data = _csv_bytes(5_000)
-    path.write_bytes(data[:60_000])
+    path.write_bytes(data[:upto])
     f = Follower(str(path), td.open_recording)
     f.poll()
+    return path, data, f
+
+
+def test_a_truncated_or_replaced_file_is_an_error_never_a_table(tmp_path: Path) -> None:
+    path, data, f = _followed(tmp_path)
     path.write_bytes(data[:20_000])  # rewritten shorter
     with pytest.raises(RecordingError, match="shrank"):
         f.poll()
@@ -291,11 +297,7 @@ def test_a_truncated_or_replaced_file_is_an_error_never_a_table(tmp_path: Path) 
 
 
 def test_a_footer_written_after_the_rows_stops_the_watch(tmp_path: Path) -> None:
-    path = tmp_path / "run.csv"
-    data = _csv_bytes(5_000)
-    path.write_bytes(data)
-    f = Follower(str(path), td.open_recording)
-    f.poll()
+    path, data, f = _followed(tmp_path, upto=10**9)
     with open(path, "ab") as fh:
         fh.write(b"1,2,3\nEnd of test: 5000 rows\n")
     with pytest.raises(RecordingError, match="not a data row"):
@@ -469,11 +471,7 @@ def test_the_stick_slip_rule_trips_on_stick_slip_only(tmp_path: Path, kind: str)
 
 
 def test_a_rewritten_header_is_an_error(tmp_path: Path) -> None:
-    path = tmp_path / "run.csv"
-    data = _csv_bytes(5_000)
-    path.write_bytes(data[:60_000])
-    f = Follower(str(path), td.open_recording)
-    f.poll()
+    path, data, f = _followed(tmp_path)
     with open(path, "r+b") as fh:
         fh.write(b"TIME,FY,FZ")  # same length, other names
         fh.seek(0, 2)
