@@ -146,6 +146,7 @@ def test_ods_units_in_the_names():
         assert rec.n_samples == 1200
 
 
+@pytest.mark.slow  # three command-line runs with reports
 def test_sheet_option_in_the_api_the_cli_and_the_config(tmp_path, capsys):
     with open_recording(XLSX, sheet="data") as rec:  # case-insensitive when no sheet has the exact name
         assert rec.metadata["sheet"] == "Data"

@@ -79,6 +79,7 @@ def test_cli_tare_flag_takes_the_modes() -> None:
     assert _tare("2.5") == 2.5 and _tare("fy=0.1,fz=0") == {"fy": 0.1, "fz": 0.0}
 
 
+@pytest.mark.slow
 def test_config_tare_mode(tmp_path: Path) -> None:
     d = _drag_test()
     t = np.arange(d["fy"].size) / FS
