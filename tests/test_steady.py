@@ -228,3 +228,24 @@ def test_a_significant_but_small_drift_is_steady_and_said():
     ss = td.steady_state(res)
     assert ss.ok and ss.drift_p < ALPHA_DRIFT / 2
     assert "drift over the steady part 3.8 % of the COF (p = 0.00031), under 5 %" in ss.text
+
+
+@pytest.mark.slow
+def test_one_running_in_per_test_of_a_file_that_holds_several(tmp_path) -> None:
+    """issue 35 point 5: three tests in one file (its time restarts at each) get three fits, not one flat one."""
+    truth = [(0.30, 200.0), (0.25, 100.0), (0.35, 300.0)]
+    rows = ["time,fy,fz"]
+    for k, (mu0, ts) in enumerate(truth):
+        sim = simulate.running_in(seed=10 + k, duration=900.0, mu_0=mu0, mu_ss=0.15, t_steady=ts)
+        t = np.arange(len(sim.channels["fy"])) / sim.fs
+        rows += [f"{a:.3f},{b:.5f},{c:.5f}" for a, b, c in zip(t, sim.channels["fy"], sim.channels["fz"])]
+    p = tmp_path / "three.csv"
+    p.write_text("\n".join(rows) + "\n")
+    res = td.analyze(td.open_recording(p), window=10, hop=10)
+    fits = td.steady_states(res)
+    assert len(fits) == 3
+    for k, (fit, (_, ts)) in enumerate(zip(fits, truth)):
+        assert fit.verdict == "steady state reached" and f"acquisition {k}" in fit.series
+        assert fit.t_steady_low <= 900.0 * k + ts <= fit.t_steady_high
+        assert fit.cof_low <= 0.15 <= fit.cof_high
+    assert len(td.steady_states(td.analyze(td.open_recording(p), window=10, hop=10, stop=45_000))) == 1

@@ -68,6 +68,7 @@ _LAZY = {
     "Trip": "pipeline.watch",
     "StickSlip": "analyses.stickslip",
     "steady_state": "analyses.steady",
+    "steady_states": "analyses.steady",
     "SteadyState": "analyses.steady",
     "Plan": "pipeline.plan",
     "make_plan": "pipeline.plan",
@@ -129,6 +130,7 @@ __all__ = [
     "NonFiniteError",
     "OutputError",
     "steady_state",
+    "steady_states",
     "SteadyState",
 ]
 

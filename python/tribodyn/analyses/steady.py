@@ -54,7 +54,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from ..results import Results
 
-__all__ = ["DELTA", "MODELS", "VERDICTS", "SteadyState", "fit_steady", "steady_series", "steady_state"]
+__all__ = ["DELTA", "MODELS", "VERDICTS", "SteadyState", "fit_steady", "steady_series", "steady_state", "steady_states"]
 
 #: Share of the transient left at t_steady (docs/method.md 6h).
 DELTA = 0.02
@@ -258,6 +258,40 @@ def steady_state(res: "Results", *, n_boot: int = N_BOOT, seed: int = 0) -> Stea
     """
     t, v, t0, method, what = steady_series(res)
     return fit_steady(t, v, t0=t0, n_boot=n_boot, seed=seed, method=method, series=what)
+
+
+def steady_states(res: "Results", *, n_boot: int = N_BOOT, seed: int = 0) -> Tuple[SteadyState, ...]:
+    """One running-in per test or step of a recording that holds several (docs/method.md 6h).
+
+    A recording of separate acquisitions (a file whose time restarts at each test, a multi-step export's
+    steps, LVM segments: the table's ``acquisition`` column) gets :func:`steady_state`'s fit for each, from
+    its own first window (t0) on; a recording of one acquisition (or of strokes, whose acquisitions are
+    strokes) gets its one fit. Each fit's ``series`` names its acquisition.
+    """
+    t, v, t0, method, what = steady_series(res)
+    spans = _acquisition_spans(res)
+    if method == "per-stroke" or res.params.get("rectified") or len(spans) < 2:
+        return (fit_steady(t, v, t0=t0, n_boot=n_boot, seed=seed, method=method, series=what),)
+    starts = np.array([a for _, a, _ in spans])
+    where = np.searchsorted(starts, t, side="right") - 1
+    out = []
+    for k, (acq, a, _b) in enumerate(spans):
+        sel = where == k
+        out.append(fit_steady(t[sel], v[sel], t0=a, n_boot=n_boot, seed=seed, method=method,
+                              series=f"{what}, acquisition {acq}"))  # fmt: skip
+    return tuple(out)
+
+
+def _acquisition_spans(res: "Results") -> List[Tuple[int, float, float]]:
+    """(acquisition, first window's start, last window's end) of each acquisition in the table, in time order."""
+    table = res.table
+    if "acquisition" not in table or not len(table["acquisition"]):
+        return []
+    acq = np.asarray(table["acquisition"], dtype=np.int64)
+    t_start = np.asarray(table.get("t_start", table["time"]), dtype=float)
+    t_end = t_start + float(res.params.get("window", 0.0) or 0.0)
+    spans = [(int(a), float(t_start[acq == a].min()), float(t_end[acq == a].max())) for a in np.unique(acq)]
+    return sorted(spans, key=lambda s: s[1])
 
 
 # -- the fit ----------------------------------------------------------------------------
