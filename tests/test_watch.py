@@ -478,3 +478,16 @@ def test_a_rewritten_header_is_an_error(tmp_path: Path) -> None:
         fh.write(data[60_000:])
     with pytest.raises(RecordingError, match="header was rewritten"):
         f.poll()
+
+
+def test_the_reason_for_waiting_is_told_once_each_time_it_changes(tmp_path: Path) -> None:
+    path = tmp_path / "later.csv"
+    data = _csv_bytes(8_000)
+    w = _Writer(path, [b"", b"", data[:70_000], b"", data[70_000:]], 1.0)
+    watch = td.watch(path, interval=1.0, until_idle=3.0, clock=w.clock, sleep=w.sleep, final=False, **OPTS)
+    events: List[str] = []
+    watch.on_wait = events.append
+    for _ in watch:
+        events.append("<snapshot>")
+    assert events[0] == "the file does not exist yet" and "<snapshot>" in events
+    assert all(a != b for a, b in zip(events, events[1:]) if a != "<snapshot>")  # once while it lasts

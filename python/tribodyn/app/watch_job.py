@@ -88,6 +88,7 @@ def run_watch(ns: argparse.Namespace, open_opts: Dict[str, Any], opts: Dict[str,
         w = watch(ns.file, interval=ns.interval, until_idle=ns.until_idle, trips=rules, final=False,
                   open_options=open_opts, **analysis)  # fmt: skip
         line = _Line(quiet=ns.quiet)
+        w.on_wait = lambda why: line.show(f"waiting: {why}")  # the file not there yet, no new data...
         overwrite = ns.overwrite
         t_start = time.time()
         try:

@@ -185,6 +185,10 @@ class Watch:
         self.latest: Optional[Results] = None
         self.notes: List[str] = []
         self._stop = False
+        #: Called with why nothing new was analysed at an update (the file missing, a row being written, no
+        #: new data), each time that reason changes: the command line shows it.
+        self.on_wait: Optional[Callable[[str], Any]] = None
+        self._waiting = ""
 
     def _usable(self, rec: Recording) -> str:
         """Why the first opening cannot be analysed yet ('' when it can): a writer that has not yet created
@@ -212,7 +216,11 @@ class Watch:
             while True:
                 snap = self.update()
                 if snap is not None:
+                    self._waiting = ""
                     yield snap
+                elif self.on_wait is not None and self.follower.waiting and self.follower.waiting != self._waiting:
+                    self._waiting = self.follower.waiting
+                    self.on_wait(self._waiting)
                 if self.reason:
                     break
                 self._sleep(self.interval)
