@@ -30,7 +30,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Dict, Optional, Tuple
 
-__all__ = ["Option", "OPTIONS", "option", "defaults", "plan_options"]
+__all__ = ["Option", "OPTIONS", "TARE_MODES", "option", "defaults", "plan_options"]
 
 
 @dataclass(frozen=True)
@@ -85,6 +85,11 @@ class Option:
 
 
 _NUMBER, _INTEGER, _TEXT = "a number", "an integer", "a string"
+
+
+#: The tare's modes by name (docs/method.md 6a): "auto" is the default (None); ``tare=`` also takes seconds and
+#: offsets.
+TARE_MODES = ("auto", "start", "none")
 
 
 def _opt(*, name: str, default: Any, kind: str, unit: str, section: str, doc: str, flag: Optional[str] = None,

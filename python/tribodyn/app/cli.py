@@ -144,7 +144,9 @@ def _pair(text: str) -> Any:
 
 
 def _tare(text: str) -> Any:
-    if text.strip().lower() in ("auto", "start", "none"):
+    from ..options import TARE_MODES
+
+    if text.strip().lower() in TARE_MODES:
         return text.strip().lower()
     try:
         return float(text)
@@ -465,6 +467,8 @@ def _plain_config_value(expected: str, v: Any, is_int: bool) -> Any:
 
 def _option_config_value(key: str, v: Any, is_int: bool) -> Any:
     """The value of one of the options whose value is more than a number or a string, converted, or :data:`_BAD`."""
+    from ..options import TARE_MODES
+
     if key == "orientation":
         if v == "auto" or (is_int and v in (1, -1)):
             return v
@@ -488,7 +492,7 @@ def _option_config_value(key: str, v: Any, is_int: bool) -> Any:
             return float(v)
         if isinstance(v, dict) and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v.values()):
             return {str(k): float(x) for k, x in v.items()}
-        if isinstance(v, str) and v.strip().lower() in ("auto", "start", "none"):
+        if isinstance(v, str) and v.strip().lower() in TARE_MODES:
             return v.strip().lower()
         return _BAD
     # deadband

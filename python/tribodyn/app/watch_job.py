@@ -28,7 +28,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..pipeline.watch import Watch, parse_trip, watch
+from ..pipeline.watch import Watch, cof_column, parse_trip, watch
 from ..results import Results, verdict_text
 from .outputs import MARKER, OutputSet, write_json
 
@@ -90,11 +90,10 @@ def run_watch(ns: argparse.Namespace, open_opts: Dict[str, Any], opts: Dict[str,
         line = _Line(quiet=ns.quiet)
         w.on_wait = lambda why: line.show(f"waiting: {why}")  # the file not there yet, no new data...
         overwrite = ns.overwrite
-        t_start = time.time()
         try:
             for snap in w:
                 line.show(_headline_text(snap, w))
-                _publish_live(ns.out, snap, w, overwrite=overwrite, protect=[ns.file, *protect], started=t_start)
+                _publish_live(ns.out, snap, w, overwrite=overwrite, protect=[ns.file, *protect])
                 overwrite = False  # the folder now holds our set
         finally:
             line.end()
@@ -170,8 +169,7 @@ def _headline_text(res: Results, w: Watch) -> str:
             f"{len(res)} windows{final}")  # fmt: skip
 
 
-def _publish_live(out: str, res: Results, w: Watch, *, overwrite: bool, protect: Sequence[str],
-                  started: float) -> None:  # fmt: skip
+def _publish_live(out: str, res: Results, w: Watch, *, overwrite: bool, protect: Sequence[str]) -> None:
     """summary.json and live.html of this update, replacing --out as one set."""
     now = time.time()
     info = _watch_info(w, now)
@@ -252,8 +250,7 @@ def live_page(res: Results, w: Watch, info: Dict[str, Any], *, interval: float) 
     h = res.headline
     name = html.escape(Path(w.path).name)
     limits = [(r.limit, r.text) for r in w.rules if r.quantity == "cof"]
-    col = {"dynamic": "mu_r", "classical": "mu_classical", "per-stroke": "mu_classical",
-           "instrument": "mu_instrument"}.get(h.method, "mu_r")  # fmt: skip
+    col = cof_column(h.method)
     t = np.asarray(res["time"], dtype=float)
     mu = np.abs(np.asarray(res[col], dtype=float))
     ok = np.asarray(res["ok"], dtype=bool) if h.method == "dynamic" else np.ones(len(t), dtype=bool)

@@ -240,8 +240,7 @@ class _TextTail:
         first = self.line + 1
         self.cps += [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["checkpoints"] if int(r) < rows]
         self.marks += [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["marks"] if int(r) < rows]
-        if not any(s == n0 for s, _, _ in self.cps[-4:]):
-            self.cps.append((n0, self.end, first))
+        self.cps.append((n0, self.end, first))  # (Checkpoints keeps one entry a sample: the earliest offset)
         n = n0 + rows
         rec._checkpoints = Checkpoints(self.cps, n, self.marks)
         rec._n = n

@@ -25,6 +25,7 @@ from ..kernels._validate import check_bins, check_fs, check_gate, check_int, pos
 from ..kernels.deadband import Deadband, parse_deadband
 from ..kernels.threads import resolve_threads
 from ..kernels.uncertainty import Inputs, parse_inputs
+from ..options import TARE_MODES
 from .covariates import TimeLog, as_log, constant_or_log
 
 if TYPE_CHECKING:
@@ -418,8 +419,6 @@ def _min_fn(value: Any, opt: "Option") -> Optional[float]:
 
 
 _TARE_TYPES = "tare must be 'auto', 'start', 'none', seconds (a number) or a mapping {'fy': N, 'fz': N} of offsets"
-#: The tare's modes by name (docs/method.md 6a): "auto" is the default (None).
-TARE_MODES = ("auto", "start", "none")
 
 
 def _tare(tare: Any, opt: "Option") -> Any:

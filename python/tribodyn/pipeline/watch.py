@@ -33,7 +33,7 @@ from .plan import make_plan
 from .routes import concat_stats
 from .stickslip import find_stick_slip
 
-__all__ = ["watch", "Watch", "TripRule", "Trip", "parse_trip", "TRIP_RULES", "DEFAULT_INTERVAL"]
+__all__ = ["watch", "Watch", "TripRule", "Trip", "parse_trip", "cof_column", "TRIP_RULES", "DEFAULT_INTERVAL"]
 
 #: Seconds between updates (``interval=``, ``--interval``).
 DEFAULT_INTERVAL = 2.0
@@ -117,6 +117,11 @@ def parse_trip(text: str) -> TripRule:
 #: The per-window COF column of each headline method (a trip compares it with the limit).
 _COF_COLUMN = {"dynamic": "mu_r", "classical": "mu_classical", "per-stroke": "mu_classical",
                "instrument": "mu_instrument"}  # fmt: skip
+
+
+def cof_column(method: str) -> str:
+    """The table's per-window COF of a headline method: what a trip compares and the live page plots."""
+    return _COF_COLUMN.get(method, "mu_r")
 
 
 class _TripState:
@@ -312,7 +317,7 @@ class Watch:
 
     def _values(self, snap: Results, rule: TripRule, k: int) -> Optional[np.ndarray]:
         if rule.quantity == "cof":
-            col = _COF_COLUMN.get(snap.headline.method, "mu_r")
+            col = cof_column(snap.headline.method)
             return np.asarray(np.abs(np.asarray(snap[col], dtype=float)[-k:]))
         if not snap.params.get("static_fz"):
             self._note(f"trip {rule.text!r} not checked: the recording has no static normal force (a dynamic "

@@ -51,7 +51,8 @@ def pooled(table: Mapping[str, np.ndarray]) -> Optional[Dict[str, Any]]:
     m = float(np.sum(w * mu[keep]) / np.sum(w))
     q = float(np.sum(w * (mu[keep] - m) ** 2))
     p = _chi2_sf(q, n - 1)
-    rel = float(np.median(1.96 * se[keep])) / abs(float(np.median(mu[keep]))) if np.median(mu[keep]) else float("inf")
+    centre = abs(float(np.median(mu[keep])))
+    rel = 1.96 * float(np.median(se[keep])) / centre if centre > 0 else float("inf")
     return {"mask": keep, "n": n, "p": p, "agree": bool(p >= POOL_P), "rel_half_width": rel}
 
 
