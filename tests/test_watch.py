@@ -491,3 +491,47 @@ def test_the_reason_for_waiting_is_told_once_each_time_it_changes(tmp_path: Path
         events.append("<snapshot>")
     assert events[0] == "the file does not exist yet" and "<snapshot>" in events
     assert all(a != b for a, b in zip(events, events[1:]) if a != "<snapshot>")  # once while it lasts
+
+
+def test_snapshot_intervals_between_bootstraps_are_the_last_one_moved(tmp_path: Path) -> None:
+    """docs/method.md 11: a snapshot draws the bootstrap again only when its gated windows grew by 10 %; in
+    between, its intervals are the last drawn, moved with the median and scaled: close to a fresh draw."""
+    import dataclasses
+
+    path = tmp_path / "run.csv"
+    rows = _csv_bytes(60_000).split(b"\n")
+    per = 1_500
+    pieces = [b"\n".join(rows[i : i + per]) + b"\n" for i in range(0, len(rows) - 1, per)]
+    w = _Writer(path, pieces, 1.0)
+    w.sleep(0.0)
+    opts = {"window": 0.5, "hop": 0.25}
+    snaps = list(td.watch(path, interval=1.0, until_idle=2.0, clock=w.clock, sleep=w.sleep, **opts))
+    moved = drawn = 0
+    for snap in snaps[:-1]:
+        gated = int(np.isfinite(np.asarray(snap["mu_r"])[np.asarray(snap["ok"], dtype=bool)]).sum())
+        lo, hi = snap.mu_r_ci["median"]
+        flo, fhi = dataclasses.replace(snap).mu_r_ci["median"]  # drawn afresh (no cached intervals)
+        at = snap.params["watch"]["intervals_drawn_at"]
+        assert at is not None and at <= gated < 1.1 * at
+        if at == gated:
+            drawn += 1
+            assert (lo, hi) == (flo, fhi)
+        else:
+            moved += 1
+            assert max(abs(lo - flo), abs(hi - fhi)) < 0.3 * (fhi - flo) / 2
+            assert snap.headline.low == lo and snap.headline.high == hi
+    assert moved >= 10 and drawn >= 5
+    _same_as_offline(path, snaps[-1], snaps[:-1], **opts)
+
+
+def test_the_lag_windows_held_by_a_recording() -> None:
+    """pipeline.instrument.lag_sample_held: the first SAMPLE_WINDOWS tiles, never across acquisitions."""
+    from tribodyn.pipeline.instrument import SAMPLE_WINDOWS, lag_sample_held
+
+    class Rec:
+        segments = [(0, 10 * SAMPLE_WINDOWS - 5), (10 * SAMPLE_WINDOWS - 5, 10**6)]
+
+    assert not lag_sample_held(Rec(), 10, 10 * SAMPLE_WINDOWS)  # the first acquisition holds 63 tiles
+    assert not lag_sample_held(Rec(), 10, 10 * SAMPLE_WINDOWS + 4)
+    assert lag_sample_held(Rec(), 10, 10 * SAMPLE_WINDOWS + 5)  # and the second its first
+    assert lag_sample_held(object(), 10, 10 * SAMPLE_WINDOWS) and not lag_sample_held(object(), 10, 639)

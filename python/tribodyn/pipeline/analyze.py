@@ -20,7 +20,7 @@ from __future__ import annotations
 import dataclasses
 import os
 from collections.abc import Mapping
-from typing import Any, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -52,6 +52,9 @@ from .stickslip import ReadingPass, find_stick_slip
 from .strokes import stroke_windows
 
 __all__ = ["analyze", "analyze_partial", "combine", "Partial"]
+
+#: A ``Results.mu_r_ci``: each statistic's 95 % interval (docs/method.md 3d).
+Intervals = Dict[str, Tuple[float, float]]
 
 
 def _is_recording(source: Any) -> bool:
@@ -332,19 +335,26 @@ class Partial:
 
 
 def analyze_partial(source: Any, plan: Optional[Plan] = None, *, reuse: Optional[Partial] = None,
-                    **options: Any) -> Partial:  # fmt: skip
+                    reuse_lag: Optional[Partial] = None, **options: Any) -> Partial:  # fmt: skip
     """:func:`analyze` up to the finishing step (same options; ``align`` must be None).
 
     ``reuse``: an earlier range of the same recording whose pre-pass findings and instrument lag this range
     takes as they are, without looking at the data again (a watched recording, docs/method.md 11).
+    ``reuse_lag``: an earlier range whose instrument lag this range takes while the pre-pass looks again: the
+    recording then held every window the lag is chosen from (``pipeline.instrument.lag_sample_held``).
     """
     if options.get("align") is not None or (plan is not None and plan.align is not None):
         raise ValueError("align='auto' needs the whole recording: analyse it in one piece, or pass the delay yourself")
-    return _analyze(source, plan, options, partial=True, reuse=reuse)  # type: ignore[return-value]
+    return _analyze(source, plan, options, partial=True, reuse=reuse, reuse_lag=reuse_lag)  # type: ignore[return-value]
 
 
-def combine(parts: Sequence[Partial]) -> Results:
-    """The ranges of one recording, in order, finished once (exactly the table of one pass over them)."""
+def combine(parts: Sequence[Partial], *, mu_r_ci: Optional[Callable[[Results], Optional[Intervals]]] = None) -> Results:
+    """The ranges of one recording, in order, finished once (exactly the table of one pass over them).
+
+    ``mu_r_ci``: called with the finished Results before its headline is chosen; the intervals it returns (a
+    ``Results.mu_r_ci`` dict) stand in for the bootstrap's, None lets the bootstrap run (a watched recording's
+    snapshot between two bootstraps, docs/method.md 11).
+    """
     if not parts:
         raise ValueError("no ranges to combine")
     st = concat_stats([dict(p.st) for p in parts])
@@ -359,11 +369,15 @@ def combine(parts: Sequence[Partial]) -> Results:
                               classical=ClassicalTotals.merge(totals) if totals else None)  # fmt: skip
     if len(parts) > 1:
         res.params.update(start=0, stop=None, ranges=len(parts))
+    given = mu_r_ci(res) if mu_r_ci is not None else None
+    if given is not None:
+        res.__dict__["mu_r_ci"] = dict(given)  # the cached property's value (settle keeps it)
     return settle(res)
 
 
 def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial: bool,
-             reuse: Optional[Partial] = None) -> Union[Results, Partial]:  # fmt: skip
+             reuse: Optional[Partial] = None, *,
+             reuse_lag: Optional[Partial] = None) -> Union[Results, Partial]:  # fmt: skip
     """:func:`_analyze_body` with the call's thread count for the readers' native parses (text files)."""
     if plan is not None and not isinstance(plan, Plan):
         raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
@@ -372,7 +386,7 @@ def _analyze(source: Any, plan: Optional[Plan], options: Dict[str, Any], partial
     except (TypeError, ValueError):
         n = None  # the plan says why
     with reading(n):
-        return _analyze_body(source, plan, options, partial, reuse)
+        return _analyze_body(source, plan, options, partial, reuse, reuse_lag=reuse_lag)
 
 
 def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[RecordingProtocol], Any]:
@@ -452,9 +466,10 @@ def _check_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> N
 
 
 def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], partial: bool,
-                  reuse: Optional[Partial] = None) -> Union[Results, Partial]:  # fmt: skip
+                  reuse: Optional[Partial] = None, *,
+                  reuse_lag: Optional[Partial] = None) -> Union[Results, Partial]:  # fmt: skip
     """:func:`analyze`'s body: ``options`` are its keyword arguments (without ``plan``); ``reuse``: an earlier
-    range whose findings this one takes (:func:`analyze_partial`)."""
+    range whose findings this one takes, ``reuse_lag`` one whose lag it takes (:func:`analyze_partial`)."""
     from_cof = _cof_only(source)  # before _as_source derives fy from the COF (docs/method.md 6a)
     source, rec, fs = _as_source(source, options)
     plan = _plan_of(given, fs, rec, options)
@@ -463,7 +478,8 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
         pre, found = reuse.pre, reuse.found
     else:
         pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
-        found = Findings(classical=pre.get("spec"), iv_lag=find_lag(source, rec, plan, pre, partial))  # method.md 3b
+        lag = find_lag(source, rec, plan, pre, partial, earlier=reuse_lag.found if reuse_lag is not None else None)
+        found = Findings(classical=pre.get("spec"), iv_lag=lag)  # docs/method.md 3b
     tribo = _tribometer_params(rec, pre, plan.window_note)
     if from_cof:  # the headline is the instrument's own COF (docs/method.md 6e)
         tribo["friction_from"] = "cof"

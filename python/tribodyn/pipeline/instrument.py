@@ -15,7 +15,16 @@ from typing import Any, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["STRONG", "AGREE_T", "SAMPLE_WINDOWS", "LagProfile", "lag_profile", "choose_lag", "sample_windows"]
+__all__ = [
+    "STRONG",
+    "AGREE_T",
+    "SAMPLE_WINDOWS",
+    "LagProfile",
+    "lag_profile",
+    "choose_lag",
+    "sample_windows",
+    "lag_sample_held",
+]
 
 #: The instrument is strong at a lag where the median over windows of |r(w, fz)| is at least this.
 STRONG = 0.5
@@ -154,6 +163,15 @@ def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: 
     return out
 
 
+def lag_sample_held(rec: Any, length: int, n: int) -> bool:
+    """Whether the first ``n`` samples of ``rec`` hold every window :func:`find_lag` reads from a recording's
+    start (``whole``; :data:`SAMPLE_WINDOWS` tiles of ``length``): the lag chosen from them stays the same as the
+    recording grows (docs/method.md 11)."""
+    segs = getattr(rec, "segments", None) or [(0, n)]
+    held = [(a, min(b, n)) for a, b in segs if a < n]
+    return len(_spread(held, length, SAMPLE_WINDOWS)) >= SAMPLE_WINDOWS
+
+
 def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[Tuple[int, int]]:
     """The first ``limit`` ranges of ``length`` samples tiling the (start, stop) bounds.
 
@@ -165,18 +183,23 @@ def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[
     return list(itertools.islice(tiles, limit))
 
 
-def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bool = False) -> Optional[int]:
+def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bool = False, *,
+             earlier: Any = None) -> Optional[int]:  # fmt: skip
     """:func:`choose_lag` on :func:`sample_windows` of the analysed samples, when the plan leaves the lag to the data.
 
     ``whole``: from the recording's first windows, not the plan's range
     (the ranges of one recording, :func:`tribodyn.analyze_partial`, then share
     one lag with the analysis of the whole). None (the plan's default lag) with ``method="paper"``, a given ``iv_lag``
-    or ``rpm``, a reciprocating test, a one-pass stream or no valid lag.
+    or ``rpm``, a reciprocating test, a one-pass stream or no valid lag. ``earlier``: the findings
+    (``Findings``) of a look at the same first windows (``whole``) of a growing recording that held them all
+    then (:func:`lag_sample_held`): their lag, the windows not read again (docs/method.md 11).
     """
     from ..kernels.estimators import WEAK_INSTRUMENT
 
     if plan.paper or not plan.iv_lag_from_data or pre.get("motion") == "reciprocating":
         return None
+    if earlier is not None and whole:
+        return None if earlier.iv_lag is None else int(earlier.iv_lag)
     n = int(plan.length)
     if rec is not None and not whole:
         windows = sample_windows(source, rec, n, start=plan.start, stop=plan.stop)

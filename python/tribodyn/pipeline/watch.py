@@ -28,7 +28,8 @@ import numpy as np
 from ..io.base import Recording
 from ..io.follow import Follower
 from ..results import ClassicalTotals, Results
-from .analyze import Partial, analyze, analyze_partial, combine
+from .analyze import Intervals, Partial, analyze, analyze_partial, combine
+from .instrument import lag_sample_held
 from .plan import make_plan
 from .routes import concat_stats
 from .stickslip import find_stick_slip
@@ -39,6 +40,10 @@ __all__ = ["watch", "Watch", "TripRule", "Trip", "parse_trip", "cof_column", "TR
 DEFAULT_INTERVAL = 2.0
 #: The stick-slip rule looks at the last this many seconds of samples at each update (at least 4 windows).
 STICK_SLIP_SPAN_S = 30.0
+#: A snapshot's bootstrap intervals (docs/method.md 3d) are drawn again once its gated windows have grown by this
+#: share since they were drawn; in between, each is the last drawn, moved with its statistic, its ends' distances
+#: scaled by sqrt(n_then / n_now) (docs/method.md 11).
+REDRAW_GROWTH = 0.1
 
 #: The rules a trip may name, with what each compares (docs/method.md 11).
 TRIP_RULES = {
@@ -183,6 +188,8 @@ class Watch:
         self._found: Optional[Partial] = None  # the range whose findings the next ranges take
         self._found_at = 0  # the samples seen when they were found
         self._grid: Optional[Tuple[int, int]] = None
+        self._drawn: Optional[_Drawn] = None  # the last bootstrap of a snapshot's mu_r
+        self._draw = False  # whether this update's snapshot draws its intervals
         self.tripped: Optional[Trip] = None
         self.reason = ""
         self.updates = 0
@@ -280,19 +287,36 @@ class Watch:
         start, stop = self._done * step, (upto - 1) * step + length
         # What the pre-pass finds (tare, contact, motion) and the instrument lag are looked for again each time
         # the recording has doubled since they were found, else taken from that range (docs/method.md 11).
+        # The lag's windows are the recording's first ones: once they were all there, it is not looked for again.
         fresh = self._found_at == 0 or n >= 2 * self._found_at
-        part = analyze_partial(rec, start=start, stop=stop, reuse=None if fresh else self._found, **self.options)
+        held = fresh and self._found is not None and lag_sample_held(rec, length, self._found_at)
+        part = analyze_partial(rec, start=start, stop=stop, reuse=None if fresh else self._found,
+                               reuse_lag=self._found if held else None, **self.options)  # fmt: skip
         if fresh:
             self._found, self._found_at = part, n
         self._acc = part if self._acc is None else _join(self._acc, part)
         self._ranges += 1
         self._done = upto
-        snap = combine([self._acc])
+        self._draw = False
+        snap = combine([self._acc], mu_r_ci=self._intervals)
         if self._ranges > 1:
             snap.params.update(start=0, stop=None, ranges=self._ranges)
-        snap.params["watch"] = {"samples": n, "final": False, "updates": self.updates + 1,
-                                "samples_analysed": stop}  # fmt: skip
+        drawn = self._drawn
+        if self._draw:
+            drawn = self._drawn = _Drawn.of(snap)
+        snap.params["watch"] = {"samples": n, "final": False, "updates": self.updates + 1, "samples_analysed": stop,
+                                "intervals_drawn_at": drawn.n if drawn is not None else None}  # fmt: skip
         return snap
+
+    def _intervals(self, res: Results) -> Optional[Intervals]:
+        """The snapshot's mu_r intervals from the last bootstrap, moved and scaled (docs/method.md 11); None when
+        it is time to draw them again (the windows grew by REDRAW_GROWTH or fell, or none was drawn)."""
+        d = self._drawn
+        n = _Drawn.gated(res).size
+        if d is None or not (d.n <= n < (1.0 + REDRAW_GROWTH) * d.n):
+            self._draw = True
+            return None
+        return d.moved(res)
 
     def _check_trips(self, snap: Results) -> None:
         if self.tripped is not None:
@@ -370,6 +394,50 @@ class Watch:
         res.params["watch"] = {"samples": res.params.get("n_samples_total"), "final": True,
                                "updates": self.updates, "reason": self.reason}  # fmt: skip
         return res
+
+
+@dataclass(frozen=True)
+class _Drawn:
+    """A snapshot's bootstrap intervals of mu_r (``Results.mu_r_ci``), with the statistics and window count they
+    were drawn at."""
+
+    n: int
+    points: Dict[str, float]
+    ci: Dict[str, Tuple[float, float]]
+    gap: float  # the upper ends' raise to the reverse regression (least squares as a lower bound, method.md 3d)
+
+    @staticmethod
+    def gated(res: Results) -> np.ndarray:
+        mu = np.asarray(res["mu_r"], dtype=float)[np.asarray(res["ok"], dtype=bool)]
+        return np.asarray(mu[np.isfinite(mu)])
+
+    @staticmethod
+    def statistics(v: np.ndarray) -> Dict[str, float]:
+        """The statistics whose intervals ``bootstrap_ci`` draws: median, mean, p05, p95."""
+        if v.size == 0:
+            return {}
+        q = np.percentile(v, [5, 95])
+        return {"median": float(np.median(v)), "mean": float(v.mean()), "p05": float(q[0]), "p95": float(q[1])}
+
+    @staticmethod
+    def raise_of(res: Results) -> float:
+        gap = res.params.get("attenuation_gap")
+        lower = res.params.get("mu_r_bound") == "lower" and isinstance(gap, (int, float)) and math.isfinite(gap)
+        return float(gap) if lower and isinstance(gap, (int, float)) else 0.0
+
+    @classmethod
+    def of(cls, res: Results) -> "_Drawn":
+        v = cls.gated(res)
+        return cls(int(v.size), cls.statistics(v), dict(res.mu_r_ci), cls.raise_of(res))
+
+    def moved(self, res: Results) -> Intervals:
+        """Each interval moved with its statistic, the distances of its ends scaled by sqrt(n_then / n_now) (the
+        upper ends' raise to the reverse regression, when there is one, that of the snapshot)."""
+        v = self.gated(res)
+        now, p, up = self.statistics(v), self.points, self.raise_of(res)
+        f = math.sqrt(self.n / v.size) if v.size else 1.0
+        return {k: (now[k] + f * (lo - p[k]), now[k] + f * (hi - self.gap - p[k]) + up)
+                for k, (lo, hi) in self.ci.items() if k in now and k in p}  # fmt: skip
 
 
 def _join(a: Partial, b: Partial) -> Partial:
