@@ -311,32 +311,38 @@ def test_simulator_options_keep_the_defaults_unchanged():
 
 def _contact_loss_loop(stats, j):
     """contact_loss_mask's history rule as first written, window by window (the reference of the vectorised
-    one), on the same per-window criteria."""
-    from tribodyn.kernels.contact_loss import COF_JUMP, HISTORY, criteria
+    one), on the same per-window criteria; with issue 35's rule, a jump at another current than the history's
+    is a current step. Returns (contact loss, current step)."""
+    from tribodyn.kernels.contact_loss import COF_JUMP, HISTORY, STEP, criteria
 
     crit = criteria(stats, j)
     if crit is None:
-        return np.zeros(len(j), dtype=bool)
+        return np.zeros(len(j), dtype=bool), np.zeros(len(j), dtype=bool)
     high, collapse, spread, lasting = crit
     mu = np.asarray(stats["mu_r"], dtype=float)
     out = np.zeros(len(j), dtype=bool)
+    step = np.zeros(len(j), dtype=bool)
+    level = STEP * np.nanmax(np.abs(j))
     history = []
     for k in range(len(j)):
-        jump = False
+        jump = moved = False
         if lasting[k] and np.isfinite(mu[k]) and history:
-            ref = float(np.median(history[-HISTORY:]))
+            ref = float(np.median([m for m, _ in history[-HISTORY:]]))
             jump = abs(mu[k] - ref) > COF_JUMP * abs(ref)
-        out[k] = high[k] and (collapse[k] or jump)
-        if not out[k] and not collapse[k] and np.isfinite(mu[k]) and not spread[k]:
-            history.append(mu[k])
-    return out
+            js = [c for _, c in history[-HISTORY:] if np.isfinite(c)]
+            moved = bool(js) and abs(j[k] - float(np.median(js))) > level
+        out[k] = high[k] and (collapse[k] or (jump and not moved))
+        step[k] = high[k] and not collapse[k] and jump and moved
+        if not out[k] and not step[k] and not collapse[k] and np.isfinite(mu[k]) and not spread[k]:
+            history.append((mu[k], j[k]))
+    return out, step
 
 
 def test_contact_loss_mask_flags_what_the_window_by_window_rule_flags():
-    from tribodyn.kernels.contact_loss import contact_loss_mask
+    from tribodyn.kernels.contact_loss import classify, contact_loss_mask
 
     rng = np.random.default_rng(7)
-    flagged = 0
+    flagged = stepped = 0
     for _ in range(500):
         n = int(rng.integers(0, 120))
         c = rng.uniform(0, 1, n) * np.where(rng.random(n) < 0.2, 0.3, 1.0)
@@ -344,7 +350,9 @@ def test_contact_loss_mask_flags_what_the_window_by_window_rule_flags():
         mu = np.where(rng.random(n) < 0.05, np.nan, 0.2 + rng.normal(0, 0.05, n))
         j = np.where(rng.random(n) < 0.05, np.nan, rng.uniform(0, 10, n))
         stats = {"c_yz": c, "mu_r": mu, "mu_r_stderr": se}
-        want = _contact_loss_loop(stats, j)
+        want, step = _contact_loss_loop(stats, j)
         np.testing.assert_array_equal(contact_loss_mask(stats, j), want)
+        np.testing.assert_array_equal(classify(stats, j)[1], step)
         flagged += int(want.sum())
-    assert flagged > 1000  # the cases flag windows, by collapse and by jumps
+        stepped += int(step.sum())
+    assert flagged > 1000 and stepped > 100  # the cases flag windows, by collapse and by jumps, and steps

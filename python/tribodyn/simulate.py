@@ -158,6 +158,7 @@ __all__ = [
     "PRELOAD_N",
     "RPM",
     "TEMPERATURE_PATH",
+    "T_RUNNING_IN_S",
     "TRUTH_DT",
     "Simulation",
     "Truth",
@@ -229,6 +230,8 @@ _T_W = 3.0
 _T_K_LO = 0.0045  # per degC below lo
 _T_K_HI = 0.0042  # per degC above hi
 _T_PLAY = 2.5  # half width of the play (hysteresis), degC
+#: Time constant (s) of the temperature test's optional running-in on its start plateau (issue 35).
+T_RUNNING_IN_S = 150.0
 
 # COF(J) model: monotone cubic (PCHIP) through these knots; flat on 4.25-4.75.
 _J_KNOTS = np.array([2.0, 3.0, 3.5, 4.0, 4.25, 4.75, 5.0, 5.5, 6.0, 6.5])
@@ -811,6 +814,7 @@ def temperature_test(
     skew: int = 0,
     raw: bool = False,
     model: str = "bathtub",
+    running_in: float = 0.0,
 ) -> Simulation:
     """The paper's temperature test (Sec. 4.1, Fig. 10-11): 4060 s.
 
@@ -842,6 +846,12 @@ def temperature_test(
         "bathtub" (default): the COF above. "flat": a COF of 0.1 that does
         not depend on the temperature (the same path and log; for false
         optima, issue 23); ``truth.optimum`` is then empty.
+    running_in : float
+        A running-in on the 155 degC start plateau (issue 35): the COF
+        starts ``running_in`` (relative, >= 0) above its value and decays
+        exponentially with a time constant of :data:`T_RUNNING_IN_S` (150 s; 2 %
+        of it left at 590 s, well before the heating starts at 1000 s). Default 0:
+        none. ``truth.params["running_in_end_s"]`` is that 2 % time (0 without).
 
     Returns
     -------
@@ -860,6 +870,10 @@ def temperature_test(
     if model not in ("bathtub", "flat"):
         raise ValueError(f"model must be 'bathtub' or 'flat', got {model!r}")
     mu = _mu_of_temperature(temp, t_up) if model == "bathtub" else np.full(tg.shape, _T_MU_MIN)
+    if not (isinstance(running_in, (int, float)) and 0.0 <= running_in < 10.0):
+        raise ValueError(f"running_in must be in [0, 10), got {running_in!r}")
+    if running_in:
+        mu = mu * (1.0 + running_in * np.exp(-tg / T_RUNNING_IN_S))
     opts = _ScenarioOptions(seed, fs, orientation, force_dependence, skew, raw)
     channels = _record_scenario(tg, mu, duration, opts)
 
@@ -902,6 +916,8 @@ def temperature_test(
             "temperature_path": TEMPERATURE_PATH,
             "hysteresis_play_degC": _T_PLAY,
             "upper_edge_temperature": t_up,
+            "running_in": float(running_in),
+            "running_in_end_s": T_RUNNING_IN_S * math.log(50.0) if running_in else 0.0,
         },
     )
     return Simulation(

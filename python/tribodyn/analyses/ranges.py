@@ -506,20 +506,26 @@ def _pct(v: np.ndarray) -> Optional[Interval]:
 MAX_INFLATION = 10.0
 
 
-def _profile_scale(x: np.ndarray, y: np.ndarray, w: np.ndarray, f: CurvedFit) -> float:
-    """Residual variance of the curved fit times the autocorrelation inflation (1 + rho) / (1 - rho).
+def _profile_scale(x: np.ndarray, y: np.ndarray, w: np.ndarray, f: CurvedFit, overlap: float = 1.0) -> float:
+    """Residual variance of the curved fit times the windows' overlap and the autocorrelation inflation
+    (1 + rho) / (1 - rho).
 
-    rho is the lag-1 autocorrelation of the weighted residuals in time order
-    (neighbouring windows share a slow drift), the factor at least 1 and at
-    most :data:`MAX_INFLATION`; the fit's parameters: m and, per wall, a, b,
-    w, c (docs/method.md 7).
+    Windows that share samples (``overlap`` = window / hop > 1) repeat each
+    residual that many times, so a residual sum grows ``overlap`` times faster
+    than its information; rho is the autocorrelation of the weighted
+    residuals in time order at a lag of one window (``overlap`` windows: the
+    nearest window sharing no sample; neighbouring windows share a slow
+    drift), the factor at least 1 and at most :data:`MAX_INFLATION`; the
+    fit's parameters: m and, per wall, a, b, w, c (docs/method.md 7).
     """
     r = np.sqrt(w) * (y - f.predict(x))
     p = 1 + 4 * ((f.family in ("lower", "both")) + (f.family in ("upper", "both")))
-    s2 = float(r @ r) / max(len(r) - p, 1)
-    rho = float(np.corrcoef(r[:-1], r[1:])[0, 1]) if len(r) > 3 and np.std(r) > 0 else 0.0
+    k = max(float(overlap), 1.0)
+    s2 = float(r @ r) / max(len(r) / k - p, 1.0) / k
+    lag = max(1, int(round(k)))
+    rho = float(np.corrcoef(r[:-lag], r[lag:])[0, 1]) if len(r) > lag + 3 and np.std(r) > 0 else 0.0
     rho = min(max(rho, 0.0), 0.99) if np.isfinite(rho) else 0.0
-    return s2 * min((1.0 + rho) / (1.0 - rho), MAX_INFLATION)
+    return k * s2 * min((1.0 + rho) / (1.0 - rho), MAX_INFLATION)
 
 
 def _hull(ci: Optional[Interval], prof: Any, rss_min: float, scale: float) -> Optional[Interval]:
@@ -575,6 +581,64 @@ def _curved(f: Fit) -> CurvedFit:
     return CurvedFit(f.family, f.m, f.a_lo, f.a_hi, f.b_lo, f.b_hi, f.rss)
 
 
+#: The windows' key in ``OperatingRange.excluded`` of a running-in on the start plateau (issue 35).
+RUNNING_IN = "running-in"
+
+
+def running_in_end(t: np.ndarray, x: np.ndarray, y: np.ndarray, resolution: float, overlap: float = 1.0) -> float:
+    """Where a running-in on the start plateau ends (s; -inf when there is none), docs/method.md 7.
+
+    The start plateau: the usable windows (``t`` their times, ``x`` covariate, ``y`` COF, in time order) from the
+    first up to the first whose covariate leaves the median of the first :data:`MIN_WINDOWS` by more than
+    ``resolution``; none when they all stay (the covariate is then constant) or fewer than :data:`MIN_WINDOWS`
+    independent windows are there. On one window per window length of it (``overlap``: windows sharing each sample,
+    so the answer does not depend on the hop), the running-in fit of docs/method.md 6h (flat, exponential or linear
+    transient, F-test at 1 % with the noise's autocorrelation): a transient ends at its t_steady, beyond which at
+    most 2 % of it is left. A COF that changes over time at one covariate is no wall: those windows stay out of the fit.
+    """
+    from .steady import MAX_POINTS, _average, _fit_rows, _grid, _shapes
+
+    if t.size < MIN_WINDOWS:
+        return -math.inf
+    x0 = float(np.median(x[:MIN_WINDOWS]))
+    away = np.flatnonzero(np.abs(x - x0) > resolution)
+    if not away.size:
+        return -math.inf
+    stride = max(1, int(round(overlap)))
+    tt, yy = t[: int(away[0]) : stride], y[: int(away[0]) : stride]
+    if tt.size < MIN_WINDOWS or not tt[-1] > tt[0]:
+        return -math.inf
+    if tt.size > MAX_POINTS:
+        tt, yy = _average(tt, yy, MAX_POINTS)
+    t0 = float(tt[0])
+    grid = _grid(tt, t0)
+    fit = _fit_rows(yy[None, :], tt, t0, grid, np.stack([_shapes(tt, t0, grid, 0), _shapes(tt, t0, grid, 1)]))
+    return float(fit.ts[0]) if int(fit.code[0]) else -math.inf
+
+
+def _without_running_in(
+    results: Results, cov: np.ndarray, mu: np.ndarray, usable_excluded: Tuple[np.ndarray, Dict[str, int]], *,
+    resolution: float, shared: float,
+) -> Tuple[np.ndarray, Dict[str, int]]:  # fmt: skip
+    """The usable windows less those of a running-in on the start plateau (:func:`running_in_end`), counted in
+    ``excluded`` as :data:`RUNNING_IN`."""
+    usable, excluded = usable_excluded
+    pos = np.flatnonzero(usable)
+    t = np.asarray(results["time"], dtype=float)
+    end = running_in_end(t[pos], cov[pos], mu[pos], resolution, shared) if pos.size else -math.inf
+    if end == -math.inf:
+        return usable, excluded
+    x0 = float(np.median(cov[pos[:MIN_WINDOWS]]))
+    away = np.flatnonzero(np.abs(cov[pos] - x0) > resolution)
+    plateau = pos[: int(away[0])] if away.size else pos
+    out = plateau[t[plateau] < end]
+    if not out.size:
+        return usable, excluded
+    usable = usable.copy()
+    usable[out] = False
+    return usable, {**excluded, RUNNING_IN: int(out.size)}
+
+
 def _excluded(
     results: Results, by: str, cov: np.ndarray, fitted: _FittedCof, nonpositive: Optional[np.ndarray] = None
 ) -> Tuple[np.ndarray, Dict[str, int]]:
@@ -604,12 +668,14 @@ def _excluded(
 @dataclass(frozen=True)
 class _FitContext:
     """What the fits of every branch share: the covariate, its resolution (fit units), the relative rise
-    that marks the onset and the covariate's reading noise (standard deviation, fit units)."""
+    that marks the onset, the covariate's reading noise (standard deviation, fit units) and how many windows share
+    each sample (:func:`overlap`)."""
 
     cv: Covariate
     resolution: float
     rise: float
     x_noise: float = 0.0
+    overlap: float = 1.0
 
 
 def _explain(verdict: str, f: CurvedFit, sel: Optional[Selection], ctx: _FitContext, *, n: int, rng: Interval) -> str:
@@ -687,7 +753,7 @@ def _branch_fit_units(
     if n < MIN_WINDOWS or not (rng[1] - rng[0] >= ctx.resolution):
         verdict = "too few windows" if n < MIN_WINDOWS else "covariate constant"
         return _unfitted_branch(name, verdict, y, se, rng=rng, grid=grid, explain=explain), {}
-    sel = fit_bathtub(x, y, se, alpha=ALPHA)
+    sel = fit_bathtub(x, y, se, alpha=ALPHA, overlap=ctx.overlap)
     f, sides, prof = _curved_walls(x, y, sel)
     draws, curves = _bootstrap(x, y, sel.weights, f, boot, sides=sides, grid=grid, rise=ctx.rise, x_max=rng[1])
     empty = np.full(len(grid), np.nan)
@@ -695,7 +761,8 @@ def _branch_fit_units(
         curves).any() else (empty, empty)  # fmt: skip
     has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
     verdict = _verdict_of(f)
-    lower_ci, upper_ci = _breakpoint_intervals(x, y, sel, f, draws, prof=prof, x_noise=ctx.x_noise)
+    lower_ci, upper_ci = _breakpoint_intervals(x, y, sel, f, draws, prof=prof, x_noise=ctx.x_noise,
+                                               overlap=ctx.overlap)  # fmt: skip
     on = _onset(f, ctx.rise, rng[1])
     onset_ci = _onset_interval(draws["onset"], rng[1]) if has_hi else None
     optimum, optimum_ci = _optimum(f, verdict, rng, lower_ci, upper_ci)
@@ -781,12 +848,12 @@ def _verdict_of(f: CurvedFit) -> str:
 
 def _breakpoint_intervals(
     x: np.ndarray, y: np.ndarray, sel: Selection, f: CurvedFit, draws: Dict[str, np.ndarray], *,
-    prof: Dict[str, Any], x_noise: float,
+    prof: Dict[str, Any], x_noise: float, overlap: float = 1.0,
 ) -> Tuple[Optional[Interval], Optional[Interval]]:  # fmt: skip
     """95 % intervals of the lower and upper breakpoints (None for an absent wall): the bootstrap's joined with the
     profile's, widened by the covariate's reading noise, out to the nearest tested covariates (docs/method.md 7)."""
     has_lo, has_hi = f.family in ("lower", "both"), f.family in ("upper", "both")
-    scale = _profile_scale(x, y, sel.weights, f) if prof else math.nan
+    scale = _profile_scale(x, y, sel.weights, f, overlap) if prof else math.nan
     lower_ci = _to_data(_widen(_hull(_pct(draws["b_lo"]), prof.get("lo"), f.rss, scale), f.b_lo, x_noise), x) \
         if has_lo else None  # fmt: skip
     upper_ci = _to_data(_widen(_hull(_pct(draws["b_hi"]), prof.get("hi"), f.rss, scale), f.b_hi, x_noise), x) \
@@ -868,6 +935,62 @@ def _onset_interval(onsets: np.ndarray, x_max: float) -> Optional[Interval]:
 ONSET_WINDOWS = 3
 
 
+def _spans(results: Results) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+    """Each window's start and end (s), from ``t_start`` and its samples ``n`` at the recording's rate; None when
+    the table lacks them."""
+    fs = results.params.get("fs")
+    if "t_start" not in results.table or "n" not in results.table or not isinstance(fs, (int, float)) or not fs > 0:
+        return None
+    start = np.asarray(results["t_start"], dtype=float)
+    return start, start + np.asarray(results["n"], dtype=float) / float(fs)
+
+
+def overlap(results: Results) -> float:
+    """How many windows share each sample: the windows' median length over the median step between their starts, at
+    least 1 (window / hop; 1 without the table's spans). Fits and intervals count ``n / overlap`` independent windows,
+    so that they depend on the recording, not on the hop (docs/method.md 7; issue 35)."""
+    spans = _spans(results)
+    if spans is None or len(spans[0]) < 2:
+        return 1.0
+    start, end = spans
+    step = np.diff(np.sort(start))
+    step = step[step > 0]
+    if not step.size:
+        return 1.0
+    k = float(np.median(end - start)) / float(np.median(step))
+    return max(k, 1.0) if np.isfinite(k) else 1.0
+
+
+def held(results: Results, cov: np.ndarray, resolution: float) -> np.ndarray:
+    """Windows that read a level the covariate held (docs/method.md 7): the windows overlapping one in time on its
+    earlier side, or those on its later side (itself with either), read the same covariate within ``resolution``.
+    A window that straddles a step of the covariate reads a mixture of two levels, unlike the windows overlapping it
+    on either side; at a hop shorter than the window there are more of them, which is why the instability onset is
+    read from held windows only (issue 35). Windows that overlap none (hop >= window) are all held, and so are those
+    without a finite covariate."""
+    n = len(cov)
+    out = np.ones(n, dtype=bool)
+    spans = _spans(results)
+    if spans is None or n < 2:
+        return out
+    start, end = spans
+    order = np.argsort(start, kind="stable")
+    s, e, c = start[order], end[order], np.asarray(cov, dtype=float)[order]
+    # Windows overlapping window k: those starting before its end and ending after its start (starts sorted).
+    first = np.searchsorted(np.maximum.accumulate(e), s, side="right")
+    last = np.searchsorted(s, e, side="left")
+    ok = np.ones(n, dtype=bool)
+
+    def same(v: np.ndarray) -> bool:
+        v = v[np.isfinite(v)]
+        return not v.size or float(v.max() - v.min()) <= resolution
+
+    for k in np.flatnonzero(np.isfinite(c) & (last - first > 1)):
+        ok[k] = same(c[first[k] : k + 1]) or same(c[k : last[k]])
+    out[order] = ok
+    return out
+
+
 def _instability(
     results: Results, cov: np.ndarray, resolution: float
 ) -> Tuple[Optional[float], Optional[Interval], Optional[float]]:
@@ -876,11 +999,11 @@ def _instability(
     Contact loss can change the covariate it is measured by (a burned-out
     contact conducts less, so the measured current falls): the onset is the
     highest covariate of the last :data:`ONSET_WINDOWS` windows without
-    contact loss before the first contact-loss window (in time), or that
-    window's own covariate when it is higher (contact loss only lowers the
-    measured current, so it bounds the set point from below), and its
-    interval runs from the highest covariate below it by more than the
-    resolution among the earlier windows without contact loss (the last
+    contact loss before the first contact-loss window (in time), or the highest covariate of the contact-loss
+    windows starting within one window of it when that is higher (contact loss only lowers the
+    measured current, so it bounds the set point from below; a window overlapping the first may read its level whole),
+    and its interval runs from the highest covariate below it by more than the
+    resolution among the earlier held windows (:func:`held`) without contact loss (the last
     level held without losing contact) up to it, each end widened by half
     the resolution (the covariate is a reading). The third value is the
     lowest covariate measured in a contact-loss window (docs/method.md 7).
@@ -894,9 +1017,17 @@ def _instability(
     before = np.flatnonzero(np.isfinite(cov[:first]) & ~lost[:first])
     if not before.size:
         return own, (own, own), own
-    # Contact loss only lowers the measured current: the first lost window's covariate bounds its set point below.
-    onset = max(float(cov[before[-ONSET_WINDOWS:]].max()), float(cov[first]))
-    lower = cov[before][cov[before] < onset - resolution]
+    spans = _spans(results)
+    lost_first = [first]
+    if spans is not None:
+        start, end = spans
+        lost_first = np.flatnonzero(lost & (start >= start[first]) & (start < end[first])).tolist() or [first]
+    # Contact loss only lowers the measured current: the first lost windows' covariate bounds its set point below.
+    onset = max(float(cov[before[-ONSET_WINDOWS:]].max()), float(cov[lost_first].max()))
+    # The last level held without losing contact: a window straddling a step reads a mixture (issue 35).
+    steady = before[held(results, cov, resolution)[before]]
+    steady = steady if steady.size else before
+    lower = cov[steady][cov[steady] < onset - resolution]
     low = float(lower.max()) if lower.size else onset
     # Both ends are readings of the covariate: half its resolution either way.
     return onset, (low - 0.5 * resolution, onset + 0.5 * resolution), own
@@ -1031,7 +1162,8 @@ def operating_range(
     seed : int
         Seed of the bootstrap (default 0: results repeat exactly).
     block : int, optional
-        Bootstrap block length in windows (default ``max(3, ceil(n^(1/3)))``).
+        Bootstrap block length in windows (default ``k max(3, ceil((n / k)^(1/3)))``, ``k`` = window / hop
+        when the windows overlap, else 1: the same stretch of time at every hop).
     log : bool, optional
         Fit on a log10 axis of the covariate (default: True for speed, a
         Stribeck curve spanning decades; False otherwise). Windows whose
@@ -1078,10 +1210,12 @@ def operating_range(
     if method == "binned":
         return _binned_range(curves, cv, branch=branch, n_windows=int(keep.sum()), common=common)
     usable, excluded = _excluded(results, by, cov, fitted, nonpositive)
+    shared = overlap(results)
+    usable, excluded = _without_running_in(results, cov, mu, (usable, excluded), resolution=resolution, shared=shared)
     pos = np.flatnonzero(usable)  # time order: the table's
-    boot = bootstrap_indices(len(pos), n_boot, seed, block) if len(pos) and n_boot else np.zeros((0, 0), int)
+    boot = bootstrap_indices(len(pos), n_boot, seed, block, shared) if len(pos) and n_boot else np.zeros((0, 0), int)
     x_noise = _reading_noise(results, by, pos)
-    ctx = _FitContext(cv, resolution, rise, x_noise)
+    ctx = _FitContext(cv, resolution, rise, x_noise, shared)
     fits, draws = _fit_branches(cov[pos], mu[pos], se[pos], br_all[pos], boot, ctx=ctx)
     hysteresis = None
     if "heating" in fits and "cooling" in fits:

@@ -18,12 +18,17 @@ weighted residuals of the best fit have unit variance (Paule-Mandel).
 Model choice by F-tests at level ``alpha`` (0.01): the covariate matters
 when the best wall model beats the flat fit, counting each breakpoint as a
 parameter (the search makes the plain F-test optimistic, hence the strict
-level); both walls are kept when they beat the best single wall.
+level); both walls are kept when they beat the best single wall. Windows
+that overlap (a hop shorter than the window: ``overlap`` = window / hop
+windows share each sample) are not independent: the F statistic is divided
+by ``overlap`` and its denominator has ``n / overlap - p`` degrees of
+freedom, so the choice depends on the recording, not on the hop (issue 35).
 
 Intervals: a moving-block bootstrap over time (blocks of consecutive
-windows, ``ceil(n^(1/3))`` long, at least 3), refitting the chosen family
-on each resample with the same weights; 95 % percentile intervals. The
-random generator is seeded (``seed``, default 0), so results repeat.
+windows, ``overlap * max(3, ceil((n / overlap)^(1/3)))`` long: the same
+stretch of time at every hop), refitting the chosen family on each resample
+with the same weights; 95 % percentile intervals. The random generator is
+seeded (``seed``, default 0), so results repeat.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from typing import Any, Callable, Dict, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["Fit", "fit_bathtub", "bootstrap_indices", "FAMILIES"]
+__all__ = ["Fit", "fit_bathtub", "bootstrap_indices", "block_length", "FAMILIES"]
 
 #: Model families: no wall, lower wall, upper wall, both.
 FAMILIES = ("flat", "lower", "upper", "both")
@@ -222,22 +227,30 @@ class Selection:
     fits: Dict[str, Any]
 
 
-def _f_p(rss0: float, rss1: float, df: int, dof: int) -> float:
+def _f_p(rss0: float, rss1: float, df: int, dof: int, overlap: float = 1.0) -> float:
+    """p-value of the F-test of ``df`` more parameters, the richer model leaving ``dof`` residual degrees of freedom
+    on the windows; the windows share their samples ``overlap`` times: the statistic is divided by it and referred to
+    ``dof / overlap`` degrees of freedom (docs/method.md 7)."""
+    k = max(float(overlap), 1.0)
     if not (np.isfinite(rss0) and np.isfinite(rss1)) or dof <= 0 or df <= 0:
         return 1.0
     if rss1 <= 0:
         return 0.0 if rss0 > rss1 else 1.0
-    f = ((rss0 - rss1) / df) / (rss1 / dof)
+    f = ((rss0 - rss1) / df) / (rss1 / dof) / k
     from scipy import stats as _stats  # lazy: slow to import
 
-    return float(_stats.f.sf(max(f, 0.0), df, dof))
+    return float(_stats.f.sf(max(f, 0.0), df, max(dof / k, 1.0)))
 
 
-def fit_bathtub(x: np.ndarray, y: np.ndarray, se: np.ndarray, *, min_wall: int = 3, alpha: float = 0.01) -> Selection:
+def fit_bathtub(
+    x: np.ndarray, y: np.ndarray, se: np.ndarray, *, min_wall: int = 3, alpha: float = 0.01, overlap: float = 1.0
+) -> Selection:
     """Fits the four families with weights 1 / (se^2 + tau^2) and chooses one (docs/method.md 7).
 
     ``tau^2`` is found for the two-wall model and then used for every
-    family, so their weighted residual sums compare on one scale.
+    family, so their weighted residual sums compare on one scale. ``overlap``:
+    how many windows share each sample (window / hop, at least 1), for the
+    F-tests.
     """
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -260,8 +273,8 @@ def fit_bathtub(x: np.ndarray, y: np.ndarray, se: np.ndarray, *, min_wall: int =
     n = len(x)
     one = min((fits["lower"], fits["upper"]), key=lambda f: f.rss)
     best_wall = fits["both"] if fits["both"].rss < one.rss else one
-    p_flat = _f_p(fits["flat"].rss, best_wall.rss, _NPAR[best_wall.family] - 1, n - _NPAR[best_wall.family])
-    p_both = _f_p(one.rss, fits["both"].rss, 2, n - 5) if np.isfinite(one.rss) else 0.0
+    p_flat = _f_p(fits["flat"].rss, best_wall.rss, _NPAR[best_wall.family] - 1, n - _NPAR[best_wall.family], overlap)
+    p_both = _f_p(one.rss, fits["both"].rss, 2, n - 5, overlap) if np.isfinite(one.rss) else 0.0
     if p_flat >= alpha or not np.isfinite(best_wall.rss):
         chosen = fits["flat"]
     elif np.isfinite(fits["both"].rss) and p_both < alpha:
@@ -271,13 +284,20 @@ def fit_bathtub(x: np.ndarray, y: np.ndarray, se: np.ndarray, *, min_wall: int =
     return Selection(chosen, w, tau2, p_flat, p_both, fits)
 
 
-def bootstrap_indices(n: int, n_boot: int, seed: int, block: Optional[int] = None) -> np.ndarray:
+def block_length(n: int, overlap: float = 1.0) -> int:
+    """The bootstrap's default block, in windows: ``overlap * max(3, ceil((n / overlap)^(1/3)))`` (rounded up), the
+    same stretch of time at every hop (docs/method.md 7)."""
+    k = max(float(overlap), 1.0)
+    return int(math.ceil(k * max(3, math.ceil((n / k) ** (1.0 / 3.0))) - 1e-9))
+
+
+def bootstrap_indices(n: int, n_boot: int, seed: int, block: Optional[int] = None, overlap: float = 1.0) -> np.ndarray:
     """Moving-block bootstrap resamples of ``n`` time-ordered windows, shape (n_boot, n) (docs/method.md 7).
 
-    Blocks of ``block`` consecutive windows (default ``max(3, ceil(n ** (1/3)))``)
-    start uniformly at random; the concatenation is cut to ``n``.
+    Blocks of ``block`` consecutive windows (default :func:`block_length`, ``max(3, ceil(n ** (1/3)))`` when the
+    windows do not overlap) start uniformly at random; the concatenation is cut to ``n``.
     """
-    L = max(3, math.ceil(n ** (1.0 / 3.0))) if block is None else int(block)
+    L = block_length(n, overlap) if block is None else int(block)
     L = max(1, min(L, n))
     k = math.ceil(n / L)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 13]))
