@@ -1,15 +1,27 @@
-"""The command line on a small tribometer export (issue 38 point 3): wall time of `tribodyn analyze` with its
-report, each run a fresh process, rounds interleaved with a baseline build.
+"""The command line with its report against the API (issue 38 point 3): wall and CPU time of whole processes,
+rounds interleaved with a baseline build.
 
-    python benches/bench_cli_export.py [--rounds 5] [--baseline PYTHONPATH] [FILE]
+    python benches/bench_cli_export.py [--rounds 5] [--baseline PYTHONPATH] [--data DIR] [--no-long]
 
-``--baseline`` is the ``python/`` folder of another checkout (its own ``_core``); the default file is the
-pin-on-disc export tests/data/real/pod_PPS_100N_1.tsv (0.17 MB, 1 Hz, 1800 rows).
+Cases (each run a fresh process; ``api``: ``python -c`` that imports tribodyn, opens the file, analyses it and
+reads the headline; ``cli``: ``python -m tribodyn analyze FILE --out DIR -q``):
+
+* ``small``: the pin-on-disc export tests/data/real/pod_PPS_100N_1.tsv (0.17 MB, 1800 rows): api, cli (default
+  figures), cli ``--figures none`` and cli ``--figures all`` (this build only: the baseline has no flag);
+* ``folder``: the exports of tests/data (:data:`FOLDER`, 8 files of 0.02-0.44 MB) as one ``tribodyn analyze
+  DIR/*`` against one process that analyses them one after the other with the API;
+* ``h10``: 10 h at 1 kHz, 4 channels ``.npy`` (1.15 GB, ``bench_fixed_costs.ensure_data`` in ``--data``), api
+  and cli (skipped with ``--no-long``).
+
+``--baseline`` is the ``python/`` folder of another checkout (its own ``_core``). Every process runs with the
+package's bytecode, as an installed package does (``PYTHONDONTWRITEBYTECODE`` is dropped from the children's
+environment and one run warms ``__pycache__`` first). CPU is user + system time of the process tree.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import shutil
 import statistics
@@ -18,38 +30,130 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any, Dict, List, Optional
 
 ROOT = Path(__file__).resolve().parents[1]
+SMALL = ROOT / "tests/data/real/pod_PPS_100N_1.tsv"
+#: The folder of exports: every text export of tests/data that analyses with default options.
+FOLDER = [
+    "real/pod_PPS_100N_1.tsv",
+    "real/pod_PPS_60N_1.tsv",
+    "real/cetr_umt2_HT-2n-6-4_2_001.csv",
+    "real/cetr_umt2_HT-2n-6-4_2_002.csv",
+    "formats/cof_only_pin_on_disc.csv",
+    "formats/drag_rotational.csv",
+    "formats/gram_force_ball_on_disc.csv",
+    "formats/load_step_reciprocating.csv",
+]
+
+WRAP = r"""
+import json, resource, subprocess, sys, time
+cmd = json.loads(sys.argv[1])
+t = time.perf_counter()
+p = subprocess.run(cmd, capture_output=True, text=True)
+wall = time.perf_counter() - t
+ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(json.dumps({"seconds": wall, "rc": p.returncode, "err": p.stderr[-2000:], "cpu": ru.ru_utime + ru.ru_stime}))
+"""
+
+API = (
+    "import sys, tribodyn as td\n"
+    "for p in sys.argv[1:]:\n"
+    "    kw = dict(fs=1000.0, names=['fx','fy','fz','i']) if p.endswith('.npy') else {}\n"
+    "    with td.open_recording(p, **kw) as rec:\n"
+    "        print(td.analyze(rec).headline)\n"
+)
 
 
-def main() -> None:
+def env_for(pythonpath: str) -> Dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPATH"] = pythonpath
+    return env
+
+
+def wrapped(cmd: List[str], pythonpath: str) -> Dict[str, Any]:
+    p = subprocess.run([sys.executable, "-c", WRAP, json.dumps(cmd)], capture_output=True, text=True,
+                       env=env_for(pythonpath), cwd=tempfile.gettempdir())  # fmt: skip
+    out = dict(json.loads(p.stdout.strip().splitlines()[-1]))
+    if out["rc"] not in (0, 3):  # 3: a file of a folder failed (the others' outputs are written)
+        raise RuntimeError(f"{cmd} failed: {out['err']}")
+    return out
+
+
+def cli(files: List[str], out: Path, *extra: str) -> List[str]:
+    cmd = [sys.executable, "-m", "tribodyn", "analyze", *files, "--out", str(out), "-q", "--overwrite", *extra]
+    if files[0].endswith(".npy"):
+        cmd += ["--fs", "1000", "--map", "fx=ch0,fy=ch1,fz=ch2,i=ch3"]
+    return cmd
+
+
+def cases(args: argparse.Namespace, builds: Dict[str, str], work: Path) -> Dict[str, Any]:
+    """name -> (build, command) of every measurement."""
+    folder = [str(ROOT / "tests/data" / f) for f in FOLDER]
+    small = str(args.file)
+    out: Dict[str, Any] = {}
+    for b in builds:
+        tag = b.replace(" ", "_")
+        out[f"{b}|api small"] = [sys.executable, "-c", API, small]
+        out[f"{b}|cli small"] = cli([small], work / f"{tag}-small")
+        out[f"{b}|api folder"] = [sys.executable, "-c", API, *folder]
+        out[f"{b}|cli folder"] = cli(folder, work / f"{tag}-folder")
+        if b == "this build":
+            for choice in ("none", "all"):
+                out[f"{b}|cli small --figures {choice}"] = cli(
+                    [small], work / f"{tag}-small-{choice}", "--figures", choice
+                )
+            out[f"{b}|cli folder --figures none"] = cli(folder, work / f"{tag}-folder-none", "--figures", "none")
+        if not args.no_long:
+            h10 = str(_h10(Path(args.data)))
+            out[f"{b}|api h10"] = [sys.executable, "-c", API, h10]
+            out[f"{b}|cli h10"] = cli([h10], work / f"{tag}-h10")
+    return out
+
+
+def _h10(data: Path) -> Path:
+    sys.path.insert(0, str(ROOT / "benches"))
+    from bench_fixed_costs import ensure_data  # type: ignore[import-not-found]
+
+    return Path(ensure_data(data)["h10"])
+
+
+def main(argv: Optional[List[str]] = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("file", nargs="?", default=str(ROOT / "tests/data/real/pod_PPS_100N_1.tsv"))
+    ap.add_argument("file", nargs="?", default=str(SMALL))
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--baseline", help="PYTHONPATH of a baseline build (its python/ folder)")
-    args = ap.parse_args()
+    ap.add_argument("--data", default=str(Path(tempfile.gettempdir()) / "perf"), help="folder of the 10 h file")
+    ap.add_argument("--no-long", action="store_true", help="leave out the 10 h recording")
+    args = ap.parse_args(argv)
     builds = {"this build": str(ROOT / "python")}
     if args.baseline:
         builds["baseline"] = args.baseline
-    times: dict = {k: [] for k in builds}
     work = Path(tempfile.mkdtemp(prefix="bench_cli_"))
     try:
+        todo = cases(args, builds, work)
+        for b, path in builds.items():  # bytecode of every module the cases import, written once
+            subprocess.run([sys.executable, "-c", "import tribodyn.app.jobs, tribodyn.app.cli, tribodyn.app.report, "
+                            "tribodyn.app.figures"], env=env_for(path), check=True)  # fmt: skip
+        load_before = os.getloadavg()
+        runs: Dict[str, List[Dict[str, Any]]] = {k: [] for k in todo}
         for r in range(args.rounds):
-            for name, path in builds.items():
-                out = work / f"{r}-{name.replace(' ', '_')}"
-                env = dict(os.environ, PYTHONPATH=path)
-                t = time.perf_counter()
-                p = subprocess.run([sys.executable, "-m", "tribodyn.app.cli", "analyze", args.file, "--out", str(out),
-                                    "-q"], env=env, capture_output=True, text=True)  # fmt: skip
-                times[name].append(time.perf_counter() - t)
-                if p.returncode != 0:
-                    raise SystemExit(f"{name}: exit {p.returncode}: {p.stderr[-500:]}")
+            for key, cmd in todo.items():
+                runs[key].append(wrapped(cmd, builds[key.split("|")[0]]))
+                print(f"round {r + 1} {key:40s} {runs[key][-1]['seconds']:.2f} s", file=sys.stderr)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    print(f"{Path(args.file).name}, {args.rounds} interleaved rounds, load average {os.getloadavg()}")
-    for name, v in times.items():
-        runs = ", ".join(f"{x:.2f}" for x in v)
-        print(f"| {name} | {statistics.median(v):.2f} s | {runs} |")
+    print(
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {args.rounds} interleaved rounds; load average "
+        f"before {tuple(round(x, 2) for x in load_before)}, after {tuple(round(x, 2) for x in os.getloadavg())}"
+    )
+    print("\n| case | build | median wall | median CPU | walls |\n|---|---|---|---|---|")
+    for key, v in runs.items():
+        b, case = key.split("|")
+        walls = [x["seconds"] for x in v]
+        cpu = statistics.median(x["cpu"] for x in v)
+        listed = ", ".join(f"{w:.2f}" for w in walls)
+        print(f"| {case} | {b} | {statistics.median(walls):.2f} s | {cpu:.2f} s | {listed} |")
 
 
 if __name__ == "__main__":

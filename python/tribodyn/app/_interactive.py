@@ -1,15 +1,27 @@
 """The interactive COF views of the report: Bokeh, embedded with its JavaScript inline (offline).
 
 Why Bokeh: a well-kept (NumFOCUS) BSD library whose core bundle, inlined,
-adds about 1.3 MB to ``report.html`` once, whatever the number of views
+adds about 1.4 MB to ``report.html`` once, whatever the number of views
 (plotly's offline bundle adds about 4.6 MB); pan, box zoom, wheel zoom and
 hover work without a server or a network. The static PNGs stay for print.
+
+The views are built by BokehJS in the browser, from the windows' numbers
+embedded in the page (float64 arrays in base64) and BokehJS's own plotting
+API (``bokeh-api.min.js``): Python never imports ``bokeh`` (its import and
+its document model cost about 2 s of CPU per command line on a 2-core
+machine, issue 38 point 3); the package's JavaScript files are read as they
+are installed.
 """
 
 from __future__ import annotations
 
+import base64
+import itertools
+import json
 from dataclasses import dataclass
-from typing import Any, List, Sequence, Tuple
+from importlib.util import find_spec
+from pathlib import Path
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -18,22 +30,86 @@ __all__ = ["bokeh_resources", "cof_views"]
 #: Most points drawn per series (evenly thinned above; the PNG figures show every window's band).
 MAX_POINTS = 20_000
 
+#: The BokehJS bundles the views need, in load order: the core and its plotting API.
+_BUNDLES = ("bokeh.min.js", "bokeh-api.min.js")
+
+#: Builds one report's views in the browser: ``tribodynCofViews(element id, data)`` (the data as
+#: :func:`_view_data` writes it). Bokeh's plotting API, as ``bokeh.plotting`` would have been used in Python.
+_BUILDER = r"""
+window.tribodynCofViews = function (id, d) {
+  var B = window.Bokeh, P = B.Plotting, tools = "pan,box_zoom,wheel_zoom,reset,save";
+  function col(s, n) {
+    if (s === null) { var a = new Float64Array(n); a.fill(NaN); return a; }
+    var b = atob(s), u = new Uint8Array(b.length);
+    for (var k = 0; k < b.length; k++) { u[k] = b.charCodeAt(k); }
+    return new Float64Array(u.buffer);
+  }
+  var n = d.good, g = {};
+  ["t", "mu", "lo", "hi", "T", "J"].forEach(function (k) { g[k] = col(d.cols[k], n); });
+  var yr = d.y_range ? new B.Range1d({start: d.y_range[0], end: d.y_range[1]}) : new B.DataRange1d();
+  var p = P.figure({height: 320, sizing_mode: "stretch_width", tools: tools, title: d.title, y_range: yr,
+                    x_axis_label: "time t (s)", y_axis_label: d.y_label, output_backend: "canvas"});
+  p.add_tools(new B.HoverTool({tooltips: [["t (s)", "@t{0.0}"], ["COF", "@mu{0.0000}"],
+    ["95 % interval", "@lo{0.0000} to @hi{0.0000}"], ["T (\u00b0C)", "@T{0.0}"], ["J (A/mm\u00b2)", "@J{0.000}"]]}));
+  var src = new B.ColumnDataSource({data: g});
+  p.scatter({field: "t"}, {field: "mu"}, {source: src, size: 3, alpha: 0.6, color: "#222222", legend_label: d.legend});
+  p.legend.location = "top_left";
+  var plots = [p];
+  if (d.failed) {
+    var ft = col(d.failed.t, d.failed.why.length);
+    var f = P.figure({height: 90, sizing_mode: "stretch_width", x_range: p.x_range, tools: tools,
+                      toolbar_location: null, title: d.failed.title});
+    f.scatter({field: "t"}, {field: "y"}, {source: new B.ColumnDataSource({data: {t: ft,
+      y: new Float64Array(ft.length), why: d.failed.why}}), marker: "dash", angle: Math.PI / 2, size: 10,
+      color: "#888888"});
+    f.add_tools(new B.HoverTool({tooltips: [["t (s)", "@t{0.0}"], ["reason", "@why"]]}));
+    f.yaxis.visible = false;
+    plots.push(f);
+  }
+  var side = [];
+  d.side.forEach(function (s) {
+    var c = P.figure({height: 300, sizing_mode: "stretch_width", tools: tools, title: s.title,
+                      x_axis_label: s.label, y_axis_label: d.y_label, y_range: p.y_range});
+    c.scatter({field: s.key}, {field: "mu"}, {source: src, size: 3, alpha: 0.5, color: "#1f77b4"});
+    side.push(c);
+  });
+  if (side.length) { plots.push(new B.Row({children: side, sizing_mode: "stretch_width"})); }
+  P.show(new B.Column({children: plots, sizing_mode: "stretch_width"}), "#" + id);
+};
+"""
+
+#: Element ids of the views written by this process (unique within a report).
+_IDS = itertools.count(1)
+
+
+def _bokeh_js_dir() -> Optional[Path]:
+    """The installed bokeh package's JavaScript folder (found without importing bokeh), or None."""
+    spec = find_spec("bokeh")
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    js = Path(next(iter(spec.submodule_search_locations))) / "server" / "static" / "js"
+    return js if all((js / b).is_file() for b in _BUNDLES) else None
+
 
 def bokeh_resources() -> str:
-    """The ``<script>`` holding Bokeh's core JavaScript, inline (about 1.3 MB)."""
-    from bokeh.resources import Resources
-
-    return str(Resources(mode="inline", components=["bokeh"]).render_js())
+    """The ``<script>`` tags of the report's head: BokehJS and its plotting API inline (about 1.4 MB, read from the
+    installed bokeh package) and the views' builder; empty when bokeh's JavaScript is not installed (the views
+    then say so)."""
+    js = _bokeh_js_dir()
+    if js is None:
+        return ""
+    parts = []
+    for name in _BUNDLES:
+        text = (js / name).read_text(encoding="utf-8").replace("</script", "<\\/script")
+        parts.append(f"<script>\n/* BEGIN {name} */\n{text}\n/* END {name} */\n</script>")
+    parts.append('<script>\nBokeh.set_log_level("info");\n' + _BUILDER + "</script>")
+    return "\n".join(parts)
 
 
 def _thin(n: int) -> np.ndarray:
     if n <= MAX_POINTS:
         return np.arange(n)
     return np.unique(np.linspace(0, n - 1, MAX_POINTS).round().astype(np.int64))
-
-
-#: The tools of every view.
-_TOOLS = "pan,box_zoom,wheel_zoom,reset,save"
 
 
 @dataclass(frozen=True)
@@ -75,116 +151,67 @@ def _series(results: Any) -> _Series:
     return _Series(t, ok, mu, lo, hi, temp, cur, what, y_label)
 
 
-def cof_views(results: Any, name: str) -> Tuple[str, str]:
-    """(script, div) of the zoomable COF-against-time view (and against T and J when they have data).
+def _b64(values: np.ndarray) -> Optional[str]:
+    """Little-endian float64 values in base64 (a ``Float64Array`` in the page), None when none is finite."""
+    a = np.ascontiguousarray(values, dtype="<f8")
+    return base64.b64encode(a.tobytes()).decode("ascii") if np.isfinite(a).any() else None
 
-    Gated windows as points with hover (time, COF, interval, T, J), failed
-    windows as grey ticks in their own row below with their reason.
-    """
-    from bokeh.embed import components
-    from bokeh.layouts import column, row
 
+def _y_range(mu: np.ndarray) -> Optional[List[float]]:
+    """The COF axis fitted to the points shown (0.5-99.5 % with a margin), None without points."""
+    if not mu.size:
+        return None
+    q0, q1 = np.percentile(mu, [0.5, 99.5])
+    pad = 0.1 * max(q1 - q0, 1e-3)
+    return [float(min(0.0, q0 - pad) if q0 < 0 else max(0.0, q0 - 3 * pad)), float(q1 + pad)]
+
+
+def _view_data(results: Any, name: str) -> Dict[str, Any]:
+    """What the page's builder draws: the shown windows' columns, the failed windows, the side views."""
     s = _series(results)
     good = np.flatnonzero(s.ok & np.isfinite(s.mu) & np.isfinite(s.t))
     good = good[_thin(good.size)]
     bad = np.flatnonzero(~s.ok & np.isfinite(s.t))
     bad = bad[_thin(bad.size)]
-    p = _time_view(s, good, name)
-    plots: List[Any] = [p]
+    cols = {"t": s.t, "mu": s.mu, "lo": s.lo, "hi": s.hi, "T": s.temp, "J": s.cur}
+    data: Dict[str, Any] = {
+        "title": f"{name}: COF against time (zoom, pan, hover)",
+        "y_label": s.y_label,
+        "legend": f"{s.what} ({int(s.ok.sum())})",
+        "good": int(good.size),
+        "cols": {k: _b64(v[good]) for k, v in cols.items()},
+        "y_range": _y_range(s.mu[good]),
+        "failed": None,
+        "side": [
+            {"key": key, "label": label, "title": f"COF against {label.split(' (')[0]}"}
+            for key, values, label in (("T", s.temp, "temperature T (°C)"), ("J", s.cur, "current density J (A/mm²)"))
+            if np.isfinite(values[good]).any()
+        ],
+    }
     if bad.size:
-        plots.append(_failed_view(s, bad, np.asarray(results.table["reasons"]), p.x_range))
-    side = _covariate_views(s, good, p.y_range)
-    if side:
-        plots.append(row(*side, sizing_mode="stretch_width"))
-    script, div = components(column(*plots, sizing_mode="stretch_width"))
-    return str(script), str(div)
+        data["failed"] = {
+            "t": _b64(s.t[bad]),
+            "why": [str(r) for r in np.asarray(results.table["reasons"])[bad]],
+            "title": f"windows that failed the quality gate ({int((~s.ok).sum())}); hover for the reason",
+        }
+    return data
 
 
-def _clean(a: np.ndarray) -> List[Any]:
-    """The values as floats, None where not finite (JSON has no NaN)."""
-    return [None if not np.isfinite(x) else float(x) for x in a]
+def cof_views(results: Any, name: str) -> Tuple[str, str]:
+    """(script, div) of the zoomable COF-against-time view (and against T and J when they have data).
 
-
-def _time_view(s: _Series, good: np.ndarray, name: str) -> Any:
-    """The COF against time: the ``good`` windows as points with hover, the COF axis fitted to them."""
-    from bokeh.models import ColumnDataSource, HoverTool, Range1d
-    from bokeh.plotting import figure
-
-    t, mu = s.t, s.mu
-    src = ColumnDataSource(
-        dict(t=t[good], mu=mu[good], lo=_clean(s.lo[good]), hi=_clean(s.hi[good]), T=_clean(s.temp[good]),
-             J=_clean(s.cur[good]))
-    )  # fmt: skip
-    hover = HoverTool(
-        tooltips=[
-            ("t (s)", "@t{0.0}"),
-            ("COF", "@mu{0.0000}"),
-            ("95 % interval", "@lo{0.0000} to @hi{0.0000}"),
-            ("T (°C)", "@T{0.0}"),
-            ("J (A/mm²)", "@J{0.000}"),
-        ]
-    )
-    p = figure(
-        height=320,
-        sizing_mode="stretch_width",
-        tools=_TOOLS,
-        title=f"{name}: COF against time (zoom, pan, hover)",
-        x_axis_label="time t (s)",
-        y_axis_label=s.y_label,
-        output_backend="canvas",
-    )
-    p.add_tools(hover)
-    p.scatter("t", "mu", source=src, size=3, alpha=0.6, color="#222222", legend_label=f"{s.what} ({int(s.ok.sum())})")
-    if good.size:
-        v = mu[good]
-        q0, q1 = np.percentile(v, [0.5, 99.5])
-        pad = 0.1 * max(q1 - q0, 1e-3)
-        p.y_range = Range1d(min(0.0, q0 - pad) if q0 < 0 else max(0.0, q0 - 3 * pad), q1 + pad)
-    p.legend.location = "top_left"
-    return p
-
-
-def _failed_view(s: _Series, bad: np.ndarray, reasons_all: np.ndarray, x_range: Any) -> Any:
-    """The windows that failed the gate (``bad``) as grey ticks on the time axis ``x_range``, hover for the reason."""
-    from bokeh.models import ColumnDataSource, HoverTool
-    from bokeh.plotting import figure
-
-    reasons = [str(r) for r in reasons_all[bad]]
-    fsrc = ColumnDataSource(dict(t=s.t[bad], y=np.zeros(bad.size), why=reasons))
-    f = figure(
-        height=90,
-        sizing_mode="stretch_width",
-        x_range=x_range,
-        tools=_TOOLS,
-        toolbar_location=None,
-        title=f"windows that failed the quality gate ({int((~s.ok).sum())}); hover for the reason",
-    )
-    f.scatter("t", "y", source=fsrc, marker="dash", angle=np.pi / 2, size=10, color="#888888")
-    f.add_tools(HoverTool(tooltips=[("t (s)", "@t{0.0}"), ("reason", "@why")]))
-    f.yaxis.visible = False
-    return f
-
-
-def _covariate_views(s: _Series, good: np.ndarray, y_range: Any) -> List[Any]:
-    """The COF against T and against J, each where the ``good`` windows have it, on the time view's COF axis."""
-    from bokeh.plotting import figure
-
-    side = []
-    for values, label in ((s.temp, "temperature T (°C)"), (s.cur, "current density J (A/mm²)")):
-        if np.isfinite(values[good]).any():
-            c = figure(
-                height=300,
-                sizing_mode="stretch_width",
-                tools=_TOOLS,
-                title=f"COF against {label.split(' (')[0]}",
-                x_axis_label=label,
-                y_axis_label=s.y_label,
-                y_range=y_range,
-            )
-            c.scatter(values[good], s.mu[good], size=3, alpha=0.5, color="#1f77b4")
-            side.append(c)
-    return side
-
-
-def sizes(parts: Sequence[str]) -> int:
-    return sum(len(p) for p in parts)
+    Gated windows as points with hover (time, COF, interval, T, J), failed
+    windows as grey ticks in their own row below with their reason. The page's
+    head must hold :func:`bokeh_resources`; without bokeh's JavaScript the
+    div says so.
+    """
+    view_id = f"tribodyn-view-{next(_IDS)}"
+    # "<" escaped: a file name or reason can never end the script element
+    payload = json.dumps(_view_data(results, name), allow_nan=False).replace("<", "\\u003c")
+    script = (f"<script>(function () {{ var d = {payload}; if (window.tribodynCofViews) "
+              f"{{ window.tribodynCofViews({json.dumps(view_id)}, d); }} }})();</script>")  # fmt: skip
+    div = (f'<div id="{view_id}" class="tribodyn-view"><noscript>The interactive view needs JavaScript.</noscript>'
+           "</div>")  # fmt: skip
+    if _bokeh_js_dir() is None:
+        div = f'<div id="{view_id}"><p class="note">Not drawn: bokeh\'s JavaScript is not installed.</p></div>'
+    return script, div

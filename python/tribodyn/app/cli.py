@@ -343,6 +343,14 @@ def _add_analyze_command(a: argparse.ArgumentParser) -> None:
         help="also where the running-in ends and the steady-state COF (docs/method.md 6h)",
     )
     a.add_argument(
+        "--figures",
+        choices=("auto", "all", "none"),
+        default="auto",
+        help="PNG figures: auto (default) every figure, but the window diagnostics (Figs. 2-9) only when the "
+        "headline is the dynamic COF; all: every figure; none: no PNG, the quickest report (its interactive "
+        "views stay)",
+    )
+    a.add_argument(
         "--meta",
         action="append",
         metavar="KEY=VALUE",
@@ -902,6 +910,7 @@ def _run_analyze(ns: argparse.Namespace) -> int:
             protect=protect,
             meta=meta,
             steady_state=ns.steady_state,
+            figures=ns.figures,
         )
     except ValueError as exc:
         if _MISSING_CHANNELS in str(exc):

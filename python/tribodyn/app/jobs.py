@@ -277,6 +277,9 @@ def _save_figures(
     returns, called before the figures are drawn (``figures.Rendering``, in this process); and what
     ``also()`` returns."""
     from ..io.writers import atomic_write
+
+    if not figs:  # no PNG (--figures none): Matplotlib is not imported
+        return [], meanwhile() if meanwhile is not None else None, also() if also is not None else None
     from .figures import Rendering
 
     render = Rendering([f for _, _, f in figs], also=also)
@@ -394,12 +397,12 @@ def _window_of(rec: Any, start: int, n: int, roles: Sequence[str]) -> Optional[D
 
 
 def _interactive_view(res: Results, name: str) -> Tuple[str, str]:
-    """(the interactive COF view's script and div, Bokeh's JavaScript for the report's head): all the Bokeh
-    work of a recording, which the CLI leaves to its rendering child."""
+    """(the interactive COF view's div and script, the report head's JavaScript): the windows' numbers for
+    BokehJS, which draws the view in the browser (Bokeh's Python package is not imported)."""
     from ._interactive import cof_views
 
     script, div = cof_views(res, name)
-    return script + div, _bokeh_head()
+    return div + script, _bokeh_head()
 
 
 def _report_extras(res: Results, name: str, csv_name: str, view: Optional[str] = None) -> List[Tuple[str, str]]:
@@ -413,7 +416,7 @@ def _report_extras(res: Results, name: str, csv_name: str, view: Optional[str] =
     ]  # fmt: skip
 
 
-#: Bokeh's JavaScript for the reports' head, once rendered (here, or by a rendering child: see _recording_outputs).
+#: The reports' head JavaScript (BokehJS and the views' builder), read once per process.
 _BOKEH_HEAD: Dict[str, str] = {}
 
 
@@ -511,7 +514,7 @@ def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoT
     figs_t = _figures(res_t, opr_t=t.opr, opr_j=None, examples=ex_t)
     figs_j = _figures(res_j, opr_t=None, opr_j=j.opr, examples=ex_j)
 
-    def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # while a child draws most figures
+    def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # the tables and the views, before the figures
         tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
         return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
             res_j, "current-density test", "current_density_windows.csv"
@@ -677,6 +680,7 @@ def run_analysis(
     protect: Sequence[Any] = (),
     meta: Optional[Meta] = None,
     steady_state: bool = False,
+    figures: str = "auto",
 ) -> Dict[str, Any]:
     """Analyses recording files and writes the outputs into ``out_dir``.
 
@@ -701,9 +705,16 @@ def run_analysis(
     (:func:`tribodyn.steady_state`, docs/method.md 6h): its ``steady_state``
     entry in the summary, a verdict line, and the running-in shaded on the
     COF-against-time figure.
+
+    ``figures``: which PNG figures are drawn (:data:`FIGURES`): ``"auto"``
+    leaves out the window diagnostics (Figs. 2-9) of a recording whose
+    headline is not the dynamic COF, ``"all"`` draws every figure, ``"none"``
+    none (the report keeps its interactive views).
     """
     from ..pipeline.distributed import expand_paths
 
+    if figures not in FIGURES:
+        raise ValueError(f"figures must be one of {', '.join(FIGURES)}, got {figures!r}")
     if not paths:
         raise ValueError("no input file given")
     files = expand_paths(paths)
@@ -711,11 +722,11 @@ def run_analysis(
     # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
     # another (both mostly outside the GIL or while the kernel runs without it).
     digests = Digests(files)
-    imports = _import_in_background()
+    imports = _import_in_background(_OUTPUT_MODULES if figures != "none" else _TABLE_MODULES)
     try:
         return _run_analysis(files, output, digests, imports, open_options=open_options,
                              analyze_options=analyze_options, progress=progress, client=client, split=split,
-                             meta=meta, steady_state=steady_state)  # fmt: skip
+                             meta=meta, steady_state=steady_state, figures=figures)  # fmt: skip
     finally:
         digests.cancel()
 
@@ -733,6 +744,7 @@ def _run_analysis(
     split: Optional[float],
     meta: Optional[Meta],
     steady_state: bool,
+    figures: str,
 ) -> Dict[str, Any]:
     """:func:`run_analysis` once the output folder is checked and the digests started."""
     from .._version import version
@@ -775,7 +787,7 @@ def _run_analysis(
             inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
                 f"{name}: {Path(f).name}" for name, f in cov_files.items()
             ]
-        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary, digests)
+        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary, digests, figures)
         with output as out:
             verdict: List[str] = []
             sections: List[Tuple[str, str]] = []
@@ -819,6 +831,44 @@ def _open_once(stack: contextlib.ExitStack, path: Path, open_options: Mapping[st
         return exc
 
 
+#: What ``tribodyn analyze --figures`` draws as PNG (figures/*.png and the report's figures): ``auto`` every figure,
+#: but the window diagnostics (Figs. 2-9) only when the headline is the dynamic COF they diagnose (an export whose
+#: headline is the classical or per-stroke COF gets its COF, stroke, cycle and loop figures); ``all`` every figure;
+#: ``none`` no PNG (the report's interactive views stay; issue 38 point 3: the quickest report).
+FIGURES = ("auto", "all", "none")
+
+
+def _diagnostics_drawn(figures: str, res: Results) -> bool:
+    """Whether the window diagnostics (Figs. 2-9) are drawn (:data:`FIGURES`)."""
+    return figures == "all" or (figures == "auto" and res.headline.method == "dynamic")
+
+
+def _figure_windows(figures: str, rec: Any, res: Results) -> Tuple[List[Dict[str, Any]], List[Dict[str, Any]], Results]:
+    """The samples the figures read again: (diagnostic examples, friction loops, ``res`` with a warning when they
+    could not be read), as ``figures`` asks (:data:`FIGURES`). ``rec`` is the open recording or the exception that
+    opening it raised."""
+    if figures == "none":
+        return [], [], res
+    try:
+        if isinstance(rec, Exception):
+            raise rec
+        examples = diagnostic_examples(rec, res) if _diagnostics_drawn(figures, res) else []
+        return examples, loop_examples(rec, res), res
+    except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
+        return [], [], _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+
+
+def figures_note(figures: str, res: Results, name: str) -> str:
+    """What the report says of the figures ``figures`` left out (:data:`FIGURES`), or ""."""
+    if figures == "none":
+        return (f"{name}: no PNG figures were drawn (--figures none); the interactive view below shows the COF "
+                "against time; --figures auto or all draws them.")  # fmt: skip
+    if not _diagnostics_drawn(figures, res):
+        return (f"{name}: the window diagnostics (paper Figs. 2-9) are not drawn: the headline is the "
+                f"{res.headline.method} COF, which they do not diagnose; --figures all draws them.")  # fmt: skip
+    return ""
+
+
 @dataclasses.dataclass(frozen=True)
 class _Job:
     """What every recording's outputs share."""
@@ -829,6 +879,8 @@ class _Job:
     inputs: Dict[str, Dict[str, Any]]  # file name -> provenance (digest, channels, logs)
     summary: Dict[str, Any]  # summary.json, filled recording by recording
     digests: Digests  # the inputs' SHA-256, filled into ``inputs`` when written (fill_digests)
+    figures: str = "auto"  # which PNG figures: FIGURES
+    notes: List[str] = dataclasses.field(default_factory=list)  # what the report says of figures left out
 
 
 def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], label: str, rec: Any
@@ -846,13 +898,8 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
     opr_j = _try_range(res, "current_density")
     has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
     opr_v = _try_range(res, "speed") if has_speed else None  # the Stribeck curve (docs/method.md 7a)
-    try:
-        if isinstance(rec, Exception):
-            raise rec
-        examples, loops = diagnostic_examples(rec, res), loop_examples(rec, res)
-    except (OSError, ValueError) as exc:  # the figures of the windows are extra: say so, go on
-        examples, loops = [], []
-        res = _replaced(res, warnings=(*res.warnings, f"diagnostic figures not drawn: {exc}"))
+    drawn = job.figures != "none"
+    examples, loops, res = _figure_windows(job.figures, rec, res)
     try:  # docs/method.md 6g: found in the analysis' reading (one file), else fy and fz read again, once
         if isinstance(rec, Exception):
             raise rec
@@ -863,7 +910,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
     steady = _steady_state(res) if job.steady_state else None
     # the figures read the steady state from their Results' params (docs/method.md 6h)
     fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
-    figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops)
+    figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops) if drawn else []
     res_now = res
 
     def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, before the figures
@@ -895,7 +942,8 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
         lines.insert(1, f"{p.name}: {steady['text']}.")
     if slip and slip["present"]:
         lines.append(f"{p.name}: {slip['verdict']}")
-    captioned = _captioned(pngs)
+    captioned, note = _captioned(pngs), figures_note(job.figures, res, p.name)
+    job.notes.extend([note] if note else [])
     if not job.single:
         fill_digests([job.inputs[p.name]], job.digests)
         write_json(rec_sum, out.path(f"{prefix}summary.json"))
@@ -905,6 +953,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
             summary=_flat_summary({p.name: rec_sum}),
             params=res.params,
             figures=captioned,
+            figures_note=note,
             quality=rec_sum["gate_failures"],
             verdict=lines,
             inputs=[job.inputs[p.name]],
@@ -943,6 +992,7 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
         summary=_flat_summary(summary["recordings"]),
         params={p.name: r.params for p, r in runs},
         figures=figures,
+        figures_note=" ".join(job.notes),
         quality={p.name: summary["recordings"][p.name]["gate_failures"] for p, _ in runs},
         verdict=verdict,
         inputs=list(job.inputs.values()) + failed,
@@ -952,17 +1002,18 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
     )
 
 
-#: Modules the output step imports here (figures, tables), imported during the analysis; Bokeh is imported by
-#: the rendering child, which draws the interactive views (``_recording_outputs``).
-_OUTPUT_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg", "pyarrow", "pyarrow.parquet")
+#: Modules the output step imports (tables; figures), imported during the analysis. Bokeh is never imported: the
+#: interactive views are built by BokehJS in the browser (``_interactive``).
+_TABLE_MODULES = ("pyarrow", "pyarrow.parquet")
+_OUTPUT_MODULES = (*_TABLE_MODULES, "matplotlib.figure", "matplotlib.backends.backend_agg")
 
 
-def _import_in_background() -> threading.Thread:
-    """A started thread importing :data:`_OUTPUT_MODULES` (third-party only: the analysis imports none of them,
-    so no module is imported from two threads at once; join it before the output step)."""
+def _import_in_background(modules: Sequence[str] = _OUTPUT_MODULES) -> threading.Thread:
+    """A started thread importing ``modules`` (third-party only: the analysis imports none of them, so no module
+    is imported from two threads at once; join it before the output step)."""
 
     def run() -> None:
-        for name in _OUTPUT_MODULES:
+        for name in modules:
             try:
                 importlib.import_module(name)
             except Exception:  # noqa: BLE001, S112 - the output step imports it again and reports what is wrong

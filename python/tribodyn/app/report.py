@@ -24,13 +24,14 @@ import io
 import math
 import numbers
 import os
-from typing import Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import _labels
-from . import figures as _figs
+
+if TYPE_CHECKING:  # Matplotlib is imported where a figure is drawn: a report of PNG bytes needs none of it
+    from matplotlib.figure import Figure
 
 __all__ = [
     "write_report",
@@ -44,7 +45,7 @@ __all__ = [
     "write_results_report",
 ]
 
-FigureList = Union[Mapping[str, Union[Figure, bytes]], Sequence[Tuple[str, Union[Figure, bytes]]]]
+FigureList = Union[Mapping[str, Union["Figure", bytes]], Sequence[Tuple[str, Union["Figure", bytes]]]]
 #: The first bytes of every PNG file.
 _PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -517,6 +518,7 @@ def write_report(
     sections: Optional[Sequence[Tuple[str, str]]] = None,
     head_html: str = "",
     record_html: str = "",
+    figures_note: str = "",
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -557,6 +559,8 @@ def write_report(
         Inline ``<script>`` added to the head (Bokeh's JavaScript; no network reference).
     record_html : str
         The "Test record" section's content (:func:`tribodyn.app.record.record_html`), after the inputs.
+    figures_note : str
+        A note at the head of the figures (e.g. which figures were left out, and the flag that draws them).
 
     Returns
     -------
@@ -598,7 +602,7 @@ def write_report(
     out.append('<h2 id="quality">Measurement quality</h2>')
     out.append(_quality_section(quality))
 
-    out += _figures_section(images)
+    out += _figures_section(images, figures_note)
 
     for sec_no, (sec_title, sec_html) in enumerate(sections or (), 1):
         out.append(f'<h2 id="section{sec_no}">{html.escape(sec_title)}</h2>')
@@ -676,10 +680,12 @@ def _summary_section(summary: Mapping[str, Any]) -> List[str]:
     return out
 
 
-def _figures_section(images: Sequence[Tuple[str, str]]) -> List[str]:
-    """The figures, numbered, each a base64 PNG with its caption."""
+def _figures_section(images: Sequence[Tuple[str, str]], note: str = "") -> List[str]:
+    """The figures, numbered, each a base64 PNG with its caption, after ``note`` (if any)."""
     out = ['<h2 id="figures">Figures</h2>']
-    if not images:
+    if note:
+        out.append(f'<p class="note">{html.escape(note)}</p>')
+    if not images and not note:
         out.append('<p class="note">No figures.</p>')
     for fig_no, (caption, b64) in enumerate(images, 1):
         cap = html.escape(caption)
@@ -847,6 +853,8 @@ def build_named_figures(
     ``fig12_cof_current_density_vs_time``, ``sec4-2_cof_vs_current_density``
     or ``cof_vs_time``.
     """
+    from . import figures as _figs
+
     out: List[Tuple[str, str, Figure]] = []
     head = getattr(results, "headline", None)
     # issue 34 point 9: the paper's per-window diagnostics lead only when the dynamic method gives the headline;
@@ -919,6 +927,7 @@ def build_named_figures(
 def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, str, Figure]]:
     from ..kernels.correlation import xcorr
     from ..pipeline.identify import identify
+    from . import figures as _figs
 
     fx, fy, fz = example.get("fx"), example["fy"], example["fz"]
     fs = float(example["fs"])

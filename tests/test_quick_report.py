@@ -1,0 +1,106 @@
+"""The quick report (issue 38 point 3): ``--figures auto|all|none``, the interactive views built by BokehJS in the
+browser from the windows' numbers (Bokeh's Python package never imported), Matplotlib imported only to draw.
+The speed itself is measured in benches/bench_cli_export.py (benches/RESULTS.md), not here."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import tribodyn as td
+from tribodyn.app import _interactive, jobs
+from tribodyn.app.cli import main
+
+EXPORT = Path(__file__).parent / "data" / "real" / "pod_PPS_100N_1.tsv"  # a dead-weight export: classical headline
+
+
+def _view_data(html: str) -> dict:
+    m = re.search(r"var d = (\{.*?\}); if \(window\.tribodynCofViews\)", html, re.S)
+    assert m, html[:500]
+    return json.loads(m.group(1))
+
+
+def _floats(b64: str) -> np.ndarray:
+    return np.frombuffer(base64.b64decode(b64), dtype="<f8")
+
+
+def test_view_embeds_the_shown_windows_numbers_exactly():
+    """The page's view carries the gated windows' time, COF, interval, T and J bit for bit (float64 in base64)
+    and the failed windows' times and reasons; a "</script>" in a name cannot end the script."""
+    sim = td.simulate.current_density_test(seed=3)
+    res = td.analyze(sim.channels, fs=sim.fs, window=2.0, hop=10.0, area_mm2=sim.area_mm2)
+    script, div = _interactive.cof_views(res, "a</script><b>")
+    view_id = re.search(r'id="(tribodyn-view-\d+)"', div).group(1)
+    assert f'"{view_id}"' in script and "</script>" not in script[:-9]
+    d = _view_data(script)
+    ok = np.asarray(res["ok"], dtype=bool) & np.isfinite(np.asarray(res["mu_r"], dtype=float))
+    assert d["good"] == int(ok.sum()) and d["title"].startswith("a</script><b>: COF against time")
+    for key, col in (("t", "time"), ("mu", "mu_r"), ("lo", "mu_r_low"), ("hi", "mu_r_high"), ("J", "J")):
+        np.testing.assert_array_equal(_floats(d["cols"][key]), np.asarray(res[col], dtype=float)[ok])
+    assert d["cols"]["T"] is None  # no temperature: the page fills NaN
+    bad = ~np.asarray(res["ok"], dtype=bool)
+    assert bad.any() and d["failed"]["why"] == [str(r) for r in np.asarray(res["reasons"])[bad]]
+    np.testing.assert_array_equal(_floats(d["failed"]["t"]), np.asarray(res["time"], dtype=float)[bad])
+    assert [s["key"] for s in d["side"]] == ["J"]
+    lo, hi = d["y_range"]
+    assert lo < np.median(_floats(d["cols"]["mu"])) < hi
+
+
+def test_figures_auto_leaves_out_an_exports_window_diagnostics(tmp_path):
+    """--figures auto (the default): an export whose headline is the classical COF gets its COF against time but
+    not the window diagnostics, and the report says so and how to get them; --figures none draws no PNG and keeps
+    the interactive view; the tables and summary are those of every choice."""
+    assert main(["analyze", str(EXPORT), "--out", str(tmp_path / "auto"), "-q"]) == 0
+    assert main(["analyze", str(EXPORT), "--out", str(tmp_path / "none"), "-q", "--figures", "none"]) == 0
+    auto, none = (tmp_path / "auto"), (tmp_path / "none")
+    assert sorted(p.name for p in (auto / "figures").iterdir()) == ["cof_vs_time.png"]
+    page = (auto / "report.html").read_text(encoding="utf-8")
+    assert "window diagnostics (paper Figs. 2-9) are not drawn: the headline is the classical COF" in page
+    assert "--figures all draws them" in page and page.count('<figure id="fig') == 1
+    assert not (none / "figures").exists() or not any((none / "figures").iterdir())
+    page_none = (none / "report.html").read_text(encoding="utf-8")
+    assert '<figure id="fig' not in page_none and "no PNG figures were drawn (--figures none)" in page_none
+    assert "tribodynCofViews" in page_none and "/* BEGIN bokeh-api.min.js */" in page_none
+    assert (auto / "windows.csv").read_bytes() == (none / "windows.csv").read_bytes()
+    s_auto, s_none = (json.loads((d / "summary.json").read_text()) for d in (auto, none))
+    rec = EXPORT.name
+    assert s_auto["recordings"][rec]["headline"] == s_none["recordings"][rec]["headline"]
+    assert s_auto["recordings"][rec]["files"] == s_none["recordings"][rec]["files"] + ["figures/cof_vs_time.png"]
+
+
+def test_which_figures_each_choice_draws():
+    """FIGURES: auto draws the diagnostics only for a dynamic headline, all always, none never; the note."""
+    export = td.analyze(str(EXPORT))
+    sim = td.simulate.current_density_test(seed=3)
+    dynamic = td.analyze(sim.channels, fs=sim.fs, window=2.0, hop=10.0, area_mm2=sim.area_mm2)
+    assert export.headline.method == "classical" and dynamic.headline.method == "dynamic"
+    drawn = {(c, r.headline.method): jobs._diagnostics_drawn(c, r) for c in jobs.FIGURES for r in (export, dynamic)}
+    assert drawn == {("auto", "classical"): False, ("auto", "dynamic"): True, ("all", "classical"): True,
+                     ("all", "dynamic"): True, ("none", "classical"): False, ("none", "dynamic"): False}  # fmt: skip
+    assert jobs.figures_note("auto", dynamic, "x") == "" and jobs.figures_note("all", export, "x") == ""
+    assert "classical COF" in jobs.figures_note("auto", export, "x")
+    with pytest.raises(ValueError, match="figures must be one of auto, all, none"):
+        jobs.run_analysis([str(EXPORT)], "unused", figures="some")
+
+
+def test_the_command_line_never_imports_bokeh_and_matplotlib_only_to_draw(tmp_path):
+    """In a fresh process: --figures none imports neither Matplotlib nor Bokeh; the default run then draws with
+    Matplotlib and still imports no Bokeh (the views are BokehJS's, in the page)."""
+    code = (
+        "import sys\n"
+        "from tribodyn.app.cli import main\n"
+        f"assert main(['analyze', {str(EXPORT)!r}, '--out', {str(tmp_path / 'a')!r}, '-q', '--figures', 'none']) == 0\n"
+        "first = sorted(m for m in ('matplotlib', 'bokeh') if m in sys.modules)\n"
+        f"assert main(['analyze', {str(EXPORT)!r}, '--out', {str(tmp_path / 'b')!r}, '-q']) == 0\n"
+        "print(first, sorted(m for m in ('matplotlib', 'bokeh') if m in sys.modules))\n"
+    )
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert p.stdout.strip().splitlines()[-1] == "[] ['matplotlib']"
