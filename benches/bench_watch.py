@@ -107,6 +107,7 @@ def main() -> None:
     ap.add_argument("--window", type=float, default=10.0)
     ap.add_argument("--hop", type=float, default=5.0)
     ap.add_argument("--format", choices=["csv", "h5"], default="csv")
+    ap.add_argument("--summary", action="store_true", help="each snapshot's summary() too, as the command line")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bench_watch_"))
     path = work / f"run.{args.format}"
@@ -120,14 +121,23 @@ def main() -> None:
     watch = td.watch(path, interval=args.interval, until_idle=3 * args.interval, clock=w.clock, sleep=w.sleep,
                      final=False, **opts)  # fmt: skip
     update_s, rss, moved, check_cpu = [], [], [], 0.0
+    summary_cpu = fresh_summary_cpu = 0.0
     while True:
         u = time.perf_counter()
         snap = watch.update()
         if snap is not None:
             update_s.append(time.perf_counter() - u)
             rss.append(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+            if args.summary:  # what the command line writes at each update (summary.json)
+                c = time.process_time()
+                snap.summary()
+                summary_cpu += time.process_time() - c
             c = time.process_time()
             moved.append(_moved_against_fresh(snap))
+            if args.summary:  # the same summary with every interval drawn afresh (before docs/method.md 11's moves)
+                c2 = time.process_time()
+                dataclasses.replace(snap).summary()
+                fresh_summary_cpu += time.process_time() - c2
             check_cpu += time.process_time() - c
         if watch.reason:
             break
@@ -152,6 +162,9 @@ def main() -> None:
           f"max {max(update_s) * 1e3:.0f} ms, last {update_s[-1] * 1e3:.0f} ms")  # fmt: skip
     print(f"  CPU: watch {cpu_watch:.2f} s (wall {wall_watch - w.cpu:.2f} s), offline analysis {cpu_offline:.2f} s: "
           f"ratio {cpu_watch / cpu_offline:.2f}")  # fmt: skip
+    if args.summary:
+        print(f"  summary() of each snapshot (in the watch CPU above): {summary_cpu:.2f} s; every interval drawn "
+              f"afresh it would be {fresh_summary_cpu:.2f} s")  # fmt: skip
     half = len(rss) // 2
     print(f"  max RSS: {rss0 / 1024:.0f} MB before, {rss[half] / 1024:.0f} MB half way, {rss[-1] / 1024:.0f} MB "
           "at the end")  # fmt: skip

@@ -173,6 +173,8 @@ def _publish_live(out: str, res: Results, w: Watch, *, overwrite: bool, protect:
     """summary.json and live.html of this update, replacing --out as one set."""
     now = time.time()
     info = _watch_info(w, now)
+    # the snapshot's bootstrap intervals: drawn at this many gated windows, moved since (docs/method.md 11)
+    info["intervals_drawn_at"] = (res.params.get("watch") or {}).get("intervals_drawn_at")
     summary = {"watch": info, "recording": res.summary()}
     page = live_page(res, w, info, interval=w.interval)
     with OutputSet(out, overwrite=overwrite, protect=protect) as o:

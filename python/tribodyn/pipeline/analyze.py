@@ -53,9 +53,6 @@ from .strokes import stroke_windows
 
 __all__ = ["analyze", "analyze_partial", "combine", "Partial"]
 
-#: A ``Results.mu_r_ci``: each statistic's 95 % interval (docs/method.md 3d).
-Intervals = Dict[str, Tuple[float, float]]
-
 
 def _is_recording(source: Any) -> bool:
     return hasattr(source, "chunks") and hasattr(source, "fs") and not isinstance(source, Mapping)
@@ -348,12 +345,14 @@ def analyze_partial(source: Any, plan: Optional[Plan] = None, *, reuse: Optional
     return _analyze(source, plan, options, partial=True, reuse=reuse, reuse_lag=reuse_lag)  # type: ignore[return-value]
 
 
-def combine(parts: Sequence[Partial], *, mu_r_ci: Optional[Callable[[Results], Optional[Intervals]]] = None) -> Results:
+def combine(parts: Sequence[Partial], *,
+            intervals: Optional[Callable[[Results], Optional[Mapping[str, Any]]]] = None) -> Results:  # fmt: skip
     """The ranges of one recording, in order, finished once (exactly the table of one pass over them).
 
-    ``mu_r_ci``: called with the finished Results before its headline is chosen; the intervals it returns (a
-    ``Results.mu_r_ci`` dict) stand in for the bootstrap's, None lets the bootstrap run (a watched recording's
-    snapshot between two bootstraps, docs/method.md 11).
+    ``intervals``: called with the finished Results before its headline is chosen; the bootstrap intervals it
+    returns (``{"mu_r_ci": ..., "column_ci": ...}``, the values of those properties of Results) stand in for the
+    bootstrap's, None lets the bootstrap run (a watched recording's snapshot between two bootstraps,
+    docs/method.md 11).
     """
     if not parts:
         raise ValueError("no ranges to combine")
@@ -369,9 +368,10 @@ def combine(parts: Sequence[Partial], *, mu_r_ci: Optional[Callable[[Results], O
                               classical=ClassicalTotals.merge(totals) if totals else None)  # fmt: skip
     if len(parts) > 1:
         res.params.update(start=0, stop=None, ranges=len(parts))
-    given = mu_r_ci(res) if mu_r_ci is not None else None
-    if given is not None:
-        res.__dict__["mu_r_ci"] = dict(given)  # the cached property's value (settle keeps it)
+    given = intervals(res) if intervals is not None else None
+    for key in ("mu_r_ci", "column_ci"):
+        if given is not None and key in given:
+            res.__dict__[key] = dict(given[key])  # the cached property's value (settle keeps it)
     return settle(res)
 
 

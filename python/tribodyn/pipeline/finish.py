@@ -61,7 +61,7 @@ def settle(res: Results, classical: Optional[Callable[[], Optional[ClassicalTota
     kept = [w for w in res.warnings if head.method == "dynamic" or w not in notes]
     _, more = instrument_check(res, head)
     out = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*kept, *more))))
-    for key in ("headline", "verdict", "mu_r_ci"):  # cached results that do not depend on the warnings
+    for key in ("headline", "verdict", "mu_r_ci", "column_ci"):  # cached results that do not depend on the warnings
         if key in res.__dict__:
             out.__dict__[key] = res.__dict__[key]
     return out

@@ -28,7 +28,7 @@ import numpy as np
 from ..io.base import Recording
 from ..io.follow import Follower
 from ..results import ClassicalTotals, Results
-from .analyze import Intervals, Partial, analyze, analyze_partial, combine
+from .analyze import Partial, analyze, analyze_partial, combine
 from .instrument import lag_sample_held
 from .plan import make_plan
 from .routes import concat_stats
@@ -298,22 +298,22 @@ class Watch:
         self._ranges += 1
         self._done = upto
         self._draw = False
-        snap = combine([self._acc], mu_r_ci=self._intervals)
+        snap = combine([self._acc], intervals=self._intervals)
         if self._ranges > 1:
             snap.params.update(start=0, stop=None, ranges=self._ranges)
         drawn = self._drawn
         if self._draw:
             drawn = self._drawn = _Drawn.of(snap)
+        at = drawn.columns["mu_r"].n if drawn is not None else None
         snap.params["watch"] = {"samples": n, "final": False, "updates": self.updates + 1, "samples_analysed": stop,
-                                "intervals_drawn_at": drawn.n if drawn is not None else None}  # fmt: skip
+                                "intervals_drawn_at": at}  # fmt: skip
         return snap
 
-    def _intervals(self, res: Results) -> Optional[Intervals]:
-        """The snapshot's mu_r intervals from the last bootstrap, moved and scaled (docs/method.md 11); None when
+    def _intervals(self, res: Results) -> Optional[Dict[str, Any]]:
+        """The snapshot's bootstrap intervals from the last draw, moved and scaled (docs/method.md 11); None when
         it is time to draw them again (the windows grew by REDRAW_GROWTH or fell, or none was drawn)."""
         d = self._drawn
-        n = _Drawn.gated(res).size
-        if d is None or not (d.n <= n < (1.0 + REDRAW_GROWTH) * d.n):
+        if d is None or not d.holds(res):
             self._draw = True
             return None
         return d.moved(res)
@@ -396,48 +396,76 @@ class Watch:
         return res
 
 
+Intervals = Dict[str, Tuple[float, float]]
+
+
 @dataclass(frozen=True)
-class _Drawn:
-    """A snapshot's bootstrap intervals of mu_r (``Results.mu_r_ci``), with the statistics and window count they
-    were drawn at."""
+class _Column:
+    """One column's bootstrap intervals (``Results.mu_r_ci`` or an entry of ``Results.column_ci``), with the
+    statistics and the window count they were drawn at."""
 
     n: int
     points: Dict[str, float]
-    ci: Dict[str, Tuple[float, float]]
-    gap: float  # the upper ends' raise to the reverse regression (least squares as a lower bound, method.md 3d)
+    ci: Intervals
 
-    @staticmethod
-    def gated(res: Results) -> np.ndarray:
-        mu = np.asarray(res["mu_r"], dtype=float)[np.asarray(res["ok"], dtype=bool)]
-        return np.asarray(mu[np.isfinite(mu)])
+    def moved(self, v: np.ndarray, up: float = 0.0, up_then: float = 0.0) -> Intervals:
+        """Each interval moved with its statistic over ``v`` (the column's gated windows now), the distances of its
+        ends scaled by sqrt(n_then / n_now); ``up``: the upper ends' raise now (``up_then`` at the draw)."""
+        now, p = _statistics(v), self.points
+        f = math.sqrt(self.n / v.size) if v.size else 1.0
+        return {k: (now[k] + f * (lo - p[k]), now[k] + f * (hi - up_then - p[k]) + up)
+                for k, (lo, hi) in self.ci.items() if k in now and k in p}  # fmt: skip
 
-    @staticmethod
-    def statistics(v: np.ndarray) -> Dict[str, float]:
-        """The statistics whose intervals ``bootstrap_ci`` draws: median, mean, p05, p95."""
-        if v.size == 0:
-            return {}
-        q = np.percentile(v, [5, 95])
-        return {"median": float(np.median(v)), "mean": float(v.mean()), "p05": float(q[0]), "p95": float(q[1])}
 
-    @staticmethod
-    def raise_of(res: Results) -> float:
-        gap = res.params.get("attenuation_gap")
-        lower = res.params.get("mu_r_bound") == "lower" and isinstance(gap, (int, float)) and math.isfinite(gap)
-        return float(gap) if lower and isinstance(gap, (int, float)) else 0.0
+@dataclass(frozen=True)
+class _Drawn:
+    """A snapshot's bootstrap intervals: mu_r's (``Results.mu_r_ci``) and the summary's other columns'
+    (``Results.column_ci``), to be moved to the next snapshots (docs/method.md 11)."""
+
+    columns: Dict[str, _Column]
+    gap: float  # mu_r's upper ends' raise to the reverse regression (least squares as a lower bound, method.md 3d)
 
     @classmethod
     def of(cls, res: Results) -> "_Drawn":
-        v = cls.gated(res)
-        return cls(int(v.size), cls.statistics(v), dict(res.mu_r_ci), cls.raise_of(res))
+        values = _values(res)
+        cis = {"mu_r": res.mu_r_ci, **res.column_ci}
+        return cls({k: _Column(int(v.size), _statistics(v), dict(cis[k])) for k, v in values.items()}, _raise(res))
 
-    def moved(self, res: Results) -> Intervals:
-        """Each interval moved with its statistic, the distances of its ends scaled by sqrt(n_then / n_now) (the
-        upper ends' raise to the reverse regression, when there is one, that of the snapshot)."""
-        v = self.gated(res)
-        now, p, up = self.statistics(v), self.points, self.raise_of(res)
-        f = math.sqrt(self.n / v.size) if v.size else 1.0
-        return {k: (now[k] + f * (lo - p[k]), now[k] + f * (hi - self.gap - p[k]) + up)
-                for k, (lo, hi) in self.ci.items() if k in now and k in p}  # fmt: skip
+    def holds(self, res: Results) -> bool:
+        """Whether the same columns are summarised and each one's values number n_then to (1 + REDRAW_GROWTH)
+        n_then (else the intervals are drawn again)."""
+        values = _values(res)
+        if set(values) != set(self.columns):
+            return False
+        return all(c.n == values[k].size == 0 or c.n <= values[k].size < (1.0 + REDRAW_GROWTH) * c.n
+                   for k, c in self.columns.items())  # fmt: skip
+
+    def moved(self, res: Results) -> Dict[str, Any]:
+        values = _values(res)
+        mu = self.columns["mu_r"].moved(values["mu_r"], _raise(res), self.gap)
+        cols = {k: c.moved(values[k]) for k, c in self.columns.items() if k != "mu_r"}
+        return {"mu_r_ci": mu, "column_ci": cols}
+
+
+def _values(res: Results) -> Dict[str, np.ndarray]:
+    """What the snapshot's bootstraps draw from: mu_r over the gated windows, and ``Results.summary_columns``."""
+    v = np.asarray(res["mu_r"], dtype=float)[np.asarray(res["ok"], dtype=bool)]
+    return {"mu_r": np.asarray(v[np.isfinite(v)]), **res.summary_columns()}
+
+
+def _statistics(v: np.ndarray) -> Dict[str, float]:
+    """The statistics whose intervals ``bootstrap_ci`` draws: median, mean, p05, p95."""
+    if v.size == 0:
+        return {}
+    q = np.percentile(v, [5, 95])
+    return {"median": float(np.median(v)), "mean": float(v.mean()), "p05": float(q[0]), "p95": float(q[1])}
+
+
+def _raise(res: Results) -> float:
+    """mu_r's upper ends' raise to the reverse regression when least squares is a lower bound (docs/method.md 3d)."""
+    gap = res.params.get("attenuation_gap")
+    lower = res.params.get("mu_r_bound") == "lower" and isinstance(gap, (int, float)) and math.isfinite(gap)
+    return float(gap) if lower and isinstance(gap, (int, float)) else 0.0
 
 
 def _join(a: Partial, b: Partial) -> Partial:

@@ -18,7 +18,11 @@ from ..kernels.uncertainty import Moments
 from .headline import HEADLINE_METHODS, ClassicalTotals, Headline, choose, instrument_check
 from .verdict import verdict as _verdict
 
-__all__ = ["HEADLINE_METHODS", "BinTable", "ClassicalTotals", "CofResult", "Headline", "Results", "WINDOW_COLUMNS"]
+__all__ = ["HEADLINE_METHODS", "BinTable", "ClassicalTotals", "CofResult", "Headline", "Results", "WINDOW_COLUMNS",
+           "SUMMARY_COLUMNS"]  # fmt: skip
+
+#: The table's columns that ``Results.summary()`` gives with their statistics and intervals, besides mu_r.
+SUMMARY_COLUMNS = ("mu_a", "mu_b", "force_dependence", "dmu_dfn")
 
 
 @dataclass(frozen=True)
@@ -303,6 +307,30 @@ class Results:
             ci = {k: (lo, hi + float(gap)) for k, (lo, hi) in ci.items()}
         return ci
 
+    def summary_columns(self) -> Dict[str, np.ndarray]:
+        """The values whose statistics ``summary()`` gives besides mu_r's, each with its bootstrap interval
+        (:attr:`column_ci`): :data:`SUMMARY_COLUMNS` over the gated windows; "classical" and "instrument" (the
+        per-window classical and instrument COF) over every window; "strokes.forward", "strokes.backward" and
+        "strokes.all" (a reciprocating test's per-stroke COF). Finite values only."""
+        ok = np.asarray(self.table["ok"], dtype=bool)
+        out: Dict[str, np.ndarray] = {}
+        for col in SUMMARY_COLUMNS:
+            if col in self.table:
+                out[col] = np.asarray(self.table[col])[ok]
+        for key, col in (("classical", "mu_classical"), ("instrument", "mu_instrument")):
+            if col in self.table:
+                out[key] = np.asarray(self.table[col], dtype=float)
+        if self.strokes is not None and len(self.strokes.get("mu", [])):
+            mu, d = np.asarray(self.strokes["mu"], dtype=float), np.asarray(self.strokes["direction"])
+            out.update({"strokes.forward": mu[d == 1], "strokes.backward": mu[d == -1], "strokes.all": mu})
+        return {k: np.asarray(v[np.isfinite(v)]) for k, v in out.items()}
+
+    @cached_property
+    def column_ci(self) -> Dict[str, Dict[str, Tuple[float, float]]]:
+        """:func:`bootstrap_ci` of each of :meth:`summary_columns`: the intervals of ``summary()`` beside mu_r's
+        (docs/method.md 3d), computed once."""
+        return {k: bootstrap_ci(v, threads=self._threads) for k, v in self.summary_columns().items()}
+
     @cached_property
     def verdict(self) -> Dict[str, Any]:
         """Whether the dynamic method applies, why not, and the motion (``tribometer.verdict``; docs/method.md 6d)."""
@@ -383,7 +411,7 @@ class Results:
         ok = np.asarray(self.table["ok"], dtype=bool)
         mu, _ = self._gated_mu
 
-        def stats(v: np.ndarray, ci: Optional[Dict[str, Tuple[float, float]]] = None) -> Mapping[str, Any]:
+        def stats(v: np.ndarray, ci: Dict[str, Tuple[float, float]]) -> Mapping[str, Any]:
             if v.size == 0:
                 return {"n": 0}
             q = np.percentile(v, [5, 25, 50, 75, 95])
@@ -398,7 +426,7 @@ class Results:
                 "p75": float(q[3]),
                 "p95": float(q[4]),
                 "max": float(v.max()),
-                "ci": bootstrap_ci(v, threads=self._threads) if ci is None else ci,
+                "ci": ci,
             }
 
         out: Dict[str, Any] = {
@@ -409,11 +437,10 @@ class Results:
             "mu_r": stats(mu, self.mu_r_ci),
             "warnings": list(self.warnings),
         }
-        for col in ("mu_a", "mu_b", "force_dependence", "dmu_dfn"):
-            if col not in self.table:
-                continue
-            v = np.asarray(self.table[col])[ok]
-            out[col] = stats(v[np.isfinite(v)])
+        values, cis = self.summary_columns(), self.column_ci
+        for col in SUMMARY_COLUMNS:
+            if col in values:
+                out[col] = stats(values[col], cis[col])
         for key in ("method", "estimator", "gate", "noise_z_std", "delay_samples", "orientation_r",
                     "orientation_agreement"):  # fmt: skip
             if self.params.get(key) is not None:
@@ -425,7 +452,7 @@ class Results:
                 key = part.split(":")[0]
                 counts[key] = counts.get(key, 0) + 1
         out["gate_failures"] = counts
-        out.update(self._tribometer_summary(stats))
+        out.update(self._tribometer_summary(lambda key: stats(values[key], cis[key])))
         head = self.headline
         out["headline"] = head.to_dict()
         out["verdict"]["cof"] = out["headline"]
@@ -435,13 +462,13 @@ class Results:
         return out
 
     def _tribometer_summary(self, stats: Any) -> Dict[str, Any]:
-        """ "classical", "instrument", "strokes", "roles", "motion" and "verdict" (docs/method.md 6a-6d)."""
+        """ "classical", "instrument", "strokes", "roles", "motion" and "verdict" (docs/method.md 6a-6d); ``stats``
+        gives the statistics of an entry of :meth:`summary_columns` by its key."""
         out: Dict[str, Any] = {}
-        for key, col in (("classical", "mu_classical"), ("instrument", "mu_instrument")):
-            v = np.asarray(self.table.get(col, []), dtype=float)
-            v = v[np.isfinite(v)]
-            if v.size:
-                out[key] = dict(stats(v))
+        values = self.summary_columns()
+        for key in ("classical", "instrument"):
+            if values.get(key, np.zeros(0)).size:
+                out[key] = dict(stats(key))
                 if key == "classical":
                     med = np.asarray(self.table["mu_classical_median"], dtype=float)
                     out[key]["median_of_medians"] = float(np.nanmedian(med)) if np.isfinite(med).any() else None
@@ -451,14 +478,9 @@ class Results:
                     # the whole recording's classical COF with fy's tare not subtracted (a drag; 6a)
                     out[key]["without_fy_tare"] = raw if np.isfinite(raw) else None
         if self.strokes is not None and len(self.strokes.get("mu", [])):
-            st = self.strokes
-            per: Dict[str, Any] = {"n": int(len(st["mu"]))}
-            for d, name in ((1, "forward"), (-1, "backward")):
-                m = np.asarray(st["mu"])[np.asarray(st["direction"]) == d]
-                m = m[np.isfinite(m)]
-                per[name] = dict(stats(m)) if m.size else {"n": 0}
-            allm = np.asarray(st["mu"], dtype=float)
-            per["all"] = dict(stats(allm[np.isfinite(allm)]))
+            per: Dict[str, Any] = {"n": int(len(self.strokes["mu"]))}
+            for name in ("forward", "backward", "all"):
+                per[name] = dict(stats(f"strokes.{name}"))
             out["strokes"] = per
         for key in ("roles", "roles_source", "roles_evidence", "motion", "window_note", "contact"):
             if self.params.get(key) is not None:
