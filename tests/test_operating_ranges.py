@@ -356,3 +356,89 @@ def test_contact_loss_mask_flags_what_the_window_by_window_rule_flags():
         flagged += int(want.sum())
         stepped += int(step.sum())
     assert flagged > 1000 and stepped > 100  # the cases flag windows, by collapse and by jumps, and steps
+
+
+# --- issue 35, point 2: operating ranges independent of the hop ---
+
+
+def test_windows_repeated_k_times_with_overlap_k_choose_as_the_windows_once():
+    from tribodyn.analyses.segmented import block_length, fit_bathtub
+
+    rng = np.random.default_rng(3)
+    x = np.linspace(100.0, 170.0, 60)
+    y = 0.1 + 0.002 * np.maximum(125.0 - x, 0.0) + rng.normal(0.0, 0.004, x.size)
+    se = np.full(x.size, 0.004)
+    once = fit_bathtub(x, y, se)
+    five = fit_bathtub(np.repeat(x, 5), np.repeat(y, 5), np.repeat(se, 5), overlap=5.0)
+    assert once.fit.family == five.fit.family == "lower"
+    assert five.p_flat == pytest.approx(once.p_flat, rel=0.2)  # counted as independent it would be ~1e-40 smaller
+    assert fit_bathtub(np.repeat(x, 5), np.repeat(y, 5), np.repeat(se, 5)).p_flat < 1e-6 * once.p_flat
+    # the bootstrap's block spans the same time at every hop
+    assert block_length(400) == 8 and block_length(2000, 5.0) == 40 and block_length(800, 2.0) == 16
+
+
+@pytest.fixture(scope="module")
+def cd_hops(cd_sim):
+    """The current-density test in 10 s windows at hops of 10 and 2 s (they overlap 1 and 5 times)."""
+    return {hop: td.analyze(cd_sim.channels, fs=cd_sim.fs, window=10.0, hop=hop, area_mm2=cd_sim.area_mm2)
+            for hop in (10.0, 2.0)}  # fmt: skip
+
+
+def test_a_current_step_is_no_contact_loss_and_the_onset_stays_at_any_hop(cd_hops, cd_sim):
+    from tribodyn.analyses.ranges import held, overlap
+
+    for hop, res in cd_hops.items():
+        reasons = res["reasons"]
+        lost = np.array(["contact loss" in r for r in reasons])
+        # windows clear of the simulated contact loss are never flagged (at hop 2 s they were: the onset read 5.3)
+        assert not lost[~cd_sim.truth.in_contact_loss(res["time"], 5.0)].any()
+        opr = td.operating_range(res, "current_density", n_boot=0)
+        assert opr.instability == pytest.approx(6.5, abs=0.01), hop
+        assert opr.instability_ci[0] == pytest.approx(6.0 - 0.025, abs=0.01)  # the last level held: 6.0
+        assert overlap(res) == pytest.approx(10.0 / hop)
+    res = cd_hops[2.0]
+    stepped = np.array(["current step" in r for r in res["reasons"]])
+    assert stepped.any() and res.summary()["gate_failures"]["current step"] == int(stepped.sum())
+    # those windows lie at the steps (every 70 s): they straddle one, or follow it within the COF's response
+    assert np.all(np.minimum(res["t_start"][stepped] % 70.0, 70.0 - res["t_start"][stepped] % 70.0) <= 12.0)
+    still = held(res, np.asarray(res["J"]), 0.05)
+    straddle = (res["t_start"] % 70.0 > 60.5) & (res["t_start"] % 70.0 < 69.5)  # 10 s windows over a step
+    assert not still[straddle & (res["t_start"] < 620)].any() and still[res["t_start"] % 70.0 == 0].all()
+
+
+def test_verdict_and_walls_the_same_at_hops_10_and_2(cd_hops):
+    fits = {hop: td.operating_range(res, "current_density", n_boot=100) for hop, res in cd_hops.items()}
+    a, b = fits[10.0], fits[2.0]
+    assert a.verdict == b.verdict == "optimum"
+    for side in (0, 1):
+        # each edge lies in the other hop's interval
+        assert a.optimum_ci[side][0] <= b.optimum[side] <= a.optimum_ci[side][1]
+        assert b.optimum_ci[side][0] <= a.optimum[side] <= b.optimum_ci[side][1]
+    assert abs(a.fits["all"].p_flat - b.fits["all"].p_flat) < 1e-6 or (a.fits["all"].p_flat < 1e-6 and
+                                                                        b.fits["all"].p_flat < 1e-6)  # fmt: skip
+
+
+def test_a_running_in_on_the_start_plateau_is_no_wall():
+    """simulate.temperature_test(running_in=0.3): the COF starts 30 % high on the 155 degC plateau."""
+    from tribodyn.analyses.ranges import running_in_end
+
+    sim = simulate.temperature_test(seed=5, running_in=0.3)
+    res = td.analyze(sim.channels, fs=sim.fs, window=10.0, hop=10.0, temperature=sim.temperature_log)
+    opr = td.operating_range(res, "temperature", n_boot=0)
+    end = sim.truth.params["running_in_end_s"]
+    n_in = int(np.sum(res["time"] < end))
+    assert opr.excluded["running-in"] == pytest.approx(n_in, abs=0.3 * n_in)
+    heat, cool = opr.fits["heating"], opr.fits["cooling"]
+    # with the running-in fitted, the cooling edge read 149 (truth 155) and the floor 0.103
+    assert abs(cool.upper - 155.0) <= 1.5 and abs(heat.mu_min - 0.100) < 0.001
+    # the same on one window per window length: a series at hop 2 s thinned five times gives the same end
+    t = np.arange(5.0, 1000.0, 2.0)
+    y = 0.1 * (1 + 0.3 * np.exp(-t / 150.0)) + np.random.default_rng(1).normal(0, 0.002, t.size)
+    x = np.full(t.size, 155.0)
+    x[-50:] = 160.0
+    assert running_in_end(t, x, y, 1.0, overlap=5.0) == pytest.approx(150.0 * np.log(50.0), rel=0.15)
+    assert running_in_end(t, x, np.full(t.size, 0.1), 1.0, overlap=5.0) == -np.inf  # no running-in
+
+
+def test_the_default_temperature_test_has_no_running_in(temp_range):
+    assert "running-in" not in temp_range.excluded
