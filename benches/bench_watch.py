@@ -20,6 +20,7 @@ import argparse
 import dataclasses
 import os
 import resource
+import shutil
 import statistics
 import tempfile
 import time
@@ -108,6 +109,7 @@ def main() -> None:
     ap.add_argument("--hop", type=float, default=5.0)
     ap.add_argument("--format", choices=["csv", "h5"], default="csv")
     ap.add_argument("--summary", action="store_true", help="each snapshot's summary() too, as the command line")
+    ap.add_argument("--outputs", action="store_true", help="each snapshot's summary.json and live.html written")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bench_watch_"))
     path = work / f"run.{args.format}"
@@ -121,7 +123,10 @@ def main() -> None:
     watch = td.watch(path, interval=args.interval, until_idle=3 * args.interval, clock=w.clock, sleep=w.sleep,
                      final=False, **opts)  # fmt: skip
     update_s, rss, moved, check_cpu = [], [], [], 0.0
-    summary_cpu = fresh_summary_cpu = 0.0
+    summary_cpu = fresh_summary_cpu = outputs_cpu = 0.0
+    first = True
+    from tribodyn.app.watch_job import _publish_live
+
     while True:
         u = time.perf_counter()
         snap = watch.update()
@@ -132,6 +137,11 @@ def main() -> None:
                 c = time.process_time()
                 snap.summary()
                 summary_cpu += time.process_time() - c
+            if args.outputs:  # the command line's outputs of an update: summary.json and live.html, as one set
+                c = time.process_time()
+                _publish_live(str(work / "out"), snap, watch, overwrite=first, protect=[str(path)])
+                outputs_cpu += time.process_time() - c
+                first = False
             c = time.process_time()
             moved.append(_moved_against_fresh(snap))
             if args.summary:  # the same summary with every interval drawn afresh (before docs/method.md 11's moves)
@@ -165,6 +175,8 @@ def main() -> None:
     if args.summary:
         print(f"  summary() of each snapshot (in the watch CPU above): {summary_cpu:.2f} s; every interval drawn "
               f"afresh it would be {fresh_summary_cpu:.2f} s")  # fmt: skip
+    if args.outputs:
+        print(f"  summary.json and live.html of each snapshot (in the watch CPU above): {outputs_cpu:.2f} s")
     half = len(rss) // 2
     print(f"  max RSS: {rss0 / 1024:.0f} MB before, {rss[half] / 1024:.0f} MB half way, {rss[-1] / 1024:.0f} MB "
           "at the end")  # fmt: skip
@@ -176,9 +188,7 @@ def main() -> None:
               "half-width")  # fmt: skip
     latency = args.interval + (args.window + args.hop) / args.speed + max(update_s)
     print(f"  latency bound: interval + (window + hop)/speed + slowest update = {latency:.2f} s")
-    for p in work.iterdir():
-        p.unlink()
-    work.rmdir()
+    shutil.rmtree(work)
 
 
 if __name__ == "__main__":

@@ -192,7 +192,7 @@ def _signals_held() -> Iterator[None]:
             signal.raise_signal(sig)
 
 
-def publish(stage: PathLike, target: PathLike) -> None:
+def publish(stage: PathLike, target: PathLike, *, durable: bool = True) -> None:
     """Replaces folder ``target`` (if any) by folder ``stage``, in the same parent folder.
 
     Two renames: ``target`` to an aside name, ``stage`` to ``target``; then
@@ -200,7 +200,7 @@ def publish(stage: PathLike, target: PathLike) -> None:
     undone. SIGINT/SIGTERM wait until both renames are done; after a hard
     kill in between, ``target`` is missing and the aside folder holds the
     previous set, which the next :class:`OutputSet` into ``target`` puts
-    back.
+    back. ``durable``: the parent folder flushed to disk after the swap.
     """
     stage, target = Path(stage), Path(target)
     aside: Optional[Path] = None
@@ -224,7 +224,8 @@ def publish(stage: PathLike, target: PathLike) -> None:
                 raise
     finally:
         if swapped:
-            _fsync_dir(target.parent)
+            if durable:
+                _fsync_dir(target.parent)
             if aside is not None:
                 shutil.rmtree(aside, ignore_errors=True)
 
@@ -243,6 +244,12 @@ class OutputSet:
     protect : iterable of paths
         Files that must not lie in the folder (the inputs): refused even
         with ``overwrite``.
+    durable : bool
+        Flush the files and folders to disk before and after the swap
+        (default). A set replaced again within seconds (the live outputs of
+        ``tribodyn watch``) skips it: readers still see the old set or the
+        new one, never a mix; after a power cut the folder may hold an
+        older set.
 
     Raises
     ------
@@ -262,7 +269,8 @@ class OutputSet:
     >>> # after a failure it holds what it held before.
     """
 
-    def __init__(self, directory: PathLike, *, overwrite: bool = False, protect: Iterable[PathLike] = ()) -> None:
+    def __init__(self, directory: PathLike, *, overwrite: bool = False, protect: Iterable[PathLike] = (),
+                 durable: bool = True) -> None:  # fmt: skip
         text = os.fspath(directory)
         if not text.strip():
             raise OutputError("the output folder name is empty")
@@ -270,6 +278,7 @@ class OutputSet:
         self.target = Path(os.path.abspath(text))
         self.overwrite = overwrite
         self.protect = [os.fspath(p) for p in protect]
+        self.durable = durable
         self._stage: Optional[Path] = None
         self._made: List[Path] = []  # folders __enter__ created (the target and missing parents), outermost first
         self.written: List[Path] = []
@@ -378,8 +387,9 @@ class OutputSet:
                     if e.is_file(follow_symlinks=False)
                 )
                 _write_marker(stage, files)
-                _sync_tree(stage)
-                publish(stage, self.target)
+                if self.durable:
+                    _sync_tree(stage)
+                publish(stage, self.target, durable=self.durable)
                 published = True
                 self.written = [self.target / f for f in files]
         finally:

@@ -177,7 +177,8 @@ def _publish_live(out: str, res: Results, w: Watch, *, overwrite: bool, protect:
     info["intervals_drawn_at"] = (res.params.get("watch") or {}).get("intervals_drawn_at")
     summary = {"watch": info, "recording": res.summary()}
     page = live_page(res, w, info, interval=w.interval)
-    with OutputSet(out, overwrite=overwrite, protect=protect) as o:
+    # replaced at every update: not flushed to disk each time (the end's outputs are, docs/method.md 11)
+    with OutputSet(out, overwrite=overwrite, protect=protect, durable=False) as o:
         write_json(summary, o.path("summary.json"))
         Path(o.path(LIVE_PAGE)).write_text(page, encoding="utf-8")
 
