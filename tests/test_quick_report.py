@@ -22,7 +22,7 @@ EXPORT = Path(__file__).parent / "data" / "real" / "pod_PPS_100N_1.tsv"  # a dea
 
 
 def _view_data(html: str) -> dict:
-    m = re.search(r"var d = (\{.*?\}); if \(window\.tribodynCofViews\)", html, re.S)
+    m = re.search(r"var d = (\{.*?\}), id = ", html, re.S)
     assert m, html[:500]
     return json.loads(m.group(1))
 
@@ -38,7 +38,7 @@ def test_view_embeds_the_shown_windows_numbers_exactly():
     res = td.analyze(sim.channels, fs=sim.fs, window=2.0, hop=10.0, area_mm2=sim.area_mm2)
     script, div = _interactive.cof_views(res, "a</script><b>")
     view_id = re.search(r'id="(tribodyn-view-\d+)"', div).group(1)
-    assert f'"{view_id}"' in script and "</script>" not in script[:-9]
+    assert f'id = "{view_id}"' in script and "</script>" not in script[:-9]
     d = _view_data(script)
     ok = np.asarray(res["ok"], dtype=bool) & np.isfinite(np.asarray(res["mu_r"], dtype=float))
     assert d["good"] == int(ok.sum()) and d["title"].startswith("a</script><b>: COF against time")

@@ -208,8 +208,10 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
     view_id = f"tribodyn-view-{next(_IDS)}"
     # "<" escaped: a file name or reason can never end the script element
     payload = json.dumps(_view_data(results, name), allow_nan=False).replace("<", "\\u003c")
-    script = (f"<script>(function () {{ var d = {payload}; if (window.tribodynCofViews) "
-              f"{{ window.tribodynCofViews({json.dumps(view_id)}, d); }} }})();</script>")  # fmt: skip
+    script = (f"<script>(function () {{ var d = {payload}, id = {json.dumps(view_id)}; if (!window.tribodynCofViews) "
+              "return; try { window.tribodynCofViews(id, d); } catch (e) { console.error(e); "
+              "document.getElementById(id).textContent = 'The interactive view could not be drawn: ' + e; } "
+              "})();</script>")  # fmt: skip
     div = (f'<div id="{view_id}" class="tribodyn-view"><noscript>The interactive view needs JavaScript.</noscript>'
            "</div>")  # fmt: skip
     if _bokeh_js_dir() is None:
