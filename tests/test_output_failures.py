@@ -42,7 +42,7 @@ def test_a_failed_set_keeps_a_folder_that_was_there(tmp_path):
 def test_a_failed_publish_removes_the_new_folder(tmp_path, monkeypatch):
     import tribodyn.app.outputs as outputs
 
-    def fail(stage, target):
+    def fail(stage, target, **kw):
         raise OSError(errno.EXDEV, "Invalid cross-device link", str(stage), None, str(target))
 
     monkeypatch.setattr(outputs, "publish", fail)
