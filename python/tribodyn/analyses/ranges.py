@@ -639,6 +639,28 @@ def _without_running_in(
     return usable, {**excluded, RUNNING_IN: int(out.size)}
 
 
+#: The windows' key in ``OperatingRange.excluded`` that straddle a step of the covariate (issue 35).
+STEPPED = "covariate step in the window"
+
+
+def _without_steps(
+    results: Results, cov: np.ndarray, usable_excluded: Tuple[np.ndarray, Dict[str, int]], *, resolution: float,
+    by: str,
+) -> Tuple[np.ndarray, Dict[str, int]]:  # fmt: skip
+    """The usable windows less those that straddle a step of the covariate (not :func:`held`), counted in
+    ``excluded`` as :data:`STEPPED`: such a window reads a mixture of two levels and a COF mixed from both, which
+    is no point of the curve; at a hop shorter than the window several windows straddle each step, at a hop of a
+    window at most one (docs/method.md 7). Temperature is read from a log interpolated between readings, which has
+    no steps within a window: its windows are all kept."""
+    usable, excluded = usable_excluded
+    if by == "temperature":
+        return usable, excluded
+    out = usable & ~held(results, cov, resolution)
+    if not out.any():
+        return usable, excluded
+    return usable & ~out, {**excluded, STEPPED: int(out.sum())}
+
+
 def _excluded(
     results: Results, by: str, cov: np.ndarray, fitted: _FittedCof, nonpositive: Optional[np.ndarray] = None
 ) -> Tuple[np.ndarray, Dict[str, int]]:
@@ -1212,6 +1234,7 @@ def operating_range(
     usable, excluded = _excluded(results, by, cov, fitted, nonpositive)
     shared = overlap(results)
     usable, excluded = _without_running_in(results, cov, mu, (usable, excluded), resolution=resolution, shared=shared)
+    usable, excluded = _without_steps(results, cov, (usable, excluded), resolution=resolution, by=by)
     pos = np.flatnonzero(usable)  # time order: the table's
     boot = bootstrap_indices(len(pos), n_boot, seed, block, shared) if len(pos) and n_boot else np.zeros((0, 0), int)
     x_noise = _reading_noise(results, by, pos)
