@@ -585,6 +585,45 @@ def _curved(f: Fit) -> CurvedFit:
 RUNNING_IN = "running-in"
 
 
+class _RunningIn(NamedTuple):
+    """A running-in fitted on the start plateau: its end t_steady, start t0, amplitude and shape (0 exponential, 1
+    linear; :mod:`tribodyn.analyses.steady`)."""
+
+    end: float
+    t0: float
+    amp: float
+    shape: int
+
+    def tail(self, t: np.ndarray) -> np.ndarray:
+        """The fitted transient at times ``t`` (at most 2 % of its amplitude from ``end`` on)."""
+        from .steady import _shapes
+
+        return np.asarray(self.amp * _shapes(np.asarray(t, dtype=float), self.t0, np.array([self.end]), self.shape)[0])
+
+
+def _running_in(t: np.ndarray, x: np.ndarray, y: np.ndarray, resolution: float, overlap: float) -> Optional[_RunningIn]:
+    """The running-in of the start plateau (:func:`running_in_end`), or None."""
+    from .steady import MAX_POINTS, _average, _fit_rows, _grid, _shapes
+
+    if t.size < MIN_WINDOWS:
+        return None
+    x0 = float(np.median(x[:MIN_WINDOWS]))
+    away = np.flatnonzero(np.abs(x - x0) > resolution)
+    if not away.size:
+        return None
+    stride = max(1, int(round(overlap)))
+    tt, yy = t[: int(away[0]) : stride], y[: int(away[0]) : stride]
+    if tt.size < MIN_WINDOWS or not tt[-1] > tt[0]:
+        return None
+    if tt.size > MAX_POINTS:
+        tt, yy = _average(tt, yy, MAX_POINTS)
+    t0 = float(tt[0])
+    grid = _grid(tt, t0)
+    fit = _fit_rows(yy[None, :], tt, t0, grid, np.stack([_shapes(tt, t0, grid, 0), _shapes(tt, t0, grid, 1)]))
+    code = int(fit.code[0])
+    return _RunningIn(float(fit.ts[0]), t0, float(fit.amp[0]), code - 1) if code else None
+
+
 def running_in_end(t: np.ndarray, x: np.ndarray, y: np.ndarray, resolution: float, overlap: float = 1.0) -> float:
     """Where a running-in on the start plateau ends (s; -inf when there is none), docs/method.md 7.
 
@@ -594,49 +633,37 @@ def running_in_end(t: np.ndarray, x: np.ndarray, y: np.ndarray, resolution: floa
     independent windows are there. On one window per window length of it (``overlap``: windows sharing each sample,
     so the answer does not depend on the hop), the running-in fit of docs/method.md 6h (flat, exponential or linear
     transient, F-test at 1 % with the noise's autocorrelation): a transient ends at its t_steady, beyond which at
-    most 2 % of it is left. A COF that changes over time at one covariate is no wall: those windows stay out of the fit.
+    most 2 % of it is left. A COF that changes over time at one covariate is no wall: the windows before it stay out
+    of the fit, and the fitted transient's tail is taken off the COF of those after it.
     """
-    from .steady import MAX_POINTS, _average, _fit_rows, _grid, _shapes
-
-    if t.size < MIN_WINDOWS:
-        return -math.inf
-    x0 = float(np.median(x[:MIN_WINDOWS]))
-    away = np.flatnonzero(np.abs(x - x0) > resolution)
-    if not away.size:
-        return -math.inf
-    stride = max(1, int(round(overlap)))
-    tt, yy = t[: int(away[0]) : stride], y[: int(away[0]) : stride]
-    if tt.size < MIN_WINDOWS or not tt[-1] > tt[0]:
-        return -math.inf
-    if tt.size > MAX_POINTS:
-        tt, yy = _average(tt, yy, MAX_POINTS)
-    t0 = float(tt[0])
-    grid = _grid(tt, t0)
-    fit = _fit_rows(yy[None, :], tt, t0, grid, np.stack([_shapes(tt, t0, grid, 0), _shapes(tt, t0, grid, 1)]))
-    return float(fit.ts[0]) if int(fit.code[0]) else -math.inf
+    r = _running_in(t, x, y, resolution, overlap)
+    return -math.inf if r is None else r.end
 
 
 def _without_running_in(
     results: Results, cov: np.ndarray, mu: np.ndarray, usable_excluded: Tuple[np.ndarray, Dict[str, int]], *,
     resolution: float, shared: float,
-) -> Tuple[np.ndarray, Dict[str, int]]:  # fmt: skip
+) -> Tuple[np.ndarray, Dict[str, int], np.ndarray]:  # fmt: skip
     """The usable windows less those of a running-in on the start plateau (:func:`running_in_end`), counted in
-    ``excluded`` as :data:`RUNNING_IN`."""
+    ``excluded`` as :data:`RUNNING_IN`, and the COF less the fitted transient's tail after it."""
     usable, excluded = usable_excluded
     pos = np.flatnonzero(usable)
     t = np.asarray(results["time"], dtype=float)
-    end = running_in_end(t[pos], cov[pos], mu[pos], resolution, shared) if pos.size else -math.inf
-    if end == -math.inf:
-        return usable, excluded
+    r = _running_in(t[pos], cov[pos], mu[pos], resolution, shared) if pos.size else None
+    if r is None:
+        return usable, excluded, mu
     x0 = float(np.median(cov[pos[:MIN_WINDOWS]]))
     away = np.flatnonzero(np.abs(cov[pos] - x0) > resolution)
     plateau = pos[: int(away[0])] if away.size else pos
-    out = plateau[t[plateau] < end]
+    out = plateau[t[plateau] < r.end]
+    after = pos[t[pos] >= r.end]
+    mu = mu.copy()
+    mu[after] = mu[after] - r.tail(t[after])
     if not out.size:
-        return usable, excluded
+        return usable, excluded, mu
     usable = usable.copy()
     usable[out] = False
-    return usable, {**excluded, RUNNING_IN: int(out.size)}
+    return usable, {**excluded, RUNNING_IN: int(out.size)}, mu
 
 
 #: The windows' key in ``OperatingRange.excluded`` that straddle a step of the covariate (issue 35).
@@ -1233,7 +1260,8 @@ def operating_range(
         return _binned_range(curves, cv, branch=branch, n_windows=int(keep.sum()), common=common)
     usable, excluded = _excluded(results, by, cov, fitted, nonpositive)
     shared = overlap(results)
-    usable, excluded = _without_running_in(results, cov, mu, (usable, excluded), resolution=resolution, shared=shared)
+    usable, excluded, mu = _without_running_in(results, cov, mu, (usable, excluded), resolution=resolution,
+                                               shared=shared)  # fmt: skip
     usable, excluded = _without_steps(results, cov, (usable, excluded), resolution=resolution, by=by)
     pos = np.flatnonzero(usable)  # time order: the table's
     boot = bootstrap_indices(len(pos), n_boot, seed, block, shared) if len(pos) and n_boot else np.zeros((0, 0), int)
