@@ -89,19 +89,23 @@ def _pct(k: int, n: int) -> str:
     return f"{k}/{n} ({p:.2f} +- {margin:.2f})"
 
 
-def table(rows: List[Dict[str, Any]]) -> None:
+def table(rows: List[Dict[str, Any]]) -> str:
+    """The markdown table of the JSON lines ``rows`` (module docstring)."""
     by = {(r["case"], r["seed"], r["hop"]): r for r in rows}
-    print("| case | quantity (truth) | " + " | ".join(f"hop {h:g} s" for h in HOPS) + " |")
-    print("|---|---|" + "---|" * len(HOPS))
+    out = ["| case | quantity (truth) | " + " | ".join(f"hop {h:g} s" for h in HOPS) + " |",
+           "|---|---|" + "---|" * len(HOPS)]  # fmt: skip
     for case, lines in (("T", _t_lines), ("J", _j_lines)):
         seeds = sorted({s for c, s, _ in by if c == case and all((c, s, h) in by for h in HOPS)})
         if not seeds:
             continue
         per = {h: [by[(case, s, h)] for s in seeds] for h in HOPS}
         for name, fn in lines():
-            print(f"| {case} | {name} | " + " | ".join(fn(per[h]) for h in HOPS) + " |")
+            out.append(f"| {case} | {name} | " + " | ".join(fn(per[h]) for h in HOPS) + " |")
         agree = _agreement(case, seeds, by)
-        print(f"| {case} | verdicts the same at hops 10, 5 and 2 s | {agree} | | |")
+        out.append(f"| {case} | verdicts the same at hops 10, 5 and 2 s | {agree} | | |")
+        walls = _pct(sum(_walls_agree(case, [by[(case, s, h)] for h in HOPS]) for s in seeds), len(seeds))
+        out.append(f"| {case} | every wall at each hop within its interval at the other hops | {walls} | | |")
+    return "\n".join(out)
 
 
 def _agreement(case: str, seeds: List[int], by: Dict[Any, Dict[str, Any]]) -> str:
@@ -114,6 +118,24 @@ def _agreement(case: str, seeds: List[int], by: Dict[Any, Dict[str, Any]]) -> st
     return _pct(same, len(seeds))
 
 
+def _walls_agree(case: str, rs: List[Dict[str, Any]]) -> bool:
+    """Every breakpoint (and the instability onset) found at one hop lies in its interval at each other hop."""
+    fits = [r["fits"] for r in rs] if case == "T" else [{"all": r["fit"]} for r in rs]
+    for a in range(len(rs)):
+        for b in range(len(rs)):
+            for branch, f in fits[a].items():
+                for side in ("lower", "upper"):
+                    g = fits[b].get(branch)
+                    if f[side] is None or g is None or not _holds(g[f"{side}_ci"], f[side]):
+                        if f[side] is not None:
+                            return False
+            if case == "J" and not (
+                rs[a]["instability"] is None or _holds(rs[b]["instability_ci"], rs[a]["instability"])
+            ):
+                return False
+    return True
+
+
 def _t_lines() -> List[Any]:
     def cover(branch: str, side: str, truth: float) -> Any:
         return lambda rs: _pct(sum(_holds(r["fits"][branch][f"{side}_ci"], truth) for r in rs), len(rs))
@@ -121,7 +143,7 @@ def _t_lines() -> List[Any]:
     def mean(branch: str, side: str) -> Any:
         def f(rs: List[Dict[str, Any]]) -> str:
             v = [r["fits"][branch][side] for r in rs if r["fits"][branch][side] is not None]
-            return f"{np.mean(v):.2f} ({len(v)})" if v else "-"
+            return f"{np.mean(v):.{4 if side == 'mu_min' else 2}f} ({len(v)})" if v else "-"
 
         return f
 
@@ -183,16 +205,33 @@ def _j_lines() -> List[Any]:
     ]
 
 
+def _read(paths: List[str]) -> List[Dict[str, Any]]:
+    return [json.loads(line) for path in paths for line in open(path) if line.strip()]
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0:40", help="seeds a:b (recording seeds 1000 + k; default 0:40)")
     ap.add_argument("--cases", default="TJ", help="T, J or both (default TJ)")
     ap.add_argument("--out", help="append one JSON line per recording and hop to this file")
     ap.add_argument("--table", nargs="*", help="print the table of these JSON-lines files and stop")
+    ap.add_argument("--before", nargs="*", help="with --table: the same cases measured before, printed first")
+    ap.add_argument("--write", action="store_true", help="with --table: write the section of benches/RESULTS.md")
     ns = ap.parse_args()
     if ns.table is not None:
-        rows = [json.loads(line) for path in ns.table for line in open(path) if line.strip()]
-        table(rows)
+        body = ""
+        if ns.before:
+            body = "Before (tribodyn before issue 35 point 2):\n\n" + table(_read(ns.before)) + "\n\nAfter:\n\n"
+        body += table(_read(ns.table))
+        print(body)
+        if ns.write:
+            from _results import write_section
+
+            intro = (f"`python benches/bench_ranges.py --seeds 0:40`: one recording per seed and case, {WINDOW:g} s "
+                     "windows at hops of 10, 5 and 2 s (docs/method.md 7). Counts k/n with the 95 % binomial margin "
+                     "of the rate.")  # fmt: skip
+            write_section("Operating ranges at hops of 10, 5 and 2 s (issue 35 point 2), 2026-11-27",
+                          intro + "\n\n" + body)  # fmt: skip
         return
     a, b = (int(v) for v in ns.seeds.split(":"))
     start = time.perf_counter()
