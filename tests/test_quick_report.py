@@ -53,18 +53,23 @@ def test_view_embeds_the_shown_windows_numbers_exactly():
     assert lo < np.median(_floats(d["cols"]["mu"])) < hi
 
 
-def test_figures_auto_leaves_out_an_exports_window_diagnostics(tmp_path):
-    """--figures auto (the default): an export whose headline is the classical COF gets its COF against time but
-    not the window diagnostics, and the report says so and how to get them; --figures none draws no PNG and keeps
-    the interactive view; the tables and summary are those of every choice."""
+def test_figures_auto_draws_no_png_the_view_shows_for_an_export(tmp_path):
+    """--figures auto (the default): an export whose headline is the classical COF gets neither the window
+    diagnostics nor the COF-against-time PNG (its interactive view shows the COF with the headline and the
+    instrument's COF), and the report says so and how to get them; --figures none says it drew none; the tables
+    and summary are those of every choice."""
     assert main(["analyze", str(EXPORT), "--out", str(tmp_path / "auto"), "-q"]) == 0
     assert main(["analyze", str(EXPORT), "--out", str(tmp_path / "none"), "-q", "--figures", "none"]) == 0
     auto, none = (tmp_path / "auto"), (tmp_path / "none")
-    assert sorted(p.name for p in (auto / "figures").iterdir()) == ["cof_vs_time.png"]
+    for d in (auto, none):
+        assert not (d / "figures").exists() or not any((d / "figures").iterdir())
     page = (auto / "report.html").read_text(encoding="utf-8")
     assert "window diagnostics (paper Figs. 2-9) are not drawn: the headline is the classical COF" in page
-    assert "--figures all draws them" in page and page.count('<figure id="fig') == 1
-    assert not (none / "figures").exists() or not any((none / "figures").iterdir())
+    assert "--figures all draws every figure as PNG" in page and '<figure id="fig' not in page
+    view = _view_data(page)
+    head = td.analyze(str(EXPORT)).headline
+    assert view["headline"]["value"] == head.value and view["headline"]["low"] == head.low
+    assert view["cols"]["inst"] is not None and view["legend"].startswith("classical COF per window")
     page_none = (none / "report.html").read_text(encoding="utf-8")
     assert '<figure id="fig' not in page_none and "no PNG figures were drawn (--figures none)" in page_none
     assert "tribodynCofViews" in page_none and "/* BEGIN bokeh-api.min.js */" in page_none
@@ -72,7 +77,7 @@ def test_figures_auto_leaves_out_an_exports_window_diagnostics(tmp_path):
     s_auto, s_none = (json.loads((d / "summary.json").read_text()) for d in (auto, none))
     rec = EXPORT.name
     assert s_auto["recordings"][rec]["headline"] == s_none["recordings"][rec]["headline"]
-    assert s_auto["recordings"][rec]["files"] == s_none["recordings"][rec]["files"] + ["figures/cof_vs_time.png"]
+    assert s_auto["recordings"][rec]["files"] == s_none["recordings"][rec]["files"]
 
 
 def test_which_figures_each_choice_draws():
@@ -86,19 +91,21 @@ def test_which_figures_each_choice_draws():
                      ("all", "dynamic"): True, ("none", "classical"): False, ("none", "dynamic"): False}  # fmt: skip
     assert jobs.figures_note("auto", dynamic, "x") == "" and jobs.figures_note("all", export, "x") == ""
     assert "classical COF" in jobs.figures_note("auto", export, "x")
+    names = [n for n, _, _ in jobs._figures(export, opr_t=None, opr_j=None, time_figure=False)]
+    assert names == [] and [n for n, _, _ in jobs._figures(export, opr_t=None, opr_j=None)] == ["cof_vs_time"]
     with pytest.raises(ValueError, match="figures must be one of auto, all, none"):
         jobs.run_analysis([str(EXPORT)], "unused", figures="some")
 
 
 def test_the_command_line_never_imports_bokeh_and_matplotlib_only_to_draw(tmp_path):
-    """In a fresh process: --figures none imports neither Matplotlib nor Bokeh; the default run then draws with
-    Matplotlib and still imports no Bokeh (the views are BokehJS's, in the page)."""
+    """In a fresh process: an export's default report imports neither Matplotlib nor Bokeh; --figures all then
+    draws with Matplotlib and still imports no Bokeh (the views are BokehJS's, in the page)."""
     code = (
         "import sys\n"
         "from tribodyn.app.cli import main\n"
-        f"assert main(['analyze', {str(EXPORT)!r}, '--out', {str(tmp_path / 'a')!r}, '-q', '--figures', 'none']) == 0\n"
+        f"assert main(['analyze', {str(EXPORT)!r}, '--out', {str(tmp_path / 'a')!r}, '-q']) == 0\n"
         "first = sorted(m for m in ('matplotlib', 'bokeh') if m in sys.modules)\n"
-        f"assert main(['analyze', {str(EXPORT)!r}, '--out', {str(tmp_path / 'b')!r}, '-q']) == 0\n"
+        f"assert main(['analyze', {str(EXPORT)!r}, '--out', {str(tmp_path / 'b')!r}, '-q', '--figures', 'all']) == 0\n"
         "print(first, sorted(m for m in ('matplotlib', 'bokeh') if m in sys.modules))\n"
     )
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)

@@ -45,15 +45,32 @@ window.tribodynCofViews = function (id, d) {
     return new Float64Array(u.buffer);
   }
   var n = d.good, g = {};
-  ["t", "mu", "lo", "hi", "T", "J"].forEach(function (k) { g[k] = col(d.cols[k], n); });
+  ["t", "mu", "lo", "hi", "T", "J", "inst"].forEach(function (k) { g[k] = col(d.cols[k], n); });
   var yr = d.y_range ? new B.Range1d({start: d.y_range[0], end: d.y_range[1]}) : new B.DataRange1d();
-  var p = P.figure({height: 320, sizing_mode: "stretch_width", tools: tools, title: d.title, y_range: yr,
+  var p = P.figure({height: 360, sizing_mode: "stretch_width", tools: tools, title: d.title, y_range: yr,
                     x_axis_label: "time t (s)", y_axis_label: d.y_label, output_backend: "canvas"});
   p.add_tools(new B.HoverTool({tooltips: [["t (s)", "@t{0.0}"], ["COF", "@mu{0.0000}"],
     ["95 % interval", "@lo{0.0000} to @hi{0.0000}"], ["T (\u00b0C)", "@T{0.0}"], ["J (A/mm\u00b2)", "@J{0.000}"]]}));
   var src = new B.ColumnDataSource({data: g});
   p.scatter({field: "t"}, {field: "mu"}, {source: src, size: 3, alpha: 0.6, color: "#222222", legend_label: d.legend});
-  p.legend.location = "top_left";
+  if (d.cols.inst !== null) {
+    p.line({field: "t"}, {field: "inst"}, {source: src, color: "#ff7f0e", line_width: 1,
+                                           legend_label: "instrument COF per window"});
+  }
+  var h = d.headline;
+  if (h) {
+    if (h.low !== null && h.high !== null) {
+      p.varea({x: [h.t0, h.t1], y1: [h.low, h.low], y2: [h.high, h.high], fill_color: "#bbbbbb", fill_alpha: 0.5,
+               legend_label: "95 % interval of the headline"});
+    }
+    p.line([h.t0, h.t1], [h.value, h.value], {color: "black", line_width: 2, legend_label: h.label});
+  }
+  var lg = p.legend;  // above the plot, as the PNG figures have it, so that it hides no point; a click hides a series
+  p.center = p.center.filter(function (r) { return r !== lg; });
+  lg.orientation = "horizontal";
+  lg.location = "top_left";
+  lg.click_policy = "hide";
+  p.add_layout(lg, "above");
   var plots = [p];
   if (d.failed) {
     var ft = col(d.failed.t, d.failed.why.length);
@@ -126,29 +143,34 @@ class _Series:
     cur: np.ndarray
     what: str
     y_label: str
+    instrument: np.ndarray  # the instrument's COF per window beside a classical one (NaN where none)
 
 
 def _series(results: Any) -> _Series:
     """The headline's COF per window: the dynamic ``mu_r`` of the gated windows, or the classical COF of each
-    window when the headline is the classical or per-stroke COF."""
+    window (with the instrument's beside it; the instrument's alone in a COF-only export) when the headline is
+    the classical, per-stroke or instrument COF."""
     table = results.table
     t = np.asarray(table["time"], dtype=float)
     head = getattr(results, "headline", None)
     dynamic = head is None or head.method == "dynamic"
+    inst = np.asarray(table.get("mu_instrument", np.full(t.size, np.nan)), dtype=float)
     if dynamic:
         ok = np.asarray(table["ok"], dtype=bool)
         mu = np.asarray(table["mu_r"], dtype=float)
         lo = np.asarray(table.get("mu_r_low", np.full(t.size, np.nan)), dtype=float)
         hi = np.asarray(table.get("mu_r_high", np.full(t.size, np.nan)), dtype=float)
         what, y_label = "gated windows", "COF mu_r"
-    else:  # the headline is the classical or per-stroke COF (docs/method.md 6e): the dynamic gate plays no part
+    else:  # the headline is the classical, per-stroke or instrument COF (docs/method.md 6e): no gate
         mu = np.asarray(table.get("mu_classical", np.full(t.size, np.nan)), dtype=float)
+        what, y_label = "classical COF per window", "COF"
+        if not np.isfinite(mu).any() and np.isfinite(inst).any():  # a COF-only export: the instrument's own
+            mu, inst, what = inst, np.full(t.size, np.nan), "instrument COF per window"
         ok = np.isfinite(mu)
         lo = hi = np.full(t.size, np.nan)
-        what, y_label = "classical COF per window", "classical COF"
     temp = np.asarray(table.get("T", np.full(t.size, np.nan)), dtype=float)
     cur = np.asarray(table.get("J", np.full(t.size, np.nan)), dtype=float)
-    return _Series(t, ok, mu, lo, hi, temp, cur, what, y_label)
+    return _Series(t, ok, mu, lo, hi, temp, cur, what, y_label, inst if not dynamic else np.full(t.size, np.nan))
 
 
 def _b64(values: np.ndarray) -> Optional[str]:
@@ -157,8 +179,20 @@ def _b64(values: np.ndarray) -> Optional[str]:
     return base64.b64encode(a.tobytes()).decode("ascii") if np.isfinite(a).any() else None
 
 
+def _headline_band(results: Any, t: np.ndarray) -> Optional[Dict[str, Any]]:
+    """A classical, per-stroke or instrument headline as the view draws it (a line over the windows' times, its
+    95 % interval as a band), as the COF-against-time figure does; None for a dynamic headline or none."""
+    head = getattr(results, "headline", None)
+    if head is None or head.method == "dynamic" or not t.size or not np.isfinite(head.value):
+        return None
+    low, high = (float(v) if v is not None and np.isfinite(v) else None for v in (head.low, head.high))
+    return {"t0": float(t.min()), "t1": float(t.max()), "value": float(head.value), "low": low, "high": high,
+            "label": f"headline: {head.method} COF {head.value:.4g} ({head.statistic})"}  # fmt: skip
+
+
 def _y_range(mu: np.ndarray) -> Optional[List[float]]:
     """The COF axis fitted to the points shown (0.5-99.5 % with a margin), None without points."""
+    mu = mu[np.isfinite(mu)]
     if not mu.size:
         return None
     q0, q1 = np.percentile(mu, [0.5, 99.5])
@@ -173,14 +207,17 @@ def _view_data(results: Any, name: str) -> Dict[str, Any]:
     good = good[_thin(good.size)]
     bad = np.flatnonzero(~s.ok & np.isfinite(s.t))
     bad = bad[_thin(bad.size)]
-    cols = {"t": s.t, "mu": s.mu, "lo": s.lo, "hi": s.hi, "T": s.temp, "J": s.cur}
+    cols = {"t": s.t, "mu": s.mu, "lo": s.lo, "hi": s.hi, "T": s.temp, "J": s.cur, "inst": s.instrument}
+    head = _headline_band(results, s.t[good])
+    shown = [s.mu[good], s.instrument[good]] + ([np.array([head["low"], head["high"]], dtype=float)] if head else [])
     data: Dict[str, Any] = {
         "title": f"{name}: COF against time (zoom, pan, hover)",
         "y_label": s.y_label,
         "legend": f"{s.what} ({int(s.ok.sum())})",
         "good": int(good.size),
         "cols": {k: _b64(v[good]) for k, v in cols.items()},
-        "y_range": _y_range(s.mu[good]),
+        "y_range": _y_range(np.concatenate(shown)),
+        "headline": head,
         "failed": None,
         "side": [
             {"key": key, "label": label, "title": f"COF against {label.split(' (')[0]}"}

@@ -346,9 +346,9 @@ def _add_analyze_command(a: argparse.ArgumentParser) -> None:
         "--figures",
         choices=("auto", "all", "none"),
         default="auto",
-        help="PNG figures: auto (default) every figure, but the window diagnostics (Figs. 2-9) only when the "
-        "headline is the dynamic COF; all: every figure; none: no PNG, the quickest report (its interactive "
-        "views stay)",
+        help="PNG figures: auto (default) every figure when the headline is the dynamic COF, else neither the "
+        "window diagnostics (Figs. 2-9) nor the COF against time (the report's interactive view shows it); all: "
+        "every figure; none: no PNG, the quickest report (its interactive views stay)",
     )
     a.add_argument(
         "--meta",

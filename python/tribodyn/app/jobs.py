@@ -227,13 +227,15 @@ def _figures(
     example: Optional[Dict[str, Any]] = None,
     examples: Sequence[Dict[str, Any]] = (),
     loops: Sequence[Dict[str, Any]] = (),
+    time_figure: bool = True,
 ) -> List[Tuple[str, str, Any]]:
-    """(file name, caption, Figure) of every figure, named after the paper's figures."""
+    """(file name, caption, Figure) of every figure, named after the paper's figures (``time_figure=False``:
+    without ``cof_vs_time``)."""
     from .report import build_named_figures
 
     exs = list(examples) + ([example] if example is not None else [])
     return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, opr_speed=opr_v, examples=exs,
-                               loops=loops)  # fmt: skip
+                               loops=loops, time_figure=time_figure)  # fmt: skip
 
 
 def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
@@ -722,7 +724,7 @@ def run_analysis(
     # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
     # another (both mostly outside the GIL or while the kernel runs without it).
     digests = Digests(files)
-    imports = _import_in_background(_OUTPUT_MODULES if figures != "none" else _TABLE_MODULES)
+    imports = _import_in_background(_OUTPUT_MODULES if _drawing_likely(figures, files) else _TABLE_MODULES)
     try:
         return _run_analysis(files, output, digests, imports, open_options=open_options,
                              analyze_options=analyze_options, progress=progress, client=client, split=split,
@@ -831,15 +833,17 @@ def _open_once(stack: contextlib.ExitStack, path: Path, open_options: Mapping[st
         return exc
 
 
-#: What ``tribodyn analyze --figures`` draws as PNG (figures/*.png and the report's figures): ``auto`` every figure,
-#: but the window diagnostics (Figs. 2-9) only when the headline is the dynamic COF they diagnose (an export whose
-#: headline is the classical or per-stroke COF gets its COF, stroke, cycle and loop figures); ``all`` every figure;
-#: ``none`` no PNG (the report's interactive views stay; issue 38 point 3: the quickest report).
+#: What ``tribodyn analyze --figures`` draws as PNG (figures/*.png and the report's figures): ``auto`` every figure
+#: of a recording whose headline is the dynamic COF; of an export whose headline is the classical, per-stroke or
+#: instrument COF, the figures the interactive view does not show (strokes, cycles, loops, temperature, current,
+#: speed): neither the window diagnostics (Figs. 2-9: they diagnose the dynamic method) nor ``cof_vs_time`` (the
+#: interactive view draws it, with the headline; drawn with ``--steady-state``, whose running-in it shades);
+#: ``all`` every figure; ``none`` no PNG (issue 38 point 3).
 FIGURES = ("auto", "all", "none")
 
 
 def _diagnostics_drawn(figures: str, res: Results) -> bool:
-    """Whether the window diagnostics (Figs. 2-9) are drawn (:data:`FIGURES`)."""
+    """Whether the window diagnostics (Figs. 2-9) and ``cof_vs_time`` are drawn (:data:`FIGURES`)."""
     return figures == "all" or (figures == "auto" and res.headline.method == "dynamic")
 
 
@@ -865,7 +869,8 @@ def figures_note(figures: str, res: Results, name: str) -> str:
                 "against time; --figures auto or all draws them.")  # fmt: skip
     if not _diagnostics_drawn(figures, res):
         return (f"{name}: the window diagnostics (paper Figs. 2-9) are not drawn: the headline is the "
-                f"{res.headline.method} COF, which they do not diagnose; --figures all draws them.")  # fmt: skip
+                f"{res.headline.method} COF, which they do not diagnose; the interactive view below shows the COF "
+                "against time with the headline; --figures all draws every figure as PNG.")  # fmt: skip
     return ""
 
 
@@ -910,7 +915,8 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
     steady = _steady_state(res) if job.steady_state else None
     # the figures read the steady state from their Results' params (docs/method.md 6h)
     fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
-    figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops) if drawn else []
+    figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops,
+                    time_figure=_diagnostics_drawn(job.figures, res) or bool(steady)) if drawn else []  # fmt: skip
     res_now = res
 
     def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, before the figures
@@ -1006,6 +1012,23 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
 #: interactive views are built by BokehJS in the browser (``_interactive``).
 _TABLE_MODULES = ("pyarrow", "pyarrow.parquet")
 _OUTPUT_MODULES = (*_TABLE_MODULES, "matplotlib.figure", "matplotlib.backends.backend_agg")
+
+
+#: Inputs of at least this many bytes (together) have Matplotlib imported during their analysis by default.
+_EARLY_MATPLOTLIB_BYTES = 16 << 20
+
+
+def _drawing_likely(figures: str, files: Sequence[str]) -> bool:
+    """Whether Matplotlib is imported during the analysis: with ``--figures all``, or by default for inputs of
+    :data:`_EARLY_MATPLOTLIB_BYTES` or more (long recordings, whose analysis the import overlaps; a small
+    export's report often draws no PNG, and its analysis is too short to hide the import)."""
+    if figures != "auto":
+        return figures == "all"
+    size = 0
+    for f in files:
+        with contextlib.suppress(OSError):
+            size += os.path.getsize(f)
+    return size >= _EARLY_MATPLOTLIB_BYTES
 
 
 def _import_in_background(modules: Sequence[str] = _OUTPUT_MODULES) -> threading.Thread:

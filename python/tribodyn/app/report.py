@@ -826,6 +826,26 @@ def build_report_figures(
         examples=[example] if example is not None else (), temperature_log=temperature_log)]  # fmt: skip
 
 
+def _figs() -> Any:
+    """:mod:`tribodyn.app.figures`, imported on first use (it imports Matplotlib)."""
+    from . import figures
+
+    return figures
+
+
+def _time_what(results: Any, head: Any) -> str:
+    """What the COF-against-time figures show, for their captions."""
+    n = len(getattr(results, "table", results)["time"])
+    if head is not None and head.method != "dynamic":  # the figure shows the classical COF (docs/method.md 6e)
+        return (f"{n} windows: the classical COF of each and the instrument's where the file has it; black line "
+                f"and grey band: the headline ({head.method} COF, {head.statistic}) and its 95 % interval")  # fmt: skip
+    ok = int(np.sum(np.asarray(getattr(results, "table", results).get("ok", np.ones(n)), dtype=bool)))
+    many = ok > _figs().BAND_FROM
+    return (f"{n} windows, {ok} passed the quality gate"
+            + ("; line and shaded band: running median and 5-95 % of the gated windows" if many else "")
+            + "; failed windows as grey ticks in the strip at the top, with their commonest reasons")  # fmt: skip
+
+
 def build_named_figures(
     results: Any,
     *,
@@ -835,8 +855,12 @@ def build_named_figures(
     temperature_log: Any = None,
     loops: Sequence[Mapping[str, Any]] = (),
     opr_speed: Any = None,
+    time_figure: bool = True,
 ) -> List[Tuple[str, str, Figure]]:
     """:func:`build_report_figures` with a file name per figure, after the paper's figure it corresponds to.
+
+    ``time_figure=False`` leaves out ``cof_vs_time`` (the report's interactive view shows it). Matplotlib is
+    imported only when a figure is built.
 
     ``loops`` (a reciprocating test with a position channel: ``x``, ``fy``,
     ``label`` and ``energy`` of whole cycles) add the friction-loop figure.
@@ -853,8 +877,6 @@ def build_named_figures(
     ``fig12_cof_current_density_vs_time``, ``sec4-2_cof_vs_current_density``
     or ``cof_vs_time``.
     """
-    from . import figures as _figs
-
     out: List[Tuple[str, str, Figure]] = []
     head = getattr(results, "headline", None)
     # issue 34 point 9: the paper's per-window diagnostics lead only when the dynamic method gives the headline;
@@ -864,42 +886,34 @@ def build_named_figures(
     if dynamic_first:
         out += diagnostics
     has_t, has_j = _finite_any(results, "T"), _finite_any(results, "J")
-    n = len(getattr(results, "table", results)["time"])
-    ok = int(np.sum(np.asarray(getattr(results, "table", results).get("ok", np.ones(n)), dtype=bool)))
-    many = ok > _figs.BAND_FROM
-    what = (f"{n} windows, {ok} passed the quality gate"
-            + ("; line and shaded band: running median and 5-95 % of the gated windows" if many else "")
-            + "; failed windows as grey ticks in the strip at the top, with their commonest reasons")  # fmt: skip
-    if head is not None and head.method != "dynamic":  # the figure shows the classical COF (docs/method.md 6e)
-        what = (f"{n} windows: the classical COF of each and the instrument's where the file has it; black line "
-                f"and grey band: the headline ({head.method} COF, {head.statistic}) and its 95 % interval")  # fmt: skip
+    what = _time_what(results, head) if has_t or has_j or time_figure else ""
     if has_t:
         cap = (
             "COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator "
             f"temperature against time ({what}); cf. paper Fig. 10."
         )
         out.append(("fig10_cof_temperature_vs_time", cap,
-                    _figs.cof_and_temperature_vs_time(results, temperature_log=temperature_log)))  # fmt: skip
+                    _figs().cof_and_temperature_vs_time(results, temperature_log=temperature_log)))  # fmt: skip
         opr = _range_or_none(results, opr_temperature, "temperature")
         cap = (
             "COF against temperature, heating and cooling branches apart (hysteresis) with binned "
             f"medians. {_opr_caption(opr)} Cf. paper Fig. 11."
         )
-        out.append(("fig11_cof_vs_temperature", cap, _figs.cof_vs_temperature(results, opr)))
+        out.append(("fig11_cof_vs_temperature", cap, _figs().cof_vs_temperature(results, opr)))
     if has_j:
         cap = f"COF and current density J against time ({what}); cf. paper Fig. 12."
-        out.append(("fig12_cof_current_density_vs_time", cap, _figs.cof_and_current_density_vs_time(results)))
+        out.append(("fig12_cof_current_density_vs_time", cap, _figs().cof_and_current_density_vs_time(results)))
         opr = _range_or_none(results, opr_current, "current_density")
         cap = f"COF against current density with binned medians. {_opr_caption(opr)} Cf. paper Sec. 4.2."
-        out.append(("sec4-2_cof_vs_current_density", cap, _figs.cof_vs_current_density(results, opr)))
+        out.append(("sec4-2_cof_vs_current_density", cap, _figs().cof_vs_current_density(results, opr)))
     if _finite_any(results, "speed"):
         opr = _range_or_none(results, opr_speed, "speed")
         cap = ("Stribeck curve: COF of each window against its mean sliding speed (log axis), the bathtub fit on "
                f"log speed and the regimes its walls stand for (docs/method.md 7a). {_opr_caption(opr)}")  # fmt: skip
-        out.append(("stribeck_curve", cap, _figs.stribeck_curve(results, opr)))
-    if not (has_t or has_j):
+        out.append(("stribeck_curve", cap, _figs().stribeck_curve(results, opr)))
+    if not (has_t or has_j) and time_figure:
         out.append(("cof_vs_time", f"COF against time ({what}); no temperature or current density was given.",
-                    _figs.cof_vs_time(results)))  # fmt: skip
+                    _figs().cof_vs_time(results)))  # fmt: skip
     strokes = getattr(results, "strokes", None)
     if strokes is not None and len(strokes.get("mu", ())):
         cap = (f"Reciprocating test: per-stroke classical COF (mean |fy|/|fz| over the central "
@@ -908,17 +922,17 @@ def build_named_figures(
                + ("; open markers: the instrument's COF column" if np.isfinite(
                    np.asarray(strokes.get("mu_instrument", [np.nan]), dtype=float)).any() else "")
                + "; docs/method.md 6c.")  # fmt: skip
-        out.append(("strokes_cof_vs_cycle", cap, _figs.strokes_vs_cycle(results)))
+        out.append(("strokes_cof_vs_cycle", cap, _figs().strokes_vs_cycle(results)))
     cycles = getattr(results, "cycles", None)
     if cycles is not None and np.isfinite(np.asarray(cycles["energy"], dtype=float)).any():
         if loops:
             cap = ("Friction loops: the friction force against the position over the first, a middle and the last "
                    "whole cycle; the area inside a loop is the energy friction dissipates in that cycle "
                    "(docs/method.md 6c).")  # fmt: skip
-            out.append(("friction_loops", cap, _figs.friction_loops(loops)))
+            out.append(("friction_loops", cap, _figs().friction_loops(loops)))
         cap = ("Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, energy / "
                "(mean F_n x sliding distance), against cycle number (docs/method.md 6c).")  # fmt: skip
-        out.append(("energy_vs_cycle", cap, _figs.energy_vs_cycle(results)))
+        out.append(("energy_vs_cycle", cap, _figs().energy_vs_cycle(results)))
     if not dynamic_first:
         out += diagnostics
     return out
@@ -927,7 +941,6 @@ def build_named_figures(
 def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, str, Figure]]:
     from ..kernels.correlation import xcorr
     from ..pipeline.identify import identify
-    from . import figures as _figs
 
     fx, fy, fz = example.get("fx"), example["fy"], example["fz"]
     fs = float(example["fs"])
@@ -966,10 +979,10 @@ def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, str, Figure]
         ),
     )
     figs = (
-        _figs.forces_vs_time(fx, fy, fz, fs, t0=t0),
-        _figs.correlation_functions(corr or {}),
-        _figs.phase_plots(fx, fy, fz, fit=res),
-        _figs.cof_vs_normal_force(res),
+        _figs().forces_vs_time(fx, fy, fz, fs, t0=t0),
+        _figs().correlation_functions(corr or {}),
+        _figs().phase_plots(fx, fy, fz, fit=res),
+        _figs().cof_vs_normal_force(res),
     )
     names = (f"fig02_forces_{tag}", f"fig03-05_correlations_{tag}", f"fig06-08_phase_plots_{tag}",
              f"fig09_cof_vs_normal_force_{tag}")  # fmt: skip
