@@ -13,7 +13,8 @@ with 10 s windows at hops of 10, 5 and 2 s (the windows overlap 1, 2 and 5 times
 Per recording and hop it keeps the verdicts, breakpoints, floors, their intervals, the hysteresis and the
 instability onset (``--out``: one JSON line each); ``--table`` prints the counts of docs/method.md 7 from such
 files (coverage: the recordings whose 95 % interval holds the truth; agreement: the recordings whose verdict
-is the same at all three hops).
+is the same at all three hops, and those whose every wall at each hop lies in its interval at the other hops;
+each count with the 95 % Clopper-Pearson interval of its rate).
 
 Run: ``python benches/bench_ranges.py --seeds 0:40 --out ranges.jsonl`` then
 ``python benches/bench_ranges.py --table ranges.jsonl``.
@@ -23,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from typing import Any, Dict, List, Optional
 
@@ -81,12 +81,14 @@ def _holds(ci: Optional[List[float]], v: float) -> bool:
 
 
 def _pct(k: int, n: int) -> str:
-    """k of n with the 95 % binomial margin of the rate (normal approximation, at least 1/n)."""
+    """k of n with the 95 % Clopper-Pearson interval of the rate (the binomial margin; exact at 0 and n)."""
+    from scipy import stats
+
     if not n:
         return "-"
-    p = k / n
-    margin = max(1.96 * math.sqrt(p * (1 - p) / n), 1.0 / n)
-    return f"{k}/{n} ({p:.2f} +- {margin:.2f})"
+    lo = float(stats.beta.ppf(0.025, k, n - k + 1)) if k > 0 else 0.0
+    hi = float(stats.beta.ppf(0.975, k + 1, n - k)) if k < n else 1.0
+    return f"{k}/{n} ({lo:.2f}-{hi:.2f})"
 
 
 def table(rows: List[Dict[str, Any]]) -> str:
@@ -228,8 +230,8 @@ def main() -> None:
             from _results import write_section
 
             intro = (f"`python benches/bench_ranges.py --seeds 0:40`: one recording per seed and case, {WINDOW:g} s "
-                     "windows at hops of 10, 5 and 2 s (docs/method.md 7). Counts k/n with the 95 % binomial margin "
-                     "of the rate.")  # fmt: skip
+                     "windows at hops of 10, 5 and 2 s (docs/method.md 7). Counts k/n with the 95 % Clopper-Pearson "
+                     "interval of the rate.")  # fmt: skip
             write_section("Operating ranges at hops of 10, 5 and 2 s (issue 35 point 2), 2026-11-27",
                           intro + "\n\n" + body)  # fmt: skip
         return
