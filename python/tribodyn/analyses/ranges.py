@@ -334,7 +334,8 @@ class OperatingRange:
         Usable windows (all branches).
     excluded : dict of str -> int
         Windows left out, by reason: "gate", "contact loss", "temperature
-        log gap", "no covariate", "no COF".
+        log gap", "no covariate", "no COF", "running-in" (on the start
+        plateau) and "covariate step in the window" (docs/method.md 7).
     instability, instability_ci : float or None, (float, float) or None
         Instability onset: the covariate of the windows just before the
         first contact loss (the highest of the last three without contact
