@@ -7,6 +7,8 @@ with 10 s windows at hops of 10, 5 and 2 s (the windows overlap 1, 2 and 5 times
 - ``T``: the temperature test with a running-in on its 155 degC start plateau (``running_in=0.3``: the COF
   starts 30 % high and decays with a time constant of 150 s). Truth: heating optimum 135-160 degC, cooling
   135-155 degC, floor 0.100, hysteresis of the upper edge 5 degC; the running-in is no wall.
+- ``F``: the same temperature path with a COF of 0.100 that does not depend on it (``model="flat"``; no
+  running-in): every wall is false. Only the verdicts are kept (no bootstrap).
 - ``J``: the current-density test (steps of 0.5 A/mm^2 every 70 s, contact lost from 632 s). Truth: optimum
   4.25-4.75 A/mm^2, floor 0.100, instability onset 6.5 A/mm^2 (the last step).
 
@@ -62,6 +64,16 @@ def run_t(seed: int) -> List[Dict[str, Any]]:
     return out
 
 
+def run_f(seed: int) -> List[Dict[str, Any]]:
+    sim = simulate.temperature_test(seed=1000 + seed, model="flat")
+    out = []
+    for hop in HOPS:
+        res = td.analyze(sim.channels, fs=sim.fs, window=WINDOW, hop=hop, temperature=sim.temperature_log, threads=1)
+        o = td.operating_range(res, "temperature", n_boot=0)
+        out.append(dict(case="F", seed=seed, hop=hop, fits={k: {"verdict": f.verdict} for k, f in o.fits.items()}))
+    return out
+
+
 def run_j(seed: int) -> List[Dict[str, Any]]:
     sim = simulate.current_density_test(seed=1000 + seed)
     out = []
@@ -96,7 +108,7 @@ def table(rows: List[Dict[str, Any]]) -> str:
     by = {(r["case"], r["seed"], r["hop"]): r for r in rows}
     out = ["| case | quantity (truth) | " + " | ".join(f"hop {h:g} s" for h in HOPS) + " |",
            "|---|---|" + "---|" * len(HOPS)]  # fmt: skip
-    for case, lines in (("T", _t_lines), ("J", _j_lines)):
+    for case, lines in (("T", _t_lines), ("F", _f_lines), ("J", _j_lines)):
         seeds = sorted({s for c, s, _ in by if c == case and all((c, s, h) in by for h in HOPS)})
         if not seeds:
             continue
@@ -105,14 +117,15 @@ def table(rows: List[Dict[str, Any]]) -> str:
             out.append(f"| {case} | {name} | " + " | ".join(fn(per[h]) for h in HOPS) + " |")
         agree = _agreement(case, seeds, by)
         out.append(f"| {case} | verdicts the same at hops 10, 5 and 2 s | {agree} | | |")
-        walls = _pct(sum(_walls_agree(case, [by[(case, s, h)] for h in HOPS]) for s in seeds), len(seeds))
-        out.append(f"| {case} | every wall at each hop within its interval at the other hops | {walls} | | |")
+        if case != "F":
+            walls = _pct(sum(_walls_agree(case, [by[(case, s, h)] for h in HOPS]) for s in seeds), len(seeds))
+            out.append(f"| {case} | every wall at each hop within its interval at the other hops | {walls} | | |")
     return "\n".join(out)
 
 
 def _agreement(case: str, seeds: List[int], by: Dict[Any, Dict[str, Any]]) -> str:
     def key(r: Dict[str, Any]) -> Any:
-        if case == "T":
+        if case in "TF":
             return tuple(r["fits"][b]["verdict"] if b in r["fits"] else None for b in ("all", "heating", "cooling"))
         return r["fit"]["verdict"], r["instability"] is not None
 
@@ -182,6 +195,21 @@ def _t_lines() -> List[Any]:
     ]
 
 
+def _f_lines() -> List[Any]:
+    def count(what: str) -> Any:
+        def f(rs: List[Dict[str, Any]]) -> str:
+            k = sum(any(v["verdict"] != "no dependence" if what == "wall" else v["verdict"] == "optimum"
+                        for v in r["fits"].values()) for r in rs)  # fmt: skip
+            return _pct(k, len(rs))
+
+        return f
+
+    return [
+        ("a false wall on some branch (all, heating, cooling)", count("wall")),
+        ("a false optimum (both walls) on some branch", count("optimum")),
+    ]
+
+
 def _j_lines() -> List[Any]:
     def cover(side: str, truth: float) -> Any:
         return lambda rs: _pct(sum(_holds(r["fit"][f"{side}_ci"], truth) for r in rs), len(rs))
@@ -214,7 +242,7 @@ def _read(paths: List[str]) -> List[Dict[str, Any]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0:40", help="seeds a:b (recording seeds 1000 + k; default 0:40)")
-    ap.add_argument("--cases", default="TJ", help="T, J or both (default TJ)")
+    ap.add_argument("--cases", default="TFJ", help="any of T, F and J (default TFJ)")
     ap.add_argument("--out", help="append one JSON line per recording and hop to this file")
     ap.add_argument("--table", nargs="*", help="print the table of these JSON-lines files and stop")
     ap.add_argument("--before", nargs="*", help="with --table: the same cases measured before, printed first")
@@ -239,7 +267,7 @@ def main() -> None:
     start = time.perf_counter()
     for seed in range(a, b):
         for case in ns.cases:
-            rows = run_t(seed) if case == "T" else run_j(seed)
+            rows = run_t(seed) if case == "T" else run_f(seed) if case == "F" else run_j(seed)
             if ns.out:
                 with open(ns.out, "a") as fh:
                     for r in rows:
