@@ -437,3 +437,19 @@ def test_quantile_constants_equal_scipy():
     assert CHI2_4_MEDIAN == pytest.approx(stats.chi2.ppf(0.5, 4), rel=1e-15)
     assert Z975 == pytest.approx(stats.norm.ppf(0.975), rel=1e-15)
     assert T975 == pytest.approx(stats.t.ppf(0.975, 4), rel=1e-15)
+
+
+def test_t_and_f_distributions_are_those_of_scipy_stats():
+    """kernels.quantiles' exact t and F functions (scipy.special, without importing scipy.stats): the same floats
+    as scipy.stats, arrays and numbers, invalid degrees of freedom NaN."""
+    from scipy import stats
+    from tribodyn.kernels.quantiles import f_ppf, f_sf, t_ppf, t_sf
+
+    rng = np.random.default_rng(3)
+    p, x = rng.uniform(0.001, 0.999, 500), rng.uniform(-10.0, 30.0, 500)
+    d1, d2 = rng.uniform(0.5, 200.0, 500), np.r_[rng.uniform(0.5, 500.0, 497), 0.0, -1.0, np.inf]
+    np.testing.assert_array_equal(t_ppf(p, d2), stats.t.ppf(p, d2))
+    np.testing.assert_array_equal(t_sf(x, d2), stats.t.sf(x, d2))
+    np.testing.assert_array_equal(f_ppf(p, d1, d2), stats.f.ppf(p, d1, d2))
+    np.testing.assert_array_equal(f_sf(np.abs(x), d1, d2), stats.f.sf(np.abs(x), d1, d2))
+    assert float(t_ppf(0.975, 4)) == float(stats.t.ppf(0.975, 4)) and float(t_sf(1.5, 7)) == float(stats.t.sf(1.5, 7))

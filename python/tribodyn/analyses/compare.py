@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, 
 
 import numpy as np
 
+from ..kernels.quantiles import f_ppf, t_ppf
 from ..kernels.uncertainty import Uncertainty
 from ..results import HEADLINE_METHODS, Headline
 
@@ -423,9 +424,7 @@ def _names(values: Optional[Sequence[Any]], k: int, what: str) -> Optional[List[
 
 
 def _t975(df: float) -> float:
-    from scipy import stats
-
-    return float(stats.t.ppf(0.975, df))
+    return float(t_ppf(0.975, df))
 
 
 def random_effects(y: np.ndarray, v: np.ndarray) -> Dict[str, float]:
@@ -517,9 +516,7 @@ def _critical_h(p: int, alpha: float) -> float:
     """Mandel's h critical value, ISO 5725-2 8.3: (p - 1) t / sqrt(p (t^2 + p - 2)), t two-sided alpha, p - 2 df."""
     if p < 3:
         return float("nan")
-    from scipy import stats
-
-    t = float(stats.t.ppf(1 - alpha / 2, p - 2))
+    t = float(t_ppf(1 - alpha / 2, p - 2))
     return (p - 1) * t / math.sqrt(p * (t * t + p - 2))
 
 
@@ -527,9 +524,7 @@ def _critical_k(p: int, n: int, alpha: float) -> float:
     """Mandel's k critical value, ISO 5725-2 8.3: sqrt(p / (1 + (p - 1) / F)), F upper alpha, (n-1, (p-1)(n-1)) df."""
     if p < 2 or n < 2:
         return float("nan")
-    from scipy import stats
-
-    f = float(stats.f.ppf(1 - alpha, n - 1, (p - 1) * (n - 1)))
+    f = float(f_ppf(1 - alpha, n - 1, (p - 1) * (n - 1)))
     return math.sqrt(p / (1 + (p - 1) / f))
 
 

@@ -39,6 +39,8 @@ from typing import Any, Callable, Dict, Optional, Tuple
 
 import numpy as np
 
+from ..kernels.quantiles import f_sf
+
 __all__ = ["Fit", "fit_bathtub", "bootstrap_indices", "block_length", "FAMILIES"]
 
 #: Model families: no wall, lower wall, upper wall, both.
@@ -237,9 +239,7 @@ def _f_p(rss0: float, rss1: float, df: int, dof: int, overlap: float = 1.0) -> f
     if rss1 <= 0:
         return 0.0 if rss0 > rss1 else 1.0
     f = ((rss0 - rss1) / df) / (rss1 / dof) / k
-    from scipy import stats as _stats  # lazy: slow to import
-
-    return float(_stats.f.sf(max(f, 0.0), df, max(dof / k, 1.0)))
+    return float(f_sf(max(f, 0.0), df, max(dof / k, 1.0)))
 
 
 def fit_bathtub(

@@ -51,6 +51,8 @@ from typing import TYPE_CHECKING, Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
+from ..kernels.quantiles import f_ppf, t_ppf, t_sf
+
 if TYPE_CHECKING:  # pragma: no cover
     from ..results import Results
 
@@ -382,8 +384,6 @@ def _fit_rows(Y: np.ndarray, t: np.ndarray, t0: float, grid: np.ndarray, shapes:
     ``shapes`` (2, G, n) are both transient shapes on ``grid``; the best grid point of each row is refined
     on 41 points between its neighbours. The test's autocorrelation is the noise's (:func:`_noise_rho`).
     """
-    from scipy import stats
-
     b, n = Y.shape
     ym = Y.mean(axis=1)
     yc = Y - ym[:, None]
@@ -414,7 +414,7 @@ def _fit_rows(Y: np.ndarray, t: np.ndarray, t0: float, grid: np.ndarray, shapes:
     cyy = np.einsum("bn,bn->b", yc, yc)
     with np.errstate(divide="ignore", invalid="ignore"):
         fstat = (cyy - best) / 2.0 / (np.maximum(best, 1e-300) / (n - 3.0)) * (1.0 - rho) / (1.0 + rho)
-    transient = np.isfinite(best) & (fstat > stats.f.ppf(1.0 - ALPHA_MODEL, 2, _df(n, rho, 3)))
+    transient = np.isfinite(best) & (fstat > f_ppf(1.0 - ALPHA_MODEL, 2, _df(n, rho, 3)))
     return _Fits(
         code=np.where(transient, fam + 1, 0),
         ts=np.where(transient, ts, t0),
@@ -466,8 +466,6 @@ def _ar1_noise(r: np.ndarray, rho: float, p: int, n_boot: int, seed: int) -> np.
 
 def _drift(t: np.ndarray, r: np.ndarray) -> Tuple[float, float]:
     """(slope, p-value) of the residuals ``r`` on ``t``: OLS, its variance times (1 + rho) / (1 - rho)."""
-    from scipy import stats
-
     n = t.size
     tc = t - t.mean()
     stt = float(tc @ tc)
@@ -479,7 +477,7 @@ def _drift(t: np.ndarray, r: np.ndarray) -> Tuple[float, float]:
     se = math.sqrt(float(e @ e) / (n - 2) / stt * (1.0 + rho) / (1.0 - rho))
     if se <= 0:
         return b, 0.0 if b != 0 else 1.0
-    return b, float(2.0 * stats.t.sf(abs(b) / se, float(_df(n, rho, 2))))
+    return b, float(2.0 * t_sf(abs(b) / se, float(_df(n, rho, 2))))
 
 
 def fit_steady(
@@ -496,8 +494,6 @@ def fit_steady(
 
     Non-finite points are dropped and the rest taken in time order (docs/method.md 6h).
     """
-    from scipy import stats
-
     if int(n_boot) < 50:
         raise ValueError(f"n_boot must be at least 50, got {n_boot!r}")
     n_boot = int(n_boot)
@@ -534,7 +530,7 @@ def fit_steady(
     # the bootstrap: the chosen fit plus AR(1) noise like its residuals, refitted with the model choice
     noise = _ar1_noise(resid, rho, p, n_boot, seed)
     ts_b, cof_b = _refits(fitted + noise, t, start, grid, shapes)
-    tq = float(stats.t.ppf(0.975, float(_df(n, rho, p))))
+    tq = float(t_ppf(0.975, float(_df(n, rho, p))))
     steady = t >= ts
     n_steady = int(steady.sum())
     drift, drift_p = _drift(t[steady], resid[steady]) if n_steady >= MIN_STEADY_POINTS else (nan, nan)
