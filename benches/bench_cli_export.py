@@ -46,15 +46,9 @@ FOLDER = [
     "formats/load_step_reciprocating.csv",
 ]
 
-WRAP = r"""
-import json, resource, subprocess, sys, time
-cmd = json.loads(sys.argv[1])
-t = time.perf_counter()
-p = subprocess.run(cmd, capture_output=True, text=True)
-wall = time.perf_counter() - t
-ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-print(json.dumps({"seconds": wall, "rc": p.returncode, "err": p.stderr[-2000:], "cpu": ru.ru_utime + ru.ru_stime}))
-"""
+# a process tree timed from outside (wall time, CPU of the tree): bench_fixed_costs.WRAP
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from bench_fixed_costs import WRAP  # noqa: E402
 
 API = (
     "import sys, tribodyn as td\n"
