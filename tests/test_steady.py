@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -249,3 +250,19 @@ def test_one_running_in_per_test_of_a_file_that_holds_several(tmp_path) -> None:
         assert fit.t_steady_low <= 900.0 * k + ts <= fit.t_steady_high
         assert fit.cof_low <= 0.15 <= fit.cof_high
     assert len(td.steady_states(td.analyze(td.open_recording(p), window=10, hop=10, stop=45_000))) == 1
+    # the command line's --steady-state: one fit per test in summary.json, its line and the figure's bands
+    from matplotlib.colors import to_rgba
+    from matplotlib.patches import Rectangle
+    from tribodyn.app import figures
+    from tribodyn.app.cli import main
+
+    out = tmp_path / "out"
+    assert main(["analyze", str(p), "--out", str(out), "--window", "10", "--hop", "10", "--steady-state", "-q"]) == 0
+    ss = json.loads((out / "summary.json").read_text())["recordings"]["three.csv"]["steady_state"]
+    assert ss["verdict"] == "per acquisition" and len(ss["acquisitions"]) == 3
+    assert [a["t_steady"] for a in ss["acquisitions"]] == [f.t_steady for f in fits]
+    assert ss["text"].startswith("acquisition 0: steady state from t = ") and "; acquisition 2: " in ss["text"]
+    fig = figures.cof_vs_time(dataclasses.replace(res, params={**res.params, "steady_state": ss}))
+    orange = to_rgba("tab:orange", 0.12)
+    bands = [q for q in fig.axes[0].patches if isinstance(q, Rectangle) and q.get_facecolor() == orange]
+    assert [(b.get_x(), b.get_x() + b.get_width()) for b in bands] == [(f.t0, f.t_steady) for f in fits]

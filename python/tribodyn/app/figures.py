@@ -679,13 +679,19 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
 
 def _running_in(ax: Axes, results: Any) -> List[Any]:
     """A light band from the first window to t_steady when ``results.params["steady_state"]`` (a
-    :meth:`tribodyn.SteadyState.to_dict`) says the steady state is reached (docs/method.md 6h)."""
+    :meth:`tribodyn.SteadyState.to_dict`, or one per acquisition under "acquisitions") says the steady state is
+    reached (docs/method.md 6h): one band per test or step."""
     ss = (getattr(results, "params", None) or {}).get("steady_state") or {}
-    t0, ts = ss.get("t0"), ss.get("t_steady")
-    if ss.get("verdict") != "steady state reached" or t0 is None or ts is None or not ts > t0:
-        return []
-    return [ax.axvspan(t0, ts, color="tab:orange", alpha=0.12, linewidth=0, zorder=0.5,
-                       label=f"running-in (to t = {ts:.4g} s)")]  # fmt: skip
+    fits = ss.get("acquisitions") or [ss]
+    bands: List[Any] = []
+    for fit in fits:
+        t0, ts = fit.get("t0"), fit.get("t_steady")
+        if fit.get("verdict") != "steady state reached" or t0 is None or ts is None or not ts > t0:
+            continue
+        label = f"running-in (to t = {ts:.4g} s)" if len(fits) == 1 else "running-in of each test"
+        bands.append(ax.axvspan(t0, ts, color="tab:orange", alpha=0.12, linewidth=0, zorder=0.5,
+                                label=label if not bands else "_nolegend_"))  # fmt: skip
+    return bands[:1]
 
 
 def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tuple[List[Any], List[Any]]:

@@ -1058,10 +1058,16 @@ def _replaced(res: Results, **changes: Any) -> Results:
 
 
 def _steady_state(res: Results) -> Dict[str, Any]:
-    """:func:`tribodyn.steady_state` of ``res`` as JSON (docs/method.md 6h)."""
-    from ..analyses.steady import steady_state
+    """:func:`tribodyn.steady_states` of ``res`` as JSON (docs/method.md 6h): the one fit's dict, or for a
+    recording of several tests or steps (the table's acquisitions) ``{"verdict": "per acquisition",
+    "acquisitions": [each fit's dict], "text": each fit's text after its acquisition}``."""
+    from ..analyses.steady import steady_states
 
-    return steady_state(res).to_dict()
+    fits = [f.to_dict() for f in steady_states(res)]
+    if len(fits) == 1:
+        return fits[0]
+    text = "; ".join(f"{f['series'].rsplit(', ', 1)[-1]}: {f['text']}" for f in fits)
+    return {"verdict": "per acquisition", "acquisitions": fits, "text": text}
 
 
 def _channel_map(rec: Any) -> Dict[str, str]:
