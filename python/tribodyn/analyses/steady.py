@@ -156,7 +156,7 @@ class SteadyState:
         """One line: 'steady state from t = 310 s [265, 372]: COF 0.1503 (95 % 0.1489 to 0.1517); ...'."""
         if self.ok:
             return (
-                f"steady state from t = {self.t_steady:#.4g} s [{self.t_steady_low:#.4g}, {self.t_steady_high:#.4g}]:"
+                f"steady state from t = {_g4(self.t_steady)} s [{_g4(self.t_steady_low)}, {_g4(self.t_steady_high)}]:"
                 f" COF {self.cof:#.4g} (95 % {self.cof_low:#.4g} to {self.cof_high:#.4g}); running-in COF "
                 f"{self.cof_initial:#.4g} at the start ({self.model} model, {self.method or 'series'} COF)"
                 + self._drift_words()
@@ -189,6 +189,12 @@ class SteadyState:
                    drift_p=num(self.drift_p), reasons=list(self.reasons), series=self.series,
                    estimate=self.estimate, interval=self.interval, text=self.text)  # fmt: skip
         return out
+
+
+def _g4(x: float) -> str:
+    """``x`` to 4 significant digits, trailing zeros kept ("150.0"), no bare trailing point ("1007", not "1007.")."""
+    text = f"{x:#.4g}"
+    return text[:-1] if text.endswith(".") else text
 
 
 # -- the series -----------------------------------------------------------------------
