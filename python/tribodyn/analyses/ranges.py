@@ -588,12 +588,13 @@ RUNNING_IN = "running-in"
 
 class _RunningIn(NamedTuple):
     """A running-in fitted on the start plateau: its end t_steady, start t0, amplitude and shape (0 exponential, 1
-    linear; :mod:`tribodyn.analyses.steady`)."""
+    linear; :mod:`tribodyn.analyses.steady`), and how many of the windows given make the plateau."""
 
     end: float
     t0: float
     amp: float
     shape: int
+    plateau: int
 
     def tail(self, t: np.ndarray) -> np.ndarray:
         """The fitted transient at times ``t`` (at most 2 % of its amplitude from ``end`` on)."""
@@ -622,7 +623,7 @@ def _running_in(t: np.ndarray, x: np.ndarray, y: np.ndarray, resolution: float, 
     grid = _grid(tt, t0)
     fit = _fit_rows(yy[None, :], tt, t0, grid, np.stack([_shapes(tt, t0, grid, 0), _shapes(tt, t0, grid, 1)]))
     code = int(fit.code[0])
-    return _RunningIn(float(fit.ts[0]), t0, float(fit.amp[0]), code - 1) if code else None
+    return _RunningIn(float(fit.ts[0]), t0, float(fit.amp[0]), code - 1, int(away[0])) if code else None
 
 
 def running_in_end(t: np.ndarray, x: np.ndarray, y: np.ndarray, resolution: float, overlap: float = 1.0) -> float:
@@ -653,9 +654,7 @@ def _without_running_in(
     r = _running_in(t[pos], cov[pos], mu[pos], resolution, shared) if pos.size else None
     if r is None:
         return usable, excluded, mu
-    x0 = float(np.median(cov[pos[:MIN_WINDOWS]]))
-    away = np.flatnonzero(np.abs(cov[pos] - x0) > resolution)
-    plateau = pos[: int(away[0])] if away.size else pos
+    plateau = pos[: r.plateau]
     out = plateau[t[plateau] < r.end]
     after = pos[t[pos] >= r.end]
     mu = mu.copy()

@@ -312,11 +312,11 @@ class Watch:
     def _intervals(self, res: Results) -> Optional[Dict[str, Any]]:
         """The snapshot's bootstrap intervals from the last draw, moved and scaled (docs/method.md 11); None when
         it is time to draw them again (the windows grew by REDRAW_GROWTH or fell, or none was drawn)."""
-        d = self._drawn
-        if d is None or not d.holds(res):
+        d, values = self._drawn, _values(res)
+        if d is None or not d.holds(values):
             self._draw = True
             return None
-        return d.moved(res)
+        return d.moved(res, values)
 
     def _check_trips(self, snap: Results) -> None:
         if self.tripped is not None:
@@ -431,17 +431,15 @@ class _Drawn:
         cis = {"mu_r": res.mu_r_ci, **res.column_ci}
         return cls({k: _Column(int(v.size), _statistics(v), dict(cis[k])) for k, v in values.items()}, _raise(res))
 
-    def holds(self, res: Results) -> bool:
-        """Whether the same columns are summarised and each one's values number n_then to (1 + REDRAW_GROWTH)
-        n_then (else the intervals are drawn again)."""
-        values = _values(res)
+    def holds(self, values: Dict[str, np.ndarray]) -> bool:
+        """Whether the same columns are summarised (``values``: :func:`_values` of the snapshot) and each one's
+        values number n_then to (1 + REDRAW_GROWTH) n_then (else the intervals are drawn again)."""
         if set(values) != set(self.columns):
             return False
         return all(c.n == values[k].size == 0 or c.n <= values[k].size < (1.0 + REDRAW_GROWTH) * c.n
                    for k, c in self.columns.items())  # fmt: skip
 
-    def moved(self, res: Results) -> Dict[str, Any]:
-        values = _values(res)
+    def moved(self, res: Results, values: Dict[str, np.ndarray]) -> Dict[str, Any]:
         mu = self.columns["mu_r"].moved(values["mu_r"], _raise(res), self.gap)
         cols = {k: c.moved(values[k]) for k, c in self.columns.items() if k != "mu_r"}
         return {"mu_r_ci": mu, "column_ci": cols}

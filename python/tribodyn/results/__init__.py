@@ -452,7 +452,7 @@ class Results:
                 key = part.split(":")[0]
                 counts[key] = counts.get(key, 0) + 1
         out["gate_failures"] = counts
-        out.update(self._tribometer_summary(lambda key: stats(values[key], cis[key])))
+        out.update(self._tribometer_summary(values, lambda key: stats(values[key], cis[key])))
         head = self.headline
         out["headline"] = head.to_dict()
         out["verdict"]["cof"] = out["headline"]
@@ -461,11 +461,10 @@ class Results:
             out["instrument_comparison"] = comparison
         return out
 
-    def _tribometer_summary(self, stats: Any) -> Dict[str, Any]:
-        """ "classical", "instrument", "strokes", "roles", "motion" and "verdict" (docs/method.md 6a-6d); ``stats``
-        gives the statistics of an entry of :meth:`summary_columns` by its key."""
+    def _tribometer_summary(self, values: Mapping[str, np.ndarray], stats: Any) -> Dict[str, Any]:
+        """ "classical", "instrument", "strokes", "roles", "motion" and "verdict" (docs/method.md 6a-6d); ``values``
+        is :meth:`summary_columns`, ``stats`` gives the statistics of one of its entries by its key."""
         out: Dict[str, Any] = {}
-        values = self.summary_columns()
         for key in ("classical", "instrument"):
             if values.get(key, np.zeros(0)).size:
                 out[key] = dict(stats(key))

@@ -7,6 +7,8 @@ from typing import Any, Dict, List, Mapping, Optional
 
 import numpy as np
 
+from ..kernels.quantiles import Z975
+
 __all__ = ["DEAD_WEIGHT_REL", "MIN_GATED", "MIN_POOLED", "POOL_P", "pooled", "verdict"]
 
 #: Dead weight: the within-window std of fz is below this fraction of |mean fz| (median over windows).
@@ -52,7 +54,7 @@ def pooled(table: Mapping[str, np.ndarray]) -> Optional[Dict[str, Any]]:
     q = float(np.sum(w * (mu[keep] - m) ** 2))
     p = _chi2_sf(q, n - 1)
     centre = abs(float(np.median(mu[keep])))
-    rel = 1.96 * float(np.median(se[keep])) / centre if centre > 0 else float("inf")
+    rel = Z975 * float(np.median(se[keep])) / centre if centre > 0 else float("inf")
     return {"mask": keep, "n": n, "p": p, "agree": bool(p >= POOL_P), "rel_half_width": rel}
 
 
