@@ -633,6 +633,23 @@ class Checkpoints:
         self.limit = np.append(self.sample[1:], n)
         self.n = n
 
+    def extended(
+        self, entries: Sequence[Tuple[int, int, int]], n: int, marks: Sequence[Tuple[int, int, int]] = ()
+    ) -> "Checkpoints":
+        """These checkpoints and those of rows after them (a followed file's new rows: every sample of
+        ``entries`` at or after :attr:`n`), for ``n`` samples; only the new entries are sorted."""
+        new = Checkpoints(entries, n, marks)
+        if len(new.sample) and new.sample[0] < self.n:
+            raise ValueError("the new checkpoints must follow the old ones")
+        out = Checkpoints((), n)
+        out.sample, out.offset, out.line = (np.concatenate([a, b]) for a, b in (
+            (self.sample, new.sample), (self.offset, new.offset), (self.line, new.line)))  # fmt: skip
+        out.mark_sample, out.mark_offset, out.mark_line = (np.concatenate([a, b]) for a, b in (
+            (self.mark_sample, new.mark_sample), (self.mark_offset, new.mark_offset),
+            (self.mark_line, new.mark_line)))  # fmt: skip
+        out.limit = np.append(out.sample[1:], n)
+        return out
+
     def pieces(self, start: int, stop: int) -> List[Tuple[int, int, int, int]]:
         """(offset, line, rows to skip, rows) covering samples ``start:stop`` in order.
 

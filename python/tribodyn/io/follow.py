@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import os
 import time
-from typing import Any, Callable, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, Optional, Tuple
 
-from ._text import Checkpoints, TextRecording, native_scan
+from ._text import TextRecording, native_scan
 from .base import Recording, RecordingError
 
 __all__ = ["Follower"]
@@ -175,15 +175,9 @@ class _TextTail:
         cp = rec._checkpoints
         assert cp is not None and len(cp.sample)
         # The rows of the last checkpoint on, scanned again to find where the last whole row ends.
-        self.cps: List[Tuple[int, int, int]] = [
-            (int(s), int(o), int(ln)) for s, o, ln in zip(cp.sample, cp.offset, cp.line)
-        ]
-        self.marks: List[Tuple[int, int, int]] = [
-            (int(s), int(o), int(ln)) for s, o, ln in zip(cp.mark_sample, cp.mark_offset, cp.mark_line)
-        ]
         #: The bytes before the first data row (the header), which a writer must not rewrite.
-        self.head = _read_bytes(rec._text_path(), 0, self.cps[0][1])
-        s, off, line = self.cps[-1]
+        self.head = _read_bytes(rec._text_path(), 0, int(cp.offset[0]))
+        s, off, line = int(cp.sample[-1]), int(cp.offset[-1]), int(cp.line[-1])
         run = self._scan(rec, off)
         rows = min(int(run["rows"]), rec.n_samples - s)
         #: Byte offset after the last whole row seen, and the lines before it.
@@ -238,11 +232,12 @@ class _TextTail:
             )
         n0 = rec.n_samples
         first = self.line + 1
-        self.cps += [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["checkpoints"] if int(r) < rows]
-        self.marks += [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["marks"] if int(r) < rows]
-        self.cps.append((n0, self.end, first))  # (Checkpoints keeps one entry a sample: the earliest offset)
+        cps = [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["checkpoints"] if int(r) < rows]
+        marks = [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["marks"] if int(r) < rows]
+        cps.append((n0, self.end, first))  # (Checkpoints keeps one entry a sample: the earliest offset)
         n = n0 + rows
-        rec._checkpoints = Checkpoints(self.cps, n, self.marks)
+        assert rec._checkpoints is not None
+        rec._checkpoints = rec._checkpoints.extended(cps, n, marks)  # only the new rows' entries sorted
         rec._n = n
         a = rec._segments[-1][0] if rec._segments else 0
         rec._segments = [*rec._segments[:-1], (a, n)]

@@ -546,8 +546,11 @@ def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int], tap
                 ) -> Tuple[Stats, Optional[str]]:  # fmt: skip
     plan = ks.plan
     bar = _progress(plan.progress, total)
+    # A range of one chunk (a watched recording's update) runs on the calling thread: a worker thread to read
+    # ahead of would only cost its start (the kernel still uses plan.threads; the same table either way)
+    one = total is not None and total <= (plan.chunk or DEFAULT_CHUNK)
     try:
-        parts, aux_role = _run_chunks(chunks, plan.start, ks, bar, threads=plan.threads, taps=taps)
+        parts, aux_role = _run_chunks(chunks, plan.start, ks, bar, threads=plan.threads, taps=taps, pipelined=not one)
     finally:
         if bar is not None:
             bar.close()
@@ -555,7 +558,8 @@ def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int], tap
 
 
 def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *, threads: int, depth: int = 2,
-                taps: Sequence[Tap] = (), base: int = 0) -> Tuple[List[Stats], Optional[str]]:  # fmt: skip
+                taps: Sequence[Tap] = (), base: int = 0, pipelined: bool = True
+                ) -> Tuple[List[Stats], Optional[str]]:  # fmt: skip
     """Checks, filters and windows a stream of chunks; the batches of window statistics, in order.
 
     The calling thread alone reads the chunks (so a reader that is not
@@ -566,10 +570,11 @@ def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *,
     windower's tail are only ever touched by that worker. With one thread
     everything runs on the calling thread. ``taps`` take the raw chunks
     (the classical COF's sums, stick-slip; ``base``: the recording's index
-    of ``origin``).
+    of ``origin``). ``pipelined=False``: the calling thread does it all
+    (the kernel still runs on ``threads``).
     """
     stage = _Stage(origin, ks, threads, taps=taps, base=base)
-    if threads < 2:
+    if threads < 2 or not pipelined:
         for i, raw_chunk in enumerate(chunks):
             stage.push(_check_chunk(raw_chunk, f"chunk {i}"))
             if bar is not None:

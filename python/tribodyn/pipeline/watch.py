@@ -45,6 +45,10 @@ STICK_SLIP_SPAN_S = 30.0
 #: scaled by sqrt(n_then / n_now) (docs/method.md 11).
 REDRAW_GROWTH = 0.1
 
+#: What the pre-pass finds (tare, contact threshold, motion) and the instrument lag are looked for again once the
+#: recording has grown this many times since they were found (docs/method.md 11).
+REFIND_GROWTH = 4
+
 #: The rules a trip may name, with what each compares (docs/method.md 11).
 TRIP_RULES = {
     "cof": "the COF of each new window (the column of the headline's method) against the limit",
@@ -286,9 +290,10 @@ class Watch:
             return None
         start, stop = self._done * step, (upto - 1) * step + length
         # What the pre-pass finds (tare, contact, motion) and the instrument lag are looked for again each time
-        # the recording has doubled since they were found, else taken from that range (docs/method.md 11).
-        # The lag's windows are the recording's first ones: once they were all there, it is not looked for again.
-        fresh = self._found_at == 0 or n >= 2 * self._found_at
+        # the recording has grown REFIND_GROWTH times since they were found, else taken from that range
+        # (docs/method.md 11). The lag's windows are the recording's first ones: once they were all there, it is
+        # not looked for again.
+        fresh = self._found_at == 0 or n >= REFIND_GROWTH * self._found_at
         held = fresh and self._found is not None and lag_sample_held(rec, length, self._found_at)
         part = analyze_partial(rec, start=start, stop=stop, reuse=None if fresh else self._found,
                                reuse_lag=self._found if held else None, **self.options)  # fmt: skip
@@ -455,8 +460,8 @@ def _statistics(v: np.ndarray) -> Dict[str, float]:
     """The statistics whose intervals ``bootstrap_ci`` draws: median, mean, p05, p95."""
     if v.size == 0:
         return {}
-    q = np.percentile(v, [5, 95])
-    return {"median": float(np.median(v)), "mean": float(v.mean()), "p05": float(q[0]), "p95": float(q[1])}
+    q = np.percentile(v, [5, 50, 95])  # one call for the three (percentile 50 is np.median up to rounding)
+    return {"median": float(q[1]), "mean": float(v.mean()), "p05": float(q[0]), "p95": float(q[2])}
 
 
 def _raise(res: Results) -> float:
