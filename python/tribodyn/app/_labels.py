@@ -9,10 +9,11 @@ Matplotlib or pandas, so the CLI can import it at no cost.
 from __future__ import annotations
 
 import math
+import numbers
 import re
 from typing import Any, Optional, Sequence
 
-__all__ = ["unit_text", "units_in_text", "key_text", "fmt_number", "fmt_range", "fmt_interval"]
+__all__ = ["unit_text", "units_in_text", "key_text", "fmt_value", "fmt_number", "fmt_range", "fmt_interval"]
 
 #: Machine units -> the way a reader writes them ("1": dimensionless).
 UNIT_TEXT = {"degC": "°C", "A/mm^2": "A/mm²", "mm^2": "mm²", "1": "", "": ""}
@@ -49,6 +50,21 @@ def _spread(ci: Any) -> Optional[float]:
     except (TypeError, ValueError, IndexError):
         return None
     return hi - lo if math.isfinite(lo) and math.isfinite(hi) else None
+
+
+def fmt_value(value: Any) -> str:
+    """A number as the report writes it: 4 significant digits (6 from 10^4 up), an integer whole, 'NaN', 'inf',
+    '-inf', and '–' for None (the report's tables and the figures' captions)."""
+    if value is None:
+        return "–"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    f = float(value)
+    if math.isnan(f):
+        return "NaN"
+    if math.isinf(f):
+        return "inf" if f > 0 else "-inf"
+    return format(f, ".4g") if abs(f) < 1e4 else format(f, ".6g")
 
 
 def fmt_number(value: Any, *, spread: Optional[float] = None, digits: int = 4) -> str:

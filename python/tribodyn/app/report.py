@@ -29,6 +29,8 @@ from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, 
 import numpy as np
 
 from . import _labels
+from .figure_registry import build_named_figures
+from .figure_registry import range_or_none as _range_or_none
 
 if TYPE_CHECKING:  # Matplotlib is imported where a figure is drawn: a report of PNG bytes needs none of it
     from matplotlib.figure import Figure
@@ -40,6 +42,7 @@ __all__ = [
     "inputs_table_html",
     "PARAM_UNITS",
     "build_report_figures",
+    "build_named_figures",
     "build_report_summary",
     "quality_from_results",
     "write_results_report",
@@ -324,19 +327,10 @@ def _params_with_units(params: Mapping[str, Any]) -> Dict[str, Any]:
 # --------------------------------------------------------------------------
 def _fmt(v: Any) -> str:
     """A value as text: floats to 4 significant digits (6 from 10^4 up), NaN as 'NaN'."""
-    if v is None:
-        return "–"
     if isinstance(v, (bool, np.bool_)):
         return "yes" if v else "no"
-    if isinstance(v, numbers.Integral):
-        return str(int(v))
-    if isinstance(v, numbers.Real):
-        f = float(v)
-        if math.isnan(f):
-            return "NaN"
-        if math.isinf(f):
-            return "inf" if f > 0 else "-inf"
-        return format(f, ".4g") if abs(f) < 1e4 else format(f, ".6g")
+    if v is None or isinstance(v, numbers.Real):
+        return _labels.fmt_value(v)
     if isinstance(v, (list, tuple, np.ndarray)):
         items = list(np.asarray(v).ravel()) if isinstance(v, np.ndarray) else list(v)
         if len(items) > 12:
@@ -720,73 +714,6 @@ def _atomic_write_text(target: str, text: str) -> None:
 # --------------------------------------------------------------------------
 # from a Results object
 # --------------------------------------------------------------------------
-def _finite_any(results: Any, column: str) -> bool:
-    table = getattr(results, "table", results)
-    return column in table and bool(np.isfinite(np.asarray(table[column], dtype=float)).any())
-
-
-def _range_or_none(results: Any, opr: Any, by: str) -> Any:
-    if opr is not None:
-        return opr
-    column = {"temperature": "T", "current_density": "J"}.get(by, by)
-    if not _finite_any(results, column):
-        return None
-    try:
-        from ..analyses.ranges import operating_range
-
-        return operating_range(results, by=by)
-    except ValueError:
-        return None
-
-
-def _opr_caption(opr: Any) -> str:
-    if opr is None:
-        return "No operating range (no quality-gated window with this covariate)."
-    unit = unit_text(opr.unit)
-    if getattr(opr, "method", "binned") == "segmented":
-        return _segmented_caption(opr, unit)
-    parts = []
-    if opr.optimum is not None:
-        parts.append(
-            f"Optimum (shaded): {_fmt(opr.optimum[0])}–{_fmt(opr.optimum[1])} {unit}, binned COF within "
-            f"{100 * opr.tol:g} % of its minimum {_fmt(opr.mu_min)}"
-        )
-    if opr.onset is not None:
-        parts.append(f"COF reaches {1 + opr.rise:g} × the minimum at {_fmt(opr.onset)} {unit} (dashed red line)")
-    return ("; ".join(parts) + ".") if parts else "No optimum found."
-
-
-def _ci(ci: Any) -> str:
-    return "" if ci is None else f" [{_fmt(ci[0])}, {_fmt(ci[1])}]"
-
-
-def _segmented_caption(opr: Any, unit: str) -> str:
-    """The segmented fit in words: verdict, breakpoints and intervals, exclusions (docs/method.md 7)."""
-    expl = _labels.units_in_text(opr.explanation)
-    parts = [f"Bathtub fit (line) with its 95 % bootstrap band; verdict: {opr.verdict}. {expl}"]
-    for name, f in opr.fits.items():
-        if f.verdict in ("too few windows", "covariate constant"):
-            parts.append(f"{name} ({f.n_windows} windows): {f.verdict}.")
-            continue
-        bits = []
-        if f.lower is not None:
-            bits.append(f"lower breakpoint {_fmt(f.lower)}{_ci(f.lower_ci)} {unit}")
-        if f.upper is not None:
-            bits.append(f"upper breakpoint {_fmt(f.upper)}{_ci(f.upper_ci)} {unit}")
-        bits.append(f"minimum COF {_fmt(f.mu_min)}{_ci(f.mu_min_ci)}")
-        if f.onset is not None:
-            bits.append(f"COF {1 + opr.rise:g} × the minimum at {_fmt(f.onset)}{_ci(f.onset_ci)} {unit}")
-        parts.append(f"{name} ({f.n_windows} windows, {f.verdict}): " + ", ".join(bits) + ".")
-    h = opr.hysteresis
-    if h is not None and h.upper is not None:
-        parts.append(f"Hysteresis of the upper edge (heating − cooling): {_fmt(h.upper)}{_ci(h.upper_ci)} {unit}.")
-    if opr.instability is not None:
-        parts.append(f"Contact loss from {_fmt(opr.instability)} {unit} (onset between{_ci(opr.instability_ci)}).")
-    if opr.excluded:
-        parts.append("Left out of the fit: " + ", ".join(f"{v} ({k})" for k, v in opr.excluded.items()) + ".")
-    return " ".join(parts)
-
-
 def build_report_figures(
     results: Any,
     *,
@@ -824,169 +751,6 @@ def build_report_figures(
     return [(c, f) for _, c, f in build_named_figures(
         results, opr_temperature=opr_temperature, opr_current=opr_current,
         examples=[example] if example is not None else (), temperature_log=temperature_log)]  # fmt: skip
-
-
-def _figs() -> Any:
-    """:mod:`tribodyn.app.figures`, imported on first use (it imports Matplotlib)."""
-    from . import figures
-
-    return figures
-
-
-def _time_what(results: Any, head: Any) -> str:
-    """What the COF-against-time figures show, for their captions."""
-    n = len(getattr(results, "table", results)["time"])
-    if head is not None and head.method != "dynamic":  # the figure shows the classical COF (docs/method.md 6e)
-        return (f"{n} windows: the classical COF of each and the instrument's where the file has it; black line "
-                f"and grey band: the headline ({head.method} COF, {head.statistic}) and its 95 % interval")  # fmt: skip
-    ok = int(np.sum(np.asarray(getattr(results, "table", results).get("ok", np.ones(n)), dtype=bool)))
-    many = ok > _figs().BAND_FROM
-    return (f"{n} windows, {ok} passed the quality gate"
-            + ("; line and shaded band: running median and 5-95 % of the gated windows" if many else "")
-            + "; failed windows as grey ticks in the strip at the top, with their commonest reasons")  # fmt: skip
-
-
-def build_named_figures(
-    results: Any,
-    *,
-    opr_temperature: Any = None,
-    opr_current: Any = None,
-    examples: Sequence[Mapping[str, Any]] = (),
-    temperature_log: Any = None,
-    loops: Sequence[Mapping[str, Any]] = (),
-    opr_speed: Any = None,
-    time_figure: bool = True,
-) -> List[Tuple[str, str, Figure]]:
-    """:func:`build_report_figures` with a file name per figure, after the paper's figure it corresponds to.
-
-    ``time_figure=False`` leaves out ``cof_vs_time`` (the report's interactive view shows it). Matplotlib is
-    imported only when a figure is built.
-
-    ``loops`` (a reciprocating test with a position channel: ``x``, ``fy``,
-    ``label`` and ``energy`` of whole cycles) add the friction-loop figure.
-    A ``speed`` column with data adds ``stribeck_curve`` (``opr_speed``, or
-    ``operating_range(results, "speed")``; docs/method.md 7a).
-
-    Each example window (a dict as ``example`` there, plus ``label``, e.g.
-    "representative gated window", and ``tag`` for the file name) gives
-    Figs. 2-9 (first when the headline is the dynamic COF, else after the
-    COF, stroke, cycle and loop figures: issue 34 point 9) named
-    ``fig02_forces_<tag>``, ``fig03-05_correlations_<tag>``, ``fig06-08_phase_plots_<tag>``,
-    ``fig09_cof_vs_normal_force_<tag>``; then
-    ``fig10_cof_temperature_vs_time``, ``fig11_cof_vs_temperature``,
-    ``fig12_cof_current_density_vs_time``, ``sec4-2_cof_vs_current_density``
-    or ``cof_vs_time``.
-    """
-    out: List[Tuple[str, str, Figure]] = []
-    head = getattr(results, "headline", None)
-    # issue 34 point 9: the paper's per-window diagnostics lead only when the dynamic method gives the headline;
-    # an export's report opens with its COF against time (and its strokes, cycles and loops), they follow
-    dynamic_first = head is None or head.method == "dynamic"
-    diagnostics = [f for ex in examples for f in _example_figures(ex)]
-    if dynamic_first:
-        out += diagnostics
-    has_t, has_j = _finite_any(results, "T"), _finite_any(results, "J")
-    what = _time_what(results, head) if has_t or has_j or time_figure else ""
-    if has_t:
-        cap = (
-            "COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator "
-            f"temperature against time ({what}); cf. paper Fig. 10."
-        )
-        out.append(("fig10_cof_temperature_vs_time", cap,
-                    _figs().cof_and_temperature_vs_time(results, temperature_log=temperature_log)))  # fmt: skip
-        opr = _range_or_none(results, opr_temperature, "temperature")
-        cap = (
-            "COF against temperature, heating and cooling branches apart (hysteresis) with binned "
-            f"medians. {_opr_caption(opr)} Cf. paper Fig. 11."
-        )
-        out.append(("fig11_cof_vs_temperature", cap, _figs().cof_vs_temperature(results, opr)))
-    if has_j:
-        cap = f"COF and current density J against time ({what}); cf. paper Fig. 12."
-        out.append(("fig12_cof_current_density_vs_time", cap, _figs().cof_and_current_density_vs_time(results)))
-        opr = _range_or_none(results, opr_current, "current_density")
-        cap = f"COF against current density with binned medians. {_opr_caption(opr)} Cf. paper Sec. 4.2."
-        out.append(("sec4-2_cof_vs_current_density", cap, _figs().cof_vs_current_density(results, opr)))
-    if _finite_any(results, "speed"):
-        opr = _range_or_none(results, opr_speed, "speed")
-        cap = ("Stribeck curve: COF of each window against its mean sliding speed (log axis), the bathtub fit on "
-               f"log speed and the regimes its walls stand for (docs/method.md 7a). {_opr_caption(opr)}")  # fmt: skip
-        out.append(("stribeck_curve", cap, _figs().stribeck_curve(results, opr)))
-    if not (has_t or has_j) and time_figure:
-        out.append(("cof_vs_time", f"COF against time ({what}); no temperature or current density was given.",
-                    _figs().cof_vs_time(results)))  # fmt: skip
-    strokes = getattr(results, "strokes", None)
-    if strokes is not None and len(strokes.get("mu", ())):
-        cap = (f"Reciprocating test: per-stroke classical COF (mean |fy|/|fz| over the central "
-               f"{getattr(results, 'params', {}).get('stroke_fraction', 0.5):g} of each stroke) against cycle "
-               f"number, one marker per sliding direction ({len(strokes['mu'])} strokes)"
-               + ("; open markers: the instrument's COF column" if np.isfinite(
-                   np.asarray(strokes.get("mu_instrument", [np.nan]), dtype=float)).any() else "")
-               + "; docs/method.md 6c.")  # fmt: skip
-        out.append(("strokes_cof_vs_cycle", cap, _figs().strokes_vs_cycle(results)))
-    cycles = getattr(results, "cycles", None)
-    if cycles is not None and np.isfinite(np.asarray(cycles["energy"], dtype=float)).any():
-        if loops:
-            cap = ("Friction loops: the friction force against the position over the first, a middle and the last "
-                   "whole cycle; the area inside a loop is the energy friction dissipates in that cycle "
-                   "(docs/method.md 6c).")  # fmt: skip
-            out.append(("friction_loops", cap, _figs().friction_loops(loops)))
-        cap = ("Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, energy / "
-               "(mean F_n x sliding distance), against cycle number (docs/method.md 6c).")  # fmt: skip
-        out.append(("energy_vs_cycle", cap, _figs().energy_vs_cycle(results)))
-    if not dynamic_first:
-        out += diagnostics
-    return out
-
-
-def _example_figures(example: Mapping[str, Any]) -> List[Tuple[str, str, Figure]]:
-    from ..kernels.correlation import xcorr
-    from ..pipeline.identify import identify
-
-    fx, fy, fz = example.get("fx"), example["fy"], example["fz"]
-    fs = float(example["fs"])
-    t0 = float(example.get("t0", 0.0) or 0.0)
-    res = example.get("result", example.get("cof"))
-    n = len(np.asarray(fz))
-    lag = max(0, min(n - 1, round(0.5 * fs)))
-    if res is None:
-        res = identify(fy, fz, fx=fx, fs=fs, max_lag=lag, method="paper")  # the figures' own fit, as before
-    corr = res.correlations
-    if corr is None and n >= 2:
-        corr = {"yz": xcorr(fy, fz, max_lag=lag, fs=fs, check_finite=False)}
-        if fx is not None:
-            corr["xy"] = xcorr(fx, fy, max_lag=lag, fs=fs, check_finite=False)
-            corr["xz"] = xcorr(fx, fz, max_lag=lag, fs=fs, check_finite=False)
-    span = f"{n / fs:g} s at {fs:g} Hz from t = {t0:g} s"
-    gate = "passed" if res.ok else "failed (" + "; ".join(res.reasons) + ")"
-    label = str(example.get("label") or "example window")
-    tag = str(example.get("tag") or "example")
-    window_gate = example.get("gate_text")  # the analysis's own verdict on this window
-    if window_gate:
-        gate = str(window_gate)
-    caps = (
-        f"Dynamic forces of the {label} ({span}); cf. paper Fig. 2.",
-        (
-            f"Correlation functions C_xy, C_xz, C_yz of the {label} against the time shift, "
-            f"Eq. (1); C_yz(0) = {_fmt(res.c_yz)}, quality gate {gate}; cf. paper Figs. 3-5."
-        ),
-        (
-            f"Force phase plots of the {label} with the regression of F_y,d on F_z,d "
-            f"(mu_r = {_fmt(res.mu_r)}, orientation s = {res.orientation:+d}); cf. paper Figs. 6-8."
-        ),
-        (
-            f"COF per F_z,d bin of the {label}, deadband {_fmt(res.deadband)} N shaded; "
-            f"mu_r = {_fmt(res.mu_r)}, mu_a = {_fmt(res.mu_a)}, mu_b = {_fmt(res.mu_b)}; cf. paper Fig. 9."
-        ),
-    )
-    figs = (
-        _figs().forces_vs_time(fx, fy, fz, fs, t0=t0),
-        _figs().correlation_functions(corr or {}),
-        _figs().phase_plots(fx, fy, fz, fit=res),
-        _figs().cof_vs_normal_force(res),
-    )
-    names = (f"fig02_forces_{tag}", f"fig03-05_correlations_{tag}", f"fig06-08_phase_plots_{tag}",
-             f"fig09_cof_vs_normal_force_{tag}")  # fmt: skip
-    return list(zip(names, caps, figs))
 
 
 def _range_dict(opr: Any) -> Dict[str, Any]:
