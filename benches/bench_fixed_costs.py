@@ -107,7 +107,10 @@ elif kind in ("api", "tiled"):
     # the profile: wall time of the analysis' steps (the functions analyze's module calls by name)
     import functools, importlib
     phases = {}
-    mod = importlib.import_module("tribodyn.analyze")
+    try:  # the orchestration's module (tribodyn.analyze before the package's layers)
+        mod = importlib.import_module("tribodyn.pipeline.analyze")
+    except ImportError:
+        mod = importlib.import_module("tribodyn.analyze")
     def timed(name, f):
         @functools.wraps(f)
         def g(*a, **k):

@@ -53,6 +53,9 @@ ROLE_SAMPLES = 1 << 18
 #: Two channels are one axis (CETR's Ff = |Fx|) when |a| = |b| (within 0.1 %) on this share of samples.
 SAME_AXIS_SHARE = 0.99
 
+#: Why the names decide for dynamic forces (:attr:`RoleChoice.note`).
+NOT_STATIC = "fz carries no static level (dynamic forces): |Ft|/|Fn| says nothing, the names decide"
+
 #: Rules of :attr:`RoleChoice.rule`.
 RULE_MOTION = "sign follows the motion"
 RULE_REVERSALS = "sign reverses with its strokes"
@@ -323,8 +326,7 @@ def decide(
     fz = np.asarray(fz, dtype=float)
     first = preferred if preferred in forces else names[0]
     if not _static(fz):
-        why = "fz carries no static level (dynamic forces): |Ft|/|Fn| says nothing, the names decide"
-        return RoleChoice({}, first, RULE_NAMES, note=why)
+        return RoleChoice({}, first, RULE_NAMES, note=NOT_STATIC)
     absz = np.abs(fz)
     contact = np.isfinite(fz) & (absz >= MIN_FN_FRACTION * float(np.median(absz[np.isfinite(absz)]))) & (absz > 0)
     ft = {n: np.where(contact, np.asarray(forces[n], dtype=float), np.nan) for n in names}
@@ -394,17 +396,25 @@ def choose_roles(rec: Any, channels: Optional[Mapping[str, Optional[str]]]) -> O
         )
     kind = "v" if "v" in roles else ("x" if "x" in roles else None)
     mchan = roles[kind] if kind else None
-    keys = [*names, fz, *([mchan] if mchan else [])]
+
+    def in_kernel_range(v: np.ndarray) -> np.ndarray:
+        # Forces beyond the kernel's range count as missing, as in the pre-pass (docs/method.md 4).
+        return v if in_range(v) else np.where(np.abs(v) <= _core.FORCE_LIMIT, v, np.nan)
+
     try:
-        data, bounds = sample_channels(rec, keys, limit=ROLE_SAMPLES)
+        # fz first: without its static level the names decide (:func:`decide`), and the tangential channels
+        # are not read (the same samples: the pieces depend on the recording's length only).
+        data, bounds = sample_channels(rec, [fz], limit=ROLE_SAMPLES)
+        data[fz] = in_kernel_range(data[fz])
+        if not _static(data[fz]):
+            return RoleChoice(roles, roles.get("fy"), RULE_NAMES, note=NOT_STATIC)
+        data.update(sample_channels(rec, [*names, *([mchan] if mchan else [])], limit=ROLE_SAMPLES)[0])
     except RecordingError as exc:
         # A damaged body: opening still works (``tribodyn info`` lists the channels) and the read that
         # needs the damaged rows fails with their line; the map stays the names' and says why.
         rec.warnings.append(f"the friction channel could not be chosen from the data ({exc}): the names decide")
         return None
-    # Forces beyond the kernel's range count as missing, as in the pre-pass (docs/method.md 4).
-    data.update({n: data[n] if in_range(data[n]) else np.where(np.abs(data[n]) <= _core.FORCE_LIMIT, data[n], np.nan)
-                 for n in (*names, fz)})  # fmt: skip
+    data.update({n: in_kernel_range(data[n]) for n in names})
     forces = {n: data[n] for n in names}
     preferred = roles.get("fy") if roles.get("fy") in names else None
     choice = decide(forces, data[fz], motion=data[mchan] if mchan else None, motion_kind=kind or "x",

@@ -202,6 +202,19 @@ def percentile(x: np.ndarray, q: float) -> float:
     return float(lerp(got[:1], got[1:], gamma)[0])
 
 
+def abs_percentile(x: np.ndarray, q: float) -> float:
+    """``float(np.percentile(np.abs(x), q))`` of a 1-D array (method "linear"), without the array of
+    magnitudes: the kernel selects among ``|x - 0.0|``, which is ``|x|`` bit for bit."""
+    x = np.asarray(x, dtype=float)
+    n = x.size
+    if n:
+        pi, ni, gamma = _indexes(np.array([n]), np.true_divide(q, 100))
+        got = _kernel_ranks(x, [int(pi[0]), int(ni[0])], 0.0)
+        if got is not None:
+            return float(lerp(got[:1], got[1:], gamma)[0])
+    return percentile(np.abs(x), q)
+
+
 def _indexes(k: np.ndarray, quant: np.floating) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For rows of ``k`` values each: the ranks below and above NumPy's virtual index and the weight gamma."""
     vi = (k - 1) * quant

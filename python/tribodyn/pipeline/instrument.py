@@ -56,21 +56,24 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
     (b(L) - b(ref)) over the batch-means standard error of that difference
     with the windows as batches. None with fewer than 4 windows or max_lag < 2.
     """
-    segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
-    from .. import _core
+    from ..io.sample import in_range
 
-    lim = float(_core.FORCE_LIMIT)  # a window holding a sample beyond it is out of range (docs/method.md 4)
-    segs = [(y, z) for y, z in segs if y.size == z.size and y.size > 2 * max_lag
-            and np.all(np.abs(y) <= lim) and np.all(np.abs(z) <= lim)]  # fmt: skip
+    segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
+    # a window holding a sample beyond the kernel's range is out of range (docs/method.md 4)
+    segs = [(y, z) for y, z in segs if y.size == z.size and y.size > 2 * max_lag and in_range(y, z)]
     if len(segs) < 4 or max_lag < 2:
         return None
     n = segs[0][0].size
     segs = [(y, z) for y, z in segs if y.size == n]
     m = 1 << int(np.ceil(np.log2(2 * n)))
-    scale = max(float(np.max(np.abs(z))) for _, z in segs) or 1.0  # r and b do not depend on a common scale
-    segs = [(y / scale, z / scale) for y, z in segs]
-    Y = np.fft.rfft(np.stack([y - y.mean() for y, _ in segs]), m)
-    Z = np.fft.rfft(np.stack([z - z.mean() for _, z in segs]), m)
+    ys, zs = np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
+    scale = float(np.max(np.abs(zs))) or 1.0  # r and b do not depend on a common scale
+    ys /= scale
+    zs /= scale
+    ys -= ys.mean(axis=1, keepdims=True)  # each window centred (its mean: the same pairwise sum as y.mean())
+    zs -= zs.mean(axis=1, keepdims=True)
+    Y = np.fft.rfft(ys, m)
+    Z = np.fft.rfft(zs, m)
     A = np.fft.irfft(Z * np.conj(Z), m)[:, : max_lag + 1]
     C = np.fft.irfft(Y * np.conj(Z), m)[:, : max_lag + 1]
     lags = np.arange(max_lag + 1)

@@ -140,6 +140,23 @@ def _robust_sd(v: np.ndarray, centre: Optional[float] = None) -> float:
     return 1.4826 * _order.median_abs_dev(v, m)
 
 
+def _noise_sd(v: np.ndarray, scratch: Optional[List[np.ndarray]] = None) -> float:
+    """The noise's standard deviation from sample-to-sample differences: ``_robust_sd(np.diff(v)) / sqrt 2``
+    (0 under two samples). ``scratch``: a list holding a buffer the differences may be written into (and
+    where a new one is left), so that the pre-pass's two looks (fz, then fy) share one array of the sample's
+    size instead of each allocating its own (fresh pages cost more than the subtraction)."""
+    if v.size < 2:
+        return 0.0
+    m = v.size - 1
+    if scratch is None:
+        d = np.diff(v)
+    else:
+        if not scratch or scratch[0].size < m or scratch[0].dtype != v.dtype:
+            scratch[:] = [np.empty(v.size, dtype=v.dtype)]
+        d = np.subtract(v[1:], v[:-1], out=scratch[0][:m])  # np.diff's own operation
+    return float(_robust_sd(d) / np.sqrt(2.0))
+
+
 def _sorted_robust_sd(v: _order.Sorted, centre: float) -> float:
     """:func:`_robust_sd` of sorted values around their median ``centre``."""
     return 1.4826 * v.median_abs_dev(centre) if v.size else 0.0
@@ -308,9 +325,11 @@ def _shifted(order: _order.Sorted, tare: float) -> _order.Sorted:
     return order if tare == 0.0 and not np.signbit(tare) else _order.Sorted(order.values() - tare)
 
 
-def _contact(fy: np.ndarray, fz: np.ndarray, order: _order.Sorted) -> Tuple[Contact, _order.Sorted]:
+def _contact(fy: np.ndarray, fz: np.ndarray, order: _order.Sorted,
+             scratch: Optional[List[np.ndarray]] = None) -> Tuple[Contact, _order.Sorted]:  # fmt: skip
     """:func:`detect_contact` with ``order``, fz sorted; and fz tared by the contact's tare, sorted. The
-    medians and counts of fz are read from the sorted values (one sort instead of a selection each)."""
+    medians and counts of fz are read from the sorted values (one sort instead of a selection each).
+    ``scratch``: :func:`_noise_sd`'s."""
     n = fz.size
     if n == 0:
         return Contact(0.0, 0.0, 0.0, 0.0, 0.0, False, "no samples"), order
@@ -352,7 +371,7 @@ def _contact(fy: np.ndarray, fz: np.ndarray, order: _order.Sorted) -> Tuple[Cont
     else:
         t_fz = t_fy = 0.0
         absz = order.median_abs_dev(0.0)
-        noise = _robust_sd(np.diff(fz)) / np.sqrt(2.0) if n > 1 else 0.0
+        noise = _noise_sd(fz, scratch)
         thr = min(max(4.0 * noise, CONTACT_FLOOR_FRACTION * absz), MIN_FN_FRACTION * absz)
         rule = f"no unloaded cluster: in contact when |fz| >= {thr:.4g} N (4 noise SDs, within 1-5 % of median |fz|)"
         rule += _steps_words(seen)
@@ -395,6 +414,14 @@ def _tare_mode(contact: Contact, mode: str) -> Contact:
         rule = contact.rule + f"; fy not tared (tare='none': its unloaded level {contact.tare_fy:.4g} N stays in it)"
         return dataclasses.replace(contact, tare_fy=0.0, rule=rule, note="")
     return contact
+
+
+def _at_least(v: np.ndarray, thr: float) -> np.ndarray:
+    """``np.abs(v) >= thr`` without the array of magnitudes: |v| >= thr exactly when v >= thr or v <= -thr
+    (a negation is exact; NaN fails both, as it fails the first)."""
+    out: np.ndarray = v >= thr
+    out |= v <= -thr
+    return out
 
 
 def _untared(v: np.ndarray, tare: float) -> np.ndarray:
@@ -457,8 +484,9 @@ def prepass(
     out: Dict[str, Any] = {}
     contact: Optional[Contact] = None
     order = _order.Sorted.of(fz)  # fz sorted once: its medians and classes below (docs/method.md 6a)
+    scratch: List[np.ndarray] = []  # one buffer for the sample-to-sample differences of fz, then of fy
     if not isinstance(tare, Mapping) and tare_n == 0 and min_fn is None:
-        contact, order = _contact(fy, fz, order)
+        contact, order = _contact(fy, fz, order, scratch)
         contact = _tare_mode(contact, mode)
         t_fy, t_fz = contact.tare_fy, contact.tare_fz
     else:
@@ -484,10 +512,10 @@ def prepass(
         out["spec"] = ClassicalSpec(thr, t_fy, t_fz)
     # motion, from the samples in contact only (unloaded fy is an offset or drag, not friction)
     if "spec" in out:
-        touching = np.abs(fz) >= out["spec"].min_fn
+        touching = _at_least(fz, out["spec"].min_fn)
         if touching.any():
             fy = fy[touching]
-    out.update(_motion(fy, static, motion, _motion_channel(source, rec)))
+    out.update(_motion(fy, static, motion, _motion_channel(source, rec), scratch=scratch))
     return out
 
 
@@ -570,7 +598,8 @@ def _tare_offsets(
 
 
 def _motion(fy: np.ndarray, static: bool, motion: str,
-            channel: Optional[Tuple[str, np.ndarray, List[Tuple[int, int]]]] = None) -> Dict[str, Any]:  # fmt: skip
+            channel: Optional[Tuple[str, np.ndarray, List[Tuple[int, int]]]] = None, *,
+            scratch: Optional[List[np.ndarray]] = None) -> Dict[str, Any]:  # fmt: skip
     """The share of fy's sign flips, their signal-to-noise ratio and the motion: ``motion`` as given, or with
     "auto" from a velocity or position ``channel`` when there is one (both directions, each at least
     SIGN_FLIP_SHARE of the samples, and MIN_REVERSALS reversals), else reciprocating when fz has a static level
@@ -588,16 +617,16 @@ def _motion(fy: np.ndarray, static: bool, motion: str,
                    motion_evidence=f"{what}: {100 * both:.0f} % of the samples in its rarer direction, "
                                    f"{turns} reversal{'' if turns == 1 else 's'}")  # fmt: skip
         return out
-    p95 = _order.percentile(np.abs(fy), 95) if fy.size else 0.0
+    p95 = _order.abs_percentile(fy, 95) if fy.size else 0.0
     share = 0.0
-    if p95 > 0:
-        pos = float(np.mean(fy > 0.3 * p95))
-        neg = float(np.mean(fy < -0.3 * p95))
+    if p95 > 0:  # np.mean of the comparisons, without a float array: an exact count over the size
+        pos = np.count_nonzero(fy > 0.3 * p95) / fy.size
+        neg = np.count_nonzero(fy < -0.3 * p95) / fy.size
         share = min(pos, neg)
     out["sign_flip_share"] = share
     # Both directions' friction must stand out of the noise: a friction near zero (a tare that takes
     # most of it, a lubricated contact) changes sign with the noise alone.
-    noise = _robust_sd(np.diff(fy)) / np.sqrt(2.0) if fy.size > 1 else 0.0
+    noise = _noise_sd(fy, scratch)
     sides = _side_medians(fy)
     snr = min(sides) / noise if noise > 0 else np.inf
     out["sign_snr"] = float(snr)
