@@ -53,6 +53,23 @@ def test_view_embeds_the_shown_windows_numbers_exactly():
     assert lo < np.median(_floats(d["cols"]["mu"])) < hi
 
 
+@pytest.mark.parametrize(("name", "method"), [("drag_rotational.csv", "classical"),
+                                               ("load_step_reciprocating.csv", "per-stroke")])  # fmt: skip
+def test_the_view_of_an_export_has_no_row_of_failed_windows(name, method):
+    """The row "windows that failed the quality gate" is the dynamic gate's: a recording whose headline is the
+    classical or per-stroke COF (the gate plays no part in it) gets none, even with windows that fail the gate;
+    its windows without that COF are gaps, counted in the legend (issue 33 point 3)."""
+    res = td.analyze(str(Path(__file__).parent / "data" / "formats" / name))
+    assert res.headline.method == method and not np.asarray(res["ok"], dtype=bool).all()
+    have = np.isfinite(np.asarray(res["mu_classical"], dtype=float))
+    assert 0 < have.sum() < have.size
+    script, _ = _interactive.cof_views(res, "x")
+    d = _view_data(script)
+    assert d["failed"] is None and "quality gate" not in script
+    assert d["legend"] == f"classical COF per window ({have.sum()} of {have.size} windows)" and d["good"] == have.sum()
+    np.testing.assert_array_equal(_floats(d["cols"]["mu"]), np.asarray(res["mu_classical"], dtype=float)[have])
+
+
 def test_figures_auto_draws_no_png_the_view_shows_for_an_export(tmp_path):
     """--figures auto (the default): an export whose headline is the classical COF gets neither the window
     diagnostics nor the COF-against-time PNG (its interactive view shows the COF with the headline and the

@@ -132,7 +132,8 @@ def _thin(n: int) -> np.ndarray:
 @dataclass(frozen=True)
 class _Series:
     """What the views plot, per window: time, whether it is shown as a point (``ok``), the COF with its interval,
-    T and J; with the points' name in the legend and the COF axis's label."""
+    T and J; with the points' name in the legend and the COF axis's label. ``gated``: ``ok`` is the quality gate's
+    verdict (a dynamic headline); else it says only which windows have the COF shown (the gate plays no part)."""
 
     t: np.ndarray
     ok: np.ndarray
@@ -144,6 +145,7 @@ class _Series:
     what: str
     y_label: str
     instrument: np.ndarray  # the instrument's COF per window beside a classical one (NaN where none)
+    gated: bool = True
 
 
 def _series(results: Any) -> _Series:
@@ -170,7 +172,8 @@ def _series(results: Any) -> _Series:
         lo = hi = np.full(t.size, np.nan)
     temp = np.asarray(table.get("T", np.full(t.size, np.nan)), dtype=float)
     cur = np.asarray(table.get("J", np.full(t.size, np.nan)), dtype=float)
-    return _Series(t, ok, mu, lo, hi, temp, cur, what, y_label, inst if not dynamic else np.full(t.size, np.nan))
+    return _Series(t, ok, mu, lo, hi, temp, cur, what, y_label, inst if not dynamic else np.full(t.size, np.nan),
+                   gated=dynamic)  # fmt: skip
 
 
 def _b64(values: np.ndarray) -> Optional[str]:
@@ -213,7 +216,7 @@ def _view_data(results: Any, name: str) -> Dict[str, Any]:
     data: Dict[str, Any] = {
         "title": f"{name}: COF against time (zoom, pan, hover)",
         "y_label": s.y_label,
-        "legend": f"{s.what} ({int(s.ok.sum())})",
+        "legend": f"{s.what} ({int(s.ok.sum())}{'' if s.gated or s.ok.all() else f' of {s.ok.size} windows'})",
         "good": int(good.size),
         "cols": {k: _b64(v[good]) for k, v in cols.items()},
         "y_range": _y_range(np.concatenate(shown)),
@@ -225,7 +228,9 @@ def _view_data(results: Any, name: str) -> Dict[str, Any]:
             if np.isfinite(values[good]).any()
         ],
     }
-    if bad.size:
+    # the row of failed windows is the quality gate's: a classical, per-stroke or instrument headline has none (the
+    # windows without that COF are gaps, counted in the legend, as in the PNG figure)
+    if bad.size and s.gated:
         data["failed"] = {
             "t": _b64(s.t[bad]),
             "why": [str(r) for r in np.asarray(results.table["reasons"])[bad]],
@@ -238,7 +243,10 @@ def cof_views(results: Any, name: str) -> Tuple[str, str]:
     """(script, div) of the zoomable COF-against-time view (and against T and J when they have data).
 
     Gated windows as points with hover (time, COF, interval, T, J), failed
-    windows as grey ticks in their own row below with their reason. The page's
+    windows as grey ticks in their own row below with their reason; for a
+    classical, per-stroke or instrument headline the windows with that COF,
+    the headline and its interval, and no row of failed windows (the dynamic
+    gate plays no part in that COF). The page's
     head must hold :func:`bokeh_resources`; without bokeh's JavaScript the
     div says so.
     """
