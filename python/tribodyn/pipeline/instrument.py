@@ -67,7 +67,7 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
     segs = [(y, z) for y, z in segs if y.size == n]
     m = 1 << int(np.ceil(np.log2(2 * n)))
     ys, zs = np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
-    scale = float(np.max(np.abs(zs))) or 1.0  # r and b do not depend on a common scale
+    scale = max(float(zs.max()), -float(zs.min())) or 1.0  # max |z|: r and b do not depend on a common scale
     ys /= scale
     zs /= scale
     ys -= ys.mean(axis=1, keepdims=True)  # each window centred (its mean: the same pairwise sum as y.mean())
