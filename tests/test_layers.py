@@ -184,3 +184,38 @@ def test_public_errors_and_headline_are_reachable():
     assert issubclass(td.errors.RecordingError, ValueError) and td.RecordingError is errors.RecordingError
     assert issubclass(td.OutputError, ValueError)
     assert errors.ConstantInputWarning is td.ConstantInputWarning
+
+
+@pytest.mark.fast
+def test_results_params_cannot_change_and_replace_carries_only_what_it_is_told():
+    import json
+    import pickle
+
+    import numpy as np
+    import tribodyn as td
+    from tribodyn.results import CACHED
+
+    rng = np.random.default_rng(5)
+    fz = 20.0 + np.sin(np.arange(30_000) * 0.37) + 0.1 * rng.standard_normal(30_000)
+    res = td.analyze({"fy": 0.2 * fz + 0.02 * rng.standard_normal(30_000), "fz": fz}, fs=1000.0, window=2.0)
+    for change in (lambda p: p.__setitem__("window", 9.0), lambda p: p.update(window=9.0),
+                   lambda p: p.pop("window"), lambda p: p.setdefault("new", 1), lambda p: p.clear(),
+                   lambda p: p.__delitem__("window")):  # fmt: skip
+        with pytest.raises(TypeError, match="cannot be changed"):
+            change(res.params)
+    assert res.params["window"] == 2.0
+    # it reads, copies, pickles and serialises as a dict
+    assert json.loads(json.dumps(res.params))["window"] == 2.0 and pickle.loads(pickle.dumps(res)).params == res.params
+    mine = dict(res.params)
+    mine["window"] = 9.0
+    assert res.params["window"] == 2.0
+    head = res.headline  # computed once
+    kept = res.replace(keep=("headline",), warnings=res.warnings + ("a note",))
+    assert kept.headline is head and "a note" in kept.warnings and kept.params == res.params
+    fresh = res.replace(warnings=())
+    assert "headline" not in fresh.__dict__ and fresh.headline == head  # computed again, the same
+    given = res.replace(cached={"mu_r_ci": {"median": (0.0, 1.0)}})
+    assert given.mu_r_ci == {"median": (0.0, 1.0)} and res.mu_r_ci != given.mu_r_ci
+    with pytest.raises(ValueError, match="not a cached value"):
+        res.replace(keep=("table",))
+    assert set(CACHED) == {"mu_r_ci", "column_ci", "verdict", "headline"}

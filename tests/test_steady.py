@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 
@@ -202,7 +201,6 @@ def test_cli_steady_state_prints_writes_and_shades(tmp_path, capsys):
 
 @pytest.mark.fast
 def test_cof_figure_shades_the_running_in():
-    import dataclasses
 
     from matplotlib.patches import Rectangle
     from tribodyn.app import figures
@@ -210,12 +208,12 @@ def test_cof_figure_shades_the_running_in():
     _, res = analysed(seed=3, duration=600.0, t_steady=150.0)
     ss = td.steady_state(res, n_boot=100)
 
-    def spans(r):
-        fig = figures.cof_vs_time(r)
+    def spans(r, steady=None):
+        fig = figures.cof_vs_time(r, steady_state=steady)
         return [p for p in fig.axes[0].patches if isinstance(p, Rectangle) and "running-in" in str(p.get_label())]
 
     assert spans(res) == []
-    shaded = spans(dataclasses.replace(res, params={**res.params, "steady_state": ss.to_dict()}))
+    shaded = spans(res, ss.to_dict())  # a figure input, not a Results field
     assert len(shaded) == 1
     x0, x1 = shaded[0].get_x(), shaded[0].get_x() + shaded[0].get_width()
     assert x0 == pytest.approx(0.0) and x1 == pytest.approx(ss.t_steady)
@@ -262,7 +260,7 @@ def test_one_running_in_per_test_of_a_file_that_holds_several(tmp_path) -> None:
     assert ss["verdict"] == "per acquisition" and len(ss["acquisitions"]) == 3
     assert [a["t_steady"] for a in ss["acquisitions"]] == [f.t_steady for f in fits]
     assert ss["text"].startswith("acquisition 0: steady state from t = ") and "; acquisition 2: " in ss["text"]
-    fig = figures.cof_vs_time(dataclasses.replace(res, params={**res.params, "steady_state": ss}))
+    fig = figures.cof_vs_time(res, steady_state=ss)
     orange = to_rgba("tab:orange", 0.12)
     bands = [q for q in fig.axes[0].patches if isinstance(q, Rectangle) and q.get_facecolor() == orange]
     assert [(b.get_x(), b.get_x() + b.get_width()) for b in bands] == [(f.t0, f.t_steady) for f in fits]

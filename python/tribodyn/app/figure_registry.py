@@ -85,6 +85,8 @@ class FigureInputs:
     temperature_log: Any = None
     loops: Sequence[Mapping[str, Any]] = ()
     time_figure: bool = True
+    #: Where the running-in ends (a :meth:`tribodyn.SteadyState.to_dict`), shaded on the COF against time.
+    steady_state: Optional[Mapping[str, Any]] = None
 
     @functools.cached_property
     def dynamic_first(self) -> bool:
@@ -239,7 +241,9 @@ RECORDING_FIGURES: Tuple[FigureEntry, ...] = (
             "COF (mu_r by regression, mu_a and mu_b per normal-force sign) and commutator temperature "
             f"against time ({d.what}); cf. paper Fig. 10."
         ),
-        lambda d: _figs().cof_and_temperature_vs_time(d.results, temperature_log=d.temperature_log),
+        lambda d: _figs().cof_and_temperature_vs_time(
+            d.results, temperature_log=d.temperature_log, steady_state=d.steady_state
+        ),
     ),
     FigureEntry(
         "fig11_cof_vs_temperature",
@@ -254,7 +258,7 @@ RECORDING_FIGURES: Tuple[FigureEntry, ...] = (
         "fig12_cof_current_density_vs_time",
         lambda d: d.has("J"),
         lambda d: f"COF and current density J against time ({d.what}); cf. paper Fig. 12.",
-        lambda d: _figs().cof_and_current_density_vs_time(d.results),
+        lambda d: _figs().cof_and_current_density_vs_time(d.results, steady_state=d.steady_state),
     ),
     FigureEntry(
         "sec4-2_cof_vs_current_density",
@@ -272,7 +276,7 @@ RECORDING_FIGURES: Tuple[FigureEntry, ...] = (
         "cof_vs_time",
         lambda d: d.time_figure and not (d.has("T") or d.has("J")),
         lambda d: f"COF against time ({d.what}); no temperature or current density was given.",
-        lambda d: _figs().cof_vs_time(d.results),
+        lambda d: _figs().cof_vs_time(d.results, steady_state=d.steady_state),
     ),
     FigureEntry(
         "strokes_cof_vs_cycle",
@@ -409,6 +413,7 @@ def build_named_figures(
     loops: Sequence[Mapping[str, Any]] = (),
     opr_speed: Any = None,
     time_figure: bool = True,
+    steady_state: Optional[Mapping[str, Any]] = None,
 ) -> List[NamedFigure]:
     """(file name, caption, Figure) of every figure that applies, walking :data:`WINDOW_FIGURES` (once per example
     window) and :data:`RECORDING_FIGURES`; the window diagnostics first when the headline is the dynamic COF, else
@@ -418,11 +423,11 @@ def build_named_figures(
     reciprocating test with a position channel: ``x``, ``fy``, ``label`` and ``energy`` of whole cycles) add the
     friction-loop figure; ``opr_temperature``, ``opr_current``, ``opr_speed``: the operating ranges (computed
     with the defaults when not given and the column has data); ``temperature_log``: the readings, drawn on the
-    Fig. 10 analogue. Matplotlib is imported only when a figure is drawn.
+    Fig. 10 analogue; ``steady_state`` (:meth:`tribodyn.SteadyState.to_dict`, docs/method.md 6h): the running-in
+    shaded on the COF against time. Matplotlib is imported only when a figure is drawn.
     """
-    d = FigureInputs(
-        results, opr_temperature, opr_current, opr_speed, tuple(examples), temperature_log, tuple(loops), time_figure
-    )
+    d = FigureInputs(results, opr_temperature, opr_current, opr_speed, tuple(examples), temperature_log,
+                     tuple(loops), time_figure, steady_state)  # fmt: skip
     diagnostics = [named for ex in d.examples for named in window_figures(Window.of(ex))]
     own = [(e.name, e.caption(d), e.draw(d)) for e in RECORDING_FIGURES if e.when(d)]
     return diagnostics + own if d.dynamic_first else own + diagnostics

@@ -614,14 +614,16 @@ def _failed_strip(ax: Axes, x: np.ndarray, results: Any, bad: np.ndarray) -> Any
     return h
 
 
-def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
+def _cof_time_axes(ax: Axes, results: Any, steady: Optional[Mapping[str, Any]] = None
+                   ) -> Tuple[List[Any], List[Any]]:  # fmt: skip
     """mu_r, mu_a, mu_b of the gated windows (with a running median and 5-95 % band when there are many)
-    and the failed windows in a strip at the top; returns legend handles and the plotted COF values."""
+    and the failed windows in a strip at the top, the running-in of ``steady`` shaded; returns legend handles and
+    the plotted COF values."""
     t = np.asarray(getattr(results, "table", results)["time"], dtype=float)
     n = t.size
     head = getattr(results, "headline", None)
     if head is not None and getattr(head, "method", "dynamic") != "dynamic":
-        return _classical_time_axes(ax, results, head, t)
+        return _classical_time_axes(ax, results, head, t, steady)
     ok = _gated(results, n)
     handles: List[Any] = []
     tops = []
@@ -674,14 +676,14 @@ def _cof_time_axes(ax: Axes, results: Any) -> Tuple[List[Any], List[Any]]:
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")
     ax.grid(True, alpha=0.3)
-    return handles + _running_in(ax, results), tops
+    return handles + _running_in(ax, steady), tops
 
 
-def _running_in(ax: Axes, results: Any) -> List[Any]:
-    """A light band from the first window to t_steady when ``results.params["steady_state"]`` (a
-    :meth:`tribodyn.SteadyState.to_dict`, or one per acquisition under "acquisitions") says the steady state is
-    reached (docs/method.md 6h): one band per test or step."""
-    ss = (getattr(results, "params", None) or {}).get("steady_state") or {}
+def _running_in(ax: Axes, steady: Optional[Mapping[str, Any]]) -> List[Any]:
+    """A light band from the first window to t_steady when ``steady`` (a :meth:`tribodyn.SteadyState.to_dict`,
+    or one per acquisition under "acquisitions") says the steady state is reached (docs/method.md 6h): one band
+    per test or step."""
+    ss = steady or {}
     fits = ss.get("acquisitions") or [ss]
     bands: List[Any] = []
     for fit in fits:
@@ -694,7 +696,8 @@ def _running_in(ax: Axes, results: Any) -> List[Any]:
     return bands[:1]
 
 
-def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tuple[List[Any], List[Any]]:
+def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray, steady: Optional[Mapping[str, Any]] = None
+                         ) -> Tuple[List[Any], List[Any]]:  # fmt: skip
     """The classical COF of every window (and the instrument's) with the headline and its 95 % interval
     (a headline that is not the dynamic COF: docs/method.md 6e); the dynamic gate plays no part here."""
     n = t.size
@@ -727,11 +730,11 @@ def _classical_time_axes(ax: Axes, results: Any, head: Any, t: np.ndarray) -> Tu
     ax.set_xlabel("Time $t$ (s)")
     ax.set_ylabel("COF")
     ax.grid(True, alpha=0.3)
-    return handles + _running_in(ax, results), tops
+    return handles + _running_in(ax, steady), tops
 
 
 def _cof_time_frame(
-    results: Any, title: str, figsize: Tuple[float, float]
+    results: Any, title: str, figsize: Tuple[float, float], steady: Optional[Mapping[str, Any]] = None
 ) -> Tuple[Figure, Any, np.ndarray, List[Any]]:
     """A one-panel figure of the COF against time: (figure, axes, window times, legend handles); axes None
     (and the figure saying so) when there are no windows. Says on the axes when no window passed the gate."""
@@ -743,7 +746,7 @@ def _cof_time_frame(
     if t.size == 0 or not np.isfinite(t).any():
         _no_data(ax, "no windows")
         return fig, None, t, []
-    handles, tops = _cof_time_axes(ax, results)
+    handles, tops = _cof_time_axes(ax, results, steady)
     if not tops:
         ax.text(0.5, 0.5, "no window passed the quality gate", transform=ax.transAxes, ha="center", va="center",
                 color="0.4", style="italic")  # fmt: skip
@@ -751,10 +754,15 @@ def _cof_time_frame(
 
 
 def _cof_and_covariate_vs_time(
-    results: Any, column: str, *, title: str, extra: Optional[Tuple[np.ndarray, np.ndarray]] = None
+    results: Any,
+    column: str,
+    *,
+    title: str,
+    extra: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+    steady_state: Optional[Mapping[str, Any]] = None,
 ) -> Figure:
     spec = _COVARIATE[column]
-    fig, ax, t, handles = _cof_time_frame(results, title, (10.0, 5.0))
+    fig, ax, t, handles = _cof_time_frame(results, title, (10.0, 5.0), steady_state)
     if ax is None:
         return fig
     cov = _column(results, column, t.size)
@@ -811,7 +819,8 @@ def _cof_and_covariate_vs_time(
     return fig
 
 
-def cof_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
+def cof_vs_time(results: Any, *, title: Optional[str] = None, steady_state: Optional[Mapping[str, Any]] = None
+                ) -> Figure:  # fmt: skip
     """COF of every window against time (paper Figs. 10, 12 without a covariate; docs/method.md 6).
 
     Parameters
@@ -822,19 +831,23 @@ def cof_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
         mu_r clipped into view; NaN at the bottom).
     title : str, optional
         Axes title.
+    steady_state : dict, optional
+        :meth:`tribodyn.SteadyState.to_dict` (or ``{"acquisitions": [...]}``, one per test): the running-in
+        shaded up to t_steady when the steady state is reached (docs/method.md 6h).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    fig, ax, _, handles = _cof_time_frame(results, title or "COF against time", (10.0, 4.6))
+    fig, ax, _, handles = _cof_time_frame(results, title or "COF against time", (10.0, 4.6), steady_state)
     if ax is None:
         return fig
     _legend_above(ax, handles, ncol=4)
     return fig
 
 
-def cof_and_temperature_vs_time(results: Any, *, temperature_log: Any = None, title: Optional[str] = None) -> Figure:
+def cof_and_temperature_vs_time(results: Any, *, temperature_log: Any = None, title: Optional[str] = None,
+                                steady_state: Optional[Mapping[str, Any]] = None) -> Figure:  # fmt: skip
     """COF (mu_r, mu_a, mu_b) and temperature against time (paper Fig. 10; docs/method.md 6).
 
     Parameters
@@ -847,6 +860,8 @@ def cof_and_temperature_vs_time(results: Any, *, temperature_log: Any = None, ti
         paper's symbol); the line is ``T`` interpolated at window centres.
     title : str, optional
         Axes title.
+    steady_state : dict, optional
+        As :func:`cof_vs_time`'s.
 
     Returns
     -------
@@ -859,10 +874,11 @@ def cof_and_temperature_vs_time(results: Any, *, temperature_log: Any = None, ti
         if lt.size and lt.size == lv.size:
             extra = (lt, lv)
     title = title or "COF and temperature against time (cf. paper Fig. 10)"
-    return _cof_and_covariate_vs_time(results, "T", title=title, extra=extra)
+    return _cof_and_covariate_vs_time(results, "T", title=title, extra=extra, steady_state=steady_state)
 
 
-def cof_and_current_density_vs_time(results: Any, *, title: Optional[str] = None) -> Figure:
+def cof_and_current_density_vs_time(results: Any, *, title: Optional[str] = None,
+                                    steady_state: Optional[Mapping[str, Any]] = None) -> Figure:  # fmt: skip
     """COF (mu_r, mu_a, mu_b) and current density against time (paper Fig. 12; docs/method.md 6).
 
     Parameters
@@ -872,6 +888,8 @@ def cof_and_current_density_vs_time(results: Any, *, title: Optional[str] = None
         (column ``J``, A/mm^2). Failed windows are grey crosses.
     title : str, optional
         Axes title.
+    steady_state : dict, optional
+        As :func:`cof_vs_time`'s.
 
     Returns
     -------
@@ -879,7 +897,7 @@ def cof_and_current_density_vs_time(results: Any, *, title: Optional[str] = None
         COF on the left axis, J (A/mm^2) on a second y-axis.
     """
     title = title or "COF and current density against time (cf. paper Fig. 12)"
-    return _cof_and_covariate_vs_time(results, "J", title=title)
+    return _cof_and_covariate_vs_time(results, "J", title=title, steady_state=steady_state)
 
 
 # --------------------------------------------------------------------------

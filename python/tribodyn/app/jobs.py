@@ -228,14 +228,15 @@ def _figures(
     examples: Sequence[Dict[str, Any]] = (),
     loops: Sequence[Dict[str, Any]] = (),
     time_figure: bool = True,
+    steady_state: Optional[Dict[str, Any]] = None,
 ) -> List[Tuple[str, str, Any]]:
     """(file name, caption, Figure) of every figure, named after the paper's figures (``time_figure=False``:
-    without ``cof_vs_time``)."""
+    without ``cof_vs_time``; ``steady_state``: the running-in shaded, docs/method.md 6h)."""
     from .report import build_named_figures
 
     exs = list(examples) + ([example] if example is not None else [])
     return build_named_figures(res, opr_temperature=opr_t, opr_current=opr_j, opr_speed=opr_v, examples=exs,
-                               loops=loops, time_figure=time_figure)  # fmt: skip
+                               loops=loops, time_figure=time_figure, steady_state=steady_state)  # fmt: skip
 
 
 def loop_examples(source: Any, res: Results, open_options: Optional[Dict[str, Any]] = None
@@ -913,10 +914,9 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
         slip = None
         res = _replaced(res, warnings=(*res.warnings, f"stick-slip not assessed: {exc}"))
     steady = _steady_state(res) if job.steady_state else None
-    # the figures read the steady state from their Results' params (docs/method.md 6h)
-    fig_res = _replaced(res, params={**res.params, "steady_state": steady}) if steady else res
-    figs = _figures(fig_res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops,
-                    time_figure=_diagnostics_drawn(job.figures, res) or bool(steady)) if drawn else []  # fmt: skip
+    figs = _figures(res, opr_t=opr_t, opr_j=opr_j, opr_v=opr_v, examples=examples, loops=loops,
+                    time_figure=_diagnostics_drawn(job.figures, res) or bool(steady),
+                    steady_state=steady) if drawn else []  # fmt: skip
     res_now = res
 
     def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, before the figures
@@ -1048,13 +1048,9 @@ def _import_in_background(modules: Sequence[str] = _OUTPUT_MODULES) -> threading
 
 
 def _replaced(res: Results, **changes: Any) -> Results:
-    """``dataclasses.replace(res, **changes)`` for new warnings or figure-only params, keeping the results
-    already computed from the rest (headline, verdict, the mu_r bootstrap): none is computed twice."""
-    out = dataclasses.replace(res, **changes)
-    for key in ("headline", "verdict", "mu_r_ci"):
-        if key in res.__dict__:
-            out.__dict__[key] = res.__dict__[key]
-    return out
+    """``res`` with new warnings, keeping the results already computed from the rest (headline, verdict, the mu_r
+    bootstrap): none is computed twice."""
+    return res.replace(keep=("headline", "verdict", "mu_r_ci"), **changes)
 
 
 def _steady_state(res: Results) -> Dict[str, Any]:

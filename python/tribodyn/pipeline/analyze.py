@@ -361,17 +361,16 @@ def combine(parts: Sequence[Partial], *,
     span = (parts[0].plan.start, parts[-1].plan.stop)
     res = finish(st, parts[0].aux_role, parts[0].plan, parts[0].found, route=parts[0].route, warnings=warnings,
                  span=span)  # fmt: skip
-    res.params.update(parts[0].tribo)
-    res.params["n_samples_total"] = sum(int(p.tribo.get("n_samples_total", 0)) for p in parts)
-    totals = [p.classical for p in parts if p.classical is not None]
-    res = dataclasses.replace(res, strokes=parts[0].strokes,
-                              classical=ClassicalTotals.merge(totals) if totals else None)  # fmt: skip
+    params = {**res.params, **parts[0].tribo}
+    params["n_samples_total"] = sum(int(p.tribo.get("n_samples_total", 0)) for p in parts)
     if len(parts) > 1:
-        res.params.update(start=0, stop=None, ranges=len(parts))
+        params.update(start=0, stop=None, ranges=len(parts))
+    totals = [p.classical for p in parts if p.classical is not None]
+    res = dataclasses.replace(res, strokes=parts[0].strokes, params=params,
+                              classical=ClassicalTotals.merge(totals) if totals else None)  # fmt: skip
     given = intervals(res) if intervals is not None else None
-    for key in ("mu_r_ci", "column_ci"):
-        if given is not None and key in given:
-            res.__dict__[key] = dict(given[key])  # the cached property's value (settle keeps it)
+    if given is not None:  # the cached properties' values (settle keeps them)
+        res = res.replace(cached={k: dict(given[k]) for k in ("mu_r_ci", "column_ci") if k in given})
     return settle(res)
 
 
@@ -519,7 +518,7 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     res, sums = _analyze_aligned(run_source, run_rec, plan, found, span, taps=() if slip is None else (slip,))
     if run_rec is not rec and rec is not None:
         res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
-    res.params.update(tribo)
+    res = dataclasses.replace(res, params={**res.params, **tribo})
     if own:
         res = dataclasses.replace(res, warnings=res.warnings + own)
     res = dataclasses.replace(res, strokes=strokes)
@@ -633,10 +632,10 @@ def _analyze_aligned(source: Any, rec: Optional[RecordingProtocol], plan: Plan, 
         first, sums = _analyze_plan(source, rec, plan, found, span, taps=taps)
         delay = float(first.params.get("skew_median", float("nan")))
         if not (np.isfinite(delay) and abs(delay) > ALIGN_MIN):
-            first.params.update(align="auto", delay_samples=0.0 if not np.isfinite(delay) else delay, aligned=False)
-            return first, sums
+            said = {"align": "auto", "delay_samples": 0.0 if not np.isfinite(delay) else delay, "aligned": False}
+            return dataclasses.replace(first, params={**first.params, **said}), sums
         res, _ = _analyze_plan(source, rec, plan, dataclasses.replace(found, delay=delay))
-        res.params.update(delay_samples=delay, aligned=True)
+        res = dataclasses.replace(res, params={**res.params, "delay_samples": delay, "aligned": True})
         return res, sums  # the sums are of the raw samples: the delay does not change them
     return _analyze_plan(source, rec, plan, found, span, taps=taps)
 

@@ -124,12 +124,12 @@ def statistics_of(res: Results, source: Any, rec: Any, spec: Any, span: Tuple[in
 
 def with_budget(res: Results, stats: Optional[Moments]) -> Results:
     """``res`` holding ``stats``, its headline with the budget (the dynamic bootstrap is not run again)."""
-    out = dataclasses.replace(res, budget_stats=stats)
-    for key in ("verdict", "mu_r_ci"):  # cached results that the statistics do not change
-        if key in res.__dict__:
-            out.__dict__[key] = res.__dict__[key]
-    if "headline" in res.__dict__:
-        head = res.__dict__["headline"]
+    out = res.replace(keep=("verdict", "mu_r_ci", "column_ci"), budget_stats=stats)  # what the statistics leave
+    if "headline" in res.__dict__:  # computed: its budget attached (the bootstrap not run again)
+        head = res.headline
         kept = tuple(r for r in head.reasons if not r.startswith(NO_BUDGET))
-        out.__dict__["headline"] = attach(out, dataclasses.replace(head, uncertainty=None, reasons=kept))
+        out = out.replace(
+            keep=("verdict", "mu_r_ci", "column_ci"),
+            cached={"headline": attach(out, dataclasses.replace(head, uncertainty=None, reasons=kept))},
+        )
     return out

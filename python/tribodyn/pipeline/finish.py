@@ -10,7 +10,6 @@ then adds the headline's sums and keeps the warnings of the method in use
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -55,16 +54,13 @@ def settle(res: Results, classical: Optional[Callable[[], Optional[ClassicalTota
     """
     v = res.verdict
     if classical is not None and res.classical is None and not v["dynamic_method"] and v["motion"] != "reciprocating":
-        res = dataclasses.replace(res, classical=classical())
+        res = res.replace(keep=("verdict", "mu_r_ci", "column_ci"), classical=classical())  # the verdict's own
     head = res.headline
     notes = set(res.params.get("dynamic_notes") or ())
     kept = [w for w in res.warnings if head.method == "dynamic" or w not in notes]
     _, more = instrument_check(res, head)
-    out = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*kept, *more))))
-    for key in ("headline", "verdict", "mu_r_ci", "column_ci"):  # cached results that do not depend on the warnings
-        if key in res.__dict__:
-            out.__dict__[key] = res.__dict__[key]
-    return out
+    warnings = tuple(dict.fromkeys((*kept, *more)))
+    return res.replace(keep=("headline", "verdict", "mu_r_ci", "column_ci"), warnings=warnings)  # they do not read them
 
 
 def _merged(st: Stats, a: str, b: str) -> float:

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..io.base import Recording
 from ..io.follow import Follower
-from ..results import ClassicalTotals, Results
+from ..results import CACHED, ClassicalTotals, Results
 from .analyze import Partial, analyze, analyze_partial, combine
 from .instrument import lag_sample_held
 from .plan import make_plan
@@ -304,15 +304,15 @@ class Watch:
         self._done = upto
         self._draw = False
         snap = combine([self._acc], intervals=self._intervals)
-        if self._ranges > 1:
-            snap.params.update(start=0, stop=None, ranges=self._ranges)
         drawn = self._drawn
         if self._draw:
             drawn = self._drawn = _Drawn.of(snap)
         at = drawn.columns["mu_r"].n if drawn is not None else None
-        snap.params["watch"] = {"samples": n, "final": False, "updates": self.updates + 1, "samples_analysed": stop,
-                                "intervals_drawn_at": at}  # fmt: skip
-        return snap
+        params = {**snap.params, "watch": {"samples": n, "final": False, "updates": self.updates + 1,
+                                           "samples_analysed": stop, "intervals_drawn_at": at}}  # fmt: skip
+        if self._ranges > 1:
+            params.update(start=0, stop=None, ranges=self._ranges)
+        return snap.replace(keep=CACHED, params=params)  # the watch's params change none of the cached values
 
     def _intervals(self, res: Results) -> Optional[Dict[str, Any]]:
         """The snapshot's bootstrap intervals from the last draw, moved and scaled (docs/method.md 11); None when
@@ -396,9 +396,9 @@ class Watch:
 
         with open_recording(self.path, appending=True, **self.open_options) as rec:  # a writer may hold it open
             res = analyze(rec, **self.options)
-        res.params["watch"] = {"samples": res.params.get("n_samples_total"), "final": True,
-                               "updates": self.updates, "reason": self.reason}  # fmt: skip
-        return res
+        said = {"samples": res.params.get("n_samples_total"), "final": True, "updates": self.updates,
+                "reason": self.reason}  # fmt: skip
+        return res.replace(keep=CACHED, params={**res.params, "watch": said})
 
 
 Intervals = Dict[str, Tuple[float, float]]

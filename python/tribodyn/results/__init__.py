@@ -18,8 +18,8 @@ from ..kernels.uncertainty import Moments
 from .headline import HEADLINE_METHODS, ClassicalTotals, Headline, choose, instrument_check
 from .verdict import verdict as _verdict
 
-__all__ = ["HEADLINE_METHODS", "BinTable", "ClassicalTotals", "CofResult", "Headline", "Results", "WINDOW_COLUMNS",
-           "SUMMARY_COLUMNS"]  # fmt: skip
+__all__ = ["HEADLINE_METHODS", "BinTable", "ClassicalTotals", "CofResult", "Headline", "Params", "Results",
+           "WINDOW_COLUMNS", "SUMMARY_COLUMNS", "CACHED"]  # fmt: skip
 
 #: The table's columns that ``Results.summary()`` gives with their statistics and intervals, besides mu_r.
 SUMMARY_COLUMNS = ("mu_a", "mu_b", "force_dependence", "dmu_dfn")
@@ -159,6 +159,35 @@ _PREVIEW_COLUMNS = ("time", "mu_r", "mu_r_low", "mu_r_high", "mu_ols", "c_yz", "
 PREVIEW_ROWS = 5
 
 
+class Params(Dict[str, Any]):
+    """A Results' ``params``: a dict that cannot be changed after the Results is made (docs/architecture.md).
+
+    It reads, copies (``dict(p)``, ``{**p, ...}``), compares, pickles and
+    serialises (JSON) as a dict; ``p["k"] = v``, ``update``, ``pop`` and
+    the like raise TypeError: a new value is a new Results
+    (:meth:`Results.replace`).
+    """
+
+    __slots__ = ()
+
+    def _refuse(self, *args: Any, **kwargs: Any) -> None:
+        raise TypeError("a Results' params cannot be changed: make a new Results (Results.replace(params=...))")
+
+    __setitem__ = __delitem__ = update = pop = popitem = clear = setdefault = _refuse  # type: ignore[assignment]
+    __ior__ = _refuse  # type: ignore[assignment]
+
+    def __reduce__(self) -> Tuple[Any, ...]:
+        return (Params, (dict(self),))
+
+    def copy(self) -> Dict[str, Any]:
+        """A plain (changeable) dict of the same entries."""
+        return dict(self)
+
+
+#: The values a Results computes once from its fields, on first use (the cached properties).
+CACHED = ("mu_r_ci", "column_ci", "verdict", "headline")
+
+
 @dataclass(frozen=True, repr=False)
 class Results:
     """Per-window results of ``tribodyn.analyze`` (docs/method.md section 6).
@@ -216,6 +245,27 @@ class Results:
     stick_slip: Optional[Any] = None  # a tribodyn.StickSlip (defined in pipeline.stickslip, above this layer)
     #: The headline's sufficient statistics for its uncertainty budget (docs/method.md 6i), or None.
     budget_stats: Optional[Moments] = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.params, Params):
+            object.__setattr__(self, "params", Params(self.params))
+
+    def replace(self, *, keep: Tuple[str, ...] = (), cached: Optional[Mapping[str, Any]] = None,
+                **changes: Any) -> "Results":  # fmt: skip
+        """``dataclasses.replace(self, **changes)`` carrying the values in ``keep`` (names of :data:`CACHED`)
+        already computed from fields that ``changes`` leave valid, and taking ``cached`` (name: value) as
+        computed: the one place such values pass from a Results to another (none is computed twice)."""
+        unknown = set(keep) | set(cached or ())
+        unknown -= set(CACHED)
+        if unknown:
+            raise ValueError(f"not a cached value of Results: {sorted(unknown)} (one of {CACHED})")
+        out = dataclasses.replace(self, **changes)
+        for key in keep:
+            if key in self.__dict__:
+                out.__dict__[key] = self.__dict__[key]
+        for key, value in (cached or {}).items():
+            out.__dict__[key] = value
+        return out
 
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""
