@@ -219,3 +219,40 @@ def test_results_params_cannot_change_and_replace_carries_only_what_it_is_told()
     with pytest.raises(ValueError, match="not a cached value"):
         res.replace(keep=("table",))
     assert set(CACHED) == {"mu_r_ci", "column_ci", "verdict", "headline"}
+
+
+@pytest.mark.fast
+def test_public_names_follow_the_scheme():
+    """docs/architecture.md, "Names": interval ends in pairs, pairs held as `_ci`, standard errors as `_stderr`
+    (a class's own: `se`), no bare `t`; on the table's columns and every public result class's fields."""
+    import dataclasses
+
+    import tribodyn as td
+    from tribodyn.columns import TABLE
+
+    groups = {"columns": [c.name for c in TABLE]}
+    for name in td.__all__:
+        obj = getattr(td, name)
+        if isinstance(obj, type) and dataclasses.is_dataclass(obj) and name != "Plan":
+            groups[name] = [f.name for f in dataclasses.fields(obj)]
+            groups[name] += [k for k, v in vars(obj).items() if isinstance(v, property) and not k.startswith("_")]
+    assert len(groups) > 15, sorted(groups)  # the result classes were found
+    bad = []
+    for where, names in groups.items():
+        have = set(names)
+        for n in names:
+            stem, _, end = n.rpartition("_")
+            if n in ("low", "high") and {"low", "high"} - have:
+                bad.append(f"{where}.{n}: an interval end without its pair")
+            if end in ("low", "high") and stem and {f"{stem}_low", f"{stem}_high"} - have:
+                bad.append(f"{where}.{n}: an interval end without its pair")
+            if end in ("lo", "hi", "lower", "upper") and stem.endswith("ci"):
+                bad.append(f"{where}.{n}: interval ends are _low/_high")
+            if end in ("se", "sem", "err", "stde") and stem:
+                bad.append(f"{where}.{n}: a standard error is <x>_stderr")
+            if n == "t":
+                bad.append(f"{where}.{n}: a time is `time` or `t_<event>`")
+    assert not bad, bad
+    ci_fields = [(c.__name__, f.name, str(f.type)) for c in (td.OperatingRange, td.Hysteresis)
+                 for f in dataclasses.fields(c) if f.name.endswith("_ci")]  # fmt: skip
+    assert ci_fields and all(any(k in t for k in ("Tuple", "tuple", "Interval")) for _, _, t in ci_fields), ci_fields
