@@ -414,6 +414,31 @@ def test_live_page_shows_the_headline_band_and_limits(tmp_path: Path) -> None:
     assert f"{snap.headline.value:.4f}" in page
 
 
+@pytest.mark.fast
+def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
+    from tribodyn.app.watch_job import LIVE_POINTS, _cof_svg, thinned
+
+    rng = np.random.default_rng(7)
+    n = 20_000  # a day at a 5 s hop
+    t = np.arange(n) * 5.0
+    mu = 0.2 + 0.01 * rng.standard_normal(n)
+    mu[[3, 5000]] = [0.5, -0.1]  # spikes that thinning must keep
+    mu[7] = np.nan
+    ok = rng.random(n) > 0.1
+    few = thinned(t[:LIVE_POINTS], mu[:LIVE_POINTS], ok[:LIVE_POINTS], 820)
+    assert few.size == LIVE_POINTS - 1 and 7 not in few  # all finite windows while few
+    keep = thinned(t, mu, ok, 820)
+    assert keep.size <= 4 * 820 and np.all(np.diff(keep) > 0) and 7 not in keep
+    assert {3, 5000} <= set(keep.tolist())
+    col = np.minimum(((t - t[0]) / (t[-1] - t[0]) * 820).astype(int), 819)
+    for c in (0, 400, 819):  # each column's extremes of the gated and of the failed windows
+        for flag in (True, False):
+            sel = np.flatnonzero((col == c) & (ok == flag) & np.isfinite(mu))
+            assert {int(sel[np.argmin(mu[sel])]), int(sel[np.argmax(mu[sel])])} <= set(keep.tolist())
+    svg = _cof_svg(t, mu, ok, (0.2, 0.19, 0.21), [])
+    assert svg.count("<circle") == keep.size and "19999 windows: each pixel column" in svg
+
+
 def test_writer_pieces_helper_is_exact() -> None:  # the helper the tests above rely on
     data = _csv_bytes(2_000)
     assert b"".join(_pieces(data, 0)) == data
