@@ -552,6 +552,33 @@ def test_snapshot_intervals_between_bootstraps_are_the_last_one_moved(tmp_path: 
     _same_as_offline(path, snaps[-1], snaps[:-1], **opts)
 
 
+def test_summary_column_intervals_are_drawn_only_when_read(tmp_path: Path) -> None:
+    """docs/method.md 11: the summary's other columns' intervals are bootstrapped only when a snapshot's
+    ``column_ci`` or ``summary()`` is read; once read at an update (as the command line does at each), the next
+    snapshots get them moved from that draw until their values grew by 10 %."""
+    import dataclasses
+
+    path = tmp_path / "run.csv"
+    rows = _csv_bytes(40_000).split(b"\n")
+    pieces = [b"\n".join(rows[i : i + 1_500]) + b"\n" for i in range(0, len(rows) - 1, 1_500)]
+    opts = {"window": 0.5, "hop": 0.25}
+    for reading in (False, True):
+        w = _Writer(path, pieces, 1.0)
+        w.sleep(0.0)
+        given = 0
+        for snap in td.watch(path, interval=1.0, until_idle=2.0, clock=w.clock, sleep=w.sleep, final=False, **opts):
+            if snap.computed("column_ci"):  # moved from an earlier snapshot's draw
+                given += 1
+                fresh = dataclasses.replace(snap).column_ci["mu_a"]
+                if "median" in fresh:
+                    (lo, hi), (flo, fhi) = snap.column_ci["mu_a"]["median"], fresh["median"]
+                    assert max(abs(lo - flo), abs(hi - fhi)) < 0.6 * (fhi - flo) / 2
+            if reading:
+                snap.summary()
+        assert (given > 5) if reading else (given == 0)
+        path.unlink()
+
+
 def test_the_lag_windows_held_by_a_recording() -> None:
     """pipeline.instrument.lag_sample_held: the first SAMPLE_WINDOWS tiles, never across acquisitions."""
     from tribodyn.pipeline.instrument import SAMPLE_WINDOWS, lag_sample_held

@@ -194,6 +194,8 @@ class Watch:
         self._grid: Optional[Tuple[int, int]] = None
         self._drawn: Optional[_Drawn] = None  # the last bootstrap of a snapshot's mu_r
         self._draw = False  # whether this update's snapshot draws its intervals
+        self._columns: Optional[_Drawn] = None  # the last bootstrap of the summary's other columns
+        self._columns_moved = False  # whether the latest snapshot's column intervals were moved, not drawn
         self.tripped: Optional[Trip] = None
         self.reason = ""
         self.updates = 0
@@ -303,6 +305,7 @@ class Watch:
         self._ranges += 1
         self._done = upto
         self._draw = False
+        self._note_columns_drawn()
         snap = combine([self._acc], intervals=self._intervals)
         drawn = self._drawn
         if self._draw:
@@ -314,14 +317,30 @@ class Watch:
             params.update(start=0, stop=None, ranges=self._ranges)
         return snap.replace(keep=CACHED, params=params)  # the watch's params change none of the cached values
 
+    def _note_columns_drawn(self) -> None:
+        """The latest snapshot's summary columns' intervals, when it drew them (someone read ``column_ci`` or
+        ``summary()``, as the command line does at each update), become those the next snapshots move."""
+        last = self.latest
+        if last is not None and not self._columns_moved and last.computed("column_ci"):
+            self._columns = _Drawn.of_columns(last)
+
     def _intervals(self, res: Results) -> Optional[Dict[str, Any]]:
-        """The snapshot's bootstrap intervals from the last draw, moved and scaled (docs/method.md 11); None when
-        it is time to draw them again (the windows grew by REDRAW_GROWTH or fell, or none was drawn)."""
-        d, values = self._drawn, _values(res)
-        if d is None or not d.holds(values):
+        """The snapshot's bootstrap intervals from the last draw, moved and scaled (docs/method.md 11): mu_r's
+        (drawn again when the windows grew by REDRAW_GROWTH or fell, or none was drawn) and, when a snapshot drew
+        them and they still hold, the summary's other columns' (else they are drawn if and when they are read)."""
+        d, mu = self._drawn, _values(res, columns=False)
+        out: Dict[str, Any] = {}
+        if d is None or not d.holds(mu):
             self._draw = True
-            return None
-        return d.moved(res, values)
+        else:
+            out["mu_r_ci"] = d.moved(res, mu)["mu_r_ci"]
+        c = self._columns
+        values = _values(res, columns=True) if c is not None else {}
+        self._columns_moved = c is not None and c.holds({k: v for k, v in values.items() if k != "mu_r"})
+        if self._columns_moved:
+            assert c is not None
+            out["column_ci"] = c.moved(res, values)["column_ci"]
+        return out or None
 
     def _check_trips(self, snap: Results) -> None:
         if self.tripped is not None:
@@ -432,9 +451,16 @@ class _Drawn:
 
     @classmethod
     def of(cls, res: Results) -> "_Drawn":
-        values = _values(res)
-        cis = {"mu_r": res.mu_r_ci, **res.column_ci}
-        return cls({k: _Column(int(v.size), _statistics(v), dict(cis[k])) for k, v in values.items()}, _raise(res))
+        """mu_r's intervals (``Results.mu_r_ci``) as drawn for ``res``."""
+        v = _values(res, columns=False)["mu_r"]
+        return cls({"mu_r": _Column(int(v.size), _statistics(v), dict(res.mu_r_ci))}, _raise(res))
+
+    @classmethod
+    def of_columns(cls, res: Results) -> "_Drawn":
+        """The summary's other columns' intervals (``Results.column_ci``) as drawn for ``res``."""
+        cis = res.column_ci
+        values = res.summary_columns()
+        return cls({k: _Column(int(v.size), _statistics(v), dict(cis[k])) for k, v in values.items()}, 0.0)
 
     def holds(self, values: Dict[str, np.ndarray]) -> bool:
         """Whether the same columns are summarised (``values``: :func:`_values` of the snapshot) and each one's
@@ -445,15 +471,18 @@ class _Drawn:
                    for k, c in self.columns.items())  # fmt: skip
 
     def moved(self, res: Results, values: Dict[str, np.ndarray]) -> Dict[str, Any]:
-        mu = self.columns["mu_r"].moved(values["mu_r"], _raise(res), self.gap)
-        cols = {k: c.moved(values[k]) for k, c in self.columns.items() if k != "mu_r"}
-        return {"mu_r_ci": mu, "column_ci": cols}
+        """The intervals moved to ``values`` (:func:`_values` of ``res``): "mu_r_ci" when this draw is mu_r's,
+        "column_ci" when it is the other columns'."""
+        if "mu_r" in self.columns:
+            return {"mu_r_ci": self.columns["mu_r"].moved(values["mu_r"], _raise(res), self.gap)}
+        return {"column_ci": {k: c.moved(values[k]) for k, c in self.columns.items()}}
 
 
-def _values(res: Results) -> Dict[str, np.ndarray]:
-    """What the snapshot's bootstraps draw from: mu_r over the gated windows, and ``Results.summary_columns``."""
+def _values(res: Results, *, columns: bool) -> Dict[str, np.ndarray]:
+    """What the snapshot's bootstraps draw from: mu_r over the gated windows, and with ``columns``
+    ``Results.summary_columns``."""
     v = np.asarray(res["mu_r"], dtype=float)[np.asarray(res["ok"], dtype=bool)]
-    return {"mu_r": np.asarray(v[np.isfinite(v)]), **res.summary_columns()}
+    return {"mu_r": np.asarray(v[np.isfinite(v)]), **(res.summary_columns() if columns else {})}
 
 
 def _statistics(v: np.ndarray) -> Dict[str, float]:

@@ -267,6 +267,12 @@ class Results:
             out.__dict__[key] = value
         return out
 
+    def computed(self, name: str) -> bool:
+        """Whether the cached value ``name`` (one of :data:`CACHED`) has been computed (or given) already."""
+        if name not in CACHED:
+            raise ValueError(f"not a cached value of Results: {name!r} (one of {CACHED})")
+        return name in self.__dict__
+
     def with_orientation(self, s: int) -> "Results":
         """The same results with orientation ``s`` (a sign flip of the COF columns; exact)."""
         if s not in (1, -1):
