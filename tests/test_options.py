@@ -53,6 +53,53 @@ def test_analyze_docstring_documents_every_option() -> None:
     assert not missing, f"analyze's docstring lacks {missing}"
 
 
+def test_analyze_docstring_entries_are_written_from_the_declaration() -> None:
+    """Issue 33 point 3: each option's entry (``name : type`` and its text) comes from OPTIONS, in its order,
+    after the hand-written source and plan; the rest of the docstring (numpydoc sections) stays as written."""
+    from tribodyn.options import doc_type, parameters_doc
+
+    doc = inspect.cleandoc(td.analyze.__doc__ or "")
+    params = doc[doc.index("Parameters\n----------\n") : doc.index("\nReturns\n-------\n")]
+    heads = re.findall(r"^(\w+) : (.+)$", params, flags=re.M)
+    assert [h for h, _ in heads] == ["source", "plan"] + [o.name for o in OPTIONS]
+    assert dict(heads)["stop"] == doc_type(option("stop")) == "int, optional"
+    assert inspect.cleandoc("    x\n" + parameters_doc())[2:] in doc  # the generated entries, as generated
+    assert "[each option" not in doc  # the placeholder was replaced
+    assert max(map(len, parameters_doc().splitlines())) <= 80  # as help() shows it
+    bare = dataclasses.replace(option("progress"), detail="", doc_type="")  # an option declared without them
+    assert doc_type(bare) == "bool"
+    assert doc_type(dataclasses.replace(bare, default=None, cli_type="float")) == "float, optional"
+
+
+def test_plan_params_record_every_field_as_declared() -> None:
+    """Plan.params() records each field as it is under its own name unless plan.RECORDED says otherwise."""
+    import json
+
+    from tribodyn.pipeline.plan import PLAN_FIELDS, RECORDED
+
+    assert set(RECORDED) <= PLAN_FIELDS, sorted(set(RECORDED) - PLAN_FIELDS)
+    log = (np.array([0.0, 60.0]), np.array([100.0, 110.0]))
+    plan = td.make_plan(fs=FS, tare={"fy": 0.1, "fz": 0.2}, temperature=log, current=2.0, area_mm2=1.5,
+                        covariates={"speed": log}, uncertainty={"fy_rel": 0.01}, chunk=3.0)  # fmt: skip
+    params = plan.params()
+    for f in dataclasses.fields(td.Plan):
+        if f.name not in RECORDED:
+            assert params[f.name] == getattr(plan, f.name), f.name
+    assert params["window_samples"] == plan.length and params["chunk_samples"] == 3000
+    assert params["temperature_log_points"] == 2 and params["covariate_logs"] == {"speed": 2}
+    assert params["tare"] == {"fy": 0.1, "fz": 0.2} and params["deadband"] == "0.35 N"
+    assert not {"motion", "min_fn", "lines", "window_note"} & set(params)  # the pre-pass records its own
+    json.dumps(params)  # provenance: plain values only
+
+
+def test_report_units_come_from_the_declaration() -> None:
+    from tribodyn.app.report import PARAM_UNITS
+
+    for o in OPTIONS:
+        if o.unit:
+            assert PARAM_UNITS[o.name] == o.unit, o.name
+
+
 def test_every_section_exists_in_method_md() -> None:
     text = (ROOT / "docs" / "method.md").read_text(encoding="utf-8")
     sections = set(re.findall(r"^## (\d+[a-z]?)\.", text, flags=re.M))

@@ -16,7 +16,7 @@ from typing import Any, Optional, Sequence
 __all__ = ["unit_text", "units_in_text", "key_text", "fmt_value", "fmt_number", "fmt_range", "fmt_interval"]
 
 #: Machine units -> the way a reader writes them ("1": dimensionless).
-UNIT_TEXT = {"degC": "°C", "A/mm^2": "A/mm²", "mm^2": "mm²", "1": "", "": ""}
+UNIT_TEXT = {"degC": "°C", "A/mm^2": "A/mm²", "mm^2": "mm²", "ohm": "Ω", "1": "", "": ""}
 
 _UNITS_RE = re.compile(r"\bdegC\b|A/mm\^2|\bmm\^2")
 

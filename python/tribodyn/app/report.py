@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, 
 
 import numpy as np
 
+from ..options import OPTIONS
 from . import _labels
 from .figure_registry import build_named_figures
 from .figure_registry import range_or_none as _range_or_none
@@ -86,35 +87,25 @@ tr.failed td { background: #fff3f3; }
 .bk-root, .bk { margin: 0 auto; }
 """
 
-#: Unit of each parameter of ``Results.params`` (shown next to its value; "" for none).
-PARAM_UNITS: Dict[str, str] = {
-    "fs": "Hz",
-    "window": "s",
-    "hop": "s",
+#: Units of the entries of ``Results.params`` recorded under names that are no option's (``Plan.params``,
+#: ``plan.RECORDED``, and what finishing adds), and the words a count is shown with.
+_OTHER_PARAM_UNITS: Dict[str, str] = {
     "window_samples": "samples",
     "hop_samples": "samples",
-    "highpass": "Hz",
-    "deadband": "N",
+    "iv_lag_samples": "samples",
+    "chunk_samples": "samples",
+    "temperature_log_points": "readings",
+    "skew_median": "samples",
+    "noise_z_std": "N",
     "n_bins": "bins",
+    "n_lamellas": "lamellas",
+    "threads": "threads",
     "gate": "|C_yz(0)| or ci",
     "max_rel_ci": "1",
-    "iv_lag_samples": "samples",
-    "iv_lag": "s",
-    "noise": "N",
-    "noise_z_std": "N",
-    "max_lag": "samples",
-    "rpm": "1/min",
-    "n_lamellas": "lamellas",
-    "area_mm2": "mm²",
-    "shunt_ohm": "Ω",
-    "chunk_samples": "samples",
-    "chunk": "s",
-    "temperature_log_points": "readings",
-    "start": "samples",
-    "stop": "samples",
-    "threads": "threads",
-    "skew_median": "samples",
 }
+#: Unit of each parameter of ``Results.params`` (shown next to its value; "" for none): each option's declared
+#: unit (:data:`tribodyn.options.OPTIONS`), then the entries above.
+PARAM_UNITS: Dict[str, str] = {**{o.name: o.unit for o in OPTIONS if o.unit}, **_OTHER_PARAM_UNITS}
 
 
 def unit_text(unit: str) -> str:

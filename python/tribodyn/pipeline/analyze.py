@@ -38,7 +38,7 @@ from ..io.units import check_role_units
 from ..kernels._validate import Orientation, check_1d
 from ..kernels.deadband import DeadbandSpec
 from ..kernels.threads import reading, resolve_threads
-from ..options import defaults
+from ..options import defaults, parameters_doc
 from ..results import ClassicalTotals, Results
 from .covariates import align_to_recording
 from .finish import ALIGN_MIN, finish, settle
@@ -52,6 +52,11 @@ from .stickslip import ReadingPass, find_stick_slip
 from .strokes import stroke_windows
 
 __all__ = ["analyze", "analyze_partial", "combine", "Partial"]
+
+
+#: The line of :func:`analyze`'s docstring that the options' entries replace (docs/architecture.md: an option is
+#: declared once, with its docstring entry, in :data:`tribodyn.options.OPTIONS`).
+_OPTIONS_DOC = "    [each option of tribodyn.options.OPTIONS, written here at import by options.parameters_doc]"
 
 
 def _is_recording(source: Any) -> bool:
@@ -130,151 +135,7 @@ def analyze(
         (``channels`` and ``fs`` excepted, which say how to read the source).
         The options, their defaults, units, flags and sections are declared
         once in :data:`tribodyn.options.OPTIONS`.
-    fs : float
-        Sampling rate in Hz (taken from a recording when omitted).
-    window, hop : float
-        Window length and start-to-start spacing in s (paper 2 and 10;
-        ``hop == window`` tiles the recording). Only complete windows count.
-        Not given: 2 s and 10 s, except for slow recordings (docs/method.md
-        6b): a window of at least 100 samples and, below 100 Hz, hop =
-        window; ``params["window_note"]`` says what was chosen.
-    motion : {"auto", "unidirectional", "reciprocating"}
-        "reciprocating" adds the per-stroke table ``Results.strokes``
-        (strokes from the sign changes of the ``v`` role, of d``x``/dt, else
-        of fy; docs/method.md 6c); "auto" detects it from fy's sign changes.
-    min_fn : float, optional
-        Classical COF: samples with |fz| below it (N) are left out (default
-        5 % of the recording's median |fz|; docs/method.md 6a).
-    tare : float or mapping, optional
-        Classical COF: seconds at the start without contact (their mean fy
-        and fz are subtracted), or explicit offsets ``{"fy": N, "fz": N}``.
-    stroke_fraction : float
-        Central part of each stroke used for its COF (default 0.5).
-    stick_slip : bool
-        Also find the stick-slip events (docs/method.md 6g) in the same
-        reading of the source: ``Results.stick_slip`` holds what
-        :func:`tribodyn.stick_slip` would find reading it again, bit for
-        bit. Default False (``Results.stick_slip`` None); the command line
-        sets it.
-    uncertainty : mapping, optional
-        What is known of the instrument (docs/method.md 6i): standard
-        uncertainties of ``fy_rel``, ``fz_rel`` (calibration, relative),
-        ``fy_abs``, ``fz_abs`` (offsets, N), ``misalignment_deg`` and
-        ``crosstalk``, each a number (normal) or ``{"u": ..., "distribution":
-        "normal" | "rectangular" | "triangular", "dof": ...}``, and a known
-        ``misalignment_bias_deg`` (corrected). The headline then carries
-        ``Headline.uncertainty``: the combined uncertainty of the instrument
-        and the statistics by Monte Carlo (JCGM 101) with its budget.
-        Default None: the headline's interval is statistical only.
-    load : float, optional
-        A known constant normal force (N) for a source without a load
-        channel (a pin-on-disc export whose load is a test parameter): it
-        becomes the channel ``fz``, so the headline is the classical COF
-        mean |fy| / load over the samples in contact and the instrument's
-        COF column is checked against it (docs/method.md 6a). A source that
-        has fz is refused (map it away with ``channels={"fz": None}``).
-    channels : mapping, optional
-        For a DataFrame source: role -> column; for a path: role -> channel,
-        as ``open_recording``'s ``channels=``.
-    highpass : float, optional
-        Cut-off in Hz of a first-order Butterworth high-pass applied to raw,
-        DC-coupled force channels first (streaming, state carried, "steady"
-        start). None for dynamic forces as delivered by the paper's charge
-        amplifier. With it, the table's ``mu_classical`` is the classical
-        COF mean(|fy|/|fz|) of the raw forces.
-    orientation : {+1, -1, "auto"}
-        s in mu = s * slope; "auto" fixes it ONCE for the recording, as the
-        sign of the least-squares slope of fy on fz over all windows
-        (docs/method.md 0), never per window.
-    temperature : (t_s, T_degC), optional
-        Intermittent temperature log, interpolated linearly at each window
-        centre (NaN outside the log); ``branch`` is the sign of dT/dt.
-    current : (t_s, i_A) or float, optional
-        Current log or constant, when the source has no ``i`` channel.
-    voltage : (t_s, u_V) or float, optional
-        Shunt voltage log or constant (needs ``shunt_ohm``); a ``u`` channel
-        in the source is used likewise.
-    shunt_ohm : float, optional
-        Shunt resistance R: i = u / R.
-    area_mm2 : float, optional
-        Contact area; J = i / area_mm2 in A/mm^2.
-    covariates : mapping of str -> (t_s, values) or float, optional
-        Other logs, interpolated linearly at each window centre (NaN
-        outside the log; absolute times aligned as ``temperature``'s):
-        ``{"speed": (t, v)}`` fills the ``speed`` column (m/s, its
-        magnitude; it replaces the mean |v| of a velocity channel ``v``),
-        any other name a column of that name after the declared ones
-        (docs/method.md 7a). Each may be the covariate of
-        :func:`tribodyn.operating_range` (``by=NAME``).
-    chunk : float, optional
-        Seconds per chunk when reading a mapping or a recording (default
-        131072 samples, about 2 min at 1 kHz, for a recording; a mapping is
-        taken whole). For a channels-first float64 ``.npy`` the kernel reads
-        the file itself, in blocks of at most this many seconds (default 2^15
-        samples) per thread. Never changes a result.
-    progress : bool
-        Show a progress bar on stderr.
-    deadband, n_bins, max_lag
-        As for :func:`tribodyn.identify`, per window. ``max_lag`` adds the
-        lag of max |C_yz(j)| per window (costly: one correlation function
-        per window); a non-zero lag fails the gate.
-    estimator : {"corrected", "iv", "ols", "deming"}, optional
-        The slope estimator (docs/method.md 3a-3c). Default "corrected":
-        least squares corrected for the noise on fz, whose variance is
-        measured from the recording with instruments (or taken from
-        ``noise``); unbiased under noise on fz and as precise as OLS
-        without it (measured: docs/method.md 3f). "ols" is the paper's Eq. 8,
-        "iv" instrumental variables (fz lagged by ``iv_lag``), "deming"
-        needs ``noise``.
-    method : {None, "paper"}
-        "paper": the paper's method exactly (OLS, |C_yz(0)| >= 0.85, OLS
-        standard errors, no alignment), the tables of tribodyn 0.2.
-    gate : float or "ci", optional
-        Quality gate (docs/method.md 5): "ci" (default) keeps a window when
-        its expected 95 % half-width (its white-noise standard error times
-        the recording's batch-means ratio) is at most +-``max_rel_ci`` of
-        the recording's median COF; a
-        number g is the paper's |C_yz(0)| >= g (0.85 with
-        ``method="paper"``). With either, a window whose slope has the sign
-        opposite to the recording's orientation fails.
-    max_rel_ci : float, optional
-        Largest expected half-width of the 95 % interval, relative to the
-        recording's median COF, for gate "ci" (default 0.1).
-    align : {None, "auto"}
-        "auto": measure the delay of fz behind fy from the cross-spectral
-        phase at the rig's lines (needs ``rpm``), and when it exceeds 0.05
-        samples analyse again with fz advanced by it (a fractional-delay
-        filter, docs/method.md 3e); ``params["delay_samples"]`` holds it.
-        None leaves the data untouched (a measurable delay is then warned of).
-    iv_lag : float, optional
-        Instrument lag in s (default one revolution, 60 / rpm, when ``rpm``
-        is given; else a tenth of the window, at least 10 samples).
-    noise : (sigma_y, sigma_z), optional
-        Standard deviations (N) of the measurement noise on fy and fz, e.g.
-        the standard deviations of a record taken with the rig at rest
-        (docs/method.md 3c); needed by "deming".
-    rpm, n_lamellas : optional
-        Rig data: the instrument lag (one revolution) and the line
-        frequencies f0 = rpm/60, 2 f0, 3 f0, f_l = n_lamellas f0, 2 f_l of
-        the columns ``skew``, ``h1_f0``, ``h1_fl``, ``coherence_fl``.
-    threads : int, optional
-        Kernel threads for this call only, 1 to 4 x the CPU count (default:
-        the ``TRIBODYN_THREADS`` environment variable, else
-        :func:`tribodyn.get_threads`, every core unless
-        :func:`tribodyn.set_threads` changed it). Results do not depend on
-        it, and concurrent calls do not change each other's count.
-    start : int
-        Sample index, within the whole recording, of the source's first
-        sample (default 0). Windows stay on the recording's grid (starting
-        at multiples of ``hop``), so consecutive ranges of a long recording
-        analysed separately give exactly the windows of one pass (see
-        :func:`tribodyn.analyze_many`). A recording source is read from
-        ``start`` on.
-    stop : int, optional
-        For a recording source: the sample index (exclusive) where reading
-        ends (default: the end). ``start``/``stop`` analyse one range of a
-        long recording straight from the file, with the windows that lie
-        wholly inside it.
+    [each option of tribodyn.options.OPTIONS, written here at import by options.parameters_doc]
 
     Returns
     -------
@@ -301,6 +162,10 @@ def analyze(
     res = _analyze(source, plan, options, partial=False)
     assert isinstance(res, Results)
     return res
+
+
+if analyze.__doc__:  # (None under python -OO)
+    analyze.__doc__ = analyze.__doc__.replace(_OPTIONS_DOC + "\n", parameters_doc())
 
 
 @dataclasses.dataclass(frozen=True)

@@ -13,6 +13,7 @@ with the options they depend on, as :data:`JOINT` says.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from dataclasses import dataclass
 from types import MappingProxyType
@@ -34,6 +35,8 @@ if TYPE_CHECKING:
 __all__ = [
     "CHECKS",
     "JOINT",
+    "RECORDED",
+    "PLAN_FIELDS",
     "Covariates",
     "Findings",
     "Plan",
@@ -255,46 +258,56 @@ class Plan:
     def params(self) -> Dict[str, Any]:
         """The settings for provenance (``Results.params``, ``summary.json``).
 
-        ``motion`` and ``min_fn`` are recorded as the pre-pass resolved them
-        (``Results.params["motion"]``, ``["min_fn"]``; docs/method.md 6a, 6c).
+        Each field under its own name and as it is, but those :data:`RECORDED`
+        records otherwise (in samples, as text, the logs' lengths) or not at
+        all: ``motion`` and ``min_fn`` are recorded as the pre-pass resolved
+        them (``Results.params["motion"]``, ``["min_fn"]``; docs/method.md 6a,
+        6c). A new field is recorded as it is, with nothing to add here.
         """
-        cov = self.covariates
-        return dict(
-            fs=self.fs,
-            window=self.window,
-            hop=self.hop,
-            window_samples=self.length,
-            hop_samples=self.step,
-            highpass=self.highpass,
-            orientation=self.orientation,
-            deadband=str(self.deadband),
-            n_bins=self.n_bins,
-            gate=self.gate,
-            method=self.method or None,
-            estimator=self.estimator,
-            max_rel_ci=self.max_rel_ci if self.gate == "ci" else None,
-            align=self.align,
-            iv_lag_samples=None if self.paper else self.iv_lag,
-            noise=self.noise,
-            max_lag=self.max_lag,
-            rpm=self.rpm,
-            n_lamellas=self.n_lamellas,
-            area_mm2=cov.area_mm2,
-            shunt_ohm=cov.shunt_ohm,
-            chunk_samples=self.chunk,
-            temperature_log_points=None if cov.temperature is None else int(cov.temperature[0].size),
-            covariate_logs={k: int(v[0].size) for k, v in cov.logs} or None,
-            current_log_points=None if cov.current is None else int(cov.current[0].size),
-            voltage_log_points=None if cov.voltage is None else int(cov.voltage[0].size),
-            tare=dict(self.tare) if isinstance(self.tare, Mapping) else self.tare,
-            stroke_fraction=self.stroke_fraction,
-            threads=self.threads,
-            start=self.start,
-            stop=self.stop,
-            progress=self.progress,
-            stick_slip=self.stick_slip,
-            uncertainty=None if self.uncertainty is None else self.uncertainty.to_dict(),
-        )
+        out: Dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            if f.name not in RECORDED:
+                out[f.name] = getattr(self, f.name)
+                continue
+            how = RECORDED[f.name]
+            if how is not None:
+                out.update(how(self))
+        return out
+
+
+def _covariate_params(plan: Plan) -> Dict[str, Any]:
+    """``Plan.covariates`` for provenance: the constants, and each log's number of points."""
+    cov = plan.covariates
+
+    def points(log: Optional[TimeLog]) -> Optional[int]:
+        return None if log is None else int(log[0].size)
+
+    return dict(area_mm2=cov.area_mm2, shunt_ohm=cov.shunt_ohm, temperature_log_points=points(cov.temperature),
+                covariate_logs={k: int(v[0].size) for k, v in cov.logs} or None,
+                current_log_points=points(cov.current), voltage_log_points=points(cov.voltage))  # fmt: skip
+
+
+#: How :meth:`Plan.params` records the fields it does not record as they are, under their own names: a function
+#: of the plan giving the entries, or None for a field not recorded there (the line frequencies, and what the
+#: pre-pass or the window's choice records itself: ``motion``, ``min_fn``, ``window_note``).
+RECORDED: Mapping[str, Optional[Callable[[Plan], Dict[str, Any]]]] = MappingProxyType({
+    "length": lambda p: {"window_samples": p.length},
+    "step": lambda p: {"hop_samples": p.step},
+    "deadband": lambda p: {"deadband": str(p.deadband)},
+    "covariates": _covariate_params,
+    "chunk": lambda p: {"chunk_samples": p.chunk},
+    "method": lambda p: {"method": p.method or None},
+    "max_rel_ci": lambda p: {"max_rel_ci": p.max_rel_ci if p.gate == "ci" else None},
+    "iv_lag": lambda p: {"iv_lag_samples": None if p.paper else p.iv_lag},
+    "tare": lambda p: {"tare": dict(p.tare) if isinstance(p.tare, Mapping) else p.tare},
+    "uncertainty": lambda p: {"uncertainty": None if p.uncertainty is None else p.uncertainty.to_dict()},
+    **dict.fromkeys(("iv_lag_from_data", "lines", "line_index", "motion", "min_fn", "window_note")),
+})  # fmt: skip
+
+#: The fields of a :class:`Plan`.
+PLAN_FIELDS = frozenset(f.name for f in dataclasses.fields(Plan))
+#: The options checked by their own rule (``Option.check``) that a :class:`Plan` holds otherwise than as checked.
+_CONVERTED = frozenset({"chunk", "covariates"})
 
 
 def make_plan(*, fs: Any, **options: Any) -> Plan:
@@ -348,31 +361,20 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         align=o["align"], iv_lag=o["iv_lag"], noise=o["noise"], rpm=o["rpm"], n_lamellas=o["n_lamellas"],
     )  # fmt: skip
     chunk = c["chunk"]
+    # an option checked by its own rule that is a field of the plan goes into it as checked
+    as_checked = {name: value for name, value in c.items() if name in PLAN_FIELDS and name not in _CONVERTED}
     return Plan(
         fs=fs_v,
         window=w_s,
         hop=h_s,
         length=length,
         step=step,
-        deadband=c["deadband"],
         n_bins=check_bins(o["n_bins"], length),
-        orientation=c["orientation"],
-        highpass=c["highpass"],
-        max_lag=c["max_lag"],
         covariates=cov,
-        threads=c["threads"],
         chunk=None if chunk is None else max(1, int(round(chunk * fs_v))),
-        start=c["start"],
-        stop=c["stop"],
-        progress=c["progress"],
         window_note=window_note,
         **stats,
-        motion=c["motion"],
-        min_fn=c["min_fn"],
-        tare=c["tare"],
-        stroke_fraction=c["stroke_fraction"],
-        stick_slip=c["stick_slip"],
-        uncertainty=c["uncertainty"],
+        **as_checked,
     )
 
 
