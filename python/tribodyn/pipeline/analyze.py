@@ -47,8 +47,8 @@ from .headline import classical_totals
 from .instrument import find_lag
 from .plan import Findings, Plan, make_plan
 from .prepass import prepass
-from .routes import PIPELINE_ROLES, Tap, choose_route, concat_stats, run
-from .stickslip import ReadingPass, find_stick_slip
+from . import passes
+from .routes import PIPELINE_ROLES, PassInputs, Tap, concat_stats, run
 from .strokes import stroke_windows
 
 __all__ = ["analyze", "analyze_partial", "combine", "Partial"]
@@ -378,35 +378,23 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
         warnings = k.warnings + tuple(rec.warnings if rec is not None else ()) + own
         return Partial(k.st, k.aux_role, plan, k.route, tuple(dict.fromkeys(warnings)), tribo=tribo,
                        strokes=strokes, classical=classical_pass(k.classical), found=found, pre=pre)  # fmt: skip
-    slip = _reading_pass(source, rec, plan, found, params={**tribo, "fs": plan.fs, "start": plan.start,
-                         "stop": plan.stop}, strokes=strokes)  # fmt: skip
-    res, sums = _analyze_aligned(run_source, run_rec, plan, found, span, taps=() if slip is None else (slip,))
+    # the optional passes (pipeline/passes.py): their taps see the main pass's chunks
+    inputs = PassInputs(source, rec, plan, found, {**tribo, "fs": plan.fs, "start": plan.start, "stop": plan.stop},
+                        strokes)  # fmt: skip
+    tapped = passes.taps(inputs)
+    res, sums = _analyze_aligned(run_source, run_rec, plan, found, span, taps=[t for t in tapped if t is not None])
     if run_rec is not rec and rec is not None:
         res = dataclasses.replace(res, warnings=tuple(dict.fromkeys((*rec.warnings, *res.warnings))))
     res = dataclasses.replace(res, params={**res.params, **tribo})
     if own:
         res = dataclasses.replace(res, warnings=res.warnings + own)
     res = dataclasses.replace(res, strokes=strokes)
-    if plan.stick_slip:  # (before settle, which keeps the headline it computes: no copy after it)
-        got = slip.result() if slip is not None else None  # else read again (docs/method.md 6g)
-        res = dataclasses.replace(res, stick_slip=got if got is not None else find_stick_slip(source, res))
+    res = passes.store(inputs, tapped, res)  # (before settle, which keeps the headline it computes: no copy after it)
     res = settle(res, lambda: classical_pass(sums))
     if plan.uncertainty is not None:  # docs/method.md 6i: the headline's statistics, then its budget
         res = with_budget(res, statistics_of(res, source, rec, found.classical, (c_start, c_stop),
                                              strokes=stroke_stats))  # fmt: skip
     return res
-
-
-def _reading_pass(source: Any, rec: Optional[RecordingProtocol], plan: Plan, found: Findings, *,
-                  params: Dict[str, Any], strokes: Optional[Dict[str, np.ndarray]]
-                  ) -> Optional[ReadingPass]:  # fmt: skip
-    """Stick-slip found in the main pass's chunks (docs/method.md 6g) when the plan asks for it and the route
-    reads a unidirectional recording with its static level in order; None otherwise."""
-    if not (plan.stick_slip and params.get("static_fz") and found.classical is not None and strokes is None):
-        return None
-    if not (rec is not None or isinstance(source, Mapping)) or choose_route(source, rec, plan, found) != "stream":
-        return None
-    return ReadingPass.of(params, source, start=plan.start, stop=plan.stop)
 
 
 def _sample_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partial: bool) -> Tuple[int, int]:

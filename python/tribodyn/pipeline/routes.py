@@ -64,8 +64,36 @@ class Tap(Protocol):
         """Samples ``first``.. (the recording's index) of the chunk ``piece``, raw, before any filter."""
 
 
+@dataclasses.dataclass(frozen=True)
+class PassInputs:
+    """What an optional pass over the data (:data:`tribodyn.pipeline.passes.PASSES`) is given, to build its tap
+    before the main pass and to store its result before ``settle``.
+
+    Attributes
+    ----------
+    source, rec
+        The source as the analysis reads it, and its recording (None for a mapping or chunks).
+    plan, found
+        The analysis' plan and what the pre-pass found (the classical COF's threshold and tare).
+    params : mapping
+        The pre-pass's findings as ``Results.params`` records them (docs/method.md 6a-6d), with ``fs``,
+        ``start`` and ``stop``.
+    strokes : mapping or None
+        The per-stroke table of a reciprocating test (docs/method.md 6c), None otherwise.
+    """
+
+    source: Any
+    rec: Optional[RecordingProtocol]
+    plan: Plan
+    found: Findings
+    params: Mapping[str, Any]
+    strokes: Optional[Mapping[str, np.ndarray]]
+
+
 __all__ = [
     "KernelRun",
+    "PassInputs",
+    "Tap",
     "KernelSpec",
     "run",
     "choose_route",

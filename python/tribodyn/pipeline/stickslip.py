@@ -7,6 +7,11 @@
   and frequency, as a :class:`StickSlip`. It reads fy and fz again, once
   (in blocks; the noise of a long recording from a bounded sample), so
   :func:`tribodyn.analyze` stays as cheap as it was.
+* :class:`ReadingPass`: the same search in the analysis' own reading
+  (``analyze(stick_slip=True)``), an optional pass of
+  :data:`tribodyn.pipeline.passes.PASSES`: :func:`reading_pass` builds it
+  before the main pass, :func:`store` puts its result (else the search
+  reading again) in the Results.
 """
 
 from __future__ import annotations
@@ -20,10 +25,15 @@ import numpy as np
 
 from ..kernels._order import row_quantiles
 from ..kernels.peaks import find_peaks
+from ..results import Results
+from .routes import PassInputs, Tap, choose_route
 
 __all__ = [
     "StickSlip",
     "find_stick_slip",
+    "ReadingPass",
+    "reading_pass",
+    "store",
 ]
 
 #: A drop counts when its whole drop exceeds this many noise SDs (docs/method.md 6g).
@@ -874,6 +884,27 @@ class ReadingPass:
         assert isinstance(self._noise, tuple)
         sigma, floors, orientation = self._noise
         return self.search.summary(self._found, orientation, sigma, floors, lambda s: self.read(*s.read))
+
+
+# -- the optional pass of analyze(stick_slip=True) (tribodyn.pipeline.passes.PASSES) -------------------------------
+
+
+def reading_pass(given: PassInputs) -> Optional[ReadingPass]:
+    """Stick-slip found in the main pass's chunks (docs/method.md 6g) when the route reads a unidirectional
+    recording with its static level in order; None otherwise (:func:`store` then reads it again)."""
+    if not (given.params.get("static_fz") and given.found.classical is not None and given.strokes is None):
+        return None
+    source, rec = given.source, given.rec
+    if not (rec is not None or isinstance(source, Mapping)) or choose_route(source, rec, given.plan,
+                                                                             given.found) != "stream":  # fmt: skip
+        return None
+    return ReadingPass.of(given.params, source, start=given.plan.start, stop=given.plan.stop)
+
+
+def store(given: PassInputs, tap: Optional[Tap], res: Results) -> Results:
+    """``res`` with its ``stick_slip``: the tap's result, else the recording read again (docs/method.md 6g)."""
+    got = tap.result() if isinstance(tap, ReadingPass) else None
+    return dataclasses.replace(res, stick_slip=got if got is not None else find_stick_slip(given.source, res))
 
 
 @dataclasses.dataclass(frozen=True)
