@@ -113,6 +113,28 @@ def test_namespace_is_all_and_its_dunders():
     assert ns["version"] == PYPROJECT["project"]["version"]
 
 
+def test_a_public_name_is_one_line_in_each_of_lazy_all_and_the_typed_imports():
+    """docs/architecture.md, "a new analysis": its names in tribodyn/__init__.py's ``_LAZY`` (imported on first
+    use), ``__all__`` and the ``TYPE_CHECKING`` imports (what a type checker sees: without it ``td.name`` is an
+    error under mypy --strict in the user's code, which mypy of the package does not notice); they agree."""
+    import ast
+
+    import tribodyn
+
+    tree = ast.parse((ROOT / "python" / "tribodyn" / "__init__.py").read_text(encoding="utf-8"))
+    eager = {a.asname or a.name for n in tree.body if isinstance(n, ast.ImportFrom) and n.level for a in n.names}
+    block = next(n for n in tree.body if isinstance(n, ast.If) and "TYPE_CHECKING" in ast.unparse(n.test))
+    typed = {}
+    for n in block.body:
+        if isinstance(n, ast.ImportFrom):
+            typed.update({a.asname or a.name: (n.module or "") for a in n.names})
+    lazy = tribodyn._LAZY
+    assert not set(lazy) & eager
+    assert set(tribodyn.__all__) == set(lazy) | eager | {"__version__", "columns"}
+    assert set(typed) == set(lazy) | {"columns"}
+    assert {k: v for k, v in typed.items() if k != "columns"} == lazy
+
+
 def test_nothing_points_outside_the_repository():
     """Tests, docs, examples and benchmarks use the repository's files (tests/data), never the developers' ../shared."""
     outside = re.compile(r"parents\[2\]|\.\./shared|/work/shared|[\"']shared[\"'] /|shared/data")

@@ -138,7 +138,8 @@ if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
     from . import columns
     from .analyses.compare import Comparison, Precision, Replicate
     from .analyses.ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating_range
-    from .analyses.steady import SteadyState, steady_state
+    from .analyses.curve import CofCurve, cof_curve
+    from .analyses.steady import SteadyState, steady_state, steady_states
     from .io import Recording, RecordingError, open_recording
     from .kernels.correlation import ConstantInputWarning, XcorrResult, pearson, xcorr
     from .kernels.deadband import Deadband, parse_deadband
@@ -148,6 +149,7 @@ if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
     from .pipeline.covariates import align_log
     from .pipeline.distributed import ManyResults, analyze_many
     from .pipeline.plan import Plan, make_plan
+    from .pipeline.watch import Trip, Watch, watch
     from .analyses.stickslip import StickSlip, stick_slip
     from .errors import NonFiniteError, OutputError
     from .results import WINDOW_COLUMNS, BinTable, CofResult, Headline, Results
