@@ -96,3 +96,78 @@ def test_reverse_slope_bounds_the_slope_from_above() -> None:
     ols = (zc @ yc) / (zc @ zc)
     assert b[0] == pytest.approx((yc @ yc) / (zc @ yc))
     assert ols < 0.1 < b[0] and 0 < se[0] < b[0] - 0.1 + 0.05
+
+
+def _band_recording(seed: int, seconds: float = 400.0, snr: float = 6.0) -> dict:
+    # the audit's rig (issue 35 point 3): fz noise band-limited to 200-450 Hz (2nd-order Butterworth) at SNR 6 dB
+    from scipy import signal
+
+    ch = {
+        k: np.array(v, dtype=float) for k, v in simulate.conditions(seconds, seed=seed, y_noise=0.02).channels.items()
+    }
+    w = np.random.default_rng([seed, 35]).standard_normal(ch["fz"].size + 2000)
+    w = signal.sosfilt(signal.butter(2, (200.0, 450.0), btype="bandpass", fs=1000.0, output="sos"), w)[2000:]
+    ch["fz"] = ch["fz"] + w / w.std() * ch["fz"].std() * 10 ** (-snr / 20)
+    return ch
+
+
+def _unpooled(res: tribodyn.Results) -> tuple:
+    from tribodyn.kernels.stats import bootstrap_ci, noise_resample
+
+    mu, keep = res._gated_mu
+    return bootstrap_ci(mu, noise=noise_resample(res.table, keep), threads=1)["median"]
+
+
+@pytest.mark.fast
+def test_the_chosen_lag_carries_the_iv_slopes_moves_at_the_lags_it_was_chosen_among() -> None:
+    import pickle
+
+    from tribodyn.pipeline.instrument import STRONG, ChosenLag, admissible_lags, chosen_lag
+
+    p = lag_profile(sample_windows(_band_recording(5003, 130.0), None, 2000), 999)
+    lag = chosen_lag(p, 0.3)
+    assert isinstance(lag, ChosenLag) and lag == choose_lag(p, 0.3)
+    adm = admissible_lags(p, lag)
+    # the lags choose_lag accepts from the chosen one up to twice the next one it accepts
+    assert adm[0] == lag and len(adm) >= 2 and all(lag < k <= 2 * adm[1] for k in adm[1:])
+    for k in adm:  # each strong, and every strong lag up to twice it agrees with the reference lag
+        assert abs(p.r[k]) >= STRONG and all(abs(p.t[j]) <= 3.0 for j in range(k, 2 * k + 1) if abs(p.r[j]) >= STRONG)
+    assert lag.shifts == tuple(p.b[k] - p.b[lag] for k in adm[1:]) and lag.shifts
+    back = pickle.loads(pickle.dumps(lag))
+    assert back == lag and back.shifts == lag.shifts and int(back) + 1 == int(lag) + 1
+
+
+@pytest.mark.fast
+def test_the_bootstrap_pools_over_the_lags_and_is_unchanged_without_them() -> None:
+    from tribodyn.kernels.stats import bootstrap_ci
+
+    v = 0.1 + 0.001 * np.random.default_rng(3).standard_normal(200)
+    plain = bootstrap_ci(v, threads=1)
+    assert bootstrap_ci(v, threads=1, shifts=()) == plain
+    moved = bootstrap_ci(v, threads=1, shifts=(0.004,))
+    for k, (lo, hi) in plain.items():
+        assert moved[k][0] >= lo - 1e-12 and moved[k][1] > hi + 0.001  # half the resamples moved up by 0.004
+    both = bootstrap_ci(v, threads=1, shifts=(0.004, -0.004))
+    assert both["median"][0] < plain["median"][0] - 0.001 and both["median"][1] > plain["median"][1] + 0.001
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize("seed", [5007, 5011])
+def test_band_noise_headline_interval_holds_the_truth_with_the_lag_from_the_data(seed: int) -> None:
+    # docs/method.md 3d (issue 35 point 3): the lag chosen (9 samples) sits in the band noise's correlation and its
+    # headline is biased by about -0.6 %; the interval that treats it as fixed misses mu, the pooled one holds it
+    src = _band_recording(seed)
+    res = tribodyn.analyze(src, fs=1000.0, threads=1)
+    assert res.params["iv_lag_rule"] == "data" and res.params["iv_lag_samples"] == 9
+    assert len(res.params["iv_lag_shifts"]) >= 1
+    lo, hi = _unpooled(res)
+    assert not lo <= MU <= hi
+    head = res.headline
+    assert head.low <= MU <= head.high and head.high - head.low > hi - lo
+    assert res.summary()["mu_r"]["ci"]["median"] == (head.low, head.high)
+    # a lag given or from rpm: nothing pooled, the interval as before
+    for opts in (dict(rpm=250.0), dict(iv_lag=0.009)):
+        other = tribodyn.analyze(src, fs=1000.0, threads=1, **opts)
+        assert "iv_lag_shifts" not in other.params
+        assert (other.headline.low, other.headline.high) == _unpooled(other)
+    assert "iv_lag_shifts" not in tribodyn.analyze(src, fs=1000.0, threads=1, method="paper").params

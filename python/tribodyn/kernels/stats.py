@@ -7,7 +7,7 @@ import math
 import warnings as _warnings
 from dataclasses import dataclass
 from statistics import NormalDist
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Tuple
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -143,6 +143,7 @@ def bootstrap_ci(
     *,
     noise: Optional[NoiseResample] = None,
     threads: Optional[int] = None,
+    shifts: Sequence[float] = (),
 ) -> Dict[str, Tuple[float, float]]:
     """95 % intervals of the median, mean, p05 and p95 of ``v`` (windows in time order; docs/method.md 3d).
 
@@ -163,6 +164,12 @@ def bootstrap_ci(
     sigma^2). So the interval carries the error of the noise estimate, which
     moves every window together, and its correlation with the windows' own
     errors. Empty for fewer than 3 windows.
+
+    With ``shifts`` (the moves of every value had another of the lags the
+    instrument's lag was chosen among been chosen: ``ChosenLag.shifts``,
+    docs/method.md 3d), the resamples pool over those lags: resample j takes
+    lag j mod (K + 1), the chosen one (no move) and the K others in turn, and
+    each of its statistics moves by that lag's shift.
 
     The resamples are taken a bounded chunk at a time (memory does not grow
     with the recording), on ``threads`` threads (default: the call's
@@ -192,6 +199,9 @@ def bootstrap_ci(
         pos[index] = np.arange(n)
         args, width = (var, pos, dn, used), var.size
     stats = _all_resample_stats(v, starts, ell, args, width=width, threads=_threads(threads))
+    if len(shifts):  # pooled over the admissible lags (docs/method.md 3d): every window moves by the lag's shift
+        move = np.array([0.0, *shifts], dtype=float)
+        stats = tuple(s + move[np.arange(s.size) % move.size] for s in stats)
     b = -(-n // int(np.ceil(n ** (1.0 / 3.0))))
     a = 100.0 * NormalDist().cdf(-math.sqrt(b / (b - 1)) * t_quantile(1.0 - (1.0 - level) / 2.0, b - 1))
     out: Dict[str, Tuple[float, float]] = {}

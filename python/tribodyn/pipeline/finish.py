@@ -118,6 +118,8 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     if not plan.paper:  # where the instrument lag comes from (docs/method.md 3b)
         seen["iv_lag_rule"] = _iv_lag_rule(plan, found)
     stats_cols = _statistics(o, plan, found.delay, s, found=seen, notes=notes, lag=plan.lag(found))
+    if not plan.paper:
+        seen.update(_lag_shifts(plan, found, seen, s))
     o.update(stats_cols)
     skew_gate = o.get("skew_lag")
     reasons = gate_reasons(o, plan.gate, skew_gate, rel_ci=stats_cols.get("rel_ci"), max_rel_ci=plan.max_rel_ci)
@@ -167,6 +169,17 @@ def _iv_lag_rule(plan: Plan, found: Findings) -> str:
     fs = plan.fs
     rpm_lag = plan.rpm is not None and plan.iv_lag == int(round(60.0 * fs / float(plan.rpm)))
     return ("data" if found.iv_lag else "default") if plan.iv_lag_from_data else ("rpm" if rpm_lag else "given")
+
+
+def _lag_shifts(plan: Plan, found: Findings, seen: Dict[str, Any], s: int) -> Dict[str, Any]:
+    """``iv_lag_shifts``: mu_r's moves at the other lags the choice from the data could not tell from the one used
+    (``ChosenLag.shifts`` times the orientation; docs/method.md 3d), when mu_r rests on that lag (the IV and the
+    corrected estimator with the fz noise measured, not fallen back to least squares); {} otherwise."""
+    moves = getattr(found.iv_lag, "shifts", ())
+    uses = plan.estimator == "iv" or (plan.estimator == "corrected" and plan.noise is None)
+    if not moves or seen.get("iv_lag_rule") != "data" or not uses or seen.get("mu_r_bound") == "lower":
+        return {}
+    return {"iv_lag_shifts": [s * float(x) for x in moves]}
 
 
 def _more_reasons(reasons: np.ndarray, o: Stats, plan: Plan, cur: np.ndarray) -> np.ndarray:

@@ -4,7 +4,10 @@
 acquisitions), the instrument's strength r(L) and the IV slope b(L) of fy on
 fz lagged by L, for every lag L < n / 2; :func:`choose_lag` takes the
 shortest lag past the noise's correlation time at which the instrument is
-strong; :func:`sample_windows` reads the windows the profile is measured on.
+strong; :func:`sample_windows` reads the windows the profile is measured on. The lag
+found (:class:`ChosenLag`) carries the IV slope's moves at the other lags the
+choice could not tell from it (:func:`admissible_lags`), which the headline's
+interval pools over (docs/method.md 3b, 3d).
 """
 
 from __future__ import annotations
@@ -20,8 +23,11 @@ __all__ = [
     "AGREE_T",
     "SAMPLE_WINDOWS",
     "LagProfile",
+    "ChosenLag",
     "lag_profile",
     "choose_lag",
+    "admissible_lags",
+    "chosen_lag",
     "sample_windows",
     "lag_sample_held",
 ]
@@ -104,14 +110,63 @@ def choose_lag(p: Optional[LagProfile], weak: float) -> Optional[int]:
     """
     if p is None or not abs(p.r[p.ref]) >= weak:
         return None
+    ok = _accepted(p)
+    return next((L for L in range(2, len(p.r)) if ok[L]), None)
+
+
+def _accepted(p: LagProfile) -> np.ndarray:
+    """Per lag: strong, and its IV slope and every strong lag's up to twice it agree with the reference lag's."""
     strong = np.abs(p.r) >= STRONG
     agree = np.abs(p.t) <= AGREE_T
     ok = np.where(strong, agree, True)
-    top = len(p.r) - 1
-    for L in range(2, top + 1):
-        if strong[L] and np.all(ok[L : min(2 * L, top) + 1]):
-            return L
-    return None
+    lags = np.arange(len(p.r))
+    # the first lag at or after each lag where a strong lag disagrees (len(r) when none)
+    first_bad = np.minimum.accumulate(np.where(ok, len(p.r), lags)[::-1])[::-1]
+    out: np.ndarray = strong & (first_bad > np.minimum(2 * lags, len(p.r) - 1)) & (lags >= 2)
+    return out
+
+
+def admissible_lags(p: LagProfile, lag: int) -> List[int]:
+    """The lags the choice of ``lag`` could not tell from it: those :func:`choose_lag` accepts (strong, their IV
+    slope and every strong lag's up to twice it in agreement with the reference lag's) from ``lag`` up to twice
+    the next one it accepts (docs/method.md 3b, 3d); ``lag`` first."""
+    ok = _accepted(p)
+    after = [k for k in range(int(lag) + 1, len(p.r)) if ok[k]]
+    top = min(2 * after[0], len(p.r) - 1) if after else int(lag)
+    return [int(lag)] + [k for k in range(int(lag) + 1, top + 1) if ok[k]]
+
+
+class ChosenLag(int):
+    """The instrument lag chosen from the data (samples, an ``int``) and ``shifts``: b(L') - b(L) over the
+    other :func:`admissible_lags` L' (the pooled IV slope of fy on fz at L' less the one at the lag L, over the
+    profile's windows, the data's orientation; docs/method.md 3b, 3d).
+
+    The corrected slope with the fz noise measured at a lag is, to first order, the IV slope at that lag, so
+    these are the moves of mu_r (times the orientation) had another of those lags been chosen; the headline's
+    interval pools over them (``Results.mu_r_ci``)."""
+
+    shifts: Tuple[float, ...]
+
+    def __new__(cls, lag: int, shifts: Sequence[float] = ()) -> "ChosenLag":
+        self = super().__new__(cls, int(lag))
+        self.shifts = tuple(float(x) for x in shifts)
+        return self
+
+    def __reduce__(self) -> Tuple[Any, ...]:
+        return (ChosenLag, (int(self), self.shifts))
+
+    def __repr__(self) -> str:
+        return f"ChosenLag({int(self)}, shifts={self.shifts!r})"
+
+
+def chosen_lag(p: Optional[LagProfile], weak: float) -> Optional[ChosenLag]:
+    """:func:`choose_lag` with the IV slope's moves at the other :func:`admissible_lags` (:class:`ChosenLag`)."""
+    lag = choose_lag(p, weak)
+    if lag is None or p is None:
+        return None
+    b = p.b
+    moves = [float(b[k] - b[lag]) for k in admissible_lags(p, lag) if k != lag and np.isfinite(b[k] - b[lag])]
+    return ChosenLag(lag, moves)
 
 
 def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: Optional[int] = None,
@@ -188,24 +243,27 @@ def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[
 
 def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bool = False, *,
              earlier: Any = None) -> Optional[int]:  # fmt: skip
-    """:func:`choose_lag` on :func:`sample_windows` of the analysed samples, when the plan leaves the lag to the data.
+    """:func:`chosen_lag` on :func:`sample_windows` of the analysed samples, when the plan leaves the lag to the data.
 
     ``whole``: from the recording's first windows, not the plan's range
     (the ranges of one recording, :func:`tribodyn.analyze_partial`, then share
     one lag with the analysis of the whole). None (the plan's default lag) with ``method="paper"``, a given ``iv_lag``
     or ``rpm``, a reciprocating test, a one-pass stream or no valid lag. ``earlier``: the findings
     (``Findings``) of a look at the same first windows (``whole``) of a growing recording that held them all
-    then (:func:`lag_sample_held`): their lag, the windows not read again (docs/method.md 11).
+    then (:func:`lag_sample_held`): their lag, the windows not read again (docs/method.md 11). The lag found
+    is a :class:`ChosenLag`: an int with the IV slope's moves at the other admissible lags (docs/method.md 3d).
     """
     from ..kernels.estimators import WEAK_INSTRUMENT
 
     if plan.paper or not plan.iv_lag_from_data or pre.get("motion") == "reciprocating":
         return None
     if earlier is not None and whole:
-        return None if earlier.iv_lag is None else int(earlier.iv_lag)
+        if earlier.iv_lag is None:
+            return None
+        return earlier.iv_lag if isinstance(earlier.iv_lag, ChosenLag) else int(earlier.iv_lag)
     n = int(plan.length)
     if rec is not None and not whole:
         windows = sample_windows(source, rec, n, start=plan.start, stop=plan.stop)
     else:
         windows = sample_windows(source, rec, n)
-    return choose_lag(lag_profile(windows, (n - 1) // 2), WEAK_INSTRUMENT)
+    return chosen_lag(lag_profile(windows, (n - 1) // 2), WEAK_INSTRUMENT)

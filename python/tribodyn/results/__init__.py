@@ -350,13 +350,20 @@ class Results:
         n = self.params.get("threads")
         return int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) and n >= 1 else None
 
+    @property
+    def _lag_shifts(self) -> Tuple[float, ...]:
+        """mu_r's moves at the other lags the instrument's lag was chosen among (``params["iv_lag_shifts"]``,
+        docs/method.md 3d): the headline's bootstrap pools over them; () when the lag was not chosen from the data."""
+        return tuple(float(x) for x in self.params.get("iv_lag_shifts") or ())
+
     @cached_property
     def mu_r_ci(self) -> Dict[str, Tuple[float, float]]:
         """:func:`bootstrap_ci` of mu_r over the gated windows, the fz-noise estimate drawn anew in each
-        resample (docs/method.md 3d): ``summary()["mu_r"]["ci"]`` and the dynamic headline's interval,
+        resample and, when the instrument's lag was chosen from the data, pooled over the lags the choice could
+        not tell apart (docs/method.md 3d): ``summary()["mu_r"]["ci"]`` and the dynamic headline's interval,
         computed once."""
         mu, keep = self._gated_mu
-        ci = bootstrap_ci(mu, noise=noise_resample(self.table, keep), threads=self._threads)
+        ci = bootstrap_ci(mu, noise=noise_resample(self.table, keep), threads=self._threads, shifts=self._lag_shifts)
         gap = self.params.get("attenuation_gap")
         if self.params.get("mu_r_bound") == "lower" and gap is not None and np.isfinite(gap):
             # least squares is a lower bound: the upper ends reach the reverse regression (docs/method.md 3d)

@@ -333,7 +333,8 @@ def _pooled(res: "Results", total: int, info: Mapping[str, Any]) -> Headline:
     assert got is not None, "the verdict pooled these windows"
     keep = got["mask"]
     v = np.asarray(res.table["mu_r"], dtype=float)[keep]
-    ci = bootstrap_ci(v, noise=noise_resample(res.table, keep), threads=res._threads).get("median")
+    ci = bootstrap_ci(v, noise=noise_resample(res.table, keep), threads=res._threads,
+                      shifts=res._lag_shifts).get("median")  # fmt: skip
     used = float(np.asarray(res.table["n"])[keep].sum())
     est = res.params.get("estimator") or "ols"
     why = (f"no window passes the gate alone (each window's expected 95 % interval about "
