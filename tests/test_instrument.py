@@ -126,15 +126,14 @@ def test_the_chosen_lag_carries_the_iv_slopes_moves_at_the_lags_it_was_chosen_am
 
     p = lag_profile(sample_windows(_band_recording(5003, 130.0), None, 2000), 999)
     lag = chosen_lag(p, 0.3)
-    assert isinstance(lag, ChosenLag) and lag == choose_lag(p, 0.3)
-    adm = admissible_lags(p, lag)
+    assert isinstance(lag, ChosenLag) and lag.samples == choose_lag(p, 0.3)
+    adm = admissible_lags(p, lag.samples)
     # the lags choose_lag accepts from the chosen one up to twice the next one it accepts
-    assert adm[0] == lag and len(adm) >= 2 and all(lag < k <= 2 * adm[1] for k in adm[1:])
+    assert adm[0] == lag.samples and len(adm) >= 2 and all(lag.samples < k <= 2 * adm[1] for k in adm[1:])
     for k in adm:  # each strong, and every strong lag up to twice it agrees with the reference lag
         assert abs(p.r[k]) >= STRONG and all(abs(p.t[j]) <= 3.0 for j in range(k, 2 * k + 1) if abs(p.r[j]) >= STRONG)
-    assert lag.shifts == tuple(p.b[k] - p.b[lag] for k in adm[1:]) and lag.shifts
-    back = pickle.loads(pickle.dumps(lag))
-    assert back == lag and back.shifts == lag.shifts and int(back) + 1 == int(lag) + 1
+    assert lag.shifts == tuple(p.b[k] - p.b[lag.samples] for k in adm[1:]) and lag.shifts
+    assert pickle.loads(pickle.dumps(lag)) == lag
 
 
 @pytest.mark.fast

@@ -343,7 +343,11 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     else:
         pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
         lag = find_lag(source, rec, plan, pre, partial, earlier=reuse_lag.found if reuse_lag is not None else None)
-        found = Findings(classical=pre.get("spec"), iv_lag=lag)  # docs/method.md 3b
+        found = Findings(
+            classical=pre.get("spec"),
+            iv_lag_samples=None if lag is None else lag.samples,
+            iv_lag_shifts=() if lag is None else lag.shifts,
+        )  # docs/method.md 3b, 3d
     tribo = _tribometer_params(rec, pre, plan.window_note)
     if from_cof:  # the headline is the instrument's own COF (docs/method.md 6e)
         tribo["friction_from"] = "cof"

@@ -167,15 +167,15 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
 def _iv_lag_rule(plan: Plan, found: Findings) -> str:
     """Where the instrument lag comes from (docs/method.md 3b): "data", "default", "rpm" or "given"."""
     fs = plan.fs
-    rpm_lag = plan.rpm is not None and plan.iv_lag == int(round(60.0 * fs / float(plan.rpm)))
-    return ("data" if found.iv_lag else "default") if plan.iv_lag_from_data else ("rpm" if rpm_lag else "given")
+    rpm_lag = plan.rpm is not None and plan.iv_lag_samples == int(round(60.0 * fs / float(plan.rpm)))
+    return ("data" if found.iv_lag_samples else "default") if plan.iv_lag_from_data else ("rpm" if rpm_lag else "given")
 
 
 def _lag_shifts(plan: Plan, found: Findings, seen: Dict[str, Any], s: int) -> Dict[str, Any]:
     """``iv_lag_shifts``: mu_r's moves at the other lags the choice from the data could not tell from the one used
     (``ChosenLag.shifts`` times the orientation; docs/method.md 3d), when mu_r rests on that lag (the IV and the
     corrected estimator with the fz noise measured, not fallen back to least squares); {} otherwise."""
-    moves = getattr(found.iv_lag, "shifts", ())
+    moves = found.iv_lag_shifts
     uses = plan.estimator == "iv" or (plan.estimator == "corrected" and plan.noise is None)
     if not moves or seen.get("iv_lag_rule") != "data" or not uses or seen.get("mu_r_bound") == "lower":
         return {}
@@ -290,7 +290,7 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
     returns the columns that replace or join them. ``found`` gets what the
     recording revealed (for ``params``), ``notes`` the warnings; ``delay0`` is
     the fz delay already corrected in every window (``align="auto"``); ``lag``
-    the instrument lag of the kernel's sums (default ``plan.iv_lag``).
+    the instrument lag of the kernel's sums (default ``plan.iv_lag_samples``).
 
     When the noise on fz cannot be measured (no valid instrument) and the
     estimator falls back to least squares, that slope is a lower bound of
@@ -300,7 +300,7 @@ def _statistics(o: Stats, plan: Plan, delay0: float, s: int, *, found: Dict[str,
     the least-squares slope) widen the summary's and the headline's
     intervals (docs/method.md 3b, 3d).
     """
-    lag = plan.iv_lag if lag is None else int(lag)
+    lag = plan.iv_lag_samples if lag is None else int(lag)
 
     mu_ols = np.array(o["mu_r"], dtype=float)
     if plan.paper:

@@ -242,7 +242,7 @@ def _identify_options(fs: Any, plan: Any, options: Dict[str, Any]) -> Tuple[Any,
     if fs is not None and float(fs) != plan.fs:
         raise ValueError(f"the plan is for fs = {plan.fs:g} Hz, the forces are sampled at {float(fs):g} Hz")
     o = {name: getattr(plan, name) for name in IDENTIFY_OPTIONS}
-    o.update(method=plan.method or None, iv_lag=plan.iv_lag / plan.fs if not plan.paper else None)
+    o.update(method=plan.method or None, iv_lag=plan.iv_lag if not plan.paper else None)
     return plan.fs, o
 
 
@@ -262,15 +262,15 @@ def _estimate(fy: np.ndarray, fz: np.ndarray, s: int, stats: Dict[str, Any], o: 
     """
 
     n = fz.size
-    spec = make_spec(n, parse_deadband(0.0), 1, ["n", "ext"], options=dict(lag=stats["iv_lag"]))
+    spec = make_spec(n, parse_deadband(0.0), 1, ["n", "ext"], options=dict(lag=stats["iv_lag_samples"]))
     st = compute(spec, fy, fz, np.zeros(1, dtype=np.int64))
     E, nn = st["ext"], st["n"]
     sl = slopes(E, nn, stats["estimator"], noise=stats["noise"])
     r = float(sl.instrument_r[0])
     if stats["estimator"] == "corrected" and stats["noise"] is None and not abs(r) >= WEAK_INSTRUMENT:
         warnings.warn(
-            f"identify: the instrument (fz lagged by {stats['iv_lag']} samples) is weak (r = {r:.2f}): mu_r is the "
-            "least-squares slope; pass rpm= (a lag of one revolution), iv_lag= or noise= (docs/method.md 3b)",
+            f"identify: the instrument (fz lagged by {stats['iv_lag_samples']} samples) is weak (r = {r:.2f}): mu_r is "
+            "the least-squares slope; pass rpm= (a lag of one revolution), iv_lag= or noise= (docs/method.md 3b)",
             RuntimeWarning,
             stacklevel=3,
         )

@@ -136,27 +136,24 @@ def admissible_lags(p: LagProfile, lag: int) -> List[int]:
     return [int(lag)] + [k for k in range(int(lag) + 1, top + 1) if ok[k]]
 
 
-class ChosenLag(int):
-    """The instrument lag chosen from the data (samples, an ``int``) and ``shifts``: b(L') - b(L) over the
-    other :func:`admissible_lags` L' (the pooled IV slope of fy on fz at L' less the one at the lag L, over the
-    profile's windows, the data's orientation; docs/method.md 3b, 3d).
+@dataclass(frozen=True)
+class ChosenLag:
+    """The instrument lag chosen from the data and what the choice could not tell apart (docs/method.md 3b, 3d).
 
-    The corrected slope with the fz noise measured at a lag is, to first order, the IV slope at that lag, so
-    these are the moves of mu_r (times the orientation) had another of those lags been chosen; the headline's
-    interval pools over them (``Results.mu_r_ci``)."""
+    Attributes
+    ----------
+    samples : int
+        The lag, samples.
+    shifts : tuple of float
+        b(L') - b(L) over the other :func:`admissible_lags` L' (the pooled IV slope of fy on fz at L' less the
+        one at the lag L, over the profile's windows, the data's orientation). The corrected slope with the fz
+        noise measured at a lag is, to first order, the IV slope at that lag, so these are the moves of mu_r
+        (times the orientation) had another of those lags been chosen; the headline's interval pools over them
+        (``Results.mu_r_ci``). :class:`~tribodyn.pipeline.plan.Findings` carries both.
+    """
 
-    shifts: Tuple[float, ...]
-
-    def __new__(cls, lag: int, shifts: Sequence[float] = ()) -> "ChosenLag":
-        self = super().__new__(cls, int(lag))
-        self.shifts = tuple(float(x) for x in shifts)
-        return self
-
-    def __reduce__(self) -> Tuple[Any, ...]:
-        return (ChosenLag, (int(self), self.shifts))
-
-    def __repr__(self) -> str:
-        return f"ChosenLag({int(self)}, shifts={self.shifts!r})"
+    samples: int
+    shifts: Tuple[float, ...] = ()
 
 
 def chosen_lag(p: Optional[LagProfile], weak: float) -> Optional[ChosenLag]:
@@ -166,7 +163,7 @@ def chosen_lag(p: Optional[LagProfile], weak: float) -> Optional[ChosenLag]:
         return None
     b = p.b
     moves = [float(b[k] - b[lag]) for k in admissible_lags(p, lag) if k != lag and np.isfinite(b[k] - b[lag])]
-    return ChosenLag(lag, moves)
+    return ChosenLag(int(lag), tuple(moves))
 
 
 def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: Optional[int] = None,
@@ -242,7 +239,7 @@ def _spread(bounds: Sequence[Tuple[int, int]], length: int, limit: int) -> List[
 
 
 def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bool = False, *,
-             earlier: Any = None) -> Optional[int]:  # fmt: skip
+             earlier: Any = None) -> Optional[ChosenLag]:  # fmt: skip
     """:func:`chosen_lag` on :func:`sample_windows` of the analysed samples, when the plan leaves the lag to the data.
 
     ``whole``: from the recording's first windows, not the plan's range
@@ -251,16 +248,16 @@ def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bo
     or ``rpm``, a reciprocating test, a one-pass stream or no valid lag. ``earlier``: the findings
     (``Findings``) of a look at the same first windows (``whole``) of a growing recording that held them all
     then (:func:`lag_sample_held`): their lag, the windows not read again (docs/method.md 11). The lag found
-    is a :class:`ChosenLag`: an int with the IV slope's moves at the other admissible lags (docs/method.md 3d).
+    is a :class:`ChosenLag`: the lag with the IV slope's moves at the other admissible lags (docs/method.md 3d).
     """
     from ..kernels.estimators import WEAK_INSTRUMENT
 
     if plan.paper or not plan.iv_lag_from_data or pre.get("motion") == "reciprocating":
         return None
     if earlier is not None and whole:
-        if earlier.iv_lag is None:
+        if earlier.iv_lag_samples is None:
             return None
-        return earlier.iv_lag if isinstance(earlier.iv_lag, ChosenLag) else int(earlier.iv_lag)
+        return ChosenLag(int(earlier.iv_lag_samples), tuple(earlier.iv_lag_shifts))
     n = int(plan.length)
     if rec is not None and not whole:
         windows = sample_windows(source, rec, n, start=plan.start, stop=plan.stop)

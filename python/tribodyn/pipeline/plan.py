@@ -151,8 +151,8 @@ class Plan:
     covariates : Covariates
     threads : int
         Kernel threads of this call.
-    chunk : int or None
-        Samples per chunk read (None: the route's default).
+    chunk, chunk_samples : float or None, int or None
+        Seconds, and samples, per chunk read (None: the route's default).
     start, stop : int, int or None
         Sample range of a recording analysed.
     progress : bool
@@ -186,7 +186,7 @@ class Plan:
     n_lamellas: Optional[int]
     covariates: Covariates
     threads: int
-    chunk: Optional[int]
+    chunk: Optional[float]
     start: int
     stop: Optional[int]
     progress: bool
@@ -198,9 +198,11 @@ class Plan:
     max_rel_ci: float = 0.1
     #: "auto" (estimate and correct the fz delay) or None.
     align: Optional[str] = None
-    #: Instrument lag, samples (docs/method.md 3b); with ``iv_lag_from_data`` the fallback when the data
-    #: name none (``Findings.iv_lag``).
-    iv_lag: int = 0
+    #: Instrument lag, s (docs/method.md 3b): the one given, one revolution with ``rpm``, else a tenth of the
+    #: window; with ``iv_lag_from_data`` the fallback when the data name none (``Findings.iv_lag_samples``).
+    iv_lag: Optional[float] = None
+    #: ``iv_lag`` in samples (the kernel's lag); 0 with ``method="paper"``.
+    iv_lag_samples: int = 0
     #: True when neither ``iv_lag`` nor ``rpm`` was given: the lag is chosen from the data (docs/method.md 3b).
     iv_lag_from_data: bool = False
     #: Line frequencies (cycles per sample) and the index of f0, f_l among them.
@@ -220,6 +222,8 @@ class Plan:
     window_note: str = ""
     #: Also find the stick-slip events, in the analysis' own reading (docs/method.md 6g).
     stick_slip: bool = False
+    #: ``chunk`` in samples (None: the route's default).
+    chunk_samples: Optional[int] = None
     #: What is known of the instrument, for the headline's uncertainty budget (docs/method.md 6i), or None.
     uncertainty: Optional["Inputs"] = None
 
@@ -241,7 +245,7 @@ class Plan:
 
     def lag(self, found: "Findings") -> int:
         """The instrument lag of the analysis (samples): the data's choice when the plan leaves it to them."""
-        return int(found.iv_lag) if self.iv_lag_from_data and found.iv_lag else self.iv_lag
+        return int(found.iv_lag_samples) if self.iv_lag_from_data and found.iv_lag_samples else self.iv_lag_samples
 
     @property
     def raw(self) -> bool:
@@ -295,19 +299,20 @@ RECORDED: Mapping[str, Optional[Callable[[Plan], Dict[str, Any]]]] = MappingProx
     "step": lambda p: {"hop_samples": p.step},
     "deadband": lambda p: {"deadband": str(p.deadband)},
     "covariates": _covariate_params,
-    "chunk": lambda p: {"chunk_samples": p.chunk},
+    "chunk": lambda p: {"chunk_samples": p.chunk_samples},
     "method": lambda p: {"method": p.method or None},
     "max_rel_ci": lambda p: {"max_rel_ci": p.max_rel_ci if p.gate == "ci" else None},
-    "iv_lag": lambda p: {"iv_lag_samples": None if p.paper else p.iv_lag},
+    "iv_lag": lambda p: {"iv_lag_samples": None if p.paper else p.iv_lag_samples},
     "tare": lambda p: {"tare": dict(p.tare) if isinstance(p.tare, Mapping) else p.tare},
     "uncertainty": lambda p: {"uncertainty": None if p.uncertainty is None else p.uncertainty.to_dict()},
-    **dict.fromkeys(("iv_lag_from_data", "lines", "line_index", "motion", "min_fn", "window_note")),
+    **dict.fromkeys(("iv_lag_from_data", "lines", "line_index", "motion", "min_fn", "window_note", "chunk_samples",
+                     "iv_lag_samples")),
 })  # fmt: skip
 
 #: The fields of a :class:`Plan`.
 PLAN_FIELDS = frozenset(f.name for f in dataclasses.fields(Plan))
 #: The options checked by their own rule (``Option.check``) that a :class:`Plan` holds otherwise than as checked.
-_CONVERTED = frozenset({"chunk", "covariates"})
+_CONVERTED = frozenset({"covariates"})
 
 
 def make_plan(*, fs: Any, **options: Any) -> Plan:
@@ -371,7 +376,7 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         step=step,
         n_bins=check_bins(o["n_bins"], length),
         covariates=cov,
-        chunk=None if chunk is None else max(1, int(round(chunk * fs_v))),
+        chunk_samples=None if chunk is None else max(1, int(round(chunk * fs_v))),
         window_note=window_note,
         **stats,
         **as_checked,
@@ -507,16 +512,20 @@ class Findings:
     delay : float
         Samples by which fz is advanced in every window (``align="auto"``'s
         measurement, docs/method.md 3e); 0 otherwise.
-    iv_lag : int or None
+    iv_lag_samples : int or None
         The instrument lag chosen from the data (samples; docs/method.md 3b:
         the shortest lag past the noise's correlation time at which the
         instrument is strong), used when the plan leaves the lag to the data
         (``Plan.iv_lag_from_data``); None when none was found or looked for.
+    iv_lag_shifts : tuple of float
+        The IV slope's moves at the other lags that choice could not tell
+        apart (``pipeline.instrument.ChosenLag.shifts``; docs/method.md 3d).
     """
 
     classical: Optional[Any] = None
     delay: float = 0.0
-    iv_lag: Optional[int] = None
+    iv_lag_samples: Optional[int] = None
+    iv_lag_shifts: Tuple[float, ...] = ()
 
 
 #: Segments averaged per window for the line cross-spectra (docs/method.md 3e).
@@ -572,7 +581,7 @@ def check_statistics(
         raise ValueError(f"align must be None or 'auto', got {align!r}")
     if lag_s is None:
         # One revolution when the speed is known (the run-out repeats, the
-        # noise does not); else chosen from the data (Findings.iv_lag), failing
+        # noise does not); else chosen from the data (Findings.iv_lag_samples), failing
         # which a tenth of the window, at least 10 samples.
         lag = int(round(60.0 * fs / rev)) if rev is not None else max(10, length // 10)
     else:
@@ -583,7 +592,7 @@ def check_statistics(
     if align == "auto" and not lines:
         raise ValueError("align='auto' needs rpm= (and n_lamellas=): the delay is measured at the rig's lines")
     return dict(
-        method="", estimator=est, gate=g, max_rel_ci=rel, align=align, iv_lag=lag, lines=lines,
+        method="", estimator=est, gate=g, max_rel_ci=rel, align=align, iv_lag=lag / fs, iv_lag_samples=lag, lines=lines,
         line_index=tuple(index.items()), noise=sig, iv_lag_from_data=iv_lag is None and rev is None, rpm=rev,
         n_lamellas=nl,
     )  # fmt: skip

@@ -401,7 +401,7 @@ def _run_segments(rec: RecordingProtocol, ks: KernelSpec, ranges: Sequence[Tuple
     plan = ks.plan
     parts: List[Stats] = []
     aux_role: Optional[str] = None
-    size = plan.chunk or DEFAULT_CHUNK
+    size = plan.chunk_samples or DEFAULT_CHUNK
     for k, (a, b) in enumerate(ranges):
         if b - a < plan.length:
             continue
@@ -457,7 +457,7 @@ def _run_mapped(rec: RecordingProtocol, ks: KernelSpec) -> Tuple[Stats, Optional
     # the threads finish together and the buffers (a block per thread) do
     # not depend on the recording's length.
     count = k1 - k0
-    cap = max(1, (plan.chunk or MAPPED_BLOCK) // plan.step)
+    cap = max(1, (plan.chunk_samples or MAPPED_BLOCK) // plan.step)
     blocks = -(-count // cap)
     blocks = -(-blocks // plan.threads) * plan.threads
     block = max(1, -(-count // blocks))
@@ -512,7 +512,7 @@ def _run_spans(rec: RecordingProtocol, ks: KernelSpec) -> Tuple[Stats, Optional[
     plan = ks.plan
     spans = _spans(rec, plan)
     assert spans is not None, "choose_route chose 'spans'"
-    size = plan.chunk or DEFAULT_CHUNK
+    size = plan.chunk_samples or DEFAULT_CHUNK
     bar = _progress(plan.progress, sum(b - a for a, b in spans))
     try:
         with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
@@ -542,12 +542,12 @@ def _run_spans(rec: RecordingProtocol, ks: KernelSpec) -> Tuple[Stats, Optional[
 def _chunk_source(source: Any, rec: Optional[RecordingProtocol], plan: Plan) -> Iterable[Any]:
     if rec is not None:
         chunks: Iterable[Any] = rec.chunks(
-            plan.chunk or DEFAULT_CHUNK, start=plan.start, stop=plan.stop, copy=_copies(rec)
+            plan.chunk_samples or DEFAULT_CHUNK, start=plan.start, stop=plan.stop, copy=_copies(rec)
         )
         return chunks
     if isinstance(source, Mapping):
         n = len(next(iter(source.values()))) if source else 0
-        size = plan.chunk or DEFAULT_CHUNK
+        size = plan.chunk_samples or DEFAULT_CHUNK
         if n <= size:
             return [source]
         return ({k: v[s : s + size] for k, v in source.items()} for s in range(0, n, size))
@@ -576,7 +576,7 @@ def _run_stream(chunks: Iterable[Any], ks: KernelSpec, total: Optional[int], tap
     bar = _progress(plan.progress, total)
     # A range of one chunk (a watched recording's update) runs on the calling thread: a worker thread to read
     # ahead of would only cost its start (the kernel still uses plan.threads; the same table either way)
-    one = total is not None and total <= (plan.chunk or DEFAULT_CHUNK)
+    one = total is not None and total <= (plan.chunk_samples or DEFAULT_CHUNK)
     try:
         parts, aux_role = _run_chunks(chunks, plan.start, ks, bar, threads=plan.threads, taps=taps, pipelined=not one)
     finally:
