@@ -1,7 +1,8 @@
 """The command line with its report against the API (issue 38 point 3): wall and CPU time of whole processes,
 rounds interleaved with a baseline build.
 
-    python benches/bench_cli_export.py [--rounds 5] [--baseline PYTHONPATH] [--data DIR] [--no-long]
+    python benches/bench_cli_export.py [--rounds 5] [--baseline PYTHONPATH] [--build PYTHONPATH] [--data DIR]
+        [--no-long] [--no-folder]
 
 Cases (each run a fresh process; ``api``: ``python -c`` that imports tribodyn, opens the file, analyses it and
 reads the headline; ``cli``: ``python -m tribodyn analyze FILE --out DIR -q``):
@@ -11,11 +12,14 @@ reads the headline; ``cli``: ``python -m tribodyn analyze FILE --out DIR -q``):
 * ``folder``: the exports of tests/data (:data:`FOLDER`, 8 files of 0.02-0.44 MB) as one ``tribodyn analyze
   DIR/*`` against one process that analyses them one after the other with the API;
 * ``h10``: 10 h at 1 kHz, 4 channels ``.npy`` (1.15 GB, ``bench_fixed_costs.ensure_data`` in ``--data``), api
-  and cli (skipped with ``--no-long``).
+  and cli (skipped with ``--no-long``): its 5 PNG figures are drawn by worker processes too when a core is free
+  (``jobs._drawing_pool``, issue 38 point 3; their CPU is in the process tree's), and this build's cli again with
+  ``TRIBODYN_DRAW_WORKERS`` = each of ``--workers`` (workers whatever the load).
 
-``--baseline`` is the ``python/`` folder of another checkout (its own ``_core``). Every process runs with the
-package's bytecode, as an installed package does (``PYTHONDONTWRITEBYTECODE`` is dropped from the children's
-environment and one run warms ``__pycache__`` first). CPU is user + system time of the process tree.
+``--baseline`` is the ``python/`` folder of another checkout (its own ``_core``); ``--build`` the ``python/`` folder
+of this build (default: this checkout's; a copy keeps the measurement away from edits made while it runs). Every
+process runs with the package's bytecode, as an installed package does (``PYTHONDONTWRITEBYTECODE`` is dropped from
+the children's environment and one run warms ``__pycache__`` first). CPU is user + system time of the process tree.
 """
 
 from __future__ import annotations
@@ -65,9 +69,11 @@ def env_for(pythonpath: str) -> Dict[str, str]:
     return env
 
 
-def wrapped(cmd: List[str], pythonpath: str) -> Dict[str, Any]:
+def wrapped(cmd: Any, pythonpath: str) -> Dict[str, Any]:
+    """``cmd``: a command, or (command, environment variables to set)."""
+    cmd, extra = (cmd[0], cmd[1]) if isinstance(cmd, tuple) else (cmd, {})
     p = subprocess.run([sys.executable, "-c", WRAP, json.dumps(cmd)], capture_output=True, text=True,
-                       env=env_for(pythonpath), cwd=tempfile.gettempdir())  # fmt: skip
+                       env={**env_for(pythonpath), **extra}, cwd=tempfile.gettempdir())  # fmt: skip
     out = dict(json.loads(p.stdout.strip().splitlines()[-1]))
     if out["rc"] not in (0, 3):  # 3: a file of a folder failed (the others' outputs are written)
         raise RuntimeError(f"{cmd} failed: {out['err']}")
@@ -90,18 +96,26 @@ def cases(args: argparse.Namespace, builds: Dict[str, str], work: Path) -> Dict[
         tag = b.replace(" ", "_")
         out[f"{b}|api small"] = [sys.executable, "-c", API, small]
         out[f"{b}|cli small"] = cli([small], work / f"{tag}-small")
-        out[f"{b}|api folder"] = [sys.executable, "-c", API, *folder]
-        out[f"{b}|cli folder"] = cli(folder, work / f"{tag}-folder")
+        if not args.no_folder:
+            out[f"{b}|api folder"] = [sys.executable, "-c", API, *folder]
+            out[f"{b}|cli folder"] = cli(folder, work / f"{tag}-folder")
         if b == "this build":
             for choice in ("none", "all"):
                 out[f"{b}|cli small --figures {choice}"] = cli(
                     [small], work / f"{tag}-small-{choice}", "--figures", choice
                 )
-            out[f"{b}|cli folder --figures none"] = cli(folder, work / f"{tag}-folder-none", "--figures", "none")
+            if not args.no_folder:
+                out[f"{b}|cli folder --figures none"] = cli(folder, work / f"{tag}-folder-none", "--figures", "none")
         if not args.no_long:
             h10 = str(_h10(Path(args.data)))
             out[f"{b}|api h10"] = [sys.executable, "-c", API, h10]
             out[f"{b}|cli h10"] = cli([h10], work / f"{tag}-h10")
+            if b == "this build":  # the drawing workers whatever the load (the default starts none on busy cores)
+                for n in args.workers:
+                    out[f"{b}|cli h10, {n} drawing workers"] = (
+                        cli([h10], work / f"{tag}-h10-w{n}"),
+                        {"TRIBODYN_DRAW_WORKERS": str(n)},
+                    )
     return out
 
 
@@ -119,8 +133,11 @@ def main(argv: Optional[List[str]] = None) -> None:
     ap.add_argument("--baseline", help="PYTHONPATH of a baseline build (its python/ folder)")
     ap.add_argument("--data", default=str(Path(tempfile.gettempdir()) / "perf"), help="folder of the 10 h file")
     ap.add_argument("--no-long", action="store_true", help="leave out the 10 h recording")
+    ap.add_argument("--no-folder", action="store_true", help="leave out the folder of exports")
+    ap.add_argument("--workers", type=int, nargs="*", default=[1], help="TRIBODYN_DRAW_WORKERS of extra h10 cases")
+    ap.add_argument("--build", default=str(ROOT / "python"), help="PYTHONPATH of this build (its python/ folder)")
     args = ap.parse_args(argv)
-    builds = {"this build": str(ROOT / "python")}
+    builds = {"this build": args.build}
     if args.baseline:
         builds["baseline"] = args.baseline
     work = Path(tempfile.mkdtemp(prefix="bench_cli_"))
@@ -138,8 +155,10 @@ def main(argv: Optional[List[str]] = None) -> None:
     finally:
         shutil.rmtree(work, ignore_errors=True)
     print(
-        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {args.rounds} interleaved rounds; load average "
-        f"before {tuple(round(x, 2) for x in load_before)}, after {tuple(round(x, 2) for x in os.getloadavg())}"
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {args.rounds} interleaved rounds, "
+        f"{len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else os.cpu_count()} usable cores; "
+        f"load average before {tuple(round(x, 2) for x in load_before)}, "
+        f"after {tuple(round(x, 2) for x in os.getloadavg())}"
     )
     print("\n| case | build | median wall | median CPU | walls |\n|---|---|---|---|---|")
     for key, v in runs.items():

@@ -1362,23 +1362,36 @@ def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
 
 
 class Rendering:
-    """PNG bytes of figures, each drawn once, in this process (docs/architecture.md).
+    """PNG bytes of figures, each drawn once (docs/architecture.md).
 
-    The figures are drawn when :meth:`finish` is called, after whatever the caller does meanwhile;
-    ``also`` (more work of the same job, e.g. the interactive views) runs once, on the first
-    :meth:`also_result`. Nothing is forked: a forked copy of a process with threads (the kernels', a
-    Dask worker's) may deadlock, and a child outlives a killed command line.
+    Without ``pool`` every figure is drawn in this process when :meth:`finish` is called, after whatever the
+    caller does meanwhile. With ``pool`` (``jobs._DrawingPool``: fresh worker interpreters, never a fork of this
+    process, issue 38 point 3) each figure is pickled now, before any drawing, and queued: the workers draw them
+    while the caller does its other work, and :meth:`finish` draws here every figure no worker has taken yet,
+    then collects the workers' PNG bytes (the same bytes: :func:`draw_pickled`); a figure that does not pickle, a
+    worker that fails or does not answer, has its figure drawn here, so the set is always whole. ``also`` (more
+    work of the same job, e.g. the interactive views) runs once, here, on the first :meth:`also_result`.
     """
 
-    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, also: Optional[Callable[[], Any]] = None) -> None:
+    def __init__(self, figs: Sequence[Figure], *, dpi: int = DPI, also: Optional[Callable[[], Any]] = None,
+                 pool: Any = None) -> None:  # fmt: skip
         self._figs = list(figs)
         self._dpi = dpi
         self._also = also
         self._also_done: Optional[Tuple[Any]] = None
+        self._batch = _queued(self._figs, dpi, pool) if pool is not None and self._figs else None
 
     def finish(self) -> List[bytes]:
         """Every figure's PNG bytes, in order."""
-        return [png_bytes(f, dpi=self._dpi) for f in self._figs]
+        batch, self._batch = self._batch, None
+        if batch is None:
+            return [png_bytes(f, dpi=self._dpi) for f in self._figs]
+        out: Dict[int, bytes] = {}
+        for k in iter(batch.steal, None):  # the figures no worker has taken: here
+            out[k] = png_bytes(self._figs[k], dpi=self._dpi)
+        for k, reply in batch.replies():  # reply: (PNG bytes, warnings) or None (a worker failed: here)
+            out[k] = png_bytes(self._figs[k], dpi=self._dpi) if reply is None else _rewarned(*reply)
+        return [out[k] for k in range(len(self._figs))]
 
     def also_result(self) -> Any:
         """What ``also()`` returned (None without ``also``), computed once."""
@@ -1387,6 +1400,112 @@ class Rendering:
         if self._also_done is None:
             self._also_done = (self._also(),)
         return self._also_done[0]
+
+
+def _queued(figs: Sequence[Figure], dpi: int, pool: Any) -> Any:
+    """``pool``'s batch of ``figs`` pickled (None in place of a figure that does not pickle), or None when the
+    pool takes none (it is closed or broken)."""
+    import pickle
+
+    payloads: List[Optional[bytes]] = []
+    for f in figs:
+        try:
+            payloads.append(pickle.dumps(f, protocol=pickle.HIGHEST_PROTOCOL))
+        except Exception:  # noqa: BLE001 - drawn here instead
+            payloads.append(None)
+    return pool.batch(payloads, dpi, rc_changes())
+
+
+def rc_changes() -> Dict[str, Any]:
+    """The Matplotlib settings this process changed since it read its matplotlibrc (a style, an ``rcParams``
+    entry), which a drawing worker applies while it draws (it reads the same matplotlibrc)."""
+    import matplotlib
+
+    orig = matplotlib.rcParamsOrig
+    out: Dict[str, Any] = {}
+    for k, v in dict.items(matplotlib.rcParams):  # (dict.items: reading "backend" would resolve it)
+        if k in ("backend", "backend_fallback", "interactive"):
+            continue
+        try:
+            if k not in orig or dict.__getitem__(orig, k) != v:
+                out[k] = v
+        except Exception:  # noqa: BLE001, S112 - a value that does not compare: sent as it is
+            out[k] = v
+    return out
+
+
+def draw_pickled(data: bytes, dpi: int = DPI, rc: Optional[Mapping[str, Any]] = None
+                 ) -> Tuple[bytes, List[Tuple[str, str, str, str, int]]]:  # fmt: skip
+    """A pickled figure's :func:`png_bytes` with the settings ``rc`` (:func:`rc_changes`), and the warnings the
+    drawing gave (message, category's module and name, file, line), in a drawing worker."""
+    import pickle
+
+    import matplotlib
+
+    fig = pickle.loads(data)  # noqa: S301 - this process' own parent pickled it
+    settings: Any = dict(rc or {})
+    with warnings.catch_warnings(record=True) as caught, matplotlib.rc_context(settings):
+        warnings.simplefilter("always")
+        png = png_bytes(fig, dpi=dpi)
+    return png, [(str(w.message), w.category.__module__, w.category.__qualname__, w.filename, w.lineno)
+                 for w in caught]  # fmt: skip
+
+
+def _rewarned(png: bytes, warns: Sequence[Tuple[str, str, str, str, int]]) -> bytes:
+    """``png``, the warnings a worker's drawing gave issued here (as drawing it here would have)."""
+    import importlib
+
+    for message, module, name, filename, lineno in warns:
+        try:
+            category = getattr(importlib.import_module(module), name)
+            if not (isinstance(category, type) and issubclass(category, Warning)):
+                category = UserWarning
+        except Exception:  # noqa: BLE001 - a category this process cannot import
+            category = UserWarning
+        warnings.warn_explicit(message, category, filename, lineno)
+    return png
+
+
+def serve_drawing(parent: int) -> None:
+    """A drawing worker's loop (``jobs._DrawingPool``; started by its ``_WORKER_CODE``, which already bound it to
+    die with ``parent``): says ``("ready", pid, None)`` once Matplotlib is loaded, then reads pickled ``(key,
+    pickled figure, dpi, rc)`` from stdin until end of file and answers each with a pickled ``(key, (PNG bytes,
+    warnings) or None, error)`` on what was its stdout (fd 1 then points to the null device: nothing printed
+    mixes into the answers)."""
+    import pickle
+    import sys
+    import threading
+    import time
+
+    out = os.fdopen(os.dup(1), "wb")
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, 1)
+    os.close(null)
+
+    def watch() -> None:  # where PR_SET_PDEATHSIG is missing (not Linux): leave once the parent is gone
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(0)
+
+    threading.Thread(target=watch, daemon=True).start()
+    fig, axes = _figure(figsize=(2.0, 1.5))  # fonts, mathtext, layout and the PNG encoder loaded before the work
+    axes[0, 0].plot([0.0, 1.0], [1.0, 0.0], label=r"$\mu_r$")
+    axes[0, 0].set_xlabel(_FORCE_LABEL["z"])
+    axes[0, 0].legend()
+    png_bytes(fig, dpi=30)
+    inp = sys.stdin.buffer
+    reply: Tuple[Any, Any, Optional[str]] = ("ready", os.getpid(), None)
+    while True:
+        pickle.dump(reply, out, protocol=pickle.HIGHEST_PROTOCOL)
+        out.flush()
+        try:
+            key, data, dpi, rc = pickle.load(inp)  # noqa: S301 - from this process' own parent
+        except EOFError:  # the parent closed the pipe: done
+            return
+        try:
+            reply = (key, draw_pickled(data, dpi, rc), None)
+        except Exception as exc:  # noqa: BLE001 - the parent draws this figure itself
+            reply = (key, None, repr(exc))
 
 
 def save_figure(fig: Figure, path: Union[str, "os.PathLike[str]"], *, dpi: int = DPI) -> str:

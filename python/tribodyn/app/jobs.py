@@ -274,25 +274,27 @@ def _save_figures(
     meanwhile: Optional[Callable[[], Any]] = None,
     *,
     also: Optional[Callable[[], Any]] = None,
+    pool: Optional[_DrawingPool] = None,
 ) -> Tuple[List[Tuple[str, str, bytes]], Any, Any]:
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
     triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); what ``meanwhile()``
-    returns, called before the figures are drawn (``figures.Rendering``, in this process); and what
-    ``also()`` returns."""
+    returns and what ``also()`` returns, both called before this process draws (``figures.Rendering``: with
+    ``pool``, its workers draw meanwhile)."""
     from ..io.writers import atomic_write
 
     if not figs:  # no PNG (--figures none): Matplotlib is not imported
         return [], meanwhile() if meanwhile is not None else None, also() if also is not None else None
     from .figures import Rendering
 
-    render = Rendering([f for _, _, f in figs], also=also)
+    render = Rendering([f for _, _, f in figs], also=also, pool=pool)
     done = meanwhile() if meanwhile is not None else None
+    extra = render.also_result()
     saved = []
     for (stem, caption, _), data in zip(figs, render.finish()):
         name = f"figures/{prefix}{stem}.png"
         atomic_write(out.path(name), _bytes_writer(data))
         saved.append((name, caption, data))
-    return saved, done, render.also_result()
+    return saved, done, extra
 
 
 def _bytes_writer(data: bytes) -> Callable[[str], None]:
@@ -451,16 +453,27 @@ def run_demo(out_dir: Any, *, seed: int = 0, progress: bool = False, overwrite: 
 
     __version__ = version()
     output = OutputSet(out_dir, overwrite=overwrite)  # refuses an unusable folder before the work
-    t, j = _demo_tests(seed, progress)
+    pool = _drawing_pool(True)  # its figures drawn by workers too, started now (issue 38 point 3)
+    try:
+        t, j = _demo_tests(seed, progress)
+        summary = _demo_summary(__version__, seed, t, j)
+        with output as out:
+            _write_demo(out, summary, t, j, pool)
+    finally:
+        if pool is not None:
+            pool.close()
+    return summary
+
+
+def _demo_summary(version: str, seed: int, t: _DemoTest, j: _DemoTest) -> Dict[str, Any]:
+    """The demo's summary.json before its files are listed."""
     summary: Dict[str, Any] = {
-        "tribodyn_version": __version__,
+        "tribodyn_version": version,
         "job": "demo: simulated temperature and current-density tests of the paper's rig (docs/method.md 8)",
         "seed": seed,
         "temperature_test": _demo_test_summary(t, "temperature"),
         "current_density_test": _demo_test_summary(j, "current_density"),
     }
-    with output as out:
-        _write_demo(out, summary, t, j)
     return summary
 
 
@@ -507,7 +520,8 @@ def _demo_test_summary(test: _DemoTest, by: str) -> Dict[str, Any]:
     }
 
 
-def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoTest) -> None:
+def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoTest,
+                pool: Optional[_DrawingPool] = None) -> None:  # fmt: skip
     """The demo's outputs: each test's tables, figures and report sections, summary.json and report.html."""
     from .report import verdict_lines, write_report
 
@@ -524,7 +538,7 @@ def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoT
         )
 
     named = [(f"temperature_{s}", c, f) for s, c, f in figs_t] + [(f"current_density_{s}", c, f) for s, c, f in figs_j]
-    pngs, (files, extras), _ = _save_figures(out, named, "", meanwhile)
+    pngs, (files, extras), _ = _save_figures(out, named, "", meanwhile, pool=pool)
     png_t, png_j = pngs[: len(figs_t)], pngs[len(figs_t) :]
     files += [name for name, _, _ in pngs]
     summary["files"] = files + ["summary.json", "report.html"]
@@ -724,14 +738,18 @@ def run_analysis(
     output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
     # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
     # another (both mostly outside the GIL or while the kernel runs without it).
+    # A long recording's figures are drawn by worker processes too, started now: they load Matplotlib meanwhile.
+    pool = _drawing_pool(_pool_pays(figures, files))
     digests = Digests(files)
     imports = _import_in_background(_OUTPUT_MODULES if _drawing_likely(figures, files) else _TABLE_MODULES)
     try:
         return _run_analysis(files, output, digests, imports, open_options=open_options,
                              analyze_options=analyze_options, progress=progress, client=client, split=split,
-                             meta=meta, steady_state=steady_state, figures=figures)  # fmt: skip
+                             meta=meta, steady_state=steady_state, figures=figures, pool=pool)  # fmt: skip
     finally:
         digests.cancel()
+        if pool is not None:
+            pool.close()
 
 
 def _run_analysis(
@@ -748,8 +766,9 @@ def _run_analysis(
     meta: Optional[Meta],
     steady_state: bool,
     figures: str,
+    pool: Optional[_DrawingPool] = None,
 ) -> Dict[str, Any]:
-    """:func:`run_analysis` once the output folder is checked and the digests started."""
+    """:func:`run_analysis` once the output folder is checked and the digests started (and the drawing pool)."""
     from .._version import version
 
     __version__ = version()
@@ -790,7 +809,8 @@ def _run_analysis(
             inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
                 f"{name}: {Path(f).name}" for name, f in cov_files.items()
             ]
-        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary, digests, figures)
+        job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary, digests, figures,
+                   pool=pool)  # fmt: skip
         with output as out:
             verdict: List[str] = []
             sections: List[Tuple[str, str]] = []
@@ -887,6 +907,7 @@ class _Job:
     digests: Digests  # the inputs' SHA-256, filled into ``inputs`` when written (fill_digests)
     figures: str = "auto"  # which PNG figures: FIGURES
     notes: List[str] = dataclasses.field(default_factory=list)  # what the report says of figures left out
+    pool: Optional[_DrawingPool] = None  # the drawing workers (_drawing_pool), or None: drawn in this process
 
 
 def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], label: str, rec: Any
@@ -923,7 +944,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
         return _write_set(out, prefix, res_now), res_now.summary()
 
     pngs, (written, res_summary), (view, head) = _save_figures(
-        out, figs, prefix, meanwhile, also=lambda: _interactive_view(res_now, p.name)
+        out, figs, prefix, meanwhile, also=lambda: _interactive_view(res_now, p.name), pool=job.pool
     )
     _BOKEH_HEAD.setdefault("js", head)
     extras = _report_extras(res_now, p.name, f"{prefix}windows.csv", view)
@@ -1024,11 +1045,7 @@ def _drawing_likely(figures: str, files: Sequence[str]) -> bool:
     export's report often draws no PNG, and its analysis is too short to hide the import)."""
     if figures != "auto":
         return figures == "all"
-    size = 0
-    for f in files:
-        with contextlib.suppress(OSError):
-            size += os.path.getsize(f)
-    return size >= _EARLY_MATPLOTLIB_BYTES
+    return _input_bytes(files) >= _EARLY_MATPLOTLIB_BYTES
 
 
 def _import_in_background(modules: Sequence[str] = _OUTPUT_MODULES) -> threading.Thread:
@@ -1045,6 +1062,248 @@ def _import_in_background(modules: Sequence[str] = _OUTPUT_MODULES) -> threading
     thread = threading.Thread(target=run, name="tribodyn-imports", daemon=True)
     thread.start()
     return thread
+
+
+#: The most drawing workers a job starts (:func:`_drawing_pool`).
+_MAX_DRAW_WORKERS = 4
+#: Seconds without any worker's answer after which the figures still out are drawn here and the pool is closed.
+_DRAW_TIMEOUT = 120.0
+
+# A drawing worker's first lines: bound to die with its parent (Linux: PR_SET_PDEATHSIG = 1, SIGKILL = 9) before it
+# imports anything heavy, gone at once when the parent already is; then figures.serve_drawing.
+_WORKER_CODE = """
+import os, sys
+parent = int(sys.argv[1])
+if sys.platform.startswith("linux"):
+    try:
+        import ctypes
+        ctypes.CDLL(None).prctl(ctypes.c_int(1), ctypes.c_ulong(9), ctypes.c_ulong(0), ctypes.c_ulong(0),
+                                ctypes.c_ulong(0))
+    except Exception:
+        pass
+if os.getppid() != parent:
+    os._exit(0)
+sys.path.insert(0, sys.argv[2])
+from tribodyn.app.figures import serve_drawing
+serve_drawing(parent)
+"""
+
+
+def _usable_cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _input_bytes(files: Sequence[str]) -> int:
+    size = 0
+    for f in files:
+        with contextlib.suppress(OSError):
+            size += os.path.getsize(f)
+    return size
+
+
+def _pool_pays(figures: str, files: Sequence[str]) -> bool:
+    """Whether drawing workers are started for ``tribodyn analyze``: PNG figures are drawn (``figures`` not
+    ``"none"``) of inputs of :data:`_EARLY_MATPLOTLIB_BYTES` or more, whose analysis hides the workers' start (a
+    small export draws few figures, if any, and is done before a worker has loaded Matplotlib)."""
+    return figures != "none" and _input_bytes(files) >= _EARLY_MATPLOTLIB_BYTES
+
+
+def _drawing_pool(pays: bool) -> Optional["_DrawingPool"]:
+    """A started :class:`_DrawingPool` when ``pays`` and a core is free for a worker, else None (also when starting
+    it fails: the figures are then drawn in this process).
+
+    Workers: ``TRIBODYN_DRAW_WORKERS`` when set (0: none), else two fewer than the usable cores (this process
+    draws too, beside its SHA-256 thread and its tables), at most :data:`_MAX_DRAW_WORKERS`: none on one or two
+    cores, nor while the machine's load average (1 minute) is at or above its core count. On cores already busy
+    a worker's start (about 1 s of CPU: Python, NumPy, Matplotlib) only adds to the work and the drawing is not
+    done sooner (measured on two vCPUs: benches/RESULTS.md).
+    """
+    if not pays:
+        return None
+    cores = _usable_cores()
+    asked = os.environ.get("TRIBODYN_DRAW_WORKERS", "").strip()
+    if asked:
+        workers = int(asked) if asked.isdigit() else 0
+    elif cores < 3 or _busy():
+        workers = 0
+    else:
+        workers = min(_MAX_DRAW_WORKERS, cores - 2)
+    if workers < 1:
+        return None
+    try:
+        return _DrawingPool(workers)
+    except Exception:  # noqa: BLE001 - drawn here instead
+        return None
+
+
+def _busy() -> bool:
+    """Whether the machine's 1-minute load average is at least its core count (no core free for a worker)."""
+    try:
+        return os.getloadavg()[0] >= (os.cpu_count() or 1)
+    except (AttributeError, OSError):
+        return False
+
+
+class _DrawingPool:
+    """Worker processes that draw pickled figures to PNG (issue 38 point 3; ``figures.Rendering`` uses it).
+
+    Each worker is a fresh interpreter (``subprocess``: spawned, never a fork of this threaded process) running
+    ``figures.serve_drawing``; started before the analysis, it imports Matplotlib and draws a small figure
+    meanwhile. It dies with this process (Linux: ``PR_SET_PDEATHSIG`` = SIGKILL, set before its imports, and a
+    check that the parent is still there; elsewhere it polls its parent). A thread here per worker feeds it one
+    figure at a time from the queue of the current :meth:`batch` once it said it is ready, so a worker still
+    starting holds no figure; ``Rendering.finish`` draws here whatever no worker took. Nothing is printed: a
+    worker's stderr goes to the null device, and whatever fails is drawn here.
+    """
+
+    def __init__(self, workers: int) -> None:
+        import queue
+        import subprocess
+        import sys
+
+        if not sys.executable:
+            raise RuntimeError("no Python executable to start a drawing worker with")
+        self._tasks: "queue.Queue[Any]" = queue.Queue()
+        self._closed = False
+        root = str(Path(__file__).resolve().parents[2])  # the folder holding this tribodyn package
+        env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+        self._procs: List[Any] = []
+        self._threads: List[threading.Thread] = []
+        try:
+            for _ in range(workers):
+                self._procs.append(subprocess.Popen(
+                    [sys.executable, "-c", _WORKER_CODE, str(os.getpid()), root], stdin=subprocess.PIPE,
+                    stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, close_fds=True))  # fmt: skip
+        except Exception:
+            self.close()
+            raise
+        self._threads = [threading.Thread(target=self._feed, args=(proc,), name="tribodyn-draw", daemon=True)
+                         for proc in self._procs]  # fmt: skip
+        for thread in self._threads:
+            thread.start()
+
+    def _feed(self, proc: Any) -> None:
+        """Gives ``proc`` one queued figure after another, each answer to its batch; ends with the worker."""
+        import pickle
+
+        try:
+            if pickle.load(proc.stdout)[0] != "ready":  # noqa: S301 - this process' own worker
+                return
+            while True:
+                task = self._tasks.get()
+                if task is None:
+                    return
+                batch, key, data = task
+                try:
+                    pickle.dump((key, data, batch.dpi, batch.rc), proc.stdin, protocol=pickle.HIGHEST_PROTOCOL)
+                    proc.stdin.flush()
+                    got, reply, _ = pickle.load(proc.stdout)  # noqa: S301 - this process' own worker
+                except BaseException:
+                    batch.done.put((key, None))
+                    raise
+                batch.done.put((key, reply if got == key else None))
+        except Exception:  # noqa: BLE001, S110 - the worker is gone: the others and this process draw the rest
+            pass
+
+    def working(self) -> bool:
+        """Whether a worker may still answer (its process and the thread that feeds it are there)."""
+        return not self._closed and any(t.is_alive() for t in self._threads)
+
+    def batch(self, payloads: Sequence[Optional[bytes]], dpi: int, rc: Mapping[str, Any]) -> Optional["_Batch"]:
+        """Queues the pickled figures (None: drawn here) for the workers; None when the pool is closed."""
+        if self._closed:
+            return None
+        batch = _Batch(self, len(payloads), [k for k, data in enumerate(payloads) if data is None], dpi, dict(rc))
+        for k, data in enumerate(payloads):
+            if data is not None:
+                self._tasks.put((batch, k, data))
+        return batch
+
+    def close(self) -> None:
+        """Ends every worker (idle ones hold nothing: killed) and its thread; later batches are drawn here."""
+        self._closed = True
+        while True:  # whatever is still queued: the batch's Rendering has drawn or will draw it here
+            try:
+                self._tasks.get_nowait()
+            except Exception:  # noqa: BLE001 - empty
+                break
+        for _ in self._procs:
+            self._tasks.put(None)
+        for proc in self._procs:
+            with contextlib.suppress(Exception):
+                proc.kill()
+            with contextlib.suppress(Exception):
+                proc.wait(timeout=5.0)
+            for fh in (proc.stdin, proc.stdout):
+                with contextlib.suppress(Exception):
+                    fh.close()
+
+    def __enter__(self) -> "_DrawingPool":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+class _Batch:
+    """One ``Rendering``'s figures in a :class:`_DrawingPool`: :meth:`steal` gives this process the figures no
+    worker has taken, then :meth:`replies` the workers' answers."""
+
+    def __init__(self, pool: _DrawingPool, n: int, here: List[int], dpi: int, rc: Dict[str, Any]) -> None:
+        import queue
+
+        self.pool, self.dpi, self.rc = pool, dpi, rc
+        self.done: "queue.Queue[Tuple[int, Any]]" = queue.Queue()
+        self._n = n
+        self._here = list(here)  # figures that did not pickle
+        self._stolen: List[int] = []
+
+    def steal(self) -> Optional[int]:
+        """The index of a figure of this batch no worker has taken (now this process'), or None."""
+        if self._here:
+            k = self._here.pop(0)
+            self._stolen.append(k)
+            return k
+        while True:
+            try:
+                task = self.pool._tasks.get_nowait()
+            except Exception:  # noqa: BLE001 - empty: every figure is taken
+                return None
+            if task is None or task[0] is not self:  # a closing pool's end mark (put back for its thread)
+                self.pool._tasks.put(task)
+                return None
+            self._stolen.append(task[1])
+            return int(task[1])
+
+    def replies(self) -> Iterator[Tuple[int, Any]]:
+        """(index, (PNG bytes, warnings) or None) of each figure not given by :meth:`steal`; None: to be drawn here
+        (it did not pickle, its worker failed, every worker is gone, or no worker answered for
+        :data:`_DRAW_TIMEOUT` s, which closes the pool)."""
+        import queue
+        import time
+
+        left = set(range(self._n)) - set(self._stolen)
+        for k in self._here:
+            left.discard(k)
+            yield k, None
+        last = time.monotonic()
+        while left:
+            try:
+                k, reply = self.done.get(timeout=0.25)
+            except queue.Empty:
+                if time.monotonic() - last < _DRAW_TIMEOUT and self.pool.working():
+                    continue
+                self.pool.close()
+                for k in sorted(left):
+                    yield k, None
+                return
+            last = time.monotonic()
+            if k in left:
+                left.discard(k)
+                yield k, reply
 
 
 def _replaced(res: Results, **changes: Any) -> Results:
