@@ -17,8 +17,9 @@ size and compares with 2^20 and with the truth where the simulator knows it:
   mapping of arrays is looked at whole, whatever the sample): static
   recordings with lift-off (at the ends, intermittent, 40 % unloaded, a 2 s
   start), dead weight, a load ramp, a lower load step, the tare modes,
-  reciprocating tests (2 Hz and 0.1 Hz, with and without a position
-  channel), dynamic recordings (``simulate.continuous``, the ``/tmp/perf``
+  reciprocating tests (2 Hz to 0.02 Hz, with fy alone, a position or a
+  velocity channel: the motion channel's reversals are counted across the
+  sample's pieces, docs/method.md 6c), dynamic recordings (``simulate.continuous``, the ``/tmp/perf``
   recordings), the temperature test (raw and high-passed), a running-in
   test and ``simulate.conditions(raw=True)``; 1 min to 3 h;
 * times (``--time``): the opening (``open_recording``, the friction axis
@@ -241,29 +242,6 @@ def data_files() -> List[Tuple[str, Path, Dict[str, Any], Dict[str, Any]]]:
                 okw = {"fs": 25600.0, "names": ["t", "fz", "fy"]}
             out.append((f"{sub}/{p.name}", p, okw, akw))
     return out
-
-
-def reversals_across_pieces() -> None:
-    """An experiment (``--reversals-across-pieces``), not the package's rule: the pre-pass counts a motion
-    channel's reversals with its hysteresis state carried from one piece of the sample to the next (the
-    pieces are in time order: a direction that differs between two pieces reversed in between), so that a
-    piece shorter than a reversal's hysteresis span still counts."""
-    from tribodyn.pipeline import prepass as P
-
-    def _reversals(sig: np.ndarray, runs: List[Tuple[int, int]]) -> int:
-        fin = np.abs(sig[np.isfinite(sig)])
-        if fin.size == 0:
-            return 0
-        thr = 0.3 * float(np.percentile(fin, 95))
-        decided = []
-        for a, b in runs:
-            seg = sig[a:b]
-            with np.errstate(invalid="ignore"):
-                raw = np.where(seg > thr, 1, np.where(seg < -thr, -1, 0))
-            decided.append(raw[raw != 0])
-        return int(np.count_nonzero(np.diff(np.concatenate(decided)))) if decided else 0
-
-    P._reversals = _reversals
 
 
 # -- one analysis ---------------------------------------------------------------------------
@@ -524,12 +502,9 @@ def main(argv: Optional[List[str]] = None) -> None:
     ap.add_argument("--write", action="store_true", help="write the section of benches/RESULTS.md")
     ap.add_argument("--from-json", type=Path, default=None, help="report (and --write) a saved --out, run nothing")
     ap.add_argument("--only", default="", help="only the cases whose name holds this text")
-    ap.add_argument("--reversals-across-pieces", action="store_true", help="the experiment of that name")
     args = ap.parse_args(argv)
     if args.from_json:
         return _report(json.loads(args.from_json.read_text()), args.write)
-    if args.reversals_across_pieces:
-        reversals_across_pieces()
     started = time.strftime("%Y-%m-%d %H:%M", time.gmtime())
     load0 = _load()
     results: List[Dict[str, Any]] = []

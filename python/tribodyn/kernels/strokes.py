@@ -41,50 +41,109 @@ def find_strokes(direction_signal: np.ndarray, *, boundaries: Sequence[Tuple[int
     ``kind`` "x" (position): the direction is the sign of its slope; "v" and
     "fy": the sign of the signal itself. A direction holds until the signal
     crosses 30 % of its p95 magnitude with the other sign (hysteresis), so
-    noise around zero does not cut strokes.
+    noise around zero does not cut strokes. Every acquisition is handled at
+    once (NumPy over their samples joined, the state never carried from one
+    to the next), so hundreds of them (the pre-pass sample's pieces) cost
+    no Python loop each.
     """
     sig = np.asarray(direction_signal, dtype=float)
     if kind == "x":
         sig = np.gradient(sig)
-    n = sig.size
-    ranges = list(boundaries) or [(0, n)]
-    out: List[Tuple[int, int, int]] = []
-    for a, b in ranges:
-        seg = sig[a:b]
-        if seg.size == 0:
-            continue
+    ranges = [(a, b) for a, b in (list(boundaries) or [(0, sig.size)]) if sig[a:b].size]
+    if not ranges:
+        return []
+    parts = [sig[a:b] for a, b in ranges]
+    sizes = np.array([q.size for q in parts])
+    whole = parts[0] if len(parts) == 1 else np.concatenate(parts)
+    stops = np.cumsum(sizes)
+    starts = stops - sizes
+    thr = np.repeat(0.3 * np.array(_segment_p95(parts)), sizes)
+    # The direction of the last crossing of +-thr within the acquisition (forward filled), its undecided
+    # start taking the first decided direction; an acquisition never decided is one stroke, forward.
+    raw = np.zeros(whole.size, dtype=np.int8)
+    with np.errstate(invalid="ignore"):
+        raw[whole > thr] = 1
+        raw[whole < -thr] = -1
+    idx = np.arange(whole.size)
+    first = np.searchsorted(np.flatnonzero(raw), starts)
+    decided_at = np.flatnonzero(raw)
+    has = first < decided_at.size
+    has[has] = decided_at[first[has]] < stops[has]
+    first_dir = np.zeros(len(parts), dtype=np.int8)
+    first_dir[has] = raw[decided_at[first[has]]]
+    own_start = np.repeat(starts, sizes)
+    last = np.where(raw != 0, idx, own_start - 1)  # below the acquisition's start: none decided yet
+    np.maximum.accumulate(last, out=last)
+    d = np.where(last >= own_start, raw[np.maximum(last, 0)], np.repeat(first_dir, sizes))
+    cuts = np.flatnonzero(d[1:] != d[:-1]) + 1
+    cuts = cuts[own_start[cuts] != cuts]  # a change from one acquisition to the next is no cut
+    moved = _moved_cuts(whole, d, cuts, own_start)
+    return _stroke_list(ranges, moved, d, starts=starts, stops=stops, has=has)
+
+
+def _moved_cuts(whole: np.ndarray, d: np.ndarray, cuts: np.ndarray, own_start: np.ndarray) -> np.ndarray:
+    """The hysteresis decides a change of direction late (at 30 % of p95): the stroke starts where the signal
+    took its new sign (the reversal), so that a stroke's central part is centred. A cut c moves back over the
+    run of samples of its new sign that ends at c - 1 (to r, the sample after the last one of another sign),
+    but not to or before the previous moved cut of its acquisition (nor to its first sample):
+    m_k = max(r_k, m_{k-1} + 1), m_{-1} = the acquisition's start, that is
+    m_k = k + max over i <= k of v_i, v_i = r_i - i (and start + 1 - i at an acquisition's first cut). The
+    running maximum is taken over every acquisition at once: an earlier acquisition's terms are below the
+    later one's start term (its cuts end before that start)."""
+    if not cuts.size:
+        return cuts
+    idx = np.arange(whole.size)
+    sign = np.sign(np.nan_to_num(whole, nan=0.0))
+    new = d[cuts]
+    other_pos = np.maximum.accumulate(np.where(sign != 1, idx, -1))
+    other_neg = np.maximum.accumulate(np.where(sign != -1, idx, -1))
+    r = np.where(new == 1, other_pos[cuts - 1], other_neg[cuts - 1]) + 1
+    k = np.arange(cuts.size)
+    v = r - k
+    opens = np.r_[True, own_start[cuts[1:]] != own_start[cuts[:-1]]]
+    v[opens] = np.maximum(v[opens], own_start[cuts[opens]] + 1 - k[opens])
+    out: np.ndarray = k + np.maximum.accumulate(v)
+    return out
+
+
+def _stroke_list(ranges: Sequence[Tuple[int, int]], moved: np.ndarray, d: np.ndarray, *, starts: np.ndarray,
+                 stops: np.ndarray, has: np.ndarray) -> List[Tuple[int, int, int]]:  # fmt: skip
+    """(start, stop, direction) in the recording's samples: each decided acquisition cut at the moved cuts
+    (strokes of 4 samples or more, the direction of their last sample), an undecided one whole, forward."""
+    points = np.sort(np.concatenate((starts[has], moved)))
+    seg = np.searchsorted(starts, points, side="right") - 1
+    ends = np.append(points[1:], 0)
+    last_of_seg = np.append(seg[1:] != seg[:-1], True)[: seg.size]
+    ends[last_of_seg] = stops[seg[last_of_seg]]
+    keep = ends - points >= 4
+    points, ends, seg = points[keep], ends[keep], seg[keep]
+    first = np.array([a for a, _ in ranges])
+    shift = first[seg] - starts[seg]
+    got = list(zip((points + shift).tolist(), (ends + shift).tolist(), d[ends - 1].tolist()))
+    if has.all():
+        return got
+    # the undecided acquisitions, in their place
+    where = np.r_[points, starts[~has]]
+    rows = got + [(ranges[g][0], ranges[g][1], 1) for g in np.flatnonzero(~has).tolist()]
+    return [rows[i] for i in np.argsort(where, kind="stable").tolist()]
+
+
+def _segment_p95(segments: Sequence[np.ndarray]) -> List[float]:
+    """``np.percentile(|finite values|, 95)`` of each segment (0.0 for one without a finite value), NumPy's
+    values bit for bit: the segments of one finite count are stacked and taken along an axis at once (the
+    same order statistics, the same interpolation), not one call each."""
+    out = [0.0] * len(segments)
+    groups: Dict[int, List[int]] = {}
+    finite: List[np.ndarray] = []
+    for i, seg in enumerate(segments):
         fin = seg[np.isfinite(seg)]
-        p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
-        thr = 0.3 * p95
-        # The direction of the last crossing of +-thr (0 before the first): a forward fill of the crossings.
-        raw = np.zeros(seg.size, dtype=np.int8)
-        with np.errstate(invalid="ignore"):
-            raw[seg > thr] = 1
-            raw[seg < -thr] = -1
-        last = np.where(raw != 0, np.arange(seg.size), 0)
-        np.maximum.accumulate(last, out=last)
-        d = raw[last]
-        # samples before the first decided direction take it
-        nz = np.flatnonzero(d)
-        if nz.size == 0:
-            out.append((a, b, 1))
-            continue
-        d[: nz[0]] = d[nz[0]]
-        cuts = np.flatnonzero(np.diff(d)) + 1
-        # The hysteresis decides a change of direction late (at 30 % of p95): the stroke starts where
-        # the signal took its new sign (the reversal), so that a stroke's central part is centred.
-        moved: List[int] = []
-        sign = np.sign(np.nan_to_num(seg, nan=0.0)).astype(np.int8).tolist()  # plain ints: a fast loop
-        dirs = d.tolist()
-        for c in cuts.tolist():
-            lo, j = (moved[-1] if moved else 0) + 1, c
-            while j > lo and sign[j - 1] == dirs[c]:
-                j -= 1
-            moved.append(j)
-        edges = [0, *moved, seg.size]
-        for s0, s1 in zip(edges[:-1], edges[1:]):
-            if s1 - s0 >= 4:
-                out.append((a + s0, a + s1, dirs[s1 - 1]))
+        finite.append(fin)
+        if fin.size:
+            groups.setdefault(fin.size, []).append(i)
+    for size, idx in groups.items():
+        stack = np.abs(np.stack([finite[i] for i in idx])) if len(idx) > 1 else np.abs(finite[idx[0]])[None, :]
+        for i, v in zip(idx, np.percentile(stack, 95, axis=1).tolist()):
+            out[i] = float(v)
     return out
 
 

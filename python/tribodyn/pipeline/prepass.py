@@ -41,6 +41,9 @@ RECIPROCATING_SNR = 5.0
 #: ... and at least this many reversals of the sliding direction (with the strokes' hysteresis, 30 % of p95):
 #: a disc that stops once, or a friction that changes sign once, is not a reciprocating test (issue 34 point 6).
 MIN_REVERSALS = 3
+#: A motion channel's direction must be held, on average, for at least this many decided samples (beyond 30 % of
+#: its p95) between two reversals: white noise holds its sign for about 2 (docs/method.md 6c).
+MIN_HELD_SAMPLES = 8
 
 
 def auto_window(fs: float, window: Optional[float], hop: Optional[float]) -> Tuple[float, float, str]:
@@ -546,19 +549,36 @@ def _motion_channel(source: Any, rec: Any) -> Optional[Tuple[str, np.ndarray, Li
 
 def _reversals(sig: np.ndarray, runs: List[Tuple[int, int]]) -> int:
     """Changes of direction of ``sig`` (a signed direction signal) with the strokes' hysteresis: the sign
-    holds until the signal crosses 30 % of its p95 magnitude with the other sign (``find_strokes``)."""
-    fin = np.abs(sig[np.isfinite(sig)])
+    holds until the signal crosses 30 % of its p95 magnitude with the other sign (``find_strokes``), counted
+    within each run."""
+    return _direction_changes(sig, runs)[1]
+
+
+def _direction_changes(sig: np.ndarray, runs: List[Tuple[int, int]]) -> Tuple[int, int, int]:
+    """(reversals, of which within a run, decided samples) of the direction signal ``sig`` whose contiguous
+    runs are ``runs`` (the pre-pass sample's pieces, in time order; docs/method.md 6c).
+
+    The direction is decided with the strokes' hysteresis (beyond 30 % of the p95 magnitude; it holds
+    through the dead band between). It is carried over the gap between two runs: when the first direction
+    decided in a run differs from the last one decided before it, the motion changed direction in the gap
+    (an odd number of times, so at least once): a reversal, whatever the gap's length (the count is a lower
+    bound; a stroke longer than a piece is counted). Decided samples are those beyond the threshold.
+    """
+    parts = [sig[a:b] for a, b in runs if b > a]
+    if not parts:
+        return 0, 0, 0
+    whole = parts[0] if len(parts) == 1 else np.concatenate(parts)
+    fin = np.abs(whole[np.isfinite(whole)])
     if fin.size == 0:
-        return 0
+        return 0, 0, 0
     thr = 0.3 * float(np.percentile(fin, 95))
-    count = 0
-    for a, b in runs:
-        seg = sig[a:b]
-        with np.errstate(invalid="ignore"):
-            raw = np.where(seg > thr, 1, np.where(seg < -thr, -1, 0))
-        decided = raw[raw != 0]
-        count += int(np.count_nonzero(np.diff(decided)))
-    return count
+    with np.errstate(invalid="ignore"):
+        raw = np.where(whole > thr, 1, np.where(whole < -thr, -1, 0))
+    at = np.flatnonzero(raw)
+    changed = np.diff(raw[at]) != 0
+    piece = np.searchsorted(np.cumsum([p.size for p in parts]), at, side="right")
+    within = changed & (piece[1:] == piece[:-1])
+    return int(np.count_nonzero(changed)), int(np.count_nonzero(within)), int(at.size)
 
 
 def _forces_sample(source: Any, rec: Any, tare_n: int) -> Optional[Dict[str, np.ndarray]]:
@@ -602,20 +622,31 @@ def _motion(fy: np.ndarray, static: bool, motion: str,
             scratch: Optional[List[np.ndarray]] = None) -> Dict[str, Any]:  # fmt: skip
     """The share of fy's sign flips, their signal-to-noise ratio and the motion: ``motion`` as given, or with
     "auto" from a velocity or position ``channel`` when there is one (both directions, each at least
-    SIGN_FLIP_SHARE of the samples, and MIN_REVERSALS reversals), else reciprocating when fz has a static level
-    and fy clearly takes both signs, MIN_REVERSALS times or more (docs/method.md 6c)."""
+    SIGN_FLIP_SHARE of the samples, and MIN_REVERSALS reversals, counted across the sample's pieces), unless its
+    direction is held for fewer than MIN_HELD_SAMPLES decided samples per reversal (noise: fy decides), else
+    reciprocating when fz has a static level and fy clearly takes both signs, MIN_REVERSALS times or more
+    (docs/method.md 6c)."""
     out: Dict[str, Any] = {}
     if channel is not None and motion == "auto":
         role, sig, runs = channel
         fin = sig[np.isfinite(sig)]
         p95 = float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0
         both = min(float(np.mean(fin > 0.3 * p95)), float(np.mean(fin < -0.3 * p95))) if p95 > 0 else 0.0
-        turns = _reversals(sig, runs)
-        recip = both >= SIGN_FLIP_SHARE and turns >= MIN_REVERSALS
+        turns, _, decided = _direction_changes(sig, runs)
+        held = decided / max(turns, 1)
         what = {"v": "the velocity channel v", "x": "the slope of the position channel x"}[role]
-        out.update(motion="reciprocating" if recip else "unidirectional", motion_detected=True, sign_flip_share=both,
-                   motion_evidence=f"{what}: {100 * both:.0f} % of the samples in its rarer direction, "
-                                   f"{turns} reversal{'' if turns == 1 else 's'}")  # fmt: skip
+        said = f"{what}: {100 * both:.0f} % of the samples in its rarer direction, {turns} reversal" + (
+            "" if turns == 1 else "s")  # fmt: skip
+        if held >= MIN_HELD_SAMPLES:
+            recip = both >= SIGN_FLIP_SHARE and turns >= MIN_REVERSALS
+            out.update(motion="reciprocating" if recip else "unidirectional", motion_detected=True,
+                       sign_flip_share=both, motion_evidence=said)  # fmt: skip
+            return out
+        # Its direction is not held: noise (a channel that does not move, or a position's slope under its
+        # noise) says nothing about the motion, and fy decides (docs/method.md 6c).
+        out = _motion(fy, static, motion, None, scratch=scratch)
+        out["motion_evidence"] = (f"{said}, each direction held {held:.2g} samples (noise: under "
+                                  f"{MIN_HELD_SAMPLES}, not used); " + out["motion_evidence"])  # fmt: skip
         return out
     p95 = _order.abs_percentile(fy, 95) if fy.size else 0.0
     share = 0.0
