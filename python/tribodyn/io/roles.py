@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import _core
 from ..kernels import _order
+from .sample import PREPASS_SAMPLES
 
 __all__ = [
     "FOLLOW_SHARE",
@@ -49,7 +50,7 @@ MIN_STROKES = 4
 #: next one's, or it is larger and its coefficient of variation at most the next one's / RATIO_MARGIN.
 RATIO_MARGIN = 1.5
 #: Samples the choice looks at: the pre-pass sample's pieces (docs/method.md 6a), each a quarter as long.
-ROLE_SAMPLES = 1 << 18
+ROLE_SAMPLES = PREPASS_SAMPLES // 4
 #: Two channels are one axis (CETR's Ff = |Fx|) when |a| = |b| (within 0.1 %) on this share of samples.
 SAME_AXIS_SHARE = 0.99
 

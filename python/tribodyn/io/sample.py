@@ -13,8 +13,9 @@ from .. import _core
 MIN_FN_FRACTION = 0.05
 
 
-#: Samples the pre-pass looks at (evenly spread over a random-access recording, else the first ones).
-PREPASS_SAMPLES = 1 << 20
+#: Samples the pre-pass looks at (evenly spread over a random-access recording, else the first ones): 256
+#: pieces of 256 samples. 2^16 since issue 38 point 2 (docs/method.md 6a "Why 2^16"; was 2^20).
+PREPASS_SAMPLES = 1 << 16
 
 
 def _sample_recording(rec: Any, roles: Sequence[str], tare_n: int) -> Optional[Dict[str, np.ndarray]]:
