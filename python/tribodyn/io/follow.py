@@ -220,10 +220,9 @@ class _TextTail:
         whole_end = self.end + len(whole)
         run = self._scan(rec, self.end)
         rows = int(run["rows"])
-        last = run.get("last")
-        if rows and last is not None and int(last[1]) >= whole_end:
-            rows -= 1  # the row after the last line end: still being written
         stop = int(run["end"])
+        if stop > whole_end:  # rows written after the tail was read, which the scan saw too: the next poll's
+            rows -= _data_lines(rec, _read_bytes(rec._text_path(), whole_end, stop - whole_end))
         if stop < whole_end and whole[stop - self.end :].strip():
             line = self.line + 1 + whole[: stop - self.end].count(b"\n")
             raise RecordingError(
@@ -243,6 +242,11 @@ class _TextTail:
         rec._segments = [*rec._segments[:-1], (a, n)]
         self.end, self.line = whole_end, self.line + whole.count(b"\n")
         rec._identity_at_open = rec._identity()
+
+
+def _data_lines(rec: Recording, data: bytes) -> int:
+    """The lines of ``data`` that are rows (neither blank nor comments), an unterminated last one included."""
+    return sum(1 for line in data.split(b"\n") if line.strip() and not _is_comment(rec, line.strip()))
 
 
 def _is_comment(rec: Recording, stripped: bytes) -> bool:

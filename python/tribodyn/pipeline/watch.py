@@ -301,6 +301,11 @@ class Watch:
                                reuse_lag=self._found if held else None, **self.options)  # fmt: skip
         if fresh:
             self._found, self._found_at = part, n
+            if self._acc is not None and self._acc.found.iv_lag_samples != part.found.iv_lag_samples:
+                # A snapshot's windows all rest on one instrument lag (their sums are taken at it): the recording
+                # so far is analysed again at the lag just found (only until the lag's windows were all held).
+                part = analyze_partial(rec, start=0, stop=stop, reuse=part, **self.options)
+                self._acc, self._ranges = None, 0
         self._acc = part if self._acc is None else _join(self._acc, part)
         self._ranges += 1
         self._done = upto
