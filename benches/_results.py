@@ -62,3 +62,14 @@ def write_section(title: str, body: str) -> None:
     else:
         text = text.rstrip("\n") + "\n\n" + block
     RESULTS.write_text(text.rstrip("\n") + "\n")
+
+
+def clopper_pearson(k: int, n: int) -> str:
+    """k/n with the 95 % Clopper-Pearson interval of the rate (the binomial margin; exact at 0 and n), "-" for n 0."""
+    from scipy import stats
+
+    if not n:
+        return "-"
+    lo = float(stats.beta.ppf(0.025, k, n - k + 1)) if k > 0 else 0.0
+    hi = float(stats.beta.ppf(0.975, k + 1, n - k)) if k < n else 1.0
+    return f"{k}/{n} ({lo:.2f}-{hi:.2f})"

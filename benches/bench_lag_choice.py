@@ -108,14 +108,10 @@ def one_recording(job: Tuple[int, float, Optional[Tuple[float, float]], bool, Op
 
 
 def _cp(k: int, n: int) -> str:
-    """k/n with the 95 % Clopper-Pearson interval of the rate."""
-    from scipy import stats
+    """k/n with the 95 % Clopper-Pearson interval of the rate (``_results.clopper_pearson``)."""
+    from _results import clopper_pearson  # benches/ is on the path of a script run from it
 
-    if not n:
-        return "-"
-    lo = float(stats.beta.ppf(0.025, k, n - k + 1)) if k > 0 else 0.0
-    hi = float(stats.beta.ppf(0.975, k + 1, n - k)) if k < n else 1.0
-    return f"{k}/{n} ({lo:.2f}-{hi:.2f})"
+    return clopper_pearson(k, n)
 
 
 def summarise(rows: List[Dict[str, Any]]) -> Dict[str, Any]:

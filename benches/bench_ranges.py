@@ -93,14 +93,10 @@ def _holds(ci: Optional[List[float]], v: float) -> bool:
 
 
 def _pct(k: int, n: int) -> str:
-    """k of n with the 95 % Clopper-Pearson interval of the rate (the binomial margin; exact at 0 and n)."""
-    from scipy import stats
+    """k of n with the 95 % Clopper-Pearson interval of the rate (``_results.clopper_pearson``)."""
+    from _results import clopper_pearson  # benches/ is on the path of a script run from it
 
-    if not n:
-        return "-"
-    lo = float(stats.beta.ppf(0.025, k, n - k + 1)) if k > 0 else 0.0
-    hi = float(stats.beta.ppf(0.975, k + 1, n - k)) if k < n else 1.0
-    return f"{k}/{n} ({lo:.2f}-{hi:.2f})"
+    return clopper_pearson(k, n)
 
 
 def table(rows: List[Dict[str, Any]]) -> str:

@@ -39,6 +39,34 @@ DRAWN_BY = {
     "energy_vs_cycle": "energy_vs_cycle",
 }
 
+#: The captions of a reciprocating test's stroke, loop and energy figures (the same in both reciprocating cases).
+_STROKE_FIGURES = [
+    (
+        "strokes_cof_vs_cycle",
+        (
+            "Reciprocating test: per-stroke classical COF (mean |fy|/|fz| over the central 0.5 of each "
+            "stroke) against cycle number, one marker per sliding direction (41 strokes); "
+            "docs/method.md 6c."
+        ),
+    ),
+    (
+        "friction_loops",
+        (
+            "Friction loops: the friction force against the position over the first, a middle and the "
+            "last whole cycle; the area inside a loop is the energy friction dissipates in that cycle "
+            "(docs/method.md 6c)."
+        ),
+    ),
+    (
+        "energy_vs_cycle",
+        (
+            "Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, "
+            "energy / (mean F_n x sliding distance), against cycle number (docs/method.md 6c)."
+        ),
+    ),
+]
+
+
 #: Recorded from the code before the registry (git 98966e4): case -> [(file name, caption)], in order.
 EXPECTED: Dict[str, List[Tuple[str, str]]] = {
     "temperature": [
@@ -278,29 +306,7 @@ EXPECTED: Dict[str, List[Tuple[str, str]]] = {
                 "interval); no temperature or current density was given."
             ),
         ),
-        (
-            "strokes_cof_vs_cycle",
-            (
-                "Reciprocating test: per-stroke classical COF (mean |fy|/|fz| over the central 0.5 of each "
-                "stroke) against cycle number, one marker per sliding direction (41 strokes); "
-                "docs/method.md 6c."
-            ),
-        ),
-        (
-            "friction_loops",
-            (
-                "Friction loops: the friction force against the position over the first, a middle and the "
-                "last whole cycle; the area inside a loop is the energy friction dissipates in that cycle "
-                "(docs/method.md 6c)."
-            ),
-        ),
-        (
-            "energy_vs_cycle",
-            (
-                "Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, "
-                "energy / (mean F_n x sliding distance), against cycle number (docs/method.md 6c)."
-            ),
-        ),
+        *_STROKE_FIGURES,
         (
             "fig02_forces_worst",
             (
@@ -388,29 +394,7 @@ EXPECTED: Dict[str, List[Tuple[str, str]]] = {
                 "was given."
             ),
         ),
-        (
-            "strokes_cof_vs_cycle",
-            (
-                "Reciprocating test: per-stroke classical COF (mean |fy|/|fz| over the central 0.5 of each "
-                "stroke) against cycle number, one marker per sliding direction (41 strokes); "
-                "docs/method.md 6c."
-            ),
-        ),
-        (
-            "friction_loops",
-            (
-                "Friction loops: the friction force against the position over the first, a middle and the "
-                "last whole cycle; the area inside a loop is the energy friction dissipates in that cycle "
-                "(docs/method.md 6c)."
-            ),
-        ),
-        (
-            "energy_vs_cycle",
-            (
-                "Energy dissipated per cycle (the friction loop's area, sum of F_y dx) and the energy COF, "
-                "energy / (mean F_n x sliding distance), against cycle number (docs/method.md 6c)."
-            ),
-        ),
+        *_STROKE_FIGURES,
     ],
     "plain": [
         (
