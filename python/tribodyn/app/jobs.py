@@ -1142,7 +1142,7 @@ def _drawing_pool(pays: bool) -> Optional["_DrawingPool"]:
 def _busy() -> bool:
     """Whether the machine's 1-minute load average is at least its core count (no core free for a worker)."""
     try:
-        return os.getloadavg()[0] >= (os.cpu_count() or 1)
+        return os.getloadavg()[0] >= _usable_cores()
     except (AttributeError, OSError):
         return False
 

@@ -333,18 +333,18 @@ class Watch:
         """The snapshot's bootstrap intervals from the last draw, moved and scaled (docs/method.md 11): mu_r's
         (drawn again when the windows grew by REDRAW_GROWTH or fell, or none was drawn) and, when a snapshot drew
         them and they still hold, the summary's other columns' (else they are drawn if and when they are read)."""
-        d, mu = self._drawn, _values(res, columns=False)
+        d, mu = self._drawn, _values(res)
         out: Dict[str, Any] = {}
         if d is None or not d.holds(mu):
             self._draw = True
         else:
             out["mu_r_ci"] = d.moved(res, mu)["mu_r_ci"]
         c = self._columns
-        values = _values(res, columns=True) if c is not None else {}
-        self._columns_moved = c is not None and c.holds({k: v for k, v in values.items() if k != "mu_r"})
+        columns = res.summary_columns() if c is not None else {}
+        self._columns_moved = c is not None and c.holds(columns)
         if self._columns_moved:
             assert c is not None
-            out["column_ci"] = c.moved(res, values)["column_ci"]
+            out["column_ci"] = c.moved(res, columns)["column_ci"]
         return out or None
 
     def _check_trips(self, snap: Results) -> None:
@@ -457,7 +457,7 @@ class _Drawn:
     @classmethod
     def of(cls, res: Results) -> "_Drawn":
         """mu_r's intervals (``Results.mu_r_ci``) as drawn for ``res``."""
-        v = _values(res, columns=False)["mu_r"]
+        v = _values(res)["mu_r"]
         return cls({"mu_r": _Column(int(v.size), _statistics(v), dict(res.mu_r_ci))}, _raise(res))
 
     @classmethod
@@ -468,7 +468,7 @@ class _Drawn:
         return cls({k: _Column(int(v.size), _statistics(v), dict(cis[k])) for k, v in values.items()}, 0.0)
 
     def holds(self, values: Dict[str, np.ndarray]) -> bool:
-        """Whether the same columns are summarised (``values``: :func:`_values` of the snapshot) and each one's
+        """Whether the same columns are summarised (``values``: the snapshot's, as drawn from) and each one's
         values number n_then to (1 + REDRAW_GROWTH) n_then (else the intervals are drawn again)."""
         if set(values) != set(self.columns):
             return False
@@ -476,18 +476,17 @@ class _Drawn:
                    for k, c in self.columns.items())  # fmt: skip
 
     def moved(self, res: Results, values: Dict[str, np.ndarray]) -> Dict[str, Any]:
-        """The intervals moved to ``values`` (:func:`_values` of ``res``): "mu_r_ci" when this draw is mu_r's,
-        "column_ci" when it is the other columns'."""
+        """The intervals moved to ``values`` (of ``res``: :func:`_values`, or ``Results.summary_columns``):
+        "mu_r_ci" when this draw is mu_r's, "column_ci" when it is the other columns'."""
         if "mu_r" in self.columns:
             return {"mu_r_ci": self.columns["mu_r"].moved(values["mu_r"], _raise(res), self.gap)}
         return {"column_ci": {k: c.moved(values[k]) for k, c in self.columns.items()}}
 
 
-def _values(res: Results, *, columns: bool) -> Dict[str, np.ndarray]:
-    """What the snapshot's bootstraps draw from: mu_r over the gated windows, and with ``columns``
-    ``Results.summary_columns``."""
+def _values(res: Results) -> Dict[str, np.ndarray]:
+    """What the headline's bootstrap draws from: mu_r over the gated windows with a finite value."""
     v = np.asarray(res["mu_r"], dtype=float)[np.asarray(res["ok"], dtype=bool)]
-    return {"mu_r": np.asarray(v[np.isfinite(v)]), **(res.summary_columns() if columns else {})}
+    return {"mu_r": np.asarray(v[np.isfinite(v)])}
 
 
 def _statistics(v: np.ndarray) -> Dict[str, float]:
