@@ -1,5 +1,5 @@
 """A stick-slip simulator whose truth is known (issue 35 point 1, docs/method.md 6g), for
-tests/test_stick_slip.py and tests/measure_stick_slip.py.
+tests/analyses/test_stick_slip.py and tests/measure_stick_slip.py.
 
 Unidirectional sliding under a dead weight; the friction force is mu Fn plus, with stick-slip, a saw-tooth
 whose stick rises linearly for a stick time (jittered by +-20 % per cycle) and whose slip falls by the

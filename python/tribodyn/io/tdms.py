@@ -12,7 +12,7 @@ it does not read (strings, timestamps or booleans as data, another scale
 type, DAQmx digital lines, a data type that changes) is detected before
 any sample is read and read by npTDMS as below, with the reason in the
 recording's ``warnings``. npTDMS is the oracle the native reader is tested
-against (tests/test_tdms_native.py).
+against (tests/io/test_tdms_native.py).
 
 Through npTDMS, in streaming mode:
 

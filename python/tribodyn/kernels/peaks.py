@@ -2,7 +2,7 @@
 
 The stick-slip search needs one function of ``scipy.signal``, whose import costs about two seconds per
 process on a small machine; :func:`find_peaks` is the same search in the Rust core
-(``rust/core/src/numerics/peaks.rs``), index for index (``tests/test_peaks.py`` compares the two).
+(``rust/core/src/numerics/peaks.rs``), index for index (``tests/kernels/test_peaks.py`` compares the two).
 """
 
 from __future__ import annotations

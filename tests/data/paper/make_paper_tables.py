@@ -1,7 +1,7 @@
 """Writes paper_tables.npz: the tables of tribodyn before issue 12 (commit b050354).
 
 ``analyze(..., method="paper")`` must reproduce these exactly
-(tests/test_statistics.py). Kept to document how the fixture was made; run
+(tests/kernels/test_statistics.py). Kept to document how the fixture was made; run
 with the build of commit b050354 to regenerate it.
 """
 

@@ -13,7 +13,7 @@
 //!
 //! It is here so that an analysis does not import `scipy.signal` (about two
 //! seconds per process on a small machine) for one function; the parity test
-//! is `tests/test_peaks.py`.
+//! is `tests/kernels/test_peaks.py`.
 
 /// Indices of the local maxima of `x` (plateau midpoints), ascending.
 pub fn local_maxima(x: &[f64]) -> Vec<usize> {

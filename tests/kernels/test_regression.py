@@ -41,9 +41,10 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy import stats
 from tribodyn.kernels import reference as ref
+from _paths import TESTS
 
 EPS = np.finfo(np.float64).eps
-NORRIS = Path(__file__).parent / "data" / "nist" / "Norris.dat"
+NORRIS = TESTS / "data" / "nist" / "Norris.dat"
 FIELDS = ("slope", "intercept", "r", "slope_stderr", "intercept_stderr", "resid_std")
 
 

@@ -50,6 +50,7 @@ import pytest
 from _mutants import mutate
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.writers import save_hdf5, save_tdms
+from _paths import TESTS
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
@@ -307,7 +308,7 @@ def test_tdms_data_of_a_malformed_object_path_is_refused(tmp_path):
 
 
 def test_tdms_daqmx_data_without_scaling_is_refused(tmp_path):
-    real = Path(__file__).parent / "data" / "real" / "nptdms_raw1_daqmx.tdms"
+    real = TESTS / "data" / "real" / "nptdms_raw1_daqmx.tdms"
     data = real.read_bytes()
     i = data.index(b"/'Layer Data'/'Fifth", 4096)  # the second segment, the one holding the samples
     p = tmp_path / "daq.tdms"
@@ -539,8 +540,15 @@ def _fuzz_worker(fmt: str, workdir: str) -> None:
 @pytest.mark.parametrize("fmt", ["tdms", "h5"])
 def test_seeded_fuzz(tmp_path, fmt):
     t0 = time.monotonic()
+    tests = str(TESTS)  # the child imports tests/_mutants.py
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [tests, os.environ.get("PYTHONPATH")]))}
     r = subprocess.run(
-        [sys.executable, __file__, fmt, str(tmp_path)], capture_output=True, text=True, timeout=180, cwd=tmp_path
+        [sys.executable, __file__, fmt, str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        cwd=tmp_path,
+        env=env,
     )
     lines = [json.loads(s) for s in r.stdout.splitlines() if s.startswith("{")]
     started = [x for x in lines if "start" in x]

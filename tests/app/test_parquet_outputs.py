@@ -12,8 +12,9 @@ import pyarrow.parquet as pq
 import pytest
 from tribodyn.app import cli
 from tribodyn.app.outputs import write_table_parquet
+from _paths import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 DATA = ROOT / "tests" / "data" / "real"
 
 if sys.version_info >= (3, 11):

@@ -17,10 +17,11 @@ from typing import Any, Callable, Dict
 import numpy as np
 import pytest
 from tribodyn.io import RecordingError, detect_format, open_recording
+from _paths import TESTS
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
-REAL = Path(__file__).parent / "data" / "real"
+REAL = TESTS / "data" / "real"
 N = 12
 T = [f"{k * 0.001:.3f}" for k in range(N)]
 FY = [f"{3.0 * np.sin(k):.6f}" for k in range(N)]

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 from tribodyn import simulate
 from tribodyn.app import cli
+from _paths import TESTS
 
-DATA = Path(__file__).parent / "data" / "real"
+DATA = TESTS / "data" / "real"
 
 
 def run(*args: str) -> int:

@@ -4,13 +4,13 @@ export (tests/data/formats) runs and prints the headline the page states (issue 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
 from tribodyn.app.cli import main
+from _paths import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 DATA = ROOT / "tests" / "data" / "formats"
 PAGE = ROOT / "docs" / "tribometer-exports.md"
 

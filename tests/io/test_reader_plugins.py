@@ -16,8 +16,9 @@ import numpy as np
 import pytest
 
 from tribodyn.io import RecordingError, detect_format, open_recording, plugins
+from _paths import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 PAGE = ROOT / "docs" / "architecture.md"
 
 

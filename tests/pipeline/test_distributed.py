@@ -13,6 +13,7 @@ import tribodyn as td
 from tribodyn import simulate
 from tribodyn.io.writers import save_recording
 from tribodyn.pipeline.distributed import RecordingFailure, analyze_many, expand_paths
+from _paths import TESTS
 
 OPTS = dict(window=2.0, hop=5.0)
 
@@ -33,7 +34,7 @@ def files(tmp_path_factory):
         _record(d / "long.h5", 400, 3),
     ]
     bad = d / "corrupt.tdms"
-    raw = os.path.join(os.path.dirname(__file__), "data", "real", "nptdms_raw1_daqmx.tdms")
+    raw = os.path.join(str(TESTS), "data", "real", "nptdms_raw1_daqmx.tdms")
     bad.write_bytes(open(raw, "rb").read()[:5000])
     return [str(p) for p in paths], str(bad)
 

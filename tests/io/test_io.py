@@ -20,10 +20,11 @@ import pytest
 import tribodyn.io
 from tribodyn.io import ChannelInfo, Recording, RecordingError, open_recording
 from tribodyn.io.writers import atomic_write, save_hdf5, save_npy, save_npz, save_tdms, sha256_file
+from _paths import TESTS
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
-REAL = Path(__file__).parent / "data" / "real"
+REAL = TESTS / "data" / "real"
 G0 = 9.80665e-3  # gram-force in N
 
 CETR1 = REAL / "cetr_umt2_HT-2n-6-4_2_001.csv"
@@ -745,12 +746,12 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path):
     assert sha256_file(target) == hashlib.sha256(b"new content").hexdigest()
 
 
-@pytest.mark.parametrize("name", sorted(p.name for p in (Path(__file__).parent / "data" / "real").iterdir()))
+@pytest.mark.parametrize("name", sorted(p.name for p in (TESTS / "data" / "real").iterdir()))
 def test_chunks_of_a_sample_range_equal_the_slice(name):
     """chunks(start=, stop=) reads only part of a recording (used to split long recordings)."""
     import tribodyn
 
-    path = Path(__file__).parent / "data" / "real" / name
+    path = TESTS / "data" / "real" / name
     kw = {"fs": 25600.0} if name.endswith(".npy") else {}
     with tribodyn.open_recording(path, **kw) as rec:
         full = rec.read()

@@ -14,6 +14,7 @@ from tribodyn.kernels.quantiles import t975
 from tribodyn.kernels.stats import batch_mean, ratio_mean
 from tribodyn.pipeline.prepass import detect_contact
 from tribodyn.results import HEADLINE_METHODS, Headline
+from _paths import TESTS
 
 pytestmark = pytest.mark.fast
 
@@ -239,9 +240,8 @@ def test_cli_report_and_summary_print_the_one_headline(tmp_path, capsys):
 
 
 def td_real(name: str) -> str:
-    from pathlib import Path
 
-    return str(Path(__file__).parent / "data" / "real" / name)
+    return str(TESTS / "data" / "real" / name)
 
 
 def test_many_recordings_have_one_headline_row_each(tmp_path):

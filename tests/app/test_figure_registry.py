@@ -7,7 +7,7 @@ classical headline of a speed sweep and of a real export, reciprocating tests wi
 friction loops (per-stroke and dynamic headline), a plain dynamic test; and the variants without
 ``cof_vs_time``, loops or examples. The figures are not drawn here: each entry's drawing is replaced by
 a stub that records which function of ``app/figures.py`` it calls (the PNGs were compared byte for byte
-when the registry came in, and ``tests/test_figures_report.py`` draws them).
+when the registry came in, and ``tests/app/test_figures_report.py`` draws them).
 """
 
 from __future__ import annotations

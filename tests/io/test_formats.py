@@ -1,7 +1,7 @@
 """MAT-files, spreadsheets and multi-step exports (issue 34, item 1): each reader against an independent
 reading of the same file (scipy.io, h5py, the sheet's XML, the text split by hand), the detection's
 messages naming what a file really holds, arrays of shape (N, 1) and (1, N) and ``--sheet``. The one
-command of docs/tribometer-exports.md for each file: tests/test_format_commands.py."""
+command of docs/tribometer-exports.md for each file: tests/app/test_format_commands.py."""
 
 from __future__ import annotations
 
@@ -20,10 +20,11 @@ import scipy.io
 
 from tribodyn.app import cli
 from tribodyn.io import RecordingError, detect_format, open_recording
+from _paths import TESTS
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
-DATA = Path(__file__).parent / "data" / "formats"
+DATA = TESTS / "data" / "formats"
 MAT5 = DATA / "matlab_v5_pin_on_disc.mat"
 MAT4 = DATA / "matlab_v4_block_on_ring.mat"
 MAT73 = DATA / "matlab_v73_struct.mat"

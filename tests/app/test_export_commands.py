@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from tribodyn.app.cli import main
 from tribodyn.io.writers import save_tdms
+from _paths import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 REAL = ROOT / "tests" / "data" / "real"
 PAGE = ROOT / "docs" / "tribometer-exports.md"
 

@@ -7,7 +7,6 @@ measured (docs/method.md 3f).
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +16,7 @@ from tribodyn.kernels import reference
 from tribodyn.results import DEPRECATED_COLUMNS
 from tribodyn.kernels.estimators import BLOCKS, PRODUCTS, Z975, gate_precision, line_frequencies, slopes
 from tribodyn.kernels import window_stats
+from _paths import TESTS
 
 MU = 0.1
 
@@ -297,7 +297,7 @@ def test_ripple_shows_in_h1_at_the_lamella_frequency():
 
 @pytest.mark.fast
 def test_method_paper_reproduces_the_tables_before_issue_12():
-    want = np.load(Path(__file__).parent / "data" / "paper" / "paper_tables.npz")
+    want = np.load(TESTS / "data" / "paper" / "paper_tables.npz")
     sim = simulate.current_density_test(seed=3)
     got = {"cd": tribodyn.analyze(dict(sim.channels), fs=sim.fs, window=2.0, hop=5.0, area_mm2=sim.area_mm2,
                                   method="paper")}  # fmt: skip

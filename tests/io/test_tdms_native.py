@@ -31,10 +31,11 @@ from tribodyn.io import RecordingError, open_recording
 from tribodyn.io import tdms as T
 from tribodyn.io.tdms import write_daqmx_tdms
 from tribodyn.io.writers import save_tdms
+from _paths import TESTS
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
-HERE = Path(__file__).resolve().parent
+HERE = TESTS
 REAL = sorted((HERE / "data" / "real").glob("*.tdms"))
 assert REAL, "tests/data/real holds the real DAQmx TDMS file"
 

@@ -8,6 +8,7 @@ import pytest
 import tribodyn as td
 from tribodyn import simulate
 from tribodyn.app import figures as F
+from _paths import TESTS
 
 
 def test_strokes_figure_markers_per_direction_and_instrument():
@@ -151,7 +152,7 @@ def test_analyze_many_split_reciprocating_ranges_give_the_one_pass_windows(tmp_p
     assert res.summary()["verdict"] == one.summary()["verdict"]
 
 
-REAL = __import__("pathlib").Path(__file__).resolve().parent / "data" / "real"
+REAL = TESTS / "data" / "real"
 
 
 def test_analyze_many_on_a_real_cetr_file_gives_the_verdict_of_analyze():

@@ -9,7 +9,6 @@ import json
 import re
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,8 +16,9 @@ import pytest
 import tribodyn as td
 from tribodyn.app import _interactive, jobs
 from tribodyn.app.cli import main
+from _paths import TESTS
 
-EXPORT = Path(__file__).parent / "data" / "real" / "pod_PPS_100N_1.tsv"  # a dead-weight export: classical headline
+EXPORT = TESTS / "data" / "real" / "pod_PPS_100N_1.tsv"  # a dead-weight export: classical headline
 
 
 def _view_data(html: str) -> dict:
@@ -59,7 +59,7 @@ def test_the_view_of_an_export_has_no_row_of_failed_windows(name, method):
     """The row "windows that failed the quality gate" is the dynamic gate's: a recording whose headline is the
     classical or per-stroke COF (the gate plays no part in it) gets none, even with windows that fail the gate;
     its windows without that COF are gaps, counted in the legend (issue 33 point 3)."""
-    res = td.analyze(str(Path(__file__).parent / "data" / "formats" / name))
+    res = td.analyze(str(TESTS / "data" / "formats" / name))
     assert res.headline.method == method and not np.asarray(res["ok"], dtype=bool).all()
     have = np.isfinite(np.asarray(res["mu_classical"], dtype=float))
     assert 0 < have.sum() < have.size

@@ -5,7 +5,6 @@ never bound to two roles."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,8 +13,9 @@ from tribodyn import simulate
 from tribodyn.app.cli import main
 from tribodyn.io import RecordingError
 from tribodyn.io import roles as R
+from _paths import TESTS
 
-DATA = Path(__file__).resolve().parent / "data" / "real"
+DATA = TESTS / "data" / "real"
 CETR_COLUMNS = ["Fx", "Fy", "Fz", "Z", "Y", "X", "V1", "V2", "V3", "T", "Ff", "COF"]
 CETR_UNITS = ["g", "g", "g", "mm", "mm", "mm", "mm/sec", "mm/sec", "mm/sec", "sec", "g", ""]
 

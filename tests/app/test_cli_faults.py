@@ -24,8 +24,9 @@ import numpy as np
 import pytest
 from tribodyn.app import cli, outputs
 from tribodyn.io.writers import save_npz
+from _paths import TESTS
 
-DATA = Path(__file__).parent / "data" / "real"
+DATA = TESTS / "data" / "real"
 CETR = DATA / "cetr_umt2_HT-2n-6-4_2_001.csv"
 WINDOWS = ["--window", "1", "--hop", "1"]
 ROLES_TEXT = "fx, fy, fz, i, u, cof, x, v"

@@ -18,16 +18,16 @@ every column is also allowed an absolute 1e-12 of its largest value.
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
 import tribodyn as td
 from tribodyn.kernels import reference
+from _paths import REPO
 
 pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
-BENCH = Path(__file__).resolve().parents[1] / "benches" / "bench_pipeline.py"
+BENCH = REPO / "benches" / "bench_pipeline.py"
 
 
 def _bench():

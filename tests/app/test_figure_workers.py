@@ -20,8 +20,9 @@ from matplotlib.ticker import FuncFormatter
 from tribodyn.analyses.ranges import operating_range
 from tribodyn.app import figures as F
 from tribodyn.app import jobs
+from _paths import REPO
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO
 POD = ROOT / "tests/data/real/pod_PPS_100N_1.tsv"
 
 
