@@ -278,8 +278,9 @@ def _save_figures(
 ) -> Tuple[List[Tuple[str, str, bytes]], Any, Any]:
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
     triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); what ``meanwhile()``
-    returns and what ``also()`` returns, both called before this process draws (``figures.Rendering``: with
-    ``pool``, its workers draw meanwhile)."""
+    returns and what ``also()`` returns (``figures.Rendering.finish_beside``: ``also()`` first, then
+    ``meanwhile()`` in a second thread while this one draws, that thread encoding the PNGs too; with ``pool``,
+    ``meanwhile()`` here while its workers draw)."""
     from ..io.writers import atomic_write
 
     if not figs:  # no PNG (--figures none): Matplotlib is not imported
@@ -287,10 +288,10 @@ def _save_figures(
     from .figures import Rendering
 
     render = Rendering([f for _, _, f in figs], also=also, pool=pool)
-    done = meanwhile() if meanwhile is not None else None
     extra = render.also_result()
+    pngs, done = render.finish_beside(meanwhile)
     saved = []
-    for (stem, caption, _), data in zip(figs, render.finish()):
+    for (stem, caption, _), data in zip(figs, pngs):
         name = f"figures/{prefix}{stem}.png"
         atomic_write(out.path(name), _bytes_writer(data))
         saved.append((name, caption, data))
