@@ -32,7 +32,7 @@ from __future__ import annotations
 import io
 import os
 import warnings
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -1380,7 +1380,7 @@ def rgba_pixels(fig: Figure, *, dpi: int = DPI) -> np.ndarray:
     """``fig`` drawn once by Agg as :func:`png_bytes` draws it, its pixels (height, width, 4) not yet encoded
     (:func:`encode_png` makes them the same PNG bytes)."""
     grab = _Pixels()
-    fig.savefig(grab, format="rgba", dpi=dpi)
+    fig.savefig(cast(Any, grab), format="rgba", dpi=dpi)  # (a file object: io.RawIOBase)
     if grab.pixels is None or grab.pixels.ndim != 3 or grab.pixels.shape[2] != 4:  # (Matplotlib's print_raw)
         raise RuntimeError("Matplotlib did not hand over the figure's pixels")
     return grab.pixels
@@ -1393,7 +1393,8 @@ def encode_png(pixels: np.ndarray, *, dpi: int = DPI) -> bytes:
     from matplotlib import image
 
     buf = io.BytesIO()
-    image.imsave(buf, pixels, format="png", origin="upper", dpi=dpi, metadata={"Software": None})
+    no_software: Any = {"Software": None}  # (Matplotlib: None leaves the key out)
+    image.imsave(buf, pixels, format="png", origin="upper", dpi=dpi, metadata=no_software)
     return buf.getvalue()
 
 
