@@ -1440,7 +1440,8 @@ class Rendering:
     """PNG bytes of figures, each drawn once (docs/architecture.md).
 
     Without ``pool`` every figure is drawn in this process when :meth:`finish` is called, after whatever the
-    caller does meanwhile. With ``pool`` (``jobs._DrawingPool``: fresh worker interpreters, never a fork of this
+    caller does meanwhile, or by :meth:`finish_beside` while a second thread does the caller's other work and
+    encodes the PNGs. With ``pool`` (``jobs._DrawingPool``: fresh worker interpreters, never a fork of this
     process, issue 38 point 3) each figure is pickled now, before any drawing, and queued: the workers draw them
     while the caller does its other work, and :meth:`finish` draws here every figure no worker has taken yet,
     then collects the workers' PNG bytes (the same bytes: :func:`draw_pickled`); a figure that does not pickle, a

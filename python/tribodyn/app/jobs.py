@@ -532,7 +532,7 @@ def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoT
     figs_t = _figures(res_t, opr_t=t.opr, opr_j=None, examples=ex_t)
     figs_j = _figures(res_j, opr_t=None, opr_j=j.opr, examples=ex_j)
 
-    def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # the tables and the views, before the figures
+    def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # the tables and the views, beside the figures
         tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
         return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
             res_j, "current-density test", "current_density_windows.csv"
@@ -941,7 +941,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
                     steady_state=steady) if drawn else []  # fmt: skip
     res_now = res
 
-    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, before the figures
+    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, beside the figures
         return _write_set(out, prefix, res_now), res_now.summary()
 
     pngs, (written, res_summary), (view, head) = _save_figures(
