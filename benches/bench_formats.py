@@ -17,10 +17,23 @@ the npTDMS route's table on the short recording). Both lengths (``--hours``,
 default 1 and 10) run in the same invocation, so the ratios to ``.npy``
 and 10 h / 1 h come from one run. Files are warm (just written).
 
+With ``--threads 1 2 4 8 16`` (issue 38 point 1) it times instead the
+formats issue 38 names (``.npy``, HDF5 chunked and contiguous, TDMS 1 s and
+10 s segments; ``--formats``) of one length (default 10 h) at each thread
+count, each case x thread count in a fresh process with ``TRIBODYN_THREADS``
+(and the BLAS threads) set to the count, one warm-up then ``--repeat`` timed
+runs (median), ``--rounds`` rounds interleaved (median over the rounds),
+wall and CPU time; beside them h5py's plain read of the same HDF5 datasets,
+``np.load`` alone and the memory yardstick ``fy @ fz``. The ratio to
+``.npy`` is per thread count; every table is checked bitwise against the
+``.npy``'s at the first count. It prints a markdown section (``--markdown
+FILE`` writes it) and leaves RESULTS.md alone.
+
 Usage::
 
     python benches/bench_formats.py                 # 1 h and 10 h, writes a section of benches/RESULTS.md
     python benches/bench_formats.py --hours 0.1     # smoke run, prints only
+    python benches/bench_formats.py --threads 1 2 4 8 16 --hours 10 --markdown /tmp/formats.md
 """
 
 from __future__ import annotations
@@ -37,7 +50,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Sequence
 
 import numpy as np
 
@@ -61,17 +74,18 @@ TARGET = {"tdms_1s": 3.0, "tdms_10s": 2.0, "tdms_one": 2.0, "tdms_daqmx": 3.0, "
 DAQ_LSB = {"fx": 1e-3, "fy": 1e-3, "fz": 2e-3, "i": 2e-4}
 
 
-def write_all(directory: Path, hours: float) -> Dict[str, Path]:
-    """Writes the recording of ``hours`` in every format; returns the paths."""
+def write_all(directory: Path, hours: float, formats: Sequence[str] = FORMATS) -> Dict[str, Path]:
+    """Writes the recording of ``hours`` in ``formats`` (always the ``.npy``); returns the paths."""
     import h5py
     from tribodyn import simulate
-    from tribodyn.io.tdms import write_daqmx_tdms
     from tribodyn.io.writers import save_tdms
 
     n = int(round(hours * 3600 * FS))
     tag = f"{hours:g}h"
     p: Dict[str, Path] = {
-        f: directory / f"{tag}_{f}.{'npy' if f == 'npy' else 'tdms' if 'tdms' in f else 'h5'}" for f in FORMATS
+        f: directory / f"{tag}_{f}.{'npy' if f == 'npy' else 'tdms' if 'tdms' in f else 'h5'}"
+        for f in FORMATS
+        if f == "npy" or f in formats
     }
     arr = np.lib.format.open_memmap(p["npy"], mode="w+", dtype=np.float64, shape=(len(ROLES), n))
     pos = 0
@@ -85,18 +99,13 @@ def write_all(directory: Path, hours: float) -> Dict[str, Path]:
     ch = {r: arr[j] for j, r in enumerate(ROLES)}
     units = {"fx": "N", "fy": "N", "fz": "N", "i": "A"}
     for f, seg in (("tdms_1s", 1000), ("tdms_10s", 10_000), ("tdms_one", n)):
-        save_tdms(p[f], ch, FS, units, segment_samples=seg)
-    raw = {r: np.clip(np.round(np.asarray(ch[r]) / DAQ_LSB[r]), -32768, 32767).astype(np.int16) for r in ROLES}
-    write_daqmx_tdms(
-        str(p["tdms_daqmx"]),
-        raw,
-        FS,
-        {r: [("Linear", (DAQ_LSB[r], 0.0))] for r in ROLES},
-        segment_samples=1000,
-        units=units,
-    )
-    del raw
+        if f in p:
+            save_tdms(p[f], ch, FS, units, segment_samples=seg)
+    if "tdms_daqmx" in p:
+        _write_daqmx(p["tdms_daqmx"], ch, units)
     for f, chunks in (("h5_contig", None), ("h5_chunked", (min(n, 65536),))):
+        if f not in p:
+            continue
         with h5py.File(p[f], "w") as h:
             h.attrs["fs"] = FS
             for r in ROLES:
@@ -106,6 +115,21 @@ def write_all(directory: Path, hours: float) -> Dict[str, Path]:
                 d.attrs["unit"] = units[r]
     del arr, ch
     return p
+
+
+def _write_daqmx(path: Path, ch: Dict[str, Any], units: Dict[str, str]) -> None:
+    from tribodyn.io.tdms import write_daqmx_tdms
+
+    raw = {r: np.clip(np.round(np.asarray(ch[r]) / DAQ_LSB[r]), -32768, 32767).astype(np.int16) for r in ROLES}
+    write_daqmx_tdms(
+        str(path),
+        raw,
+        FS,
+        {r: [("Linear", (DAQ_LSB[r], 0.0))] for r in ROLES},
+        segment_samples=1000,
+        units=units,
+    )
+    del raw
 
 
 _CHILD = r"""
@@ -141,6 +165,208 @@ hwm = [int(l.split()[1]) for l in open("/proc/self/status") if l.startswith("VmH
 rss = hwm[0] / 1024 if hwm else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 print(json.dumps({"times": times, "route": res.params["route"], "threads": res.params.get("threads"), "rss_mb": rss}))
 """
+
+
+_CHILD_THREADS = r"""
+import json, os, sys, time
+path, kind, repeat, table_out = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4]
+import numpy as np
+ROLES = ("fx", "fy", "fz", "i")
+route = threads = None
+if kind == "analyze":
+    import tribodyn as td
+    from tribodyn.io import open_recording
+    kw = {"fs": 1000.0, "names": list(ROLES)} if path.endswith(".npy") else {}
+    def once():
+        with open_recording(path, **kw) as rec:
+            return td.analyze(rec, window=2.0, hop=2.0, method="paper", motion="unidirectional")
+elif kind == "h5py":  # h5py's plain read of the same datasets into memory
+    import h5py
+    def once():
+        with h5py.File(path, "r") as h:
+            return [h[r][:] for r in ROLES]
+elif kind == "npload":
+    def once():
+        return np.load(path)
+elif kind == "yardstick":  # the memory yardstick: fy @ fz on loaded arrays
+    a = np.load(path)
+    fy, fz = a[1], a[2]
+    def once():
+        return fy @ fz
+else:
+    raise SystemExit("unknown kind " + kind)
+def timed():
+    c0, t0 = time.process_time(), time.perf_counter()
+    out = once()
+    return time.perf_counter() - t0, time.process_time() - c0, out
+res = timed()[2]  # warm-up
+runs = [timed()[:2] for _ in range(repeat)]
+if kind == "analyze":
+    route, threads = res.params["route"], res.params.get("threads")
+    if table_out != "-":
+        tab = {k: np.asarray(v) for k, v in res.table.items()}
+        np.savez(table_out, **{k: v for k, v in tab.items() if v.dtype.kind in "fiub"})
+hwm = [int(l.split()[1]) for l in open("/proc/self/status") if l.startswith("VmHWM:")]
+print(json.dumps({"times": [w for w, _ in runs], "cpu": [c for _, c in runs], "route": route,
+                  "threads": threads, "rss_mb": hwm[0] / 1024 if hwm else float("nan")}))
+"""
+#: Formats timed per thread count (``--threads``): the ones issue 38 point 1 names.
+THREAD_FORMATS = ("npy", "h5_chunked", "h5_contig", "tdms_1s", "tdms_10s")
+THREAD_SECTION = "## Formats at 1 to 16 threads (issue 38 point 1)"
+EXTRA_LABELS = {
+    "h5py": "h5py's plain read of the 4 datasets ({f})",
+    "npload": "`np.load` of the `.npy` alone",
+    "yardstick": "yardstick `fy @ fz` on loaded arrays",
+}
+
+
+def measure_threads(path: Path, kind: str, threads: int, repeat: int, table_out: str = "-") -> Dict[str, Any]:
+    """One case in a fresh process limited to ``threads`` (tribodyn's kernels and BLAS): wall and CPU medians."""
+    env = dict(os.environ)
+    for k in ("TRIBODYN_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env[k] = str(threads)
+    r = subprocess.run(
+        [sys.executable, "-c", _CHILD_THREADS, str(path), kind, str(repeat), table_out],
+        capture_output=True,
+        text=True,
+        check=False,
+        env=env,
+    )
+    if r.returncode != 0:
+        raise RuntimeError(f"{path.name} {kind} at {threads} threads: {r.stderr[-3000:]}")
+    out: Dict[str, Any] = json.loads(r.stdout.strip().splitlines()[-1])
+    out["median"] = statistics.median(out["times"])
+    out["cpu_median"] = statistics.median(out["cpu"])
+    return out
+
+
+def thread_cases(formats: Sequence[str]) -> List[tuple]:
+    """(key, format, kind) of every case timed per thread count."""
+    cases = [(f, f, "analyze") for f in formats]
+    cases += [(f"h5py:{f}", f, "h5py") for f in formats if f.startswith("h5")]
+    cases += [("npload", "npy", "npload"), ("yardstick", "npy", "yardstick")]
+    return cases
+
+
+def run_threads(args: argparse.Namespace) -> str:
+    """``--threads``: every case x thread count in a fresh process, rounds interleaved; returns the markdown."""
+    formats = list(dict.fromkeys(["npy", *args.formats]))
+    hours = args.hours[0]
+    threads = args.threads
+    cases = thread_cases(formats)
+    work = Path(tempfile.mkdtemp(prefix="tribodyn-formats-threads-", dir=args.dir))
+    load0 = os.getloadavg()
+    t_start = time.perf_counter()
+    runs: Dict[tuple, List[Dict[str, Any]]] = {}
+    same: Dict[tuple, bool] = {}
+    try:
+        t0 = time.perf_counter()
+        paths = write_all(work, hours, formats)
+        sizes = {f: paths[f].stat().st_size / 2**20 for f in formats}
+        print(f"{hours:g} h written in {time.perf_counter() - t0:.0f} s ({', '.join(formats)})", flush=True)
+        for rnd in range(args.rounds):
+            for t in threads:
+                for key, f, kind in cases:
+                    table = str(work / f"table_{f}_{t}.npz") if rnd == 0 and kind == "analyze" else "-"
+                    m = measure_threads(paths[f], kind, t, args.repeat, table)
+                    runs.setdefault((key, t), []).append(m)
+                    print(
+                        f"round {rnd + 1} threads {t:2d} {key:16s} {m['median'] * 1e3:8.1f} ms wall "
+                        f"{m['cpu_median'] * 1e3:8.1f} ms CPU" + (f"  route {m['route']}" if m["route"] else ""),
+                        flush=True,
+                    )
+        for f in formats:
+            ref = "tdms_daqmx" if f == "tdms_daqmx" else "npy"
+            for t in threads:
+                same[(f, t)] = same_tables(
+                    str(work / f"table_{f}_{t}.npz"), str(work / f"table_{ref}_{threads[0]}.npz")
+                )
+    finally:
+        if not args.keep:
+            shutil.rmtree(work, ignore_errors=True)
+    info = {
+        "hours": hours,
+        "threads": threads,
+        "rounds": args.rounds,
+        "repeat": args.repeat,
+        "load": (load0, os.getloadavg()),
+        "elapsed": time.perf_counter() - t_start,
+        "sizes": sizes,
+    }
+    return render_threads(formats, cases, runs, same, info)
+
+
+def _fmt_s(x: float) -> str:
+    return f"{x * 1e3:.1f} ms" if x < 0.1 else f"{x * 1e3:.0f} ms" if x < 10 else f"{x:.1f} s"
+
+
+def render_threads(
+    formats: Sequence[str],
+    cases: Sequence[tuple],
+    runs: Dict[tuple, List[Dict[str, Any]]],
+    same: Dict[tuple, bool],
+    info: Dict[str, Any],
+) -> str:
+    threads = info["threads"]
+    med = statistics.median
+    wall = {k: med(m["median"] for m in v) for k, v in runs.items()}
+    cpu = {k: med(m["cpu_median"] for m in v) for k, v in runs.items()}
+    (l0, l1) = info["load"]
+    ncpu = os.cpu_count() or 1
+    over = [t for t in threads if t > ncpu]
+    hdr = "| case | " + " | ".join(f"{t} thread{'s' if t > 1 else ''}" for t in threads) + " |"
+    sep = "|---|" + "---|" * len(threads)
+    lines = [
+        THREAD_SECTION,
+        "",
+        f"Machine: {machine()}; load average {l0[0]:.1f} / {l0[1]:.1f} before, {l1[0]:.1f} / {l1[1]:.1f} after "
+        f"(1 / 5 min). `python benches/bench_formats.py --threads {' '.join(map(str, threads))} --hours "
+        f"{info['hours']:g}` ({time.strftime('%Y-%m-%d %H:%M')}, {info['elapsed']:.0f} s in all): "
+        f'`open_recording` + `analyze(window=2, hop=2, method="paper", motion="unidirectional")` of a '
+        f"{info['hours']:g} h, 1 kHz, 4-channel recording, warm files; each case x thread count a fresh process "
+        f"(TRIBODYN_THREADS and the BLAS threads set to the count; one warm-up, then the median of "
+        f"{info['repeat']}), {info['rounds']} rounds interleaved, median over the rounds."
+        + (f" Thread counts above the {ncpu} cores ({', '.join(map(str, over))}) oversubscribe them." if over else ""),
+        "",
+        "Wall time, and in brackets the ratio to `.npy` at the same thread count (HDF5 and TDMS: target <= 1.5x; "
+        "h5py rows: tribodyn's HDF5 analysis over h5py's plain read of the same file, target < 1):",
+        "",
+        hdr,
+        sep,
+    ]
+    for key, f, kind in cases:
+        if kind == "analyze":
+            label = f"{LABELS[f]} ({info['sizes'][f]:.0f} MB)"
+        else:
+            label = EXTRA_LABELS[kind].format(f=LABELS.get(f, f))
+        cells = []
+        for t in threads:
+            w = wall[(key, t)]
+            if kind == "analyze" and f != "npy":
+                r = w / wall[("npy", t)]
+                mark = "" if f == "tdms_daqmx" else (" ok" if r <= 1.5 else " **>1.5**")
+                cells.append(f"{_fmt_s(w)} ({r:.2f}x{mark})")
+            elif kind == "h5py":
+                r = wall[(f, t)] / w
+                cells.append(f"{_fmt_s(w)} (analysis {r:.2f}x{' ok' if r < 1 else ' **>=1**'})")
+            else:
+                cells.append(_fmt_s(w))
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    lines += ["", "CPU time of the same runs (all threads of the process; medians):", "", hdr, sep]
+    for key, f, kind in cases:
+        label = LABELS[f] if kind == "analyze" else EXTRA_LABELS[kind].format(f=LABELS.get(f, f))
+        lines.append(f"| {label} | " + " | ".join(_fmt_s(cpu[(key, t)]) for t in threads) + " |")
+    routes = sorted({f"{f}: {runs[(f, t)][0]['route']}" for f in formats for t in threads})
+    bad = [f"{f} at {t}" for (f, t), ok in same.items() if not ok]
+    got = {runs[(f, t)][0]["threads"] for f in formats for t in threads}
+    lines += [
+        "",
+        f"Routes: {', '.join(routes)}. Threads reported by the analyses: {sorted(got, key=str)}. "
+        "Tables bitwise equal to the `.npy`'s at "
+        f"{threads[0]} thread{'s' if threads[0] > 1 else ''} (DAQmx: to its own): "
+        + ("yes, every format and thread count." if not bad else f"**no**: {', '.join(bad)}."),
+    ]
+    return "\n".join(lines) + "\n"
 
 
 def measure(path: Path, repeat: int, native: bool = True, table_out: str = "-", cold: bool = False) -> Dict[str, Any]:
@@ -185,11 +411,36 @@ def machine() -> str:
 
 def main(argv: List[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--hours", type=float, nargs="+", default=[1.0, 10.0])
-    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--hours", type=float, nargs="+", default=None, help="default 1 10 (--threads: 10)")
+    ap.add_argument("--repeat", type=int, default=None, help="timed runs per process (default 5; --threads: 2)")
     ap.add_argument("--keep", action="store_true")
     ap.add_argument("--dir", type=Path, default=None)
+    ap.add_argument(
+        "--threads",
+        type=int,
+        nargs="+",
+        default=None,
+        help="time every case at these thread counts (e.g. 1 2 4 8 16), each in a fresh process, rounds "
+        "interleaved; prints the table (and writes --markdown) instead of the default run",
+    )
+    ap.add_argument("--formats", nargs="+", choices=FORMATS, default=list(THREAD_FORMATS), help="with --threads")
+    ap.add_argument("--rounds", type=int, default=3, help="with --threads: interleaved rounds")
+    ap.add_argument("--markdown", type=Path, default=None, help="with --threads: write the section to this file")
     args = ap.parse_args(argv)
+    if args.threads:
+        if any(t < 1 for t in args.threads):
+            ap.error("--threads: counts must be >= 1")
+        args.hours = args.hours or [10.0]
+        if len(args.hours) != 1:
+            ap.error("--threads takes one --hours")
+        args.repeat = args.repeat or 2
+        text = run_threads(args)
+        print(text)
+        if args.markdown:
+            args.markdown.write_text(text)
+        return 0
+    args.hours = args.hours or [1.0, 10.0]
+    args.repeat = args.repeat or 5
     full = sorted(args.hours) == [1.0, 10.0]
     work = Path(tempfile.mkdtemp(prefix="tribodyn-formats-", dir=args.dir))
     res: Dict[float, Dict[str, Any]] = {}
