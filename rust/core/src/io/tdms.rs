@@ -386,8 +386,11 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
     let mut window = Window::default();
     // Small segments (a logger's): lead-ins and metadata read through one
     // sequential window, not two small reads each (a cold file is then read
-    // at disk speed, not seek by seek).
+    // at disk speed, not seek by seek). Segments of a few KiB or more: only
+    // their heads are read, the kernel told to read the file ahead (a warm
+    // file's data are then not copied at all, a cold one still streams).
     let mut small = false;
+    let mut peek = false;
     while pos < size {
         let number = count + 1;
         let where_ = format!("segment {number} at byte {pos}");
@@ -396,7 +399,7 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
         }
         let mut lead = [0u8; LEAD_IN as usize];
         if small {
-            lead.copy_from_slice(window.get(file, pos, LEAD_IN as usize, size)?);
+            lead.copy_from_slice(window.get(file, pos, LEAD_IN as usize, size, peek)?);
         } else {
             read_bytes(file, pos, &mut lead)?;
         }
@@ -484,7 +487,7 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
                     let m = m.ok_or_else(|| corrupt(format!("its segment {number} is cut short")))?;
                     meta_buf.copy_from_slice(m);
                 }
-                None if small => meta_buf.copy_from_slice(window.get(file, pos + LEAD_IN, cap as usize, size)?),
+                None if small => meta_buf.copy_from_slice(window.get(file, pos + LEAD_IN, cap as usize, size, peek)?),
                 None => read_bytes(file, pos + LEAD_IN, &mut meta_buf)?,
             }
             let mut m = Meta { b: &meta_buf, p: 0, big };
@@ -524,6 +527,7 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
         count += 1;
         pos = end;
         small = index.is_none() && next_off < SMALL_SEGMENT;
+        peek = next_off >= Window::PEEK_FROM;
         ipos += (LEAD_IN + raw_off) as usize;
     }
     if index.is_some_and(|ix| ipos != ix.len()) {
@@ -538,21 +542,41 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
 /// Segments shorter than this are walked through a [`Window`].
 const SMALL_SEGMENT: u64 = 64 << 10;
 
-/// A window of the file read in large sequential pieces.
+/// A window of the file read in large sequential pieces, or (`peek`) in
+/// pieces of [`Window::PEEK`] bytes with the kernel asked to read the file
+/// [`Window::LEN`] ahead.
 #[derive(Default)]
 struct Window {
     buf: Vec<u8>,
     at: u64,
+    /// The file is advised read ahead up to this byte.
+    advised: u64,
 }
 
 impl Window {
     const LEN: u64 = 4 << 20;
+    /// Bytes read at a segment's head when peeking: its lead-in and (usually) its metadata.
+    const PEEK: u64 = 512;
+    /// Segments at least this long (the one before) are peeked at.
+    const PEEK_FROM: u64 = 4 << 10;
 
     /// Bytes [pos, pos + n) of the file of `size` bytes (the caller checked they lie inside it).
-    fn get(&mut self, file: &File, pos: u64, n: usize, size: u64) -> Result<&[u8], KernelError> {
+    fn get(&mut self, file: &File, pos: u64, n: usize, size: u64, peek: bool) -> Result<&[u8], KernelError> {
         let end = pos + n as u64;
         if pos < self.at || end > self.at + self.buf.len() as u64 {
-            let len = (n as u64).max(Self::LEN).min(size - pos);
+            let len = if peek {
+                if end + Self::LEN > self.advised {
+                    let from = self.advised.max(pos);
+                    let to = (pos + 2 * Self::LEN).min(size);
+                    if to > from {
+                        advise_willneed(file, from, to - from);
+                    }
+                    self.advised = to;
+                }
+                (n as u64).max(Self::PEEK).min(size - pos)
+            } else {
+                (n as u64).max(Self::LEN).min(size - pos)
+            };
             self.buf.resize(len as usize, 0);
             read_bytes(file, pos, &mut self.buf)?;
             self.at = pos;
@@ -561,6 +585,27 @@ impl Window {
         Ok(&self.buf[from..from + n])
     }
 }
+
+/// Asks the kernel to read bytes [at, at + len) of `file` into its cache in
+/// the background (`posix_fadvise(POSIX_FADV_WILLNEED)`): a hint, its
+/// failure ignored; it changes no byte read.
+#[cfg(all(target_os = "linux", target_pointer_width = "64"))]
+fn advise_willneed(file: &File, at: u64, len: u64) {
+    use std::os::unix::io::AsRawFd;
+    extern "C" {
+        fn posix_fadvise(fd: i32, offset: i64, len: i64, advice: i32) -> i32;
+    }
+    const POSIX_FADV_WILLNEED: i32 = 3;
+    if let (Ok(at), Ok(len)) = (i64::try_from(at), i64::try_from(len)) {
+        // SAFETY: a hint on a descriptor `file` keeps open; it touches no memory of this process.
+        unsafe {
+            posix_fadvise(file.as_raw_fd(), at, len, POSIX_FADV_WILLNEED);
+        }
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
+fn advise_willneed(_file: &File, _at: u64, _len: u64) {}
 
 /// Largest metadata read whole (beyond it the file is left to npTDMS).
 const META_CAP: u64 = 16 << 20;

@@ -1,0 +1,260 @@
+"""Issue 38 points 1 and 4 on a many-core machine, in one call of a few minutes (stdlib only).
+
+Prepared for the 16-core device machine, which starts bare and cannot
+download anything: it runs from the repository's working tree, the built
+extension ``python/tribodyn/_core.abi3.so`` and a wheelhouse ``.whl/``
+(``bash benches/make_wheelhouse.sh``), both named in the call's ``carry``.
+
+1. Environment: imports numpy, h5py, nptdms, dask, distributed and
+   tribodyn._core; for each wheel of the wheelhouse whose distribution is not
+   installed it installs the wheel (``pip install --no-index --no-deps
+   --target``); if an import still fails it installs every pure-Python wheel
+   too, then prints exactly what is missing (and skips the stages that need it).
+2. Formats: ``benches/bench_formats.py --threads ...`` (issue 38 point 1).
+3. Many recordings: ``benches/bench_many.py --workers ...`` (issue 38 point 4).
+
+Each stage runs with a deadline so the whole call ends inside ``--budget``
+seconds (a stage cut short leaves its per-case lines in the log). Written to
+``--out`` (default ``$OUT``): ``log.txt``, ``formats.md``, ``many.md`` and
+``fragment.md`` (the markdown to paste into benches/RESULTS.md); the fragment
+is printed last.
+
+On the device (one call, ~6-8 minutes)::
+
+    PYTHONUNBUFFERED=1 python3 benches/device_scaling.py --out $OUT
+
+Here, end to end with small sizes::
+
+    python benches/device_scaling.py --threads 1 2 --hours 0.2 --workers 1 2 --recordings 4 \\
+        --many-hours 0.05 --out /tmp/device-out
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Dict, List, Optional
+
+ROOT = Path(__file__).resolve().parent.parent
+BENCHES = ROOT / "benches"
+#: module -> what provides it
+NEEDED = {
+    "numpy": "numpy",
+    "h5py": "h5py",
+    "nptdms": "npTDMS",
+    "dask": "dask",
+    "distributed": "distributed",
+    "tribodyn._core": "python/tribodyn/_core.abi3.so (carry it: it is built, not tracked)",
+}
+FOR_FORMATS = ("numpy", "h5py", "nptdms", "tribodyn._core")
+FOR_MANY = ("numpy", "h5py", "dask", "distributed", "tribodyn._core")
+BINARY_KEEP = ("numpy", "h5py")  # keep the machine's own pair when it imports
+
+
+class Log:
+    def __init__(self, path: Path) -> None:
+        self.f = open(path, "a", buffering=1)
+
+    def __call__(self, msg: str) -> None:
+        print(msg, flush=True)
+        self.f.write(msg + "\n")
+
+
+def env_with(site: List[Path]) -> Dict[str, str]:
+    env = dict(os.environ)
+    parts = [str(p) for p in site] + [str(ROOT / "python")]
+    if env.get("PYTHONPATH"):
+        parts.append(env["PYTHONPATH"])
+    env["PYTHONPATH"] = os.pathsep.join(parts)
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+def missing_modules(env: Dict[str, str]) -> Dict[str, str]:
+    """module -> the error of importing it, for every module of NEEDED that fails (each in a fresh process)."""
+    code = (
+        "import importlib, json, sys\n"
+        "bad = {}\n"
+        "for m in sys.argv[1:]:\n"
+        "    try:\n"
+        "        importlib.import_module(m)\n"
+        "    except Exception as e:\n"
+        "        bad[m] = f'{type(e).__name__}: {e}'\n"
+        "print(json.dumps(bad))\n"
+    )
+    r = subprocess.run([sys.executable, "-c", code, *NEEDED], env=env, capture_output=True, text=True, check=False)
+    import json
+
+    try:
+        out: Dict[str, str] = json.loads(r.stdout.strip().splitlines()[-1])
+    except (IndexError, ValueError):
+        return {m: r.stderr[-500:] for m in NEEDED}
+    return out
+
+
+def dist_name(wheel: Path) -> str:
+    return wheel.name.split("-", 1)[0].lower().replace("_", "-")
+
+
+def installed(dist: str, env: Dict[str, str]) -> bool:
+    code = "import importlib.metadata as m, sys\ntry:\n    m.version(sys.argv[1])\nexcept Exception:\n    sys.exit(1)\n"
+    return subprocess.run([sys.executable, "-c", code, dist], env=env, check=False).returncode == 0
+
+
+def pip_install(wheels: List[Path], target: Path, log: Log) -> bool:
+    if not wheels:
+        return True
+    log(f"installing {len(wheels)} wheels into {target}: {' '.join(w.name for w in wheels)}")
+    r = subprocess.run(
+        [sys.executable, "-m", "pip", "install", "-q", "--no-index", "--no-deps", "--no-compile", "--no-cache-dir"]
+        + ["--upgrade", "--target", str(target)]
+        + [str(w) for w in wheels],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    if r.returncode != 0:
+        log(f"pip failed ({r.returncode}): {(r.stdout + r.stderr)[-2000:]}")
+    return r.returncode == 0
+
+
+def prepare(wheels_dir: Path, log: Log) -> tuple:
+    """Returns (env, missing) after installing what the wheelhouse can give."""
+    site: List[Path] = []
+    env = env_with(site)
+    bad = missing_modules(env)
+    log(f"imports before: {'all there' if not bad else 'missing ' + ', '.join(sorted(bad))}")
+    wheels = sorted(wheels_dir.glob("*.whl")) if wheels_dir.is_dir() else []
+    if bad and not wheels:
+        log(f"no wheelhouse at {wheels_dir} (make one here with `bash benches/make_wheelhouse.sh` and carry it)")
+    if bad and wheels:
+        first = Path("/tmp/tribodyn-site")
+        shutil.rmtree(first, ignore_errors=True)
+        todo = [w for w in wheels if not installed(dist_name(w), env)]
+        pip_install(todo, first, log)
+        site = [first]
+        env = env_with(site)
+        bad = missing_modules(env)
+        if bad:  # an installed distribution too old or broken: every pure-Python wheel first on the path
+            log(f"still missing after the missing wheels: {', '.join(sorted(bad))}; adding every pure-Python wheel")
+            second = Path("/tmp/tribodyn-site-all")
+            shutil.rmtree(second, ignore_errors=True)
+            keep = set() if any(m in bad for m in BINARY_KEEP) else set(BINARY_KEEP)
+            pip_install([w for w in wheels if dist_name(w) not in keep], second, log)
+            site = [second, first]
+            env = env_with(site)
+            bad = missing_modules(env)
+    for m, err in sorted(bad.items()):
+        log(f"MISSING {m} (from {NEEDED[m]}): {err}")
+    return env, bad
+
+
+def run_stage(name: str, cmd: List[str], env: Dict[str, str], deadline: float, log: Log) -> Optional[int]:
+    left = deadline - time.monotonic()
+    if left < 20:
+        log(f"{name}: skipped, {left:.0f} s left of the budget")
+        return None
+    log(f"{name}: {' '.join(cmd)} (at most {left:.0f} s)")
+    t0 = time.monotonic()
+    p = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT)
+    assert p.stdout is not None
+    rc: Optional[int] = None
+    try:
+        import selectors
+
+        sel = selectors.DefaultSelector()
+        sel.register(p.stdout, selectors.EVENT_READ)
+        while True:
+            if time.monotonic() > deadline:
+                p.kill()
+                log(f"{name}: stopped at the budget's end")
+                break
+            if sel.select(timeout=1.0):
+                line = p.stdout.readline()
+                if not line:
+                    break
+                log(line.rstrip("\n"))
+        rc = p.wait()
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    log(f"{name}: exit {rc} after {time.monotonic() - t0:.0f} s")
+    return rc
+
+
+def main(argv: List[str]) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--threads", type=int, nargs="+", default=[1, 2, 4, 8, 16])
+    ap.add_argument("--hours", type=float, default=4.0, help="formats: length of the recording (default 4 h)")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--formats", nargs="+", default=None, help="bench_formats.py --formats (default its own)")
+    ap.add_argument("--workers", type=int, nargs="+", default=[2, 4, 8, 16])
+    ap.add_argument("--recordings", type=int, default=32)
+    ap.add_argument("--many-hours", type=float, default=1 / 3, help="many: length of each recording (20 min)")
+    ap.add_argument("--many-repeat", type=int, default=3)
+    ap.add_argument("--budget", type=float, default=470.0, help="seconds for the whole call (default 470)")
+    ap.add_argument("--wheels", type=Path, default=ROOT / ".whl")
+    ap.add_argument("--out", type=Path, default=Path(os.environ.get("OUT") or ROOT / "device-out"))
+    ap.add_argument("--skip", nargs="+", choices=("formats", "many"), default=[])
+    args = ap.parse_args(argv)
+    deadline = time.monotonic() + args.budget
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    log = Log(out / "log.txt")
+    log(
+        f"device_scaling: {platform.node()} {platform.machine()}, {os.cpu_count()} CPUs, "
+        f"Python {platform.python_version()} ({sys.executable}); load {os.getloadavg()[0]:.1f}; "
+        f"args {' '.join(argv)}"
+    )
+    env, bad = prepare(args.wheels, log)
+    work = Path(os.environ.get("TMPDIR") or "/tmp")
+    py = [sys.executable, "-u"]
+    stages = []
+    if "formats" not in args.skip:
+        if any(m in bad for m in FOR_FORMATS):
+            log("formats: skipped, missing " + ", ".join(m for m in FOR_FORMATS if m in bad))
+        else:
+            cmd = py + [str(BENCHES / "bench_formats.py"), "--threads", *map(str, args.threads)]
+            cmd += ["--hours", f"{args.hours:g}", "--rounds", str(args.rounds), "--repeat", str(args.repeat)]
+            cmd += ["--dir", str(work), "--markdown", str(out / "formats.md")]
+            if args.formats:
+                cmd += ["--formats", *args.formats]
+            # leave the many-recordings stage about 40 % of what is left
+            share = 1.0 if "many" in args.skip else 0.6
+            run_stage("formats", cmd, env, time.monotonic() + share * (deadline - time.monotonic()), log)
+            stages.append("formats.md")
+    if "many" not in args.skip:
+        if any(m in bad for m in FOR_MANY):
+            log("many: skipped, missing " + ", ".join(m for m in FOR_MANY if m in bad))
+        else:
+            cmd = py + [str(BENCHES / "bench_many.py"), "--recordings", str(args.recordings)]
+            cmd += ["--hours", f"{args.many_hours:.6g}", "--current", "--repeat", str(args.many_repeat)]
+            cmd += ["--workers", *map(str, args.workers), "--no-write", "--dir", str(work)]
+            cmd += ["--markdown", str(out / "many.md")]
+            run_stage("many", cmd, env, deadline, log)
+            stages.append("many.md")
+    parts = [
+        f"<!-- device_scaling.py on {time.strftime('%Y-%m-%d %H:%M')} UTC, {os.cpu_count()} CPUs, "
+        f"args: {' '.join(argv) or '(defaults)'} -->",
+    ]
+    for s in stages:
+        f = out / s
+        parts.append(f.read_text() if f.exists() else f"({s}: not written; the stage failed or ran out of time)\n")
+    if bad:
+        parts.append("Missing on this machine: " + ", ".join(f"{m} ({NEEDED[m]})" for m in sorted(bad)) + "\n")
+    text = "\n".join(parts)
+    (out / "fragment.md").write_text(text)
+    print("\n===== fragment.md =====\n" + text, flush=True)
+    return 0 if not bad and all((out / s).exists() for s in stages) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
