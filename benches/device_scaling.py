@@ -46,14 +46,15 @@ BENCHES = ROOT / "benches"
 #: module -> what provides it
 NEEDED = {
     "numpy": "numpy",
+    "scipy": "scipy (the simulator's filters; on the device image, not in the wheelhouse: 35 MB)",
     "h5py": "h5py",
     "nptdms": "npTDMS",
     "dask": "dask",
     "distributed": "distributed",
     "tribodyn._core": "python/tribodyn/_core.abi3.so (carry it: it is built, not tracked)",
 }
-FOR_FORMATS = ("numpy", "h5py", "nptdms", "tribodyn._core")
-FOR_MANY = ("numpy", "h5py", "dask", "distributed", "tribodyn._core")
+FOR_FORMATS = ("numpy", "scipy", "h5py", "nptdms", "tribodyn._core")
+FOR_MANY = ("numpy", "scipy", "h5py", "dask", "distributed", "tribodyn._core")
 BINARY_KEEP = ("numpy", "h5py")  # keep the machine's own pair when it imports
 
 
