@@ -171,6 +171,8 @@ pub struct Extents {
 
 /// A chunk at most this long is read whole, once for all channels.
 const SMALL_CHUNK: u64 = 1 << 20;
+/// Longest span of small chunks at a fixed distance read at once.
+const SPAN_CAP: u64 = 4 << 20;
 
 impl Extents {
     /// Samples of the channel.
@@ -268,7 +270,19 @@ impl Extents {
             // asked for, not the whole chunk once per block that touches it.
             let own = e.stride == w && chunk.0 == offset && chunk.1 - chunk.0 == e.count * w;
             if chunk.1 - chunk.0 <= SMALL_CHUNK && !own {
-                let bytes = cache.get(file, chunk.0, chunk.1 - chunk.0)?;
+                // The chunks of the repetitions this read goes on into lie at
+                // a fixed distance (a logger's segments): when the bytes
+                // between them are few, one read of the span serves them all.
+                let len = chunk.1 - chunk.0;
+                let last = ((b - 1 - e.start) / e.count).min(e.reps - 1);
+                let gap = e.period.saturating_sub(len);
+                let span = (last - r).saturating_mul(e.period).saturating_add(len);
+                let span_end = if last > r && e.period >= len && gap <= len.max(4096) && span <= SPAN_CAP {
+                    chunk.0 + span
+                } else {
+                    chunk.1
+                };
+                let bytes = cache.get_span(file, chunk.0, len, span_end)?;
                 let from = (offset - chunk.0 + s * e.stride) as usize;
                 decode(self.num, self.big_endian, &bytes[from..], e.stride as usize, k as usize, out);
             } else if self.plain_f64() && e.stride == F64 {
@@ -306,6 +320,17 @@ impl Extents {
 
 /// Appends `k` values of type `num` found every `stride` bytes from `bytes[0]` to `out`.
 fn decode(num: Num, big: bool, bytes: &[u8], stride: usize, k: usize, out: &mut Vec<f64>) {
+    if num == Num::F64 && !big && stride == F64 as usize && cfg!(target_endian = "little") {
+        // Native f64 stored one after another: the bytes are the values (a
+        // copy, not a conversion per value; same bits).
+        let at = out.len();
+        out.resize(at + k, 0.0);
+        // SAFETY: the byte view covers exactly the k initialised f64 just
+        // added, borrowed mutably; every byte pattern is a valid f64.
+        let dst = unsafe { std::slice::from_raw_parts_mut(out[at..].as_mut_ptr() as *mut u8, k * F64 as usize) };
+        dst.copy_from_slice(&bytes[..k * F64 as usize]);
+        return;
+    }
     macro_rules! conv {
         ($t:ty) => {{
             const W: usize = std::mem::size_of::<$t>();
@@ -349,20 +374,30 @@ impl ByteCache {
         self.used = 0;
     }
 
-    fn get(&mut self, file: &File, at: u64, len: u64) -> Result<&[u8], KernelError> {
-        if let Some(i) = self.entries[..self.used].iter().position(|e| e.0 == at && e.1 == len) {
-            return Ok(&self.entries[i].2);
+    /// Bytes [at, at + len) of the file: from a range read before in this
+    /// block that holds them, else read now with the bytes up to `span_end`
+    /// (at least `at + len`; the caller checked they lie in the file).
+    fn get_span(&mut self, file: &File, at: u64, len: u64, span_end: u64) -> Result<&[u8], KernelError> {
+        let end = at + len;
+        if let Some(i) = self.entries[..self.used].iter().position(|e| e.0 <= at && end <= e.0 + e.1) {
+            let from = (at - self.entries[i].0) as usize;
+            return Ok(&self.entries[i].2[from..from + len as usize]);
         }
         if self.used == self.entries.len() {
             self.entries.push((0, 0, Vec::new()));
         }
+        let total = span_end.max(end) - at;
         let slot = &mut self.entries[self.used];
-        slot.2.resize(len as usize, 0);
+        slot.2.resize(total as usize, 0);
         read_bytes(file, at, &mut slot.2)?;
         slot.0 = at;
-        slot.1 = len;
+        slot.1 = total;
         self.used += 1;
-        Ok(&self.entries[self.used - 1].2)
+        Ok(&self.entries[self.used - 1].2[..len as usize])
+    }
+
+    fn get(&mut self, file: &File, at: u64, len: u64) -> Result<&[u8], KernelError> {
+        self.get_span(file, at, len, at + len)
     }
 }
 
@@ -860,6 +895,60 @@ mod tests {
                 assert_eq!(out, want, "{num:?} {a}..{b}");
                 let held: usize = cache.entries[..cache.used].iter().map(|e| e.2.len()).sum();
                 assert!(held as u64 <= (b - a) * w, "{num:?} {a}..{b}: {held} bytes read for {} samples", b - a);
+            }
+            std::fs::remove_file(path).unwrap();
+        }
+    }
+
+    #[test]
+    fn segments_at_a_fixed_distance_are_read_in_one_span() {
+        // 40 segments of a 100-byte head, then 30 samples of channel A and
+        // 30 of channel B (f64; B also as big-endian i32 in a second file).
+        let (segs, per, head) = (40u64, 30u64, 100u64);
+        let val = |ch: u64, i: u64| (ch * 10_000 + i) as f64 * 0.5 - 77.0;
+        for (num, big, w) in [(Num::F64, false, 8u64), (Num::I32, true, 4)] {
+            let mut bytes = vec![0xEEu8; 16];
+            for sgm in 0..segs {
+                bytes.extend(vec![0x55u8; head as usize]);
+                for ch in 0..2 {
+                    for j in 0..per {
+                        let v = val(ch, sgm * per + j);
+                        match num {
+                            Num::F64 => bytes.extend(v.to_le_bytes()),
+                            _ => bytes.extend((v as i32).to_be_bytes()),
+                        }
+                    }
+                }
+            }
+            let (path, file) = temp_file(&bytes);
+            let first = 16 + head;
+            let len = 2 * per * w;
+            let ext = |ch: u64| Extents {
+                num,
+                big_endian: big,
+                parts: vec![Extent {
+                    start: 0,
+                    count: per,
+                    offset: first + ch * per * w,
+                    stride: w,
+                    chunk: (first, first + len),
+                    reps: segs,
+                    period: head + len,
+                }],
+                ops: Vec::new(),
+            };
+            let (a_ext, b_ext) = (ext(0), ext(1));
+            a_ext.check(bytes.len() as u64).unwrap();
+            let exact = |v: f64| if num == Num::F64 { v } else { (v as i32) as f64 };
+            for (a, b) in [(0, segs * per), (5, 65), (29, 31), (1100, 1200), (0, 1)] {
+                let mut cache = ByteCache::default();
+                cache.begin();
+                let (mut xa, mut xb) = (Vec::new(), Vec::new());
+                a_ext.read(&file, a, b, &mut xa, &mut cache).unwrap();
+                b_ext.read(&file, a, b, &mut xb, &mut cache).unwrap();
+                assert_eq!(xa, (a..b).map(|i| exact(val(0, i))).collect::<Vec<_>>(), "{num:?} A {a}..{b}");
+                assert_eq!(xb, (a..b).map(|i| exact(val(1, i))).collect::<Vec<_>>(), "{num:?} B {a}..{b}");
+                assert_eq!(cache.used, 1, "{num:?} {a}..{b}: one read for both channels and every segment");
             }
             std::fs::remove_file(path).unwrap();
         }
