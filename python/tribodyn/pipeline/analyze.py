@@ -20,8 +20,8 @@ from __future__ import annotations
 import contextvars
 import dataclasses
 import os
-from concurrent.futures import Future
 from collections.abc import Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -425,15 +425,13 @@ def _lag_ahead(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partia
     if plan.threads < 2 or plan.paper or not plan.iv_lag_from_data or (earlier is not None and partial):
         return None
     if rec is not None:
-        if not (rec.mappable and rec.random_access and rec.thread_safe):
+        if not all(getattr(rec, k, False) is True for k in ("mappable", "random_access", "thread_safe")):
             return None
     else:
         acqs = [source] if isinstance(source, Mapping) else source if isinstance(source, (list, tuple)) else ()
         if not acqs or not all(isinstance(a, Mapping) and all(isinstance(a.get(r), np.ndarray) for r in ("fy", "fz"))
                                for a in acqs):  # fmt: skip
             return None
-    from concurrent.futures import ThreadPoolExecutor
-
     ex = ThreadPoolExecutor(1, thread_name_prefix="tribodyn-lag")
     job = ex.submit(contextvars.copy_context().run, find_lag, source, rec, plan, {}, partial, earlier=earlier)
     ex.shutdown(wait=False)  # its thread ends with the job
