@@ -269,6 +269,28 @@ def test_a_partial_last_row_waits_for_its_line_end(tmp_path: Path) -> None:
     assert not any("cut off" in w for w in f.recording.warnings)
 
 
+@pytest.mark.fast
+def test_a_crlf_row_cut_between_its_cr_and_lf_waits_for_its_lf(tmp_path: Path) -> None:
+    """A writer of CRLF rows whose write ends between a row's CR and its LF: the row waits for its LF (only an
+    LF ends a row for the native scan), never an error or a row counted early."""
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(5_000).replace(b"\n", b"\r\n")
+    cut = data.index(b"\r\n", 30_000) + 1  # just after a CR
+    path.write_bytes(data[:cut])
+    f = Follower(str(path), td.open_recording)
+    f.poll()
+    n0 = f.n_samples
+    cut2 = data.index(b"\r\n", cut + 20_000) + 1
+    with open(path, "ab") as fh:
+        fh.write(data[cut:cut2])  # more rows, the last one's LF not yet written
+    f.poll()
+    assert f.n_samples > n0
+    with open(path, "ab") as fh:
+        fh.write(data[cut2:])
+    f.poll()
+    _reads_as_the_file(f, path, 5_000)
+
+
 def _reads_as_the_file(f: Follower, path: Path, n: int) -> None:
     """The follower holds ``n`` samples, read as a fresh opening of the complete file reads them."""
     assert f.n_samples == n
