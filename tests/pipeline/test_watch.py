@@ -479,9 +479,42 @@ def test_live_page_shows_the_headline_band_and_limits(tmp_path: Path) -> None:
     assert f"{snap.headline.value:.4f}" in page
 
 
+def test_live_outputs_are_a_set_first_then_each_file_replaced_in_place(tmp_path: Path) -> None:
+    """The first update publishes --out as one set (marker); the next ones replace summary.json and live.html
+    in place, each atomically (nothing left beside them); a folder removed meanwhile gets a set again."""
+    from tribodyn.app.outputs import MARKER
+    from tribodyn.app.watch_job import LiveOutputs
+
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(12_000)
+    cut = data.index(b"\n", len(data) // 2) + 1
+    path.write_bytes(data[:cut])
+    w = td.watch(path, interval=1.0, final=False, **OPTS)
+    out = tmp_path / "live"
+    live = LiveOutputs(str(out), overwrite=False, protect=[str(path)])
+    live.publish(w.update(), w)
+    marker = json.loads((out / MARKER).read_text())
+    assert sorted(marker["files"]) == ["live.html", "summary.json"]
+    folder = os.stat(out).st_ino
+    with open(path, "ab") as fh:
+        fh.write(data[cut:])
+    snap = w.update()
+    live.publish(snap, w)
+    assert os.stat(out).st_ino == folder  # replaced in place, not as a new folder
+    assert sorted(os.listdir(out)) == sorted([MARKER, "live.html", "summary.json"])
+    got = json.loads((out / "summary.json").read_text())
+    assert got["recording"]["windows"] == len(snap) and got["watch"]["samples"] == 12_000
+    assert f"{snap.headline.value:.4f}" in (out / "live.html").read_text()
+    import shutil
+
+    shutil.rmtree(out)
+    live.publish(snap, w)
+    assert json.loads((out / MARKER).read_text())["files"] == marker["files"]
+
+
 @pytest.mark.fast
 def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
-    from tribodyn.app.watch_job import LIVE_POINTS, _cof_svg, thinned
+    from tribodyn.app.watch_job import LIVE_POINTS, _cof_svg, _Points, thinned
 
     rng = np.random.default_rng(7)
     n = 20_000  # a day at a 5 s hop
@@ -501,7 +534,13 @@ def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
             sel = np.flatnonzero((col == c) & (ok == flag) & np.isfinite(mu))
             assert {int(sel[np.argmin(mu[sel])]), int(sel[np.argmax(mu[sel])])} <= set(keep.tolist())
     svg = _cof_svg(t, mu, ok, (0.2, 0.19, 0.21), [])
-    assert svg.count("<circle") == keep.size and "19999 windows: each pixel column" in svg
+    failed = int((~ok[keep]).sum())  # an open dot: a dark one and a white one on it
+    assert svg.count("h0") == keep.size + failed and "19999 windows: each pixel column" in svg
+    again = _Points()
+    assert _cof_svg(t, mu, ok, (0.2, 0.19, 0.21), [], again) == svg  # the points kept between updates
+    mu2 = mu.copy()
+    mu2[3] = 0.6  # a window whose COF changed since (a recording-wide quantity moved it)
+    assert _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [], again) == _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [])
 
 
 def test_writer_pieces_helper_is_exact() -> None:  # the helper the tests above rely on

@@ -262,7 +262,7 @@ def _last_line_end(fh: Any, lo: int, hi: int) -> int:
     while b > lo:
         a = max(lo, b - _TAIL_BLOCK)
         fh.seek(a)
-        at = fh.read(b - a).rfind(b"\n")
+        at = int(fh.read(b - a).rfind(b"\n"))
         if at >= 0:
             return a + at + 1
         b = a
