@@ -291,6 +291,35 @@ def test_a_crlf_row_cut_between_its_cr_and_lf_waits_for_its_lf(tmp_path: Path) -
     _reads_as_the_file(f, path, 5_000)
 
 
+@pytest.mark.fast
+def test_snapshots_of_a_recording_of_orientation_minus_one_keep_their_signs(tmp_path: Path) -> None:
+    """fy = -mu fz: each snapshot's windows are the first windows of the complete file's, their COF arrays
+    flipped once (the finishing step flips its statistics in place: the watch's joined ones must stay as the
+    kernel gave them, or every other snapshot had mu_a, mu_b and the bins' COF of the earlier windows negated)."""
+    path = tmp_path / "run.csv"
+    t, fy, fz = _forces(20_000, lambda t: np.full(t.shape, 0.2))
+    data = ("time,fy,fz\n" + "\n".join(f"{a:.4f},{-b:.6f},{c:.6f}" for a, b, c in zip(t, fy, fz)) + "\n").encode()
+    pieces = _pieces(data, 3, 40_000, 120_000)
+    path.write_bytes(pieces[0])
+    w = td.watch(path, interval=1.0, final=False, **OPTS)
+    snaps = []
+    for piece in [*pieces[1:], b""]:
+        snap = w.update()
+        if snap is not None:
+            snaps.append(snap)
+        with open(path, "ab") as fh:
+            fh.write(piece)
+    with td.open_recording(path) as rec:
+        full = td.analyze(rec, **OPTS)
+    assert full.orientation == -1 and len(snaps) >= 3
+    for snap in snaps:
+        k = len(snap)
+        assert snap.orientation == -1
+        np.testing.assert_array_equal(np.asarray(snap.bin_cof), np.asarray(full.bin_cof)[:k])
+        for col in ("mu_r", "mu_a", "mu_b"):
+            np.testing.assert_array_equal(np.asarray(snap[col]), np.asarray(full[col])[:k], err_msg=col)
+
+
 def _reads_as_the_file(f: Follower, path: Path, n: int) -> None:
     """The follower holds ``n`` samples, read as a fresh opening of the complete file reads them."""
     assert f.n_samples == n

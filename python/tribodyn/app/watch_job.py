@@ -217,9 +217,10 @@ def _replace(path: str, text: str) -> None:
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
         os.replace(tmp, path)
-    finally:
+    except BaseException:
         if os.path.lexists(tmp):
             os.unlink(tmp)
+        raise
 
 
 def _json_text(obj: Any) -> str:
