@@ -30,17 +30,6 @@ from hypothesis import settings  # noqa: E402
 from tribodyn import simulate  # noqa: E402
 
 
-def pytest_collection_modifyitems(config: pytest.Config, items: list) -> None:
-    """The fast loop (``-m fast``) leaves out the cases marked ``slow`` in its files (a command-line run, a whole
-    simulated test): the ``fast`` mark of a file covers its quick cases, ``slow`` takes one back."""
-    if "fast" not in (config.option.markexpr or ""):
-        return
-    slow = [it for it in items if it.get_closest_marker("slow") is not None]
-    if slow:
-        config.hook.pytest_deselected(items=slow)
-        items[:] = [it for it in items if it.get_closest_marker("slow") is None]
-
-
 settings.register_profile("ci", max_examples=40, deadline=None, derandomize=True)
 settings.register_profile("dev", max_examples=100, deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")

@@ -9,6 +9,7 @@ import of the namespace itself (``from .. import _core``) is resolved to the mod
 from __future__ import annotations
 
 import ast
+import re
 import sys
 from pathlib import Path
 from typing import Dict, List, Set
@@ -22,8 +23,6 @@ else:  # pragma: no cover
 
 ROOT = Path(__file__).resolve().parents[1]
 PKG = ROOT / "python" / "tribodyn"
-
-pytestmark = pytest.mark.fast
 
 
 def _modules() -> Dict[str, Path]:
@@ -84,6 +83,7 @@ def _layer_of(module: str, layers: List[List[str]]) -> int:
     return -1
 
 
+@pytest.mark.fast
 def test_the_import_graph_has_no_circle():
     index: Dict[str, int] = {}
     low: Dict[str, int] = {}
@@ -120,6 +120,7 @@ def test_the_import_graph_has_no_circle():
     assert circles == []
 
 
+@pytest.mark.fast
 def test_each_layer_imports_only_the_layers_below_it():
     layers = _layers()
     upward = []
@@ -138,6 +139,7 @@ def test_each_layer_imports_only_the_layers_below_it():
     assert upward == []
 
 
+@pytest.mark.fast
 def test_every_module_is_in_a_layer():
     layers = _layers()
     free = {"tribodyn", "tribodyn.__main__", "tribodyn._core", "tribodyn.simulate"}
@@ -145,6 +147,7 @@ def test_every_module_is_in_a_layer():
     assert GRAPH["tribodyn.simulate"] == set()  # the simulators stand alone
 
 
+@pytest.mark.fast
 def test_the_graph_sees_deferred_and_type_checking_imports(tmp_path):
     # the test itself must be able to fail: a deferred upward import and a TYPE_CHECKING one are edges
     src = (
@@ -157,6 +160,7 @@ def test_the_graph_sees_deferred_and_type_checking_imports(tmp_path):
     assert _imports("tribodyn.kernels.probe", path) == {"tribodyn.app.cli", "tribodyn.pipeline.analyze"}
 
 
+@pytest.mark.fast
 def test_with_orientation_keeps_every_field_and_flips_the_cof():
     import dataclasses
 
@@ -175,6 +179,7 @@ def test_with_orientation_keeps_every_field_and_flips_the_cof():
     assert flipped.orientation == -res.orientation and flipped.params["orientation_used"] == -res.orientation
 
 
+@pytest.mark.fast
 def test_public_errors_and_headline_are_reachable():
     import tribodyn as td
     from tribodyn import _core, errors
@@ -186,6 +191,7 @@ def test_public_errors_and_headline_are_reachable():
     assert errors.ConstantInputWarning is td.ConstantInputWarning
 
 
+@pytest.mark.fast
 @pytest.mark.fast
 def test_results_params_cannot_change_and_replace_carries_only_what_it_is_told():
     import json
@@ -222,6 +228,7 @@ def test_results_params_cannot_change_and_replace_carries_only_what_it_is_told()
 
 
 @pytest.mark.fast
+@pytest.mark.fast
 def test_public_names_follow_the_scheme():
     """docs/architecture.md, "Names": interval ends in pairs, pairs held as `_ci`, standard errors as `_stderr`
     (a class's own: `se`), no bare `t`; on the table's columns and every public result class's fields."""
@@ -256,3 +263,16 @@ def test_public_names_follow_the_scheme():
     ci_fields = [(c.__name__, f.name, str(f.type)) for c in (td.OperatingRange, td.Hysteresis)
                  for f in dataclasses.fields(c) if f.name.endswith("_ci")]  # fmt: skip
     assert ci_fields and all(any(k in t for k in ("Tuple", "tuple", "Interval")) for _, _, t in ci_fields), ci_fields
+
+
+def test_the_tests_mirror_the_layers():
+    """Each folder of tests/ is a layer's folder of the package (docs/architecture.md, "Tests"), and the inner loop is
+    marked case by case: no test module marks all its cases fast (a slow case added later would join the loop)."""
+    tests = Path(__file__).resolve().parent
+    package = tests.parent / "python" / "tribodyn"
+    layers = {p.name for p in package.iterdir() if p.is_dir() and (p / "__init__.py").exists()} | {"simulate"}
+    folders = {p.name for p in tests.iterdir() if p.is_dir() and p.name not in ("data", "__pycache__")}
+    assert folders and folders <= layers, sorted(folders - layers)
+    whole = [p.relative_to(tests).as_posix() for p in tests.rglob("test_*.py")
+             if re.search(r"^pytestmark\s*=.*\bfast\b", p.read_text(encoding="utf-8"), re.M)]  # fmt: skip
+    assert not whole, whole

@@ -20,7 +20,6 @@ from tribodyn import simulate
 from tribodyn.app import cli
 from tribodyn.options import OPTIONS, defaults, markdown_table, option
 
-pytestmark = pytest.mark.fast
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -33,6 +32,7 @@ def channels() -> dict:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
+@pytest.mark.fast
 def test_analyze_signature_is_the_declaration() -> None:
     sig = inspect.signature(td.analyze)
     names = list(sig.parameters)
@@ -44,6 +44,7 @@ def test_analyze_signature_is_the_declaration() -> None:
         assert p.default == o.default, o.name
 
 
+@pytest.mark.fast
 def test_analyze_docstring_documents_every_option() -> None:
     doc = td.analyze.__doc__ or ""
     params = doc[doc.index("Parameters") : doc.index("Returns")]
@@ -53,6 +54,7 @@ def test_analyze_docstring_documents_every_option() -> None:
     assert not missing, f"analyze's docstring lacks {missing}"
 
 
+@pytest.mark.fast
 def test_analyze_docstring_entries_are_written_from_the_declaration() -> None:
     """Issue 33 point 3: each option's entry (``name : type`` and its text) comes from OPTIONS, in its order,
     after the hand-written source and plan; the rest of the docstring (numpydoc sections) stays as written."""
@@ -71,6 +73,7 @@ def test_analyze_docstring_entries_are_written_from_the_declaration() -> None:
     assert doc_type(dataclasses.replace(bare, default=None, cli_type="float")) == "float, optional"
 
 
+@pytest.mark.fast
 def test_plan_params_record_every_field_as_declared() -> None:
     """Plan.params() records each field as it is under its own name unless plan.RECORDED says otherwise."""
     import json
@@ -92,6 +95,7 @@ def test_plan_params_record_every_field_as_declared() -> None:
     json.dumps(params)  # provenance: plain values only
 
 
+@pytest.mark.fast
 def test_report_units_come_from_the_declaration() -> None:
     from tribodyn.app.report import PARAM_UNITS
 
@@ -100,12 +104,14 @@ def test_report_units_come_from_the_declaration() -> None:
             assert PARAM_UNITS[o.name] == o.unit, o.name
 
 
+@pytest.mark.fast
 def test_every_section_exists_in_method_md() -> None:
     text = (ROOT / "docs" / "method.md").read_text(encoding="utf-8")
     sections = set(re.findall(r"^## (\d+[a-z]?)\.", text, flags=re.M))
     assert {o.section for o in OPTIONS} <= sections
 
 
+@pytest.mark.fast
 def test_make_plan_takes_the_declared_defaults() -> None:
     plan = td.make_plan(fs=1000.0)
     assert (plan.window, plan.hop) == (2.0, 10.0)
@@ -128,6 +134,7 @@ def test_make_plan_takes_the_declared_defaults() -> None:
         td.make_plan(fs=1000.0, tare=[3.0])
 
 
+@pytest.mark.fast
 def test_every_option_has_its_check_or_a_joint_one() -> None:
     """Issue 22 point 1: an option declares the rule that checks it alone (plan.CHECKS), or plan.JOINT says where
     it is checked with the options it depends on; never both, never neither, so no option comes without a check."""
@@ -150,6 +157,7 @@ BAD = {
 }  # fmt: skip
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name", sorted(BAD))
 def test_make_plan_applies_each_declared_check(name: str) -> None:
     from tribodyn.pipeline.plan import checked
@@ -164,6 +172,7 @@ def test_make_plan_applies_each_declared_check(name: str) -> None:
     assert {o.name for o in OPTIONS if o.check} - set(BAD) == {"progress", "stick_slip"}
 
 
+@pytest.mark.fast
 def test_plan_is_frozen_and_holds_every_plan_option() -> None:
     plan = td.make_plan(fs=1000.0, tare={"fy": 0.1, "fz": 0.2})
     fields = {f.name for f in dataclasses.fields(td.Plan)}
@@ -180,6 +189,7 @@ def test_plan_is_frozen_and_holds_every_plan_option() -> None:
     assert not {"classical", "delay"} & fields  # what the data reveal is in Findings, not the plan
 
 
+@pytest.mark.fast
 def test_results_params_record_every_plan_option(channels: dict) -> None:
     log = (np.array([0.0, 120.0]), np.array([100.0, 110.0]))
     res = td.analyze(channels, fs=FS, temperature=log, area_mm2=1.0)
@@ -196,6 +206,7 @@ def test_results_params_record_every_plan_option(channels: dict) -> None:
     assert raw.params["min_fn"] == 2.0
 
 
+@pytest.mark.fast
 def test_analyze_with_a_plan_is_analyze_with_its_options(channels: dict) -> None:
     opts = dict(window=2.0, hop=5.0, n_bins=12, max_rel_ci=0.2)
     a = td.analyze(channels, fs=FS, **opts)
@@ -212,6 +223,7 @@ def test_analyze_with_a_plan_is_analyze_with_its_options(channels: dict) -> None
         td.analyze(channels, {"window": 2.0})  # type: ignore[arg-type]
 
 
+@pytest.mark.fast
 def test_cli_flags_and_config_keys_come_from_the_declaration() -> None:
     parser = cli._parser()
     sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
@@ -224,6 +236,7 @@ def test_cli_flags_and_config_keys_come_from_the_declaration() -> None:
             assert cli._CONFIG_KEYS[o.config] == o.config_type, o.config
 
 
+@pytest.mark.fast
 def test_cli_passes_every_plan_option_through(tmp_path: Path) -> None:
     """Each flag of kind "plan" arrives under its option's name (one declaration, no hand-kept table)."""
     values = {"float": "0.5", "int": "3", "orientation": "-1", "deadband": "0.2", "gate": "0.8", "pair": "0.1,0.2",
@@ -241,17 +254,20 @@ def test_cli_passes_every_plan_option_through(tmp_path: Path) -> None:
     assert set(want) <= set(opts)
 
 
+@pytest.mark.fast
 def test_readme_option_table_is_generated() -> None:
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert markdown_table() in readme, "README's option table is stale: regenerate it from tribodyn.options"
 
 
+@pytest.mark.fast
 def test_defaults_helper() -> None:
     assert defaults()["n_bins"] == 16
     with pytest.raises(KeyError, match="no option 'bins'"):
         option("bins")
 
 
+@pytest.mark.fast
 def test_identify_has_analyze_defaults_and_takes_a_plan(channels: dict) -> None:
     fy, fz = channels["fy"][:4000], channels["fz"][:4000]
     sig = inspect.signature(td.identify)
@@ -272,6 +288,7 @@ def test_identify_has_analyze_defaults_and_takes_a_plan(channels: dict) -> None:
         td.identify(fy, fz, plan=plan, n_bins=8)
 
 
+@pytest.mark.fast
 def test_analyze_many_with_a_plan_is_analyze(tmp_path: Path, channels: dict) -> None:
     path = tmp_path / "rec.npy"
     np.save(path, np.stack([channels[k] for k in ("fx", "fy", "fz", "i")]))
@@ -288,6 +305,7 @@ def test_analyze_many_with_a_plan_is_analyze(tmp_path: Path, channels: dict) -> 
         td.analyze_many([path], plan, open_options=rec_opts, window=3.0)
 
 
+@pytest.mark.fast
 def test_analyze_many_splits_on_the_grid_chosen_from_the_rate(tmp_path: Path) -> None:
     """A slow recording's window and hop come from its rate (docs/method.md 6b); split ranges follow them."""
     rng = np.random.default_rng(5)

@@ -13,7 +13,6 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -26,6 +25,7 @@ PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
 WHEEL_DIR = os.environ.get("TRIBODYN_WHEEL_DIR", "/tmp/wheels")
 
 
+@pytest.mark.fast
 def test_metadata_licence_and_changelog():
     project = PYPROJECT["project"]
     assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("MIT License")
@@ -38,11 +38,13 @@ def test_metadata_licence_and_changelog():
     assert "pandas" in " ".join(project["dependencies"]) and "bokeh" in " ".join(project["dependencies"])
 
 
+@pytest.mark.fast
 def test_abi3_feature_configured():
     features = PYPROJECT["tool"]["maturin"]["features"]
     assert "pyo3/abi3-py39" in features, features
 
 
+@pytest.mark.fast
 def test_built_wheel_is_abi3():
     wheels = sorted(glob.glob(os.path.join(WHEEL_DIR, "tribodyn-*.whl")))
     if not wheels:
@@ -52,6 +54,7 @@ def test_built_wheel_is_abi3():
     assert tag == ["cp39", "abi3"], wheels[-1]
 
 
+@pytest.mark.fast
 def test_readme_states_the_rust_minimum():
     cargo = tomllib.loads((ROOT / "Cargo.toml").read_text(encoding="utf-8"))
     minimum = cargo["workspace"]["package"]["rust-version"]
@@ -113,6 +116,7 @@ def test_namespace_is_all_and_its_dunders():
     assert ns["version"] == PYPROJECT["project"]["version"]
 
 
+@pytest.mark.fast
 def test_a_public_name_is_one_line_in_each_of_lazy_all_and_the_typed_imports():
     """docs/architecture.md, "a new analysis": its names in tribodyn/__init__.py's ``_LAZY`` (imported on first
     use), ``__all__`` and the ``TYPE_CHECKING`` imports (what a type checker sees: without it ``td.name`` is an
@@ -135,6 +139,7 @@ def test_a_public_name_is_one_line_in_each_of_lazy_all_and_the_typed_imports():
     assert {k: v for k, v in typed.items() if k != "columns"} == lazy
 
 
+@pytest.mark.fast
 def test_nothing_points_outside_the_repository():
     """Tests, docs, examples and benchmarks use the repository's files (tests/data), never the developers' ../shared."""
     outside = re.compile(r"parents\[2\]|\.\./shared|/work/shared|[\"']shared[\"'] /|shared/data")
@@ -148,6 +153,7 @@ def test_nothing_points_outside_the_repository():
     assert not hits, hits
 
 
+@pytest.mark.fast
 def test_architecture_names_files_and_functions_that_exist():
     """docs/architecture.md (linked from the README) names real files and real functions: renames must update it."""
     text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")

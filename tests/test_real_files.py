@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 import tribodyn as td
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 REAL = Path(__file__).resolve().parent / "data" / "real"  # in the repository: a missing file fails, never skips
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name", ["cetr_umt2_HT-2n-6-4_2_001.csv", "cetr_umt2_HT-2n-6-4_2_002.csv"])
 def test_cetr_per_stroke_no_window_across_the_boundary(name):
     rec = td.open_recording(REAL / name)
@@ -33,6 +33,7 @@ def test_cetr_per_stroke_no_window_across_the_boundary(name):
     assert s["verdict"]["dynamic_method"] is False
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name,load", [("pod_PPS_60N_1.tsv", 59.841), ("pod_PPS_100N_1.tsv", 98.1)])
 def test_pin_on_disc_dead_weight_classical(name, load):
     res = td.analyze(td.open_recording(REAL / name))
@@ -53,6 +54,7 @@ def test_pin_on_disc_dead_weight_classical(name, load):
 R_EFF = 2.0 / 3.0 * 4e-3  # m: the authors' effective radius (tests/data/README.md)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name", ["newport_motor_oil_glass_1rps5N.txt", "newport_motor_oil_glass_0-1rps0-5N.txt"])
 def test_newport_rate_from_time_column_and_torque_over_radius(name):
     path = REAL / name
@@ -78,12 +80,14 @@ def test_newport_rate_from_time_column_and_torque_over_radius(name):
     np.testing.assert_allclose(res["mu_classical"], want, rtol=1e-9)
 
 
+@pytest.mark.fast
 def test_newport_time_column_guessed_without_names():
     rec = td.open_recording(REAL / "newport_motor_oil_glass_1rps5N.txt")
     assert 9.9 < rec.fs < 10.0
     assert any("taken as time" in w for w in rec.warnings)
 
 
+@pytest.mark.fast
 def test_lvm_segments_continuous_are_one_acquisition():
     rec = td.open_recording(REAL / "lvm_read_long_single_header_multi_ch.lvm")
     assert len(rec.segments) == 2 and rec.acquisitions == [(0, 16384)]

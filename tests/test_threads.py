@@ -14,7 +14,6 @@ import numpy as np
 import pytest
 import tribodyn as td
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 N_THREADS = 8
 
@@ -69,6 +68,7 @@ def assert_identical(a: dict, b: dict) -> None:
             assert v == b[k], k  # floats and LinFit tuples, exactly
 
 
+@pytest.mark.fast
 def test_concurrent_calls_equal_serial_calls():
     jobs = make_jobs(0)
     serial = [run_job(j) for j in jobs]
@@ -79,6 +79,7 @@ def test_concurrent_calls_equal_serial_calls():
                 assert_identical(s, p)
 
 
+@pytest.mark.fast
 def test_shared_filter_objects_stay_separate():
     # One HighPass per thread, all alive at once, fed interleaved chunks.
     rng = np.random.default_rng(1)
@@ -95,6 +96,7 @@ def test_shared_filter_objects_stay_separate():
         np.testing.assert_array_equal(g, w)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("threads", [1, 2, 3])
 def test_thread_count_does_not_change_results(restore_threads, threads):
     jobs = make_jobs(2)[:3]
@@ -110,6 +112,7 @@ def test_thread_count_does_not_change_results(restore_threads, threads):
             assert_identical(got, d)
 
 
+@pytest.mark.fast
 def test_set_threads_zero_means_all_cores(restore_threads):
     td.set_threads(0)
     assert td.get_threads() == restore_threads >= 1

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 import tribodyn as td
 
-pytestmark = pytest.mark.fast
 
 FS, SWEEP, SWEEPS = 100.0, 6.5, 40
 
@@ -29,12 +28,14 @@ def slide_roll():
     return fy, fz, srr, log, res
 
 
+@pytest.mark.fast
 def test_the_per_window_curve_is_flat_and_says_why(slide_roll) -> None:
     *_, res = slide_roll
     assert np.ptp(res.table["srr"]) < 0.02 and np.ptp(res.table["mu_classical"]) < 0.002  # averaged away
     assert any("srr log sweeps" in w and "cof_curve" in w for w in res.warnings)
 
 
+@pytest.mark.fast
 def test_cof_curve_recovers_the_traction_curve(slide_roll) -> None:
     fy, fz, srr, log, res = slide_roll
     c = td.cof_curve({"fy": fy, "fz": fz}, res, log, bins=10, name="slide-roll ratio")
@@ -63,6 +64,7 @@ def test_cof_curve_recovers_the_traction_curve(slide_roll) -> None:
     assert d["cof"][0] == pytest.approx(c.cof[0]) and "slide-roll ratio" in repr(c)
 
 
+@pytest.mark.fast
 def test_cof_curve_refuses_what_it_cannot_bin(slide_roll) -> None:
     fy, fz, srr, log, res = slide_roll
     with pytest.raises(ValueError, match="single value"):

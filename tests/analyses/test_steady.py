@@ -229,7 +229,6 @@ def test_a_significant_but_small_drift_is_steady_and_said():
     assert "drift over the steady part 3.8 % of the COF (p = 0.00031), under 5 %" in ss.text
 
 
-@pytest.mark.slow
 def test_one_running_in_per_test_of_a_file_that_holds_several(tmp_path) -> None:
     """issue 35 point 5: three tests in one file (its time restarts at each) get three fits, not one flat one."""
     truth = [(0.30, 200.0), (0.25, 100.0), (0.35, 300.0)]

@@ -14,7 +14,6 @@ from tribodyn.pipeline import stickslip
 
 import stick_slip_sim as sim_ss
 
-pytestmark = pytest.mark.fast
 
 #: A drop this many samples inside a stroke's central part is counted (docs/method.md 6g: no stick line reaches
 #: into the 2 L samples at a segment's edges; a stick needs MIN_FIT samples and margins).
@@ -42,6 +41,7 @@ def expected_events(sim, res, fraction=0.5):
     return sure, unsure
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(("seed", "period"), [(1, 0.0307), (2, 0.0233), (3, 0.0271)])
 def test_events_counted_at_20_db(seed, period):
     amp, noise = 0.2, 0.02  # SNR 20 log10(0.2 / 0.02) = 20 dB
@@ -61,6 +61,7 @@ def test_events_counted_at_20_db(seed, period):
     assert str(ss).startswith(f"stick-slip present: {ss.events} events, amplitude 0.")
 
 
+@pytest.mark.fast
 def test_amplitude_with_a_dynamic_load_and_a_breakaway():
     sim = simulate.reciprocating(seed=4, stick_slip=0.2, stick_slip_period=0.0307, breakaway=0.04, fz_dynamic=1.0)
     res = td.analyze(sim.channels, fs=sim.fs)
@@ -71,6 +72,7 @@ def test_amplitude_with_a_dynamic_load_and_a_breakaway():
     assert abs(ss.amplitude / 0.2 - 1) < 0.03
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("kw", [{}, {"fz_dynamic": 1.0}, {"breakaway": 0.04}, {"offset": 0.2}])
 def test_no_events_on_a_smooth_reciprocating_test(kw):
     sim = simulate.reciprocating(seed=5, **kw)
@@ -81,6 +83,7 @@ def test_no_events_on_a_smooth_reciprocating_test(kw):
     assert ss.duration == pytest.approx(0.5 * 10.0, rel=0.02)  # the central halves of 10 s of strokes
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("seed", [1, 2])
 def test_no_events_on_a_smooth_unidirectional_test(seed):
     sim = simulate.conditions(30, seed=seed, raw=True, y_noise=0.02, drift=0.05)
@@ -100,6 +103,7 @@ def _unidirectional_saw(seed, n=20000, fs=1000.0, period=37.3, amp=0.3, noise=0.
     return {"fy": fy, "fz": fz}, drops[drops < n]
 
 
+@pytest.mark.fast
 def test_unidirectional_events_counted_exactly():
     ch, drops = _unidirectional_saw(6)
     res = td.analyze(ch, fs=1000.0, motion="unidirectional")
@@ -113,6 +117,7 @@ def test_unidirectional_events_counted_exactly():
     assert abs(ss.rate - inner.size / 20.0) < 1e-9
 
 
+@pytest.mark.fast
 def test_blocks_and_a_recording_give_the_same_events(tmp_path, monkeypatch):
     from tribodyn.io.writers import save_npz
 
@@ -131,6 +136,7 @@ def test_blocks_and_a_recording_give_the_same_events(tmp_path, monkeypatch):
         assert abs(parts.events - whole.events) <= 2
 
 
+@pytest.mark.fast
 def test_without_results_it_analyses_first_and_bad_input_is_refused():
     sim = simulate.reciprocating(seed=8, cycles=4, stick_slip=0.2, stick_slip_period=0.0233)
     ss = td.stick_slip(sim.channels, fs=sim.fs)
@@ -143,6 +149,7 @@ def test_without_results_it_analyses_first_and_bad_input_is_refused():
         td.stick_slip(iter([sim.channels]), td.analyze(sim.channels, fs=sim.fs))
 
 
+@pytest.mark.fast
 def test_high_passed_forces_are_not_assessed():
     sim = simulate.conditions(10, seed=1)  # the charge amplifier's high-pass: no static level
     ss = td.stick_slip(sim.channels, td.analyze(sim.channels, fs=sim.fs))
@@ -150,6 +157,7 @@ def test_high_passed_forces_are_not_assessed():
     assert json.loads(json.dumps(ss.to_dict()))["amplitude"] is None
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_mu_static_within_two_percent_of_the_breakaway_peak(seed):
     sim = simulate.reciprocating(seed=seed, breakaway=0.04)
@@ -166,7 +174,6 @@ def test_mu_static_within_two_percent_of_the_breakaway_peak(seed):
     assert np.all((t > 0.005) & (t < 0.02))  # the peak about breakaway_time after the onset
 
 
-@pytest.mark.slow  # 10 simulated tests
 @pytest.mark.parametrize(("noise", "limit"), [(0.2, 0.01), (0.4, 0.02)])
 def test_mu_static_without_the_noise_peak_bias(noise, limit):
     # issue 35 point 6: the largest 5-sample mean of a noisy breakaway was +5.4 % (noise 0.2 N on 10 N, 18 dB)
@@ -181,6 +188,7 @@ def test_mu_static_without_the_noise_peak_bias(noise, limit):
     assert abs(np.mean(np.concatenate(errs))) < limit
 
 
+@pytest.mark.fast
 def test_mu_static_from_the_force_alone_and_with_position():
     sim = simulate.reciprocating(seed=9, breakaway=0.04)
     for keys in (("fy", "fz"), ("fy", "fz", "x")):
@@ -189,6 +197,7 @@ def test_mu_static_from_the_force_alone_and_with_position():
         assert np.all(np.abs(ms / sim.mu_static_forward - 1) < 0.02), keys
 
 
+@pytest.mark.fast
 def test_smooth_strokes_have_a_static_cof_near_the_kinetic_one():
     sim = simulate.reciprocating(seed=10)
     st = td.analyze(sim.channels, fs=sim.fs).strokes
@@ -227,6 +236,7 @@ def _read_once(ch, res):
     return blocks, (0 if search.whole else sum(s.read[1] - s.read[0] for s in search.first))
 
 
+@pytest.mark.fast
 def test_a_long_recording_is_read_once_and_a_bounded_sample(monkeypatch, one_second_grid):
     ch, drops = _unidirectional_saw(9, n=400_000)
     res = td.analyze(ch, fs=1000.0, motion="unidirectional")
@@ -319,6 +329,7 @@ def test_the_analysis_finds_what_reading_again_finds(monkeypatch, block, chunk, 
     assert td.stick_slip(ch, res, k=4.0).events >= res.stick_slip.events  # other settings: searched again
 
 
+@pytest.mark.fast
 def test_a_recording_is_read_once_for_the_analysis_and_stick_slip(tmp_path, monkeypatch, one_second_grid):
     monkeypatch.setattr(stickslip, "BLOCK", 1 << 16)
     monkeypatch.setattr(stickslip, "SAMPLE", 1 << 15)
@@ -373,6 +384,7 @@ def test_a_sample_of_the_other_sign_and_a_range_read_again(tmp_path, monkeypatch
         _same(part.stick_slip, _read_again(rec, part))
 
 
+@pytest.mark.fast
 def test_stick_slip_is_not_searched_unless_asked_or_without_a_static_level():
     ch, _ = _unidirectional_saw(13, n=30_000)
     assert td.analyze(ch, fs=1000.0).stick_slip is None
@@ -387,6 +399,7 @@ def test_stick_slip_is_not_searched_unless_asked_or_without_a_static_level():
 # -- stick-slip by physics (issue 35 point 1): slips of 1-100 ms at 100 Hz-10 kHz, quantised exports, low rates ----
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     ("fs", "slip", "quantum"),
     [(100.0, 0.01, sim_ss.QUANTUM), (2000.0, 0.06, None), (1000.0, 0.1, sim_ss.QUANTUM), (10000.0, 0.001, None)],
@@ -400,6 +413,7 @@ def test_slips_of_many_samples_are_counted_with_their_whole_drop(fs, slip, quant
     assert near_truth(ss.times, 0.5 * (case.starts + case.ends), fs, within=max(1.5, 0.3 * slip * fs))
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_single_steps_of_a_quantised_export_are_no_events(seed):
     """A steady 1 Hz export quantised in 0.27 N steps, noise 0.2 steps: single steps after a drift are not slips
@@ -412,6 +426,7 @@ def test_single_steps_of_a_quantised_export_are_no_events(seed):
     assert "3 steps of the export's resolution" in ss.verdict and "no slip is resolved" in ss.verdict
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "make",
     [
@@ -428,6 +443,7 @@ def test_no_stick_slip_on_smooth_low_rate_or_quantised_steady_signals(make):
         assert not ss.present and ss.events <= 1, ss.verdict
 
 
+@pytest.mark.fast
 def test_the_export_resolution_is_read_from_the_value_grid():
     rng = np.random.default_rng(0)
     x = 5.0 + 0.3 * rng.standard_normal(5000)
@@ -436,6 +452,7 @@ def test_the_export_resolution_is_read_from_the_value_grid():
     assert stickslip._quantum(np.round(x, 1)) == pytest.approx(0.1)
 
 
+@pytest.mark.fast
 def test_a_few_drops_far_apart_are_isolated_not_stick_slip():
     """4 stick-slip cycles (0.3 s sticks, 0.5 N) in 60 s of smooth sliding: events, but their sticks fill 2 % of the
     time (under MIN_STICK_SHARE): no stick-slip, the verdict says so; 30 cycles in the same 60 s are present."""
@@ -450,6 +467,7 @@ def test_a_few_drops_far_apart_are_isolated_not_stick_slip():
         assert ("isolated: their sticks fill" in ss.verdict) is not present
 
 
+@pytest.mark.fast
 def test_the_breakaway_correction_with_a_sample_out_of_contact_before_the_peak():
     # a NaN (a sample out of contact) before the peak: the windows after it still compete (it raised before)
     from tribodyn.kernels.strokes import breakaway_peak

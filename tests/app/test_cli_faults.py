@@ -454,25 +454,21 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
 
 
 @pytest.mark.fast
-def test_toml_config_values_keep_their_types(tmp_path, monkeypatch):
-    """The TOML reader of --config: numbers, strings, booleans and tables reach analyze with their types."""
-    from tribodyn.app import jobs
-
-    seen = {}
-
-    def fake_run(files, out, *, open_options, analyze_options, **kwargs):
-        seen.update(analyze_options, open_options=open_options)
-        raise cli.UserError("stop here")
-
+def test_toml_config_values_keep_their_types(tmp_path):
+    """The TOML reader of --config: numbers, strings, booleans and tables reach the analysis with their types, as
+    summary.json records them (its params and open_options)."""
     rec = recording(tmp_path / "rec.npz")
     cfg = tmp_path / "run.toml"
     cfg.write_text('window = 1.5\nhop = 3\nbins = 8\ndeadband = "0.5sigma"\norientation = -1\n[map]\nfy = "fy"\n')
-    monkeypatch.setattr(jobs, "run_analysis", fake_run)
-    code = cli.main(["analyze", str(rec), "--out", str(tmp_path / "out"), "--config", str(cfg), "--quiet"])
-    assert code == 2, seen
-    assert seen["window"] == 1.5 and seen["hop"] == 3 and seen["n_bins"] == 8
-    assert seen["deadband"] == "0.5sigma" and seen["orientation"] == -1
-    assert seen["open_options"]["channels"] == {"fy": "fy"}
+    out = tmp_path / "out"
+    code = cli.main(["analyze", str(rec), "--out", str(out), "--config", str(cfg), "--quiet", "--figures", "none"])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    (params,) = [r["params"] for r in summary["recordings"].values()]
+    assert params["window"] == 1.5 and params["hop"] == 3.0 and params["n_bins"] == 8
+    assert isinstance(params["n_bins"], int) and params["orientation"] == -1
+    assert params["deadband"] == "0.5 sigma"  # the string form, parsed: k = 0.5 of the noise sigma
+    assert summary["open_options"]["channels"] == {"fy": "fy"}
 
 
 # ------------------------------------------------------- 6. CSV formula injection

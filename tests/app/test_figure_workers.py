@@ -55,7 +55,6 @@ class _Reduce:
         return self.call, self.args
 
 
-@pytest.mark.slow
 def test_workers_draw_the_same_bytes_as_this_process(cd_sim, cd_res, temp_res, pool):
     """Every figure of a dynamic recording (the window diagnostics, COF against time, J) and of the demo's
     temperature test (its operating range): the workers' PNG bytes are those drawn here, bytewise."""
@@ -73,7 +72,6 @@ def test_workers_draw_the_same_bytes_as_this_process(cd_sim, cd_res, temp_res, p
         assert got[k][0] == F.png_bytes(fig), stem
 
 
-@pytest.mark.slow
 def test_an_export_analysed_with_workers_writes_the_same_files(tmp_path, monkeypatch):
     """tribodyn analyze of the pin-on-disc export, --figures all, every figure drawn by the workers: the same PNG
     files and report images as drawn in the process."""
@@ -191,7 +189,6 @@ def _alive(pid: int) -> bool:
         return False
 
 
-@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux") or len(os.sched_getaffinity(0)) < 2,
                     reason="Linux with two cores or more (the pool, /proc)")  # fmt: skip
 def test_a_killed_command_line_leaves_no_worker(tmp_path):

@@ -128,3 +128,78 @@ def test_the_command_line_never_imports_bokeh_and_matplotlib_only_to_draw(tmp_pa
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert p.returncode == 0, p.stderr[-2000:]
     assert p.stdout.strip().splitlines()[-1] == "[] ['matplotlib']"
+
+
+def _fig(k: int):
+    """A constrained-layout figure with a mathtext label and a legend, as the report's (fresh each time: a
+    constrained-layout figure drawn twice may differ)."""
+    from tribodyn.app import figures
+
+    fig, axes = figures._figure(figsize=(3.0, 2.0))
+    axes[0, 0].plot(np.arange(50.0), np.sin(np.arange(50.0) / (k + 2)), label=r"$\mu_r$ (regression)")
+    axes[0, 0].set_ylabel(r"$F_{y,d}$ (N)")
+    axes[0, 0].legend()
+    return fig
+
+
+@pytest.mark.fast
+def test_figures_drawn_beside_the_tables_are_the_same_bytes():
+    """``Rendering.finish_beside``: ``meanwhile`` (the tables and summary) runs once in a second thread, which
+    also encodes the PNGs; the bytes are those of ``png_bytes`` (drawn and encoded at once), in order."""
+    import threading
+
+    from tribodyn.app import figures
+
+    ran = []
+
+    def meanwhile():
+        ran.append(threading.get_ident())
+        return "tables"
+
+    pngs, done = figures.Rendering([_fig(k) for k in range(3)]).finish_beside(meanwhile)
+    assert done == "tables" and len(ran) == 1 and ran[0] != threading.get_ident()
+    assert pngs == [figures.png_bytes(_fig(k)) for k in range(3)]
+    assert figures.encode_png(figures.rgba_pixels(_fig(1))) == pngs[1]
+    assert figures.Rendering([]).finish_beside(lambda: 7) == ([], 7)
+
+
+@pytest.mark.fast
+def test_what_the_tables_raise_beside_the_figures_is_raised():
+    """A failure of ``meanwhile`` is raised by ``finish_beside`` (the job fails as before), and a failure of the
+    drawing is raised once the thread is done."""
+    from tribodyn.app import figures
+
+    def failing():
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        figures.Rendering([_fig(k) for k in range(2)]).finish_beside(failing)
+
+    class Broken:
+        def savefig(self, *a, **k):
+            raise ValueError("cannot draw")
+
+    ran = []
+    with pytest.raises(ValueError, match="cannot draw"):
+        figures.Rendering([Broken()]).finish_beside(lambda: ran.append(1))  # type: ignore[list-item]
+    assert ran == [1]
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize("size", [0, 1, 70_001])
+def test_a_mapped_input_has_its_sha256(tmp_path, monkeypatch, size):
+    """The inputs' SHA-256 (``outputs.Digests``) from a mapping of the file, in blocks, is hashlib's of its
+    bytes; an empty file (which cannot be mapped) and a cancelled thread too (computed again on ``get``)."""
+    import hashlib
+
+    from tribodyn.app import outputs
+
+    monkeypatch.setattr(outputs, "_MAPPED_BYTES", 0)
+    monkeypatch.setattr(outputs, "_MAPPED_BLOCK", 4096)
+    p = tmp_path / "rec.bin"
+    p.write_bytes(np.random.default_rng(size).integers(0, 256, size, dtype=np.uint8).tobytes())
+    want = hashlib.sha256(p.read_bytes()).hexdigest()
+    assert outputs.Digests([p]).get(p) == want
+    cancelled = outputs.Digests([p])
+    cancelled.cancel()
+    assert cancelled.get(str(p)) == want

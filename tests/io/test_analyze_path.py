@@ -10,8 +10,6 @@ import pytest
 import tribodyn as td
 from tribodyn.io import RecordingError
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
-
 
 def _csv(tmp_path, names=("Time", "Fy", "Fz"), with_time=True, n=2000, fs=100.0):
     rng = np.random.default_rng(1)
@@ -28,6 +26,7 @@ def _open_fds():
     return len(os.listdir("/proc/self/fd")) if os.path.isdir("/proc/self/fd") else None
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("kind", [str, Path])
 def test_analyze_a_path_equals_analyze_the_opened_recording(tmp_path, kind):
     p = _csv(tmp_path)
@@ -42,6 +41,7 @@ def test_analyze_a_path_equals_analyze_the_opened_recording(tmp_path, kind):
     assert got.warnings == want.warnings
 
 
+@pytest.mark.fast
 def test_channels_are_passed_to_open_recording(tmp_path):
     p = _csv(tmp_path, names=("Time", "A", "B"))
     with pytest.raises(ValueError, match="lacks the required channel"):
@@ -50,6 +50,7 @@ def test_channels_are_passed_to_open_recording(tmp_path):
     assert res.params["roles"]["fy"] == "A" and len(res) == 10
 
 
+@pytest.mark.fast
 def test_fs_is_passed_to_open_recording(tmp_path):
     p = _csv(tmp_path, names=("Fy", "Fz"), with_time=False)
     with pytest.raises(RecordingError, match="sampling rate unknown"):
@@ -58,6 +59,7 @@ def test_fs_is_passed_to_open_recording(tmp_path):
     assert res.params["fs"] == 100.0 and len(res) == 10
 
 
+@pytest.mark.fast
 def test_a_missing_path_is_a_recording_error(tmp_path):
     with pytest.raises(RecordingError):
         td.analyze(tmp_path / "missing.csv")

@@ -52,7 +52,6 @@ from tribodyn.io import RecordingError, open_recording
 from tribodyn.io.writers import save_hdf5, save_tdms
 from _paths import TESTS
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 SEED = 20240607
 N_FUZZ = 60
@@ -142,6 +141,7 @@ def _outcome(path: str, fmt: str, original: Dict[str, np.ndarray], **kw: Any) ->
 
 
 # ============================================================================ TDMS
+@pytest.mark.fast
 @pytest.mark.parametrize("seg", [0, 1, 3])
 @pytest.mark.parametrize("change", ["+8", "-8", "+4096", "^16", "+1000"])
 def test_tdms_corrupt_raw_data_offset_is_refused(tmp_path, seg, change):
@@ -156,6 +156,7 @@ def test_tdms_corrupt_raw_data_offset_is_refused(tmp_path, seg, change):
     assert _outcome(str(p), "tdms", ch) == "refused"
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("seg", [0, 1, 2, 3])
 def test_tdms_flipped_interleaved_flag_is_refused(tmp_path, seg):
     p, ch = _tdms_file(tmp_path)
@@ -173,6 +174,7 @@ def test_tdms_flipped_interleaved_flag_is_refused(tmp_path, seg):
     assert "interleaved" in str(ei.value)
 
 
+@pytest.mark.fast
 def test_tdms_zero_padding_after_metadata_is_accepted(tmp_path):
     # DAQmx pads a segment's metadata with zeros (to 4 KiB); the raw data offset then points past the padding
     p, ch = _tdms_file(tmp_path)
@@ -190,6 +192,7 @@ def test_tdms_zero_padding_after_metadata_is_accepted(tmp_path):
         open_recording(q)
 
 
+@pytest.mark.fast
 def test_tdms_inconsistent_chunks_refused_by_each_layer(tmp_path, monkeypatch):
     """Without the metadata walk, npTDMS's parsed segments refuse it; without those, npTDMS's log does."""
     from tribodyn.io import tdms
@@ -213,6 +216,7 @@ def test_tdms_inconsistent_chunks_refused_by_each_layer(tmp_path, monkeypatch):
         open_recording(p)
 
 
+@pytest.mark.fast
 def test_tdms_nptdms_log_stays_off_the_terminal(tmp_path, monkeypatch, capfd, caplog):
     from nptdms import TdmsFile
     from tribodyn.io import tdms
@@ -241,6 +245,7 @@ def test_tdms_nptdms_log_stays_off_the_terminal(tmp_path, monkeypatch, capfd, ca
     assert [r for r in caplog.records if r.name.startswith("nptdms") and "chunk size" in r.getMessage()]
 
 
+@pytest.mark.fast
 def test_tdms_harmless_nptdms_warning_goes_to_warnings(tmp_path, capfd):
     p, ch = _tdms_file(tmp_path)
     data = bytearray(p.read_bytes())
@@ -271,6 +276,7 @@ def _scaled_tdms(path: Path, props: Dict[str, Any]) -> None:
         )
 
 
+@pytest.mark.fast
 def test_tdms_missing_scaling_property(tmp_path):
     p = tmp_path / "scaled.tdms"
     scale1 = {"NI_Scale[1]_Scale_Type": "Linear", "NI_Scale[1]_Linear_Slope": 2.0, "NI_Scale[1]_Linear_Input_Source": 0}
@@ -287,6 +293,7 @@ def test_tdms_missing_scaling_property(tmp_path):
         open_recording(p)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("n", [10, 1000, 2**22 + 2])
 def test_tdms_implausible_number_of_scales(tmp_path, n):
     # a flipped bit in a real file made its NI_Number_Of_Scales (2) 2**27 + 2: npTDMS builds that many scalings
@@ -298,6 +305,7 @@ def test_tdms_implausible_number_of_scales(tmp_path, n):
     assert time.monotonic() - t0 < 2
 
 
+@pytest.mark.fast
 def test_tdms_data_of_a_malformed_object_path_is_refused(tmp_path):
     p, _ = _tdms_file(tmp_path, seg=5000)  # one segment
     data = p.read_bytes()
@@ -307,6 +315,7 @@ def test_tdms_data_of_a_malformed_object_path_is_refused(tmp_path):
         open_recording(p)
 
 
+@pytest.mark.fast
 def test_tdms_daqmx_data_without_scaling_is_refused(tmp_path):
     real = TESTS / "data" / "real" / "nptdms_raw1_daqmx.tdms"
     data = real.read_bytes()
@@ -329,6 +338,7 @@ def _h5_file(path: Path) -> bytes:
     return path.read_bytes()
 
 
+@pytest.mark.fast
 def test_hdf5_corrupt_attribute_is_refused(tmp_path):
     p = tmp_path / "a.h5"
     data = bytearray(_h5_file(p))
@@ -340,6 +350,7 @@ def test_hdf5_corrupt_attribute_is_refused(tmp_path):
     assert str(p) in str(ei.value) and "\n" not in str(ei.value)
 
 
+@pytest.mark.fast
 def test_hdf5_attribute_errors_are_wrapped(tmp_path, monkeypatch):
     """Whatever h5py raises reading an attribute (here made to raise by a patch) is a RecordingError."""
     import h5py
@@ -359,6 +370,7 @@ def test_hdf5_attribute_errors_are_wrapped(tmp_path, monkeypatch):
             open_recording(p)
 
 
+@pytest.mark.fast
 def test_hdf5_attribute_of_a_crashing_type_is_not_read(tmp_path):
     # A flipped type byte makes the string attribute a variable-length sequence that h5py crashes (SIGSEGV)
     # reading; tribodyn refuses it unread. Run in a child process so a crash cannot take pytest down.
@@ -391,6 +403,7 @@ def _read_across(path: Path, change) -> None:
         next(it)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("fmt", ["h5", "tdms"])
 def test_truncated_while_read(tmp_path, fmt):
     p = tmp_path / f"rec.{fmt}"
@@ -399,6 +412,7 @@ def test_truncated_while_read(tmp_path, fmt):
         _read_across(p, lambda: os.truncate(p, p.stat().st_size // 2))
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("fmt", ["h5", "tdms"])
 def test_rewritten_in_place_while_read(tmp_path, fmt):
     p = tmp_path / f"rec.{fmt}"
@@ -417,6 +431,7 @@ def test_rewritten_in_place_while_read(tmp_path, fmt):
         _read_across(p, rewrite)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("fmt", ["h5", "tdms"])
 def test_replaced_while_read(tmp_path, fmt):
     p = tmp_path / f"rec.{fmt}"
@@ -453,6 +468,7 @@ def _npy_outcome(path: Path) -> str:
     return "read"
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("version", [(1, 0), (2, 0), (3, 0)])
 @pytest.mark.parametrize("fortran", [False, True])
 def test_npy_format_versions(tmp_path, version, fortran):
@@ -464,6 +480,7 @@ def test_npy_format_versions(tmp_path, version, fortran):
         np.testing.assert_array_equal(rec.read(["ch2"])["ch2"], a[2])
 
 
+@pytest.mark.fast
 def test_npy_bad_headers_are_refused(tmp_path):
     good = _npy_bytes(np.arange(40.0).reshape(2, 20), (1, 0))
     p = tmp_path / "h.npy"
@@ -484,6 +501,7 @@ def test_npy_bad_headers_are_refused(tmp_path):
         assert _npy_outcome(p) == "read", new
 
 
+@pytest.mark.fast
 def test_npy_header_fuzz(tmp_path):
     rng = random.Random(SEED)
     bases = [

@@ -22,7 +22,6 @@ from tribodyn.app import cli
 from tribodyn.io import RecordingError, detect_format, open_recording
 from _paths import TESTS
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 DATA = TESTS / "data" / "formats"
 MAT5 = DATA / "matlab_v5_pin_on_disc.mat"
@@ -41,6 +40,7 @@ def one_error(capsys) -> str:
 
 
 # ------------------------------------------------------------------------------------------ MAT-files
+@pytest.mark.fast
 def test_mat_v5_vectors_of_either_orientation_and_fs_variable():
     ref = scipy.io.loadmat(MAT5)
     assert ref["Ff"].shape[1] == 1 and ref["Fn"].shape[0] == 1  # a column and a row vector
@@ -54,6 +54,7 @@ def test_mat_v5_vectors_of_either_orientation_and_fs_variable():
     assert np.array_equal(got["cof"], ref["mu"].ravel())
 
 
+@pytest.mark.fast
 def test_mat_v4_has_no_signature_and_fs_comes_from_its_time_vector():
     ref = scipy.io.loadmat(MAT4)
     assert not MAT4.read_bytes().startswith(b"MATLAB")
@@ -64,6 +65,7 @@ def test_mat_v4_has_no_signature_and_fs_comes_from_its_time_vector():
     assert np.array_equal(got["fz"], ref["fz"].ravel())
 
 
+@pytest.mark.fast
 def test_mat_v73_is_read_with_its_matlab_names():
     with h5py.File(MAT73, "r") as f:  # MATLAB stores (N, 1) as (1, N) in HDF5
         want = np.asarray(f["test/friction_force"][()]).T.ravel()
@@ -76,6 +78,7 @@ def test_mat_v73_is_read_with_its_matlab_names():
     assert detect_format(MAT73) == "mat"  # not "hdf5": the MATLAB header decides
 
 
+@pytest.mark.fast
 def test_mat_matrix_columns_structs_and_lengths(tmp_path):
     t = np.arange(500) / 100.0
     data = np.column_stack([t, np.sin(t), np.cos(t)])
@@ -89,6 +92,7 @@ def test_mat_matrix_columns_structs_and_lengths(tmp_path):
         assert rec.fs == pytest.approx(100.0) and rec.roles["fy"] == "data(:,2)"
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "content, message",
     [
@@ -103,6 +107,7 @@ def test_bad_mat_files_are_one_line(tmp_path, capsys, content, message):
     assert message in one_error(capsys)
 
 
+@pytest.mark.fast
 def test_mat_without_numbers(tmp_path):
     p = tmp_path / "text.mat"
     scipy.io.savemat(p, {"note": "no data"})
@@ -122,6 +127,7 @@ def _sheet_cells(path: Path, part: str) -> List[List[str]]:
     return rows
 
 
+@pytest.mark.fast
 def test_xlsx_first_numeric_sheet_units_row_and_values():
     cells = _sheet_cells(XLSX, "xl/worksheets/sheet2.xml")
     names, units = cells[2], cells[3]
@@ -139,6 +145,7 @@ def test_xlsx_first_numeric_sheet_units_row_and_values():
     assert np.allclose(got["x"], body[:, 3] * 1e-3, rtol=1e-15)
 
 
+@pytest.mark.fast
 def test_ods_units_in_the_names():
     with open_recording(ODS) as rec:
         assert rec.metadata["sheet"] == "Pin on disc" and rec.fs == pytest.approx(10.0)
@@ -147,7 +154,6 @@ def test_ods_units_in_the_names():
         assert rec.n_samples == 1200
 
 
-@pytest.mark.slow  # three command-line runs with reports
 def test_sheet_option_in_the_api_the_cli_and_the_config(tmp_path, capsys):
     with open_recording(XLSX, sheet="data") as rec:  # case-insensitive when no sheet has the exact name
         assert rec.metadata["sheet"] == "Data"
@@ -187,6 +193,7 @@ def _xlsx(path: Path, rows: List[List[object]]) -> None:
     path.write_bytes(buf.getvalue())
 
 
+@pytest.mark.fast
 def test_irregular_time_in_a_sheet(tmp_path):
     rng = np.random.default_rng(0)
     t = np.cumsum(rng.uniform(0.5, 1.5, 400)) * 0.01
@@ -224,6 +231,7 @@ def _blocks_by_hand(path: Path) -> Dict[int, Dict[str, List[float]]]:
     return out
 
 
+@pytest.mark.fast
 def test_multistep_export_steps_joined_time_continuous_mappers_apart():
     ref = _blocks_by_hand(STEPS)
     assert detect_format(STEPS) == "steps"
@@ -247,6 +255,7 @@ def test_multistep_export_steps_joined_time_continuous_mappers_apart():
     assert any("step 2 (mapper, 12 rows), step 4 (mapper, 12 rows)" in w for w in warnings)
 
 
+@pytest.mark.fast
 def test_multistep_export_with_decimal_comma_and_no_test_step(tmp_path):
     p = tmp_path / "s.txt"
     p.write_text(
@@ -263,6 +272,7 @@ def test_multistep_export_with_decimal_comma_and_no_test_step(tmp_path):
 
 
 # -------------------------------------------------------------------- detection names the real content
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "source, name, message",
     [
@@ -281,6 +291,7 @@ def test_content_is_named_in_the_error(tmp_path, capsys, source, name, message):
     assert message in line and "no 1-D numeric member" not in line
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "source, fmt, message",
     [
@@ -294,6 +305,7 @@ def test_a_format_forced_on_other_content_names_the_content(tmp_path, source, fm
         open_recording(source, format=fmt)
 
 
+@pytest.mark.fast
 def test_an_excel_workbook_read_as_npz_says_so(tmp_path):
     p = tmp_path / "x.npz"
     p.write_bytes(XLSX.read_bytes())
@@ -306,6 +318,7 @@ def test_an_excel_workbook_read_as_npz_says_so(tmp_path):
         open_recording(z)
 
 
+@pytest.mark.fast
 def test_an_ole2_file_is_taken_for_an_excel_97_workbook(tmp_path):
     ole2 = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1" + bytes(504)
     p = tmp_path / "old.xls"
@@ -321,6 +334,7 @@ def test_an_ole2_file_is_taken_for_an_excel_97_workbook(tmp_path):
         open_recording(q)
 
 
+@pytest.mark.fast
 def test_a_workbook_named_as_another_spreadsheet_is_read_by_content(tmp_path):
     p = tmp_path / "really_ods.xlsx"
     p.write_bytes(ODS.read_bytes())
@@ -329,6 +343,7 @@ def test_a_workbook_named_as_another_spreadsheet_is_read_by_content(tmp_path):
 
 
 # ---------------------------------------------------------------------------- (N, 1) and (1, N) arrays
+@pytest.mark.fast
 def test_column_and_row_arrays_are_channels(tmp_path):
     fy, fz = np.linspace(0, 1, 300), np.linspace(1, 2, 300)
     p = tmp_path / "a.npz"

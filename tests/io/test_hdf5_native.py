@@ -18,7 +18,6 @@ import pytest
 from tribodyn.io import RecordingError, open_recording
 from tribodyn.io import hdf5 as H
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 h5py = pytest.importorskip("h5py")
 
@@ -46,6 +45,7 @@ def _write(path: Path, datasets: Dict[str, Tuple[np.ndarray, Dict[str, Any]]]) -
             f.create_dataset(k, data=a, **kw)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "kw,native",
     [
@@ -75,6 +75,7 @@ def test_same_samples_as_h5py(tmp_path, monkeypatch, kw, native, dtype):
     assert (gext == sorted(rn)) is native and gsafe is native
 
 
+@pytest.mark.fast
 def test_unwritten_chunks_stay_with_h5py(tmp_path, monkeypatch):
     p = tmp_path / "sparse.h5"
     with h5py.File(p, "w") as f:
@@ -86,6 +87,7 @@ def test_unwritten_chunks_stay_with_h5py(tmp_path, monkeypatch):
     assert got[1][3] == ["fy"] and all(_same(got[1][1][k], ref[1][1][k]) for k in ref[1][0])
 
 
+@pytest.mark.fast
 def test_analyze_mapped_route_equals_npy(tmp_path, monkeypatch):
     import tribodyn
     from tribodyn import simulate

@@ -10,7 +10,6 @@ from tribodyn.app.cli import main
 from tribodyn.io import RecordingError
 from tribodyn.io._text import header_rate
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 FS = 50.0
 
@@ -34,6 +33,7 @@ def _write(tmp_path, text, name="h.csv"):
     return p
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "header,key",
     [
@@ -72,12 +72,14 @@ def test_header_rate_is_read(tmp_path, header, key):
     rec.close()
 
 
+@pytest.mark.fast
 def test_header_rate_with_decimal_comma_in_a_semicolon_file(tmp_path):
     p = _write(tmp_path, "Abtastfrequenz [kHz]: 0,05\tPrüfer: B\nFy;Fz\n" + _body(";", ","))
     rec = td.open_recording(p)
     assert rec.fs == pytest.approx(FS) and rec.n_samples == 300
 
 
+@pytest.mark.fast
 def test_a_key_known_only_by_its_hz_unit_is_named_in_a_warning(tmp_path):
     p = _write(tmp_path, "Erfassung [kHz]: 0.05\nFy,Fz\n" + _body())
     rec = td.open_recording(p)
@@ -88,6 +90,7 @@ def test_a_key_known_only_by_its_hz_unit_is_named_in_a_warning(tmp_path):
     assert not any("Abtastrate" in w for w in td.open_recording(p).warnings)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "header",
     [
@@ -108,6 +111,7 @@ def test_other_frequencies_are_not_taken_as_the_rate(tmp_path, header):
         td.open_recording(p)
 
 
+@pytest.mark.fast
 def test_known_key_wins_over_fuzzy_and_unit_keys():
     pairs = {"Erfassung [Hz]": "10", "Samplig rate": "20", "Sampling rate": "50"}
     hit = header_rate(pairs)
@@ -117,12 +121,14 @@ def test_known_key_wins_over_fuzzy_and_unit_keys():
     assert header_rate({"Sampling rate [s]": "0.02"}) is None  # a rate key with a time unit
 
 
+@pytest.mark.fast
 def test_several_pairs_on_one_line_are_split_in_the_metadata(tmp_path):
     p = _write(tmp_path, "Operator: A\tSampling rate: 50 Hz\tDate: 2024-05-01\nFy,Fz\n" + _body())
     head = td.open_recording(p).metadata["header"]
     assert head["Operator"] == "A" and head["Sampling rate"] == "50 Hz" and head["Date"] == "2024-05-01"
 
 
+@pytest.mark.fast
 def test_ni_channel_rows_with_tabs_are_not_split_into_pairs(tmp_path):
     fy, fz = _forces()
     t = np.arange(fy.size) / 2000.0
@@ -133,6 +139,7 @@ def test_ni_channel_rows_with_tabs_are_not_split_into_pairs(tmp_path):
     assert rec.metadata["header"]["Channel name"] == "Fy Fz"
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "name,scale",
     [
@@ -161,6 +168,7 @@ def test_time_column_names(tmp_path, name, scale):
     assert rec.info()["fs_source"] == f"median step of time column {name!r}"
 
 
+@pytest.mark.fast
 def test_temperature_is_not_time(tmp_path):
     fy, fz = _forces()
     body = "".join(f"{20 + 0.01 * k:.4f},{b:.6f},{c:.6f}\n" for k, (b, c) in enumerate(zip(fy, fz)))
@@ -168,6 +176,7 @@ def test_temperature_is_not_time(tmp_path):
         td.open_recording(_write(tmp_path, "Temp,Fy,Fz\n" + body))
 
 
+@pytest.mark.fast
 def test_cli_reads_a_german_header(tmp_path, capsys):
     p = _write(tmp_path, "Prüfer: B\tAbtastrate: 50 Hz\tLast: 10 N\nFy;Fz\n" + _body(";"))
     assert main(["info", str(p)]) == 0

@@ -22,7 +22,6 @@ from tribodyn.io import ChannelInfo, Recording, RecordingError, open_recording
 from tribodyn.io.writers import atomic_write, save_hdf5, save_npy, save_npz, save_tdms, sha256_file
 from _paths import TESTS
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 REAL = TESTS / "data" / "real"
 G0 = 9.80665e-3  # gram-force in N
@@ -69,6 +68,7 @@ def _chunked(rec: Recording, size: int, roles=None) -> dict:
 
 
 # --------------------------------------------------------------------- all files
+@pytest.mark.fast
 def test_package_exports():
     assert tribodyn.io.open_recording is open_recording
     assert issubclass(RecordingError, ValueError)
@@ -76,6 +76,7 @@ def test_package_exports():
         assert hasattr(tribodyn.io, name)
 
 
+@pytest.mark.fast
 def test_test_data_is_byte_exact_copy():
     # CRLF line ends must survive (the counts and offsets below rely on them)
     assert CETR1.read_bytes().count(b"\r\n") == 257
@@ -83,6 +84,7 @@ def test_test_data_is_byte_exact_copy():
     assert TDMS.stat().st_size == 34568
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("path, kw", ALL_REAL, ids=lambda v: getattr(v, "name", ""))
 @pytest.mark.parametrize("size", [1, 7, 1000, "n+1"])
 def test_chunks_concatenate_to_read(path, kw, size):
@@ -100,6 +102,7 @@ def test_chunks_concatenate_to_read(path, kw, size):
         assert set(default) == (set(rec.roles) if rec.roles else set(names))
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("path, kw", ALL_REAL, ids=lambda v: getattr(v, "name", ""))
 def test_info_and_recording_basics(path, kw):
     with open_recording(path, **kw) as rec:
@@ -118,6 +121,7 @@ def test_info_and_recording_basics(path, kw):
 
 
 # --------------------------------------------------------------------------- CETR
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "path, blocks, first, last",
     [
@@ -154,6 +158,7 @@ def test_cetr(path, blocks, first, last):
         assert d["T"][blocks[1][0]] == 0.0
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("path", [CETR1, CETR2])
 def test_cetr_cof_column_consistency(path):
     """Ff = |Fx| exactly and COF = Ff/|Fz| to the file's 6 digits (Fz < 0: compression)."""
@@ -172,6 +177,7 @@ def test_cetr_cof_column_consistency(path):
     assert np.any(np.sign(d["Fx"]) != np.sign(d["Fx"][0]))
 
 
+@pytest.mark.fast
 def test_cetr_channels_and_scale_override():
     with open_recording(CETR1, channels={"fy": "Fx", "cof": None}, scale={"fz": 1.0}) as rec:
         assert rec.roles == {"fy": "Fx", "fz": "Fz"}
@@ -188,6 +194,7 @@ def test_cetr_channels_and_scale_override():
         assert rec.read(["Fx"])["Fx"][0] == 2 * 7.683862
 
 
+@pytest.mark.fast
 def test_cetr_truncated_at_line_boundary(tmp_path):
     data = CETR1.read_bytes()
     cut = tmp_path / "cut.csv"
@@ -196,6 +203,7 @@ def test_cetr_truncated_at_line_boundary(tmp_path):
         open_recording(cut)
 
 
+@pytest.mark.fast
 def test_cetr_cut_mid_line(tmp_path):
     data = CETR1.read_bytes()
     cut = tmp_path / "cut.csv"
@@ -205,6 +213,7 @@ def test_cetr_cut_mid_line(tmp_path):
 
 
 # -------------------------------------------------------------------- pin-on-disc
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "path, load, first, last",
     [
@@ -232,6 +241,7 @@ def test_pin_on_disc(path, load, first, last):
             assert d[k][0] == v0 and d[k][-1] == v1
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("path, worst", [(POD60, 0.0064), (POD100, 0.0111)])
 def test_pin_on_disc_cof_column_consistency(path, worst):
     """Friction Force / Load = Friction Coefficient within 2 % wherever |Ff| >= 2 N.
@@ -248,6 +258,7 @@ def test_pin_on_disc_cof_column_consistency(path, worst):
     assert rel.max() == pytest.approx(worst, abs=5e-4)
 
 
+@pytest.mark.fast
 def test_pin_on_disc_cut_mid_line(tmp_path):
     data = POD60.read_bytes()
     cut = tmp_path / "cut.tsv"
@@ -260,6 +271,7 @@ def test_pin_on_disc_cut_mid_line(tmp_path):
 
 
 # ---------------------------------------------------------------------------- LVM
+@pytest.mark.fast
 def test_lvm_long_multi_segment():
     with open_recording(LVM_LONG) as rec:
         assert rec.format == "lvm"
@@ -277,6 +289,7 @@ def test_lvm_long_multi_segment():
         assert d["m_2"][2475] == -5.458060e-6  # line 2498, exponent notation
 
 
+@pytest.mark.fast
 def test_lvm_short_decimal_comma():
     with open_recording(LVM_SHORT) as rec:
         assert rec.channel_names == ["Excitation (Trigger)", "Response (Trigger)"]
@@ -291,6 +304,7 @@ def test_lvm_short_decimal_comma():
         assert list(rec.read()) == ["fy"]
 
 
+@pytest.mark.fast
 def test_lvm_cut_mid_line(tmp_path):
     data = LVM_LONG.read_bytes()
     half = data[: len(data) // 2]
@@ -331,6 +345,7 @@ LVM_VARIANTS = {
 }
 
 
+@pytest.mark.fast
 def test_lvm_variants(tmp_path):
     p = tmp_path / "multi.lvm"
     p.write_text(LVM_VARIANTS["multi_x"])
@@ -356,6 +371,7 @@ def test_lvm_variants(tmp_path):
         np.testing.assert_array_equal(got["fy"], d["fy"])
 
 
+@pytest.mark.fast
 def test_lvm_never_writes_beside_the_file(tmp_path):
     p = tmp_path / "short.lvm"
     p.write_bytes(LVM_SHORT.read_bytes())
@@ -365,6 +381,7 @@ def test_lvm_never_writes_beside_the_file(tmp_path):
 
 
 # --------------------------------------------------------------------------- TDMS
+@pytest.mark.fast
 def test_tdms_daqmx_scaled():
     from nptdms import TdmsFile
 
@@ -393,6 +410,7 @@ def test_tdms_daqmx_scaled():
         assert rec.roles == {"u": "Second Chan", "i": "Third Chan"}
 
 
+@pytest.mark.fast
 def test_tdms_truncated(tmp_path):
     data = TDMS.read_bytes()
     cut = tmp_path / "half.tdms"
@@ -404,6 +422,7 @@ def test_tdms_truncated(tmp_path):
         open_recording(cut)
 
 
+@pytest.mark.fast
 def test_tdms_groups_and_lengths(tmp_path):
     from nptdms import ChannelObject, TdmsWriter
 
@@ -426,6 +445,7 @@ def test_tdms_groups_and_lengths(tmp_path):
 
 
 # ---------------------------------------------------------------------------- npy
+@pytest.mark.fast
 def test_npy_real():
     a = np.load(NPY)
     with pytest.raises(RecordingError, match="pass fs="):
@@ -442,6 +462,7 @@ def test_npy_real():
         assert list(rec.read()) == ["fz"]
 
 
+@pytest.mark.fast
 def test_npy_layout(tmp_path):
     a = np.load(NPY)
     p = tmp_path / "t.npy"
@@ -459,6 +480,7 @@ def test_npy_layout(tmp_path):
         assert rec.read()["fy"].dtype == np.float64
 
 
+@pytest.mark.fast
 def test_npy_truncated(tmp_path):
     data = NPY.read_bytes()
     cut = tmp_path / "cut.npy"
@@ -475,6 +497,7 @@ def _signals(n=1234):
     return {"fy": -0.3 * fz + 0.01 * np.sin(t), "fz": fz, "i": rng.standard_normal(n)}
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "writer, suffix, kw",
     [
@@ -504,6 +527,7 @@ def test_writer_round_trip(tmp_path, writer, suffix, kw):
                 np.testing.assert_array_equal(got[k], v)
 
 
+@pytest.mark.fast
 def test_npy_writer_round_trip(tmp_path):
     sig = _signals(500)
     p = tmp_path / "rec.npy"
@@ -515,6 +539,7 @@ def test_npy_writer_round_trip(tmp_path):
             np.testing.assert_array_equal(d[f"ch{k}"], sig[name])
 
 
+@pytest.mark.fast
 def test_writers_reject_bad_input(tmp_path):
     with pytest.raises(ValueError, match="samples"):
         save_npz(tmp_path / "x.npz", {"fy": np.zeros(3), "fz": np.zeros(4)}, 1.0)
@@ -526,6 +551,7 @@ def test_writers_reject_bad_input(tmp_path):
 
 
 # ----------------------------------------------------------------- HDF5 / npz
+@pytest.mark.fast
 def test_hdf5_layout_and_fs_sources(tmp_path):
     p = tmp_path / "nested.hdf5"
     with h5py.File(p, "w") as f:
@@ -546,6 +572,7 @@ def test_hdf5_layout_and_fs_sources(tmp_path):
         open_recording(p)  # no mapping: Fn/Ft (6) vs meta/short (2)
 
 
+@pytest.mark.fast
 def test_hdf5_truncated(tmp_path):
     p = tmp_path / "rec.h5"
     save_hdf5(p, _signals(20000), 100.0)
@@ -556,6 +583,7 @@ def test_hdf5_truncated(tmp_path):
         rec.read()
 
 
+@pytest.mark.fast
 def test_npz_unequal_lengths_and_missing_fs(tmp_path):
     p = tmp_path / "u.npz"
     np.savez(p, fy=np.zeros(5), fz=np.ones(5), other=np.zeros(3))
@@ -568,6 +596,7 @@ def test_npz_unequal_lengths_and_missing_fs(tmp_path):
         assert rec.streaming
 
 
+@pytest.mark.fast
 def test_npz_corrupt(tmp_path):
     p = tmp_path / "rec.npz"
     save_npz(p, _signals(), 10.0)
@@ -578,6 +607,7 @@ def test_npz_corrupt(tmp_path):
 
 
 # ------------------------------------------------------------- generic text
+@pytest.mark.fast
 def test_csv_generic(tmp_path):
     p = tmp_path / "run.csv"
     p.write_text(
@@ -598,6 +628,7 @@ def test_csv_generic(tmp_path):
         np.testing.assert_allclose(d["fy"], 3 + np.arange(9) / 10)
 
 
+@pytest.mark.fast
 def test_csv_units_row_and_blocks(tmp_path):
     p = tmp_path / "blocks.txt"
     p.write_text("t,fy,fz\ns,kN,kN\n0,1,2\n0.1,1.5,2.5\n\nrepeat 2\nt,fy,fz\ns,kN,kN\n0,3,4\n0.1,3.5,4.5\n0.2,4,5\n")
@@ -607,6 +638,7 @@ def test_csv_units_row_and_blocks(tmp_path):
         np.testing.assert_array_equal(rec.read()["fy"], [1e3, 1.5e3, 3e3, 3.5e3, 4e3])
 
 
+@pytest.mark.fast
 def test_csv_needs_fs_without_time_column(tmp_path):
     p = tmp_path / "x.tsv"
     p.write_text("fy\tfz\n1\t2\n3\t4\n")
@@ -616,6 +648,7 @@ def test_csv_needs_fs_without_time_column(tmp_path):
         np.testing.assert_array_equal(rec.read()["fz"], [2.0, 4.0])
 
 
+@pytest.mark.fast
 def test_csv_corrupt_row(tmp_path):
     p = tmp_path / "bad.csv"
     p.write_text("fy,fz\n" + "1,2\n" * 10 + "1,x\n" + "1,2\n" * 10)
@@ -624,11 +657,13 @@ def test_csv_corrupt_row(tmp_path):
 
 
 # ---------------------------------------------------------------------- errors
+@pytest.mark.fast
 def test_error_missing_file(tmp_path):
     with pytest.raises(RecordingError, match="no such file"):
         open_recording(tmp_path / "nope.tdms")
 
 
+@pytest.mark.fast
 def test_error_unknown_format(tmp_path):
     p = tmp_path / "x.bin"
     p.write_bytes(bytes(range(256)) * 4)
@@ -646,6 +681,7 @@ def test_error_unknown_format(tmp_path):
         open_recording(p)
 
 
+@pytest.mark.fast
 def test_error_missing_channel_lists_available():
     with pytest.raises(RecordingError) as e:
         open_recording(CETR1, channels={"fy": "Friction"})
@@ -658,6 +694,7 @@ def test_error_missing_channel_lists_available():
             rec.chunks(0)
 
 
+@pytest.mark.fast
 def test_error_bad_options():
     with pytest.raises(TypeError, match="option"):
         open_recording(LVM_SHORT, delimiter=",")
@@ -678,6 +715,7 @@ def _peak_while_chunking(path: Path, **kw) -> int:
     return peak
 
 
+@pytest.mark.fast
 def test_chunks_memory_is_bounded_binary(tmp_path):
     n = 600_000
     sig = {"fy": np.linspace(0, 1, n), "fz": np.linspace(1, 2, n)}
@@ -710,6 +748,7 @@ def _write_lvm(path: Path, m: int) -> None:
         f.write("".join(f"\t{a:.6f}\t{b:.6f}\n" for a, b in rows).replace(".", ","))
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("writer, suffix", [(_write_csv, ".csv"), (_write_lvm, ".lvm")])
 def test_chunks_memory_is_bounded_text(tmp_path, writer, suffix):
     """The peak while chunking a text file does not grow with the file's length."""
@@ -721,6 +760,7 @@ def test_chunks_memory_is_bounded_text(tmp_path, writer, suffix):
 
 
 # ---------------------------------------------------------------------- writers
+@pytest.mark.fast
 def test_atomic_write_leaves_nothing_on_error(tmp_path):
     target = tmp_path / "out.bin"
 
@@ -746,6 +786,7 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path):
     assert sha256_file(target) == hashlib.sha256(b"new content").hexdigest()
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name", sorted(p.name for p in (TESTS / "data" / "real").iterdir()))
 def test_chunks_of_a_sample_range_equal_the_slice(name):
     """chunks(start=, stop=) reads only part of a recording (used to split long recordings)."""
@@ -763,6 +804,7 @@ def test_chunks_of_a_sample_range_equal_the_slice(name):
             rec.chunks(7, start=b, stop=a)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name", ["allow_pickle", "file"])
 def test_save_npz_refuses_names_of_savez_arguments(tmp_path, name):
     from tribodyn.io.writers import save_npz

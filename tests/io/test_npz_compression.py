@@ -13,8 +13,6 @@ import tribodyn as td
 from tribodyn.app.cli import main
 from tribodyn.io import RecordingError
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
-
 
 def _npz_with_method(path, method):
     """A numpy .npz whose members claim compression ``method`` in the local and central headers."""
@@ -30,6 +28,7 @@ def _npz_with_method(path, method):
         assert {zi.compress_type for zi in z.infolist()} == {method}
 
 
+@pytest.mark.fast
 def test_npz_unknown_compression_method_is_a_recording_error(tmp_path):
     p = tmp_path / "m99.npz"
     _npz_with_method(p, 99)
@@ -37,6 +36,7 @@ def test_npz_unknown_compression_method_is_a_recording_error(tmp_path):
         td.open_recording(p)
 
 
+@pytest.mark.fast
 def test_cli_unknown_compression_method_one_line_exit_2(tmp_path, capsys):
     p = tmp_path / "m99.npz"
     _npz_with_method(p, 99)
@@ -49,6 +49,7 @@ def test_cli_unknown_compression_method_one_line_exit_2(tmp_path, capsys):
     assert "Traceback" not in capsys.readouterr().err
 
 
+@pytest.mark.fast
 def test_npz_decompression_error_while_reading_is_a_recording_error(tmp_path, monkeypatch):
     p = tmp_path / "ok.npz"
     np.savez_compressed(p, fy=np.ones(5000), fz=np.full(5000, 10.0), fs=np.array(100.0))

@@ -9,9 +9,8 @@ import pytest
 import tribodyn as td
 from tribodyn.io.writers import save_npz
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
-
+@pytest.mark.fast
 def test_npz_mutants_are_refused_or_read_like_np_load(tmp_path):
     rng = np.random.default_rng(7)
     base = tmp_path / "base.npz"

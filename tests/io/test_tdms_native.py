@@ -33,7 +33,6 @@ from tribodyn.io.tdms import write_daqmx_tdms
 from tribodyn.io.writers import save_tdms
 from _paths import TESTS
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 HERE = TESTS
 REAL = sorted((HERE / "data" / "real").glob("*.tdms"))
@@ -344,12 +343,12 @@ def _daqmx_files(tmp: Path) -> List[Path]:
 # ------------------------------------------------------------------ tests
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("path", REAL, ids=[p.name for p in REAL])
 def test_real_files(path, monkeypatch):
     assert compare(path, monkeypatch) == "read"
 
 
-@pytest.mark.slow  # a whole simulated test written by the command line
 @pytest.mark.parametrize("raw", [False, True])
 def test_simulator_output(tmp_path, monkeypatch, raw):
     p = tmp_path / "sim.tdms"
@@ -359,21 +358,25 @@ def test_simulator_output(tmp_path, monkeypatch, raw):
     assert compare(p, monkeypatch) == "read"
 
 
+@pytest.mark.fast
 def test_nptdms_writer_layouts(tmp_path, monkeypatch):
     for p in _nptdms_files(tmp_path):
         assert compare(p, monkeypatch) == "read", p.name
 
 
+@pytest.mark.fast
 def test_hand_written_layouts(tmp_path, monkeypatch):
     for p in _hand_files(tmp_path):
         assert compare(p, monkeypatch) == "read", p.name
 
 
+@pytest.mark.fast
 def test_daqmx_linear_and_polynomial(tmp_path, monkeypatch):
     for p in _daqmx_files(tmp_path):
         assert compare(p, monkeypatch) == "read", p.name
 
 
+@pytest.mark.fast
 def test_fallback_is_detected_and_said(tmp_path, monkeypatch):
     for p, why in _fallback_files(tmp_path):
         assert compare(p, monkeypatch, expect_native=False) == "read", p.name
@@ -382,6 +385,7 @@ def test_fallback_is_detected_and_said(tmp_path, monkeypatch):
             assert any("read by npTDMS" in w and why in w for w in rec.warnings), rec.warnings
 
 
+@pytest.mark.fast
 def test_native_recordings_are_thread_safe_and_mappable(tmp_path):
     p = _daqmx_files(tmp_path)[1]
     with open_recording(p) as rec:
@@ -492,6 +496,7 @@ def test_fuzzed_mutants_agree(tmp_path, monkeypatch):
     assert outcomes.get("refused", 0) > 0 and outcomes.get("read", 0) > 0
 
 
+@pytest.mark.fast
 def test_index_file_is_used_when_it_matches(tmp_path, monkeypatch):
     from nptdms import ChannelObject, TdmsWriter
 

@@ -19,7 +19,6 @@ import pytest
 from tribodyn.io import RecordingError, detect_format, open_recording
 from _paths import TESTS
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 REAL = TESTS / "data" / "real"
 N = 12
@@ -83,6 +82,7 @@ def read_all(path: Path, **kw: Any):
 
 
 # ------------------------------------------------------------------ the last row
+@pytest.mark.fast
 @pytest.mark.parametrize("delim, decimal, suffix", [(",", ".", ".csv"), ("\t", ".", ".tsv"), (";", ",", ".txt")])
 def test_delimited_cut_inside_last_number_drops_the_row(tmp_path, delim, decimal, suffix):
     data = csv_text(delim, decimal).encode()
@@ -96,6 +96,7 @@ def test_delimited_cut_inside_last_number_drops_the_row(tmp_path, delim, decimal
     assert rec.segments == [(0, N - 1)]
 
 
+@pytest.mark.fast
 def test_delimited_whole_file_reads_every_row_without_warning(tmp_path):
     p = tmp_path / "whole.csv"
     p.write_text(csv_text())
@@ -109,6 +110,7 @@ def test_delimited_whole_file_reads_every_row_without_warning(tmp_path):
     ]
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "tail, message",
     [
@@ -128,6 +130,7 @@ def test_delimited_last_row_with_missing_fields_is_dropped(tmp_path, tail, messa
     assert warnings == [f"last row (line {N + 2}) {message} as possibly cut off"]
 
 
+@pytest.mark.fast
 def test_delimited_short_row_before_the_end_is_still_an_error(tmp_path):
     p = tmp_path / "mid.csv"
     p.write_text(csv_text() + "0.012,1.5\n0.013,1.5,2.5\n")
@@ -135,6 +138,7 @@ def test_delimited_short_row_before_the_end_is_still_an_error(tmp_path):
         open_recording(p)
 
 
+@pytest.mark.fast
 def test_delimited_cut_row_alone_in_its_block(tmp_path):
     p = tmp_path / "blocks.csv"
     p.write_text("t,fy,fz\n0,1,2\n0.1,1.5,2.5\n\nrepeat 2\nt,fy,fz\n0,3,4.25")
@@ -144,6 +148,7 @@ def test_delimited_cut_row_alone_in_its_block(tmp_path):
     assert warnings == ["last row (line 7) has no line end: dropped as possibly cut off"]
 
 
+@pytest.mark.fast
 def test_vendor_export_cut_inside_last_number_is_refused(tmp_path):
     data = (REAL / "cetr_umt2_HT-2n-6-4_2_001.csv").read_bytes().rstrip(b"\r\n")
     p = tmp_path / "cut.csv"
@@ -152,6 +157,7 @@ def test_vendor_export_cut_inside_last_number_is_refused(tmp_path):
         open_recording(p)
 
 
+@pytest.mark.fast
 def test_lvm_last_row_must_be_whole(tmp_path):
     data = lvm_text().encode()
     last = LVM_HEADER_LINES + N
@@ -168,6 +174,7 @@ def test_lvm_last_row_must_be_whole(tmp_path):
     np.testing.assert_array_equal(d["fy"], REF["fy"])
 
 
+@pytest.mark.fast
 def test_lvm_bad_header_numbers_are_recording_errors(tmp_path):
     p = tmp_path / "inf.lvm"
     p.write_text(lvm_text().replace(f"Samples\t{N}\t{N}", "Samples\tinf\tinf"))
@@ -179,6 +186,7 @@ def test_lvm_bad_header_numbers_are_recording_errors(tmp_path):
         bounded(lambda: open_recording(p))
 
 
+@pytest.mark.fast
 def test_decimal_comma_semicolon_file_is_not_split_at_its_commas(tmp_path):
     """'1,5;2,5;3,5' holds three numbers split at ';' (it was read as "1", "5;2", "5;3", "5")."""
     p = tmp_path / "eu.csv"
@@ -194,6 +202,7 @@ DUP_CSV = "time [s],fy [N],fy [N],fz [N]\n" + "".join(f"{k / 10},{k},{-k},{k * 2
 DUP_LVM = lvm_text().replace("X_Value\tfy\tfz\tComment", "X_Value\tfy\tfy\tComment")
 
 
+@pytest.mark.fast
 def test_duplicate_names_map_no_role_automatically(tmp_path):
     p = tmp_path / "dup.csv"
     p.write_text(DUP_CSV)
@@ -208,6 +217,7 @@ def test_duplicate_names_map_no_role_automatically(tmp_path):
             rec.read(["fy"])
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name, column, values", [("fy [N]", 2, [0, 1, 2, 3, 4]), ("fy [N].1", 3, [0, -1, -2, -3, -4])])
 def test_duplicate_names_mapped_explicitly(tmp_path, name, column, values):
     p = tmp_path / "dup.csv"
@@ -221,6 +231,7 @@ def test_duplicate_names_mapped_explicitly(tmp_path, name, column, values):
         ]
 
 
+@pytest.mark.fast
 def test_duplicate_names_in_lvm(tmp_path):
     p = tmp_path / "dup.lvm"
     p.write_text(DUP_LVM)
@@ -252,6 +263,7 @@ def no_open_of(monkeypatch):
     return guarded
 
 
+@pytest.mark.fast
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 @pytest.mark.parametrize("fmt", ["auto", "csv", "lvm", "tdms"])
 def test_fifo_is_refused_without_blocking(tmp_path, no_open_of, fmt):
@@ -262,6 +274,7 @@ def test_fifo_is_refused_without_blocking(tmp_path, no_open_of, fmt):
         bounded(lambda: open_recording(fifo, format=fmt), timeout=5.0)
 
 
+@pytest.mark.fast
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 def test_fifo_is_refused_by_detect_format_and_for_real(tmp_path):
     fifo = tmp_path / "pipe.lvm"
@@ -278,6 +291,7 @@ def test_fifo_is_refused_by_detect_format_and_for_real(tmp_path):
             pass
 
 
+@pytest.mark.fast
 @pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="no /dev/zero")
 @pytest.mark.parametrize("fmt", ["auto", "csv", "lvm"])
 def test_dev_zero_is_refused(no_open_of, fmt):
@@ -288,6 +302,7 @@ def test_dev_zero_is_refused(no_open_of, fmt):
 
 
 # ------------------------------------------------------------------ encoding
+@pytest.mark.fast
 @pytest.mark.parametrize("fmt", ["csv", "lvm"])
 @pytest.mark.parametrize(
     "encoding, message",
@@ -326,6 +341,7 @@ def _mutants(data: bytes, n: int, seed: int):
         yield kind, bytes(b)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name, text, suffix, seed", [("csv", csv_text(), ".csv", 1), ("lvm", lvm_text(), ".lvm", 2)])
 def test_fuzz_mutants_read_true_values_or_raise_recording_error(tmp_path, name, text, suffix, seed):
     """100 mutants: each opens and reads, or raises RecordingError; a truncated file read

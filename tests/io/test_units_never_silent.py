@@ -8,8 +8,6 @@ import tribodyn as td
 from tribodyn import simulate
 from tribodyn.io.units import GRAM_FORCE
 
-pytestmark = pytest.mark.fast
-
 
 def _csv(path, names, cols):
     np.savetxt(path, np.column_stack(cols), delimiter=",", comments="", header=",".join(names))
@@ -25,6 +23,7 @@ def forces():
     return np.arange(n) / 100.0, fy, fz
 
 
+@pytest.mark.fast
 def test_a_force_in_g_is_gram_force_on_every_text_path(tmp_path, forces) -> None:
     t, fy, fz = forces
     p = _csv(tmp_path / "g.csv", ["Time [s]", "Fx [g]", "Fz [g]"], [t, fy / GRAM_FORCE, fz / GRAM_FORCE])
@@ -34,6 +33,7 @@ def test_a_force_in_g_is_gram_force_on_every_text_path(tmp_path, forces) -> None
         np.testing.assert_allclose(rec.read(["fz"])["fz"], fz, rtol=1e-12)
 
 
+@pytest.mark.fast
 def test_fy_and_fz_in_different_units_are_refused(tmp_path, forces) -> None:
     t, fy, fz = forces
     p = _csv(tmp_path / "mixed.csv", ["Time [s]", "Ff [V]", "Fn [N]"], [t, fy, fz])
@@ -48,6 +48,7 @@ def test_fy_and_fz_in_different_units_are_refused(tmp_path, forces) -> None:
     assert any("has no unit: the COF takes them as the same unit" in w for w in res.warnings)
 
 
+@pytest.mark.fast
 def test_a_velocity_in_rpm_is_no_sliding_speed(tmp_path, forces) -> None:
     t, fy, fz = forces
     p = _csv(tmp_path / "rpm.csv", ["Time [s]", "Ff [N]", "Fn [N]", "Speed [rpm]"], [t, fy, fz, np.full(t.size, 120.0)])
@@ -59,6 +60,7 @@ def test_a_velocity_in_rpm_is_no_sliding_speed(tmp_path, forces) -> None:
     assert np.nanmedian(res.table["speed"]) == pytest.approx(120.0 * 2 * np.pi * 0.01 / 60, rel=1e-9)
 
 
+@pytest.mark.fast
 def test_a_position_without_a_unit_gives_no_energy(tmp_path) -> None:
     sim = simulate.reciprocating(seed=2)
     ch = sim.channels

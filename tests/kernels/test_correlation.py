@@ -31,7 +31,6 @@ from hypothesis.extra.numpy import arrays
 from tribodyn import _core
 from tribodyn.kernels import reference as ref
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 EPS = np.finfo(np.float64).eps
 
@@ -83,6 +82,7 @@ def assert_same_nan(a: np.ndarray, b: np.ndarray) -> None:
 # -- direct == FFT ----------------------------------------------------------------
 
 
+@pytest.mark.fast
 @given(signal_pair(max_n=300))
 @example((np.array([1.0, 2.0]), np.array([0.5, -3.0]), 1))
 @example((np.array([1.0, 2.0, 4.0]), np.array([0.5, -3.0, 7.0]), 2))
@@ -97,6 +97,7 @@ def test_direct_equals_fft(case):
     np.testing.assert_allclose(f.c, d.c, rtol=0, atol=1e-10, equal_nan=True)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("n", [2, 3, 4, 5, 64, 1000, 4097])
 def test_direct_equals_fft_full_lag_range(n):
     rng = np.random.default_rng(n)
@@ -109,6 +110,7 @@ def test_direct_equals_fft_full_lag_range(n):
     np.testing.assert_allclose(f, d, rtol=0, atol=1e-10)
 
 
+@pytest.mark.fast
 def test_auto_reports_the_method_it_ran():
     rng = np.random.default_rng(0)
     for n, lag in [(10, 9), (5000, 3), (5000, 4999), (2, 0)]:
@@ -155,6 +157,7 @@ def test_pearson_matches_reference(case):
         assert abs(got - want) <= shift_atol(x, y, np.array([0]))[0]
 
 
+@pytest.mark.fast
 def test_constant_input_gives_nan_and_warns():
     x = np.full(10, 0.1)
     y = np.arange(10.0)
@@ -166,6 +169,7 @@ def test_constant_input_gives_nan_and_warns():
             assert np.isnan(td.xcorr(a, b, max_lag=4, method=method).c).all()
 
 
+@pytest.mark.fast
 def test_zero_overlap_variance_is_nan_not_error():
     # Centred x is [0, 0, -1, 1]: the overlaps of the first two samples only
     # have S_xx = 0 (NaN there), the rest is defined.
@@ -182,6 +186,7 @@ def test_zero_overlap_variance_is_nan_not_error():
 # -- properties of Eq. (1) ------------------------------------------------------
 
 
+@pytest.mark.fast
 @given(
     n=st.integers(64, 400),
     frac=st.floats(0.0, 0.25),
@@ -203,6 +208,7 @@ def test_delayed_copy_peaks_at_plus_d(n, frac, seed, method):
     assert td.xcorr(y, x, max_lag=n // 2, method=method).peak_lag == -d
 
 
+@pytest.mark.fast
 @given(signal_pair(max_n=120))
 def test_swapping_inputs_reverses_lags(case):
     x, y, max_lag = case
@@ -242,6 +248,7 @@ def test_c0_equals_numpy_corrcoef(x, seed):
     np.testing.assert_allclose(td.pearson(x, y), want, rtol=0, atol=1e-12)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("fs", [1.0, 1000.0, 3.3, np.float32(250.0), 7])
 def test_tau_is_lags_over_fs(fs):
     x = np.sin(np.arange(50.0))
@@ -256,6 +263,7 @@ def test_tau_is_lags_over_fs(fs):
     np.testing.assert_array_equal(ref.xcorr(x, y, max_lag=10, fs=fs).tau, res.tau)
 
 
+@pytest.mark.fast
 def test_default_max_lag_is_n_minus_1():
     x, y = np.arange(6.0), np.array([1.0, 0.0, 3.0, -1.0, 2.0, 5.0])
     res = td.xcorr(x, y)
@@ -264,12 +272,14 @@ def test_default_max_lag_is_n_minus_1():
     assert abs(res.c[0]) == 1.0 and abs(res.c[-1]) == 1.0
 
 
+@pytest.mark.fast
 def test_result_is_frozen():
     res = td.xcorr([1.0, 2.0, 4.0], [3.0, 1.0, 0.0])
     with pytest.raises(AttributeError):
         res.c = np.zeros(5)  # type: ignore[misc]
 
 
+@pytest.mark.fast
 def test_all_nan_peak_lag_raises():
     res = td.xcorr(np.ones(5), np.arange(5.0), max_lag=2)
     with pytest.raises(ValueError, match="NaN at every lag"):

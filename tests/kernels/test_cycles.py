@@ -8,9 +8,8 @@ import tribodyn as td
 from tribodyn import simulate
 from tribodyn.kernels.strokes import CYCLE_COLUMNS
 
-pytestmark = pytest.mark.fast
 
-
+@pytest.mark.fast
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_cycle_cof_cancels_a_ten_percent_load_cell_offset(seed):
     mu_f, mu_b, load = 0.12, 0.10, 10.0
@@ -27,6 +26,7 @@ def test_cycle_cof_cancels_a_ten_percent_load_cell_offset(seed):
     assert res.headline.method == "per-stroke" and res.headline.value == pytest.approx(full["mu_cycle"].mean())
 
 
+@pytest.mark.fast
 def test_energy_is_the_loop_area_within_one_percent():
     sim = simulate.reciprocating(seed=4, offset=0.2)
     res = td.analyze(sim.channels, fs=sim.fs)
@@ -39,6 +39,7 @@ def test_energy_is_the_loop_area_within_one_percent():
     assert abs(whole["mu_energy"].mean() / (sim.energy_per_cycle / (10.0 * 0.02)) - 1) < 0.01
 
 
+@pytest.mark.fast
 def test_no_position_no_energy_and_no_strokes_no_cycles():
     sim = simulate.reciprocating(seed=5)
     res = td.analyze({k: sim.channels[k] for k in ("fy", "fz", "v")}, fs=sim.fs)

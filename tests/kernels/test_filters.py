@@ -21,7 +21,6 @@ from hypothesis.extra.numpy import arrays
 from scipy import signal
 from tribodyn.kernels import reference as ref
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 finite = st.floats(-1e6, 1e6, allow_nan=False, allow_subnormal=False)
 
@@ -73,6 +72,7 @@ def chunk_sizes(draw, n: int):
 # -- against scipy.signal ---------------------------------------------------------
 
 
+@pytest.mark.fast
 @given(filter_case())
 @example((np.array([[3.0, 1.0]]), 1000.0, 0.1, 1, "steady"))
 @example((np.array([[3.0]]), 1000.0, 0.1, 2, "zero"))
@@ -91,6 +91,7 @@ def test_matches_scipy_sosfilt(case):
     np.testing.assert_array_equal(ref.highpass(x, fs, cutoff=cutoff, order=order, init=init), r)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("order", [1, 2, 3, 4])
 @pytest.mark.parametrize("init", ["steady", "zero"])
 def test_bitwise_equal_to_scipy_today(order, init):
@@ -108,6 +109,7 @@ def test_bitwise_equal_to_scipy_today(order, init):
     assert hp.state.shape == (3, sos.shape[0], 2)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "sos",
     [
@@ -131,6 +133,7 @@ def test_custom_sos(sos, init):
     np.testing.assert_array_equal(ref.HighPass(1000.0, sos=sos, channels=2, init=init).process(x), y)
 
 
+@pytest.mark.fast
 def test_pole_at_one_needs_zero_init():
     # An integrator has no steady state; with init="zero" it is a valid filter.
     integ = [[1.0, 0.0, 0.0, 1.0, -1.0, 0.0]]
@@ -168,6 +171,7 @@ def test_any_chunking_equals_one_shot(case, data):
         np.testing.assert_array_equal(np.concatenate(out1), whole[0])
 
 
+@pytest.mark.fast
 @given(filter_case())
 def test_multichannel_equals_per_channel(case):
     x, fs, cutoff, order, init = case
@@ -177,6 +181,7 @@ def test_multichannel_equals_per_channel(case):
         np.testing.assert_array_equal(together[c], alone)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("channels", [1, 2, 3, 4, 5, 8, 9])
 def test_many_channels_equal_per_channel(channels):
     # Channels are filtered in lockstep groups of up to 4 over the thread
@@ -188,6 +193,7 @@ def test_many_channels_equal_per_channel(channels):
         np.testing.assert_array_equal(y[c], td.HighPass(1000.0, order=2).process(x[c]))
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("order", [1, 2, 4])
 def test_steady_init_removes_dc_transient(order):
     fs = 1000.0
@@ -210,6 +216,7 @@ def test_steady_init_removes_dc_transient(order):
     assert np.max(np.abs(td.highpass(np.full(3000, -7.25), fs=fs, order=order))) < 1e-6 * 7.25
 
 
+@pytest.mark.fast
 def test_state_round_trip_resumes_identically():
     rng = np.random.default_rng(3)
     x = rng.standard_normal((3, 2000)) + 1.0
@@ -232,6 +239,7 @@ def test_state_round_trip_resumes_identically():
     np.testing.assert_array_equal(c.process(x[:, 700:]), full[:, 700:])
 
 
+@pytest.mark.fast
 def test_state_before_first_chunk():
     hp = td.HighPass(1000.0, order=4)
     np.testing.assert_array_equal(hp.state, np.zeros((1, 2, 2)))
@@ -243,6 +251,7 @@ def test_state_before_first_chunk():
     np.testing.assert_allclose(hp.state[0], signal.sosfilt_zi(hp.sos) * 4.0, rtol=1e-9, atol=1e-9 * 4.0)
 
 
+@pytest.mark.fast
 def test_reset_starts_a_new_signal():
     rng = np.random.default_rng(4)
     x, other = rng.standard_normal(1500) + 3.0, rng.standard_normal(900) - 8.0
@@ -255,6 +264,7 @@ def test_reset_starts_a_new_signal():
         np.testing.assert_array_equal(hp.process(x), first)
 
 
+@pytest.mark.fast
 def test_process_does_not_modify_its_input():
     x = np.linspace(0.0, 1.0, 100)
     keep = x.copy()
@@ -263,6 +273,7 @@ def test_process_does_not_modify_its_input():
     np.testing.assert_array_equal(x, keep)
 
 
+@pytest.mark.fast
 def test_empty_chunks_and_signals():
     hp = td.HighPass(100.0, channels=2)
     out = hp.process(np.empty((2, 0)))
@@ -271,6 +282,7 @@ def test_empty_chunks_and_signals():
     assert td.highpass(np.empty((0, 5)), fs=100.0).shape == (0, 5)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("axis", [0, 1, 2, -1, -2])
 def test_highpass_axis(axis):
     rng = np.random.default_rng(5)

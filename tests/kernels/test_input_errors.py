@@ -15,7 +15,6 @@ import tribodyn as td
 from tribodyn import _core
 from tribodyn.kernels import reference as ref
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 X = np.linspace(0.0, 1.0, 10) ** 2
 Y = np.cos(np.arange(10.0))
@@ -304,6 +303,7 @@ FAST_ONLY = [
 ]
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "name, call, exc, match",
     bad_pairs(td) + FAST_ONLY,
@@ -314,6 +314,7 @@ def test_bad_input_raises(name, call, exc, match):
         call()
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "name, call, exc, match",
     bad_pairs(ref),
@@ -324,6 +325,7 @@ def test_reference_refuses_the_same(name, call, exc, match):
         call()
 
 
+@pytest.mark.fast
 def test_failed_chunk_leaves_state_untouched():
     hp = td.HighPass(100.0, cutoff=1.0, order=2)
     x = np.sin(np.arange(200.0))
@@ -337,6 +339,7 @@ def test_failed_chunk_leaves_state_untouched():
 # -- check_finite=False lets NaN and inf through ------------------------------------
 
 
+@pytest.mark.fast
 def test_check_finite_false_propagates_nan():
     xn = np.r_[X[:-1], np.nan]
     for method in ("direct", "fft"):
@@ -376,6 +379,7 @@ ACCEPTED = {
 }
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("kind", list(ACCEPTED))
 def test_accepted_inputs_equal_float64(kind):
     rng = np.random.default_rng(0)
@@ -397,6 +401,7 @@ def test_accepted_inputs_equal_float64(kind):
         np.testing.assert_array_equal(np.asarray(xv), ACCEPTED[kind](xa))  # inputs untouched
 
 
+@pytest.mark.fast
 def test_fortran_ordered_2d_for_highpass():
     rng = np.random.default_rng(1)
     c = rng.standard_normal((3, 500)) + 2.0
@@ -412,6 +417,7 @@ def test_fortran_ordered_2d_for_highpass():
     np.testing.assert_array_equal(td.highpass(big[::2, ::2], fs=10.0), td.highpass(big[::2, ::2].copy(), fs=10.0))
 
 
+@pytest.mark.fast
 def test_numpy_scalars_as_options():
     r = td.xcorr(X, Y, max_lag=np.int64(3), fs=np.float64(100.0))
     assert r.lags.size == 7
@@ -533,6 +539,7 @@ CORE = [
 ]
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("name, call, exc, match", CORE, ids=[c[0] for c in CORE])
 def test_core_errors_are_exceptions_not_panics(name, call, exc, match):
     with pytest.raises(exc, match=match) as info:
@@ -542,6 +549,7 @@ def test_core_errors_are_exceptions_not_panics(name, call, exc, match):
     assert isinstance(info.value, (ValueError, TypeError, OverflowError))
 
 
+@pytest.mark.fast
 def test_core_degenerate_input_is_a_value_not_an_error():
     assert _core.linfit(X[:0], Y[:0])[-1] is True  # empty: degenerate flag, no exception
     m = _core.Moments.from_state((0, 1.0, 1.0, -1.0, -1.0, 0.0, 0.0))
@@ -550,6 +558,7 @@ def test_core_degenerate_input_is_a_value_not_an_error():
     assert _core.xcorr_auto_method(2**40, 2**39) == "fft"
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("shape", ["column", "row", "scalar"])
 def test_analyze_of_channels_that_are_not_1d_names_the_shape(shape: str) -> None:
     """A mapping of 2-D or 0-d channels meets the pipeline's own shape error, whatever the pre-pass

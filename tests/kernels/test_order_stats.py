@@ -10,8 +10,6 @@ from tribodyn import _core
 from tribodyn.kernels import stats as R
 from tribodyn.kernels import _order
 
-pytestmark = pytest.mark.fast
-
 
 def _arrays(rng: np.random.Generator):
     n = 1 << 16
@@ -26,6 +24,7 @@ def _arrays(rng: np.random.Generator):
     yield rng.normal(size=100)  # short: NumPy itself
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("kernel", [True, False], ids=["kernel", "numpy"])
 def test_median_and_percentile_match_numpy(kernel: bool, monkeypatch: pytest.MonkeyPatch) -> None:
     if not kernel:
@@ -42,6 +41,7 @@ def test_median_and_percentile_match_numpy(kernel: bool, monkeypatch: pytest.Mon
     assert np.isnan(_order.median(x)) and np.isnan(_order.median_abs_dev(x, 0.0))
 
 
+@pytest.mark.fast
 def test_select_ranks_kernel_is_exact_and_checks_its_ranks() -> None:
     x = np.random.default_rng(2).normal(size=(1 << 17) + 3)
     ks = [0, 5, 65537, 65538, (1 << 17) + 2]
@@ -52,6 +52,7 @@ def test_select_ranks_kernel_is_exact_and_checks_its_ranks() -> None:
         _core.select_ranks(x, [x.size])
 
 
+@pytest.mark.fast
 def test_histogram_kernel_is_numpys() -> None:
     rng = np.random.default_rng(4)
     for x in (rng.normal(size=100_000), np.round(rng.normal(size=50_000), 1), np.linspace(-1, 1, 4097)):
@@ -61,6 +62,7 @@ def test_histogram_kernel_is_numpys() -> None:
         assert np.array_equal(edges, np.linspace(lo, hi, 1025))
 
 
+@pytest.mark.fast
 def test_side_medians_are_numpys() -> None:
     from tribodyn.pipeline.prepass import _side_medians
 
@@ -71,6 +73,7 @@ def test_side_medians_are_numpys() -> None:
             assert [np.float64(v).tobytes() for v in _side_medians(fy)] == [np.float64(v).tobytes() for v in want]
 
 
+@pytest.mark.fast
 def test_order_stats_falls_back_when_the_bracket_misses(monkeypatch: pytest.MonkeyPatch) -> None:
     x = np.random.default_rng(1).normal(size=1 << 17)
     monkeypatch.delattr(_core, "select_ranks")  # the NumPy bracket (the kernel has its own test)
@@ -79,6 +82,7 @@ def test_order_stats_falls_back_when_the_bracket_misses(monkeypatch: pytest.Monk
     assert np.array_equal(_order.order_stats(x, ks), np.sort(x)[ks])
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("fn", [_order.row_quantiles, _order._row_quantiles_numpy], ids=["kernel", "numpy"])
 @pytest.mark.parametrize("width", [0, 1, 2, 7, 40, 601, 1300])
 def test_row_quantiles_match_nanmedian_and_nanpercentile(width: int, fn) -> None:
@@ -170,7 +174,6 @@ def _resample_cases(rng: np.random.Generator):
         yield w, R.NoiseResample(var=np.full(m, np.nan), index=index, dnoise=dn)  # no noise estimate at all
 
 
-@pytest.mark.slow  # NumPy's resample statistics of every case, twice
 @pytest.mark.parametrize("threads", [1, 2])
 def test_resample_stats_kernel_is_the_numpy_path(threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """The bootstrap's resample statistics: the Rust kernel gives _resample_stats' values bit for bit."""
@@ -198,6 +201,7 @@ def _bytes(v: object) -> bytes:
     return np.float64(v).tobytes()
 
 
+@pytest.mark.fast
 def test_sorted_values_give_numpys_medians_and_deviations() -> None:
     """The pre-pass's one sort (``_order.Sorted``): medians, deviations and ranks of any run of it."""
     rng = np.random.default_rng(11)
@@ -223,6 +227,7 @@ def test_sorted_values_give_numpys_medians_and_deviations() -> None:
         _order.Sorted.of(np.arange(3.0)).ranks([3])
 
 
+@pytest.mark.fast
 def test_histogram_of_sorted_values_is_the_kernels(monkeypatch: pytest.MonkeyPatch) -> None:
     """Otsu's histogram from binary searches equals NumPy's (the kernel's) count, and falls back to
     the kernel where the edges are too close to tell (a range of a few ULPs)."""
@@ -246,6 +251,7 @@ def test_histogram_of_sorted_values_is_the_kernels(monkeypatch: pytest.MonkeyPat
     assert calls  # the kernel's count
 
 
+@pytest.mark.fast
 def test_unloaded_cluster_is_its_masked_samples() -> None:
     """The sorted cluster ``_unloaded`` returns holds exactly the samples of its mask."""
     from tribodyn.pipeline.prepass import _unloaded
@@ -263,6 +269,7 @@ def test_unloaded_cluster_is_its_masked_samples() -> None:
     assert _unloaded(10.0 + 0.01 * rng.normal(size=n), _order.Sorted.of(10.0 + 0.01 * rng.normal(size=n))) is None
 
 
+@pytest.mark.fast
 def test_select_ranks_is_the_same_on_every_thread_count() -> None:
     """The bracket pass runs over a piece per thread; the kept values, and so the ranks, do not change."""
     rng = np.random.default_rng(3)
@@ -278,6 +285,7 @@ def test_select_ranks_is_the_same_on_every_thread_count() -> None:
     assert _core.select_ranks(y, ks, threads=2) is None  # NaN in the last piece
 
 
+@pytest.mark.fast
 def test_block_sums_total_is_numpys_sum_bit_for_bit() -> None:
     """estimators.Sums adds the blocks in a loop: the same bits as ``blocks.sum(axis=2)``, signed zeros too."""
     from tribodyn.kernels.estimators import BLOCKS, PRODUCTS, Sums

@@ -8,8 +8,6 @@ from scipy import signal
 
 from tribodyn.kernels.peaks import find_peaks
 
-pytestmark = pytest.mark.fast
-
 
 def _signals(rng: np.random.Generator):
     n = 4000
@@ -28,6 +26,7 @@ def _signals(rng: np.random.Generator):
     yield np.array([1.0, 2.0])
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_find_peaks_is_scipys(seed: int) -> None:
     rng = np.random.default_rng(seed)
@@ -42,6 +41,7 @@ def test_find_peaks_is_scipys(seed: int) -> None:
                     assert got.dtype == np.int64
 
 
+@pytest.mark.fast
 def test_find_peaks_refuses_bad_arguments() -> None:
     with pytest.raises(ValueError, match="1-D"):
         find_peaks(np.zeros((3, 3)), prominence=0.1, wlen=3)

@@ -25,7 +25,6 @@ import tribodyn as td
 from tribodyn.kernels import reference
 from _paths import REPO
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 BENCH = REPO / "benches" / "bench_pipeline.py"
 
@@ -59,6 +58,7 @@ def _assert_same(table, ref):
     assert table["bin_count"].dtype == np.int64
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("mode", ["dyn", "raw"])
 @pytest.mark.parametrize("how", ["npy", "h5", "mmap"])
 def test_pipeline_matches_reference(files, mode, how):
@@ -82,6 +82,7 @@ def test_pipeline_matches_reference(files, mode, how):
         assert np.all(np.isnan(res["mu_classical"]))
 
 
+@pytest.mark.fast
 def test_sigma_deadband_and_explicit_orientation_match_reference(files):
     arr = np.load(files["dyn"]["npy"], mmap_mode="r")
     ch = {r: arr[j] for j, r in enumerate(bench.ROLES)}
@@ -91,6 +92,7 @@ def test_sigma_deadband_and_explicit_orientation_match_reference(files):
         _assert_same(bench.table_of(res), ref)
 
 
+@pytest.mark.fast
 def test_concurrent_spans_give_the_single_stream_table(files, monkeypatch):
     """With two threads a random-access, thread-safe recording may be read as concurrent spans (dynamic input);
     an HDF5 file read through h5py (not thread-safe) is read as one stream. Either way the table is the
@@ -131,6 +133,7 @@ def test_concurrent_spans_give_the_single_stream_table(files, monkeypatch):
         np.testing.assert_array_equal(a[col], b[col], err_msg=col)
 
 
+@pytest.mark.fast
 def test_threads_and_chunks_never_change_a_bit(files):
     base = bench.table_of(bench.run_pipeline(files["raw"]["npy"], raw=True))
     for kw in (dict(threads=1), dict(threads=2, chunk=7.3), dict(threads=1, chunk=0.9)):
@@ -142,11 +145,13 @@ def test_threads_and_chunks_never_change_a_bit(files):
         np.testing.assert_array_equal(mm[col], v, err_msg=col)
 
 
+@pytest.mark.fast
 def test_reference_refuses_a_recording_shorter_than_a_window():
     with pytest.raises(ValueError, match="shorter than one window"):
         reference.analyze_tiled({"fy": np.zeros(10), "fz": np.ones(10)}, fs=1000.0)
 
 
+@pytest.mark.fast
 def test_results_section_is_replaced_not_duplicated(tmp_path):
     p = tmp_path / "RESULTS.md"
     p.write_text("# Results\n\n## Kernels\n\nkernel table\n")

@@ -11,8 +11,6 @@ import pytest
 from tribodyn.io import roles
 from tribodyn.kernels.strokes import _segment_p95, find_strokes
 
-pytestmark = pytest.mark.fast
-
 
 def _loop_strokes(sig: np.ndarray, boundaries: Sequence[Tuple[int, int]], kind: str) -> List[Tuple[int, int, int]]:
     """The loop of each acquisition and each cut it replaces (the reference)."""
@@ -97,6 +95,7 @@ def test_the_strokes_and_own_signs_are_the_loops_bit_for_bit() -> None:
         assert roles._own_signs(sig, got) == _loop_own_signs(sig, want)
 
 
+@pytest.mark.fast
 def test_the_pieces_percentiles_are_numpys() -> None:
     rng = np.random.default_rng(2)
     segs = [rng.standard_normal(int(k)) for k in rng.integers(0, 40, size=200)]
@@ -107,6 +106,7 @@ def test_the_pieces_percentiles_are_numpys() -> None:
         assert p == (float(np.percentile(np.abs(fin), 95)) if fin.size else 0.0)
 
 
+@pytest.mark.fast
 def test_a_lateral_noise_channel_over_the_pieces(tmp_path) -> None:
     # the case that was slow: a static recording's lateral noise channel over 256 pieces of the role sample
     rng = np.random.default_rng(0)

@@ -16,8 +16,6 @@ import tribodyn as td
 from tribodyn import _core
 from tribodyn.kernels.filters import MAX_CHANNELS, MAX_ORDER
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
-
 
 def _unaligned(a: np.ndarray) -> np.ndarray:
     """A C-contiguous float64 view of ``a`` at an odd byte offset (not aligned)."""
@@ -29,6 +27,7 @@ def _unaligned(a: np.ndarray) -> np.ndarray:
     return view
 
 
+@pytest.mark.fast
 def test_unaligned_arrays_are_accepted_with_the_same_results():
     rng = np.random.default_rng(3)
     fz = rng.normal(size=3000)
@@ -42,12 +41,14 @@ def test_unaligned_arrays_are_accepted_with_the_same_results():
     np.testing.assert_array_equal(got["mu_r"], want["mu_r"])
 
 
+@pytest.mark.fast
 def test_the_kernel_names_alignment_when_given_an_unaligned_array():
     x = _unaligned(np.arange(10.0))
     with pytest.raises(ValueError, match="C-contiguous, aligned float64"):
         _core.pearson(x, x)
 
 
+@pytest.mark.fast
 def test_linfit_accumulator_shared_by_threads():
     rng = np.random.default_rng(5)
     chunks = [(rng.normal(size=20_000), rng.normal(size=20_000)) for _ in range(240)]
@@ -61,6 +62,7 @@ def test_linfit_accumulator_shared_by_threads():
     assert acc.result().slope == pytest.approx(one.result().slope, rel=1e-12, abs=1e-15)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "call, match",
     [
@@ -75,6 +77,7 @@ def test_filter_bounds_are_checked_before_allocating(call, match):
         call()
 
 
+@pytest.mark.fast
 def test_operating_range_bounds_and_types():
     from tribodyn import simulate
 
@@ -86,11 +89,13 @@ def test_operating_range_bounds_and_types():
         td.operating_range(dict(res.table), "current_density")  # type: ignore[arg-type]
 
 
+@pytest.mark.fast
 def test_analyze_many_client_must_be_a_client():
     with pytest.raises(TypeError, match="dask.distributed.Client"):
         td.analyze_many(["x.npy"], client="local", fs=1000.0)
 
 
+@pytest.mark.fast
 def test_a_table_that_cannot_fit_is_refused_before_reading():
     # The most bins allowed (1024 on a 4096-sample window), a window every
     # sample: about 17 kB per window, as many windows as the machine has
@@ -102,6 +107,7 @@ def test_a_table_that_cannot_fit_is_refused_before_reading():
         td.analyze(src, fs=1000.0, window=4.096, hop=0.001, n_bins=1024)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "window, n_bins, limit",
     [(2.0, 501, 500), (2.0, 1 << 20, 500), (0.01, 17, 16), (60.0, 1025, 1024), (60.0, 10**30, 1024)],
@@ -118,6 +124,7 @@ def test_n_bins_is_bounded_before_anything_is_read(window, n_bins, limit):
         td.identify(x, x, fs=1000.0, n_bins=17)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("threads", [0, -1, 30000, 10**20])
 def test_threads_out_of_range_are_value_errors_everywhere(threads):
     x = np.arange(100.0)
@@ -134,6 +141,7 @@ def test_threads_out_of_range_are_value_errors_everywhere(threads):
         td.set_threads(td.max_threads() + 1)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "kw, match",
     [
@@ -158,6 +166,7 @@ def test_open_recording_argument_types(tmp_path, kw, match):
         assert rec.read()["fy"][1] == 2.0
 
 
+@pytest.mark.fast
 def test_table_columns_never_share_memory():
     """Columns that are all NaN (no temperature log, no current, dynamic input) are separate arrays."""
     rng = np.random.default_rng(2)
@@ -169,6 +178,7 @@ def test_table_columns_never_share_memory():
             assert not np.shares_memory(cols[a], cols[b])
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     ("kw", "error", "match"),
     [
@@ -187,6 +197,7 @@ def test_every_option_is_checked_whatever_the_preset(kw, error, match):
         td.make_plan(fs=1000.0, **kw)
 
 
+@pytest.mark.fast
 def test_the_plan_holds_the_checked_rig_data():
     for method in (None, "paper"):
         plan = td.make_plan(fs=1000.0, method=method, rpm=1500, n_lamellas=24)

@@ -17,7 +17,6 @@ import tribodyn as td
 from tribodyn import _core
 from tribodyn.io.writers import save_npy
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 FS = 1000.0
 N = 20_000  # ten 2 s windows
@@ -48,6 +47,7 @@ def _analyze(channels, route, tmp_path, **kw):
         return td.analyze(channels, fs=FS, window=2, hop=2, **kw)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("value", [1e300, -1e160, 1.0000001 * _core.FORCE_LIMIT])
 @pytest.mark.parametrize("role", ["fy", "fz", "fx"])
 @pytest.mark.parametrize("route", ["arrays", "npy", "paper"])
@@ -73,6 +73,7 @@ def test_one_window_out_of_range(tmp_path, route, role, value):
     assert got.summary()["verdict"]["cof"]["value"] == pytest.approx(want.summary()["verdict"]["cof"]["value"], 1e-3)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("role", ["fy", "fz"])
 def test_raw_forces_through_the_high_pass(tmp_path, role):
     """A spike in the raw forces: its window and those the filter's response carries past the limit."""
@@ -84,6 +85,7 @@ def test_raw_forces_through_the_high_pass(tmp_path, role):
     assert np.isnan(got["mu_r"][bad]).all() and (got["ok"][:2]).all()
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("estimator", ["corrected", "ols", "iv", "deming"])
 def test_forces_up_to_the_limit_are_analysed_exactly(tmp_path, estimator):
     """The whole chain is scale-invariant up to the limit: the same COF, no overflow, no window lost."""
@@ -101,6 +103,7 @@ def test_forces_up_to_the_limit_are_analysed_exactly(tmp_path, estimator):
     np.testing.assert_allclose(got["mu_r"], want["mu_r"], rtol=1e-12)
 
 
+@pytest.mark.fast
 def test_every_sample_out_of_range_is_no_cof_not_zero(tmp_path):
     clean = _forces()
     got = _analyze({k: v * 1e70 for k, v in clean.items()}, "arrays", tmp_path)

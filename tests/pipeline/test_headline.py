@@ -16,8 +16,6 @@ from tribodyn.pipeline.prepass import detect_contact
 from tribodyn.results import HEADLINE_METHODS, Headline
 from _paths import TESTS
 
-pytestmark = pytest.mark.fast
-
 
 def dead_weight(n=6000, fs=100.0, mu=0.2, load=10.0, seed=0, drift=0.0):
     """A dead-weight test: constant fz with noise, fy = mu(t) fz + noise (no dynamic normal force)."""
@@ -29,6 +27,7 @@ def dead_weight(n=6000, fs=100.0, mu=0.2, load=10.0, seed=0, drift=0.0):
     return {"fy": fy, "fz": fz}
 
 
+@pytest.mark.fast
 def test_t_quantiles_match_scipy():
     from scipy import stats
 
@@ -38,6 +37,7 @@ def test_t_quantiles_match_scipy():
     assert math.isnan(t975(0))
 
 
+@pytest.mark.fast
 def test_ratio_mean_is_the_pooled_ratio_and_its_interval_covers():
     s = np.array([1.0, 2.0, 3.0, 4.0])
     c = np.array([10.0, 10.0, 20.0, 20.0])
@@ -59,6 +59,7 @@ def test_ratio_mean_is_the_pooled_ratio_and_its_interval_covers():
     assert math.isnan(batch_mean(np.array([1.0, 2.0]))[1])  # fewer than 3 batches: no interval
 
 
+@pytest.mark.fast
 def test_contact_without_an_unloaded_cluster_dead_weight_and_ramp():
     rng = np.random.default_rng(1)
     c = detect_contact(np.full(5000, 2.0), 10.0 + 0.01 * rng.standard_normal(5000))
@@ -71,6 +72,7 @@ def test_contact_without_an_unloaded_cluster_dead_weight_and_ramp():
     assert not detect_contact(hp, hp).static
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
 def test_contact_of_non_finite_or_misshapen_forces_is_an_error(bad):
     fz = np.r_[np.zeros(50), np.full(100, 5.0), np.zeros(50)]
@@ -83,6 +85,7 @@ def test_contact_of_non_finite_or_misshapen_forces_is_an_error(bad):
         detect_contact(fz[1:], fz)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("offset", [-0.13, 0.0, 0.4])
 def test_contact_with_lift_off_takes_the_unloaded_level_as_tare(offset):
     rng = np.random.default_rng(2)
@@ -95,6 +98,7 @@ def test_contact_with_lift_off_takes_the_unloaded_level_as_tare(offset):
     assert abs(c.unloaded_fraction - 2300 / n) < 0.01 and abs(c.excluded_fraction - 2300 / n) < 0.01
 
 
+@pytest.mark.fast
 def test_contact_below_a_low_load_step_finds_the_lift_off_level():
     rng = np.random.default_rng(4)
     parts = [np.full(800, -0.12), np.full(1600, 0.3), np.full(1600, 0.9), np.full(800, -0.12)]
@@ -103,6 +107,7 @@ def test_contact_below_a_low_load_step_finds_the_lift_off_level():
     assert abs(c.tare_fz + 0.12) < 0.01 and abs(c.excluded_fraction - 1600 / 4800) < 0.01
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(("low", "mu_low"), [(50.0, 0.16), (20.0, 0.20)])
 def test_a_lower_load_step_is_contact_not_tare(low, mu_low):
     # issue 34 point 5: a run at 50 N before 180 N was taken as the unloaded level (-19.8 % on a real file);
@@ -123,6 +128,7 @@ def test_a_lower_load_step_is_contact_not_tare(low, mu_low):
     assert abs(c.tare_fz) < 0.01 and abs(c.tare_fy - 0.2) < 0.01 and "lower load step" not in c.rule
 
 
+@pytest.mark.fast
 def test_an_offset_on_the_load_side_without_proportional_friction_stays_a_tare():
     # a sensor zero at 11 % of the load whose fy is an offset, not friction: still the tare
     rng = np.random.default_rng(5)
@@ -133,6 +139,7 @@ def test_an_offset_on_the_load_side_without_proportional_friction_stays_a_tare()
     assert abs(c.tare_fz - 0.6) < 0.01 and abs(c.tare_fy + 0.3) < 0.01
 
 
+@pytest.mark.fast
 def test_dynamic_headline_is_the_median_of_the_gated_windows(temp_sim, temp_res):
     sim, res = temp_sim, temp_res
     head = res.headline
@@ -149,6 +156,7 @@ def test_dynamic_headline_is_the_median_of_the_gated_windows(temp_sim, temp_res)
         assert res.headline() == head.text  # the old method's call still works
 
 
+@pytest.mark.fast
 def test_classical_headline_is_the_mean_over_every_sample_tail_included():
     data = dead_weight(n=6050, drift=0.05)  # 60.5 s: the tiles of 1 s drop nothing, windows of 2 s every 10 s do
     res = td.analyze(data, fs=100.0, window=2, hop=10)
@@ -162,6 +170,7 @@ def test_classical_headline_is_the_mean_over_every_sample_tail_included():
     assert not any("noise on fz" in w or "iv_lag" in w for w in res.warnings)  # dynamic notes dropped
 
 
+@pytest.mark.fast
 def test_classical_headline_is_the_same_on_every_path(tmp_path):
     data = dead_weight(n=20011)
     ref = td.analyze(data, fs=100.0).headline
@@ -179,6 +188,7 @@ def test_classical_headline_is_the_same_on_every_path(tmp_path):
         assert many.headline.value == pytest.approx(ref.value, rel=1e-13) and many.headline.n == ref.n
 
 
+@pytest.mark.fast
 def test_a_stream_falls_back_to_the_windows_with_its_reason():
     data = dead_weight(n=3000)
     chunks = ({k: v[a : a + 500] for k, v in data.items()} for a in range(0, 3000, 500))
@@ -192,6 +202,7 @@ def test_a_stream_falls_back_to_the_windows_with_its_reason():
     assert not head.ok and "pass min_fn=" in head.reasons[-1]
 
 
+@pytest.mark.fast
 def test_no_static_normal_force_gives_no_value_and_says_why():
     rng = np.random.default_rng(5)
     fz = rng.standard_normal(5000)
@@ -201,6 +212,7 @@ def test_no_static_normal_force_gives_no_value_and_says_why():
     assert "static level" in head.reasons[-1] and head.text.startswith("No classical COF")
 
 
+@pytest.mark.fast
 def test_per_stroke_headline_is_the_cycle_mean():
     sim = simulate.reciprocating(seed=1)  # 0.12 forward, 0.10 backward, 20 cycles
     res = td.analyze(sim.channels, fs=sim.fs)
@@ -209,6 +221,7 @@ def test_per_stroke_headline_is_the_cycle_mean():
     assert abs(head.value - 0.110) < 0.0005 and head.low < 0.110 < head.high
 
 
+@pytest.mark.fast
 def test_instrument_difference_over_half_a_percent_is_explained():
     data = dead_weight(n=4000)
     data["cof"] = 1.02 * np.abs(data["fy"]) / np.abs(data["fz"])
@@ -222,7 +235,6 @@ def test_instrument_difference_over_half_a_percent_is_explained():
     assert not any("instrument's COF column" in w for w in res.warnings)
 
 
-@pytest.mark.slow  # a command-line run with its report
 def test_cli_report_and_summary_print_the_one_headline(tmp_path, capsys):
     from tribodyn.app.cli import main
 
@@ -244,6 +256,7 @@ def td_real(name: str) -> str:
     return str(TESTS / "data" / "real" / name)
 
 
+@pytest.mark.fast
 def test_many_recordings_have_one_headline_row_each(tmp_path):
     a, b = tmp_path / "a.npy", tmp_path / "b.npy"
     save_npy(a, dead_weight(n=3000, mu=0.2))
@@ -255,6 +268,7 @@ def test_many_recordings_have_one_headline_row_each(tmp_path):
     assert rows["value"][1] == many.results[str(b)].headline.value
 
 
+@pytest.mark.fast
 def test_an_unloaded_fy_that_differs_before_and_after_the_contact_is_flagged():
     rng = np.random.default_rng(6)
     loaded = np.r_[np.zeros(1000, bool), np.ones(2000, bool), np.zeros(1000, bool)]
@@ -269,6 +283,7 @@ def test_an_unloaded_fy_that_differs_before_and_after_the_contact_is_flagged():
     assert any("differs before the contact" in w for w in res.warnings)
 
 
+@pytest.mark.fast
 def test_every_recordings_headline_is_bold_in_the_report():
     from tribodyn.app.report import HeadlineLine, _verdict_item, verdict_lines
 
@@ -278,6 +293,7 @@ def test_every_recordings_headline_is_bold_in_the_report():
     assert _verdict_item(lines[0]).startswith("<b>b.csv: COF ") and not _verdict_item(lines[1]).startswith("<b>")
 
 
+@pytest.mark.fast
 def test_a_dynamic_headline_does_not_read_the_file_again(tmp_path, temp_sim, monkeypatch):
     import sys
 
@@ -298,6 +314,7 @@ def test_a_dynamic_headline_does_not_read_the_file_again(tmp_path, temp_sim, mon
     assert res.headline.method == "classical" and res.classical is not None and calls == [1]
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("threads", [1, 2])
 def test_a_classical_headline_reads_the_file_once(tmp_path, monkeypatch, threads):
     """The main pass of a recording with a classical COF reads every sample once and keeps the sums (docs/method.md
@@ -332,6 +349,7 @@ def test_a_classical_headline_reads_the_file_once(tmp_path, monkeypatch, threads
     assert got[0] == got[1] == got[2]
 
 
+@pytest.mark.fast
 def test_a_classical_interval_never_reaches_below_zero():
     # issue 34 point 5: a mean of |fy|/|fz| dominated by one block; its t interval reached -0.069
     rng = np.random.default_rng(0)
@@ -344,6 +362,7 @@ def test_a_classical_interval_never_reaches_below_zero():
     assert "raised to 0: a mean of |fy|/|fz| is not negative" in head.interval
 
 
+@pytest.mark.fast
 def test_a_drag_as_large_as_the_friction_is_said_with_the_cof_without_it():
     # issue 34 point 5: a turning disc's drag before the contact, taken as fy's tare, halves the COF
     rng = np.random.default_rng(5)
@@ -361,6 +380,7 @@ def test_a_drag_as_large_as_the_friction_is_said_with_the_cof_without_it():
     assert not any("unloaded level" in r for r in small.headline.reasons)
 
 
+@pytest.mark.fast
 def test_windows_each_too_imprecise_are_pooled_when_they_agree() -> None:
     """issue 35 point 4 (docs/method.md 5): no window passes alone, 20 agree: the pooled median, its interval."""
     from tribodyn import simulate
@@ -375,6 +395,7 @@ def test_windows_each_too_imprecise_are_pooled_when_they_agree() -> None:
     assert any("pooled" in r for r in h.reasons)
 
 
+@pytest.mark.fast
 def test_imprecise_windows_that_disagree_are_not_pooled() -> None:
     from tribodyn.results.verdict import pooled
 

@@ -8,14 +8,13 @@ import pytest
 import tribodyn as td
 from tribodyn import simulate
 
-pytestmark = pytest.mark.fast
-
 
 @pytest.fixture(scope="module")
 def recip() -> simulate.ReciprocatingSimulation:
     return simulate.reciprocating(seed=1)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("role", ["v", "x"])
 def test_an_export_of_absolute_friction_is_reciprocating_by_its_motion_channel(recip, role) -> None:
     # an export whose friction force is |F| (no sign) with a velocity or a position column
@@ -28,6 +27,7 @@ def test_an_export_of_absolute_friction_is_reciprocating_by_its_motion_channel(r
     assert without.params["motion"] == "unidirectional"
 
 
+@pytest.mark.fast
 def test_a_motion_channel_that_does_not_reverse_says_unidirectional(recip) -> None:
     n = recip.channels["fy"].size
     ch = {"fy": recip.channels["fy"], "fz": recip.channels["fz"], "v": np.full(n, 0.02)}
@@ -35,6 +35,7 @@ def test_a_motion_channel_that_does_not_reverse_says_unidirectional(recip) -> No
     assert res.params["motion"] == "unidirectional" and "0 reversals" in res.params["motion_evidence"]
 
 
+@pytest.mark.fast
 def test_friction_that_changes_sign_once_is_not_reciprocating() -> None:
     # a disc that stops and turns back once (or a drag that reverses): two long stretches of each sign
     rng = np.random.default_rng(4)
@@ -70,6 +71,7 @@ def _npy(path, cols, fs=1000.0):
     return td.open_recording(path, fs=fs, names=list(cols))
 
 
+@pytest.mark.fast
 def test_direction_changes_are_carried_over_the_gaps_between_pieces() -> None:
     from tribodyn.pipeline.prepass import _direction_changes, _reversals
 
@@ -83,6 +85,7 @@ def test_direction_changes_are_carried_over_the_gaps_between_pieces() -> None:
     assert _direction_changes(sig2, [(0, 10), (10, 20), (20, 30), (30, 40)]) == (2, 1, 30)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("role", ["x", "v"])
 @pytest.mark.parametrize("freq", [0.1, 0.05, 0.02])
 def test_slow_strokes_longer_than_a_piece_are_reciprocating(tmp_path, small_sample, freq, role) -> None:
@@ -105,6 +108,7 @@ def _unidirectional(n: int, seed: int = 5):
     return rng, 0.2 * fz + 0.02 * rng.standard_normal(n), fz
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "case",
     ["velocity noise only", "velocity noisy and drifting", "velocity with spikes", "position noisy",

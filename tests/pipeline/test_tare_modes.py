@@ -10,7 +10,6 @@ import pytest
 import tribodyn as td
 from tribodyn.app.cli import main
 
-pytestmark = pytest.mark.fast
 
 FS = 100.0
 
@@ -30,6 +29,7 @@ def _drag_test(drag: float = 0.5, start_unloaded: bool = True, end_unloaded: boo
     return {"fy": fy, "fz": fz}
 
 
+@pytest.mark.fast
 def test_auto_takes_the_unloaded_level_before_the_contact_away() -> None:
     res = td.analyze(_drag_test(), fs=FS)
     assert res.headline.method == "classical"
@@ -37,6 +37,7 @@ def test_auto_takes_the_unloaded_level_before_the_contact_away() -> None:
     assert res.params["tare_offsets"]["fy"] == pytest.approx(0.5, abs=0.01)
 
 
+@pytest.mark.fast
 def test_none_keeps_the_drag_in_the_friction() -> None:
     res = td.analyze(_drag_test(), fs=FS, tare="none")
     assert res.headline.value == pytest.approx(0.25, rel=2e-3)  # (0.5 + 2) / 10
@@ -46,6 +47,7 @@ def test_none_keeps_the_drag_in_the_friction() -> None:
     assert res.params["tare"] == "none"
 
 
+@pytest.mark.fast
 def test_start_refuses_a_recording_that_starts_in_contact() -> None:
     data = _drag_test(start_unloaded=False, end_unloaded=True)
     with pytest.raises(ValueError, match="no unloaded samples before the first contact"):
@@ -54,6 +56,7 @@ def test_start_refuses_a_recording_that_starts_in_contact() -> None:
     assert res.params["tare_offsets"]["fy"] == pytest.approx(1.0, abs=0.01)
 
 
+@pytest.mark.fast
 def test_start_and_auto_agree_when_the_test_starts_unloaded() -> None:
     data = _drag_test(end_unloaded=True)
     a, s = td.analyze(data, fs=FS), td.analyze(data, fs=FS, tare="start")
@@ -61,17 +64,20 @@ def test_start_and_auto_agree_when_the_test_starts_unloaded() -> None:
     assert s.params["tare_offsets"]["fy"] == pytest.approx(0.5, abs=0.01)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("bad", ["end", "", "nonee"])
 def test_a_bad_mode_is_refused_with_the_choices(bad: str) -> None:
     with pytest.raises(ValueError, match="auto, start, none"):
         td.analyze(_drag_test(), fs=FS, tare=bad)
 
 
+@pytest.mark.fast
 def test_a_mode_with_min_fn_is_refused() -> None:
     with pytest.raises(ValueError, match="give min_fn without it"):
         td.analyze(_drag_test(), fs=FS, tare="none", min_fn=1.0)
 
 
+@pytest.mark.fast
 def test_cli_tare_flag_takes_the_modes() -> None:
     from tribodyn.app.cli import _tare
 
@@ -79,7 +85,6 @@ def test_cli_tare_flag_takes_the_modes() -> None:
     assert _tare("2.5") == 2.5 and _tare("fy=0.1,fz=0") == {"fy": 0.1, "fz": 0.0}
 
 
-@pytest.mark.slow
 def test_config_tare_mode(tmp_path: Path) -> None:
     d = _drag_test()
     t = np.arange(d["fy"].size) / FS

@@ -28,7 +28,6 @@ from tribodyn.io import RecordingError
 from tribodyn.io.follow import Follower
 from tribodyn.pipeline.watch import parse_trip
 
-pytestmark = pytest.mark.fast
 
 FS = 1000.0
 OPTS = {"window": 2.0, "hop": 1.0}
@@ -157,7 +156,6 @@ def _watch_writer(path: Path, args: List[str], code: str, **opts) -> None:
     _same_as_offline(path, final, snaps[:-1], **opts)
 
 
-@pytest.mark.slow
 def test_csv_rows_written_in_random_pieces_end_as_the_offline_analysis(tmp_path: Path) -> None:
     src = tmp_path / "complete.csv"
     src.write_bytes(_csv_bytes(30_000, seed=1))
@@ -167,7 +165,6 @@ def test_csv_rows_written_in_random_pieces_end_as_the_offline_analysis(tmp_path:
     assert dst.read_bytes() == src.read_bytes()
 
 
-@pytest.mark.slow
 def test_tdms_segments_in_writing_end_as_the_offline_analysis(tmp_path: Path) -> None:
     pytest.importorskip("nptdms")
     dst = tmp_path / "run.tdms"
@@ -175,7 +172,6 @@ def test_tdms_segments_in_writing_end_as_the_offline_analysis(tmp_path: Path) ->
     _watch_writer(dst, [str(dst), "4"], _TDMS_WRITER, window=1.0, hop=0.5)
 
 
-@pytest.mark.slow
 def test_hdf5_dataset_growing_under_swmr_ends_as_the_offline_analysis(tmp_path: Path) -> None:
     h5py = pytest.importorskip("h5py")
     if not h5py.version.hdf5_version_tuple >= (1, 10, 0):
@@ -203,6 +199,7 @@ class _Writer:
                 fh.write(self.pieces.pop(0))
 
 
+@pytest.mark.fast
 def test_a_cof_step_trips_within_an_interval_and_a_window(tmp_path: Path) -> None:
     step_t, interval = 40.0, 2.0
     data = _csv_bytes(60_000, mu=lambda t: np.where(t < step_t, 0.2, 0.35))
@@ -225,6 +222,7 @@ def test_a_cof_step_trips_within_an_interval_and_a_window(tmp_path: Path) -> Non
     assert seen - step_t <= 10 * interval + OPTS["window"] + OPTS["hop"]
 
 
+@pytest.mark.fast
 def test_a_rule_held_for_a_duration(tmp_path: Path) -> None:
     data = _csv_bytes(40_000, mu=lambda t: np.where((t > 10) & (t < 13), 0.4, np.where(t > 25, 0.4, 0.2)))
     path = tmp_path / "run.csv"
@@ -237,6 +235,7 @@ def test_a_rule_held_for_a_duration(tmp_path: Path) -> None:
     assert 29.0 <= watch.tripped.time <= 32.0  # not the 3 s excursion at 10-13 s; 5 s after 25 s
 
 
+@pytest.mark.fast
 def test_no_data_trips_and_idle_ends(tmp_path: Path) -> None:
     path = tmp_path / "run.csv"
     data = _csv_bytes(8_000)
@@ -252,6 +251,7 @@ def test_no_data_trips_and_idle_ends(tmp_path: Path) -> None:
     assert idle.reason == "idle" and snaps[-1].params["watch"]["final"]
 
 
+@pytest.mark.fast
 def test_a_partial_last_row_waits_for_its_line_end(tmp_path: Path) -> None:
     path = tmp_path / "run.csv"
     data = _csv_bytes(5_000)
@@ -331,6 +331,7 @@ def _reads_as_the_file(f: Follower, path: Path, n: int) -> None:
 
 
 @pytest.mark.fast
+@pytest.mark.fast
 @pytest.mark.parametrize("extra_rows", [1, 3, 40])
 def test_rows_written_while_a_poll_scans_are_counted_once(tmp_path: Path, monkeypatch, extra_rows: int) -> None:
     """A writer that appends rows between the poll's read of the new bytes and its native scan (a race seen
@@ -376,6 +377,7 @@ def _followed(tmp_path: Path, upto: int = 60_000) -> tuple:
     return path, data, f
 
 
+@pytest.mark.fast
 def test_a_truncated_or_replaced_file_is_an_error_never_a_table(tmp_path: Path) -> None:
     path, data, f = _followed(tmp_path)
     path.write_bytes(data[:20_000])  # rewritten shorter
@@ -390,6 +392,7 @@ def test_a_truncated_or_replaced_file_is_an_error_never_a_table(tmp_path: Path) 
         g.poll()
 
 
+@pytest.mark.fast
 def test_a_footer_written_after_the_rows_stops_the_watch(tmp_path: Path) -> None:
     path, data, f = _followed(tmp_path, upto=10**9)
     with open(path, "ab") as fh:
@@ -398,6 +401,7 @@ def test_a_footer_written_after_the_rows_stops_the_watch(tmp_path: Path) -> None
         f.poll()
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize(
     "text, q, op, limit, d",
     [("cof>0.3", "cof", ">", 0.3, 0.0), ("COF < 0.05", "cof", "<", 0.05, 0.0),
@@ -410,12 +414,14 @@ def test_trip_rules_parse(text: str, q: str, op: str, limit: float, d: float) ->
     assert r.limit == limit or (np.isnan(r.limit) and np.isnan(limit))
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("text", ["cof>>0.3", "mu>0.3", "no-data", "cof>x", "cof>0.3 for -1s", "stick slip"])
 def test_bad_trip_rules_are_refused_in_words(text: str) -> None:
     with pytest.raises(ValueError, match="trip rule"):
         parse_trip(text)
 
 
+@pytest.mark.fast
 def test_watch_checks_its_arguments_before_waiting(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="interval"):
         td.watch(tmp_path / "x.csv", interval=0)
@@ -434,7 +440,6 @@ def _cli(argv: List[str], capsys) -> tuple:
     return code, out.out, out.err
 
 
-@pytest.mark.slow
 def test_cli_watch_until_idle_writes_what_analyze_writes(tmp_path: Path, capsys) -> None:
     path = tmp_path / "run.csv"
     path.write_bytes(_csv_bytes(12_000))
@@ -455,7 +460,6 @@ def test_cli_watch_until_idle_writes_what_analyze_writes(tmp_path: Path, capsys)
     assert "live.html" in marker["files"]
 
 
-@pytest.mark.slow
 def test_cli_trip_prints_one_line_runs_the_command_and_exits_3(tmp_path: Path, capsys) -> None:
     path = tmp_path / "run.csv"
     path.write_bytes(_csv_bytes(12_000, mu=lambda t: np.full(t.shape, 0.4)))
@@ -470,7 +474,6 @@ def test_cli_trip_prints_one_line_runs_the_command_and_exits_3(tmp_path: Path, c
     assert (tmp_path / "w" / "report.html").is_file()
 
 
-@pytest.mark.slow
 def test_cli_a_second_watch_of_the_same_out_is_refused(tmp_path: Path, capsys) -> None:
     path = tmp_path / "run.csv"
     path.write_bytes(_csv_bytes(3_000))
@@ -486,6 +489,7 @@ def test_cli_a_second_watch_of_the_same_out_is_refused(tmp_path: Path, capsys) -
     assert not lock.exists()
 
 
+@pytest.mark.fast
 def test_cli_bad_trip_rule_is_one_line(tmp_path: Path, capsys) -> None:
     path = tmp_path / "run.csv"
     path.write_bytes(_csv_bytes(3_000))
@@ -494,6 +498,7 @@ def test_cli_bad_trip_rule_is_one_line(tmp_path: Path, capsys) -> None:
     assert not (tmp_path / "w").exists()
 
 
+@pytest.mark.fast
 def test_live_page_shows_the_headline_band_and_limits(tmp_path: Path) -> None:
     from tribodyn.app.watch_job import _watch_info, live_page
 
@@ -542,6 +547,7 @@ def test_live_outputs_are_a_set_first_then_each_file_replaced_in_place(tmp_path:
 
 
 @pytest.mark.fast
+@pytest.mark.fast
 def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
     from tribodyn.app.watch_job import LIVE_POINTS, _cof_svg, _Points, thinned
 
@@ -572,6 +578,7 @@ def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
     assert _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [], again) == _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [])
 
 
+@pytest.mark.fast
 def test_writer_pieces_helper_is_exact() -> None:  # the helper the tests above rely on
     data = _csv_bytes(2_000)
     assert b"".join(_pieces(data, 0)) == data
@@ -593,6 +600,7 @@ def _lvm_bytes(n: int, seed: int = 0) -> bytes:
     return (head + body).encode()
 
 
+@pytest.mark.fast
 def test_lvm_rows_written_in_random_pieces_end_as_the_offline_analysis(tmp_path: Path) -> None:
     path = tmp_path / "run.lvm"
     w = _Writer(path, _pieces(_lvm_bytes(20_000), 7, 500, 30_000), 0.1)
@@ -611,6 +619,7 @@ def _case_csv(case, path: Path) -> bytes:
     return ("time,fy,fz\n" + rows).encode()
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("kind", ["stick-slip", "smooth"])
 def test_the_stick_slip_rule_trips_on_stick_slip_only(tmp_path: Path, kind: str) -> None:
     from stick_slip_sim import smooth, stick_slip
@@ -628,6 +637,7 @@ def test_the_stick_slip_rule_trips_on_stick_slip_only(tmp_path: Path, kind: str)
         assert watch.tripped is None and watch.reason == "idle"
 
 
+@pytest.mark.fast
 def test_a_rewritten_header_is_an_error(tmp_path: Path) -> None:
     path, data, f = _followed(tmp_path)
     with open(path, "r+b") as fh:
@@ -638,6 +648,7 @@ def test_a_rewritten_header_is_an_error(tmp_path: Path) -> None:
         f.poll()
 
 
+@pytest.mark.fast
 def test_the_reason_for_waiting_is_told_once_each_time_it_changes(tmp_path: Path) -> None:
     path = tmp_path / "later.csv"
     data = _csv_bytes(8_000)
@@ -712,6 +723,7 @@ def test_summary_column_intervals_are_drawn_only_when_read(tmp_path: Path) -> No
         path.unlink()
 
 
+@pytest.mark.fast
 def test_the_lag_windows_held_by_a_recording() -> None:
     """pipeline.instrument.lag_sample_held: the first SAMPLE_WINDOWS tiles, never across acquisitions."""
     from tribodyn.pipeline.instrument import SAMPLE_WINDOWS, lag_sample_held

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 from tribodyn import simulate
 
-pytestmark = pytest.mark.fast  # the inner-loop subset: python -m pytest -m fast (README)
 
 FS = 1000.0
 N0 = simulate.PRELOAD_N
@@ -60,6 +59,7 @@ def _lagged_corr(x: np.ndarray, y: np.ndarray, max_lag: int):
 # --------------------------------------------------------------------------
 # structure
 # --------------------------------------------------------------------------
+@pytest.mark.fast
 def test_temperature_test_structure(temp_sim: simulate.Simulation) -> None:
     s = temp_sim
     assert s.fs == FS
@@ -90,6 +90,7 @@ def test_temperature_test_structure(temp_sim: simulate.Simulation) -> None:
         assert tr.temperature_at(t) == pytest.approx(temp)
 
 
+@pytest.mark.fast
 def test_current_density_structure(cd_sim: simulate.Simulation) -> None:
     s = cd_sim
     assert set(s.channels) == {"fx", "fy", "fz", "i"}
@@ -107,6 +108,7 @@ def test_current_density_structure(cd_sim: simulate.Simulation) -> None:
     assert np.std(i) < 0.1
 
 
+@pytest.mark.fast
 def test_scenario_dispatch(cd_sim: simulate.Simulation) -> None:
     again = simulate.scenario("current_density")
     for k in cd_sim.channels:
@@ -115,6 +117,7 @@ def test_scenario_dispatch(cd_sim: simulate.Simulation) -> None:
         simulate.scenario("nope")
 
 
+@pytest.mark.fast
 def test_option_validation() -> None:
     with pytest.raises(ValueError):
         simulate.continuous(1.0, orientation=0)
@@ -127,6 +130,7 @@ def test_option_validation() -> None:
 # --------------------------------------------------------------------------
 # determinism and streaming
 # --------------------------------------------------------------------------
+@pytest.mark.fast
 def test_determinism_by_seed() -> None:
     a = _cat(simulate.continuous(5.0, seed=3, current=2.0))
     b = _cat(simulate.continuous(5.0, seed=3, current=2.0))
@@ -149,6 +153,7 @@ def test_continuous_chunk_invariance(skew: int) -> None:
         np.testing.assert_array_equal(a[k], c[k])
 
 
+@pytest.mark.fast
 def test_continuous_chunk_sizes() -> None:
     sizes = [c["fz"].size for c in simulate.continuous(10.0, chunk_s=3.0)]
     assert sizes == [3000, 3000, 3000, 1000]
@@ -158,6 +163,7 @@ def test_continuous_chunk_sizes() -> None:
 # --------------------------------------------------------------------------
 # physics
 # --------------------------------------------------------------------------
+@pytest.mark.fast
 def test_dynamic_force_range_and_zero_mean(temp_sim: simulate.Simulation) -> None:
     fz = temp_sim.channels["fz"]
     assert 1.0 < fz.max() < 2.3 and -2.3 < fz.min() < -1.0
@@ -171,6 +177,7 @@ def test_dynamic_force_range_and_zero_mean(temp_sim: simulate.Simulation) -> Non
     np.testing.assert_allclose(fz[:1000] / lsb, np.round(fz[:1000] / lsb), atol=1e-6)
 
 
+@pytest.mark.fast
 def test_raw_has_preload_and_positive_contact(cd_sim: simulate.Simulation) -> None:
     raw = simulate.current_density_test(raw=True)
     fz = raw.channels["fz"]
@@ -186,6 +193,7 @@ def test_raw_has_preload_and_positive_contact(cd_sim: simulate.Simulation) -> No
     assert np.corrcoef(a["fz"], b["fz"])[0, 1] > 0.999
 
 
+@pytest.mark.fast
 def test_continuous_raw_preload() -> None:
     d = _cat(simulate.continuous(30.0, raw=True, mu=0.12, orientation=1))
     assert d["fz"].mean() == pytest.approx(N0, abs=0.05)
@@ -193,6 +201,7 @@ def test_continuous_raw_preload() -> None:
     assert d["fy"].mean() == pytest.approx(0.12 * N0, rel=0.05)
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("centre", [101.0, 901.0, 1501.0, 1901.0, 2301.0, 2701.0, 3401.0, 3651.0, 3991.0, 4041.0])
 def test_slope_recovers_true_cof_temperature(temp_sim: simulate.Simulation, centre: float) -> None:
     w = _window(temp_sim, centre)
@@ -201,6 +210,7 @@ def test_slope_recovers_true_cof_temperature(temp_sim: simulate.Simulation, cent
     assert abs(np.corrcoef(w["fy"], w["fz"])[0, 1]) >= 0.85
 
 
+@pytest.mark.fast
 def test_slope_recovers_true_cof_current_density(cd_sim: simulate.Simulation) -> None:
     for centre in np.arange(35.0, 630.0, 70.0):  # mid-step windows
         w = _window(cd_sim, centre)
@@ -208,12 +218,14 @@ def test_slope_recovers_true_cof_current_density(cd_sim: simulate.Simulation) ->
         assert mu == pytest.approx(float(cd_sim.truth.mu_at(centre)), rel=0.02)
 
 
+@pytest.mark.fast
 def test_orientation_plus_one() -> None:
     d = _cat(simulate.continuous(4.0, orientation=1, mu=0.15))
     assert np.corrcoef(d["fy"], d["fz"])[0, 1] > 0.9
     assert _slope_mu(d["fy"], d["fz"], 1) == pytest.approx(0.15, rel=0.02)
 
 
+@pytest.mark.fast
 def test_axial_force_weakly_correlated(temp_sim: simulate.Simulation) -> None:
     w = _window(temp_sim, 1001.0)
     c = np.corrcoef([w["fx"], w["fy"], w["fz"]])
@@ -221,6 +233,7 @@ def test_axial_force_weakly_correlated(temp_sim: simulate.Simulation) -> None:
     assert abs(c[0, 2]) < 0.5 and abs(c[0, 1]) < 0.5
 
 
+@pytest.mark.fast
 def test_cof_curves_and_optimum(temp_sim: simulate.Simulation, cd_sim: simulate.Simulation) -> None:
     opt = temp_sim.truth.optimum
     for branch in ("heating", "cooling"):
@@ -246,6 +259,7 @@ def test_cof_curves_and_optimum(temp_sim: simulate.Simulation, cd_sim: simulate.
     assert cd_sim.truth.mu_at(35.0 + 70.0 * 5) == pytest.approx(0.1, abs=1e-6)  # J = 4.5
 
 
+@pytest.mark.fast
 def test_force_dependence_sign() -> None:
     def mu_a_b(beta: float):
         d = _cat(simulate.continuous(60.0, mu=0.12, force_dependence=beta, seed=1))
@@ -261,6 +275,7 @@ def test_force_dependence_sign() -> None:
     assert abs(b0 - a0) / 0.12 < 0.01
 
 
+@pytest.mark.fast
 def test_contact_loss_breaks_correlation(cd_sim: simulate.Simulation) -> None:
     tr = cd_sim.truth
     t0, t1 = tr.contact_loss[0]
@@ -278,6 +293,7 @@ def test_contact_loss_breaks_correlation(cd_sim: simulate.Simulation) -> None:
         assert abs(np.corrcoef(w["fy"], w["fz"])[0, 1]) >= 0.85
 
 
+@pytest.mark.fast
 def test_contact_loss_contact_force_zero() -> None:
     raw = simulate.current_density_test(raw=True, seed=2)
     t = raw.time
@@ -289,6 +305,7 @@ def test_contact_loss_contact_force_zero() -> None:
     assert np.mean(fz < 0.0) > 0.1
 
 
+@pytest.mark.fast
 @pytest.mark.parametrize("skew", [0, 3, -2, 7])
 def test_skew_shows_as_lag(skew: int) -> None:
     d = _cat(simulate.continuous(10.0, skew=skew, seed=5))
@@ -300,6 +317,7 @@ def test_skew_shows_as_lag(skew: int) -> None:
         np.testing.assert_array_equal(d["fy"], ref["fy"])
 
 
+@pytest.mark.fast
 def test_skew_in_scenario_truth() -> None:
     s = simulate.current_density_test(skew=4)
     assert s.truth.skew == 4

@@ -29,9 +29,10 @@ axes carry a "no data" note instead.
 
 from __future__ import annotations
 
+import io
 import os
 import warnings
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -1354,18 +1355,93 @@ def energy_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
 
 def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
     """``fig`` rendered once as PNG bytes (no timestamp or software in its metadata, so the bytes repeat)."""
-    import io
-
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
     return buf.getvalue()
+
+
+class _Pixels(io.RawIOBase):
+    """The file object :func:`rgba_pixels` hands to ``savefig(format="rgba")``: keeps the Agg renderer's buffer,
+    which Matplotlib writes to it in one call, as an array (height, width, 4)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.pixels: Optional[np.ndarray] = None
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data: Any) -> int:
+        self.pixels = np.array(data, dtype=np.uint8, copy=True)  # the renderer's memoryview (height, width, 4)
+        return int(self.pixels.nbytes)
+
+
+def rgba_pixels(fig: Figure, *, dpi: int = DPI) -> np.ndarray:
+    """``fig`` drawn once by Agg as :func:`png_bytes` draws it, its pixels (height, width, 4) not yet encoded
+    (:func:`encode_png` makes them the same PNG bytes)."""
+    grab = _Pixels()
+    fig.savefig(cast(Any, grab), format="rgba", dpi=dpi)  # (a file object: io.RawIOBase)
+    if grab.pixels is None or grab.pixels.ndim != 3 or grab.pixels.shape[2] != 4:  # (Matplotlib's print_raw)
+        raise RuntimeError("Matplotlib did not hand over the figure's pixels")
+    return grab.pixels
+
+
+def encode_png(pixels: np.ndarray, *, dpi: int = DPI) -> bytes:
+    """The PNG bytes of :func:`rgba_pixels`' pixels: what Matplotlib's Agg canvas does after drawing in
+    :func:`png_bytes` (``image.imsave`` with the same arguments), so the bytes are those of :func:`png_bytes`.
+    Pillow's encoder releases the GIL: another thread may encode while this one draws."""
+    from matplotlib import image
+
+    buf = io.BytesIO()
+    no_software: Any = {"Software": None}  # (Matplotlib: None leaves the key out)
+    image.imsave(buf, pixels, format="png", origin="upper", dpi=dpi, metadata=no_software)
+    return buf.getvalue()
+
+
+class _Beside:
+    """A thread that runs ``meanwhile`` (the job's tables and summary: mostly outside the GIL, in pyarrow and the
+    Rust core), then encodes the PNGs of the pixels the drawing thread hands it (:meth:`Rendering.finish_beside`).
+    """
+
+    def __init__(self, meanwhile: Optional[Callable[[], Any]], dpi: int) -> None:
+        import queue
+        import threading
+
+        self._meanwhile = meanwhile
+        self._dpi = dpi
+        self._todo: "queue.SimpleQueue[Optional[Tuple[int, np.ndarray]]]" = queue.SimpleQueue()
+        self.pngs: Dict[int, bytes] = {}
+        self.result: Any = None
+        self.error: Optional[BaseException] = None
+        self._thread = threading.Thread(target=self._run, name="tribodyn-outputs", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        try:
+            if self._meanwhile is not None:
+                self.result = self._meanwhile()
+            while (item := self._todo.get()) is not None:
+                self.pngs[item[0]] = encode_png(item[1], dpi=self._dpi)
+        except BaseException as exc:  # noqa: BLE001 - raised again by the drawing thread (join)
+            self.error = exc
+
+    def encode(self, k: int, pixels: np.ndarray) -> None:
+        self._todo.put((k, pixels))
+
+    def join(self, *, quiet: bool = False) -> None:
+        """Waits for the thread (after the last :meth:`encode`); raises what it raised unless ``quiet``."""
+        self._todo.put(None)
+        self._thread.join()
+        if self.error is not None and not quiet:
+            raise self.error
 
 
 class Rendering:
     """PNG bytes of figures, each drawn once (docs/architecture.md).
 
     Without ``pool`` every figure is drawn in this process when :meth:`finish` is called, after whatever the
-    caller does meanwhile. With ``pool`` (``jobs._DrawingPool``: fresh worker interpreters, never a fork of this
+    caller does meanwhile, or by :meth:`finish_beside` while a second thread does the caller's other work and
+    encodes the PNGs. With ``pool`` (``jobs._DrawingPool``: fresh worker interpreters, never a fork of this
     process, issue 38 point 3) each figure is pickled now, before any drawing, and queued: the workers draw them
     while the caller does its other work, and :meth:`finish` draws here every figure no worker has taken yet,
     then collects the workers' PNG bytes (the same bytes: :func:`draw_pickled`); a figure that does not pickle, a
@@ -1392,6 +1468,28 @@ class Rendering:
         for k, reply in batch.replies():  # reply: (PNG bytes, warnings) or None (a worker failed: here)
             out[k] = png_bytes(self._figs[k], dpi=self._dpi) if reply is None else _rewarned(*reply)
         return [out[k] for k in range(len(self._figs))]
+
+    def finish_beside(self, meanwhile: Optional[Callable[[], Any]] = None) -> Tuple[List[bytes], Any]:
+        """(every figure's PNG bytes in order, what ``meanwhile()`` returned). Without ``pool`` ``meanwhile`` runs
+        in a second thread while this one draws the figures, and that thread also encodes each drawn figure's
+        PNG (:func:`encode_png`: the bytes of :func:`png_bytes`): the tables and summary of a job (pyarrow, the
+        Rust core) and Pillow's encoder run outside the GIL beside Matplotlib's drawing, which holds it (issue 38
+        point 3). With ``pool`` the workers draw while ``meanwhile()`` runs here, then :meth:`finish`. What
+        ``meanwhile`` raises is raised here, once the figures drawn so far are encoded."""
+        if self._batch is not None or not self._figs:
+            done = meanwhile() if meanwhile is not None else None
+            return self.finish(), done
+        beside = _Beside(meanwhile, self._dpi)
+        try:
+            for k, fig in enumerate(self._figs):
+                if beside.error is not None:  # meanwhile failed: the job fails, no more drawing
+                    break
+                beside.encode(k, rgba_pixels(fig, dpi=self._dpi))
+        except BaseException:
+            beside.join(quiet=True)  # (the thread writes nothing once this returns)
+            raise
+        beside.join()
+        return [beside.pngs[k] for k in range(len(self._figs))], beside.result
 
     def also_result(self) -> Any:
         """What ``also()`` returned (None without ``also``), computed once."""

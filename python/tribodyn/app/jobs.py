@@ -278,8 +278,9 @@ def _save_figures(
 ) -> Tuple[List[Tuple[str, str, bytes]], Any, Any]:
     """Each figure rendered once to PNG (``figures.DPI``), written to ``figures/``: (file name, caption, PNG)
     triples, the report embeds the same PNG bytes (no figure is drawn or encoded twice); what ``meanwhile()``
-    returns and what ``also()`` returns, both called before this process draws (``figures.Rendering``: with
-    ``pool``, its workers draw meanwhile)."""
+    returns and what ``also()`` returns (``figures.Rendering.finish_beside``: ``also()`` first, then
+    ``meanwhile()`` in a second thread while this one draws, that thread encoding the PNGs too; with ``pool``,
+    ``meanwhile()`` here while its workers draw)."""
     from ..io.writers import atomic_write
 
     if not figs:  # no PNG (--figures none): Matplotlib is not imported
@@ -287,10 +288,10 @@ def _save_figures(
     from .figures import Rendering
 
     render = Rendering([f for _, _, f in figs], also=also, pool=pool)
-    done = meanwhile() if meanwhile is not None else None
     extra = render.also_result()
+    pngs, done = render.finish_beside(meanwhile)
     saved = []
-    for (stem, caption, _), data in zip(figs, render.finish()):
+    for (stem, caption, _), data in zip(figs, pngs):
         name = f"figures/{prefix}{stem}.png"
         atomic_write(out.path(name), _bytes_writer(data))
         saved.append((name, caption, data))
@@ -531,7 +532,7 @@ def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoT
     figs_t = _figures(res_t, opr_t=t.opr, opr_j=None, examples=ex_t)
     figs_j = _figures(res_j, opr_t=None, opr_j=j.opr, examples=ex_j)
 
-    def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # the tables and the views, before the figures
+    def meanwhile() -> Tuple[List[str], List[Tuple[str, str]]]:  # the tables and the views, beside the figures
         tables = _write_set(out, "temperature_", res_t) + _write_set(out, "current_density_", res_j)
         return tables, _report_extras(res_t, "temperature test", "temperature_windows.csv") + _report_extras(
             res_j, "current-density test", "current_density_windows.csv"
@@ -940,7 +941,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
                     steady_state=steady) if drawn else []  # fmt: skip
     res_now = res
 
-    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, before the figures
+    def meanwhile() -> Tuple[List[str], Dict[str, Any]]:  # the tables and the summary, beside the figures
         return _write_set(out, prefix, res_now), res_now.summary()
 
     pngs, (written, res_summary), (view, head) = _save_figures(
