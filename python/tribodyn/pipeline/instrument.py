@@ -64,13 +64,15 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
     """
     from ..io.sample import in_range
 
+    if max_lag < 2:
+        return None
     segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
     segs = [(y, z) for y, z in segs if y.size == z.size and y.size > 2 * max_lag]
     got = _in_range_rows(segs)
     if got is None:
         # a window holding a sample beyond the kernel's range is out of range (docs/method.md 4)
         segs = [(y, z) for y, z in segs if in_range(y, z)]
-        if len(segs) < 4 or max_lag < 2:
+        if len(segs) < 4:
             return None
         n = segs[0][0].size
         segs = [(y, z) for y, z in segs if y.size == n]
@@ -78,7 +80,7 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
         top = max(float(zs.max()), -float(zs.min()))
     else:
         ys, zs, top = got
-        if ys.shape[0] < 4 or max_lag < 2:
+        if ys.shape[0] < 4:
             return None
         n = ys.shape[1]
     m = 1 << int(np.ceil(np.log2(2 * n)))
