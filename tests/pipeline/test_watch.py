@@ -572,10 +572,10 @@ def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
     failed = int((~ok[keep]).sum())  # an open dot: a dark one and a white one on it
     assert svg.count("h0") == keep.size + failed and "19999 windows: each pixel column" in svg
     again = _Points()
-    assert _cof_svg(t, mu, ok, (0.2, 0.19, 0.21), [], again) == svg  # the points kept between updates
+    assert _cof_svg(t, mu, ok, (0.2, 0.19, 0.21), [], points=again) == svg  # the points kept between updates
     mu2 = mu.copy()
     mu2[3] = 0.6  # a window whose COF changed since (a recording-wide quantity moved it)
-    assert _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [], again) == _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [])
+    assert _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [], points=again) == _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [])
 
 
 @pytest.mark.fast

@@ -308,7 +308,7 @@ def live_page(res: Results, w: Watch, info: Dict[str, Any], *, interval: float,
     t = np.asarray(res["time"], dtype=float)
     mu = np.abs(np.asarray(res[col], dtype=float))
     ok = np.asarray(res["ok"], dtype=bool) if h.method == "dynamic" else np.ones(len(t), dtype=bool)
-    svg = _cof_svg(t, mu, ok, (h.value, h.low, h.high), limits, points)
+    svg = _cof_svg(t, mu, ok, (h.value, h.low, h.high), limits, points=points)
     trip = f"<p class='trip'>{html.escape(w.tripped.message)}</p>" if w.tripped is not None else ""
     verdict = html.escape(verdict_text(res.verdict))
     notes = "".join(f"<p class='muted'>{html.escape(n)}</p>" for n in w.notes)
@@ -372,7 +372,7 @@ class _Points:
 
 
 def _cof_svg(t: np.ndarray, mu: np.ndarray, ok: np.ndarray, head: Tuple[float, float, float],
-             limits: List[Tuple[float, str]], points: Optional[_Points] = None) -> str:  # fmt: skip
+             limits: List[Tuple[float, str]], *, points: Optional[_Points] = None) -> str:  # fmt: skip
     """COF of each window against time (gated windows filled, the others open; beyond :data:`LIVE_POINTS`
     windows, each pixel column's extremes), the headline's band, the trip limits (SVG). The windows are drawn
     in the data's coordinates, mapped to the plot by one transform (dots: round caps of zero-length lines of a
