@@ -183,23 +183,3 @@ def test_what_the_tables_raise_beside_the_figures_is_raised():
     with pytest.raises(ValueError, match="cannot draw"):
         figures.Rendering([Broken()]).finish_beside(lambda: ran.append(1))  # type: ignore[list-item]
     assert ran == [1]
-
-
-@pytest.mark.fast
-@pytest.mark.parametrize("size", [0, 1, 70_001])
-def test_a_mapped_input_has_its_sha256(tmp_path, monkeypatch, size):
-    """The inputs' SHA-256 (``outputs.Digests``) from a mapping of the file, in blocks, is hashlib's of its
-    bytes; an empty file (which cannot be mapped) and a cancelled thread too (computed again on ``get``)."""
-    import hashlib
-
-    from tribodyn.app import outputs
-
-    monkeypatch.setattr(outputs, "_MAPPED_BYTES", 0)
-    monkeypatch.setattr(outputs, "_MAPPED_BLOCK", 4096)
-    p = tmp_path / "rec.bin"
-    p.write_bytes(np.random.default_rng(size).integers(0, 256, size, dtype=np.uint8).tobytes())
-    want = hashlib.sha256(p.read_bytes()).hexdigest()
-    assert outputs.Digests([p]).get(p) == want
-    cancelled = outputs.Digests([p])
-    cancelled.cancel()
-    assert cancelled.get(str(p)) == want

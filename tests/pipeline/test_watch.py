@@ -269,6 +269,57 @@ def test_a_partial_last_row_waits_for_its_line_end(tmp_path: Path) -> None:
     assert not any("cut off" in w for w in f.recording.warnings)
 
 
+@pytest.mark.fast
+def test_a_crlf_row_cut_between_its_cr_and_lf_waits_for_its_lf(tmp_path: Path) -> None:
+    """A writer of CRLF rows whose write ends between a row's CR and its LF: the row waits for its LF (only an
+    LF ends a row for the native scan), never an error or a row counted early."""
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(5_000).replace(b"\n", b"\r\n")
+    cut = data.index(b"\r\n", 30_000) + 1  # just after a CR
+    path.write_bytes(data[:cut])
+    f = Follower(str(path), td.open_recording)
+    f.poll()
+    n0 = f.n_samples
+    cut2 = data.index(b"\r\n", cut + 20_000) + 1
+    with open(path, "ab") as fh:
+        fh.write(data[cut:cut2])  # more rows, the last one's LF not yet written
+    f.poll()
+    assert f.n_samples > n0
+    with open(path, "ab") as fh:
+        fh.write(data[cut2:])
+    f.poll()
+    _reads_as_the_file(f, path, 5_000)
+
+
+@pytest.mark.fast
+def test_snapshots_of_a_recording_of_orientation_minus_one_keep_their_signs(tmp_path: Path) -> None:
+    """fy = -mu fz: each snapshot's windows are the first windows of the complete file's, their COF arrays
+    flipped once (the finishing step flips its statistics in place: the watch's joined ones must stay as the
+    kernel gave them, or every other snapshot had mu_a, mu_b and the bins' COF of the earlier windows negated)."""
+    path = tmp_path / "run.csv"
+    t, fy, fz = _forces(20_000, lambda t: np.full(t.shape, 0.2))
+    data = ("time,fy,fz\n" + "\n".join(f"{a:.4f},{-b:.6f},{c:.6f}" for a, b, c in zip(t, fy, fz)) + "\n").encode()
+    pieces = _pieces(data, 3, 40_000, 120_000)
+    path.write_bytes(pieces[0])
+    w = td.watch(path, interval=1.0, final=False, **OPTS)
+    snaps = []
+    for piece in [*pieces[1:], b""]:
+        snap = w.update()
+        if snap is not None:
+            snaps.append(snap)
+        with open(path, "ab") as fh:
+            fh.write(piece)
+    with td.open_recording(path) as rec:
+        full = td.analyze(rec, **OPTS)
+    assert full.orientation == -1 and len(snaps) >= 3
+    for snap in snaps:
+        k = len(snap)
+        assert snap.orientation == -1
+        np.testing.assert_array_equal(np.asarray(snap.bin_cof), np.asarray(full.bin_cof)[:k])
+        for col in ("mu_r", "mu_a", "mu_b"):
+            np.testing.assert_array_equal(np.asarray(snap[col]), np.asarray(full[col])[:k], err_msg=col)
+
+
 def _reads_as_the_file(f: Follower, path: Path, n: int) -> None:
     """The follower holds ``n`` samples, read as a fresh opening of the complete file reads them."""
     assert f.n_samples == n
@@ -462,10 +513,43 @@ def test_live_page_shows_the_headline_band_and_limits(tmp_path: Path) -> None:
     assert f"{snap.headline.value:.4f}" in page
 
 
+def test_live_outputs_are_a_set_first_then_each_file_replaced_in_place(tmp_path: Path) -> None:
+    """The first update publishes --out as one set (marker); the next ones replace summary.json and live.html
+    in place, each atomically (nothing left beside them); a folder removed meanwhile gets a set again."""
+    from tribodyn.app.outputs import MARKER
+    from tribodyn.app.watch_job import LiveOutputs
+
+    path = tmp_path / "run.csv"
+    data = _csv_bytes(12_000)
+    cut = data.index(b"\n", len(data) // 2) + 1
+    path.write_bytes(data[:cut])
+    w = td.watch(path, interval=1.0, final=False, **OPTS)
+    out = tmp_path / "live"
+    live = LiveOutputs(str(out), overwrite=False, protect=[str(path)])
+    live.publish(w.update(), w)
+    marker = json.loads((out / MARKER).read_text())
+    assert sorted(marker["files"]) == ["live.html", "summary.json"]
+    folder = os.stat(out).st_ino
+    with open(path, "ab") as fh:
+        fh.write(data[cut:])
+    snap = w.update()
+    live.publish(snap, w)
+    assert os.stat(out).st_ino == folder  # replaced in place, not as a new folder
+    assert sorted(os.listdir(out)) == sorted([MARKER, "live.html", "summary.json"])
+    got = json.loads((out / "summary.json").read_text())
+    assert got["recording"]["windows"] == len(snap) and got["watch"]["samples"] == 12_000
+    assert f"{snap.headline.value:.4f}" in (out / "live.html").read_text()
+    import shutil
+
+    shutil.rmtree(out)
+    live.publish(snap, w)
+    assert json.loads((out / MARKER).read_text())["files"] == marker["files"]
+
+
 @pytest.mark.fast
 @pytest.mark.fast
 def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
-    from tribodyn.app.watch_job import LIVE_POINTS, _cof_svg, thinned
+    from tribodyn.app.watch_job import LIVE_POINTS, _cof_svg, _Points, thinned
 
     rng = np.random.default_rng(7)
     n = 20_000  # a day at a 5 s hop
@@ -485,7 +569,13 @@ def test_live_page_thins_a_long_test_to_each_pixel_columns_extremes() -> None:
             sel = np.flatnonzero((col == c) & (ok == flag) & np.isfinite(mu))
             assert {int(sel[np.argmin(mu[sel])]), int(sel[np.argmax(mu[sel])])} <= set(keep.tolist())
     svg = _cof_svg(t, mu, ok, (0.2, 0.19, 0.21), [])
-    assert svg.count("<circle") == keep.size and "19999 windows: each pixel column" in svg
+    failed = int((~ok[keep]).sum())  # an open dot: a dark one and a white one on it
+    assert svg.count("h0") == keep.size + failed and "19999 windows: each pixel column" in svg
+    again = _Points()
+    assert _cof_svg(t, mu, ok, (0.2, 0.19, 0.21), [], points=again) == svg  # the points kept between updates
+    mu2 = mu.copy()
+    mu2[3] = 0.6  # a window whose COF changed since (a recording-wide quantity moved it)
+    assert _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [], points=again) == _cof_svg(t, mu2, ok, (0.2, 0.19, 0.21), [])
 
 
 @pytest.mark.fast

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, 
 
 import numpy as np
 
-from ..kernels.quantiles import f_ppf, t_ppf
+from ..kernels.quantiles import Z975, f_ppf, t_ppf  # a test's se: its 95 % interval's width / (2 Z975), 10a
 from ..kernels.uncertainty import Uncertainty
 from ..results import HEADLINE_METHODS, Headline
 
@@ -37,8 +37,6 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["Comparison", "Precision", "Replicate", "compare", "headline_from_dict"]
 
-#: Normal quantile 0.975: a test's standard error is its 95 % interval's width / (2 Z975) (docs/method.md 10a).
-Z975 = 1.959963984540054
 #: The repeatability and reproducibility limits are this factor times s_r and s_R (ISO 5725-6 4.1.4: 1.96 sqrt 2).
 LIMIT_FACTOR = 2.8
 #: Significance levels of Mandel's h and k: outlier (1 %) and straggler (5 %), as ISO 5725-2 7.3.

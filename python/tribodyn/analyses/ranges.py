@@ -52,6 +52,7 @@ from typing import Any, Callable, Dict, Literal, NamedTuple, Optional, Sequence,
 import numpy as np
 
 from ..kernels.contact_loss import REASON as _CONTACT_LOSS
+from ..kernels.quantiles import Z975
 from ..results import Results
 from .segmented import Fit, Selection, bootstrap_indices, fit_bathtub
 from .walls import CurvedFit, bootstrap_curved, fit_curved, profile_interval
@@ -539,10 +540,6 @@ def _hull(ci: Optional[Interval], prof: Any, rss_min: float, scale: float) -> Op
     return min(ci[0], pi[0]), max(ci[1], pi[1])
 
 
-#: 97.5 % quantile of the standard normal distribution.
-Z95 = 1.959963984540054
-
-
 def _widen(ci: Optional[Interval], b: float, x_noise: float) -> Optional[Interval]:
     """Each half of ``ci`` (about the estimate ``b``) joined in quadrature with 1.96 times the covariate's noise.
 
@@ -552,7 +549,7 @@ def _widen(ci: Optional[Interval], b: float, x_noise: float) -> Optional[Interva
     """
     if ci is None or not (x_noise > 0 and np.isfinite(b)):
         return ci
-    e = (Z95 * x_noise) ** 2
+    e = (Z975 * x_noise) ** 2
     return b - math.sqrt(max(b - ci[0], 0.0) ** 2 + e), b + math.sqrt(max(ci[1] - b, 0.0) ** 2 + e)
 
 

@@ -31,7 +31,6 @@ import csv
 import hashlib
 import json
 import math
-import mmap
 import os
 import re
 import secrets
@@ -577,12 +576,6 @@ def fill_digests(inputs: Iterable[Dict[str, Any]], digests: Optional["Digests"])
             entry["sha256"] = digests.get(entry["path"]) if digests is not None else sha256_file(entry["path"])
 
 
-#: Input files of at least this many bytes are hashed from a mapping (``Digests``), smaller ones read in blocks.
-_MAPPED_BYTES = 64 << 20
-#: Bytes of a mapped file hashed at a time (``Digests.cancel`` is seen between blocks).
-_MAPPED_BLOCK = 16 << 20
-
-
 class Digests:
     """SHA-256 of files computed in a background thread started at once (issue 25).
 
@@ -606,50 +599,22 @@ class Digests:
         return os.path.realpath(os.fspath(p))
 
     def _run(self) -> None:
+        buf = bytearray(self._BLOCK)
+        view = memoryview(buf)
         for p in self._paths:
             try:
                 h = hashlib.sha256()
                 with open(p, "rb", buffering=0) as fh:
-                    if not self._hash_mapped(fh, h):
-                        self._hash_read(fh, h)
+                    while not self._stop.is_set():
+                        k = fh.readinto(buf)
+                        if not k:
+                            break
+                        h.update(view[:k])
                 if self._stop.is_set():
                     return
                 self._done[self._key(p)] = h.hexdigest()
             except BaseException as exc:  # noqa: BLE001 - get() computes it again and raises there
                 self._done[self._key(p)] = exc
-
-    def _hash_read(self, fh: Any, h: Any) -> None:
-        buf = bytearray(self._BLOCK)
-        view = memoryview(buf)
-        while not self._stop.is_set():
-            k = fh.readinto(buf)
-            if not k:
-                break
-            h.update(view[:k])
-
-    def _hash_mapped(self, fh: Any, h: Any) -> bool:
-        """Hashes a regular file of :data:`_MAPPED_BYTES` or more from a read-only mapping of it: the pages the
-        analysis' reading put in the page cache, without copying them into a buffer first (the kernel's copies
-        cost about 0.2 s of CPU per GB; the digest is the same). False (nothing hashed) where it cannot map."""
-        try:
-            st = os.fstat(fh.fileno())
-            if not stat.S_ISREG(st.st_mode) or st.st_size < _MAPPED_BYTES:
-                return False
-            mapped = mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ)
-        except (OSError, ValueError, OverflowError):
-            return False
-        with mapped:
-            with contextlib.suppress(AttributeError, OSError):  # (no madvise on Windows)
-                mapped.madvise(mmap.MADV_SEQUENTIAL)
-            view = memoryview(mapped)
-            try:
-                for at in range(0, len(mapped), _MAPPED_BLOCK):
-                    if self._stop.is_set():
-                        break
-                    h.update(view[at : at + _MAPPED_BLOCK])
-            finally:
-                view.release()
-        return True
 
     def get(self, path: PathLike) -> str:
         """The hex SHA-256 of ``path`` (waits for the thread)."""

@@ -1,11 +1,13 @@
 """``tribodyn watch``: a running test's COF in the terminal and on a live page (docs/method.md 11).
 
 Each update (:class:`tribodyn.pipeline.watch.Watch`) prints the headline in
-place (one refreshed line on a terminal, plain lines otherwise) and replaces
-``--out`` as one set (:class:`~tribodyn.app.outputs.OutputSet`): ``summary.json``
-(the snapshot's summary and a ``watch`` block) and ``live.html`` (refreshes
-itself; COF against time with the headline's band and the trip limits, and
-when data last arrived). When watching ends, ``--out`` holds what
+place (one refreshed line on a terminal, plain lines otherwise) and writes
+``--out`` (:class:`LiveOutputs`): ``summary.json`` (the snapshot's summary and
+a ``watch`` block) and ``live.html`` (refreshes itself; COF against time with
+the headline's band and the trip limits, and when data last arrived). The
+first update publishes them as one set (:class:`~tribodyn.app.outputs.OutputSet`:
+the folder checked, its marker written); the next ones replace each file
+atomically in place (a reader sees the old file or the new one, never a part). When watching ends, ``--out`` holds what
 ``tribodyn analyze`` of the complete file writes, and ``live.html`` says the
 test ended and links the report. A trip prints one line, writes the outputs,
 runs ``--on-trip`` and exits with status 3. A second watch of the same
@@ -30,9 +32,9 @@ import numpy as np
 
 from ..pipeline.watch import Watch, cof_column, parse_trip, watch
 from ..results import Results, verdict_text
-from .outputs import MARKER, OutputSet, write_json
+from .outputs import MARKER, OutputSet, jsonable
 
-__all__ = ["run_watch", "EXIT_TRIPPED", "live_page", "WatchLock"]
+__all__ = ["run_watch", "EXIT_TRIPPED", "live_page", "WatchLock", "LiveOutputs"]
 
 #: ``tribodyn watch``'s status when a trip rule ended the watch (0: ended, 2: an error).
 EXIT_TRIPPED = 3
@@ -89,12 +91,11 @@ def run_watch(ns: argparse.Namespace, open_opts: Dict[str, Any], opts: Dict[str,
                   open_options=open_opts, **analysis)  # fmt: skip
         line = _Line(quiet=ns.quiet)
         w.on_wait = lambda why: line.show(f"waiting: {why}")  # the file not there yet, no new data...
-        overwrite = ns.overwrite
+        live = LiveOutputs(ns.out, overwrite=ns.overwrite, protect=[ns.file, *protect])
         try:
             for snap in w:
                 line.show(_headline_text(snap, w))
-                _publish_live(ns.out, snap, w, overwrite=overwrite, protect=[ns.file, *protect])
-                overwrite = False  # the folder now holds our set
+                live.publish(snap, w)
         finally:
             line.end()
         if w.follower.recording is None:
@@ -169,18 +170,66 @@ def _headline_text(res: Results, w: Watch) -> str:
             f"{len(res)} windows{final}")  # fmt: skip
 
 
-def _publish_live(out: str, res: Results, w: Watch, *, overwrite: bool, protect: Sequence[str]) -> None:
-    """summary.json and live.html of this update, replacing --out as one set."""
-    now = time.time()
-    info = _watch_info(w, now)
-    # the snapshot's bootstrap intervals: drawn at this many gated windows, moved since (docs/method.md 11)
-    info["intervals_drawn_at"] = (res.params.get("watch") or {}).get("intervals_drawn_at")
-    summary = {"watch": info, "recording": res.summary()}
-    page = live_page(res, w, info, interval=w.interval)
-    # replaced at every update: not flushed to disk each time (the end's outputs are, docs/method.md 11)
-    with OutputSet(out, overwrite=overwrite, protect=protect, durable=False) as o:
-        write_json(summary, o.path("summary.json"))
-        Path(o.path(LIVE_PAGE)).write_text(page, encoding="utf-8")
+class LiveOutputs:
+    """``summary.json`` and ``live.html`` of each update in ``--out`` (docs/method.md 11).
+
+    The first update publishes them as one set (:class:`~tribodyn.app.outputs.OutputSet`: the folder checked,
+    its marker written); each later one replaces the two files in place, each atomically (written beside it,
+    then renamed over it: a reader sees the old file or the new one, never a part), and again as a set if the
+    folder no longer holds them. Neither is flushed to disk at each update (the end's outputs are). The live
+    page's points are kept between updates (:class:`_Points`): an update formats only the windows that are
+    new or changed.
+    """
+
+    def __init__(self, out: str, *, overwrite: bool, protect: Sequence[str]) -> None:
+        self.out, self.overwrite, self.protect = out, overwrite, list(protect)
+        self.points = _Points()
+        self._published = False
+
+    def publish(self, res: Results, w: Watch) -> None:
+        """This update's summary.json and live.html."""
+        now = time.time()
+        info = _watch_info(w, now)
+        # the snapshot's bootstrap intervals: drawn at this many gated windows, moved since (docs/method.md 11)
+        info["intervals_drawn_at"] = (res.params.get("watch") or {}).get("intervals_drawn_at")
+        files = {"summary.json": _json_text({"watch": info, "recording": res.summary()}),
+                 LIVE_PAGE: live_page(res, w, info, interval=w.interval, points=self.points)}  # fmt: skip
+        if self._published and self._intact():
+            for name, text in files.items():
+                _replace(os.path.join(self.out, name), text)
+            return
+        with OutputSet(self.out, overwrite=self.overwrite, protect=self.protect, durable=False) as o:
+            for name, text in files.items():
+                Path(o.path(name)).write_text(text, encoding="utf-8")
+        self._published, self.overwrite = True, False  # the folder now holds our set
+
+    def _intact(self) -> bool:
+        """Whether ``--out`` still holds the set this watch published (its marker and both files)."""
+        target = Path(self.out)
+        return not target.is_symlink() and all((target / f).is_file() for f in (MARKER, "summary.json", LIVE_PAGE))
+
+
+def _replace(path: str, text: str) -> None:
+    """``text`` as the file ``path``, atomically: written beside it, then renamed over it."""
+    folder, name = os.path.split(path)
+    tmp = os.path.join(folder, f".{name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.lexists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _json_text(obj: Any) -> str:
+    """``obj`` as JSON (NaN as null), one top-level entry a line: the entries by the C encoder (an indented
+    dump goes through Python's, several ms for a summary)."""
+    data = jsonable(obj)
+    if not isinstance(data, dict) or not data:
+        return json.dumps(data) + "\n"
+    return "{\n" + ",\n".join(f"  {json.dumps(k)}: {json.dumps(v)}" for k, v in data.items()) + "\n}\n"
 
 
 def _watch_info(w: Watch, now: float) -> Dict[str, Any]:
@@ -247,9 +296,11 @@ def _page(body: str, refresh: Optional[float]) -> str:
             f"<style>{_STYLE}</style></head><body>{body}</body></html>\n")  # fmt: skip
 
 
-def live_page(res: Results, w: Watch, info: Dict[str, Any], *, interval: float) -> str:
+def live_page(res: Results, w: Watch, info: Dict[str, Any], *, interval: float,
+              points: Optional["_Points"] = None) -> str:  # fmt: skip
     """The live page of a snapshot: the headline, COF against time with its band and the trip limits, when the
-    data last arrived; it reloads itself every ``interval`` s."""
+    data last arrived; it reloads itself every ``interval`` s. ``points``: the points of the previous update's
+    page (:class:`LiveOutputs`), kept so that only new or changed windows are formatted."""
     h = res.headline
     name = html.escape(Path(w.path).name)
     limits = [(r.limit, r.text) for r in w.rules if r.quantity == "cof"]
@@ -257,7 +308,7 @@ def live_page(res: Results, w: Watch, info: Dict[str, Any], *, interval: float) 
     t = np.asarray(res["time"], dtype=float)
     mu = np.abs(np.asarray(res[col], dtype=float))
     ok = np.asarray(res["ok"], dtype=bool) if h.method == "dynamic" else np.ones(len(t), dtype=bool)
-    svg = _cof_svg(t, mu, ok, (h.value, h.low, h.high), limits)
+    svg = _cof_svg(t, mu, ok, (h.value, h.low, h.high), limits, points=points)
     trip = f"<p class='trip'>{html.escape(w.tripped.message)}</p>" if w.tripped is not None else ""
     verdict = html.escape(verdict_text(res.verdict))
     notes = "".join(f"<p class='muted'>{html.escape(n)}</p>" for n in w.notes)
@@ -297,24 +348,52 @@ def thinned(t: np.ndarray, mu: np.ndarray, ok: np.ndarray, columns: int, most: i
     return np.asarray(np.sort(keep[order[first | last]]))
 
 
+class _Points:
+    """Each window's point of the live page's plot, in the data's coordinates (``M t cof h0``), kept between
+    updates: only windows whose time or COF differ from the last update's are formatted again."""
+
+    def __init__(self) -> None:
+        self.t = np.zeros(0)
+        self.mu = np.zeros(0)
+        self.text: List[str] = []
+
+    def of(self, t: np.ndarray, mu: np.ndarray) -> List[str]:
+        """The points of windows ``t``, ``mu`` (finite or not: those drawn are picked by the caller)."""
+        k = min(len(self.t), len(t))
+        same = np.zeros(len(t), dtype=bool)
+        same[:k] = ((self.t[:k] == t[:k]) | (np.isnan(self.t[:k]) & np.isnan(t[:k]))) & (
+            (self.mu[:k] == mu[:k]) | (np.isnan(self.mu[:k]) & np.isnan(mu[:k]))
+        )
+        text = self.text[: len(t)] + [""] * max(0, len(t) - len(self.text))
+        for i in np.flatnonzero(~same).tolist():
+            text[i] = f"M{t[i]:.7g} {mu[i]:.6g}h0"
+        self.t, self.mu, self.text = t.copy(), mu.copy(), text
+        return text
+
+
 def _cof_svg(t: np.ndarray, mu: np.ndarray, ok: np.ndarray, head: Tuple[float, float, float],
-             limits: List[Tuple[float, str]]) -> str:  # fmt: skip
-    """COF of each window against time (gated windows filled; beyond :data:`LIVE_POINTS` windows, each pixel
-    column's extremes), the headline's band, the trip limits (SVG)."""
+             limits: List[Tuple[float, str]], *, points: Optional[_Points] = None) -> str:  # fmt: skip
+    """COF of each window against time (gated windows filled, the others open; beyond :data:`LIVE_POINTS`
+    windows, each pixel column's extremes), the headline's band, the trip limits (SVG). The windows are drawn
+    in the data's coordinates, mapped to the plot by one transform (dots: round caps of zero-length lines of a
+    fixed width on screen), so a window's point is the same text at every update (``points`` keeps them)."""
     width, height, left, bottom, top, right = 900, 360, 60, 40, 20, 20
     fin = np.isfinite(mu)
-    vals = [*mu[fin].tolist(), *[x for x in head if math.isfinite(x)], *[x for x, _ in limits]]
-    lo, hi = (min(vals), max(vals)) if vals else (0.0, 1.0)
+    ends = [x for x in (*head, *(x for x, _ in limits)) if math.isfinite(x)]
+    if fin.any():
+        ends += [float(mu[fin].min()), float(mu[fin].max())]
+    lo, hi = (min(ends), max(ends)) if ends else (0.0, 1.0)
     pad = 0.08 * (hi - lo) if hi > lo else 0.05 * max(abs(hi), 0.1)
     lo, hi = lo - pad, hi + pad
     t0, t1 = (float(t.min()), float(t.max())) if len(t) else (0.0, 1.0)
     t1 = t1 if t1 > t0 else t0 + 1.0
+    sx, sy = (width - left - right) / (t1 - t0), (height - top - bottom) / (hi - lo)
 
     def x(v: float) -> float:
-        return left + (v - t0) / (t1 - t0) * (width - left - right)
+        return left + (v - t0) * sx
 
     def y(v: float) -> float:
-        return top + (hi - v) / (hi - lo) * (height - top - bottom)
+        return top + (hi - v) * sy
 
     parts = [f"<svg xmlns='http://www.w3.org/2000/svg' width='{width}' height='{height}' role='img' "
              "aria-label='COF against time'>"]  # fmt: skip
@@ -329,10 +408,15 @@ def _cof_svg(t: np.ndarray, mu: np.ndarray, ok: np.ndarray, head: Tuple[float, f
                      f"stroke-dasharray='6 4'/><text x='{width - right - 4}' y='{y(lim) - 4:.1f}' "
                      f"text-anchor='end' font-size='12' fill='#c00'>trip {html.escape(text)}</text>")  # fmt: skip
     drawn = thinned(t, mu, ok, width - left - right)
-    for ti, mi, oi in zip(t[drawn].tolist(), mu[drawn].tolist(), ok[drawn].tolist()):
-        fill = "#222" if oi else "none"
-        parts.append(f"<circle cx='{x(ti):.1f}' cy='{y(mi):.1f}' r='2.5' fill='{fill}' stroke='#222'/>")
-    finite = int(np.isfinite(mu).sum())
+    dots = (points or _Points()).of(t, mu)
+    gated = "".join(dots[i] for i in drawn[ok[drawn]].tolist())
+    failed = "".join(dots[i] for i in drawn[~ok[drawn]].tolist())
+    dot = "fill='none' stroke-linecap='round' vector-effect='non-scaling-stroke'"
+    parts.append(f"<g class='windows' transform='matrix({sx!r} 0 0 {-sy!r} {left - t0 * sx!r} {top + hi * sy!r})'>"
+                 f"<path class='gated' d='{gated}' stroke='#222' stroke-width='5' {dot}/>"
+                 f"<path class='failed' d='{failed}' stroke='#222' stroke-width='6' {dot}/>"
+                 f"<path d='{failed}' stroke='#fff' stroke-width='3' {dot}/></g>")  # fmt: skip
+    finite = int(fin.sum())
     if drawn.size < finite:
         parts.append(f"<text x='{width - right}' y='{top - 6}' text-anchor='end' font-size='11' fill='#555'>"
                      f"{finite} windows: each pixel column's lowest and highest drawn</text>")  # fmt: skip

@@ -25,7 +25,7 @@ import os
 import time
 from typing import Any, Callable, Dict, Optional, Tuple
 
-from ._text import TextRecording, native_scan
+from ._text import Checkpoints, TextRecording, native_scan
 from .base import Recording, RecordingError
 
 __all__ = ["Follower"]
@@ -180,6 +180,8 @@ class _TextTail:
         s, off, line = int(cp.sample[-1]), int(cp.offset[-1]), int(cp.line[-1])
         run = self._scan(rec, off)
         rows = min(int(run["rows"]), rec.n_samples - s)
+        if s + rows < rec.n_samples:  # the reader took a last row ended by a CR whose LF is not yet written:
+            _hold(rec, s + rows)  # it waits for its LF, as the next rows do (the scan's rows are the whole ones)
         #: Byte offset after the last whole row seen, and the lines before it.
         self.end, self.line = _after_rows(rec, off, line - 1, rows)
 
@@ -201,34 +203,37 @@ class _TextTail:
             os.close(fd)
 
     def extend(self, rec: TextRecording) -> None:
-        """Adds the whole rows written after :attr:`end` to ``rec`` (its checkpoints, sample count, identity)."""
-        size = os.path.getsize(rec._text_path())
-        if size <= self.end:
-            return
-        if _read_bytes(rec._text_path(), 0, len(self.head)) != self.head:
-            raise RecordingError(
-                f"{rec.path}: the header was rewritten while the file was watched: the rows read may no longer "
-                "hold; analyse the file once it is complete"
-            )
-        with open(rec._text_path(), "rb") as fh:
-            fh.seek(self.end)
-            tail = fh.read(min(size - self.end, MAX_POLL_BYTES))
-        cut = max(tail.rfind(b"\n"), tail.rfind(b"\r"))
-        if cut < 0:
+        """Adds the whole rows written after :attr:`end` to ``rec`` (its checkpoints, sample count, identity).
+
+        The new bytes are read once, by the native scan (rows, lines, checkpoints); Python reads only the
+        header (to see that it was not rewritten) and the end of the new bytes (the last line end)."""
+        path = rec._text_path()
+        with open(path, "rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size <= self.end:
+                return
+            if fh.read(len(self.head)) != self.head:
+                raise RecordingError(
+                    f"{rec.path}: the header was rewritten while the file was watched: the rows read may no "
+                    "longer hold; analyse the file once it is complete"
+                )
+            whole_end = _last_line_end(fh, self.end, min(size, self.end + MAX_POLL_BYTES))
+        if whole_end <= self.end:
             return  # a row still being written
-        whole = tail[: cut + 1]
-        whole_end = self.end + len(whole)
         run = self._scan(rec, self.end)
-        rows = int(run["rows"])
-        stop = int(run["end"])
-        if stop > whole_end:  # rows written after the tail was read, which the scan saw too: the next poll's
-            rows -= _data_lines(rec, _read_bytes(rec._text_path(), whole_end, stop - whole_end))
-        if stop < whole_end and whole[stop - self.end :].strip():
-            line = self.line + 1 + whole[: stop - self.end].count(b"\n")
-            raise RecordingError(
-                f"{rec.path}: line {line} is not a data row like those before it (the writer changed the layout "
-                "or wrote a footer): watching stops here; analyse the file"
-            )
+        rows, stop, lines = int(run["rows"]), int(run["end"]), int(run["lines"])
+        if stop > whole_end:  # rows written after the size was read, which the scan saw too: the next poll's
+            extra = _read_bytes(path, whole_end, stop - whole_end)  # whole lines (both ends follow a line end)
+            rows -= _data_lines(rec, extra)
+            lines -= extra.count(b"\n")
+        elif stop < whole_end:
+            rest = _read_bytes(path, stop, whole_end - stop)
+            if rest.strip():
+                raise RecordingError(
+                    f"{rec.path}: line {self.line + 1 + lines} is not a data row like those before it (the writer "
+                    "changed the layout or wrote a footer): watching stops here; analyse the file"
+                )
+            lines += rest.count(b"\n")
         n0 = rec.n_samples
         first = self.line + 1
         cps = [(n0 + int(r), int(o), first + int(ln)) for r, o, ln in run["checkpoints"] if int(r) < rows]
@@ -240,8 +245,41 @@ class _TextTail:
         rec._n = n
         a = rec._segments[-1][0] if rec._segments else 0
         rec._segments = [*rec._segments[:-1], (a, n)]
-        self.end, self.line = whole_end, self.line + whole.count(b"\n")
+        self.end, self.line = whole_end, self.line + lines
         rec._identity_at_open = rec._identity()
+
+
+#: Bytes read at a time from the end of the new bytes, looking for their last line end.
+_TAIL_BLOCK = 64 * 1024
+
+
+def _last_line_end(fh: Any, lo: int, hi: int) -> int:
+    """The byte offset just after the last ``\\n`` in bytes ``lo:hi`` of the open file ``fh`` (``lo``: none).
+
+    Only ``\\n`` ends a row for the native scan: a ``\\r`` just written waits for its ``\\n`` (a CRLF writer
+    whose write ends between the two)."""
+    b = hi
+    while b > lo:
+        a = max(lo, b - _TAIL_BLOCK)
+        fh.seek(a)
+        at = int(fh.read(b - a).rfind(b"\n"))
+        if at >= 0:
+            return a + at + 1
+        b = a
+    return lo
+
+
+def _hold(rec: TextRecording, n: int) -> None:
+    """``rec`` cut to its first ``n`` samples (its checkpoints, sample count, last segment, identity)."""
+    cp = rec._checkpoints
+    assert cp is not None
+    entries = list(zip(cp.sample.tolist(), cp.offset.tolist(), cp.line.tolist()))
+    marks = [m for m in zip(cp.mark_sample.tolist(), cp.mark_offset.tolist(), cp.mark_line.tolist()) if m[0] < n]
+    rec._checkpoints = Checkpoints(entries, n, marks)
+    rec._n = n
+    a = rec._segments[-1][0] if rec._segments else 0
+    rec._segments = [*rec._segments[:-1], (a, n)]
+    rec._identity_at_open = rec._identity()
 
 
 def _data_lines(rec: Recording, data: bytes) -> int:

@@ -26,8 +26,10 @@ from .. import _core
 
 #: Arrays up to this many values are simply partitioned.
 _SMALL = 1 << 15
-#: Size of the strided sample that brackets the ranks.
+#: Largest size of the strided sample that brackets the ranks; a shorter array takes about n^(2/3) values, at
+#: least ``_SAMPLE_MIN`` (Floyd and Rivest; as the Rust kernel's ``select_ranks``).
 _SAMPLE = 1 << 14
+_SAMPLE_MIN = 1 << 10
 
 
 def _kernel_ranks(x: np.ndarray, ks: Sequence[int], centre: Optional[float] = None) -> Optional[np.ndarray]:
@@ -58,7 +60,8 @@ def order_stats(x: np.ndarray, ks: Sequence[int]) -> np.ndarray:
         return got
     if n <= _SMALL or not ks:
         return np.partition(x, ks)[ks] if ks else np.zeros(0, dtype=x.dtype)
-    sample = np.sort(x[:: max(1, n // _SAMPLE)])
+    want = min(max(int(n ** (2.0 / 3.0)), _SAMPLE_MIN), _SAMPLE)
+    sample = np.sort(x[:: max(1, n // want)])
     m = sample.size
     margin = 3.0 * np.sqrt(m) + 8.0
     lo_j = int(min(ks) / n * m - margin)

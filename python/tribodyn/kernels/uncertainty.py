@@ -29,7 +29,7 @@ from typing import Any, Dict, Iterable, List, Mapping, Optional, Protocol, Seque
 import numpy as np
 
 from .. import _core
-from .quantiles import t975
+from .quantiles import Z975, t975
 
 __all__ = [
     "DISTRIBUTIONS",
@@ -539,7 +539,7 @@ def sensitivities(mom: Moments) -> Dict[str, Tuple[float, ...]]:
 
 
 def _t975(dof: float) -> float:
-    return 1.959964 if not math.isfinite(dof) else t975(int(math.floor(dof)))
+    return Z975 if not math.isfinite(dof) else t975(int(math.floor(dof)))
 
 
 class Interval(Protocol):

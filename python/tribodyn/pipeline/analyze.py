@@ -17,9 +17,11 @@ the table and settles the headline.
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import os
 from collections.abc import Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -44,7 +46,7 @@ from .covariates import align_to_recording
 from .finish import ALIGN_MIN, finish, settle
 from .budget import statistics_of, with_budget
 from .headline import classical_totals
-from .instrument import find_lag
+from .instrument import ChosenLag, find_lag
 from .plan import Findings, Plan, make_plan
 from .prepass import prepass
 from . import passes
@@ -341,8 +343,15 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
     if reuse is not None and reuse.pre:
         pre, found = reuse.pre, reuse.found
     else:
-        pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
-        lag = find_lag(source, rec, plan, pre, partial, earlier=reuse_lag.found if reuse_lag is not None else None)
+        earlier = reuse_lag.found if reuse_lag is not None else None
+        ahead = _lag_ahead(source, rec, plan, partial, earlier)  # find_lag beside the pre-pass, when it may
+        try:
+            pre = prepass(source, rec, plan.fs, min_fn=plan.min_fn, tare=plan.tare, motion=plan.motion)
+        except BaseException:
+            if ahead is not None:  # nothing of the analysis reads the source after this call returns
+                ahead.exception()
+            raise
+        lag = find_lag(source, rec, plan, pre, partial, earlier=earlier) if ahead is None else _lag_of(ahead, pre)
         found = Findings(
             classical=pre.get("spec"),
             iv_lag_samples=None if lag is None else lag.samples,
@@ -399,6 +408,43 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
         res = with_budget(res, statistics_of(res, source, rec, found.classical, (c_start, c_stop),
                                              strokes=stroke_stats))  # fmt: skip
     return res
+
+
+def _lag_ahead(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partial: bool,
+               earlier: Optional[Findings]) -> "Optional[Future[Optional[ChosenLag]]]":  # fmt: skip
+    """:func:`find_lag` started on a thread of its own, to run while the pre-pass runs (issue 38 point 2), or None
+    (then it runs after the pre-pass, as it always may).
+
+    Only where the two cannot tell they ran together: a call with two threads or more that would read the
+    source (the plan leaves the lag to the data, no earlier range gives it), and a source read by position
+    with no state and no warning: a recording whose channels are plain contiguous runs read by ``pread``
+    (``mappable``, ``random_access`` and ``thread_safe``), or a mapping or list of mappings of NumPy arrays.
+    The lag does not depend on the pre-pass's findings except that a reciprocating test takes none
+    (:func:`_lag_of`); the thread sees the call's context (its thread count).
+    """
+    if plan.threads < 2 or plan.paper or not plan.iv_lag_from_data or (earlier is not None and partial):
+        return None
+    if rec is not None:
+        if not all(getattr(rec, k, False) is True for k in ("mappable", "random_access", "thread_safe")):
+            return None
+    else:
+        acqs = [source] if isinstance(source, Mapping) else source if isinstance(source, (list, tuple)) else ()
+        if not acqs or not all(isinstance(a, Mapping) and all(isinstance(a.get(r), np.ndarray) for r in ("fy", "fz"))
+                               for a in acqs):  # fmt: skip
+            return None
+    ex = ThreadPoolExecutor(1, thread_name_prefix="tribodyn-lag")
+    job = ex.submit(contextvars.copy_context().run, find_lag, source, rec, plan, {}, partial, earlier=earlier)
+    ex.shutdown(wait=False)  # its thread ends with the job
+    return job
+
+
+def _lag_of(job: "Future[Optional[ChosenLag]]", pre: Mapping[str, Any]) -> Optional[ChosenLag]:
+    """The lag :func:`_lag_ahead` found, as :func:`find_lag` with the pre-pass's findings gives it: none for a
+    reciprocating test (whose lag would not have been looked for: an error of that look is not raised)."""
+    if pre.get("motion") == "reciprocating":
+        job.exception()
+        return None
+    return job.result()
 
 
 def _sample_range(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partial: bool) -> Tuple[int, int]:

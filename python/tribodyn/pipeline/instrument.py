@@ -64,16 +64,27 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
     """
     from ..io.sample import in_range
 
-    segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
-    # a window holding a sample beyond the kernel's range is out of range (docs/method.md 4)
-    segs = [(y, z) for y, z in segs if y.size == z.size and y.size > 2 * max_lag and in_range(y, z)]
-    if len(segs) < 4 or max_lag < 2:
+    if max_lag < 2:
         return None
-    n = segs[0][0].size
-    segs = [(y, z) for y, z in segs if y.size == n]
+    segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
+    segs = [(y, z) for y, z in segs if y.size == z.size and y.size > 2 * max_lag]
+    got = _in_range_rows(segs)
+    if got is None:
+        # a window holding a sample beyond the kernel's range is out of range (docs/method.md 4)
+        segs = [(y, z) for y, z in segs if in_range(y, z)]
+        if len(segs) < 4:
+            return None
+        n = segs[0][0].size
+        segs = [(y, z) for y, z in segs if y.size == n]
+        ys, zs = np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
+        top = max(float(zs.max()), -float(zs.min()))
+    else:
+        ys, zs, top = got
+        if ys.shape[0] < 4:
+            return None
+        n = ys.shape[1]
     m = 1 << int(np.ceil(np.log2(2 * n)))
-    ys, zs = np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
-    scale = max(float(zs.max()), -float(zs.min())) or 1.0  # max |z|: r and b do not depend on a common scale
+    scale = top or 1.0  # max |z|: r and b do not depend on a common scale
     ys /= scale
     zs /= scale
     ys -= ys.mean(axis=1, keepdims=True)  # each window centred (its mean: the same pairwise sum as y.mean())
@@ -84,7 +95,7 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
     C = np.fft.irfft(Y * np.conj(Z), m)[:, : max_lag + 1]
     lags = np.arange(max_lag + 1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        r = np.median((A / (n - lags)) / (A[:, :1] / n), axis=0)
+        r = _column_medians((A / (n - lags)) / (A[:, :1] / n))
         sa = A.sum(axis=0)
         b = C.sum(axis=0) / sa
         lo = max(2, max_lag // 2)
@@ -93,11 +104,41 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
         ref = lo + int(np.nanargmax(np.abs(r[lo:])))
         U = C - b * A
         phi = U / sa - (U[:, ref] / sa[ref])[:, None]
-        k = len(segs)
+        k = ys.shape[0]
         se = np.sqrt(k / (k - 1) * np.sum(phi * phi, axis=0))
         t = (b - b[ref]) / se
     t[ref] = 0.0
     return LagProfile(r=r, b=b, t=t, ref=ref, windows=k)
+
+
+def _in_range_rows(segs: Sequence[Tuple[np.ndarray, np.ndarray]]
+                   ) -> Optional[Tuple[np.ndarray, np.ndarray, float]]:  # fmt: skip
+    """(fy, fz, max |fz|) of the windows of ``segs`` within the kernel's range, stacked, when every window has
+    one length: :func:`~tribodyn.io.sample.in_range` per window from the stack's row minima and maxima (a row
+    with NaN fails the comparisons, as there); None for windows of several lengths or none."""
+    from .. import _core
+
+    if not segs or len({y.size for y, _ in segs}) > 1:
+        return None
+    ys, zs = np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
+    lim = _core.FORCE_LIMIT
+    zmin, zmax = zs.min(axis=1), zs.max(axis=1)
+    ok = (ys.min(axis=1) >= -lim) & (ys.max(axis=1) <= lim) & (zmin >= -lim) & (zmax <= lim)
+    if not ok.all():
+        ys, zs, zmin, zmax = ys[ok], zs[ok], zmin[ok], zmax[ok]
+    top = max(float(zmax.max()), -float(zmin.min())) if ok.any() else 0.0
+    return ys, zs, top
+
+
+def _column_medians(x: np.ndarray) -> np.ndarray:
+    """``np.median(x, axis=0)`` of a 2-D array, bit for bit: a column holding NaN is NaN; the others by the
+    kernel's row selection (``_order.row_quantiles``) over the columns made rows."""
+    from ..kernels._order import row_quantiles
+    from ..kernels.threads import read_threads
+
+    if x.shape[0] == 0 or np.isnan(x).any():
+        return np.asarray(np.median(x, axis=0))
+    return row_quantiles(np.ascontiguousarray(x.T), (), threads=read_threads())[0]
 
 
 def choose_lag(p: Optional[LagProfile], weak: float) -> Optional[int]:

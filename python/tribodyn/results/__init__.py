@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import html as _html
 import dataclasses
+from collections import Counter
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any, Dict, List, Mapping, Optional, Tuple
@@ -508,12 +509,11 @@ class Results:
                     "orientation_agreement"):  # fmt: skip
             if self.params.get(key) is not None:
                 out[key] = self.params[key]
-        reasons = [r for r in self.table["reasons"] if r]
         counts: Dict[str, int] = {}
-        for r in reasons:
-            for part in str(r).split("; "):
+        for r, times in Counter(self.table["reasons"].tolist()).items():  # each distinct reason split once
+            for part in str(r).split("; ") if r else ():
                 key = part.split(":")[0]
-                counts[key] = counts.get(key, 0) + 1
+                counts[key] = counts.get(key, 0) + times  # (keys in the order the windows first give them)
         out["gate_failures"] = counts
         out.update(self._tribometer_summary(values, lambda key: stats(values[key], cis[key])))
         head = self.headline
