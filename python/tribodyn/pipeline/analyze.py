@@ -223,7 +223,12 @@ def combine(parts: Sequence[Partial], *,
     """
     if not parts:
         raise ValueError("no ranges to combine")
-    st = concat_stats([dict(p.st) for p in parts])
+    # finish flips a recording's COF arrays in place (orientation -1; no copy of a long table): a lone part's
+    # arrays are copied (several are joined into new ones), so its parts stay as the kernel gave them and can be
+    # combined again (a watch's snapshots)
+    st = concat_stats(
+        [dict(p.st) for p in parts] if len(parts) > 1 else [{k: np.array(v, copy=True) for k, v in parts[0].st.items()}]
+    )
     warnings = tuple(dict.fromkeys(w for p in parts for w in p.warnings))
     span = (parts[0].plan.start, parts[-1].plan.stop)
     res = finish(st, parts[0].aux_role, parts[0].plan, parts[0].found, route=parts[0].route, warnings=warnings,

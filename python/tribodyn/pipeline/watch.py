@@ -311,10 +311,7 @@ class Watch:
         self._done = upto
         self._draw = False
         self._note_columns_drawn()
-        # finish consumes the statistics it is given (a recording of orientation -1 has its COF arrays flipped in
-        # place): it gets copies, the joined statistics stay as the kernel gave them for the next updates
-        mine = dataclasses.replace(self._acc, st={k: np.array(v, copy=True) for k, v in self._acc.st.items()})
-        snap = combine([mine], intervals=self._intervals)
+        snap = combine([self._acc], intervals=self._intervals)  # (combine leaves the joined statistics as they are)
         drawn = self._drawn
         if self._draw:
             drawn = self._drawn = _Drawn.of(snap)
