@@ -30,6 +30,7 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..io.writers import atomic_write
 from ..pipeline.watch import Watch, cof_column, parse_trip, watch
 from ..results import Results, verdict_text
 from .outputs import MARKER, OutputSet, jsonable
@@ -195,8 +196,9 @@ class LiveOutputs:
         files = {"summary.json": _json_text({"watch": info, "recording": res.summary()}),
                  LIVE_PAGE: live_page(res, w, info, interval=w.interval, points=self.points)}  # fmt: skip
         if self._published and self._intact():
-            for name, text in files.items():
-                _replace(os.path.join(self.out, name), text)
+            for name, text in files.items():  # (each written at once: the lambda's text is this one)
+                path = os.path.join(self.out, name)
+                atomic_write(path, lambda tmp: Path(tmp).write_text(text, "utf-8"), durable=False)
             return
         with OutputSet(self.out, overwrite=self.overwrite, protect=self.protect, durable=False) as o:
             for name, text in files.items():
@@ -207,20 +209,6 @@ class LiveOutputs:
         """Whether ``--out`` still holds the set this watch published (its marker and both files)."""
         target = Path(self.out)
         return not target.is_symlink() and all((target / f).is_file() for f in (MARKER, "summary.json", LIVE_PAGE))
-
-
-def _replace(path: str, text: str) -> None:
-    """``text`` as the file ``path``, atomically: written beside it, then renamed over it."""
-    folder, name = os.path.split(path)
-    tmp = os.path.join(folder, f".{name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.lexists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def _json_text(obj: Any) -> str:

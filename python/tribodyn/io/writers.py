@@ -39,7 +39,7 @@ PathLike = Union[str, "os.PathLike[str]"]
 _RESERVED_NPZ = ("fs", "units", "dt", "sampling_rate", "file", "allow_pickle")
 
 
-def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
+def atomic_write(path: PathLike, write_fn: Callable[[str], object], *, durable: bool = True) -> None:
     """Creates or replaces ``path`` atomically.
 
     Parameters
@@ -50,6 +50,9 @@ def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
         Called with the path (str) of a fresh empty temporary file in the
         same directory; it must write the complete content there (opening it
         itself, e.g. ``open(tmp, 'wb')``, ``h5py.File(tmp, 'w')``).
+    durable : bool
+        Flush the file and its folder to disk (default). False for a file replaced again soon (a watch's live
+        outputs): still atomic for every reader, but a power cut may leave the previous version.
 
     Raises
     ------
@@ -80,8 +83,9 @@ def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
     try:
         os.close(fd)
         write_fn(tmp)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
+        if durable:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
@@ -94,7 +98,8 @@ def atomic_write(path: PathLike, write_fn: Callable[[str], None]) -> None:
         if isinstance(exc, OSError) and exc.filename in (tmp, None):
             raise _naming(exc, target) from None
         raise
-    _fsync_dir(directory)
+    if durable:
+        _fsync_dir(directory)
 
 
 def _naming(exc: OSError, target: str) -> OSError:
