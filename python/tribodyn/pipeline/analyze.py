@@ -361,6 +361,7 @@ def _analyze_body(source: Any, given: Optional[Plan], options: Dict[str, Any], p
             classical=pre.get("spec"),
             iv_lag_samples=None if lag is None else lag.samples,
             iv_lag_shifts=() if lag is None else lag.shifts,
+            iv_lag_others=() if lag is None else lag.others,
         )  # docs/method.md 3b, 3d
     tribo = _tribometer_params(rec, pre, plan.window_note)
     if from_cof:  # the headline is the instrument's own COF (docs/method.md 6e)

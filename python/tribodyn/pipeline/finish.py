@@ -18,6 +18,7 @@ from ..columns import TABLE
 from ..kernels._validate import resolve_orientation
 from ..kernels.contact_loss import mark_contact_loss
 from ..kernels.estimators import (  # fmt: skip
+    PRODUCTS,
     T975,
     WEAK_INSTRUMENT,
     Slopes,
@@ -117,9 +118,8 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     notes: List[str] = []
     if not plan.paper:  # where the instrument lag comes from (docs/method.md 3b)
         seen["iv_lag_rule"] = _iv_lag_rule(plan, found)
+    ext = o.get("ext")  # the chosen lag's instrument sums (_statistics takes the column), for the lags' moves
     stats_cols = _statistics(o, plan, found.delay, s, found=seen, notes=notes, lag=plan.lag(found))
-    if not plan.paper:
-        seen.update(_lag_shifts(plan, found, seen, s))
     o.update(stats_cols)
     skew_gate = o.get("skew_lag")
     reasons = gate_reasons(o, plan.gate, skew_gate, rel_ci=stats_cols.get("rel_ci"), max_rel_ci=plan.max_rel_ci)
@@ -146,6 +146,10 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
                             mean_z=moments["mean_z"])  # fmt: skip
     table = {c.name: np.asarray(values[c.name], dtype=c.dtype if c.dtype != "str" else None) for c in TABLE}
     table.update(extra)  # the other covariate logs, after the declared columns (docs/method.md 7a)
+    lag_sums = o.pop("lag_sums", None)
+    if not plan.paper:  # over the windows the headline uses (docs/method.md 3d)
+        gated = np.asarray(table["ok"], dtype=bool) & np.isfinite(np.asarray(table["mu_r"], dtype=float))
+        seen.update(_lag_shifts(plan, found, seen, s, ext, lag_sums, gated))
     params = plan.params()
     params.update(orientation_used=s, start=start, stop=stop, threads=plan.threads, route=route)
     params.update(seen)
@@ -171,15 +175,71 @@ def _iv_lag_rule(plan: Plan, found: Findings) -> str:
     return ("data" if found.iv_lag_samples else "default") if plan.iv_lag_from_data else ("rpm" if rpm_lag else "given")
 
 
-def _lag_shifts(plan: Plan, found: Findings, seen: Dict[str, Any], s: int) -> Dict[str, Any]:
+def _lag_shifts(plan: Plan, found: Findings, seen: Dict[str, Any], s: int, ext: Optional[np.ndarray],
+                lag_sums: Optional[np.ndarray], gated: np.ndarray) -> Dict[str, Any]:  # fmt: skip
     """``iv_lag_shifts``: mu_r's moves at the other lags the choice from the data could not tell from the one used
-    (``ChosenLag.shifts`` times the orientation; docs/method.md 3d), when mu_r rests on that lag (the IV and the
-    corrected estimator with the fz noise measured, not fallen back to least squares); {} otherwise."""
-    moves = found.iv_lag_shifts
-    uses = plan.estimator == "iv" or (plan.estimator == "corrected" and plan.noise is None)
-    if not moves or seen.get("iv_lag_rule") != "data" or not uses or seen.get("mu_r_bound") == "lower":
+    (docs/method.md 3d), when mu_r rests on that lag (the IV and the corrected estimator with the fz noise
+    measured, not fallen back to least squares); {} otherwise.
+
+    Per extra lag L' (``Plan.extra_lags``), the move is b(L') - b(L) of the pooled IV slopes b = sum S_wy /
+    sum S_wz over the ``gated`` windows (the headline's), from the kernel's sums (``ext`` at the lag L,
+    ``lag_sums`` at the L'), times the orientation ``s``; its standard error is the batch-means one over
+    the windows in time order (:func:`lag_moves`). ``iv_lag_shifts`` are the resolved moves: each shrunk
+    towards 0 by its standard error (0 under it). ``iv_lag_moves`` and ``iv_lag_move_se`` keep both.
+    """
+    others = plan.extra_lags(found)
+    if not others or seen.get("iv_lag_rule") != "data" or seen.get("mu_r_bound") == "lower":
         return {}
-    return {"iv_lag_shifts": [s * float(x) for x in moves]}
+    if ext is None or lag_sums is None:
+        raise RuntimeError("the kernel did not return the instrument sums the plan asked for (ext, lag_sums)")
+    moves, se = lag_moves(np.asarray(ext, dtype=float), np.asarray(lag_sums, dtype=float), gated)
+    moves = s * moves
+    resolved = np.sign(moves) * np.maximum(np.abs(moves) - np.where(np.isfinite(se), se, 0.0), 0.0)
+    keep = np.isfinite(moves)
+    return {
+        "iv_lag_shifts": [float(x) for x in resolved[keep]],
+        "iv_lag_moves": [float(x) for x in moves[keep]],
+        "iv_lag_move_se": [float(x) for x in se[keep]],
+        "iv_lag_pooled": [int(k) for k, ok in zip(others, keep) if ok],
+    }
+
+
+def lag_moves(ext: np.ndarray, lag_sums: np.ndarray, gated: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    """(moves, standard errors) of the pooled IV slope between the chosen lag and each extra lag (docs/method.md 3d).
+
+    ``ext``: the kernel's block sums (windows, BLOCKS, PRODUCTS) at the chosen lag L; ``lag_sums``: (windows, K, 2)
+    [S_wz, S_wy] at the K extra lags; ``gated``: the windows used. Per lag L', over the gated windows where
+    every sum is finite: b(L') - b(L), b = sum S_wy / sum S_wz, and the batch-means standard error of that
+    difference from the windows' influences u_i = (C'_i - b' A'_i) / sum A' - (C_i - b A_i) / sum A summed in
+    at most :data:`~tribodyn.kernels.stats.BATCHES` contiguous batches (NaN with fewer than 3).
+    """
+    from ..kernels.stats import BATCHES
+
+    A0 = ext[:, :, _WZ].sum(axis=1)
+    C0 = ext[:, :, _WY].sum(axis=1)
+    k = lag_sums.shape[1]
+    moves, ses = np.full(k, np.nan), np.full(k, np.nan)
+    for j in range(k):
+        A1, C1 = lag_sums[:, j, 0], lag_sums[:, j, 1]
+        use = gated & np.isfinite(A0) & np.isfinite(C0) & np.isfinite(A1) & np.isfinite(C1)
+        if not use.any():
+            continue
+        a0, c0, a1, c1 = A0[use], C0[use], A1[use], C1[use]
+        sa0, sa1 = float(a0.sum()), float(a1.sum())
+        if sa0 == 0.0 or sa1 == 0.0:
+            continue
+        b0, b1 = float(c0.sum()) / sa0, float(c1.sum()) / sa1
+        moves[j] = b1 - b0
+        u = (c1 - b1 * a1) / sa1 - (c0 - b0 * a0) / sa0
+        edges = np.unique(np.linspace(0, u.size, min(BATCHES, u.size) + 1).round().astype(np.int64))
+        g = np.add.reduceat(u, edges[:-1])
+        if g.size >= 3:
+            ses[j] = float(np.sqrt(g.size / (g.size - 1) * np.sum(g * g)))
+    return moves, ses
+
+
+#: The products S_wz and S_wy of the kernel's block sums.
+_WZ, _WY = PRODUCTS.index("wz"), PRODUCTS.index("wy")
 
 
 def _more_reasons(reasons: np.ndarray, o: Stats, plan: Plan, cur: np.ndarray) -> np.ndarray:

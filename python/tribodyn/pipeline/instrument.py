@@ -28,10 +28,15 @@ __all__ = [
     "choose_lag",
     "admissible_lags",
     "chosen_lag",
+    "extra_lags",
+    "EXTRA_LAGS",
     "sample_windows",
     "lag_sample_held",
 ]
 
+#: Most other admissible lags whose instrument sums the windows' kernel adds (``_core``'s MAX_EXTRA_LAGS; the
+#: pooled moves, docs/method.md 3d).
+EXTRA_LAGS = 8
 #: The instrument is strong at a lag where the median over windows of |r(w, fz)| is at least this.
 STRONG = 0.5
 #: A lag is past the noise's correlation time when its IV slope differs from the reference lag's by at
@@ -189,12 +194,18 @@ class ChosenLag:
         b(L') - b(L) over the other :func:`admissible_lags` L' (the pooled IV slope of fy on fz at L' less the
         one at the lag L, over the profile's windows, the data's orientation). The corrected slope with the fz
         noise measured at a lag is, to first order, the IV slope at that lag, so these are the moves of mu_r
-        (times the orientation) had another of those lags been chosen; the headline's interval pools over them
-        (``Results.mu_r_ci``). :class:`~tribodyn.pipeline.plan.Findings` carries both.
+        (times the orientation) had another of those lags been chosen. For information: 64 windows carry
+        their own noise, so the headline's interval pools over the same moves measured on all the analysed
+        windows (``others``; docs/method.md 3d).
+    others : tuple of int
+        The other admissible lags at which the windows' kernel adds the instrument's sums (column
+        ``lag_sums``): all of them, or :data:`EXTRA_LAGS` spread evenly over them, the farthest kept
+        (:func:`extra_lags`). :class:`~tribodyn.pipeline.plan.Findings` carries the three.
     """
 
     samples: int
     shifts: Tuple[float, ...] = ()
+    others: Tuple[int, ...] = ()
 
 
 def chosen_lag(p: Optional[LagProfile], weak: float) -> Optional[ChosenLag]:
@@ -203,8 +214,21 @@ def chosen_lag(p: Optional[LagProfile], weak: float) -> Optional[ChosenLag]:
     if lag is None or p is None:
         return None
     b = p.b
-    moves = [float(b[k] - b[lag]) for k in admissible_lags(p, lag) if k != lag and np.isfinite(b[k] - b[lag])]
-    return ChosenLag(int(lag), tuple(moves))
+    adm = admissible_lags(p, lag)
+    moves = [float(b[k] - b[lag]) for k in adm if k != lag and np.isfinite(b[k] - b[lag])]
+    return ChosenLag(int(lag), tuple(moves), extra_lags(adm))
+
+
+def extra_lags(admissible: Sequence[int]) -> Tuple[int, ...]:
+    """The lags other than the chosen one (``admissible[0]``) at which the windows' kernel adds the instrument's
+    sums: all when at most :data:`EXTRA_LAGS`, else that many spread evenly over them by rank, the nearest
+    and the farthest kept: the moves' range (the interval's widening comes from the farthest) with a bounded
+    cost per window (docs/method.md 3d)."""
+    rest = [int(k) for k in admissible[1:]]
+    if len(rest) <= EXTRA_LAGS:
+        return tuple(rest)
+    pick = np.unique(np.round(np.linspace(0, len(rest) - 1, EXTRA_LAGS)).astype(int))
+    return tuple(rest[i] for i in pick)
 
 
 def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: Optional[int] = None,
@@ -298,7 +322,7 @@ def find_lag(source: Any, rec: Any, plan: Any, pre: Mapping[str, Any], whole: bo
     if earlier is not None and whole:
         if earlier.iv_lag_samples is None:
             return None
-        return ChosenLag(int(earlier.iv_lag_samples), tuple(earlier.iv_lag_shifts))
+        return ChosenLag(int(earlier.iv_lag_samples), tuple(earlier.iv_lag_shifts), tuple(earlier.iv_lag_others))
     n = int(plan.length)
     if rec is not None and not whole:
         windows = sample_windows(source, rec, n, start=plan.start, stop=plan.stop)

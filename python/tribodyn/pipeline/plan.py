@@ -241,7 +241,18 @@ class Plan:
         if self.paper:
             return out
         out.update(lag=self.lag(found), lines=list(self.lines) or None, segments=LINE_SEGMENTS, delay=found.delay)
+        if self.extra_lags(found):
+            out["lags"] = list(self.extra_lags(found))
         return out
+
+    def extra_lags(self, found: "Findings") -> Tuple[int, ...]:
+        """The other admissible lags whose instrument sums the kernel adds per window (column ``lag_sums``;
+        docs/method.md 3d): ``found.iv_lag_others`` when mu_r rests on the lag chosen from the data (the IV
+        estimator, or "corrected" with the fz noise measured), else none (nothing to pay)."""
+        uses = self.estimator == "iv" or (self.estimator == "corrected" and self.noise is None)
+        if self.paper or not self.iv_lag_from_data or not found.iv_lag_samples or not uses:
+            return ()
+        return tuple(int(k) for k in found.iv_lag_others)
 
     def lag(self, found: "Findings") -> int:
         """The instrument lag of the analysis (samples): the data's choice when the plan leaves it to them."""
@@ -255,6 +266,7 @@ class Plan:
     def kernel_columns(self, found: "Findings") -> Tuple[str, ...]:
         """The statistics asked of the kernel per window (``tribodyn.columns``)."""
         extra: Tuple[str, ...] = () if self.paper else ("szz", "syy", "ext") + (("spec",) if self.lines else ())
+        extra += ("lag_sums",) if self.extra_lags(found) else ()
         if found.classical is not None:
             extra += ("mu_classical", "mu_classical_median", "fz_mean", "fz_std")
         return kernel_columns(self.raw) + extra
@@ -519,13 +531,18 @@ class Findings:
         (``Plan.iv_lag_from_data``); None when none was found or looked for.
     iv_lag_shifts : tuple of float
         The IV slope's moves at the other lags that choice could not tell
-        apart (``pipeline.instrument.ChosenLag.shifts``; docs/method.md 3d).
+        apart over the lag profile's windows (``pipeline.instrument.ChosenLag.shifts``; for information: the
+        headline pools the moves over all the analysed windows, docs/method.md 3d).
+    iv_lag_others : tuple of int
+        The other admissible lags (at most ``pipeline.instrument.EXTRA_LAGS``; ``ChosenLag.others``) at which
+        the kernel adds each window's instrument sums (``Plan.extra_lags``; docs/method.md 3d).
     """
 
     classical: Optional[Any] = None
     delay: float = 0.0
     iv_lag_samples: Optional[int] = None
     iv_lag_shifts: Tuple[float, ...] = ()
+    iv_lag_others: Tuple[int, ...] = ()
 
 
 #: Segments averaged per window for the line cross-spectra (docs/method.md 3e).

@@ -557,7 +557,7 @@ struct PyWindowSpec {
 }
 
 /// The option names of `WindowSpec(options=...)`.
-const OPTION_NAMES: &str = "lag, lines, segments, delay, classical";
+const OPTION_NAMES: &str = "lag, lags, lines, segments, delay, classical";
 
 /// One entry of `WindowSpec(options=...)`, its conversion error naming it.
 fn option<'py, T: FromPyObjectOwned<'py>>(key: &str, v: &Bound<'py, PyAny>, what: &str) -> PyResult<T> {
@@ -567,11 +567,13 @@ fn option<'py, T: FromPyObjectOwned<'py>>(key: &str, v: &Bound<'py, PyAny>, what
 /// The options beyond the paper from `WindowSpec(options=...)` (see [`ext_options`]).
 fn ext_of(columns: &[String], options: Option<&Bound<'_, PyDict>>) -> PyResult<extended::ExtOptions> {
     let (mut lag, mut lines, mut segments, mut delay, mut classical) = (0, None::<Vec<f64>>, 4, 0.0, None);
+    let mut lags = None::<Vec<usize>>;
     for (k, v) in options.into_iter().flat_map(|d| d.iter()) {
         let key: String =
             k.extract().map_err(|_| Fault::Type(format!("a kernel option's name must be a str, got {k:?}")))?;
         match key.as_str() {
             "lag" => lag = option(&key, &v, "a sample count >= 0")?,
+            "lags" => lags = option(&key, &v, "a list of sample counts >= 1 or None")?,
             "lines" => lines = option(&key, &v, "a list of frequencies (cycles per sample) or None")?,
             "segments" => segments = option(&key, &v, "a count >= 0")?,
             "delay" => delay = option(&key, &v, "a number of samples")?,
@@ -583,7 +585,21 @@ fn ext_of(columns: &[String], options: Option<&Bound<'_, PyDict>>) -> PyResult<e
             }
         }
     }
-    ext_options(columns, lag, lines.as_deref(), segments, delay, classical)
+    let mut ext = ext_options(columns, lag, lines.as_deref(), segments, delay, classical)?;
+    if columns.iter().any(|c| c == "lag_sums") {
+        let lags = lags.unwrap_or_default();
+        if lags.is_empty() || lags.len() > extended::MAX_EXTRA_LAGS {
+            return Err(bad(format!(
+                "the column 'lag_sums' needs 1 to {} extra lags, got {}",
+                extended::MAX_EXTRA_LAGS,
+                lags.len()
+            )));
+        }
+        ext.extra_lags[..lags.len()].copy_from_slice(&lags);
+        ext.n_extra = lags.len();
+        ext.check().map_err(to_py)?;
+    }
+    Ok(ext)
 }
 
 /// (sos, zi) of `WindowSpec(highpass=...)`: `zi` one row per section.
@@ -779,7 +795,7 @@ fn windows_stats<'py>(
         py.detach(|| parallel::run_with(threads, || windows::windows_stats(&ch, &starts, opt))).map_err(to_py)?
     }
     .map_err(|e| spec.fault(e.shifted(offset)))?;
-    let mut out = Columns::new(spec.cols.clone(), stats.len(), opt.n_bins, opt.ext.spec_len())?;
+    let mut out = Columns::new(spec.cols.clone(), stats.len(), opt.n_bins, opt.ext.spec_len(), opt.ext.lag_sums_len())?;
     out.set(0, &stats);
     drop(stats);
     out.into_dict(py, &spec.names)
@@ -800,6 +816,8 @@ enum Column {
     Ext,
     /// Cross-spectra at the lines (windows x n_lines x 4).
     Spec,
+    /// The instrument's sums at the extra lags (windows x n_extra x 2).
+    LagSums,
 }
 
 /// The options of the statistics beyond the paper: block sums when the
@@ -878,13 +896,14 @@ fn column(name: &str) -> Option<Column> {
         "fz_std" => F(|w, _| w.classical[3]),
         "ext" => Column::Ext,
         "spec" => Column::Spec,
+        "lag_sums" => Column::LagSums,
         _ => return None,
     })
 }
 
 const COLUMN_NAMES: &str = "slope, intercept, r, slope_stderr, intercept_stderr, resid_std, sse, mean_z, mean_y, \
 szz, syy, syz, c_xy, c_xz, c_yz, deadband, mu_a, mu_b, fz_min, fz_max, aux_mean, mu_classic, n, n_a, n_b, \
-out_of_range, bin_count, bin_cof, mu_classical, mu_classical_median, fz_mean, fz_std, ext, spec";
+out_of_range, bin_count, bin_cof, mu_classical, mu_classical_median, fz_mean, fz_std, ext, spec, lag_sums";
 
 fn columns_of(names: &[String]) -> PyResult<Vec<Column>> {
     names
@@ -908,6 +927,8 @@ struct Columns {
     rows: usize,
     n_bins: usize,
     spec: usize,
+    /// Values per window of the column "lag_sums".
+    lag_w: usize,
     cols: Vec<(Column, Buf)>,
 }
 
@@ -923,11 +944,12 @@ fn zeros<T: Clone + Default>(len: usize, what: &str) -> PyResult<Vec<T>> {
 }
 
 impl Columns {
-    fn new(cols: Vec<Column>, rows: usize, n_bins: usize, spec: usize) -> PyResult<Self> {
+    fn new(cols: Vec<Column>, rows: usize, n_bins: usize, spec: usize, lag_w: usize) -> PyResult<Self> {
         let overflow = |what: &str| no_memory(format!("{rows} windows x {what} overflow"));
         let bins = rows.checked_mul(n_bins).ok_or_else(|| overflow("bins"))?;
         let ext_len = rows.checked_mul(EXT_WIDTH).ok_or_else(|| overflow("block sums"))?;
         let spec_len = rows.checked_mul(spec).ok_or_else(|| overflow("line spectra"))?;
+        let lag_len = rows.checked_mul(lag_w).ok_or_else(|| overflow("lag sums"))?;
         let cols = cols
             .into_iter()
             .map(|c| {
@@ -938,11 +960,12 @@ impl Columns {
                     Column::BinCof => Buf::F(zeros(bins, "bin_cof")?),
                     Column::Ext => Buf::F(zeros(ext_len, "ext")?),
                     Column::Spec => Buf::F(zeros(spec_len, "spec")?),
+                    Column::LagSums => Buf::F(zeros(lag_len, "lag_sums")?),
                 };
                 Ok((c, buf))
             })
             .collect::<PyResult<_>>()?;
-        Ok(Columns { rows, n_bins, spec, cols })
+        Ok(Columns { rows, n_bins, spec, lag_w, cols })
     }
 
     /// Rows `first..` from consecutive windows.
@@ -963,6 +986,9 @@ impl Columns {
                     (Column::BinCof, Buf::F(v)) => v[row * nb..(row + 1) * nb].copy_from_slice(&w.bin_cof),
                     (Column::Ext, Buf::F(v)) => v[row * EXT_WIDTH..(row + 1) * EXT_WIDTH].copy_from_slice(&w.ext_sums),
                     (Column::Spec, Buf::F(v)) => v[row * self.spec..(row + 1) * self.spec].copy_from_slice(&w.spec),
+                    (Column::LagSums, Buf::F(v)) => {
+                        v[row * self.lag_w..(row + 1) * self.lag_w].copy_from_slice(&w.lag_sums)
+                    }
                     _ => unreachable!("each column's buffer is made for its kind in Columns::new"),
                 }
             }
@@ -984,6 +1010,10 @@ impl Columns {
                 }
                 (Column::Spec, Buf::F(v)) => {
                     out.set_item(name, PyArray1::from_vec(py, v).reshape([self.rows, self.spec / 4, 4])?)?;
+                    continue;
+                }
+                (Column::LagSums, Buf::F(v)) => {
+                    out.set_item(name, PyArray1::from_vec(py, v).reshape([self.rows, self.lag_w / 2, 2])?)?;
                     continue;
                 }
                 (_, buf) => match buf {
@@ -1068,7 +1098,7 @@ fn windows_stats_file<'py>(
     // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
     mapped::check(&file, &layout, &grid, opt).map_err(to_py)?;
     let cols =
-        std::sync::Mutex::new(Columns::new(spec.cols.clone(), k1.saturating_sub(k0), opt.n_bins, opt.ext.spec_len())?);
+        std::sync::Mutex::new(Columns::new(spec.cols.clone(), k1.saturating_sub(k0), opt.n_bins, opt.ext.spec_len(), opt.ext.lag_sums_len())?);
     // Each block's rows go into the columns as soon as it is done.
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
         cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);

@@ -8,6 +8,10 @@
 //!   Python forms, per window, the OLS, IV, corrected and Deming slopes,
 //!   the quadratic fit of the force dependence and the batch-means
 //!   (autocorrelation-robust) standard errors of all of them;
+//! - [`lag_sums`]: the instrument's two sums S_wz, S_wy at a few extra
+//!   lags (w built at each exactly as [`block_sums`] builds it), over the
+//!   whole window: the IV slope's moves between the admissible lags pooled
+//!   over all the recording's windows (docs/method.md 3d);
 //! - [`line_spectra`]: Hann-windowed cross-spectra of fy and fz at given
 //!   line frequencies (f0 harmonics, lamella frequency), averaged over
 //!   [`ExtOptions::segments`] consecutive segments (Goertzel recurrences);
@@ -31,6 +35,8 @@ pub const BLOCKS: usize = 5;
 pub const PRODUCTS: usize = 16;
 /// Most line frequencies per call.
 pub const MAX_LINES: usize = 8;
+/// Most extra instrument lags per call ([`lag_sums`]).
+pub const MAX_EXTRA_LAGS: usize = 8;
 /// Taps on each side of the fractional-delay filter (2 HALF_TAPS + 1 in all).
 pub const HALF_TAPS: usize = 16;
 /// Kaiser window shape of the fractional-delay filter.
@@ -46,6 +52,9 @@ pub struct ExtOptions {
     /// Line frequencies in cycles per sample (first `n_lines` used).
     pub lines: [f64; MAX_LINES],
     pub n_lines: usize,
+    /// Extra instrument lags, samples (first `n_extra` used): [`lag_sums`].
+    pub extra_lags: [usize; MAX_EXTRA_LAGS],
+    pub n_extra: usize,
     /// Segments averaged for the line spectra.
     pub segments: usize,
     /// fz is advanced by this many samples before anything else (0: none).
@@ -71,6 +80,8 @@ impl Default for ExtOptions {
             lag: 0,
             lines: [0.0; MAX_LINES],
             n_lines: 0,
+            extra_lags: [0; MAX_EXTRA_LAGS],
+            n_extra: 0,
             segments: 4,
             delay: 0.0,
             classical: None,
@@ -91,6 +102,12 @@ impl ExtOptions {
         if let Some(f) = self.lines[..self.n_lines].iter().find(|f| !(f.is_finite() && **f > 0.0 && **f < 0.5)) {
             return bad(format!("a line frequency must lie in (0, fs/2), got {f} cycles per sample"));
         }
+        if self.n_extra > MAX_EXTRA_LAGS {
+            return bad(format!("at most {MAX_EXTRA_LAGS} extra instrument lags, got {}", self.n_extra));
+        }
+        if let Some(l) = self.extra_lags[..self.n_extra].iter().find(|l| **l == 0) {
+            return bad(format!("an extra instrument lag must be at least 1 sample, got {l}"));
+        }
         if self.n_lines > 0 && self.segments == 0 {
             return bad("the line spectra need at least one segment".into());
         }
@@ -108,6 +125,11 @@ impl ExtOptions {
     /// Values per window of [`line_spectra`].
     pub fn spec_len(&self) -> usize {
         4 * self.n_lines
+    }
+
+    /// Values per window of [`lag_sums`].
+    pub fn lag_sums_len(&self) -> usize {
+        2 * self.n_extra
     }
 }
 
@@ -225,6 +247,75 @@ fn block_sums_body(fy: &[f64], fz: &[f64], lag: usize, means: Option<(f64, f64)>
             for j in [2, 6, 7, 8, 12, 13, 14, 15] {
                 s[j] = f64::NAN;
             }
+        }
+    }
+    out
+}
+
+/// The instrument's sums at each of `lags` over the whole window:
+/// [S_wz, S_wy] per lag, S_wz = sum_t (w_t - mean w)(z_t - mean z) and
+/// S_wy likewise with y = fy, w built at that lag exactly as in
+/// [`block_sums`] (w_t = fz_{t - L} for t >= L, fz_{t + L} before). NaN
+/// for a lag the window cannot hold (n <= 2 L). Summed in index order in
+/// [`SUM_LANES`] fixed lanes: a window's result depends only on its samples.
+///
+/// `means`: the window's means of (fz, fy) when the caller has them.
+pub fn lag_sums(fy: &[f64], fz: &[f64], lags: &[usize], means: Option<(f64, f64)>) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU supports AVX2, checked just above.
+            return unsafe { lag_sums_avx2(fy, fz, lags, means) };
+        }
+    }
+    lag_sums_body(fy, fz, lags, means)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn lag_sums_avx2(fy: &[f64], fz: &[f64], lags: &[usize], means: Option<(f64, f64)>) -> Vec<f64> {
+    lag_sums_body(fy, fz, lags, means)
+}
+
+/// Adds (w - mw)(z - mz) and (w - mw)(y - my) of a run to the lane sums `a`.
+#[inline(always)]
+fn cross_run(a: &mut [[f64; SUM_LANES]; 2], z: &[f64], y: &[f64], w: &[f64], m: (f64, f64, f64)) {
+    const L: usize = SUM_LANES;
+    let full = z.len() - z.len() % L;
+    let mut add = |zs: &[f64], ys: &[f64], ws: &[f64]| {
+        for k in 0..zs.len() {
+            let wc = ws[k] - m.2;
+            a[0][k] += wc * (zs[k] - m.0);
+            a[1][k] += wc * (ys[k] - m.1);
+        }
+    };
+    for ((zs, ys), ws) in z[..full].chunks_exact(L).zip(y[..full].chunks_exact(L)).zip(w[..full].chunks_exact(L)) {
+        add(zs, ys, ws);
+    }
+    add(&z[full..], &y[full..], &w[full..]);
+}
+
+#[inline(always)]
+fn lag_sums_body(fy: &[f64], fz: &[f64], lags: &[usize], means: Option<(f64, f64)>) -> Vec<f64> {
+    let n = fz.len();
+    let mut out = vec![f64::NAN; 2 * lags.len()];
+    if n == 0 {
+        return out;
+    }
+    let nf = n as f64;
+    let (mz, my) = means.unwrap_or_else(|| (sums::sum(fz) / nf, sums::sum(fy) / nf));
+    for (j, &lag) in lags.iter().enumerate() {
+        if lag == 0 || n <= 2 * lag {
+            continue;
+        }
+        let mw = mz + (sums::sum(&fz[lag..2 * lag]) - sums::sum(&fz[n - lag..])) / nf;
+        let m = (mz, my, mw);
+        let mut a = [[0.0f64; SUM_LANES]; 2];
+        // t < lag: w_t = fz[t + lag]; t >= lag: w_t = fz[t - lag]
+        cross_run(&mut a, &fz[..lag], &fy[..lag], &fz[lag..2 * lag], m);
+        cross_run(&mut a, &fz[lag..], &fy[lag..], &fz[..n - lag], m);
+        for (o, a) in out[2 * j..2 * j + 2].iter_mut().zip(a) {
+            *o = (a[0] + a[2]) + (a[1] + a[3]);
         }
     }
     out
@@ -471,6 +562,45 @@ mod tests {
         let m = (fz.iter().sum::<f64>() / n as f64, fy.iter().sum::<f64>() / n as f64);
         let t = block_sums(&fy, &fz, 10, Some(m));
         assert!(s.iter().zip(&t).all(|(a, b)| (a - b).abs() <= 1e-9 * (1.0 + a.abs())));
+    }
+
+    #[test]
+    fn lag_sums_match_the_block_sums_and_direct_sums() {
+        let n = 1003;
+        let fz: Vec<f64> = (0..n).map(|t| (t as f64 * 0.21).sin() + 0.3 * (t as f64 * 1.7).cos() + 2.0).collect();
+        let fy: Vec<f64> = fz.iter().enumerate().map(|(t, z)| 0.1 * z + 0.05 * (t as f64 * 0.9).sin()).collect();
+        let lags = [3, 10, 501, 502, 0];
+        let s = lag_sums(&fy, &fz, &lags, None);
+        assert_eq!(s.len(), 10);
+        for (j, &lag) in lags.iter().enumerate().take(3) {
+            // the block sums' S_wz, S_wy (products 6, 7) at that lag, summed over the blocks
+            let b = block_sums(&fy, &fz, lag, None);
+            let tot = |p: usize| (0..BLOCKS).map(|k| b[k * PRODUCTS + p]).sum::<f64>();
+            assert!((s[2 * j] - tot(6)).abs() <= 1e-10 * tot(6).abs().max(1.0), "lag {lag}");
+            assert!((s[2 * j + 1] - tot(7)).abs() <= 1e-10 * tot(7).abs().max(1.0), "lag {lag}");
+            // and the direct definition
+            let w: Vec<f64> = (0..n).map(|t| if t >= lag { fz[t - lag] } else { fz[t + lag] }).collect();
+            let mean = |v: &[f64]| v.iter().sum::<f64>() / n as f64;
+            let (mw, mz, my) = (mean(&w), mean(&fz), mean(&fy));
+            let wz: f64 = (0..n).map(|t| (w[t] - mw) * (fz[t] - mz)).sum();
+            let wy: f64 = (0..n).map(|t| (w[t] - mw) * (fy[t] - my)).sum();
+            assert!((s[2 * j] - wz).abs() <= 1e-10 * wz.abs().max(1.0) && (s[2 * j + 1] - wy).abs() <= 1e-10);
+        }
+        // a lag the window cannot hold (n <= 2 L), and a lag 0: NaN, no panic
+        assert!(s[6..].iter().all(|v| v.is_nan()));
+        assert!(lag_sums(&[], &[], &[3], None).iter().all(|v| v.is_nan()));
+        // the caller's means give the same sums; the same bits on every call
+        let m = (fz.iter().sum::<f64>() / n as f64, fy.iter().sum::<f64>() / n as f64);
+        let t = lag_sums(&fy, &fz, &lags, Some(m));
+        assert!(s.iter().zip(&t).all(|(a, b)| a.is_nan() && b.is_nan() || (a - b).abs() <= 1e-12 * (1.0 + a.abs())));
+        assert_eq!(format!("{:?}", lag_sums_body(&fy, &fz, &lags, None)), format!("{s:?}"));
+        // checked options
+        let mut o = ExtOptions { n_extra: 2, ..Default::default() };
+        o.extra_lags[0] = 4;
+        assert!(o.check().is_err());
+        o.extra_lags[1] = 5;
+        assert!(o.check().is_ok() && o.lag_sums_len() == 4);
+        assert!(ExtOptions { n_extra: MAX_EXTRA_LAGS + 1, ..Default::default() }.check().is_err());
     }
 
     #[test]

@@ -157,6 +157,8 @@ pub struct WindowStats {
     pub mu_classic: f64,
     /// [`extended::block_sums`] when `opt.ext.sums`, else empty.
     pub ext_sums: Vec<f64>,
+    /// [`extended::lag_sums`] at the extra lags when `opt.ext.n_extra > 0`, else empty.
+    pub lag_sums: Vec<f64>,
     /// [`extended::line_spectra`] when `opt.ext.n_lines > 0`, else empty.
     pub spec: Vec<f64>,
     /// [`extended::classical`] of the raw forces (or of the forces when
@@ -318,6 +320,7 @@ fn out_of_range(n: usize, opt: &WindowOptions, aux_mean: f64) -> WindowStats {
         aux_mean,
         mu_classic: nan,
         ext_sums: Vec::new(),
+        lag_sums: Vec::new(),
         spec: Vec::new(),
         classical: [nan; 4],
         out_of_range: true,
@@ -641,12 +644,17 @@ pub fn window_stats_then(
         if opt.ext.sums {
             w.ext_sums = vec![f64::NAN; extended::BLOCKS * extended::PRODUCTS];
         }
+        w.lag_sums = vec![f64::NAN; opt.ext.lag_sums_len()];
         w.spec = vec![f64::NAN; opt.ext.spec_len()];
         return Ok(w);
     }
     if opt.ext.sums {
         let means = (w.moments.mean_x, w.moments.mean_y);
         w.ext_sums = extended::block_sums(ch.fy, ch.fz, opt.ext.lag, Some(means));
+    }
+    if opt.ext.n_extra > 0 {
+        let means = (w.moments.mean_x, w.moments.mean_y);
+        w.lag_sums = extended::lag_sums(ch.fy, ch.fz, &opt.ext.extra_lags[..opt.ext.n_extra], Some(means));
     }
     if opt.ext.n_lines > 0 {
         w.spec = extended::line_spectra(ch.fy, ch.fz, &opt.ext);
@@ -750,6 +758,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
             aux_mean,
             mu_classic,
             ext_sums: Vec::new(),
+            lag_sums: Vec::new(),
             spec: Vec::new(),
             classical: [f64::NAN; 4],
             out_of_range: false,
@@ -825,6 +834,7 @@ fn window_body(ch: &Channels<'_>, opt: &WindowOptions, pf: &Prefetch<'_>) -> Res
         aux_mean,
         mu_classic,
         ext_sums: Vec::new(),
+        lag_sums: Vec::new(),
         spec: Vec::new(),
         classical: [f64::NAN; 4],
         out_of_range: false,
@@ -1045,7 +1055,8 @@ mod tests {
     #[test]
     fn forces_beyond_the_limit_make_the_window_out_of_range() {
         let (fx, fy, fz) = rig(3000);
-        let ext = ExtOptions { sums: true, lag: 10, ..ExtOptions::default() };
+        let mut ext = ExtOptions { sums: true, lag: 10, n_extra: 2, ..ExtOptions::default() };
+        ext.extra_lags[..2].copy_from_slice(&[12, 20]);
         let opt = WindowOptions { len: 1000, orientation: 1.0, deadband: Deadband::Force(0.35), n_bins: 8, ext };
         let all = |fx: &[f64], fy: &[f64], fz: &[f64]| {
             let ch = Channels { fx: Some(fx), fy, fz, aux: None, raw: Some((fy, fz)) };
@@ -1053,6 +1064,7 @@ mod tests {
         };
         let clean = all(&fx, &fy, &fz);
         assert!(clean.iter().all(|w| !w.out_of_range && w.moments.fit().slope.is_finite()));
+        assert!(clean.iter().all(|w| w.lag_sums.len() == 4 && w.lag_sums.iter().all(|v| v.is_finite())));
         for (channel, value) in [(0, 1.0000001e60), (1, -2e150), (2, 1e300)] {
             let mut ch = [fx.clone(), fy.clone(), fz.clone()];
             ch[channel][1500] = value;
@@ -1064,6 +1076,7 @@ mod tests {
             assert!(w.moments.mean_x.is_nan() && w.c_yz.is_nan() && w.mu_a.is_nan() && w.fz_max.is_nan());
             assert_eq!((w.moments.n, w.n_a + w.n_b, w.bin_count.iter().sum::<u64>()), (1000, 0, 0));
             assert!(w.ext_sums.len() == extended::BLOCKS * extended::PRODUCTS && w.ext_sums.iter().all(|v| v.is_nan()));
+            assert!(w.lag_sums.len() == 4 && w.lag_sums.iter().all(|v| v.is_nan()));
         }
         // A raw force alone beyond the limit (the high-pass would lose the rest in rounding).
         let mut fz_raw = fz.clone();
