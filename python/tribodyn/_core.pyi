@@ -146,8 +146,8 @@ class WindowSpec:
         naming: tuple[str, float] | None = None,
     ) -> WindowSpec:
         """`deadband` is (kind, value): "force" (N) or "sigma" (a multiple of
-        the window's std of fz). `options`: a dict of lag, lines, segments,
-        delay, classical (see `windows_stats`). `highpass`: (sos, zi) of the
+        the window's std of fz). `options`: a dict of lag, lags, lines,
+        segments, delay, classical (see `windows_stats`). `highpass`: (sos, zi) of the
         raw forces' filter (`windows_stats_file` only). `naming`: (the
         auxiliary channel's role, fs): a NaN or inf is then named by role
         and time. Every argument is checked here: a bad one is a
@@ -208,7 +208,10 @@ def windows_stats(
     with the instrument fz lagged by ``lag`` samples
     (``tribodyn.kernels.estimators.PRODUCTS``); ``spec`` (float64, (windows,
     len(lines), 4)), the cross-spectra at ``lines`` (cycles per sample)
-    averaged over ``segments``; ``delay`` advances fz by that many samples
+    averaged over ``segments``; ``lag_sums`` (float64, (windows,
+    len(lags), 2)), [S_wz, S_wy] over the window with the instrument fz
+    lagged by each of ``lags`` (1 to 8 lags of at least 1 sample; w built
+    as for ``ext``; NaN for a lag with n <= 2 lag); ``delay`` advances fz by that many samples
     in every window first (a fractional-delay filter; the windows lose 16
     samples at each end). ``classical`` = (min_fn, tare_fy, tare_fz) gives
     the columns ``mu_classical``, ``mu_classical_median``, ``fz_mean``,

@@ -170,3 +170,88 @@ def test_band_noise_headline_interval_holds_the_truth_with_the_lag_from_the_data
         assert "iv_lag_shifts" not in other.params
         assert (other.headline.low, other.headline.high) == _unpooled(other)
     assert "iv_lag_shifts" not in tribodyn.analyze(src, fs=1000.0, threads=1, method="paper").params
+
+
+def _window_iv_sums(fy: np.ndarray, fz: np.ndarray, lag: int) -> tuple:
+    """[S_wz, S_wy] of one window in NumPy: w = fz lagged by ``lag`` (fz_{t+L} before L), all centred."""
+    n = fz.size
+    w = np.where(np.arange(n) >= lag, np.roll(fz, lag), np.roll(fz, -lag))
+    wc, zc, yc = w - w.mean(), fz - fz.mean(), fy - fy.mean()
+    return float(np.sum(wc * zc)), float(np.sum(wc * yc))
+
+
+@pytest.fixture(scope="module")
+def band_200s() -> tuple:
+    src = _band_recording(5003, 200.0)  # the lag profile reads its first 64 windows of 2 s, tiling
+    return src, tribodyn.analyze(src, fs=1000.0, threads=1)
+
+
+@pytest.mark.fast
+def test_the_pooled_moves_are_the_all_window_iv_slopes_at_those_lags(band_200s: tuple) -> None:
+    # docs/method.md 3d (issue 35 point 3): each move b(L') - b(L) is of the pooled IV slopes sum S_wy / sum S_wz
+    # over the headline's windows (all of them, not the lag profile's 64), times the orientation, with its
+    # batch-means standard error over those windows; iv_lag_shifts are the moves shrunk by it
+    from tribodyn.kernels.stats import BATCHES
+    from tribodyn.pipeline.instrument import admissible_lags, extra_lags
+
+    src, res = band_200s
+    p = res.params
+    lag, others, n = p["iv_lag_samples"], p["iv_lag_pooled"], p["window_samples"]
+    p64 = lag_profile(sample_windows(src, None, n), (n - 1) // 2)
+    assert p64 is not None and p64.windows == 64 and len(res.table["n"]) == 200 // (p["hop_samples"] // 1000)
+    assert p["iv_lag_rule"] == "data" and tuple(others) == extra_lags(admissible_lags(p64, lag)) and others
+    keep = np.asarray(res.table["ok"], bool) & np.isfinite(res.table["mu_r"])
+    starts = np.round(np.asarray(res.table["t_start"]) * 1000.0).astype(int)[keep]
+    fy, fz = np.asarray(src["fy"], float), np.asarray(src["fz"], float)
+
+    def sums(k: int) -> np.ndarray:
+        return np.array([_window_iv_sums(fy[a : a + n], fz[a : a + n], k) for a in starts])
+
+    s = p["orientation_used"]
+    S0 = sums(lag)
+    b0 = S0[:, 1].sum() / S0[:, 0].sum()
+    moves, ses = [], []
+    for k in others:
+        S = sums(k)
+        b = S[:, 1].sum() / S[:, 0].sum()
+        moves.append(s * (b - b0))
+        u = (S[:, 1] - b * S[:, 0]) / S[:, 0].sum() - (S0[:, 1] - b0 * S0[:, 0]) / S0[:, 0].sum()
+        g = [x.sum() for x in np.array_split(u, min(BATCHES, u.size))]
+        ses.append(np.sqrt(len(g) / (len(g) - 1) * np.sum(np.square(g))))
+    np.testing.assert_allclose(p["iv_lag_moves"], moves, rtol=1e-7, atol=1e-12)
+    np.testing.assert_allclose(p["iv_lag_move_se"], ses, rtol=1e-7)
+    want = [np.sign(m) * max(abs(m) - e, 0.0) for m, e in zip(moves, ses)]
+    np.testing.assert_allclose(p["iv_lag_shifts"], want, rtol=1e-6, atol=1e-12)
+    assert res._lag_shifts == tuple(p["iv_lag_shifts"])
+    # not the lag profile's moves over its 64 windows (the pooling before, whose moves carried their own noise)
+    old = [s * (p64.b[k] - p64.b[lag]) for k in others]
+    assert np.max(np.abs(np.subtract(old, moves))) > 0.05 * np.max(np.abs(moves))
+
+
+@pytest.mark.fast
+def test_the_extra_lags_are_all_admissible_ones_or_eight_spread_over_them() -> None:
+    from tribodyn.pipeline.instrument import EXTRA_LAGS, extra_lags
+
+    assert extra_lags([9]) == () and extra_lags([9, 10, 12]) == (10, 12)
+    assert extra_lags(list(range(9, 18))) == tuple(range(10, 18))  # 8 others: all
+    got = extra_lags(list(range(40, 61)))  # 20 others: 8, the nearest and the farthest kept, evenly by rank
+    assert len(got) == EXTRA_LAGS and got[0] == 41 and got[-1] == 60 and list(got) == sorted(set(got))
+
+
+def test_the_pooled_moves_are_the_same_from_ranges_of_the_recording(band_200s: tuple, tmp_path) -> None:
+    # the per-window sums travel with the windows: ranges of one recording combined (analyze_many's split, the
+    # watch's parts) give the same moves as one pass
+    from tribodyn.io.writers import save_recording
+    from tribodyn.pipeline.distributed import analyze_many
+
+    src, res = band_200s
+    path = str(tmp_path / "band.h5")
+    save_recording(path, {k: np.asarray(v) for k, v in src.items()}, 1000.0)
+    with tribodyn.open_recording(path) as rec:
+        whole = tribodyn.analyze(rec, threads=1)
+    many = analyze_many([path], split=37.0, threads=1).results[path]
+    keys = ("iv_lag_samples", "iv_lag_pooled", "iv_lag_moves", "iv_lag_move_se", "iv_lag_shifts")
+    assert whole.params.get("iv_lag_moves") and all(whole.params[k] == many.params[k] for k in keys)
+    assert (many.headline.low, many.headline.high) == (whole.headline.low, whole.headline.high)
+    two = tribodyn.analyze(src, fs=1000.0, threads=2)
+    assert all(two.params[k] == res.params[k] for k in keys)

@@ -626,8 +626,8 @@ fn naming_of(aux: String, fs: Option<f64>) -> PyResult<Naming> {
 #[pymethods]
 impl PyWindowSpec {
     /// `deadband` is (kind, value): "force" (N) or "sigma" (a multiple of
-    /// the window's std of fz). `options`: a dict of lag, lines, segments,
-    /// delay, classical (see `windows_stats`). `highpass`: (sos, zi) of the
+    /// the window's std of fz). `options`: a dict of lag, lags, lines,
+    /// segments, delay, classical (see `windows_stats`). `highpass`: (sos, zi) of the
     /// raw forces' filter (`windows_stats_file` only). `naming`: (the
     /// auxiliary channel's role, fs): a NaN or inf is then named by role
     /// and time. Every argument is checked here: a bad one is a
@@ -1097,8 +1097,13 @@ fn windows_stats_file<'py>(
     let (opt, threads) = (&spec.opt, spec.threads);
     // Checked before the columns are allocated ((k1 - k0) x n_bins of them).
     mapped::check(&file, &layout, &grid, opt).map_err(to_py)?;
-    let cols =
-        std::sync::Mutex::new(Columns::new(spec.cols.clone(), k1.saturating_sub(k0), opt.n_bins, opt.ext.spec_len(), opt.ext.lag_sums_len())?);
+    let cols = std::sync::Mutex::new(Columns::new(
+        spec.cols.clone(),
+        k1.saturating_sub(k0),
+        opt.n_bins,
+        opt.ext.spec_len(),
+        opt.ext.lag_sums_len(),
+    )?);
     // Each block's rows go into the columns as soon as it is done.
     let sink = |first: usize, stats: Vec<windows::WindowStats>| {
         cols.lock().unwrap_or_else(|e| e.into_inner()).set(first, &stats);
