@@ -200,5 +200,6 @@ def main(argv: Optional[List[str]] = None) -> None:
                     k = [sum(c[x] for c in cs) for x in ("before", "raw", "after")]
                     print(f"| {noise} | {rule} | {n} | " + " | ".join(_cp(x, n) for x in k) + " |")
 
+
 if __name__ == "__main__":
     main()
