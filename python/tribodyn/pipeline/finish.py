@@ -149,7 +149,7 @@ def finish(st: Stats, aux_role: Optional[str], plan: Plan, found: Findings, *, r
     lag_sums = o.pop("lag_sums", None)
     if not plan.paper:  # over the windows the headline uses (docs/method.md 3d)
         gated = np.asarray(table["ok"], dtype=bool) & np.isfinite(np.asarray(table["mu_r"], dtype=float))
-        seen.update(_lag_shifts(plan, found, seen, s, ext, lag_sums, gated))
+        seen.update(_lag_shifts(plan, found, seen, s, ext=ext, lag_sums=lag_sums, gated=gated))
     params = plan.params()
     params.update(orientation_used=s, start=start, stop=stop, threads=plan.threads, route=route)
     params.update(seen)
@@ -175,7 +175,7 @@ def _iv_lag_rule(plan: Plan, found: Findings) -> str:
     return ("data" if found.iv_lag_samples else "default") if plan.iv_lag_from_data else ("rpm" if rpm_lag else "given")
 
 
-def _lag_shifts(plan: Plan, found: Findings, seen: Dict[str, Any], s: int, ext: Optional[np.ndarray],
+def _lag_shifts(plan: Plan, found: Findings, seen: Dict[str, Any], s: int, *, ext: Optional[np.ndarray],
                 lag_sums: Optional[np.ndarray], gated: np.ndarray) -> Dict[str, Any]:  # fmt: skip
     """``iv_lag_shifts``: mu_r's moves at the other lags the choice from the data could not tell from the one used
     (docs/method.md 3d), when mu_r rests on that lag (the IV and the corrected estimator with the fz noise
