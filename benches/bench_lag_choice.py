@@ -39,6 +39,8 @@ import numpy as np
 
 MU = 0.1
 FS = 1000.0
+#: "alt": the moves shrunk by this many standard errors instead of one (``--alt-z``).
+ALT_Z = 2.0
 
 
 def add_noise(fz: np.ndarray, snr: float, band: Optional[Tuple[float, float]], seed: int, fs: float = FS) -> np.ndarray:
@@ -83,14 +85,14 @@ def _interval(res: Any, shifts: Any = ()) -> Tuple[float, float]:
     return float(lo), float(hi)
 
 
-Job = Tuple[int, float, Optional[Tuple[float, float]], bool, Optional[int], Tuple[str, ...], float, float]
+Job = Tuple[int, float, Optional[Tuple[float, float]], bool, Optional[int], Tuple[str, ...], float, float, float]
 
 
 def one_recording(job: Job) -> List[Dict[str, Any]]:
     """Every lag rule's row of one recording."""
     import tribodyn as td
 
-    seed, snr, band, acq, fixed, which, fs, seconds = job
+    seed, snr, band, acq, fixed, which, fs, seconds, alt_z = job
     src = record(seed, snr, band, acq, fs, seconds)
     rules: List[Tuple[str, Dict[str, Any]]] = [("data", {}), ("rpm", {"rpm": 250.0})]
     if fixed:
@@ -105,6 +107,8 @@ def one_recording(job: Job) -> List[Dict[str, Any]]:
             h = res.headline
             before = _interval(res)
             raw = _interval(res, res.params.get("iv_lag_moves")) if res.params.get("iv_lag_moves") else before
+            m, e = np.array(res.params.get("iv_lag_moves") or []), np.array(res.params.get("iv_lag_move_se") or [])
+            alt = _interval(res, tuple(np.sign(m) * np.maximum(np.abs(m) - alt_z * e, 0.0))) if m.size else before
         rows.append(
             dict(
                 seed=seed,
@@ -113,6 +117,7 @@ def one_recording(job: Job) -> List[Dict[str, Any]]:
                 after=(h.low, h.high),
                 before=before,
                 raw=raw,
+                alt=alt,
                 lag=res.params.get("iv_lag_samples"),
                 shifts=len(res.params.get("iv_lag_shifts") or ()),
             )
@@ -136,11 +141,13 @@ def summarise(rows: List[Dict[str, Any]]) -> Dict[str, Any]:
     v = np.array([r["value"] for r in rows])
     b = np.array([r["before"] for r in rows])
     w = np.array([r["raw"] for r in rows])
+    z = np.array([r["alt"] for r in rows])
     a = np.array([r["after"] for r in rows])
     lags = [int(r["lag"]) for r in rows]
     unpooled = np.mean(b[:, 1] - b[:, 0])
     return dict(
-        n=len(rows), before=_covers(b), raw=_covers(w), after=_covers(a),
+        n=len(rows), before=_covers(b), raw=_covers(w), after=_covers(a), alt=_covers(z),
+        width_alt=float(np.mean(z[:, 1] - z[:, 0]) / unpooled),
         width_raw=float(np.mean(w[:, 1] - w[:, 0]) / unpooled), width=float(np.mean(a[:, 1] - a[:, 0]) / unpooled),
         bias=float(np.mean(v) / MU - 1), spread=float(np.std(v, ddof=1) / np.mean((b[:, 1] - b[:, 0]) / 2 / 1.96)),
         lags=f"{int(np.median(lags))} ({min(lags)}-{max(lags)})",
@@ -158,6 +165,7 @@ def main(argv: Optional[List[str]] = None) -> None:
     ap.add_argument("--rules", nargs="+", default=["data", "rpm", "fixed"], help="data, rpm, fixed (with --fixed)")
     ap.add_argument("--fixed", type=int, default=0, help="also analyse with iv_lag=FIXED samples")
     ap.add_argument("--fs", type=float, default=FS, help="sampling rate, Hz")
+    ap.add_argument("--alt-z", type=float, default=ALT_Z, help="the alt column: moves shrunk by ALT_Z SE")
     ap.add_argument("--seconds", type=float, default=400.0, help="length of a continuous recording, s")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown", action="store_true")
@@ -169,7 +177,7 @@ def main(argv: Optional[List[str]] = None) -> None:
             for layout in args.layout:
                 for snr in args.snr:
                     jobs = [(args.seed + r, snr, band, layout == "acquisitions", args.fixed or None, tuple(args.rules),
-                             args.fs, args.seconds) for r in range(args.recordings)]  # fmt: skip
+                             args.fs, args.seconds, args.alt_z) for r in range(args.recordings)]  # fmt: skip
                     rows = [x for got in ex.map(one_recording, jobs) for x in got]
                     for rule in dict.fromkeys(r["rule"] for r in rows):
                         cell = dict(noise=noise, layout=layout, snr=snr, rule=rule,
@@ -180,24 +188,27 @@ def main(argv: Optional[List[str]] = None) -> None:
         print(
             "| fz noise | recordings | SNR_z | lag | lag used: median (range) | lags pooled (mean) | "
             "headline bias | spread between recordings / unpooled interval's sd | coverage unpooled | "
-            "coverage, raw moves | coverage after | width raw moves / unpooled | width after / unpooled |"
+            f"coverage, raw moves | coverage after | coverage, moves shrunk by {args.alt_z:g} SE | "
+            "width raw moves / unpooled | width after / unpooled | width shrunk by that / unpooled |"
         )
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for c in out:
             print(
                 f"| {c['noise']} | {c['layout']} | {c['snr']:g} dB | {c['rule']} | {c['lags']} | {c['pooled']} | "
                 f"{100 * c['bias']:+.2f} % | {c['spread']:.2f} | {_cp(c['before'], c['n'])} | "
-                f"{_cp(c['raw'], c['n'])} | {_cp(c['after'], c['n'])} | {c['width_raw']:.2f} | {c['width']:.2f} |"
+                f"{_cp(c['raw'], c['n'])} | {_cp(c['after'], c['n'])} | {_cp(c['alt'], c['n'])} | "
+                f"{c['width_raw']:.2f} | {c['width']:.2f} | {c['width_alt']:.2f} |"
             )
         print()
-        print("| fz noise | lag | recordings | coverage unpooled | coverage, raw moves | coverage after |")
-        print("|---|---|---|---|---|---|")
+        print(f"| fz noise | lag | recordings | coverage unpooled | coverage, raw moves | coverage after | "
+              f"coverage, moves shrunk by {args.alt_z:g} SE |")  # fmt: skip
+        print("|---|---|---|---|---|---|---|")
         for noise in args.noise:
             for rule in dict.fromkeys(c["rule"] for c in out):
                 cs = [c for c in out if c["noise"] == noise and c["rule"] == rule]
                 n = sum(c["n"] for c in cs)
                 if n:
-                    k = [sum(c[x] for c in cs) for x in ("before", "raw", "after")]
+                    k = [sum(c[x] for c in cs) for x in ("before", "raw", "after", "alt")]
                     print(f"| {noise} | {rule} | {n} | " + " | ".join(_cp(x, n) for x in k) + " |")
 
 
