@@ -226,6 +226,10 @@ def test_the_pooled_moves_are_the_all_window_iv_slopes_at_those_lags(band_200s: 
     # not the lag profile's moves over its 64 windows (the pooling before, whose moves carried their own noise)
     old = [s * (p64.b[k] - p64.b[lag]) for k in others]
     assert np.max(np.abs(np.subtract(old, moves))) > 0.05 * np.max(np.abs(moves))
+    # least squares does not rest on the lag: no sums asked of the kernel, nothing pooled, the interval unpooled
+    ols = tribodyn.analyze(src, fs=1000.0, threads=1, estimator="ols")
+    assert not any(k in ols.params for k in ("iv_lag_shifts", "iv_lag_moves", "iv_lag_pooled"))
+    assert (ols.headline.low, ols.headline.high) == _unpooled(ols)
 
 
 @pytest.mark.fast
