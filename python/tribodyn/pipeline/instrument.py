@@ -109,7 +109,7 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
 
 
 #: Windows transformed at a time by :func:`_lagged_sums` (its buffers stay small: a few hundred kB).
-FFT_BLOCK = 8
+FFT_BLOCK = 4
 
 
 def _lagged_sums(segs: Sequence[Tuple[np.ndarray, np.ndarray]], scale: float, max_lag: int
@@ -125,8 +125,9 @@ def _lagged_sums(segs: Sequence[Tuple[np.ndarray, np.ndarray]], scale: float, ma
         part = segs[j0 : j0 + FFT_BLOCK]
         yz = blk[:, : len(part)]
         for j, (y, z) in enumerate(part):
-            np.divide(y, scale, out=yz[0, j])
-            np.divide(z, scale, out=yz[1, j])
+            yz[0, j] = y
+            yz[1, j] = z
+        yz /= scale
         yz -= yz.mean(axis=2, keepdims=True)  # each window centred (its mean: the same pairwise sum as y.mean())
         S = np.fft.rfft(yz, m)  # fy's and fz's spectra
         S *= np.conj(S[1])  # fy's and fz's against fz's
