@@ -210,16 +210,20 @@ def main(argv: Any = None) -> int:
                 if len(u) == len(v):
                     rel[key] = max([abs(x - y) / max(abs(y), 1e-300) for x, y in zip(u, v) if x != y] or [0.0])
             if len(rel) == 2 and set(diff) <= {"shifts", "ci", "params", "mu_r_ci", "summary"}:
-                state = (f"table and lag same; differ: {', '.join(diff)}: the lag's shifts within "
-                         f"{rel['shifts']:.1e}, mu_r_ci within {rel['ci']:.1e} relative")
+                state = (
+                    f"table and lag same; differ: {', '.join(diff)}: the lag's shifts within "
+                    f"{rel['shifts']:.1e}, mu_r_ci within {rel['ci']:.1e} relative"
+                )
                 near.append(name)
         extra = f" (error: {a['error']})" if "error" in a else f" ({a['rows']} windows)"
         print(f"{name:48s} {state}{extra}")
         if diff and name not in near:
             bad.append(name)
     same = len(this) - len(bad) - len(near)
-    print(f"{same} of {len(this)} cases bit for bit the same; {len(near)} with the same table and lag (the rest of "
-          f"the results within the relative difference shown); {len(bad)} differ")
+    print(
+        f"{same} of {len(this)} cases bit for bit the same; {len(near)} with the same table and lag (the rest of "
+        f"the results within the relative difference shown); {len(bad)} differ"
+    )
     return 1 if bad else 0
 
 
