@@ -11,17 +11,24 @@ Per recording the headline's bootstrap (``bootstrap_ci``, the same resamples) is
 - ``windows``: the same resamples with the noise estimate held (no ``noise=``);
 - ``noise``: the resample's noise estimate sigma*^2 alone (its spread, and its move of the median);
 - the interval from ``full``'s resamples as the headline takes it (expanded percentiles), as plain 2.5/97.5
-  percentiles, and as +- 1.96 their standard deviation.
+  percentiles, and as +- 1.96 their standard deviation; the interval of ``windows`` as the headline would take
+  it (expanded percentiles).
 
 Against the truth between recordings: the headline's spread; the noise estimate's (sigma^2 of the
 recording, ``params["noise_z_std"]^2``); and the "oracle" median (every window moved to the true noise
 variance, first order: mu_r + mu_r_dnoise (sigma_true^2 - sigma^2)), the spread the windows alone give.
 Each cell's line: coverage k/n (95 % Clopper-Pearson) of every interval; the ratio of the spread between
-recordings to the root mean square of the bootstrap's standard deviation, for each part.
+recordings to the root mean square of the bootstrap's standard deviation, for each part; the mean half-width
+over the bootstrap's standard deviation (the expansion); the standard deviation of every recording's headline
+error over its own bootstrap standard deviation (what the expansion must cover: 1.13 for Student's t with 9
+degrees of freedom, the expansion's model with 10 blocks). ``--common-noise``: the acquisitions' fz noise of one
+level (``bench_lag_choice`` scales each acquisition's to its own fz, about +-12 % in variance between them).
 
 Run: ``python benches/bench_rpm_width.py [--recordings 200] [--snr 6 10 20] [--noise white]
 [--layout continuous acquisitions] [--rules rpm] [--jobs 2] [--markdown]``: about 4 s a continuous
-recording and 1 s an acquisitions one on one core.
+recording and 1 s an acquisitions one on one core. ``--independent 3000``: only the expansion's check on
+independent windows (40 Gaussian windows, 10 blocks; coverage of the median's expanded and plain percentile
+intervals).
 """
 
 from __future__ import annotations
@@ -180,8 +187,26 @@ def summarise(rows: List[Dict[str, Any]]) -> Dict[str, Any]:
         corr_boot=float(np.mean([r["corr"] for r in rows])),
         corr_between=float(np.corrcoef(oracle, dn * (noise - truth))[0, 1]) if np.any(dn) else float("nan"),
         halfwidth_over_sd=float(np.mean((exp_[:, 1] - exp_[:, 0]) / 2 / full)),
+        studentized=float(np.std((v - MU) / full)),
         blocks=int(rows[0]["blocks"]), windows=int(np.median([r["n"] for r in rows])),
     )  # fmt: skip
+
+
+def independent(draws: int, n: int = 40, seed: int = 2) -> Dict[str, float]:
+    """Coverage of the median's intervals from ``bootstrap_ci``'s resamples over ``draws`` sets of ``n``
+    independent Gaussian windows: expanded percentiles (the headline's) and plain 2.5/97.5 ones."""
+    from tribodyn.kernels import stats
+
+    rng = np.random.default_rng(seed)
+    starts, ell = stats._block_starts(np.random.default_rng(stats.BOOTSTRAP_SEED), n)
+    got = {"expanded": 0, "plain": 0}
+    for _ in range(draws):
+        v = rng.standard_normal(n)
+        lo, hi = stats.bootstrap_ci(v, threads=1)["median"]
+        got["expanded"] += int(lo <= 0.0 <= hi)
+        lo, hi = np.percentile(stats._all_resample_stats(v, starts, ell, None, width=n, threads=1)[0], [2.5, 97.5])
+        got["plain"] += int(lo <= 0.0 <= hi)
+    return {k: v / draws for k, v in got.items()}
 
 
 def main(argv: Optional[List[str]] = None) -> None:
@@ -200,7 +225,17 @@ def main(argv: Optional[List[str]] = None) -> None:
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--rows", help="write every recording's row here (JSON lines)")
     ap.add_argument("--markdown", action="store_true")
+    ap.add_argument(
+        "--independent",
+        type=int,
+        default=0,
+        metavar="DRAWS",
+        help="only the check on DRAWS sets of 40 independent Gaussian windows",
+    )
     args = ap.parse_args(argv)
+    if args.independent:
+        print(json.dumps(independent(args.independent)))
+        return
     out = []
     sink = open(args.rows, "w") if args.rows else None
     with ProcessPoolExecutor(args.jobs) as ex:
@@ -229,15 +264,15 @@ def main(argv: Optional[List[str]] = None) -> None:
         print(
             "| fz noise | layout | SNR_z | lag | windows (blocks) | coverage: headline | without the noise resample | "
             "plain percentile | +-1.96 sd | spread between / bootstrap sd: headline | windows alone | "
-            "noise estimate | half-width / bootstrap sd |"
+            "noise estimate | half-width / bootstrap sd | sd of (headline - mu) / bootstrap sd |"
         )
-        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
         for c in out:
             print(
                 f"| {c['noise']} | {c['layout']} | {c['snr']:g} dB | {c['rule']} | {c['windows']} ({c['blocks']}) | "
                 f"{cp(c['headline'], c['n'])} | {cp(c['windows_only'], c['n'])} | {cp(c['plain'], c['n'])} | "
                 f"{cp(c['normal'], c['n'])} | {c['ratio_full']:.2f} | {c['ratio_windows']:.2f} | "
-                f"{c['ratio_noise']:.2f} | {c['halfwidth_over_sd']:.2f} |"
+                f"{c['ratio_noise']:.2f} | {c['halfwidth_over_sd']:.2f} | {c['studentized']:.2f} |"
             )
 
 
