@@ -109,7 +109,7 @@ def test_summary_intervals_cover_between_recordings(snr):
 
 @pytest.mark.fast
 def test_expanded_percentiles_of_the_median_cover_with_few_blocks():
-    """Issue 35 point 3: the headline's interval with rpm covers 0.97-0.99 (docs/method.md 3f, "The width of
+    """Issue 35 point 3: the headline's interval with rpm covers 0.96-0.99 (docs/method.md 3f, "The width of
     the interval with rpm"), but not because of the expansion: with 40 independent windows (10 blocks) the
     expanded percentile interval of the median covers 0.955 (3000 draws), the plain 2.5/97.5 one 0.91. A
     change that narrowed the headline's interval by dropping the expansion fails here."""
