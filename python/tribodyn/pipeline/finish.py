@@ -197,7 +197,7 @@ def _lag_shifts(plan: Plan, found: Findings, seen: Dict[str, Any], s: int, *, ex
     resolved = np.sign(moves) * np.maximum(np.abs(moves) - np.where(np.isfinite(se), se, 0.0), 0.0)
     keep = np.isfinite(moves)
     return {
-        "iv_lag_shifts": [float(x) for x in resolved[keep]],
+        "iv_lag_shifts": [float(x) + 0.0 for x in resolved[keep]],  # + 0.0: no -0.0
         "iv_lag_moves": [float(x) for x in moves[keep]],
         "iv_lag_move_se": [float(x) for x in se[keep]],
         "iv_lag_pooled": [int(k) for k, ok in zip(others, keep) if ok],
