@@ -840,9 +840,44 @@ def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Di
         # stick-slip in the analysis' own reading (docs/method.md 6g): the recording is not read again for it
         res = analyze(rec, progress=progress, stick_slip=True, **opts)
         return [(Path(files[0]), res)], {}, {Path(files[0]): rec}
+    if client is None and split is None and opts.get("align") is None:
+        return _analyse_here(stack, files, open_options, opts, progress=progress)
     many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
     failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
     return [(Path(p), r) for p, r in many.results.items()], failures, {}
+
+
+def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_options: Dict[str, Any],
+                  opts: Dict[str, Any], *, progress: bool,
+                  ) -> Tuple[List[Tuple[Path, Results]], Dict[str, Any], Dict[Path, Any]]:  # fmt: skip
+    """:func:`_analyse` of several files in this process, one after the other, as :func:`tribodyn.analyze_many`
+    runs them without a client (the same tables and summary: ``analyze`` of each file), but each recording opened
+    once and kept open for its outputs (the figures' windows, the channel map, stick-slip): a text export is
+    parsed once, not twice (issue 38 point 3). A file that fails is listed with its
+    error as ``analyze_many`` lists it (``"TypeName: message"``); the others go on."""
+    from ..io import open_recording
+    from ..pipeline._progress import progress_bar
+
+    runs: List[Tuple[Path, Results]] = []
+    failures: Dict[str, Any] = {}
+    kept: Dict[Path, Any] = {}
+    opts = {k: v for k, v in opts.items() if k != "start"}  # (as analyze_many: a recording from its start)
+    bar = progress_bar(len(files), unit="recording", desc="analyse") if progress else None
+    for f in files:
+        path = Path(f)
+        try:
+            rec = stack.enter_context(open_recording(f, **open_options))
+            res = analyze(rec, **opts)
+        except Exception as exc:  # noqa: BLE001 - one bad file must not stop the rest (reported per recording)
+            failures[path.name] = {"error": f"{type(exc).__name__}: {exc}", "kind": type(exc).__name__}
+        else:
+            runs.append((path, res))
+            kept[path] = rec
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    return runs, failures, kept
 
 
 def _open_once(stack: contextlib.ExitStack, path: Path, open_options: Mapping[str, Any]) -> Any:
