@@ -20,7 +20,6 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import html
-import io
 import math
 import numbers
 import os
@@ -432,9 +431,9 @@ def _png_base64(fig: Union[Figure, bytes], dpi: int) -> str:
     """A Figure rendered at ``dpi``, or PNG bytes rendered before (the files' own), as base64."""
     if isinstance(fig, (bytes, bytearray)):
         return base64.b64encode(bytes(fig)).decode("ascii")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
-    return base64.b64encode(buf.getvalue()).decode("ascii")
+    from .figures import png_bytes  # (a Figure given: Matplotlib is imported)
+
+    return base64.b64encode(png_bytes(fig, dpi=dpi)).decode("ascii")
 
 
 def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Union[Figure, bytes]]]:
