@@ -30,6 +30,7 @@ from ._labels import fmt_interval, fmt_number, fmt_range, key_text, unit_text, u
 from .outputs import (
     Digests,
     OutputSet,
+    arrow_array,
     fill_digests,
     input_provenance,
     pyarrow_modules,
@@ -214,7 +215,8 @@ def _write_strokes(out: OutputSet, prefix: str, strokes: Mapping[str, np.ndarray
             w.writerow(["" if isinstance(v, float) and v != v else repr(float(v)) if isinstance(v, float) else v
                         for v in (x.item() if hasattr(x, "item") else x for x in row)])  # fmt: skip
     pa, pq = pyarrow_modules()
-    pq.write_table(pa.table({c: np.asarray(strokes[c]) for c in cols}), out.path(f"{prefix}strokes.parquet"))
+    arrays = [arrow_array(pa, np.asarray(strokes[c])) for c in cols]  # (pa.table would import pyarrow.compute)
+    pq.write_table(pa.Table.from_arrays(arrays, names=cols), out.path(f"{prefix}strokes.parquet"))
     return names + [f"{prefix}strokes.parquet"]
 
 
