@@ -92,11 +92,29 @@ def client():
 
 
 def test_cluster_equals_serial_and_reports_failures(files, client):
+    from dask.distributed import get_task_stream
+
     good, bad = files
-    many = analyze_many(good + [bad], client=client, split=50.0, **OPTS)
+    with get_task_stream(client) as stream:
+        many = analyze_many(good + [bad], client=client, split=50.0, **OPTS)
     for p in good:
         _same(many.results[p], _serial(p))
     assert list(many.failures) == [bad]
+    # each recording is finished on a worker, not in the client: by a task of its own after its ranges, or in
+    # the task of its one range (b.npz); the corrupt file fails at its header, before any range
+    finished = [t for t in stream.data if str(t["key"]).startswith(("finish_task", "_then"))]
+    assert sum(str(t["key"]).startswith("_then") for t in finished) == 1
+    assert len(finished) == len(good)
+    assert all(t["worker"] in client.scheduler_info()["workers"] for t in finished)
+
+
+def test_finish_task_reports_the_first_failed_range():
+    from tribodyn.pipeline.distributed import finish_task
+
+    first, second = RecordingFailure("x.h5", "OSError: one", "OSError"), RecordingFailure("x.h5", "E: two", "E")
+    assert finish_task("x.h5", [first, second]) is first
+    got = finish_task("x.h5", [])  # combine refuses no ranges: reported, not raised
+    assert isinstance(got, RecordingFailure) and got.kind == "ValueError" and "no ranges" in got.error
 
 
 def test_killed_worker_loses_and_duplicates_nothing(files, client):

@@ -7,7 +7,9 @@ window grid (``analyze(start=...)``). So the work is split into pure tasks,
 one per recording or per range of a long recording, that take a *path*
 (workers read the files themselves; no arrays cross the network) and return
 the kernel's per-window statistics, not yet finished. Each recording's
-ranges are then joined and finished once (``tribodyn.pipeline.analyze.combine``):
+ranges are then joined and finished once (``tribodyn.pipeline.analyze.combine``)
+by a task of its own on a worker (:func:`finish_task`, so recordings finish in
+parallel and only their Results travel to the client):
 its orientation (docs/method.md 0) and the noise on fz of the corrected
 estimator (docs/method.md 3c) come from all its windows, exactly as one
 serial pass would.
@@ -156,7 +158,7 @@ def range_task(
 ) -> Union[Partial, RecordingFailure]:
     """The kernel's statistics of the windows of samples ``start:stop`` of one recording, not yet finished.
 
-    The ranges of a recording are finished together by :func:`_combine`
+    The ranges of a recording are finished together by :func:`finish_task`
     (recording-wide orientation and noise on fz, docs/method.md 3c).
     ``options`` are analyze's options, or a :class:`~tribodyn.Plan` (this
     range's copy of it: its ``start`` and ``stop`` are the range's).
@@ -203,16 +205,39 @@ def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Op
     return out or [(0, None)]
 
 
-def _combine(parts: List[Partial]) -> Results:
+def finish_task(path: str, parts: Sequence[Union[Partial, RecordingFailure]]) -> Union[Results, RecordingFailure]:
     """One recording's ranges joined in order and finished once (docs/method.md 0, 3c): the one-pass table.
 
-    Each part's plan carries the orientation asked for; "auto" is fixed
-    here, from all the windows.
+    A task of its own, run where the ranges were (a worker), so recordings are
+    finished in parallel and only their Results travel back to the client.
+    Each part's plan carries the orientation asked for; "auto" is fixed here,
+    from all the windows. The first range's failure, or the finish's, is the
+    recording's failure.
     """
-    return combine(parts)
+    bad = next((p for p in parts if isinstance(p, RecordingFailure)), None)
+    if bad is not None:
+        return bad
+    try:
+        return combine([cast(Partial, p) for p in parts])
+    except Exception as exc:  # reported per recording, see plan_task
+        return _failure(path, exc)
 
 
-def _runner(client: Any, progress: bool) -> Callable[[Callable[..., Any], List[Tuple[Any, ...]]], List[Any]]:
+#: Tasks per recording: its name (path) and the arguments of each of its tasks.
+Group = Tuple[str, List[Tuple[Any, ...]]]
+#: ``run(fn, groups, then)``: ``fn(*args)`` for each task of each group, then per group ``then(name, outputs)``
+#: (where the tasks ran: a worker) or, with ``then`` None, the group's one output; a list, one per group, in order.
+Runner = Callable[[Callable[..., Any], List[Group], Optional[Callable[..., Any]]], List[Any]]
+
+
+def _then(fn: Callable[..., Any], then: Callable[..., Any], name: str, args: Tuple[Any, ...]) -> Any:
+    """A group of one task as one task: ``then(name, [fn(*args)])``."""
+    return then(name, [fn(*args)])
+
+
+def _runner(client: Any, progress: bool) -> Runner:
+    """Runs groups of tasks serially here (``client`` None) or on a Dask cluster (each group's ``then`` a task
+    of its own that takes the group's futures: recordings finished on the workers in parallel)."""
     if client is not None and not (callable(getattr(client, "submit", None)) and hasattr(client, "gather")):
         raise TypeError(
             f"client must be a dask.distributed.Client (or None to run serially), got {type(client).__name__}; "
@@ -220,34 +245,46 @@ def _runner(client: Any, progress: bool) -> Callable[[Callable[..., Any], List[T
         )
     if client is None:
 
-        def serial(fn: Callable[..., Any], args: List[Tuple[Any, ...]]) -> List[Any]:
-            if not progress:
-                return [fn(*a) for a in args]
-            from ._progress import progress_bar
+        def serial(fn: Callable[..., Any], groups: List[Group], then: Optional[Callable[..., Any]]) -> List[Any]:
+            bar = None
+            if progress:
+                from ._progress import progress_bar
 
-            bar = progress_bar(len(args), unit="task", desc=fn.__name__.replace("_task", ""))
+                bar = progress_bar(sum(len(a) for _, a in groups), unit="task", desc=fn.__name__.replace("_task", ""))
             out = []
-            for a in args:
-                out.append(fn(*a))
-                if bar is not None:
-                    bar.update(1)
+            for name, args in groups:
+                got = []
+                for a in args:
+                    got.append(fn(*a))
+                    if bar is not None:
+                        bar.update(1)
+                out.append(then(name, got) if then is not None else got[0])
             if bar is not None:
                 bar.close()
             return out
 
         return serial
 
-    def run(fn: Callable[..., Any], args: List[Tuple[Any, ...]]) -> List[Any]:
+    def run(fn: Callable[..., Any], groups: List[Group], then: Optional[Callable[..., Any]]) -> List[Any]:
         # The tasks are pure functions of their arguments, so a task lost with
         # its worker is simply recomputed (retries). Keys are unique per call
         # (pure=False) so each call computes afresh rather than reusing a
         # result the cluster still holds from an earlier call.
-        futures = [client.submit(fn, *a, pure=False, retries=3) for a in args]
+        tasks: List[List[Any]] = []
+        ends: List[Any] = []
+        for name, args in groups:
+            if then is None or len(args) == 1:  # one task: its end fused in (each task costs the client ~5-10 ms)
+                one = (fn, *args[0]) if then is None else (_then, fn, then, name, args[0])
+                tasks.append([client.submit(*one, pure=False, retries=3)])
+                ends.append(tasks[-1][0])
+            else:  # the group's futures as an argument: Dask hands the task their values, on the worker
+                tasks.append([client.submit(fn, *a, pure=False, retries=3) for a in args])
+                ends.append(client.submit(then, name, tasks[-1], pure=False, retries=3))
         if progress:
             from dask.distributed import progress as show
 
-            cast(Any, show)(futures)
-        out: List[Any] = client.gather(futures)
+            cast(Any, show)(list(dict.fromkeys([f for t in tasks for f in t] + ends)))
+        out: List[Any] = client.gather(ends)
         return out
 
     return run
@@ -323,10 +360,10 @@ def analyze_many(
     if split is None:
         plans: List[Any] = [None] * len(files)  # the files' (n_samples, fs), read only to split them
     else:
-        plans = run(plan_task, [(f, open_options) for f in files])
-    jobs: List[Tuple[int, Tuple[Any, ...]]] = []
+        plans = run(plan_task, [(f, [(f, open_options)]) for f in files], None)
+    groups: List[Group] = []
     failures: Dict[str, RecordingFailure] = {}
-    for i, (f, head) in enumerate(zip(files, plans)):
+    for f, head in zip(files, plans):
         if isinstance(head, RecordingFailure):
             failures[f] = head
             continue
@@ -341,25 +378,17 @@ def analyze_many(
             opts = plan
         else:
             opts = dict(options, chunk=chunk) if chunk is not None else dict(options)
-        for a, b in ranges:
-            jobs.append((i, (f, open_options, opts, a, b)))
-    outputs = run(range_task, [args for _, args in jobs])
+        groups.append((f, [(f, open_options, opts, a, b) for a, b in ranges]))
+    outputs = run(range_task, groups, finish_task)
 
-    by_file: Dict[int, List[Any]] = {}
-    for (i, _), out in zip(jobs, outputs):
-        by_file.setdefault(i, []).append(out)
     results: Dict[str, Results] = {}
-    for i, f in enumerate(files):
-        if f in failures or i not in by_file:
-            continue
-        parts = by_file[i]
-        bad = next((p for p in parts if isinstance(p, RecordingFailure)), None)
-        if bad is not None:
-            failures[f] = bad
-            continue
-        results[f] = _combine(parts)
+    for (f, _), out in zip(groups, outputs):
+        if isinstance(out, RecordingFailure):
+            failures[f] = out
+        else:
+            results[f] = out
     ordered_failures = {f: failures[f] for f in files if f in failures}
-    return ManyResults(results=results, failures=ordered_failures, tasks=len(jobs))
+    return ManyResults(results=results, failures=ordered_failures, tasks=sum(len(a) for _, a in groups))
 
 
 def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
