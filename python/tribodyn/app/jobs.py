@@ -295,7 +295,7 @@ def _save_figures(
     saved = []
     for (stem, caption, _), data in zip(figs, pngs):
         name = f"figures/{prefix}{stem}.png"
-        atomic_write(out.path(name), _bytes_writer(data))
+        atomic_write(out.path(name), _bytes_writer(data), durable=False)  # (the set is flushed as a whole)
         saved.append((name, caption, data))
     return saved, done, extra
 
@@ -561,6 +561,7 @@ def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoT
         inputs=[],
         sections=extras,
         head_html=_bokeh_head(),
+        durable=False,  # (OutputSet flushes the whole set before publishing it)
         quality={
             "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
             "current-density test": s_j["gate_failures"],
@@ -1024,6 +1025,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
             inputs=[job.inputs[p.name]],
             sections=_report_extras(res, p.name, "windows.csv", view),
             head_html=_bokeh_head(),
+            durable=False,  # (OutputSet flushes the whole set before publishing it)
             record_html=record_html(job.meta, {p.name: rec_sum["headline"]}),
         )
     return lines, extras, captioned
@@ -1063,6 +1065,7 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
         inputs=list(job.inputs.values()) + failed,
         sections=sections,
         head_html=_bokeh_head(),
+        durable=False,  # (OutputSet flushes the whole set before publishing it)
         record_html=record_html(job.meta, heads),
     )
 

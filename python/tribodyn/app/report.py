@@ -503,6 +503,7 @@ def write_report(
     head_html: str = "",
     record_html: str = "",
     figures_note: str = "",
+    durable: bool = True,
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -545,6 +546,9 @@ def write_report(
         The "Test record" section's content (:func:`tribodyn.app.record.record_html`), after the inputs.
     figures_note : str
         A note at the head of the figures (e.g. which figures were left out, and the flag that draws them).
+    durable : bool
+        Flush the page to disk before it replaces the target (default). False where something else flushes it
+        (a job's outputs: :class:`~tribodyn.app.outputs.OutputSet` flushes its whole set before publishing it).
 
     Returns
     -------
@@ -600,7 +604,7 @@ def write_report(
         out.append(_columns_table(table, max_table_rows))
 
     out += ["</body>", "</html>", ""]
-    _atomic_write_text(target, "\n".join(out))
+    _atomic_write_text(target, "\n".join(out), durable=durable)
     return target
 
 
@@ -691,14 +695,14 @@ def _pop_warnings(summary: Dict[str, Any]) -> List[str]:
     return list(dict.fromkeys(found))
 
 
-def _atomic_write_text(target: str, text: str) -> None:
+def _atomic_write_text(target: str, text: str, *, durable: bool = True) -> None:
     from ..io.writers import atomic_write
 
     def write(tmp: str) -> None:
         with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
             fh.write(text)
 
-    atomic_write(target, write)
+    atomic_write(target, write, durable=durable)
 
 
 # --------------------------------------------------------------------------
