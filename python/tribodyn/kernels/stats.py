@@ -4,7 +4,6 @@ means of a ratio or a mean (6e), and Student's t quantiles."""
 from __future__ import annotations
 
 import math
-import warnings as _warnings
 from dataclasses import dataclass
 from statistics import NormalDist
 from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Sequence, Tuple
@@ -87,8 +86,8 @@ def _resample_stats(v: np.ndarray, starts: np.ndarray, ell: int, noise: Optional
     var, pos, dn, used = noise
     idx = _expand(starts, ell, var.size)
     p = pos[idx]
-    with np.errstate(invalid="ignore"), _warnings.catch_warnings():
-        _warnings.simplefilter("ignore", RuntimeWarning)  # a resample without any of v's windows is NaN
+    # no warnings filter here (the resamples run on threads, and warnings.catch_warnings is process-wide)
+    with np.errstate(invalid="ignore", divide="ignore"):
         delta = np.maximum(row_quantiles(var[idx], ())[0], 0.0) - used
         r = dn[p]  # v[p] + dn[p] * delta, in place (p < 0, a window not among v's: NaN)
         r *= delta[:, None]
@@ -97,8 +96,11 @@ def _resample_stats(v: np.ndarray, starts: np.ndarray, ell: int, noise: Optional
         if out.any():
             r[out] = np.nan
         med, (p05, p95) = row_quantiles(r, (5, 95))
-        # without NaN, np.nanmean is np.mean (the same sums over the same count)
-        mean = np.nanmean(r, axis=1) if np.isnan(r).any() else r.mean(axis=1)
+        nan = np.isnan(r)
+        if not nan.any():
+            return med, r.mean(axis=1), p05, p95
+        # np.nanmean's sums and counts, without its warning for a resample without any of v's windows (NaN)
+        mean = np.sum(np.where(nan, 0.0, r), axis=1) / np.sum(~nan, axis=1, dtype=np.intp)
         return med, mean, p05, p95
 
 
