@@ -868,14 +868,16 @@ def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_option
     bar = progress_bar(len(files), unit="recording", desc="analyse") if progress else None
     for f in files:
         path = Path(f)
-        try:
-            rec = stack.enter_context(open_recording(f, **open_options))
-            res = analyze(rec, **opts)
-        except Exception as exc:  # noqa: BLE001 - one bad file must not stop the rest (reported per recording)
-            failures[path.name] = {"error": f"{type(exc).__name__}: {exc}", "kind": type(exc).__name__}
-        else:
-            runs.append((path, res))
-            kept[path] = rec
+        with contextlib.ExitStack() as one:  # a recording that fails is closed at once, one analysed kept open
+            try:
+                rec = one.enter_context(open_recording(f, **open_options))
+                res = analyze(rec, **opts)
+            except Exception as exc:  # noqa: BLE001 - one bad file must not stop the rest (reported per recording)
+                failures[path.name] = {"error": f"{type(exc).__name__}: {exc}", "kind": type(exc).__name__}
+            else:
+                runs.append((path, res))
+                kept[path] = rec
+                stack.push(one.pop_all())
         if bar is not None:
             bar.update(1)
     if bar is not None:
