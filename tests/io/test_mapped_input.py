@@ -723,3 +723,16 @@ def test_stop_errors(data, npy):
             td.analyze(rec, hop=2.0, stop=-1, **KW)
     with pytest.raises(ValueError, match="recording source"):
         td.analyze(_mapping(data), fs=FS, hop=2.0, stop=100, **KW)
+
+
+@pytest.mark.fast
+def test_read_ranges_of_adjacent_gapped_empty_and_overlapping_ranges(tmp_path) -> None:
+    # issue 38 point 2: adjacent ranges are read by one preadv; every range still lands where it belongs
+    arr = np.random.default_rng(5).standard_normal((3, 5000))
+    np.save(tmp_path / "r.npy", arr)
+    ranges = [(0, 10), (10, 20), (20, 20), (20, 35), (100, 164), (164, 200), (150, 160), (4990, 5000), (0, 3)]
+    with open_recording(tmp_path / "r.npy", fs=FS, names=["fy", "fz", "i"]) as rec:
+        got = rec.read_ranges(ranges, ["fy", "fz"])
+    for j, role in enumerate(("fy", "fz")):
+        want = np.concatenate([arr[j, a:b] for a, b in ranges])
+        assert np.array_equal(got[role], want)

@@ -170,3 +170,57 @@ def test_band_noise_headline_interval_holds_the_truth_with_the_lag_from_the_data
         assert "iv_lag_shifts" not in other.params
         assert (other.headline.low, other.headline.high) == _unpooled(other)
     assert "iv_lag_shifts" not in tribodyn.analyze(src, fs=1000.0, threads=1, method="paper").params
+
+
+def _direct_profile(segs: list, max_lag: int) -> tuple:
+    # r, b, t and ref of lag_profile's docstring by direct sums over t >= L (no FFT), windows in range only
+    lim = tribodyn._core.FORCE_LIMIT
+    keep = [(y, z) for y, z in segs if np.all(np.abs(y) <= lim) and np.all(np.abs(z) <= lim)]
+    top = max(np.max(np.abs(z)) for _, z in keep)
+    n, lags = keep[0][0].size, np.arange(max_lag + 1)
+    A, C = np.zeros((len(keep), max_lag + 1)), np.zeros((len(keep), max_lag + 1))
+    for j, (y, z) in enumerate(keep):
+        y, z = y / top - np.mean(y / top), z / top - np.mean(z / top)
+        for L in lags:
+            A[j, L], C[j, L] = z[L:] @ z[: n - L], y[L:] @ z[: n - L]
+    r = np.median((A / (n - lags)) / (A[:, :1] / n), axis=0)
+    b = C.sum(axis=0) / A.sum(axis=0)
+    ref = max_lag // 2 + int(np.argmax(np.abs(r[max_lag // 2 :])))
+    U = C - b * A
+    phi = U / A.sum(axis=0) - (U[:, ref] / A[:, ref].sum())[:, None]
+    with np.errstate(invalid="ignore"):  # 0 / 0 at the reference lag
+        t = (b - b[ref]) / np.sqrt(len(keep) / (len(keep) - 1) * np.sum(phi * phi, axis=0))
+    t[ref] = 0.0
+    return r, b, t, ref, len(keep)
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize("n", [101, 160])
+def test_lag_profile_is_the_direct_lagged_sums(n: int) -> None:
+    # issue 38 point 2: the FFT is only as long as the lags need (n + max_lag + 1, 2^a 3^b 5^c) and takes the windows
+    # a few at a time; no lag wraps round, and windows out of the kernel's range (or holding NaN) are left out
+    rng = np.random.default_rng(n)
+    segs = []
+    for k in range(11):
+        z = 5.0 + rng.standard_normal(n) + 0.8 * np.sin(np.arange(n) / 3.0 + k)
+        y = 0.1 * np.roll(z, 2) + 0.05 * rng.standard_normal(n)
+        segs.append((y, z))
+    segs[3][1][7] = np.nan
+    segs[6][0][0] = 2.0 * tribodyn._core.FORCE_LIMIT
+    max_lag = (n - 1) // 2
+    p = lag_profile(segs, max_lag)
+    r, b, t, ref, k = _direct_profile(segs, max_lag)
+    assert p is not None and p.windows == k == 9 and p.ref == ref
+    np.testing.assert_allclose(p.r, r, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(p.b, b, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(p.t, t, rtol=1e-8, atol=1e-8)
+
+
+@pytest.mark.fast
+def test_the_profiles_fft_length_is_the_next_2_3_5_smooth_number() -> None:
+    from tribodyn.pipeline.instrument import _fft_length
+
+    smooth = sorted({2**a * 3**b * 5**c for a in range(14) for b in range(9) for c in range(7)})
+    for want in range(1, 6000):
+        assert _fft_length(want) == next(s for s in smooth if s >= want)
+    assert _fft_length(2000 + 999 + 1) == 3000  # 2 s windows at 1 kHz (a power of two: 4096)

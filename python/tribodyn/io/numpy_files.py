@@ -246,6 +246,12 @@ class NpyRecording(Recording):
             return super()._read_ranges(names, ranges)
         idx = {nm: k for k, nm in enumerate(self._names)}
         total = sum(b - a for a, b in ranges)
+        runs: List[List[int]] = []  # adjacent ranges (the lag profile's tiling windows) read as one
+        for a, b in ranges:
+            if runs and runs[-1][1] == a:
+                runs[-1][1] = b
+            elif b > a:
+                runs.append([a, b])
 
         fd, item, direct = self._fd, self._arr.itemsize, hasattr(os, "preadv")
         assert fd is not None, "open recordings hold their descriptor"
@@ -255,7 +261,7 @@ class NpyRecording(Recording):
             view = memoryview(buf).cast("B")  # type: ignore[arg-type]  # numpy's stubs lack the buffer protocol
             row, base = idx[nm], self._offset(idx[nm])
             at = 0
-            for a, b in ranges:  # one preadv a range (a short read: the careful loop)
+            for a, b in runs:  # one preadv a run (a short read: the careful loop)
                 size = (b - a) * item
                 if size and not (direct and os.preadv(fd, [view[at : at + size]], base + a * item) == size):
                     self._pread_into(buf[at // item : at // item + b - a], row, a)

@@ -76,69 +76,114 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
             return None
         n = segs[0][0].size
         segs = [(y, z) for y, z in segs if y.size == n]
-        ys, zs = np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
-        top = max(float(zs.max()), -float(zs.min()))
+        top = max(max(float(z.max()), -float(z.min())) for _, z in segs)
     else:
-        ys, zs, top = got
-        if ys.shape[0] < 4:
+        segs, top = got
+        if len(segs) < 4:
             return None
-        n = ys.shape[1]
-    m = 1 << int(np.ceil(np.log2(2 * n)))
+    k, n = len(segs), segs[0][0].size
     scale = top or 1.0  # max |z|: r and b do not depend on a common scale
-    ys /= scale
-    zs /= scale
-    ys -= ys.mean(axis=1, keepdims=True)  # each window centred (its mean: the same pairwise sum as y.mean())
-    zs -= zs.mean(axis=1, keepdims=True)
-    Y = np.fft.rfft(ys, m)
-    Z = np.fft.rfft(zs, m)
-    A = np.fft.irfft(Z * np.conj(Z), m)[:, : max_lag + 1]
-    C = np.fft.irfft(Y * np.conj(Z), m)[:, : max_lag + 1]
+    A, C = _lagged_sums(segs, scale, max_lag)
     lags = np.arange(max_lag + 1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        r = _column_medians((A / (n - lags)) / (A[:, :1] / n))
+        # (A(L) / (n - L)) / (A(0) / n) per window, laid out lag by window for the medians over the windows
+        x = np.divide(A.T, (n - lags)[:, None], order="C")
+        x /= A[:, 0] / n
+        r = _row_medians(x)
+        del x
         sa = A.sum(axis=0)
         b = C.sum(axis=0) / sa
         lo = max(2, max_lag // 2)
         if not np.isfinite(r[lo:]).any():
             return None
         ref = lo + int(np.nanargmax(np.abs(r[lo:])))
-        U = C - b * A
-        phi = U / sa - (U[:, ref] / sa[ref])[:, None]
-        k = ys.shape[0]
-        se = np.sqrt(k / (k - 1) * np.sum(phi * phi, axis=0))
+        # phi = U / sa - U(ref) / sa(ref), U = C - b A per window (in place: one array)
+        phi = np.multiply(b, A, out=A)
+        np.subtract(C, phi, out=phi)
+        phi /= sa
+        phi -= phi[:, ref].copy()[:, None]
+        se = np.sqrt(k / (k - 1) * np.sum(np.square(phi, out=phi), axis=0))
         t = (b - b[ref]) / se
     t[ref] = 0.0
     return LagProfile(r=r, b=b, t=t, ref=ref, windows=k)
 
 
+#: Windows transformed at a time by :func:`_lagged_sums` (its buffers stay small: a few hundred kB).
+FFT_BLOCK = 4
+
+
+def _lagged_sums(segs: Sequence[Tuple[np.ndarray, np.ndarray]], scale: float, max_lag: int
+                 ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """(A, C), shape (windows, max_lag + 1): A(L) = sum_t z_t z_{t-L} and C(L) = sum_t y_t z_{t-L} of each
+    window (fy, fz) of ``segs`` divided by ``scale`` and centred, by FFT zero-padded to m >= n + max_lag + 1
+    (no lag up to max_lag wraps round), :data:`FFT_BLOCK` windows at a time."""
+    k, n = len(segs), segs[0][0].size
+    m = _fft_length(n + max_lag + 1)
+    A, C = np.empty((k, max_lag + 1)), np.empty((k, max_lag + 1))
+    blk = np.empty((2, min(FFT_BLOCK, k), n))
+    for j0 in range(0, k, FFT_BLOCK):
+        part = segs[j0 : j0 + FFT_BLOCK]
+        yz = blk[:, : len(part)]
+        for j, (y, z) in enumerate(part):
+            yz[0, j] = y
+            yz[1, j] = z
+        yz /= scale
+        yz -= yz.mean(axis=2, keepdims=True)  # each window centred (its mean: the same pairwise sum as y.mean())
+        S = np.fft.rfft(yz, m)  # fy's and fz's spectra
+        S *= np.conj(S[1])  # fy's and fz's against fz's
+        out = np.fft.irfft(S, m)
+        C[j0 : j0 + len(part)] = out[0, :, : max_lag + 1]
+        A[j0 : j0 + len(part)] = out[1, :, : max_lag + 1]
+    return A, C
+
+
 def _in_range_rows(segs: Sequence[Tuple[np.ndarray, np.ndarray]]
-                   ) -> Optional[Tuple[np.ndarray, np.ndarray, float]]:  # fmt: skip
-    """(fy, fz, max |fz|) of the windows of ``segs`` within the kernel's range, stacked, when every window has
-    one length: :func:`~tribodyn.io.sample.in_range` per window from the stack's row minima and maxima (a row
-    with NaN fails the comparisons, as there); None for windows of several lengths or none."""
+                   ) -> Optional[Tuple[List[Tuple[np.ndarray, np.ndarray]], float]]:  # fmt: skip
+    """(the windows of ``segs`` within the kernel's range, max |fz| over them) when every window has one length:
+    :func:`~tribodyn.io.sample.in_range` per window from its minima and maxima (a window with NaN fails the
+    comparisons, as there); None for windows of several lengths or none."""
     from .. import _core
 
     if not segs or len({y.size for y, _ in segs}) > 1:
         return None
-    ys, zs = np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
     lim = _core.FORCE_LIMIT
-    zmin, zmax = zs.min(axis=1), zs.max(axis=1)
-    ok = (ys.min(axis=1) >= -lim) & (ys.max(axis=1) <= lim) & (zmin >= -lim) & (zmax <= lim)
-    if not ok.all():
-        ys, zs, zmin, zmax = ys[ok], zs[ok], zmin[ok], zmax[ok]
-    top = max(float(zmax.max()), -float(zmin.min())) if ok.any() else 0.0
-    return ys, zs, top
+    kept, zmin, zmax = [], [], []
+    for y, z in segs:
+        lo, hi = float(z.min()), float(z.max())
+        if float(y.min()) >= -lim and float(y.max()) <= lim and lo >= -lim and hi <= lim:
+            kept.append((y, z))
+            zmin.append(lo)
+            zmax.append(hi)
+    top = max(max(zmax), -min(zmin)) if kept else 0.0
+    return kept, top
 
 
-def _column_medians(x: np.ndarray) -> np.ndarray:
-    """``np.median(x, axis=0)`` of a 2-D array, bit for bit: a column holding NaN is NaN; the others by the
-    kernel's row selection (``_order.row_quantiles``) over the columns made rows."""
+def _fft_length(at_least: int) -> int:
+    """The smallest 2^a 3^b 5^c >= ``at_least`` (>= 1): the lag profile's FFT length (NumPy's pocketfft is
+    fastest at such lengths; a power of two is up to 2x longer)."""
+    best = 1 << max(int(at_least) - 1, 0).bit_length()
+    p5 = 1
+    while p5 < best:
+        p35 = p5
+        while p35 < best:
+            q = p35
+            while q < at_least:
+                q *= 2
+            best = min(best, q)
+            p35 *= 3
+        p5 *= 5
+    return best
+
+
+def _row_medians(x: np.ndarray) -> np.ndarray:
+    """``np.median(x, axis=1)`` of a 2-D array (lags by windows), bit for bit: a row holding NaN is NaN; the
+    others by the kernel's row selection (``_order.row_quantiles``), on the calling thread (a few hundred
+    microseconds of work, beside the pre-pass: a second thread would only wait for a core)."""
     from ..kernels._order import row_quantiles
-    from ..kernels.threads import read_threads
 
-    if x.shape[0] == 0 or np.isnan(x).any():
-        return np.asarray(np.median(x, axis=0))
-    return row_quantiles(np.ascontiguousarray(x.T), (), threads=read_threads())[0]
+    if x.shape[1] == 0 or np.isnan(x).any():
+        return np.asarray(np.median(x, axis=1))
+    return row_quantiles(np.ascontiguousarray(x), (), threads=1)[0]
 
 
 def choose_lag(p: Optional[LagProfile], weak: float) -> Optional[int]:
