@@ -8,9 +8,10 @@ Cases (each run a fresh process; ``api``: ``python -c`` that imports tribodyn, o
 reads the headline; ``cli``: ``python -m tribodyn analyze FILE --out DIR -q``):
 
 * ``small``: the pin-on-disc export tests/data/real/pod_PPS_100N_1.tsv (0.17 MB, 1800 rows): api, cli (default
-  figures), cli ``--figures none`` and cli ``--figures all`` (this build only: the baseline has no flag);
+  figures), cli ``--figures none`` and cli ``--figures all``;
 * ``folder``: the exports of tests/data (:data:`FOLDER`, 8 files of 0.02-0.44 MB) as one ``tribodyn analyze
-  DIR/*`` against one process that analyses them one after the other with the API;
+  DIR/*`` (default figures, and ``--figures none``) against one process that analyses them one after the other
+  with the API;
 * ``h10``: 10 h at 1 kHz, 4 channels ``.npy`` (1.15 GB, ``bench_fixed_costs.ensure_data`` in ``--data``), api
   and cli (skipped with ``--no-long``): its 5 PNG figures are drawn by worker processes too when a core is free
   (``jobs._drawing_pool``, issue 38 point 3; their CPU is in the process tree's), and this build's cli again with
@@ -99,13 +100,10 @@ def cases(args: argparse.Namespace, builds: Dict[str, str], work: Path) -> Dict[
         if not args.no_folder:
             out[f"{b}|api folder"] = [sys.executable, "-c", API, *folder]
             out[f"{b}|cli folder"] = cli(folder, work / f"{tag}-folder")
-        if b == "this build":
-            for choice in ("none", "all"):
-                out[f"{b}|cli small --figures {choice}"] = cli(
-                    [small], work / f"{tag}-small-{choice}", "--figures", choice
-                )
-            if not args.no_folder:
-                out[f"{b}|cli folder --figures none"] = cli(folder, work / f"{tag}-folder-none", "--figures", "none")
+        for choice in ("none", "all"):
+            out[f"{b}|cli small --figures {choice}"] = cli([small], work / f"{tag}-small-{choice}", "--figures", choice)
+        if not args.no_folder:
+            out[f"{b}|cli folder --figures none"] = cli(folder, work / f"{tag}-folder-none", "--figures", "none")
         if not args.no_long:
             h10 = str(_h10(Path(args.data)))
             out[f"{b}|api h10"] = [sys.executable, "-c", API, h10]

@@ -76,3 +76,44 @@ def test_cli_analysis_failure_leaves_no_output_folder(tmp_path, capsys):
     out = tmp_path / "out"
     assert cli.main(["analyze", str(bad), "--out", str(out), "--window", "5", "--quiet"]) == 2
     assert not out.exists()
+
+
+@pytest.mark.fast
+def test_every_file_of_a_set_is_flushed_before_it_is_published_and_a_failed_flush_publishes_nothing(
+    tmp_path, monkeypatch
+):
+    """OutputSet flushes each file and folder of the set (from several threads at once, issue 38 point 3) before
+    publishing it; a flush that fails (EIO) is raised and the previous set stays as it was."""
+    import os
+    import threading
+
+    out = tmp_path / "out"
+    with OutputSet(out) as s:
+        s.path("old.txt").write_text("old")
+    names = [f"f{k}.txt" for k in range(20)] + [f"sub/g{k}.txt" for k in range(5)]
+    flushed, threads = [], set()
+    real_fsync = os.fsync
+
+    def recording_fsync(fd):
+        flushed.append(os.path.basename(os.readlink(f"/proc/self/fd/{fd}")))
+        threads.add(threading.get_ident())
+        return real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", recording_fsync)
+    with OutputSet(out) as s:
+        for n in names:
+            s.path(n).write_text(n)
+    assert {os.path.basename(n) for n in names} <= set(flushed) and "sub" in flushed
+    assert len(threads) > 1 and (out / "sub" / "g4.txt").read_text() == "sub/g4.txt"
+
+    def failing_fsync(fd):
+        if os.readlink(f"/proc/self/fd/{fd}").endswith("f7.txt"):
+            raise OSError(errno.EIO, "Input/output error")
+        return real_fsync(fd)
+
+    monkeypatch.setattr(os, "fsync", failing_fsync)
+    with pytest.raises(OSError, match="Input/output error"):
+        with OutputSet(out) as s:
+            for n in names:
+                s.path(n).write_text("new")
+    assert (out / "f7.txt").read_text() == "f7.txt" and (out / "sub" / "g4.txt").read_text() == "sub/g4.txt"

@@ -183,3 +183,60 @@ def test_what_the_tables_raise_beside_the_figures_is_raised():
     with pytest.raises(ValueError, match="cannot draw"):
         figures.Rendering([Broken()]).finish_beside(lambda: ran.append(1))  # type: ignore[list-item]
     assert ran == [1]
+
+
+def _idat_zlib_header(png: bytes) -> bytes:
+    """The first two bytes of a PNG's zlib stream (its first IDAT chunk's data)."""
+    k = png.index(b"IDAT")
+    return png[k + 4 : k + 6]
+
+
+@pytest.mark.fast
+def test_the_report_pngs_hold_the_drawn_pixels_encoded_fast():
+    """The report's PNGs (``png_bytes``, and ``encode_png`` beside the drawing) decode to exactly the pixels Agg
+    drew, their zlib stream at the fastest level class (``PNG_COMPRESS_LEVEL`` 1: about half the encoding CPU of
+    the default level 6; issue 38 point 3)."""
+    import io
+
+    from PIL import Image
+
+    from tribodyn.app import figures
+
+    pixels = figures.rgba_pixels(_fig(0))
+    for png in (figures.png_bytes(_fig(0)), figures.encode_png(pixels)):
+        decoded = np.asarray(Image.open(io.BytesIO(png)).convert("RGBA"))
+        np.testing.assert_array_equal(decoded, pixels)
+        cmf, flg = _idat_zlib_header(png)
+        assert cmf & 0x0F == 8 and flg >> 6 == 0  # deflate; FLEVEL 0: the fastest level class (levels 0-1)
+    assert figures.PNG_COMPRESS_LEVEL == 1
+
+
+def test_a_folder_opens_each_recording_once_with_analyze_manys_tables(tmp_path, monkeypatch):
+    """Several files analysed here (no cluster): each recording is opened once, for its analysis and its outputs
+    (a text export parsed once; issue 38 point 3), its table is byte for byte what ``analyze_many`` gives, and a
+    file that fails is listed with ``analyze_many``'s error while the others are written."""
+    import tribodyn.io as tio
+    from tribodyn.app.outputs import write_table_csv
+
+    bad = tmp_path / "not_a_recording.csv"
+    bad.write_text("no numbers here\njust words\n", encoding="utf-8")
+    files = [str(EXPORT), str(TESTS / "data" / "formats" / "drag_rotational.csv"), str(bad)]
+    opened = []
+    real_open = tio.open_recording
+
+    def counting_open(path, *a, **k):
+        opened.append(str(path))
+        return real_open(path, *a, **k)
+
+    monkeypatch.setattr(tio, "open_recording", counting_open)
+    summary = jobs.run_analysis(files, tmp_path / "out", figures="none")
+    monkeypatch.setattr(tio, "open_recording", real_open)
+    assert sorted(opened) == sorted(files)
+    many = td.analyze_many(files)
+    assert summary["failures"] == {bad.name: {"error": many.failures[str(bad)].error,
+                                              "kind": many.failures[str(bad)].kind}}  # fmt: skip
+    for f in files[:2]:
+        write_table_csv(many.results[f], tmp_path / "expected.csv")
+        stem = f.rsplit("/", 1)[-1].rsplit(".", 1)[0]
+        got = (tmp_path / "out" / stem / "windows.csv").read_bytes()
+        assert got == (tmp_path / "expected.csv").read_bytes(), f

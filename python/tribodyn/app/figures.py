@@ -56,6 +56,9 @@ __all__ = [
 
 #: Default resolution of :func:`save_figure`, dots per inch.
 DPI = 150
+#: zlib level of the report's PNG figures (:func:`png_bytes`, :func:`encode_png`): 1 encodes in about half the CPU
+#: time of Pillow's default 6 for files about 20 % larger, the same pixels (issue 38 point 3; benches/RESULTS.md).
+PNG_COMPRESS_LEVEL = 1
 #: Line plots with more samples are reduced to a min/max envelope of this many points.
 MAX_LINE_POINTS = 20_000
 #: Scatter plots with more samples are thinned (evenly spaced) to this many points.
@@ -1354,9 +1357,11 @@ def energy_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
 
 
 def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
-    """``fig`` rendered once as PNG bytes (no timestamp or software in its metadata, so the bytes repeat)."""
+    """``fig`` rendered once as PNG bytes (no timestamp or software in its metadata, so the bytes repeat; zlib level
+    :data:`PNG_COMPRESS_LEVEL`)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
+    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None},
+                pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})  # fmt: skip
     return buf.getvalue()
 
 
@@ -1394,7 +1399,8 @@ def encode_png(pixels: np.ndarray, *, dpi: int = DPI) -> bytes:
 
     buf = io.BytesIO()
     no_software: Any = {"Software": None}  # (Matplotlib: None leaves the key out)
-    image.imsave(buf, pixels, format="png", origin="upper", dpi=dpi, metadata=no_software)
+    image.imsave(buf, pixels, format="png", origin="upper", dpi=dpi, metadata=no_software,
+                 pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})  # fmt: skip
     return buf.getvalue()
 
 

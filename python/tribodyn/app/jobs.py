@@ -30,6 +30,7 @@ from ._labels import fmt_interval, fmt_number, fmt_range, key_text, unit_text, u
 from .outputs import (
     Digests,
     OutputSet,
+    arrow_array,
     fill_digests,
     input_provenance,
     pyarrow_modules,
@@ -214,7 +215,8 @@ def _write_strokes(out: OutputSet, prefix: str, strokes: Mapping[str, np.ndarray
             w.writerow(["" if isinstance(v, float) and v != v else repr(float(v)) if isinstance(v, float) else v
                         for v in (x.item() if hasattr(x, "item") else x for x in row)])  # fmt: skip
     pa, pq = pyarrow_modules()
-    pq.write_table(pa.table({c: np.asarray(strokes[c]) for c in cols}), out.path(f"{prefix}strokes.parquet"))
+    arrays = [arrow_array(pa, np.asarray(strokes[c])) for c in cols]  # (pa.table would import pyarrow.compute)
+    pq.write_table(pa.Table.from_arrays(arrays, names=cols), out.path(f"{prefix}strokes.parquet"))
     return names + [f"{prefix}strokes.parquet"]
 
 
@@ -293,7 +295,7 @@ def _save_figures(
     saved = []
     for (stem, caption, _), data in zip(figs, pngs):
         name = f"figures/{prefix}{stem}.png"
-        atomic_write(out.path(name), _bytes_writer(data))
+        atomic_write(out.path(name), _bytes_writer(data), durable=False)  # (the set is flushed as a whole)
         saved.append((name, caption, data))
     return saved, done, extra
 
@@ -559,6 +561,7 @@ def _write_demo(out: OutputSet, summary: Dict[str, Any], t: _DemoTest, j: _DemoT
         inputs=[],
         sections=extras,
         head_html=_bokeh_head(),
+        durable=False,  # (OutputSet flushes the whole set before publishing it)
         quality={
             "temperature test": s_t["gate_failures"],  # the summaries above: summary() once per run
             "current-density test": s_j["gate_failures"],
@@ -840,9 +843,46 @@ def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Di
         # stick-slip in the analysis' own reading (docs/method.md 6g): the recording is not read again for it
         res = analyze(rec, progress=progress, stick_slip=True, **opts)
         return [(Path(files[0]), res)], {}, {Path(files[0]): rec}
+    if client is None and split is None and opts.get("align") is None:
+        return _analyse_here(stack, files, open_options, opts, progress=progress)
     many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
     failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
     return [(Path(p), r) for p, r in many.results.items()], failures, {}
+
+
+def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_options: Dict[str, Any],
+                  opts: Dict[str, Any], *, progress: bool,
+                  ) -> Tuple[List[Tuple[Path, Results]], Dict[str, Any], Dict[Path, Any]]:  # fmt: skip
+    """:func:`_analyse` of several files in this process, one after the other, as :func:`tribodyn.analyze_many`
+    runs them without a client (the same tables and summary: ``analyze`` of each file), but each recording opened
+    once and kept open for its outputs (the figures' windows, the channel map, stick-slip): a text export is
+    parsed once, not twice (issue 38 point 3). A file that fails is listed with its
+    error as ``analyze_many`` lists it (``"TypeName: message"``); the others go on."""
+    from ..io import open_recording
+    from ..pipeline._progress import progress_bar
+
+    runs: List[Tuple[Path, Results]] = []
+    failures: Dict[str, Any] = {}
+    kept: Dict[Path, Any] = {}
+    opts = {k: v for k, v in opts.items() if k != "start"}  # (as analyze_many: a recording from its start)
+    bar = progress_bar(len(files), unit="recording", desc="analyse") if progress else None
+    for f in files:
+        path = Path(f)
+        with contextlib.ExitStack() as one:  # a recording that fails is closed at once, one analysed kept open
+            try:
+                rec = one.enter_context(open_recording(f, **open_options))
+                res = analyze(rec, **opts)
+            except Exception as exc:  # noqa: BLE001 - one bad file must not stop the rest (reported per recording)
+                failures[path.name] = {"error": f"{type(exc).__name__}: {exc}", "kind": type(exc).__name__}
+            else:
+                runs.append((path, res))
+                kept[path] = rec
+                stack.push(one.pop_all())
+        if bar is not None:
+            bar.update(1)
+    if bar is not None:
+        bar.close()
+    return runs, failures, kept
 
 
 def _open_once(stack: contextlib.ExitStack, path: Path, open_options: Mapping[str, Any]) -> Any:
@@ -987,6 +1027,7 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
             inputs=[job.inputs[p.name]],
             sections=_report_extras(res, p.name, "windows.csv", view),
             head_html=_bokeh_head(),
+            durable=False,  # (OutputSet flushes the whole set before publishing it)
             record_html=record_html(job.meta, {p.name: rec_sum["headline"]}),
         )
     return lines, extras, captioned
@@ -1026,6 +1067,7 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
         inputs=list(job.inputs.values()) + failed,
         sections=sections,
         head_html=_bokeh_head(),
+        durable=False,  # (OutputSet flushes the whole set before publishing it)
         record_html=record_html(job.meta, heads),
     )
 

@@ -156,14 +156,33 @@ def _within(inner: PathLike, outer: Path) -> bool:
         return False
 
 
+#: Threads that flush a set's files at once (:func:`_sync_tree`).
+_SYNC_THREADS = 16
+
+
+def _sync_entry(e: "os.DirEntry[str]") -> None:
+    if e.is_file(follow_symlinks=False):
+        with open(e.path, "rb+") as fh:
+            os.fsync(fh.fileno())
+    elif e.is_dir(follow_symlinks=False):
+        _fsync_dir(Path(e.path))
+
+
 def _sync_tree(folder: Path) -> None:
-    """Flushes every file (and folder) of the set to disk before it is published."""
-    for e in _entries(folder):
-        if e.is_file(follow_symlinks=False):
-            with open(e.path, "rb+") as fh:
-                os.fsync(fh.fileno())
-        elif e.is_dir(follow_symlinks=False):
-            _fsync_dir(Path(e.path))
+    """Flushes every file (and folder) of the set to disk before it is published, many at once: each
+    ``fsync`` waits for the disk outside the GIL, and the file system commits those in flight together (a
+    folder of 8 exports' 54 files: 0.16-0.31 s one after the other, 0.03 s from 16 threads on this machine's
+    ext4; issue 38 point 3). What a flush raises is raised here, before anything is published."""
+    entries = list(_entries(folder))
+    if len(entries) > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(min(_SYNC_THREADS, len(entries)), thread_name_prefix="tribodyn-fsync") as pool:
+            for _ in pool.map(_sync_entry, entries):  # (raises the first failure, once all are done)
+                pass
+    else:
+        for e in entries:
+            _sync_entry(e)
     _fsync_dir(folder)
 
 
@@ -511,10 +530,11 @@ def write_table_parquet(results: Results, path: PathLike, *, extra: Optional[Dic
     from ..columns import UNITS
 
     cols = _columns(results, extra)
-    table = pa.Table.from_arrays([arrow_array(pa, v) for v in cols.values()], names=list(cols))
-    # Each field carries its unit (metadata b"unit"; tribodyn.columns.UNITS; "1" dimensionless, "" a label).
-    table = table.cast(pa.schema([f.with_metadata({"unit": UNITS.get(f.name, "")}) for f in table.schema]))
-    pq.write_table(table, str(path))
+    arrays = [arrow_array(pa, v) for v in cols.values()]
+    # Each field carries its unit (metadata b"unit"; tribodyn.columns.UNITS; "1" dimensionless, "" a label), set in
+    # the schema the table is built with (``Table.cast`` to it would import pyarrow.compute: ~0.1 s a process).
+    schema = pa.schema([pa.field(n, a.type).with_metadata({"unit": UNITS.get(n, "")}) for n, a in zip(cols, arrays)])
+    pq.write_table(pa.Table.from_arrays(arrays, schema=schema), str(path))
     return True
 
 

@@ -20,7 +20,6 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import html
-import io
 import math
 import numbers
 import os
@@ -432,9 +431,9 @@ def _png_base64(fig: Union[Figure, bytes], dpi: int) -> str:
     """A Figure rendered at ``dpi``, or PNG bytes rendered before (the files' own), as base64."""
     if isinstance(fig, (bytes, bytearray)):
         return base64.b64encode(bytes(fig)).decode("ascii")
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, metadata={"Software": None})
-    return base64.b64encode(buf.getvalue()).decode("ascii")
+    from .figures import png_bytes  # (a Figure given: Matplotlib is imported)
+
+    return base64.b64encode(png_bytes(fig, dpi=dpi)).decode("ascii")
 
 
 def _figure_list(figures: Optional[FigureList]) -> List[Tuple[str, Union[Figure, bytes]]]:
@@ -504,6 +503,7 @@ def write_report(
     head_html: str = "",
     record_html: str = "",
     figures_note: str = "",
+    durable: bool = True,
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -546,6 +546,9 @@ def write_report(
         The "Test record" section's content (:func:`tribodyn.app.record.record_html`), after the inputs.
     figures_note : str
         A note at the head of the figures (e.g. which figures were left out, and the flag that draws them).
+    durable : bool
+        Flush the page to disk before it replaces the target (default). False where something else flushes it
+        (a job's outputs: :class:`~tribodyn.app.outputs.OutputSet` flushes its whole set before publishing it).
 
     Returns
     -------
@@ -601,7 +604,7 @@ def write_report(
         out.append(_columns_table(table, max_table_rows))
 
     out += ["</body>", "</html>", ""]
-    _atomic_write_text(target, "\n".join(out))
+    _atomic_write_text(target, "\n".join(out), durable=durable)
     return target
 
 
@@ -692,14 +695,14 @@ def _pop_warnings(summary: Dict[str, Any]) -> List[str]:
     return list(dict.fromkeys(found))
 
 
-def _atomic_write_text(target: str, text: str) -> None:
+def _atomic_write_text(target: str, text: str, *, durable: bool = True) -> None:
     from ..io.writers import atomic_write
 
     def write(tmp: str) -> None:
         with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
             fh.write(text)
 
-    atomic_write(target, write)
+    atomic_write(target, write, durable=durable)
 
 
 # --------------------------------------------------------------------------
