@@ -92,6 +92,7 @@ _OTHER_PARAM_UNITS: Dict[str, str] = {
     "window_samples": "samples",
     "hop_samples": "samples",
     "iv_lag_samples": "samples",
+    "iv_lag_pooled": "samples",
     "chunk_samples": "samples",
     "temperature_log_points": "readings",
     "skew_median": "samples",
