@@ -4,8 +4,9 @@ Each recording: the rig of ``tribodyn.simulate.conditions`` (mu = 0.1, fs = 1 kH
 0.02 N white noise on fy, no fz noise of its own) with measurement noise added here to the recorded fz:
 white, or white noise through a 2nd-order Butterworth band-pass (``scipy.signal.butter``; 200-450 Hz by
 default, the audit's band, or 20-200 Hz, the simulator's), of std ``std(fz) 10^(-SNR/20)``, from its own
-generator (seed ``(seed, 35)``). A "continuous" recording is 400 s (200 windows of 2 s; ``--seconds``); an
-"acquisitions" one is 40 separate 2 s acquisitions (``conditions(2, seed=1000 seed + k)``), one window each.
+generator (seed ``(seed, 35)``). A "continuous" recording is 400 s (40 windows of 2 s at the default 10 s
+hop; ``--seconds``); an "acquisitions" one is 40 separate 2 s acquisitions (``conditions(2, seed=1000 seed +
+k)``), one window each.
 Each is analysed with the defaults (``td.analyze(src, fs=fs)``: the lag chosen from the data) and, sharing
 the simulation, with ``rpm=`` (the lag one revolution); ``--fixed L`` adds ``iv_lag=L / fs`` (a lag given);
 ``--rules`` picks among them.
