@@ -159,8 +159,16 @@ def test_the_pool_is_started_for_long_recordings_only(tmp_path, monkeypatch):
     assert jobs._pool_pays("auto", [str(big)]) and jobs._pool_pays("all", [str(big)])
     assert not jobs._pool_pays("none", [str(big)])
     assert jobs._drawing_pool(False) is None
-    monkeypatch.setattr(jobs, "_usable_cores", lambda: 2)  # two cores: the process's own threads fill them
+    started = []
+    monkeypatch.setattr(jobs, "_DrawingPool", lambda n: started.append(n) or object())
+    monkeypatch.setattr(jobs, "_usable_cores", lambda: 2)
+    monkeypatch.setattr(jobs, "_load", lambda: 1.2)  # two cores, the second one busy: none
     assert jobs._drawing_pool(True) is None
+    monkeypatch.setattr(jobs, "_load", lambda: 0.3)  # two cores, one idle: one worker
+    assert jobs._drawing_pool(True) is not None and started == [1]
+    monkeypatch.setattr(jobs, "_usable_cores", lambda: 1)
+    assert jobs._drawing_pool(True) is None
+    monkeypatch.undo()
     monkeypatch.setattr(jobs, "_usable_cores", lambda: 16)
     monkeypatch.setenv("TRIBODYN_DRAW_WORKERS", "0")
     assert jobs._drawing_pool(True) is None

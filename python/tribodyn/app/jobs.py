@@ -1159,10 +1159,11 @@ def _drawing_pool(pays: bool) -> Optional["_DrawingPool"]:
     it fails: the figures are then drawn in this process).
 
     Workers: ``TRIBODYN_DRAW_WORKERS`` when set (0: none), else two fewer than the usable cores (this process
-    draws too, beside its SHA-256 thread and its tables), at most :data:`_MAX_DRAW_WORKERS`: none on one or two
-    cores, nor while the machine's load average (1 minute) is at or above its core count. On cores already busy
-    a worker's start (about 1 s of CPU: Python, NumPy, Matplotlib) only adds to the work and the drawing is not
-    done sooner (measured on two vCPUs: benches/RESULTS.md).
+    draws too, beside its SHA-256 thread and its tables), at most :data:`_MAX_DRAW_WORKERS`; on two cores one
+    while the other core is idle (load average under 1); none on one core, nor while the machine's load average
+    (1 minute) is at or above its core count. On cores already busy a worker's start (about 1 s of CPU: Python,
+    NumPy, Matplotlib) only adds to the work and the drawing is not done sooner; on two idle vCPUs one worker
+    drew a 10 h recording's report 0.6-0.9 s sooner (benches/RESULTS.md).
     """
     if not pays:
         return None
@@ -1170,10 +1171,10 @@ def _drawing_pool(pays: bool) -> Optional["_DrawingPool"]:
     asked = os.environ.get("TRIBODYN_DRAW_WORKERS", "").strip()
     if asked:
         workers = int(asked) if asked.isdigit() else 0
-    elif cores < 3 or _busy():
+    elif cores < 2 or _busy() or (cores == 2 and _load() >= 1.0):
         workers = 0
     else:
-        workers = min(_MAX_DRAW_WORKERS, cores - 2)
+        workers = max(1, min(_MAX_DRAW_WORKERS, cores - 2))
     if workers < 1:
         return None
     try:
@@ -1182,12 +1183,17 @@ def _drawing_pool(pays: bool) -> Optional["_DrawingPool"]:
         return None
 
 
+def _load() -> float:
+    """The machine's 1-minute load average (0 where the system does not tell)."""
+    try:
+        return float(os.getloadavg()[0])
+    except (AttributeError, OSError):
+        return 0.0
+
+
 def _busy() -> bool:
     """Whether the machine's 1-minute load average is at least its core count (no core free for a worker)."""
-    try:
-        return os.getloadavg()[0] >= _usable_cores()
-    except (AttributeError, OSError):
-        return False
+    return _load() >= _usable_cores()
 
 
 class _DrawingPool:
