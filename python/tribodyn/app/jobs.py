@@ -860,6 +860,7 @@ def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_option
     error as ``analyze_many`` lists it (``"TypeName: message"``); the others go on."""
     from ..io import open_recording
     from ..pipeline._progress import progress_bar
+    from ..pipeline.distributed import RecordingFailure
 
     runs: List[Tuple[Path, Results]] = []
     failures: Dict[str, Any] = {}
@@ -873,7 +874,8 @@ def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_option
                 rec = one.enter_context(open_recording(f, **open_options))
                 res = analyze(rec, **opts)
             except Exception as exc:  # noqa: BLE001 - one bad file must not stop the rest (reported per recording)
-                failures[path.name] = {"error": f"{type(exc).__name__}: {exc}", "kind": type(exc).__name__}
+                failed = RecordingFailure.of(f, exc)
+                failures[path.name] = {"error": failed.error, "kind": failed.kind}
             else:
                 runs.append((path, res))
                 kept[path] = rec

@@ -174,15 +174,12 @@ def _sync_tree(folder: Path) -> None:
     folder of 8 exports' 54 files: 0.16-0.31 s one after the other, 0.03 s from 16 threads on this machine's
     ext4; issue 38 point 3). What a flush raises is raised here, before anything is published."""
     entries = list(_entries(folder))
-    if len(entries) > 1:
+    if entries:
         from concurrent.futures import ThreadPoolExecutor
 
         with ThreadPoolExecutor(min(_SYNC_THREADS, len(entries)), thread_name_prefix="tribodyn-fsync") as pool:
             for _ in pool.map(_sync_entry, entries):  # (raises the first failure, once all are done)
                 pass
-    else:
-        for e in entries:
-            _sync_entry(e)
     _fsync_dir(folder)
 
 

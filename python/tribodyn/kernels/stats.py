@@ -220,6 +220,14 @@ def bootstrap_ci(
 BATCHES = 32
 
 
+def batch_sums(x: np.ndarray, batches: int = BATCHES) -> np.ndarray:
+    """The sums of ``x`` (1-D, in time order, not empty) over at most ``batches`` contiguous batches of about
+    equal size: the batches of the batch-means standard errors (:func:`ratio_mean`, docs/method.md 6e)."""
+    edges = np.unique(np.linspace(0, x.size, min(batches, x.size) + 1).round().astype(np.int64))
+    out: np.ndarray = np.add.reduceat(x, edges[:-1])
+    return out
+
+
 def ratio_mean(sums: np.ndarray, counts: np.ndarray, batches: int = BATCHES) -> Tuple[float, float, float, int]:
     """(mean, low, high, batches used): sum(sums) / sum(counts) with its 95 % batch-means interval.
 
@@ -236,9 +244,7 @@ def ratio_mean(sums: np.ndarray, counts: np.ndarray, batches: int = BATCHES) -> 
     if total <= 0:
         return float("nan"), float("nan"), float("nan"), 0
     m = float(s.sum()) / total
-    edges = np.unique(np.linspace(0, s.size, min(batches, s.size) + 1).round().astype(np.int64))
-    sg = np.add.reduceat(s, edges[:-1])
-    cg = np.add.reduceat(c, edges[:-1])
+    sg, cg = batch_sums(s, batches), batch_sums(c, batches)
     keep = cg > 0
     b = int(keep.sum())
     if b < 3:

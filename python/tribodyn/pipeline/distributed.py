@@ -51,6 +51,11 @@ class RecordingFailure:
     error: str
     kind: str
 
+    @classmethod
+    def of(cls, path: str, exc: BaseException) -> "RecordingFailure":
+        """The failure of ``path`` that ``exc`` says: ``error`` "TypeName: message", ``kind`` "TypeName"."""
+        return cls(path=path, error=f"{type(exc).__name__}: {exc}", kind=type(exc).__name__)
+
 
 @dataclass(frozen=True)
 class ManyResults:
@@ -138,10 +143,6 @@ def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.Pat
 # -- tasks (module-level and pure, so Dask can ship and retry them) -----------
 
 
-def _failure(path: str, exc: BaseException) -> RecordingFailure:
-    return RecordingFailure(path=path, error=f"{type(exc).__name__}: {exc}", kind=type(exc).__name__)
-
-
 def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float], RecordingFailure]:
     """(n_samples, fs) of a recording, read from its header, or its failure."""
     from ..io import open_recording
@@ -150,7 +151,7 @@ def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float
         with open_recording(path, **open_options) as rec:
             return int(rec.n_samples), float(rec.fs)
     except Exception as exc:  # a task reports, never raises: one bad file must not stop the rest
-        return _failure(path, exc)
+        return RecordingFailure.of(path, exc)
 
 
 def range_task(
@@ -176,7 +177,7 @@ def range_task(
             # the file's pages).
             return analyze_partial(rec, fs=fs, start=start, stop=stop, **opts)
     except Exception as exc:  # reported per recording, see plan_task
-        return _failure(path, exc)
+        return RecordingFailure.of(path, exc)
 
 
 def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Optional[float]
@@ -220,7 +221,7 @@ def finish_task(path: str, parts: Sequence[Union[Partial, RecordingFailure]]) ->
     try:
         return combine([cast(Partial, p) for p in parts])
     except Exception as exc:  # reported per recording, see plan_task
-        return _failure(path, exc)
+        return RecordingFailure.of(path, exc)
 
 
 #: Tasks per recording: its name (path) and the arguments of each of its tasks.

@@ -213,7 +213,7 @@ def lag_moves(ext: np.ndarray, lag_sums: np.ndarray, gated: np.ndarray) -> Tuple
     difference from the windows' influences u_i = (C'_i - b' A'_i) / sum A' - (C_i - b A_i) / sum A summed in
     at most :data:`~tribodyn.kernels.stats.BATCHES` contiguous batches (NaN with fewer than 3).
     """
-    from ..kernels.stats import BATCHES
+    from ..kernels.stats import batch_sums
 
     A0 = ext[:, :, _WZ].sum(axis=1)
     C0 = ext[:, :, _WY].sum(axis=1)
@@ -231,8 +231,7 @@ def lag_moves(ext: np.ndarray, lag_sums: np.ndarray, gated: np.ndarray) -> Tuple
         b0, b1 = float(c0.sum()) / sa0, float(c1.sum()) / sa1
         moves[j] = b1 - b0
         u = (c1 - b1 * a1) / sa1 - (c0 - b0 * a0) / sa0
-        edges = np.unique(np.linspace(0, u.size, min(BATCHES, u.size) + 1).round().astype(np.int64))
-        g = np.add.reduceat(u, edges[:-1])
+        g = batch_sums(u)
         if g.size >= 3:
             ses[j] = float(np.sqrt(g.size / (g.size - 1) * np.sum(g * g)))
     return moves, ses
