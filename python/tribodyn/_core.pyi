@@ -317,6 +317,18 @@ class Extents:
     def end(self) -> int:
         """One past the last byte read."""
 
+def pread_ranges(
+    fd: int,
+    out: NDArray[np.uint8],
+    offsets: NDArray[np.int64],
+    lengths: NDArray[np.int64],
+    *,
+    threads: int | None = None,
+) -> None:
+    """Fills `out` (a C-contiguous uint8 array) with byte ranges of the open file `fd`: range k is
+    lengths[k] bytes from byte offsets[k], after range k - 1 (pread without the GIL, threads for large
+    reads); a range past the end of the file is a ValueError, a failed read an OSError."""
+
 def tdms_index(fd: int, index_fd: int | None = None) -> dict[str, Any]:
     """The segment index of the TDMS file open as `fd` (see `tribodyn.io.tdms`),
     its metadata read from the `.tdms_index` open as `index_fd` if given

@@ -1175,6 +1175,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
     m.add_function(wrap_pyfunction!(files::tdms_index, m)?)?;
     m.add_function(wrap_pyfunction!(ranges::pread_ranges, m)?)?;
+    m.add_function(wrap_pyfunction!(ranges::extents_read_ranges, m)?)?;
     m.add_class::<PyExtents>()?;
     m.add_class::<PyWindowSpec>()?;
     m.add_class::<PyTextDialect>()?;

@@ -1,11 +1,14 @@
 //! Many byte ranges of a file read into one buffer in one call (issue 38
 //! point 2): the pre-pass reads 256 short pieces of each channel of a
 //! `.npy`, which one `os.preadv` a piece from Python made cost more than
-//! the statistics computed on them.
+//! the statistics computed on them; a TDMS or HDF5 channel's pieces
+//! (`Extents`) one call of `Extents.read` each.
 
+use crate::files::PyExtents;
 use crate::{bad, dup_fd, os_error, threads_of};
-use numpy::{PyReadonlyArray1, PyReadwriteArray1};
+use numpy::{PyArray1, PyReadonlyArray1, PyReadwriteArray1};
 use pyo3::prelude::*;
+use tribodyn_core::io::mapped;
 
 /// Pieces of at least this many bytes in all are split over threads (below, starting threads costs
 /// more than the copies out of the page cache they share).
@@ -40,7 +43,7 @@ pub(crate) fn pread_ranges(
         let (Ok(o), Ok(l)) = (u64::try_from(o), usize::try_from(l)) else {
             return Err(bad(format!("a range needs an offset and a length >= 0, got ({o}, {l})")));
         };
-        if o.checked_add(l as u64).is_none() {
+        if o.checked_add(l as u64).is_none_or(|end| end > i64::MAX as u64) {
             return Err(bad(format!("the range of {l} bytes at {o} overflows")));
         }
         total = total.checked_add(l).ok_or_else(|| bad("the lengths overflow"))?;
@@ -131,4 +134,32 @@ fn read_at(file: &std::fs::File, offset: u64, bytes: &mut [u8]) -> Result<(), Re
 #[cfg(not(unix))]
 fn read_at(_file: &std::fs::File, _offset: u64, _bytes: &mut [u8]) -> Result<(), ReadError> {
     Err((false, "reading a file's ranges directly needs a Unix system".into()))
+}
+
+/// Samples `[a, b)` of every `(a, b)` in `ranges` of the channel described by `extents` (any numeric
+/// type, segments, interleaved rows, scaling), concatenated as float64: what `Extents.read` gives for
+/// each range, in one call from the open file `fd` (duplicated for the call, left open), without the
+/// GIL, one byte cache (and its memory) shared by the ranges. A range it cannot read (past the
+/// channel's end, a file truncated since) is a `ValueError` starting "a:b: ".
+#[pyfunction]
+pub(crate) fn extents_read_ranges<'py>(
+    py: Python<'py>,
+    extents: &Bound<'py, PyExtents>,
+    fd: i32,
+    ranges: Vec<(u64, u64)>,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let inner = extents.get().inner.clone();
+    let file = dup_fd(fd)?;
+    let got = py.detach(move || {
+        let total = ranges.iter().map(|&(a, b)| b.saturating_sub(a)).sum::<u64>();
+        let mut out = Vec::with_capacity(usize::try_from(total).unwrap_or(0).min(1 << 24));
+        let (mut part, mut cache) = (Vec::new(), mapped::ByteCache::default());
+        for &(a, b) in &ranges {
+            cache.begin();
+            inner.read(&file, a, b, &mut part, &mut cache).map_err(|e| format!("{a}:{b}: {e}"))?;
+            out.extend_from_slice(&part);
+        }
+        Ok::<_, String>(out)
+    });
+    Ok(PyArray1::from_vec(py, got.map_err(bad)?))
 }
