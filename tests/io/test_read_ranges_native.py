@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Dict, List, Tuple
+from typing import Any, Dict, List, Tuple
 
 import numpy as np
 import pytest
@@ -135,3 +135,80 @@ def test_pread_ranges_checks_its_arguments(tmp_path: Path) -> None:
         os.close(fd)
     with pytest.raises(OSError):
         _core.pread_ranges(fd, np.empty(2, dtype=np.uint8), np.array([0], np.int64), np.array([2], np.int64))
+
+
+def _ranges(n: int) -> List[Tuple[int, int]]:
+    """Pieces as the pre-pass spreads them (sample_channels), and the edge cases of :data:`RANGES`."""
+    spread = [(int(a), int(a) + 64) for a in np.linspace(0, n - 64, 97).astype(np.int64)]
+    return spread + [(a, b) for a, b in RANGES if b <= n] + [(n - 1, n), (0, n), (n, n)]
+
+
+def _batch_equals_one_range_at_a_time(path: Path, **kw: Any) -> int:
+    """Asserts the native batch read (``_core.extents_read_ranges``) gives the bytes of ``Extents.read`` a range
+    at a time (the Recording's own loop); returns the channels read by the batch."""
+    from tribodyn.io.base import Recording
+
+    calls: List[int] = []
+    batch = _core.extents_read_ranges
+
+    def counted(*a: Any) -> np.ndarray:
+        calls.append(1)
+        return batch(*a)
+
+    with open_recording(path, **kw) as rec:
+        names = list(rec.channel_names)
+        ranges = _ranges(rec.n_samples)
+        _core.extents_read_ranges = counted
+        try:
+            got = rec._read_ranges(names, ranges)
+        finally:
+            _core.extents_read_ranges = batch
+        want = Recording._read_ranges(rec, names, ranges)
+        for nm in names:
+            assert got[nm].dtype == want[nm].dtype and got[nm].tobytes() == want[nm].tobytes(), nm
+    return len(calls)
+
+
+@pytest.mark.fast
+def test_tdms_batch_read_is_the_range_read(tmp_path: Path) -> None:
+    from tribodyn.io.tdms import write_daqmx_tdms
+    from tribodyn.io.writers import save_tdms
+
+    rng = np.random.default_rng(8)
+    sig = {k: rng.normal(size=5003) * 10 for k in ("fx", "fy", "fz", "i")}
+    for seg in (5003, 1000, 64, 7):  # one segment; a DAQ logger's; pieces across many segments
+        save_tdms(tmp_path / f"s{seg}.tdms", sig, FS, segment_samples=seg)
+        assert _batch_equals_one_range_at_a_time(tmp_path / f"s{seg}.tdms") == 4
+    raw = {k: rng.integers(-32000, 32000, 5003).astype(np.int16) for k in ("fx", "fy", "fz", "i")}
+    scales = {"fx": [("Linear", (0.001, 0.5))], "fy": [("Polynomial", [0.1, 2e-3, 1e-9])],
+              "fz": [("Linear", (0.01, 20.0)), ("Polynomial", [1.0, 2.0])]}  # fmt: skip
+    for seg in (5003, 1000):  # DAQmx raw int16, interleaved rows, scaled
+        write_daqmx_tdms(str(tmp_path / f"d{seg}.tdms"), raw, FS, scales, segment_samples=seg)
+        assert _batch_equals_one_range_at_a_time(tmp_path / f"d{seg}.tdms") == 4
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize("dtype", ["<f8", ">f8", "<f4", "<i2", ">i4"])
+def test_hdf5_batch_read_is_the_range_read(tmp_path: Path, dtype: str) -> None:
+    h5py = pytest.importorskip("h5py")
+    base = np.random.default_rng(9).normal(size=10_007) * 100
+    for label, kw in (("contiguous", {}), ("chunked", {"chunks": (1000,)}), ("small_chunks", {"chunks": (37,)})):
+        p = tmp_path / f"{label}.h5"
+        with h5py.File(p, "w") as f:
+            f.attrs["fs"] = FS
+            for j, k in enumerate(("fx", "fy", "fz", "i")):
+                f.create_dataset(k, data=(base + j).astype(dtype), **kw)
+        assert _batch_equals_one_range_at_a_time(p) == 4
+
+
+@pytest.mark.fast
+def test_extents_read_ranges_refuses_a_range_past_the_end(tmp_path: Path) -> None:
+    from tribodyn.io.writers import save_tdms
+
+    save_tdms(tmp_path / "s.tdms", {"fy": np.arange(3000.0), "fz": np.ones(3000)}, FS, segment_samples=1000)
+    with open_recording(tmp_path / "s.tdms") as rec:
+        ext, fd = rec._objs["fy"].extents, rec._fd
+        assert _core.extents_read_ranges(ext, fd, []).size == 0
+        assert _core.extents_read_ranges(ext, fd, [(999, 1001), (5, 5), (2999, 3000)]).tolist() == [999, 1000, 2999]
+        with pytest.raises(ValueError, match="^2990:3001: "):
+            _core.extents_read_ranges(ext, fd, [(0, 2), (2990, 3001)])

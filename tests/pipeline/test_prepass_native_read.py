@@ -60,16 +60,20 @@ def _findings(path: Path, names: List[str], kw: Dict[str, Any]) -> Tuple[str, st
         pre = P.prepass(None, rec, FS, min_fn=kw.get("min_fn"), tare=kw.get("tare"), motion="auto")
         assert "motion_evidence" not in pre or ("position" in pre["motion_evidence"]) == (motion is not None)
         res = td.analyze(rec, **kw)
-    table = {k: np.asarray(v).tobytes() if np.asarray(v).dtype != object else repr(list(v)) for k, v in res.table.items()}
+    table = {k: np.asarray(v) for k, v in res.table.items()}
+    columns = {k: repr(list(v)) if v.dtype == object else v.tobytes().hex() for k, v in table.items()}
     as_text = lambda x: json.dumps(x, sort_keys=True, default=repr)  # noqa: E731
-    return as_text(pre), as_text(res.params), as_text({k: str(v) for k, v in table.items()})
+    return as_text(pre), as_text(res.params), as_text(columns)
 
 
 CASES = [("cont", {}), ("cont", {"tare": 2.0}), ("cont_f4", {}), ("cont_be", {"min_fn": 1.0}), ("raw", {}),
          ("recip", {}), ("step", {}), ("step", {"tare": "start"})]  # fmt: skip
 
 
-@pytest.mark.parametrize("name, kw", CASES, ids=[f"{n}-{'-'.join(map(str, k.values())) or 'default'}" for n, k in CASES])
+IDS = [f"{n}-{'-'.join(map(str, k.values())) or 'default'}" for n, k in CASES]
+
+
+@pytest.mark.parametrize("name, kw", CASES, ids=IDS)
 def test_prepass_and_analysis_equal_the_python_read(
     files: Dict[str, Tuple[Path, List[str]]], name: str, kw: Dict[str, Any], monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -500,14 +500,15 @@ class Hdf5Recording(Recording):
     def _read_ranges(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
         """Several ranges of each channel, one native call a channel (``_core.extents_read_ranges``) when every
         channel is read natively (the pre-pass's hundreds of pieces; issue 38 point 2)."""
-        native = self.thread_safe and self._fd is not None and hasattr(_core, "extents_read_ranges")
-        if not (native and all(self._ext.get(nm) is not None for nm in names)):
+        fd = self._fd
+        native = self.thread_safe and fd is not None and hasattr(_core, "extents_read_ranges")
+        if fd is None or not (native and all(self._ext.get(nm) is not None for nm in names)):
             return super()._read_ranges(names, ranges)
         spans = [(int(a), int(b)) for a, b in ranges]
         out = {}
         for nm in names:
             try:
-                out[nm] = _core.extents_read_ranges(self._ext[nm], self._fd, spans)
+                out[nm] = _core.extents_read_ranges(self._ext[nm], fd, spans)
             except ValueError as exc:  # "a:b: why"
                 self.check_unchanged()
                 raise RecordingError(f"{self.path}: cannot read {nm!r}: samples {exc}") from None

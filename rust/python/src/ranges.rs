@@ -73,19 +73,22 @@ fn prefault(dest: &mut [u8]) {
     }
 }
 
+/// A byte range of the file: (offset, length).
+type Range = (u64, usize);
+
 /// An error: (past the end of the file, its words).
 type ReadError = (bool, String);
 
 /// Reads every range of `plan` into `dest` in turn, split into byte-balanced groups of ranges on
 /// `threads` threads when the whole is large.
-fn read_all(file: &std::fs::File, plan: &[(u64, usize)], dest: &mut [u8], threads: usize) -> Result<(), ReadError> {
+fn read_all(file: &std::fs::File, plan: &[Range], dest: &mut [u8], threads: usize) -> Result<(), ReadError> {
     let groups = if dest.len() >= PARALLEL_BYTES { threads.min(plan.len()).max(1) } else { 1 };
     if groups == 1 {
         return read_group(file, plan, dest);
     }
     // Cut the plan where the bytes read so far pass each k / groups of the whole.
     let per = dest.len().div_ceil(groups);
-    let mut parts: Vec<(&[(u64, usize)], &mut [u8])> = Vec::with_capacity(groups);
+    let mut parts: Vec<(&[Range], &mut [u8])> = Vec::with_capacity(groups);
     let (mut rest_plan, mut rest) = (plan, dest);
     while !rest_plan.is_empty() {
         let (mut k, mut bytes) = (0, 0usize);
@@ -104,12 +107,13 @@ fn read_all(file: &std::fs::File, plan: &[(u64, usize)], dest: &mut [u8], thread
     std::thread::scope(|s| {
         let handles: Vec<_> = parts.map(|(p, d)| s.spawn(move || read_group(file, p, d))).collect();
         let mine = first.map_or(Ok(()), |(p, d)| read_group(file, p, d));
-        let theirs = handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err((false, "a read thread failed".into()))));
+        let theirs =
+            handles.into_iter().map(|h| h.join().unwrap_or_else(|_| Err((false, "a read thread failed".into()))));
         std::iter::once(mine).chain(theirs).collect::<Result<(), ReadError>>()
     })
 }
 
-fn read_group(file: &std::fs::File, plan: &[(u64, usize)], dest: &mut [u8]) -> Result<(), ReadError> {
+fn read_group(file: &std::fs::File, plan: &[Range], dest: &mut [u8]) -> Result<(), ReadError> {
     let mut at = 0usize;
     for &(offset, len) in plan {
         read_at(file, offset, &mut dest[at..at + len])?;
@@ -139,7 +143,7 @@ fn read_at(_file: &std::fs::File, _offset: u64, _bytes: &mut [u8]) -> Result<(),
 /// Samples `[a, b)` of every `(a, b)` in `ranges` of the channel described by `extents` (any numeric
 /// type, segments, interleaved rows, scaling), concatenated as float64: what `Extents.read` gives for
 /// each range, in one call from the open file `fd` (duplicated for the call, left open), without the
-/// GIL, one byte cache (and its memory) shared by the ranges. A range it cannot read (past the
+/// GIL, one byte cache (and its memory) shared by the ranges, only the bytes of each range read. A range it cannot read (past the
 /// channel's end, a file truncated since) is a `ValueError` starting "a:b: ".
 #[pyfunction]
 pub(crate) fn extents_read_ranges<'py>(
@@ -148,7 +152,14 @@ pub(crate) fn extents_read_ranges<'py>(
     fd: i32,
     ranges: Vec<(u64, u64)>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let inner = extents.get().inner.clone();
+    // A run of one channel's contiguous samples (not interleaved) is described as its own chunk: a piece
+    // is then read alone, not with the whole chunk of the channels it shares (a TDMS segment, up to
+    // 1 MiB) as a block of windows reads it: the same bytes, so the same values.
+    let mut inner = (*extents.get().inner).clone();
+    let w = inner.num.width();
+    for e in inner.parts.iter_mut().filter(|e| e.stride == w) {
+        e.chunk = (e.offset, e.offset.saturating_add(e.count.saturating_mul(w)));
+    }
     let file = dup_fd(fd)?;
     let got = py.detach(move || {
         let total = ranges.iter().map(|&(a, b)| b.saturating_sub(a)).sum::<u64>();
