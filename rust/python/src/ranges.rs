@@ -92,7 +92,8 @@ fn read_all(file: &std::fs::File, plan: &[Range], dest: &mut [u8], threads: usiz
     let (mut rest_plan, mut rest) = (plan, dest);
     while !rest_plan.is_empty() {
         let (mut k, mut bytes) = (0, 0usize);
-        while k < rest_plan.len() && (bytes < per || k == 0) {
+        let last = parts.len() + 1 == groups; // the last group takes the rest: never more groups than threads
+        while k < rest_plan.len() && (last || bytes < per || k == 0) {
             bytes += rest_plan[k].1;
             k += 1;
         }
