@@ -286,8 +286,8 @@ def _direct_profile(segs: list, max_lag: int) -> tuple:
 @pytest.mark.fast
 @pytest.mark.parametrize("n", [101, 160])
 def test_lag_profile_is_the_direct_lagged_sums(n: int) -> None:
-    # issue 38 point 2: the FFT is only as long as the lags need (n + max_lag + 1, 2^a 3^b 5^c) and takes the windows
-    # a few at a time; no lag wraps round, and windows out of the kernel's range (or holding NaN) are left out
+    # issue 38 point 2: the FFT is only as long as the lags need (n + max_lag + 1, 2^a 3^b 5^c), each window on its own
+    # (in the Rust core); no lag wraps round, and windows out of the kernel's range (or holding NaN) are left out
     rng = np.random.default_rng(n)
     segs = []
     for k in range(11):
@@ -338,3 +338,20 @@ def test_the_kernels_lagged_sums_refuse_bad_input_with_an_error() -> None:
         tribodyn._core.lagged_sums(y, y, 4, 0.0)
     with pytest.raises(ValueError):
         tribodyn._core.lagged_sums(np.asfortranarray(np.ones((4, 10))), y, 4, 1.0)
+
+
+@pytest.mark.fast
+def test_a_short_first_window_is_left_out_of_the_profile_not_the_rest() -> None:
+    # the windows of one length longer than 2 max_lag are taken: a first pair too short for the lags is skipped
+    rng = np.random.default_rng(5)
+    segs = []
+    for _ in range(8):
+        z = 5.0 + rng.standard_normal(200)
+        segs.append((0.1 * np.roll(z, 2) + 0.05 * rng.standard_normal(200), z))
+    whole = lag_profile(segs, 60)
+    short = lag_profile([(segs[0][0][:100], segs[0][1][:100]), *segs], 60)
+    rows = lag_profile((np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])), 60)
+    assert whole is not None and short is not None and rows is not None
+    assert whole.windows == short.windows == rows.windows == 8
+    np.testing.assert_array_equal(short.b, whole.b)
+    np.testing.assert_array_equal(rows.r, whole.r)

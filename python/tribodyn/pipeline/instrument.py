@@ -63,8 +63,8 @@ class LagProfile:
 def lag_profile(segments: Union[Tuple[np.ndarray, np.ndarray], Sequence[Tuple[np.ndarray, np.ndarray]]],
                 max_lag: int) -> Optional[LagProfile]:  # fmt: skip
     """The instrument's strength and IV slope at every lag 0..max_lag over ``segments``: windows of (fy, fz) of
-    one length, as the two (windows, n) arrays :func:`sample_windows` gives or a sequence of (fy, fz) pairs (those
-    of the first pair's length, longer than 2 max_lag, are taken).
+    one length, as the two (windows, n) arrays :func:`sample_windows` gives or a sequence of (fy, fz) pairs (of
+    those longer than 2 max_lag, the ones of the first one's length are taken).
 
     Per window (centred), A(L) = sum_t z_t z_{t-L} and C(L) = sum_t y_t z_{t-L}
     (t >= L; by FFT); r(L) = median over windows of (A(L) / (n - L)) / (A(0) / n);
@@ -75,7 +75,7 @@ def lag_profile(segments: Union[Tuple[np.ndarray, np.ndarray], Sequence[Tuple[np
     """
     if max_lag < 2:
         return None
-    Y, Z = _as_rows(segments)
+    Y, Z = _as_rows(segments, 2 * max_lag + 1)
     n = Y.shape[1]
     if Y.shape[0] < 4 or n <= 2 * max_lag:
         return None
@@ -116,8 +116,9 @@ def lag_profile(segments: Union[Tuple[np.ndarray, np.ndarray], Sequence[Tuple[np
     return LagProfile(r=r, b=b, t=t, ref=ref, windows=k)
 
 
-def _as_rows(segments: Any) -> Tuple[np.ndarray, np.ndarray]:
-    """(Y, Z), (windows, n) C-order float64: ``segments`` as :func:`lag_profile` takes them."""
+def _as_rows(segments: Any, shortest: int = 0) -> Tuple[np.ndarray, np.ndarray]:
+    """(Y, Z), (windows, n) C-order float64: ``segments`` as :func:`lag_profile` takes them (of a sequence of
+    pairs, those of ``shortest`` samples or more, of the first such pair's length)."""
     if (
         isinstance(segments, tuple)
         and len(segments) == 2
@@ -128,7 +129,7 @@ def _as_rows(segments: Any) -> Tuple[np.ndarray, np.ndarray]:
             raise ValueError(f"fy and fz windows must have one shape, got {Y.shape} and {Z.shape}")
         return Y, Z
     segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
-    segs = [(y, z) for y, z in segs if y.ndim == 1 and y.size == z.size]
+    segs = [(y, z) for y, z in segs if y.ndim == 1 and y.size == z.size and y.size >= shortest]
     n = segs[0][0].size if segs else 0
     segs = [(y, z) for y, z in segs if y.size == n]  # one length: the first window's
     if not segs:

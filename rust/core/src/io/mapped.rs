@@ -171,6 +171,9 @@ pub struct Extents {
 
 /// A chunk at most this long is read whole, once for all channels.
 const SMALL_CHUNK: u64 = 1 << 20;
+/// A chunk longer than this is not read whole for less than half of a channel's run in it (a read per channel
+/// then costs less than the rest of the chunk's bytes).
+const SHORT_CHUNK: u64 = 32 << 10;
 /// Longest span of small chunks at a fixed distance read at once.
 const SPAN_CAP: u64 = 4 << 20;
 
@@ -282,7 +285,10 @@ impl Extents {
             // one channel) is shared with nothing: read only the samples
             // asked for, not the whole chunk once per block that touches it.
             let own = e.stride == w && chunk.0 == offset && chunk.1 - chunk.0 == e.count * w;
-            if chunk.1 - chunk.0 <= SMALL_CHUNK && !own {
+            // Nor is a small chunk read whole for a short part of a run of its own: a window of 2 s from a
+            // segment of 10 s reads its samples of each channel, not the segment's every channel.
+            let short = e.stride == w && 2 * k < e.count && chunk.1 - chunk.0 > SHORT_CHUNK;
+            if chunk.1 - chunk.0 <= SMALL_CHUNK && !own && !short {
                 // The chunks of the repetitions this read goes on into lie at
                 // a fixed distance (a logger's segments): when the bytes
                 // between them are few, one read of the span serves them all.
@@ -964,6 +970,66 @@ mod tests {
                 assert_eq!(out, want, "{num:?} {a}..{b}");
                 let held: usize = cache.entries[..cache.used].iter().map(|e| e.2.len()).sum();
                 assert!(held as u64 <= (b - a) * w, "{num:?} {a}..{b}: {held} bytes read for {} samples", b - a);
+            }
+            std::fs::remove_file(path).unwrap();
+        }
+    }
+
+    #[test]
+    fn a_short_part_of_a_channels_run_in_a_shared_chunk_is_read_alone() {
+        // 6 segments: a 40-byte head, then 5000 samples of channel A and 5000 of B (one chunk, both channels)
+        let (segs, per, head) = (6u64, 5000u64, 40u64);
+        for (num, big, w) in [(Num::F64, false, 8u64), (Num::I32, true, 4)] {
+            let mut bytes = Vec::new();
+            for sgm in 0..segs {
+                bytes.extend(vec![0x55u8; head as usize]);
+                for ch in 0..2u64 {
+                    for j in 0..per {
+                        let v = (ch * 100_000 + sgm * per + j) as i32;
+                        match num {
+                            Num::F64 => bytes.extend((v as f64).to_le_bytes()),
+                            _ => bytes.extend(v.to_be_bytes()),
+                        }
+                    }
+                }
+            }
+            let (path, file) = temp_file(&bytes);
+            let len = 2 * per * w;
+            let ext = |ch: u64| Extents {
+                num,
+                big_endian: big,
+                parts: vec![Extent {
+                    start: 0,
+                    count: per,
+                    offset: head + ch * per * w,
+                    stride: w,
+                    chunk: (head, head + len),
+                    reps: segs,
+                    period: head + len,
+                }],
+                ops: Vec::new(),
+            };
+            for ch in 0..2u64 {
+                let e = ext(ch);
+                e.check(bytes.len() as u64).unwrap();
+                for (a, b) in [(2100u64, 2300u64), (4999, 5001), (0, 400)] {
+                    let (mut out, mut cache) = (Vec::new(), ByteCache::default());
+                    cache.begin();
+                    e.read(&file, a, b, &mut out, &mut cache).unwrap();
+                    let want: Vec<f64> = (a..b).map(|i| (ch * 100_000 + i) as f64).collect();
+                    assert_eq!(out, want, "{num:?} channel {ch} {a}..{b}");
+                    let held: u64 = cache.entries[..cache.used].iter().map(|x| x.2.len() as u64).sum();
+                    assert!(held <= (b - a) * w, "{num:?} {a}..{b}: {held} bytes held, not the segment's {len}");
+                }
+                // most of a run: the chunk is read once for both channels (kept for the other)
+                let (mut out, mut cache) = (Vec::new(), ByteCache::default());
+                cache.begin();
+                e.read(&file, 5500, 9900, &mut out, &mut cache).unwrap();
+                assert_eq!(out.len(), 4400);
+                if num != Num::F64 || ch == 0 {
+                    let held: u64 = cache.entries[..cache.used].iter().map(|x| x.2.len() as u64).sum();
+                    assert_eq!(held, len, "{num:?} channel {ch}: the whole chunk");
+                }
             }
             std::fs::remove_file(path).unwrap();
         }
