@@ -584,3 +584,20 @@ def test_unwritable_parent_is_one_line(tmp_path, rec, capsys):
         assert "Permission denied" in error_line(capsys.readouterr().err)
     finally:
         ro.chmod(0o755)
+
+
+@pytest.mark.fast
+def test_a_missing_extension_is_one_line_and_exit_2(tmp_path):
+    # import tribodyn loads the compiled core on first use: a package without it (a broken install, a build for
+    # another Python) must still answer a command in one line, not with a traceback
+    pkg = tmp_path / "site"
+    shutil.copytree(Path(cli.__file__).parents[1], pkg / "tribodyn",
+                    ignore=shutil.ignore_patterns("_core*.so", "_core*.pyd", "__pycache__"))  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(pkg)}
+    cmd = [sys.executable, "-m", "tribodyn", "analyze", str(tmp_path / "x.csv"), "--out", str(tmp_path / "o")]
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert p.returncode == 2, p.stderr
+    assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr
+    assert "compiled extension (tribodyn._core) cannot be loaded" in p.stderr
+    v = subprocess.run([sys.executable, "-m", "tribodyn", "--version"], capture_output=True, text=True, env=env)
+    assert v.returncode == 0 and v.stdout.startswith("tribodyn ")

@@ -1164,6 +1164,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if ns.command is None:
         parser.print_help()
         return EXIT_USER_ERROR
+    broken = _extension_missing()
+    if broken:
+        print(f"tribodyn: error: {broken}", file=sys.stderr)
+        return EXIT_USER_ERROR
     try:
         return _run(ns)
     except KeyboardInterrupt:
@@ -1176,6 +1180,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             raise
         print(f"tribodyn: error: {_one_line(_cli_words(_error_text(exc)))}", file=sys.stderr)
         return EXIT_USER_ERROR
+
+
+def _extension_missing() -> str:
+    """Why the compiled extension ``tribodyn._core`` cannot be loaded, in one line, or "" (``import tribodyn``
+    loads it on first use, so a broken install shows here, not in a traceback of the command)."""
+    try:
+        from .. import _core  # noqa: F401 - loaded to check it loads
+    except ImportError as exc:
+        return (f"tribodyn's compiled extension (tribodyn._core) cannot be loaded ({_one_line(str(exc))}): "
+                f"reinstall tribodyn for this Python ({sys.version.split()[0]}, {sys.executable})")  # fmt: skip
+    return ""
 
 
 # The staging/aside folders of tribodyn.app.outputs: errors name the output folder instead.
