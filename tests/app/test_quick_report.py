@@ -240,3 +240,46 @@ def test_a_folder_opens_each_recording_once_with_analyze_manys_tables(tmp_path, 
         stem = f.rsplit("/", 1)[-1].rsplit(".", 1)[0]
         got = (tmp_path / "out" / stem / "windows.csv").read_bytes()
         assert got == (tmp_path / "expected.csv").read_bytes(), f
+
+
+def _csv_module_text(results, extra=None) -> bytes:
+    """windows.csv as csv.writer (the excel dialect) writes the cells of ``write_table_csv``: the reference."""
+    import csv
+    import io
+
+    from tribodyn.app import outputs
+
+    cols = outputs._columns(results, extra)
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow([outputs._safe_text(str(n)) for n in cols])
+    w.writerows(zip(*(outputs._column_cells(v) for v in cols.values())))
+    return buf.getvalue().encode("utf-8")
+
+
+@pytest.mark.fast
+def test_windows_csv_is_the_text_of_the_csv_module(tmp_path, temp_res):
+    """windows.csv, built a line at a time (issue 38 point 3), is byte for byte what csv.writer writes of the same
+    cells: floats as repr (17 significant digits, round trip), NaN empty, bools, integers, and text cells quoted as
+    csv quotes them (a comma, a quote, CR or LF in a recording's name or a reason), formula starts made safe; also
+    with no row, and with one column (csv quotes a row of one empty field)."""
+    from tribodyn.app.outputs import write_table_csv
+
+    class Table:  # what write_table_csv reads of a Results: its table and its length
+        def __init__(self, table):
+            self.table = table
+
+        def __len__(self):
+            return len(next(iter(self.table.values())))
+
+    n = len(temp_res)
+    names = np.array(["a,b", 'x"y', "=1+2", "l\nf", "c\rr", "", " s", "é;t", "'q"] * n)[:n]
+    empty = Table({k: np.asarray(v)[:0] for k, v in temp_res.table.items()})
+    out = tmp_path / "w.csv"
+    for res, extra in ((temp_res, None), (temp_res, {"recording": names}), (empty, {"recording": names[:0]})):
+        write_table_csv(res, out, extra=extra)
+        assert out.read_bytes() == _csv_module_text(res, extra)
+    assert b'"a,b"' in _csv_module_text(temp_res, {"recording": names})  # (the cases above reach the quoting)
+    one = Table({"reasons": np.array(["", "a,b"])})
+    write_table_csv(one, out)
+    assert out.read_bytes() == _csv_module_text(one) == b'reasons\r\n""\r\n"a,b"\r\n'
