@@ -13,9 +13,10 @@ reads the headline; ``cli``: ``python -m tribodyn analyze FILE --out DIR -q``):
   DIR/*`` (default figures, and ``--figures none``) against one process that analyses them one after the other
   with the API;
 * ``h10``: 10 h at 1 kHz, 4 channels ``.npy`` (1.15 GB, ``bench_fixed_costs.ensure_data`` in ``--data``), api
-  and cli (skipped with ``--no-long``): its 5 PNG figures are drawn by worker processes too when a core is free
-  (``jobs._drawing_pool``, issue 38 point 3; their CPU is in the process tree's), and this build's cli again with
-  ``TRIBODYN_DRAW_WORKERS`` = each of ``--workers`` (workers whatever the load).
+  and cli, by default and with ``--figures none`` (skipped with ``--no-long``): its 5 PNG figures are drawn by
+  worker processes too when a core is free (``jobs._drawing_pool``, issue 38 point 3; their CPU is in the process
+  tree's), and this build's cli again with ``TRIBODYN_DRAW_WORKERS`` = each of ``--workers`` (workers whatever the
+  load).
 
 ``--long FILE``: that ``.npy`` recording ((4, n) float64 at 1 kHz: fx, fy, fz, i) instead of ``--data``'s 10 h one
 (``benches/device_scaling.py`` passes the one it writes); ``--no-small`` leaves out the small export's cases;
@@ -114,6 +115,7 @@ def cases(args: argparse.Namespace, builds: Dict[str, str], work: Path) -> Dict[
             name = Path(args.long).name if args.long else "h10"
             out[f"{b}|api {name}"] = [sys.executable, "-c", API, h10]
             out[f"{b}|cli {name}"] = cli([h10], work / f"{tag}-h10")
+            out[f"{b}|cli {name} --figures none"] = cli([h10], work / f"{tag}-h10-none", "--figures", "none")
             if b == "this build":  # the drawing workers whatever the load (the default starts none on busy cores)
                 for n in args.workers:
                     out[f"{b}|cli {name}, {n} drawing workers"] = (
