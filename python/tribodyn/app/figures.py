@@ -1437,14 +1437,28 @@ def _tick_text(axis: Any, renderer: Any) -> Tuple[float, float, float, float, fl
     return wide, tall, before, after, off_h
 
 
-def fixed_layout(fig: Figure, *, rounds: int = 3) -> bool:
+def fixed_layout(fig: Figure, *, dpi: float = DPI, rounds: int = 3) -> bool:
     """Lays out a simple grid of axes (:func:`_axes_grid`) once, with margins measured from what it shows: the
     tick labels the next drawing makes (their locator and formatter, not the tick artists), the axis labels, the
     titles, the offset texts and the suptitle; then switches constrained layout off. The same space around the
     axes as constrained layout gives (its paddings), at a fraction of its cost: it measures every tick label of
     every axes twice in each drawing (~20 % of drawing the report's window diagnostics; issue 38 point 3).
-    Repeated (at most ``rounds`` times) while the measured margins change the tick labels. Returns False (the
-    figure untouched) for any other figure."""
+    Repeated (at most ``rounds`` times) while the measured margins change the tick labels. Measured at ``dpi``,
+    the drawing's: its text metrics and parsed mathtext are then Matplotlib's cached ones when it draws (at
+    another dpi every mathtext label would be parsed twice). Returns False (the figure untouched) for any other
+    figure."""
+    if _axes_grid(fig) is None:
+        return False
+    before = fig.dpi
+    fig.dpi = dpi
+    try:
+        return _fixed_layout(fig, rounds)
+    finally:
+        fig.dpi = before
+
+
+def _fixed_layout(fig: Figure, rounds: int) -> bool:
+    """:func:`fixed_layout` at the figure's dpi."""
     from matplotlib import rcParams
 
     rc: Any = rcParams
