@@ -17,15 +17,11 @@ How the modules fit together: docs/architecture.md.
 import importlib as _importlib
 import typing as _typing
 
-from .analyses.compare import compare
-
-# analyze, identify and compare share their names with their modules: loading a submodule
-# sets the package's attribute of that name, so the functions are bound first.
-from .pipeline.analyze import analyze
-from .pipeline.identify import identify
-
 #: Public name -> the module (relative) it comes from, imported on first use.
 _LAZY = {
+    "analyze": "pipeline.analyze",
+    "identify": "pipeline.identify",
+    "compare": "analyses.compare",
     "xcorr": "kernels.correlation",
     "XcorrResult": "kernels.correlation",
     "pearson": "kernels.correlation",
@@ -135,6 +131,9 @@ __all__ = [
 ]
 
 if _typing.TYPE_CHECKING:  # what the lazy names are, for type checkers
+    from .analyses.compare import compare
+    from .pipeline.analyze import analyze
+    from .pipeline.identify import identify
     from . import columns
     from .analyses.compare import Comparison, Precision, Replicate
     from .analyses.ranges import BranchFit, Hysteresis, OperatingRange, RangeCurve, operating_range

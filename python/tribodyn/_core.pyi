@@ -32,6 +32,7 @@ __all__ = [
     "linfit",
     "pearson",
     "row_quantiles",
+    "lagged_sums",
     "resample_stats",
     "select_ranks",
     "histogram_uniform",
@@ -80,6 +81,10 @@ def xcorr_auto_method(n: int, max_lag: int) -> str:
 
 def row_quantiles(x: _F64, qs: list[float], *, threads: int | None = None) -> tuple[_F64, _F64]:
     """Per row, ignoring NaN: the median and the quantiles qs (fractions), NumPy's values bit for bit."""
+
+def lagged_sums(y: _F64, z: _F64, max_lag: int, scale: float, *, threads: int | None = None) -> tuple[_F64, _F64]:
+    """(A, C), (windows, max_lag + 1): per row of y and z (C order), divided by scale and centred,
+    A(L) = sum_t z_t z_(t-L) and C(L) = sum_t y_t z_(t-L), by FFT (the instrument's lag profile)."""
 
 def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None, threads: int | None = None) -> _F64 | None:
     """The values of ranks ks (0-based, ascending) of a 1-D array (with centre: of |x - centre|), exactly;

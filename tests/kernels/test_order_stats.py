@@ -172,6 +172,9 @@ def _resample_cases(rng: np.random.Generator):
         dn = rng.normal(size=n) * 3.0
         yield v, R.NoiseResample(var=var, index=index, dnoise=dn)
         yield w, R.NoiseResample(var=np.full(m, np.nan), index=index, dnoise=dn)  # no noise estimate at all
+        # quantised values and noise measurements (many ties: the counting path's order statistics)
+        yield np.round(v, 2), None
+        yield np.round(v, 2), R.NoiseResample(var=np.round(var, 4), index=index, dnoise=dn)
 
 
 @pytest.mark.parametrize("threads", [1, 2])

@@ -306,10 +306,35 @@ def test_lag_profile_is_the_direct_lagged_sums(n: int) -> None:
 
 
 @pytest.mark.fast
-def test_the_profiles_fft_length_is_the_next_2_3_5_smooth_number() -> None:
-    from tribodyn.pipeline.instrument import _fft_length
+@pytest.mark.parametrize("n", [2000, 157, 12])
+def test_the_kernels_lagged_sums_are_the_direct_sums_with_the_same_bits_at_any_thread_count(n: int) -> None:
+    # issue 38 point 2: the lag profile's FFTs in the Rust core (2^a 3^b 5^c long: 3000 for 2 s windows at 1 kHz),
+    # each window on its own: no lag wraps round, and the thread count changes no bit
+    rng = np.random.default_rng(n)
+    k, max_lag, scale = 6, (n - 1) // 2, 3.5
+    z = 5.0 + rng.standard_normal((k, n)) + 0.5 * np.sin(np.arange(n) / 4.0)
+    y = 0.1 * z + 0.05 * rng.standard_normal((k, n))
+    A1, C1 = tribodyn._core.lagged_sums(y, z, max_lag, scale, threads=1)
+    A2, C2 = tribodyn._core.lagged_sums(y, z, max_lag, scale, threads=2)
+    assert A1.shape == C1.shape == (k, max_lag + 1)
+    assert A1.tobytes() == A2.tobytes() and C1.tobytes() == C2.tobytes()
+    yc = y / scale - (y / scale).mean(axis=1, keepdims=True)
+    zc = z / scale - (z / scale).mean(axis=1, keepdims=True)
+    for lag in (0, 1, max_lag // 2, max_lag):
+        a = np.sum(zc[:, lag:] * zc[:, : n - lag], axis=1)
+        c = np.sum(yc[:, lag:] * zc[:, : n - lag], axis=1)
+        np.testing.assert_allclose(A1[:, lag], a, rtol=0, atol=1e-12 * A1[:, 0].max())
+        np.testing.assert_allclose(C1[:, lag], c, rtol=0, atol=1e-12 * A1[:, 0].max())
 
-    smooth = sorted({2**a * 3**b * 5**c for a in range(14) for b in range(9) for c in range(7)})
-    for want in range(1, 6000):
-        assert _fft_length(want) == next(s for s in smooth if s >= want)
-    assert _fft_length(2000 + 999 + 1) == 3000  # 2 s windows at 1 kHz (a power of two: 4096)
+
+@pytest.mark.fast
+def test_the_kernels_lagged_sums_refuse_bad_input_with_an_error() -> None:
+    y = np.ones((4, 10))
+    with pytest.raises(ValueError, match="shape"):
+        tribodyn._core.lagged_sums(y, np.ones((4, 9)), 4, 1.0)
+    with pytest.raises(ValueError):
+        tribodyn._core.lagged_sums(y, y, 10, 1.0)  # no lag of a window's length
+    with pytest.raises(ValueError, match="scale"):
+        tribodyn._core.lagged_sums(y, y, 4, 0.0)
+    with pytest.raises(ValueError):
+        tribodyn._core.lagged_sums(np.asfortranarray(np.ones((4, 10))), y, 4, 1.0)

@@ -14,9 +14,12 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
-from typing import Any, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, List, Mapping, Optional, Sequence, Tuple, Union
 
 import numpy as np
+
+from .. import _core
+from ..kernels.threads import resolve_threads
 
 __all__ = [
     "STRONG",
@@ -57,8 +60,11 @@ class LagProfile:
     windows: int
 
 
-def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int) -> Optional[LagProfile]:
-    """The instrument's strength and IV slope at every lag 0..max_lag over ``segments`` (fy, fz) of equal length.
+def lag_profile(segments: Union[Tuple[np.ndarray, np.ndarray], Sequence[Tuple[np.ndarray, np.ndarray]]],
+                max_lag: int) -> Optional[LagProfile]:  # fmt: skip
+    """The instrument's strength and IV slope at every lag 0..max_lag over ``segments``: windows of (fy, fz) of
+    one length, as the two (windows, n) arrays :func:`sample_windows` gives or a sequence of (fy, fz) pairs (those
+    of the first pair's length, longer than 2 max_lag, are taken).
 
     Per window (centred), A(L) = sum_t z_t z_{t-L} and C(L) = sum_t y_t z_{t-L}
     (t >= L; by FFT); r(L) = median over windows of (A(L) / (n - L)) / (A(0) / n);
@@ -67,28 +73,25 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
     (b(L) - b(ref)) over the batch-means standard error of that difference
     with the windows as batches. None with fewer than 4 windows or max_lag < 2.
     """
-    from ..io.sample import in_range
-
     if max_lag < 2:
         return None
-    segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
-    segs = [(y, z) for y, z in segs if y.size == z.size and y.size > 2 * max_lag]
-    got = _in_range_rows(segs)
-    if got is None:
-        # a window holding a sample beyond the kernel's range is out of range (docs/method.md 4)
-        segs = [(y, z) for y, z in segs if in_range(y, z)]
-        if len(segs) < 4:
-            return None
-        n = segs[0][0].size
-        segs = [(y, z) for y, z in segs if y.size == n]
-        top = max(max(float(z.max()), -float(z.min())) for _, z in segs)
-    else:
-        segs, top = got
-        if len(segs) < 4:
-            return None
-    k, n = len(segs), segs[0][0].size
+    Y, Z = _as_rows(segments)
+    n = Y.shape[1]
+    if Y.shape[0] < 4 or n <= 2 * max_lag:
+        return None
+    lim = _core.FORCE_LIMIT
+    # a window holding a sample beyond the kernel's range (or NaN, which fails the comparisons) is left out
+    # (docs/method.md 4)
+    zmin, zmax = Z.min(axis=1), Z.max(axis=1)
+    keep = (Y.min(axis=1) >= -lim) & (Y.max(axis=1) <= lim) & (zmin >= -lim) & (zmax <= lim)
+    if int(keep.sum()) < 4:
+        return None
+    if not keep.all():
+        Y, Z, zmin, zmax = Y[keep], Z[keep], zmin[keep], zmax[keep]
+    top = max(float(zmax.max()), -float(zmin.min()))
+    k = Y.shape[0]
     scale = top or 1.0  # max |z|: r and b do not depend on a common scale
-    A, C = _lagged_sums(segs, scale, max_lag)
+    A, C = _core.lagged_sums(Y, Z, max_lag, scale, threads=resolve_threads())  # by FFT, no lag wrapping round
     lags = np.arange(max_lag + 1)
     with np.errstate(invalid="ignore", divide="ignore"):
         # (A(L) / (n - L)) / (A(0) / n) per window, laid out lag by window for the medians over the windows
@@ -113,71 +116,24 @@ def lag_profile(segments: Sequence[Tuple[np.ndarray, np.ndarray]], max_lag: int)
     return LagProfile(r=r, b=b, t=t, ref=ref, windows=k)
 
 
-#: Windows transformed at a time by :func:`_lagged_sums` (its buffers stay small: a few hundred kB).
-FFT_BLOCK = 4
-
-
-def _lagged_sums(segs: Sequence[Tuple[np.ndarray, np.ndarray]], scale: float, max_lag: int
-                 ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
-    """(A, C), shape (windows, max_lag + 1): A(L) = sum_t z_t z_{t-L} and C(L) = sum_t y_t z_{t-L} of each
-    window (fy, fz) of ``segs`` divided by ``scale`` and centred, by FFT zero-padded to m >= n + max_lag + 1
-    (no lag up to max_lag wraps round), :data:`FFT_BLOCK` windows at a time."""
-    k, n = len(segs), segs[0][0].size
-    m = _fft_length(n + max_lag + 1)
-    A, C = np.empty((k, max_lag + 1)), np.empty((k, max_lag + 1))
-    blk = np.empty((2, min(FFT_BLOCK, k), n))
-    for j0 in range(0, k, FFT_BLOCK):
-        part = segs[j0 : j0 + FFT_BLOCK]
-        yz = blk[:, : len(part)]
-        for j, (y, z) in enumerate(part):
-            yz[0, j] = y
-            yz[1, j] = z
-        yz /= scale
-        yz -= yz.mean(axis=2, keepdims=True)  # each window centred (its mean: the same pairwise sum as y.mean())
-        S = np.fft.rfft(yz, m)  # fy's and fz's spectra
-        S *= np.conj(S[1])  # fy's and fz's against fz's
-        out = np.fft.irfft(S, m)
-        C[j0 : j0 + len(part)] = out[0, :, : max_lag + 1]
-        A[j0 : j0 + len(part)] = out[1, :, : max_lag + 1]
-    return A, C
-
-
-def _in_range_rows(segs: Sequence[Tuple[np.ndarray, np.ndarray]]
-                   ) -> Optional[Tuple[List[Tuple[np.ndarray, np.ndarray]], float]]:  # fmt: skip
-    """(the windows of ``segs`` within the kernel's range, max |fz| over them) when every window has one length:
-    :func:`~tribodyn.io.sample.in_range` per window from its minima and maxima (a window with NaN fails the
-    comparisons, as there); None for windows of several lengths or none."""
-    from .. import _core
-
-    if not segs or len({y.size for y, _ in segs}) > 1:
-        return None
-    lim = _core.FORCE_LIMIT
-    kept, zmin, zmax = [], [], []
-    for y, z in segs:
-        lo, hi = float(z.min()), float(z.max())
-        if float(y.min()) >= -lim and float(y.max()) <= lim and lo >= -lim and hi <= lim:
-            kept.append((y, z))
-            zmin.append(lo)
-            zmax.append(hi)
-    top = max(max(zmax), -min(zmin)) if kept else 0.0
-    return kept, top
-
-
-def _fft_length(at_least: int) -> int:
-    """The smallest 2^a 3^b 5^c >= ``at_least`` (>= 1): the lag profile's FFT length (NumPy's pocketfft is
-    fastest at such lengths; a power of two is up to 2x longer)."""
-    best = 1 << max(int(at_least) - 1, 0).bit_length()
-    p5 = 1
-    while p5 < best:
-        p35 = p5
-        while p35 < best:
-            q = p35
-            while q < at_least:
-                q *= 2
-            best = min(best, q)
-            p35 *= 3
-        p5 *= 5
-    return best
+def _as_rows(segments: Any) -> Tuple[np.ndarray, np.ndarray]:
+    """(Y, Z), (windows, n) C-order float64: ``segments`` as :func:`lag_profile` takes them."""
+    if (
+        isinstance(segments, tuple)
+        and len(segments) == 2
+        and all(isinstance(a, np.ndarray) and a.ndim == 2 for a in segments)
+    ):
+        Y, Z = (np.ascontiguousarray(a, dtype=float) for a in segments)
+        if Y.shape != Z.shape:
+            raise ValueError(f"fy and fz windows must have one shape, got {Y.shape} and {Z.shape}")
+        return Y, Z
+    segs = [(np.asarray(y, float), np.asarray(z, float)) for y, z in segments]
+    segs = [(y, z) for y, z in segs if y.ndim == 1 and y.size == z.size]
+    n = segs[0][0].size if segs else 0
+    segs = [(y, z) for y, z in segs if y.size == n]  # one length: the first window's
+    if not segs:
+        return np.zeros((0, 0)), np.zeros((0, 0))
+    return np.stack([y for y, _ in segs]), np.stack([z for _, z in segs])
 
 
 def _row_medians(x: np.ndarray) -> np.ndarray:
@@ -222,9 +178,9 @@ def admissible_lags(p: LagProfile, lag: int) -> List[int]:
     slope and every strong lag's up to twice it in agreement with the reference lag's) from ``lag`` up to twice
     the next one it accepts (docs/method.md 3b, 3d); ``lag`` first."""
     ok = _accepted(p)
-    after = [k for k in range(int(lag) + 1, len(p.r)) if ok[k]]
-    top = min(2 * after[0], len(p.r) - 1) if after else int(lag)
-    return [int(lag)] + [k for k in range(int(lag) + 1, top + 1) if ok[k]]
+    after = int(lag) + 1 + np.flatnonzero(ok[int(lag) + 1 :])
+    top = min(2 * int(after[0]), len(p.r) - 1) if after.size else int(lag)
+    return [int(lag)] + [int(k) for k in after[after <= top]]
 
 
 @dataclass(frozen=True)
@@ -277,41 +233,43 @@ def extra_lags(admissible: Sequence[int]) -> Tuple[int, ...]:
 
 
 def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: Optional[int] = None,
-                   limit: int = SAMPLE_WINDOWS) -> List[Tuple[np.ndarray, np.ndarray]]:  # fmt: skip
-    """The first ``limit`` windows of ``length`` samples of (fy, fz), tiling, never across two acquisitions.
+                   limit: int = SAMPLE_WINDOWS) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The first ``limit`` windows of ``length`` samples of (fy, fz), tiling, never across two acquisitions: two
+    (windows, length) float64 arrays, one window a row (:func:`lag_profile` takes them as they are).
 
     ``source`` a mapping of arrays or a list of them (acquisitions), or
-    ``rec`` a recording (its segments are acquisitions); [] for a one-pass
-    stream (which cannot be read twice: the plan's default lag then).
+    ``rec`` a recording (its segments are acquisitions); no window for a
+    one-pass stream (which cannot be read twice: the plan's default lag then).
     """
+    none = np.zeros((0, max(int(length), 0)))
     if rec is not None:
         if not all(r in getattr(rec, "roles", {}) for r in ("fy", "fz")):
-            return []
+            return none, none
         n_tot = int(rec.n_samples) if stop is None else min(int(stop), int(rec.n_samples))
         segs = getattr(rec, "segments", None) or [(0, n_tot)]
         ranges = _spread([(max(a, start), min(b, n_tot)) for a, b in segs], length, limit)
         if not ranges:
-            return []
+            return none, none
         lo, hi = ranges[0][0], ranges[-1][1]
         if getattr(rec, "random_access", False) and hasattr(rec, "read_ranges"):  # as the pre-pass reads
             got = rec.read_ranges(ranges, ["fy", "fz"])
-            fy, fz = np.asarray(got["fy"], float), np.asarray(got["fz"], float)
-            return [(fy[k * length : (k + 1) * length], fz[k * length : (k + 1) * length]) for k in range(len(ranges))]
+            shape = (len(ranges), length)
+            return np.asarray(got["fy"], float).reshape(shape), np.asarray(got["fz"], float).reshape(shape)
         if getattr(rec, "random_access", False):
             parts = list(rec.chunks(hi - lo, ["fy", "fz"], start=lo, stop=hi))
         else:  # from the start: the first windows only
             parts, lo = list(rec.chunks(hi, ["fy", "fz"], stop=hi)), 0
         fy = np.concatenate([np.asarray(p["fy"], float) for p in parts])
         fz = np.concatenate([np.asarray(p["fz"], float) for p in parts])
-        return [(fy[a - lo : b - lo], fz[a - lo : b - lo]) for a, b in ranges]
+        return _rows(fy, fz, [(a - lo, b - lo) for a, b in ranges], length)
     if isinstance(source, Mapping):
         acqs: Sequence[Any] = [source]
     elif isinstance(source, (list, tuple)) and source and all(isinstance(a, Mapping) for a in source):
         acqs = source
     else:
-        return []
+        return none, none
     if not all("fy" in a and "fz" in a for a in acqs):
-        return []
+        return none, none
     bounds, at = [], 0
     for a in acqs:
         size = min(len(a["fy"]), len(a["fz"]))
@@ -319,13 +277,23 @@ def sample_windows(source: Any, rec: Any, length: int, *, start: int = 0, stop: 
         at += size
     if len(acqs) == 1:
         bounds = [(max(start, 0), bounds[0][1] if stop is None else min(stop, bounds[0][1]))]
-    out = []
-    for a, b in _spread(bounds, length, limit):
+    ranges = _spread(bounds, length, limit)
+    Y, Z = np.empty((len(ranges), length)), np.empty((len(ranges), length))
+    for j, (a, b) in enumerate(ranges):
         k = next(i for i, (u, v) in enumerate(bounds) if u <= a < v) if len(acqs) > 1 else 0
         off = a - (bounds[k][0] if len(acqs) > 1 else 0)
-        acq = acqs[k]
-        out.append((np.asarray(acq["fy"][off : off + length], float), np.asarray(acq["fz"][off : off + length], float)))
-    return out
+        Y[j] = acqs[k]["fy"][off : off + length]
+        Z[j] = acqs[k]["fz"][off : off + length]
+    return Y, Z
+
+
+def _rows(fy: np.ndarray, fz: np.ndarray, ranges: Sequence[Tuple[int, int]], length: int
+          ) -> Tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """The ``ranges`` (each ``length`` samples) of ``fy`` and ``fz`` as the rows of two arrays."""
+    Y, Z = np.empty((len(ranges), length)), np.empty((len(ranges), length))
+    for j, (a, b) in enumerate(ranges):
+        Y[j], Z[j] = fy[a:b], fz[a:b]
+    return Y, Z
 
 
 def lag_sample_held(rec: Any, length: int, n: int) -> bool:

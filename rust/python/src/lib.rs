@@ -17,7 +17,7 @@
 //! `files.rs`.
 
 use numpy::{
-    PyArray1, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2,
+    PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArrayDyn, PyReadwriteArray2,
     PyReadwriteArray3, PyUntypedArrayMethods,
 };
 use pyo3::exceptions::{PyMemoryError, PyOSError, PyTypeError, PyValueError};
@@ -32,6 +32,7 @@ use tribodyn_core::numerics::bootstrap;
 use tribodyn_core::numerics::correlation::{self, Method};
 use tribodyn_core::numerics::extended;
 use tribodyn_core::numerics::iir;
+use tribodyn_core::numerics::lagprofile;
 use tribodyn_core::numerics::order;
 use tribodyn_core::numerics::peaks;
 use tribodyn_core::numerics::regression::{self, LinFit, Moments};
@@ -223,6 +224,40 @@ fn select_ranks<'py>(
         .map_err(to_py)?
         .map_err(to_py)?;
     Ok(got.map(|v| PyArray1::from_vec(py, v)))
+}
+
+/// Two 2-D float64 arrays.
+type Pair2<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
+
+/// The lag profile's lagged sums (tribodyn.pipeline.instrument.lag_profile, docs/method.md 3b): of each row of
+/// `y` and `z` ((windows, n) float64, C order), divided by `scale` and centred, A(L) = sum_t z_t z_(t-L) and
+/// C(L) = sum_t y_t z_(t-L) for L = 0..max_lag, by FFT: two (windows, max_lag + 1) arrays (A, C).
+#[pyfunction]
+#[pyo3(signature = (y, z, max_lag, scale, *, threads=None))]
+fn lagged_sums<'py>(
+    py: Python<'py>,
+    y: PyReadonlyArray2<'py, f64>,
+    z: PyReadonlyArray2<'py, f64>,
+    max_lag: usize,
+    scale: f64,
+    threads: Option<i64>,
+) -> PyResult<Pair2<'py>> {
+    let threads = threads_of(threads)?;
+    c_order(y.is_c_contiguous(), "y")?;
+    c_order(z.is_c_contiguous(), "z")?;
+    if y.shape() != z.shape() {
+        return Err(bad(format!("y and z must have one shape, got {:?} and {:?}", y.shape(), z.shape())));
+    }
+    let (k, n) = (y.shape()[0], y.shape()[1]);
+    let (ys, zs) = (y.as_slice().map_err(slice_err("y"))?, z.as_slice().map_err(slice_err("z"))?);
+    let (a, c) = py
+        .detach(|| parallel::run_with(threads, || lagprofile::lagged_sums(ys, zs, n.max(1), max_lag, scale)))
+        .map_err(to_py)?
+        .map_err(to_py)?;
+    let shape = [k, max_lag + 1];
+    let a = PyArray1::from_vec(py, a).reshape(shape)?;
+    let c = PyArray1::from_vec(py, c).reshape(shape)?;
+    Ok((a, c))
 }
 
 /// NumPy's histogram of `x` over the uniform `edges` (np.linspace), bit for bit (tribodyn.tribometer._otsu).
@@ -1162,6 +1197,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(xcorr_auto_method, m)?)?;
     m.add_function(wrap_pyfunction!(pearson, m)?)?;
     m.add_function(wrap_pyfunction!(row_quantiles, m)?)?;
+    m.add_function(wrap_pyfunction!(lagged_sums, m)?)?;
     m.add_function(wrap_pyfunction!(resample_stats, m)?)?;
     m.add_function(wrap_pyfunction!(select_ranks, m)?)?;
     m.add_function(wrap_pyfunction!(histogram_uniform, m)?)?;

@@ -6,6 +6,7 @@
 //! - [`windows`]: per-window statistics of a recording (docs/method.md 4-6);
 //! - [`extended`]: sums for the estimators beyond the paper, line spectra and
 //!   the fractional-delay correction (docs/method.md 3a-3e);
+//! - [`lagprofile`]: the lagged sums of the instrument's lag profile (docs/method.md 3b);
 //! - [`peaks`]: local maxima and their prominence (the stick-slip search);
 //! - [`order`]: per-row medians and percentiles as NumPy's (the bootstrap);
 //! - [`bootstrap`]: the moving-block bootstrap's resample statistics;
@@ -18,6 +19,7 @@ pub mod bootstrap;
 pub mod correlation;
 pub mod extended;
 pub mod iir;
+pub mod lagprofile;
 mod lanes;
 pub mod order;
 pub mod peaks;

@@ -68,30 +68,45 @@ fn rank(v: &mut [f64], k: usize, fixed: &mut Vec<usize>) -> f64 {
 
 pub(crate) fn one_row(v: &mut [f64], qs: &[f64], median: &mut f64, out: &mut [f64]) {
     let k = v.len();
+    let mut fixed: Vec<usize> = Vec::with_capacity(8);
+    from_ranks(k, qs, median, out, |j| rank(v, j, &mut fixed));
+}
+
+/// The median and the quantiles `qs` of `k` values whose value of rank j (ascending) `value(j)` gives,
+/// with NumPy's arithmetic (see [`row_quantiles`]); NaN for k = 0. The ranks asked are h = k / 2 (and
+/// h - 1 for an even k), then each quantile's two neighbours, in that order.
+pub(crate) fn from_ranks(k: usize, qs: &[f64], median: &mut f64, out: &mut [f64], mut value: impl FnMut(usize) -> f64) {
     if k == 0 {
         *median = f64::NAN;
         out.iter_mut().for_each(|o| *o = f64::NAN);
         return;
     }
-    let mut fixed: Vec<usize> = Vec::with_capacity(8);
     let h = k / 2;
-    let hi = rank(v, h, &mut fixed);
+    let hi = value(h);
     *median = if k % 2 == 1 {
         (0.0 + (0.0 + hi)) / 1.0
     } else {
-        let lo = rank(v, h - 1, &mut fixed);
+        let lo = value(h - 1);
         (0.0 + ((0.0 + lo) + hi)) / 2.0
     };
     for (o, &q) in out.iter_mut().zip(qs) {
         // numpy.quantile, method "linear": _get_indexes, _get_gamma, _lerp
-        let vi = (k as f64 - 1.0) * q;
-        let prev = vi.floor();
-        let (p, n, g) =
-            if vi >= k as f64 - 1.0 { (k - 1, k - 1, vi + 1.0) } else { (prev as usize, prev as usize + 1, vi - prev) };
-        let a = rank(v, p, &mut fixed);
-        let b = rank(v, n, &mut fixed);
+        let (p, n, g) = quantile_ranks(k, q);
+        let a = value(p);
+        let b = value(n);
         let diff = b - a;
         *o = if g >= 0.5 { b - diff * (1.0 - g) } else { a + diff * g };
+    }
+}
+
+/// The two ranks NumPy's "linear" quantile `q` of `k` values interpolates between, and its weight.
+pub(crate) fn quantile_ranks(k: usize, q: f64) -> (usize, usize, f64) {
+    let vi = (k as f64 - 1.0) * q;
+    let prev = vi.floor();
+    if vi >= k as f64 - 1.0 {
+        (k - 1, k - 1, vi + 1.0)
+    } else {
+        (prev as usize, prev as usize + 1, vi - prev)
     }
 }
 
