@@ -19,7 +19,7 @@ extension ``python/tribodyn/_core.abi3.so`` and a wheelhouse ``.whl/``
    ``benches/bench_cli_export.py --long FILE --no-small --no-folder`` times
    whole processes, ``--cli-rounds`` interleaved rounds: the API, ``tribodyn
    analyze`` with its report as it runs by default (drawing workers on free
-   cores) and with ``TRIBODYN_DRAW_WORKERS`` = each of ``--cli-workers``
+   cores), with ``--figures none``, and with ``TRIBODYN_DRAW_WORKERS`` = each of ``--cli-workers``
    (default 0: every figure drawn in the process). It needs matplotlib and
    pyarrow too, which the wheelhouse does not hold: where the machine lacks
    them the stage says so and is skipped (the others run). ``--cli-budget``
