@@ -407,3 +407,25 @@ def test_the_command_lines_digests_start_before_its_imports(tmp_path, monkeypatc
     assert started[2]._stop.is_set() and not _digests._EARLY
     summary = json.loads((tmp_path / "p" / "summary.json").read_text())
     assert summary["inputs"][0]["sha256"] == hashlib.sha256(a.read_bytes()).hexdigest()
+
+
+@pytest.mark.fast
+def test_fixed_layout_that_fails_leaves_constrained_layout(monkeypatch):
+    """What fixed_layout cannot measure (here: a failing tick measurement) leaves the figure as constrained layout
+    draws it: the same pixels as a figure it never touched."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from tribodyn.app import figures
+
+    rng = np.random.default_rng(2)
+    f = rng.normal(size=(3, 500))
+    untouched = figures.forces_vs_time(*f, 1000.0)
+    fig = figures.forces_vs_time(*f, 1000.0)
+
+    def fail(*a, **k):
+        raise RuntimeError("cannot measure")
+
+    monkeypatch.setattr(figures, "_tick_text", fail)
+    assert not figures.fixed_layout(fig)
+    assert isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+    assert figures.png_bytes(fig) == figures.png_bytes(untouched)

@@ -1364,8 +1364,14 @@ def _axes_grid(fig: Figure) -> Optional[Tuple[Any, List[List[Axes]]]]:
     constrained layout, one axes per cell of one GridSpec, no twin, inset or colour-bar axes, no figure legend or
     text but the suptitle, tick labels left and below and not rotated, texts in axes coordinates inside them, no
     left or right title; else None."""
-    from matplotlib.layout_engine import ConstrainedLayoutEngine
+    from matplotlib.axis import Axis
 
+    try:  # (Matplotlib 3.8 or later: layout engines, get_tick_params, get_suptitle; else constrained layout stays)
+        from matplotlib.layout_engine import ConstrainedLayoutEngine
+    except ImportError:
+        return None
+    if not (hasattr(fig, "get_suptitle") and hasattr(Axis, "get_tick_params")):
+        return None
     if not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine) or fig.legends or not fig.axes:
         return None
     if any(t.get_text() != fig.get_suptitle() for t in fig.texts) or len(fig.texts) > 1:
@@ -1447,12 +1453,23 @@ def fixed_layout(fig: Figure, *, dpi: float = DPI, rounds: int = 3) -> bool:
     the drawing's: its text metrics and parsed mathtext are then Matplotlib's cached ones when it draws (at
     another dpi every mathtext label would be parsed twice). Returns False (the figure untouched) for any other
     figure."""
-    if _axes_grid(fig) is None:
+    grid = _axes_grid(fig)
+    if grid is None:
         return False
+    gs, engine = grid[0], fig.get_layout_engine()
+    params = {k: getattr(gs, k) for k in ("left", "right", "top", "bottom", "wspace", "hspace")}
+    places = [(ax, ax.get_position(original=True)) for ax in fig.axes]
     before = fig.dpi
     fig.dpi = dpi
     try:
         return _fixed_layout(fig, rounds)
+    except Exception:  # noqa: BLE001 - what it could not measure (an unusual locator, ...): constrained layout as before
+        gs.update(**params)
+        for ax, place in places:
+            ax.set_position(place)
+            ax.set_in_layout(True)
+        fig.set_layout_engine(engine)
+        return False
     finally:
         fig.dpi = before
 
@@ -1488,9 +1505,6 @@ def _fixed_layout(fig: Figure, rounds: int) -> bool:
     sup = fig.get_suptitle()
     sup_text = next((t for t in fig.texts if sup and t.get_text() == sup), None)
     top_fig = h_pad + (label_room(sup_text, 0.0, False) + h_pad if sup_text is not None else 0.0)
-    if sup_text is not None:
-        sup_text.set_y(1.0 - h_pad / h_fig)
-        sup_text.set_verticalalignment("top")
     labels = {}
     for r, row in enumerate(rows):
         for c, ax in enumerate(row):
@@ -1538,6 +1552,10 @@ def _fixed_layout(fig: Figure, rounds: int) -> bool:
                 spec = ax.get_subplotspec()
                 assert spec is not None, "a cell of the grid (_axes_grid)"
                 ax.set_position(spec.get_position(fig))
+                ax.set_in_layout(True)  # (set_position takes it out of a layout: tight bounding boxes included)
+    if sup_text is not None:  # at the top, below constrained layout's padding
+        sup_text.set_y(1.0 - h_pad / h_fig)
+        sup_text.set_verticalalignment("top")
     return True
 
 
