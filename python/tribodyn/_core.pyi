@@ -39,6 +39,8 @@ __all__ = [
     "find_peaks",
     "set_threads",
     "tdms_index",
+    "pread_ranges",
+    "extents_read_ranges",
     "text_parse",
     "text_scan",
     "sosfilt_inplace",
@@ -321,6 +323,23 @@ class Extents:
     @property
     def end(self) -> int:
         """One past the last byte read."""
+
+def pread_ranges(
+    fd: int,
+    out: NDArray[np.uint8],
+    offsets: NDArray[np.int64],
+    lengths: NDArray[np.int64],
+    *,
+    threads: int | None = None,
+) -> None:
+    """Fills `out` (a C-contiguous uint8 array) with byte ranges of the open file `fd`: range k is
+    lengths[k] bytes from byte offsets[k], after range k - 1 (pread without the GIL, threads for large
+    reads); a range past the end of the file is a ValueError, a failed read an OSError."""
+
+def extents_read_ranges(extents: Extents, fd: int, ranges: list[tuple[int, int]]) -> _F64:
+    """Samples [a, b) of every (a, b) in ranges of the channel `extents` describes, concatenated as
+    float64 (what Extents.read gives for each range), in one call from the open file `fd`, only each
+    range's bytes read; a range it cannot read is a ValueError starting "a:b: "."""
 
 def tdms_index(fd: int, index_fd: int | None = None) -> dict[str, Any]:
     """The segment index of the TDMS file open as `fd` (see `tribodyn.io.tdms`),

@@ -36,6 +36,7 @@ from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, T
 
 import numpy as np
 
+from .. import _core
 from ..kernels.threads import read_threads
 from .base import Recording, RecordingError, equal_length_selection, rate_from_step, resolve_name, roles_by_name
 
@@ -244,6 +245,44 @@ class NpyRecording(Recording):
         samples: hundreds of short ranges, one ``preadv`` each instead of an array and a dict each)."""
         if not (self._rows_are_channels and self._direct_read_ok()):
             return super()._read_ranges(names, ranges)
+        if hasattr(_core, "pread_ranges"):
+            return self._read_ranges_native(names, ranges)
+        return self._read_ranges_python(names, ranges)
+
+    def _read_ranges_native(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
+        """:meth:`_read_ranges` with one call of ``_core.pread_ranges`` a channel (every range read without the
+        GIL, on several threads for a large read)."""
+        r = np.asarray(ranges, dtype=np.int64).reshape(-1, 2)
+        r = r[r[:, 1] > r[:, 0]]
+        if r.shape[0] > 1:  # adjacent ranges (the lag profile's tiling windows) read as one
+            new = np.concatenate(([True], r[1:, 0] != r[:-1, 1]))  # a run starts where a range does not continue
+            if not new.all():
+                first = np.flatnonzero(new)
+                last = np.append(first[1:] - 1, r.shape[0] - 1)
+                r = np.stack((r[first, 0], r[last, 1]), axis=1)
+        item, dtype = self._arr.itemsize, self._arr.dtype
+        starts, lengths = r[:, 0] * item, (r[:, 1] - r[:, 0]) * item
+        total = int(lengths.sum()) // item
+        threads = read_threads() if total >= _PARALLEL_READ else 1
+        fd = self._fd
+        assert fd is not None, "open recordings hold their descriptor"
+        idx = {nm: k for k, nm in enumerate(self._names)}
+        out = {}
+        for nm in names:  # an array of its own a channel (owned: handed out without a copy)
+            buf = np.empty(total, dtype=dtype)
+            if total:
+                try:
+                    _core.pread_ranges(fd, buf.view(np.uint8), starts + self._offset(idx[nm]), lengths, threads=threads)
+                except ValueError:  # a range past the end of the file
+                    raise RecordingError(f"{self.path}: file ends early (truncated since it was opened?)") from None
+                except OSError as exc:
+                    raise RecordingError(f"{self.path}: cannot read: {exc}") from None
+            out[nm] = buf
+        return out
+
+    def _read_ranges_python(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
+        """:meth:`_read_ranges` with one ``os.preadv`` a range (the reference of the native read; an extension
+        without ``_core.pread_ranges``)."""
         idx = {nm: k for k, nm in enumerate(self._names)}
         total = sum(b - a for a, b in ranges)
         runs: List[List[int]] = []  # adjacent ranges (the lag profile's tiling windows) read as one

@@ -47,7 +47,8 @@ def sample_channels(rec: Any, keys: Sequence[str], tare_n: int = 0, limit: Optio
     starts = np.linspace(0, n - size, pieces).astype(np.int64)
     if tare_n:
         starts = np.concatenate([[0], starts])
-    ranges = [(int(a), min(int(a) + (max(size, tare_n) if a == 0 else size), n)) for a in starts]
+    first = max(size, tare_n)
+    ranges = [(a, min(a + (first if a == 0 else size), n)) for a in starts.tolist()]  # Python ints: no NumPy scalars
     bounds: List[Tuple[int, int]] = []
     at = 0
     for a, b in ranges:

@@ -442,15 +442,14 @@ def _side_medians(fy: np.ndarray) -> List[float]:
     """
     n = fy.size
     p, q = int(np.count_nonzero(fy > 0)), int(np.count_nonzero(fy < 0))
-    out = []
+    sides = []
     for count, first, sign in ((p, n - p, 1.0), (q, 0, -1.0)):
-        if not count:
-            out.append(0.0)
-            continue
         h = count // 2
-        ranks = [first + h] if count % 2 else [first + h - 1, first + h]
-        out.append(sign * float(np.mean(_order.order_stats(fy, ranks))))
-    return out
+        sides.append(([] if not count else [first + h] if count % 2 else [first + h - 1, first + h], sign))
+    # both sides' order statistics in one selection (the same values as a selection each)
+    wanted = sorted({k for ranks, _ in sides for k in ranks})
+    got = dict(zip(wanted, _order.order_stats(fy, wanted))) if wanted else {}
+    return [sign * float(np.mean(np.array([got[k] for k in ranks]))) if ranks else 0.0 for ranks, sign in sides]
 
 
 def prepass(
@@ -516,7 +515,7 @@ def prepass(
     # motion, from the samples in contact only (unloaded fy is an offset or drag, not friction)
     if "spec" in out:
         touching = _at_least(fz, out["spec"].min_fn)
-        if touching.any():
+        if touching.any() and not touching.all():  # every sample in contact: fy itself, without the copy
             fy = fy[touching]
     out.update(_motion(fy, static, motion, _motion_channel(source, rec), scratch=scratch))
     return out

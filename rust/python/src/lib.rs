@@ -27,6 +27,7 @@ use tribodyn_core::io::mapped;
 use tribodyn_core::io::text;
 
 mod files;
+mod ranges;
 use files::{PyExtents, PyTextDialect, PyTextScan};
 use tribodyn_core::numerics::bootstrap;
 use tribodyn_core::numerics::correlation::{self, Method};
@@ -1209,6 +1210,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(windows_stats, m)?)?;
     m.add_function(wrap_pyfunction!(windows_stats_file, m)?)?;
     m.add_function(wrap_pyfunction!(files::tdms_index, m)?)?;
+    m.add_function(wrap_pyfunction!(ranges::pread_ranges, m)?)?;
+    m.add_function(wrap_pyfunction!(ranges::extents_read_ranges, m)?)?;
     m.add_class::<PyExtents>()?;
     m.add_class::<PyWindowSpec>()?;
     m.add_class::<PyTextDialect>()?;
