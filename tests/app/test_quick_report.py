@@ -374,42 +374,6 @@ def test_the_long_recordings_figures_are_laid_out_once(tmp_path):
 
 
 @pytest.mark.fast
-def test_the_command_lines_digests_start_before_its_imports(tmp_path, monkeypatch):
-    """``tribodyn analyze FILE...`` starts the inputs' SHA-256 before it imports the analysis (issue 38 point 3):
-    the job takes that thread over when it hashes the same files in the same order, starts its own (and stops the
-    early one) otherwise; arguments that are not all regular files start nothing; summary.json's digests are the
-    files' SHA-256 either way, and no early thread is left behind."""
-    import hashlib
-
-    from tribodyn.app import _digests
-
-    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
-    a.write_bytes(EXPORT.read_bytes())
-    b.write_bytes(EXPORT.read_bytes()[:-200])
-    early = _digests.start_early([str(a), str(b)])
-    assert early is not None and _digests.Digests.for_files([a, b]) is early and not _digests._EARLY
-    early = _digests.start_early([str(a), str(b)])
-    other = _digests.Digests.for_files([b])
-    assert other is not early and early._stop.is_set() and other.get(b) == hashlib.sha256(b.read_bytes()).hexdigest()
-    assert (
-        _digests.start_early([str(a), str(tmp_path)]) is None
-        and _digests.start_early([str(tmp_path / "*.csv")]) is None
-    )
-    started, taken = [], []
-    real_start, real_take = _digests.start_early, _digests.Digests.for_files
-    monkeypatch.setattr(_digests, "start_early", lambda args: started.append(real_start(args)) or started[-1])
-    monkeypatch.setattr(_digests.Digests, "for_files", lambda files: taken.append(real_take(files)) or taken[-1])
-    assert main(["analyze", str(a), "--out", str(tmp_path / "p"), "--figures", "none", "-q"]) == 0
-    assert started[0] is not None and taken == started and not _digests._EARLY
-    assert main(["analyze", str(tmp_path / "*.csv"), "--out", str(tmp_path / "q"), "--figures", "none", "-q"]) in (0, 3)
-    assert started[1] is None and taken[1] is not None and not _digests._EARLY
-    assert main(["analyze", str(a), "--out", str(a), "-q"]) == 2  # refused before the work: the thread stopped
-    assert started[2]._stop.is_set() and not _digests._EARLY
-    summary = json.loads((tmp_path / "p" / "summary.json").read_text())
-    assert summary["inputs"][0]["sha256"] == hashlib.sha256(a.read_bytes()).hexdigest()
-
-
-@pytest.mark.fast
 def test_fixed_layout_that_fails_leaves_constrained_layout(monkeypatch):
     """What fixed_layout cannot measure (here: a failing tick measurement) leaves the figure as constrained layout
     draws it: the same pixels as a figure it never touched."""

@@ -885,17 +885,6 @@ def _run(ns: argparse.Namespace) -> int:
 def _run_analyze(ns: argparse.Namespace) -> int:
     """``analyze``: the files' analysis into --out, the summary printed, each reader's warning and failure on
     stderr; the status is 3 when a file failed."""
-    from ._digests import drop_early, start_early
-
-    start_early(ns.files)  # the inputs' SHA-256 beside the imports below (issue 38 point 3)
-    try:
-        return _analyze_files(ns)
-    finally:
-        drop_early()  # (a run that stopped before run_analysis took it over)
-
-
-def _analyze_files(ns: argparse.Namespace) -> int:
-    """:func:`_run_analyze` once the inputs' SHA-256 is started."""
     from ..pipeline.distributed import expand_paths
     from .jobs import run_analysis
     from .outputs import OutputSet

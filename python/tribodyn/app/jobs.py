@@ -754,7 +754,7 @@ def run_analysis(
     # another (both mostly outside the GIL or while the kernel runs without it).
     # A long recording's figures are drawn by worker processes too, started now: they load Matplotlib meanwhile.
     pool = _drawing_pool(_pool_pays(figures, files))
-    digests = Digests.for_files(files)  # (the command line may have started it before its imports: start_early)
+    digests = Digests(files)
     imports = _import_in_background(_OUTPUT_MODULES if _drawing_likely(figures, files) else _TABLE_MODULES)
     try:
         return _run_analysis(files, output, digests, imports, open_options=open_options,

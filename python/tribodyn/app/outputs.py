@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import json
 import math
 import os
@@ -46,7 +47,6 @@ import numpy as np
 
 from ..io.writers import _fsync_dir, sha256_file
 from ..results import Results
-from ._digests import Digests
 from ..errors import OutputError
 
 __all__ = [
@@ -617,3 +617,53 @@ def fill_digests(inputs: Iterable[Dict[str, Any]], digests: Optional["Digests"])
     for entry in inputs:
         if entry.get("sha256") is None and entry.get("path"):
             entry["sha256"] = digests.get(entry["path"]) if digests is not None else sha256_file(entry["path"])
+
+
+class Digests:
+    """SHA-256 of files computed in a background thread started at once (issue 25).
+
+    File reads and ``hashlib`` release the GIL, so the digests of the
+    inputs overlap the analysis that reads the same files. :meth:`get`
+    waits for a file's digest (computing it here if the thread did not);
+    :meth:`cancel` stops the thread at its next block.
+    """
+
+    _BLOCK = 1 << 20
+
+    def __init__(self, paths: Iterable[PathLike]) -> None:
+        self._paths = [Path(p) for p in paths]
+        self._done: Dict[str, Union[str, BaseException]] = {}
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="tribodyn-sha256", daemon=True)
+        self._thread.start()
+
+    @staticmethod
+    def _key(p: PathLike) -> str:
+        return os.path.realpath(os.fspath(p))
+
+    def _run(self) -> None:
+        buf = bytearray(self._BLOCK)
+        view = memoryview(buf)
+        for p in self._paths:
+            try:
+                h = hashlib.sha256()
+                with open(p, "rb", buffering=0) as fh:
+                    while not self._stop.is_set():
+                        k = fh.readinto(buf)
+                        if not k:
+                            break
+                        h.update(view[:k])
+                if self._stop.is_set():
+                    return
+                self._done[self._key(p)] = h.hexdigest()
+            except BaseException as exc:  # noqa: BLE001 - get() computes it again and raises there
+                self._done[self._key(p)] = exc
+
+    def get(self, path: PathLike) -> str:
+        """The hex SHA-256 of ``path`` (waits for the thread)."""
+        self._thread.join()
+        got = self._done.get(self._key(path))
+        return got if isinstance(got, str) else sha256_file(path)
+
+    def cancel(self) -> None:
+        self._stop.set()
