@@ -20,6 +20,7 @@ from typing_extensions import TypeAlias
 
 __all__ = [
     "FORCE_LIMIT",
+    "MAPPED_ALONE_GAP",
     "Extents",
     "Moments",
     "NonFiniteError",
@@ -56,6 +57,9 @@ _F64: TypeAlias = NDArray[np.float64]
 #: Largest |force| (N) of a window ``windows_stats`` analyses (docs/method.md 4):
 #: beyond it, or when its sums overflow, the window is out of range.
 FORCE_LIMIT: float
+#: ``windows_stats_file`` reads each window alone (the gaps skipped) when the windows are at least this many
+#: samples apart (step >= length + MAPPED_ALONE_GAP); else each block's whole span.
+MAPPED_ALONE_GAP: int
 
 # (slope, intercept, r, slope_stderr, intercept_stderr, resid_std, n, degenerate)
 _FitTuple: TypeAlias = tuple[float, float, float, float, float, float, int, bool]

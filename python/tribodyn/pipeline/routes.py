@@ -111,7 +111,9 @@ FORCE_ROLES = ("fx", "fy", "fz")
 DEFAULT_CHUNK = 1 << 17
 #: Samples per block of the route "mapped" (at most; a block is whole
 #: windows): each thread reads a block's channels into buffers it reuses,
-#: small enough to stay in cache between the read and the windows.
+#: small enough to stay in cache between the read and the windows (a block's
+#: span, or only its windows' own samples when they are at least
+#: ``_core.MAPPED_ALONE_GAP`` apart: the gaps are then not read).
 #: 2^15 measured fastest here (benches/RESULTS.md); ``chunk=`` overrides it.
 MAPPED_BLOCK = 1 << 15
 #: Fewest windows per concurrently read span.
@@ -457,7 +459,9 @@ def _run_mapped(rec: RecordingProtocol, ks: KernelSpec) -> Tuple[Stats, Optional
     # the threads finish together and the buffers (a block per thread) do
     # not depend on the recording's length.
     count = k1 - k0
-    cap = max(1, (plan.chunk_samples or MAPPED_BLOCK) // plan.step)
+    # the samples a window takes in a block: its span to the next, or its own when the gaps are not read
+    per = plan.length if plan.step >= plan.length + _core.MAPPED_ALONE_GAP and not plan.raw else plan.step
+    cap = max(1, (plan.chunk_samples or MAPPED_BLOCK) // per)
     blocks = -(-count // cap)
     blocks = -(-blocks // plan.threads) * plan.threads
     block = max(1, -(-count // blocks))

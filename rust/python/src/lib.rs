@@ -1223,6 +1223,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(max_threads, m)?)?;
     m.add("NonFiniteError", m.py().get_type::<NonFiniteError>())?;
     m.add("FORCE_LIMIT", windows::FORCE_LIMIT)?;
+    m.add("MAPPED_ALONE_GAP", mapped::ALONE_GAP)?;
     m.add_class::<PyMoments>()?;
     Ok(())
 }

@@ -245,6 +245,19 @@ impl Extents {
         cache: &mut ByteCache,
     ) -> Result<(), KernelError> {
         out.clear();
+        self.read_append(file, a, b, out, cache)
+    }
+
+    /// [`Extents::read`] appending to `out` (kept as it is).
+    pub fn read_append(
+        &self,
+        file: &File,
+        a: u64,
+        b: u64,
+        out: &mut Vec<f64>,
+        cache: &mut ByteCache,
+    ) -> Result<(), KernelError> {
+        let first = out.len();
         if b <= a {
             return Ok(());
         }
@@ -298,12 +311,13 @@ impl Extents {
             }
             pos += k;
         }
+        let added = &mut out[first..];
         for op in &self.ops {
             match op {
-                Op::Linear { slope, intercept } => out.iter_mut().for_each(|x| *x = *x * slope + intercept),
+                Op::Linear { slope, intercept } => added.iter_mut().for_each(|x| *x = *x * slope + intercept),
                 Op::Poly(c) => match c.split_last() {
-                    None => out.iter_mut().for_each(|x| *x = 0.0),
-                    Some((last, rest)) => out.iter_mut().for_each(|x| {
+                    None => added.iter_mut().for_each(|x| *x = 0.0),
+                    Some((last, rest)) => added.iter_mut().for_each(|x| {
                         let v = *x;
                         let mut acc = last + v * 0.0;
                         for ci in rest.iter().rev() {
@@ -493,6 +507,38 @@ impl Samples {
         Ok(())
     }
 
+    /// The samples of the windows starting at `starts` (each `len` long), laid end to end: window j is
+    /// samples [j len, (j + 1) len) of each buffer.
+    fn read_windows(
+        &mut self,
+        file: &File,
+        layout: &FileLayout,
+        starts: &[usize],
+        len: usize,
+    ) -> Result<(), KernelError> {
+        self.cache.begin();
+        for (i, src) in layout.sources().into_iter().enumerate() {
+            self.present[i] = src.is_some();
+            let buf = &mut self.bufs[i];
+            match src {
+                Some(Source::F64(off)) => {
+                    buf.resize(starts.len() * len, 0.0);
+                    for (j, &s) in starts.iter().enumerate() {
+                        read_f64s_into(file, off + s as u64 * F64, &mut buf[j * len..(j + 1) * len])?;
+                    }
+                }
+                Some(Source::Extents(ext)) => {
+                    buf.clear();
+                    for &s in starts {
+                        ext.read_append(file, s as u64, (s + len) as u64, buf, &mut self.cache)?;
+                    }
+                }
+                None => {}
+            }
+        }
+        Ok(())
+    }
+
     /// Channel `i` (0 fx, 1 fy, 2 fz, 3 aux), None where the layout has none.
     fn get(&self, i: usize) -> Option<&[f64]> {
         self.present[i].then(|| self.bufs[i].as_slice())
@@ -547,15 +593,38 @@ fn block(
     let ke = (kb + grid.block).min(grid.k1);
     let a = kb * grid.step;
     let e = (ke - 1) * grid.step + opt.len;
-    samples.read(file, layout, a, e)?;
+    let alone = windows_alone(grid.step, opt.len);
+    let starts: Vec<usize> = if alone {
+        // the gaps between the windows are not read: the windows' samples end to end
+        let at: Vec<usize> = (kb..ke).map(|k| k * grid.step).collect();
+        samples.read_windows(file, layout, &at, opt.len)?;
+        (0..at.len()).map(|j| j * opt.len).collect()
+    } else {
+        samples.read(file, layout, a, e)?;
+        (kb..ke).map(|k| k * grid.step - a).collect()
+    };
     let sl = |i: usize| samples.get(i);
     let (fy, fz) = (sl(1).unwrap_or(&[]), sl(2).unwrap_or(&[]));
     let ch = Channels { fx: sl(0), fy, fz, aux: sl(3), raw: None };
-    let starts: Vec<usize> = (kb..ke).map(|k| k * grid.step - a).collect();
     windows_stats_serial(&ch, &starts, opt).map_err(|err| match err {
+        KernelError::NonFinite { channel, sample: Some(s), window } if alone => {
+            // back from the windows end to end to the file's samples
+            let at = (kb + s / opt.len) * grid.step + s % opt.len;
+            KernelError::NonFinite { channel, sample: Some(at), window }
+        }
         KernelError::NonFinite { .. } => err.shifted(a),
         other => invalid(format!("{other} (block of samples {a}..{e})")),
     })
+}
+
+/// Gaps between the windows of at least this many samples are not read: each window's samples are read
+/// alone (below it, one read of a block's whole span costs less than a read per window and channel).
+pub const ALONE_GAP: usize = 2048;
+
+/// Whether the windows of a grid of `step` and length `len` are read alone, their gaps skipped
+/// (a default 2 s window every 10 s reads a fifth of the samples, not the whole span of a block).
+pub fn windows_alone(step: usize, len: usize) -> bool {
+    step >= len.saturating_add(ALONE_GAP)
 }
 
 /// Statistics of windows `grid.k0 .. grid.k1` of the channels in `file`,
@@ -897,6 +966,70 @@ mod tests {
                 assert!(held as u64 <= (b - a) * w, "{num:?} {a}..{b}: {held} bytes read for {} samples", b - a);
             }
             std::fs::remove_file(path).unwrap();
+        }
+    }
+
+    #[test]
+    fn windows_far_apart_are_read_alone_with_the_same_bits() {
+        let n = 40_000;
+        let mut fz: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).sin() + 0.2 * (i as f64 * 1.7).cos()).collect();
+        let fy: Vec<f64> = fz.iter().enumerate().map(|(i, z)| -0.15 * z + 0.02 * (i as f64 * 3.1).sin()).collect();
+        let fx: Vec<f64> = (0..n).map(|i| (i as f64 * 0.11).cos()).collect();
+        let aux: Vec<f64> = (0..n).map(|i| 4.0 + (i as f64 * 0.01).sin()).collect();
+        let opt = WindowOptions {
+            len: 700,
+            orientation: 1.0,
+            deadband: Deadband::Force(0.1),
+            n_bins: 8,
+            ext: Default::default(),
+        };
+        let step = opt.len + ALONE_GAP + 13;
+        assert!(windows_alone(step, opt.len) && !windows_alone(opt.len + ALONE_GAP - 1, opt.len));
+        let k1 = (n - opt.len) / step + 1;
+        let starts: Vec<usize> = (1..k1).map(|k| k * step).collect();
+        // a NaN in a gap is never read; one in window 5 is that window's error, as in memory
+        fz[5 * step - 3] = f64::NAN;
+        let run = |fz: &[f64], aux_scale: f64| {
+            let mut bytes = vec![0u8; 64];
+            for ch in [&fx[..], &fy[..], fz] {
+                bytes.extend(ch.iter().flat_map(|v| v.to_le_bytes()));
+            }
+            let aux_at = bytes.len() as u64;
+            bytes.extend(aux.iter().flat_map(|v| (v / aux_scale).to_le_bytes())); // aux through Extents, scaled back
+            let (path, file) = temp_file(&bytes);
+            let row = (n * 8) as u64;
+            let aux_ext = Extents {
+                num: Num::F64,
+                big_endian: false,
+                parts: vec![Extent::single(n as u64, aux_at, 8, (aux_at, aux_at + row))],
+                ops: vec![Op::Linear { slope: aux_scale, intercept: 0.0 }],
+            };
+            let layout = FileLayout {
+                fx: Some(Source::F64(64)),
+                fy: Source::F64(64 + row),
+                fz: Source::F64(64 + 2 * row),
+                aux: Some(Source::Extents(std::sync::Arc::new(aux_ext))),
+                n,
+            };
+            let got: Vec<_> = [1usize, 3, 100]
+                .iter()
+                .map(|&block| windows_stats_mapped(&file, &layout, &Grid { k0: 1, k1, step, block }, &opt, 2))
+                .collect();
+            std::fs::remove_file(path).unwrap();
+            got
+        };
+        let scaled: Vec<f64> = aux.iter().map(|v| (v / 2.0) * 2.0).collect();
+        let ch = Channels { fx: Some(&fx), fy: &fy, fz: &fz, aux: Some(&scaled), raw: None };
+        let want = windows_stats(&ch, &starts, &opt).unwrap();
+        for got in run(&fz, 2.0) {
+            assert_eq!(format!("{:?}", got.unwrap()), format!("{want:?}"));
+        }
+        fz[5 * step + 11] = f64::NAN;
+        let ch = Channels { fx: Some(&fx), fy: &fy, fz: &fz, aux: Some(&scaled), raw: None };
+        let want = windows_stats(&ch, &starts, &opt).unwrap_err();
+        assert_eq!(want, KernelError::NonFinite { channel: "fz", sample: Some(5 * step), window: true });
+        for got in run(&fz, 2.0) {
+            assert_eq!(got.unwrap_err(), want);
         }
     }
 
