@@ -2,7 +2,7 @@
 rounds interleaved with a baseline build.
 
     python benches/bench_cli_export.py [--rounds 5] [--baseline PYTHONPATH] [--build PYTHONPATH] [--data DIR]
-        [--no-long] [--no-folder]
+        [--no-long] [--no-folder] [--no-small] [--long FILE] [--workers N ...] [--markdown FILE]
 
 Cases (each run a fresh process; ``api``: ``python -c`` that imports tribodyn, opens the file, analyses it and
 reads the headline; ``cli``: ``python -m tribodyn analyze FILE --out DIR -q``):
@@ -13,9 +13,14 @@ reads the headline; ``cli``: ``python -m tribodyn analyze FILE --out DIR -q``):
   DIR/*`` (default figures, and ``--figures none``) against one process that analyses them one after the other
   with the API;
 * ``h10``: 10 h at 1 kHz, 4 channels ``.npy`` (1.15 GB, ``bench_fixed_costs.ensure_data`` in ``--data``), api
-  and cli (skipped with ``--no-long``): its 5 PNG figures are drawn by worker processes too when a core is free
-  (``jobs._drawing_pool``, issue 38 point 3; their CPU is in the process tree's), and this build's cli again with
-  ``TRIBODYN_DRAW_WORKERS`` = each of ``--workers`` (workers whatever the load).
+  and cli, by default and with ``--figures none`` (skipped with ``--no-long``): its 5 PNG figures are drawn by
+  worker processes too when a core is free (``jobs._drawing_pool``, issue 38 point 3; their CPU is in the process
+  tree's), and this build's cli again with ``TRIBODYN_DRAW_WORKERS`` = each of ``--workers`` (workers whatever the
+  load).
+
+``--long FILE``: that ``.npy`` recording ((4, n) float64 at 1 kHz: fx, fy, fz, i) instead of ``--data``'s 10 h one
+(``benches/device_scaling.py`` passes the one it writes); ``--no-small`` leaves out the small export's cases;
+``--markdown FILE`` writes the table there too.
 
 ``--baseline`` is the ``python/`` folder of another checkout (its own ``_core``); ``--build`` the ``python/`` folder
 of this build (default: this checkout's; a copy keeps the measurement away from edits made while it runs). Every
@@ -95,22 +100,25 @@ def cases(args: argparse.Namespace, builds: Dict[str, str], work: Path) -> Dict[
     out: Dict[str, Any] = {}
     for b in builds:
         tag = b.replace(" ", "_")
-        out[f"{b}|api small"] = [sys.executable, "-c", API, small]
-        out[f"{b}|cli small"] = cli([small], work / f"{tag}-small")
+        if not args.no_small:
+            out[f"{b}|api small"] = [sys.executable, "-c", API, small]
+            out[f"{b}|cli small"] = cli([small], work / f"{tag}-small")
         if not args.no_folder:
             out[f"{b}|api folder"] = [sys.executable, "-c", API, *folder]
             out[f"{b}|cli folder"] = cli(folder, work / f"{tag}-folder")
-        for choice in ("none", "all"):
+        for choice in () if args.no_small else ("none", "all"):
             out[f"{b}|cli small --figures {choice}"] = cli([small], work / f"{tag}-small-{choice}", "--figures", choice)
         if not args.no_folder:
             out[f"{b}|cli folder --figures none"] = cli(folder, work / f"{tag}-folder-none", "--figures", "none")
         if not args.no_long:
-            h10 = str(_h10(Path(args.data)))
-            out[f"{b}|api h10"] = [sys.executable, "-c", API, h10]
-            out[f"{b}|cli h10"] = cli([h10], work / f"{tag}-h10")
+            h10 = str(args.long) if args.long else str(_h10(Path(args.data)))
+            name = Path(args.long).name if args.long else "h10"
+            out[f"{b}|api {name}"] = [sys.executable, "-c", API, h10]
+            out[f"{b}|cli {name}"] = cli([h10], work / f"{tag}-h10")
+            out[f"{b}|cli {name} --figures none"] = cli([h10], work / f"{tag}-h10-none", "--figures", "none")
             if b == "this build":  # the drawing workers whatever the load (the default starts none on busy cores)
                 for n in args.workers:
-                    out[f"{b}|cli h10, {n} drawing workers"] = (
+                    out[f"{b}|cli {name}, {n} drawing workers"] = (
                         cli([h10], work / f"{tag}-h10-w{n}"),
                         {"TRIBODYN_DRAW_WORKERS": str(n)},
                     )
@@ -134,6 +142,9 @@ def main(argv: Optional[List[str]] = None) -> None:
     ap.add_argument("--no-folder", action="store_true", help="leave out the folder of exports")
     ap.add_argument("--workers", type=int, nargs="*", default=[1], help="TRIBODYN_DRAW_WORKERS of extra h10 cases")
     ap.add_argument("--build", default=str(ROOT / "python"), help="PYTHONPATH of this build (its python/ folder)")
+    ap.add_argument("--long", help="the long .npy recording (default: --data's 10 h one, written if missing)")
+    ap.add_argument("--no-small", action="store_true", help="leave out the small export's cases")
+    ap.add_argument("--markdown", help="also write the table to this file")
     args = ap.parse_args(argv)
     builds = {"this build": args.build}
     if args.baseline:
@@ -152,19 +163,24 @@ def main(argv: Optional[List[str]] = None) -> None:
                 print(f"round {r + 1} {key:40s} {runs[key][-1]['seconds']:.2f} s", file=sys.stderr)
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    print(
+    lines = [
         f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {args.rounds} interleaved rounds, "
         f"{len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else os.cpu_count()} usable cores; "
         f"load average before {tuple(round(x, 2) for x in load_before)}, "
-        f"after {tuple(round(x, 2) for x in os.getloadavg())}"
-    )
-    print("\n| case | build | median wall | median CPU | walls |\n|---|---|---|---|---|")
+        f"after {tuple(round(x, 2) for x in os.getloadavg())}",
+        "",
+        "| case | build | median wall | median CPU | walls |",
+        "|---|---|---|---|---|",
+    ]
     for key, v in runs.items():
         b, case = key.split("|")
         walls = [x["seconds"] for x in v]
         cpu = statistics.median(x["cpu"] for x in v)
         listed = ", ".join(f"{w:.2f}" for w in walls)
-        print(f"| {case} | {b} | {statistics.median(walls):.2f} s | {cpu:.2f} s | {listed} |")
+        lines.append(f"| {case} | {b} | {statistics.median(walls):.2f} s | {cpu:.2f} s | {listed} |")
+    print("\n".join(lines))
+    if args.markdown:
+        Path(args.markdown).write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

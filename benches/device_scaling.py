@@ -1,4 +1,4 @@
-"""Issue 38 points 1 and 4 on a many-core machine, in one call of a few minutes (stdlib only).
+"""Issue 38 points 1, 3 and 4 on a many-core machine, in one call of a few minutes (stdlib only).
 
 Prepared for the 16-core device machine, which starts bare and cannot
 download anything: it runs from the repository's working tree, the built
@@ -12,12 +12,25 @@ extension ``python/tribodyn/_core.abi3.so`` and a wheelhouse ``.whl/``
    too, then prints exactly what is missing (and skips the stages that need it).
 2. Formats: ``benches/bench_formats.py --threads ...`` (issue 38 point 1).
 3. Many recordings: ``benches/bench_many.py --workers ...`` (issue 38 point 4).
+4. The command line against the API (issue 38 point 3; ``--skip cli`` leaves
+   it out): a ``--cli-hours`` (10 h) ``.npy`` at 1 kHz is written (one
+   ``--cli-block-hours`` block of the simulator, 1 h, repeated: the seams
+   cost a few windows, the work is a 10 h recording's), then
+   ``benches/bench_cli_export.py --long FILE --no-small --no-folder`` times
+   whole processes, ``--cli-rounds`` interleaved rounds: the API, ``tribodyn
+   analyze`` with its report as it runs by default (drawing workers on free
+   cores), with ``--figures none``, and with ``TRIBODYN_DRAW_WORKERS`` = each of ``--cli-workers``
+   (default 0: every figure drawn in the process). It needs matplotlib and
+   pyarrow too, which the wheelhouse does not hold: where the machine lacks
+   them the stage says so and is skipped (the others run). ``--cli-budget``
+   seconds (default 110) of ``--budget`` are kept for it: the other stages
+   end that much earlier.
 
 Each stage runs with a deadline so the whole call ends inside ``--budget``
 seconds (a stage cut short leaves its per-case lines in the log). Written to
-``--out`` (default ``$OUT``): ``log.txt``, ``formats.md``, ``many.md`` and
-``fragment.md`` (the markdown to paste into benches/RESULTS.md); the fragment
-is printed last.
+``--out`` (default ``$OUT``): ``log.txt``, ``formats.md``, ``many.md``,
+``cli.md`` and ``fragment.md`` (the markdown to paste into
+benches/RESULTS.md); the fragment is printed last.
 
 On the device (one call, ~6-8 minutes)::
 
@@ -26,7 +39,7 @@ On the device (one call, ~6-8 minutes)::
 Here, end to end with small sizes::
 
     python benches/device_scaling.py --threads 1 2 --hours 0.2 --workers 1 2 --recordings 4 \\
-        --many-hours 0.05 --out /tmp/device-out
+        --many-hours 0.05 --cli-hours 0.2 --cli-block-hours 0.1 --cli-rounds 1 --out /tmp/device-out
 """
 
 from __future__ import annotations
@@ -55,6 +68,12 @@ NEEDED = {
 }
 FOR_FORMATS = ("numpy", "scipy", "h5py", "nptdms", "tribodyn._core")
 FOR_MANY = ("numpy", "scipy", "h5py", "dask", "distributed", "tribodyn._core")
+#: What the command line's stage needs besides NEEDED's (not in the wheelhouse: the stage is skipped without them).
+CLI_NEEDS = {
+    "matplotlib": "matplotlib (the report's figures)",
+    "pyarrow": "pyarrow (windows.parquet; a 40 MB wheel)",
+}
+FOR_CLI = ("numpy", "scipy", "h5py", "tribodyn._core", *CLI_NEEDS)
 BINARY_KEEP = ("numpy", "h5py")  # keep the machine's own pair when it imports
 
 
@@ -77,8 +96,9 @@ def env_with(site: List[Path]) -> Dict[str, str]:
     return env
 
 
-def missing_modules(env: Dict[str, str]) -> Dict[str, str]:
-    """module -> the error of importing it, for every module of NEEDED that fails (each in a fresh process)."""
+def missing_modules(env: Dict[str, str], modules: Optional[List[str]] = None) -> Dict[str, str]:
+    """module -> the error of importing it, for every module of ``modules`` (default NEEDED) that fails (all in
+    one fresh process)."""
     code = (
         "import importlib, json, sys\n"
         "bad = {}\n"
@@ -89,13 +109,14 @@ def missing_modules(env: Dict[str, str]) -> Dict[str, str]:
         "        bad[m] = f'{type(e).__name__}: {e}'\n"
         "print(json.dumps(bad))\n"
     )
-    r = subprocess.run([sys.executable, "-c", code, *NEEDED], env=env, capture_output=True, text=True, check=False)
+    mods = list(NEEDED) if modules is None else modules
+    r = subprocess.run([sys.executable, "-c", code, *mods], env=env, capture_output=True, text=True, check=False)
     import json
 
     try:
         out: Dict[str, str] = json.loads(r.stdout.strip().splitlines()[-1])
     except (IndexError, ValueError):
-        return {m: r.stderr[-500:] for m in NEEDED}
+        return {m: r.stderr[-500:] for m in mods}
     return out
 
 
@@ -190,6 +211,63 @@ def run_stage(name: str, cmd: List[str], env: Dict[str, str], deadline: float, l
     return rc
 
 
+#: Writes the command line's recording: ``--cli-block-hours`` of the simulator (bench_pipeline.write_recording), then
+#: that block repeated into a (4, n) float64 ``.npy`` of ``--cli-hours`` (argv: folder, hours, block hours).
+WRITE_LONG = r"""
+import sys
+from pathlib import Path
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from bench_pipeline import FS, write_recording
+folder, hours, block = Path(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])
+path = folder / f"cli_{hours:g}h.npy"
+if not path.exists():
+    one = np.load(write_recording(folder, "cli_block", min(block, hours) * 3600.0, raw=False, formats=("npy",))["npy"],
+                  mmap_mode="r")
+    n = int(round(hours * 3600.0 * FS))
+    tmp = folder / "cli_long.tmp.npy"
+    out = np.lib.format.open_memmap(tmp, mode="w+", dtype=np.float64, shape=(one.shape[0], n))
+    for a in range(0, n, one.shape[1]):
+        b = min(n, a + one.shape[1])
+        out[:, a:b] = one[:, : b - a]
+        out.flush()
+    del out
+    tmp.replace(path)
+print(path)
+"""
+
+
+def cli_stage(args: argparse.Namespace, env: Dict[str, str], py: List[str], work: Path, out: Path, deadline: float,
+              log: Log) -> bool:  # fmt: skip
+    """Issue 38 point 3: the recording written, then bench_cli_export.py's API and CLI cases (cli.md); False when
+    the stage failed (True when it is skipped for a missing module: cli.md says which)."""
+    bad = missing_modules(env, list(FOR_CLI))
+    if bad:
+        for m, err in sorted(bad.items()):
+            log(f"cli: MISSING {m} ({CLI_NEEDS.get(m) or NEEDED.get(m)}): {err}")
+        why = "skipped, missing " + ", ".join(f"{m} ({CLI_NEEDS.get(m) or NEEDED.get(m)})" for m in sorted(bad))
+        log(f"cli: {why}")
+        (out / "cli.md").write_text(f"The command line's stage: {why}.\n")
+        return True
+    t0 = time.monotonic()
+    try:
+        made = subprocess.run(py + ["-c", WRITE_LONG, str(BENCHES), str(work), f"{args.cli_hours:g}",
+                                    f"{args.cli_block_hours:g}"], env=env, capture_output=True, text=True,
+                              timeout=max(1.0, deadline - time.monotonic() - 20.0), check=False)  # fmt: skip
+    except subprocess.TimeoutExpired:
+        log(f"cli: the recording was not written within the budget ({time.monotonic() - t0:.0f} s)")
+        return False
+    if made.returncode != 0:
+        log(f"cli: the recording was not written: {(made.stdout + made.stderr)[-1500:]}")
+        return False
+    long = made.stdout.strip().splitlines()[-1]
+    log(f"cli: {long} ({Path(long).stat().st_size / 1e9:.2f} GB) written in {time.monotonic() - t0:.0f} s")
+    cmd = py + [str(BENCHES / "bench_cli_export.py"), "--long", long, "--no-small", "--no-folder"]
+    cmd += ["--rounds", str(args.cli_rounds), "--markdown", str(out / "cli.md")]
+    cmd += ["--workers", *map(str, args.cli_workers)]
+    return run_stage("cli", cmd, env, deadline, log) == 0
+
+
 def main(argv: List[str]) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2, 4, 8, 16])
@@ -204,9 +282,16 @@ def main(argv: List[str]) -> int:
     ap.add_argument("--budget", type=float, default=470.0, help="seconds for the whole call (default 470)")
     ap.add_argument("--wheels", type=Path, default=ROOT / ".whl")
     ap.add_argument("--out", type=Path, default=Path(os.environ.get("OUT") or ROOT / "device-out"))
-    ap.add_argument("--skip", nargs="+", choices=("formats", "many"), default=[])
+    ap.add_argument("--cli-hours", type=float, default=10.0, help="cli: length of the recording (default 10 h)")
+    ap.add_argument("--cli-block-hours", type=float, default=1.0, help="cli: the simulated block repeated (1 h)")
+    ap.add_argument("--cli-rounds", type=int, default=3)
+    ap.add_argument("--cli-workers", type=int, nargs="*", default=[0], help="cli: TRIBODYN_DRAW_WORKERS of extra cases")
+    ap.add_argument("--cli-budget", type=float, default=110.0, help="cli: seconds of --budget kept for it (110)")
+    ap.add_argument("--skip", nargs="+", choices=("formats", "many", "cli"), default=[])
     args = ap.parse_args(argv)
-    deadline = time.monotonic() + args.budget
+    end = time.monotonic() + args.budget
+    # the command line's stage comes last, with --cli-budget seconds kept for it (and what the others leave)
+    deadline = end - (0.0 if "cli" in args.skip else min(args.cli_budget, 0.5 * args.budget))
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     log = Log(out / "log.txt")
@@ -242,6 +327,10 @@ def main(argv: List[str]) -> int:
             cmd += ["--markdown", str(out / "many.md")]
             run_stage("many", cmd, env, deadline, log)
             stages.append("many.md")
+    cli_ok = True
+    if "cli" not in args.skip:
+        cli_ok = cli_stage(args, env, py, work, out, end, log)
+        stages.append("cli.md")
     parts = [
         f"<!-- device_scaling.py on {time.strftime('%Y-%m-%d %H:%M')} UTC, {os.cpu_count()} CPUs, "
         f"args: {' '.join(argv) or '(defaults)'} -->",
@@ -254,7 +343,7 @@ def main(argv: List[str]) -> int:
     text = "\n".join(parts)
     (out / "fragment.md").write_text(text)
     print("\n===== fragment.md =====\n" + text, flush=True)
-    return 0 if not bad and all((out / s).exists() for s in stages) else 1
+    return 0 if not bad and cli_ok and all((out / s).exists() for s in stages) else 1
 
 
 if __name__ == "__main__":

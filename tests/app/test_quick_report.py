@@ -240,3 +240,156 @@ def test_a_folder_opens_each_recording_once_with_analyze_manys_tables(tmp_path, 
         stem = f.rsplit("/", 1)[-1].rsplit(".", 1)[0]
         got = (tmp_path / "out" / stem / "windows.csv").read_bytes()
         assert got == (tmp_path / "expected.csv").read_bytes(), f
+
+
+def _csv_module_text(results, extra=None) -> bytes:
+    """windows.csv as csv.writer (the excel dialect) writes the cells of ``write_table_csv``: the reference."""
+    import csv
+    import io
+
+    from tribodyn.app import outputs
+
+    cols = outputs._columns(results, extra)
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow([outputs._safe_text(str(n)) for n in cols])
+    w.writerows(zip(*(outputs._column_cells(v) for v in cols.values())))
+    return buf.getvalue().encode("utf-8")
+
+
+@pytest.mark.fast
+def test_windows_csv_is_the_text_of_the_csv_module(tmp_path, temp_res):
+    """windows.csv, built a line at a time (issue 38 point 3), is byte for byte what csv.writer writes of the same
+    cells: floats as repr (17 significant digits, round trip), NaN empty, bools, integers, and text cells quoted as
+    csv quotes them (a comma, a quote, CR or LF in a recording's name or a reason), formula starts made safe; also
+    with no row, and with one column (csv quotes a row of one empty field)."""
+    from tribodyn.app.outputs import write_table_csv
+
+    class Table:  # what write_table_csv reads of a Results: its table and its length
+        def __init__(self, table):
+            self.table = table
+
+        def __len__(self):
+            return len(next(iter(self.table.values())))
+
+    n = len(temp_res)
+    names = np.array(["a,b", 'x"y', "=1+2", "l\nf", "c\rr", "", " s", "é;t", "'q"] * n)[:n]
+    empty = Table({k: np.asarray(v)[:0] for k, v in temp_res.table.items()})
+    out = tmp_path / "w.csv"
+    for res, extra in ((temp_res, None), (temp_res, {"recording": names}), (empty, {"recording": names[:0]})):
+        write_table_csv(res, out, extra=extra)
+        assert out.read_bytes() == _csv_module_text(res, extra)
+    assert b'"a,b"' in _csv_module_text(temp_res, {"recording": names})  # (the cases above reach the quoting)
+    one = Table({"reasons": np.array(["", "a,b"])})
+    write_table_csv(one, out)
+    assert out.read_bytes() == _csv_module_text(one) == b'reasons\r\n""\r\n"a,b"\r\n'
+
+
+def _overlaps(a, b, tol=1.0) -> bool:
+    return a.x0 + tol < b.x1 and b.x0 + tol < a.x1 and a.y0 + tol < b.y1 and b.y0 + tol < a.y1
+
+
+def _check_laid_out(fig) -> None:
+    """Drawn as the report draws it (150 dpi): every axes with its decorations (tick labels, labels, titles, offset
+    texts, legends) inside the figure, no two of them overlapping, the suptitle above all of them."""
+    from tribodyn.app import figures
+
+    figures.png_bytes(fig)
+    renderer = fig.canvas.get_renderer()
+    page = fig.bbox
+    boxes = [ax.get_tightbbox(renderer) for ax in fig.axes]
+    for box in boxes:
+        assert page.x0 - 1 <= box.x0 and box.x1 <= page.x1 + 1 and page.y0 - 1 <= box.y0 and box.y1 <= page.y1 + 1
+    for i, a in enumerate(boxes):
+        assert not any(_overlaps(a, b) for b in boxes[i + 1 :])
+    sup = next(t for t in fig.texts if t.get_text() == fig.get_suptitle()).get_window_extent(renderer)
+    assert sup.y1 <= page.y1 + 1 and not any(_overlaps(sup, b) for b in boxes)
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize("scale", [1.0, 1e-6, 3e4])
+def test_fixed_layout_lays_out_the_window_diagnostics(scale):
+    """figures.fixed_layout (issue 38 point 3) lays out the window diagnostics of forces of any size (tiny ones
+    with an offset text, large ones with wide tick labels) and a legend above the axes: constrained layout off,
+    every decoration inside the figure and apart, axes about as large as constrained layout makes them."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from tribodyn.app import figures
+
+    rng = np.random.default_rng(1)
+    n = 2000
+    fz = scale * rng.normal(size=n)
+    fy = -0.12 * fz + 0.01 * scale * rng.normal(size=n)
+    fx = scale * rng.normal(size=n)
+    fit = td.identify(fz, fy, fs=1000.0, max_lag=200)
+    makers = [
+        lambda: figures.forces_vs_time(fx, fy, fz, 1000.0, t0=35990.0),
+        lambda: figures.correlation_functions(fit),
+        lambda: figures.phase_plots(fx, fy, fz, fit=fit),
+        lambda: figures.cof_vs_normal_force(fit),
+    ]
+    for make in makers:
+        ref = make()
+        figures.png_bytes(ref)
+        fig = make()
+        assert figures.fixed_layout(fig)
+        assert not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+        _check_laid_out(fig)
+        for a, b in zip(fig.axes, ref.axes):  # the axes' area within 10 % of constrained layout's
+            pa, pb = a.get_position(), b.get_position()
+            assert abs(pa.width * pa.height / (pb.width * pb.height) - 1) < 0.1
+
+
+@pytest.mark.fast
+def test_fixed_layout_leaves_what_it_cannot_lay_out(cd_res):
+    """A figure with a twin axes (COF and current density against time) keeps constrained layout."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from tribodyn.app import figures
+
+    fig = figures.cof_and_current_density_vs_time(cd_res)
+    assert not figures.fixed_layout(fig)
+    assert isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+
+
+def test_the_long_recordings_figures_are_laid_out_once(tmp_path):
+    """The job lays out the dynamic recording's window diagnostics and COF against time with fixed_layout (no
+    constrained layout at their drawing), and the PNGs show every decoration inside the figure, apart."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from tribodyn.app.outputs import OutputSet
+
+    channels = next(td.simulate.continuous(300.0, chunk_s=300.0, seed=1))
+    res = td.analyze(channels, fs=1000.0)
+    figs = jobs._figures(res, opr_t=None, opr_j=None, examples=jobs.diagnostic_examples(channels, res))
+    stems = [s for s, _, _ in figs]
+    assert [s.split("_")[0] for s in stems] == ["fig02", "fig03-05", "fig06-08", "fig09", "cof"]
+    assert all(s.startswith(jobs._FIXED_LAYOUT) for s in stems)
+    with OutputSet(tmp_path / "out") as out:
+        saved, _, _ = jobs._save_figures(out, figs, "")
+    assert [name for name, _, _ in saved] == [f"figures/{s}.png" for s in stems]
+    for _, _, fig in figs:
+        assert not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+        _check_laid_out(fig)
+
+
+@pytest.mark.fast
+def test_fixed_layout_that_fails_leaves_constrained_layout(monkeypatch):
+    """What fixed_layout cannot measure (here: a failing tick measurement) leaves the figure as constrained layout
+    draws it: the same pixels as a figure it never touched."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from tribodyn.app import figures
+
+    rng = np.random.default_rng(2)
+    f = rng.normal(size=(3, 500))
+    untouched = figures.forces_vs_time(*f, 1000.0)
+    fig = figures.forces_vs_time(*f, 1000.0)
+
+    def fail(*a, **k):
+        raise RuntimeError("cannot measure")
+
+    monkeypatch.setattr(figures, "_tick_text", fail)
+    assert not figures.fixed_layout(fig)
+    assert isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+    assert figures.png_bytes(fig) == figures.png_bytes(untouched)

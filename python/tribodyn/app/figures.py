@@ -1356,6 +1356,209 @@ def energy_vs_cycle(results: Any, *, title: Optional[str] = None) -> Figure:
     return fig
 
 
+# --------------------------------------------------------------------------
+# a measured fixed layout (the report's simple grids)
+# --------------------------------------------------------------------------
+def _axes_grid(fig: Figure) -> Optional[Tuple[Any, List[List[Axes]]]]:
+    """(the GridSpec, its axes by row and column) when ``fig`` is a simple grid :func:`fixed_layout` can lay out:
+    constrained layout, one axes per cell of one GridSpec, no twin, inset or colour-bar axes, no figure legend or
+    text but the suptitle, tick labels left and below and not rotated, texts in axes coordinates inside them, no
+    left or right title; else None."""
+    from matplotlib.axis import Axis
+
+    try:  # (Matplotlib 3.8 or later: layout engines, get_tick_params, get_suptitle; else constrained layout stays)
+        from matplotlib.layout_engine import ConstrainedLayoutEngine
+    except ImportError:
+        return None
+    if not (hasattr(fig, "get_suptitle") and hasattr(Axis, "get_tick_params")):
+        return None
+    if not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine) or fig.legends or not fig.axes:
+        return None
+    if any(t.get_text() != fig.get_suptitle() for t in fig.texts) or len(fig.texts) > 1:
+        return None
+    gs = None
+    cells: Dict[Tuple[int, int], Axes] = {}
+    for ax in fig.axes:
+        spec = ax.get_subplotspec()
+        if spec is None or ax.child_axes or ax.get_title("left") or ax.get_title("right"):
+            return None
+        gs = spec.get_gridspec() if gs is None else gs
+        if spec.get_gridspec() is not gs or spec.num1 != spec.num2 or divmod(spec.num1, gs.ncols) in cells:
+            return None
+        inside = [0 <= t.get_position()[0] <= 1 and 0 <= t.get_position()[1] <= 1 for t in ax.texts]
+        if not all(inside) or any(t.get_transform() is not ax.transAxes for t in ax.texts):
+            return None
+        for axis, outer in ((ax.xaxis, ("labeltop",)), (ax.yaxis, ("labelright",))):
+            kw = axis.get_tick_params()
+            if any(kw.get(k) for k in outer) or kw.get("labelrotation", 0) or axis.get_label_position() not in (
+                    "bottom", "left"):  # fmt: skip
+                return None
+        cells[divmod(spec.num1, gs.ncols)] = ax
+    assert gs is not None
+    if len(cells) != gs.nrows * gs.ncols:
+        return None
+    return gs, [[cells[r, c] for c in range(gs.ncols)] for r in range(gs.nrows)]
+
+
+def _tick_text(axis: Any, renderer: Any) -> Tuple[float, float, float, float, float]:
+    """An axis' tick labels as the next drawing makes them, measured without creating its ticks (pixels of the
+    figure's own dpi): (widest, tallest (height + descent), how far the first label's half width reaches past
+    the axis' start, the same for the last past its end, the offset text's height or 0)."""
+    from matplotlib import rcParams
+    from matplotlib.font_manager import FontProperties
+
+    rc: Any = rcParams
+
+    name = axis.axis_name
+    if not axis.get_tick_params().get("labelbottom" if name == "x" else "labelleft", True):
+        return 0.0, 0.0, 0.0, 0.0, 0.0
+    locs = np.asarray(axis.get_major_locator()(), dtype=float)
+    fmt = axis.get_major_formatter()
+    labels = fmt.format_ticks(locs)  # (as the drawing's tick update: every location, then those in view)
+    lo, hi = sorted(axis.get_view_interval())
+    tol = 1e-10 * max(abs(lo), abs(hi), 1e-300)
+    shown = [(x, t) for x, t in zip(locs, labels) if lo - tol <= x <= hi + tol and t]
+    size = axis.get_tick_params().get("labelsize", rc[f"{name}tick.labelsize"])
+    prop = FontProperties(size=size)
+    sizes = [renderer.get_text_width_height_descent(t, prop, ismath=False) for _, t in shown]
+    wide = max((w for w, _, _ in sizes), default=0.0)
+    tall = max((h + d for _, h, d in sizes), default=0.0)
+    before = after = 0.0
+    if shown:  # the first and last labels are centred on their ticks: half of each may reach past the axes
+        box = axis.axes.bbox
+        if name == "x":
+            ends = axis.axes.transData.transform([(shown[0][0], 0.0), (shown[-1][0], 0.0)])[:, 0]
+            first, last, span = sizes[0][0] / 2, sizes[-1][0] / 2, (box.x0, box.x1)
+        else:
+            ends = axis.axes.transData.transform([(0.0, shown[0][0]), (0.0, shown[-1][0])])[:, 1]
+            first, last, span = sum(sizes[0][1:]) / 2, sum(sizes[-1][1:]) / 2, (box.y0, box.y1)
+        lo_px, hi_px = sorted(ends)
+        before = max(0.0, span[0] - (lo_px - first))
+        after = max(0.0, hi_px + last - span[1])
+    offset = fmt.get_offset() if hasattr(fmt, "get_offset") else ""
+    off_h = 0.0
+    if offset:
+        _, h, d = renderer.get_text_width_height_descent(offset, prop, ismath=False)
+        off_h = h + d
+    return wide, tall, before, after, off_h
+
+
+def fixed_layout(fig: Figure, *, dpi: float = DPI, rounds: int = 3) -> bool:
+    """Lays out a simple grid of axes (:func:`_axes_grid`) once, with margins measured from what it shows: the
+    tick labels the next drawing makes (their locator and formatter, not the tick artists), the axis labels, the
+    titles, the offset texts and the suptitle; then switches constrained layout off. The same space around the
+    axes as constrained layout gives (its paddings), at a fraction of its cost: it measures every tick label of
+    every axes twice in each drawing (~20 % of drawing the report's window diagnostics; issue 38 point 3).
+    Repeated (at most ``rounds`` times) while the measured margins change the tick labels. Measured at ``dpi``,
+    the drawing's: its text metrics and parsed mathtext are then Matplotlib's cached ones when it draws (at
+    another dpi every mathtext label would be parsed twice). Returns False (the figure untouched) for any other
+    figure."""
+    grid = _axes_grid(fig)
+    if grid is None:
+        return False
+    gs, engine = grid[0], fig.get_layout_engine()
+    params = {k: getattr(gs, k) for k in ("left", "right", "top", "bottom", "wspace", "hspace")}
+    places = [(ax, ax.get_position(original=True)) for ax in fig.axes]
+    before = fig.dpi
+    fig.dpi = dpi
+    try:
+        return _fixed_layout(fig, rounds)
+    except Exception:  # noqa: BLE001 - what it could not measure (an unusual locator, ...): constrained layout as before
+        gs.update(**params)
+        for ax, place in places:
+            ax.set_position(place)
+            ax.set_in_layout(True)
+        fig.set_layout_engine(engine)
+        return False
+    finally:
+        fig.dpi = before
+
+
+def _fixed_layout(fig: Figure, rounds: int) -> bool:
+    """:func:`fixed_layout` at the figure's dpi."""
+    from matplotlib import rcParams
+
+    rc: Any = rcParams
+    grid = _axes_grid(fig)
+    if grid is None:
+        return False
+    gs, rows = grid
+    renderer = cast(Any, fig.canvas).get_renderer()  # (Agg: _figure gave it its canvas)
+    px = fig.dpi / 72.0  # pixels per point
+    w_fig, h_fig = fig.get_size_inches() * fig.dpi
+    engine: Any = fig.get_layout_engine()
+    pads = engine.get()
+    w_pad, h_pad = pads["w_pad"] * fig.dpi, pads["h_pad"] * fig.dpi
+
+    def tick_room(name: str) -> float:
+        size = rc[f"{name}tick.major.size"] if rc[f"{name}tick.direction"] in ("out", "inout") else 0.0
+        return float(size + rc[f"{name}tick.major.pad"]) * px
+
+    def label_room(label: Any, pad: float, vertical: bool) -> float:
+        if not label.get_text() or not label.get_visible():
+            return 0.0
+        box = label.get_window_extent(renderer)
+        return float(box.width if vertical else box.height) + pad * px
+
+    # the x ticks' marks below an axes whose tick labels are hidden (stacked axes sharing x)
+    marks = rcParams["xtick.major.size"] * px if rcParams["xtick.direction"] in ("out", "inout") else 0.0
+    sup = fig.get_suptitle()
+    sup_text = next((t for t in fig.texts if sup and t.get_text() == sup), None)
+    top_fig = h_pad + (label_room(sup_text, 0.0, False) + h_pad if sup_text is not None else 0.0)
+    labels = {}
+    for r, row in enumerate(rows):
+        for c, ax in enumerate(row):
+            labels[r, c] = (label_room(ax.yaxis.label, ax.yaxis.labelpad, True),
+                            label_room(ax.xaxis.label, ax.xaxis.labelpad, False),
+                            label_room(ax.title, rcParams["axes.titlepad"], False))  # fmt: skip
+    settled: Optional[Tuple[float, ...]] = None
+    for _ in range(rounds):
+        left = [0.0] * gs.ncols
+        right = [0.0] * gs.ncols
+        top = [0.0] * gs.nrows
+        bottom = [0.0] * gs.nrows
+        for r, row in enumerate(rows):
+            for c, ax in enumerate(row):
+                yl, xl, title = labels[r, c]
+                yw, _, y_before, y_after, y_off = _tick_text(ax.yaxis, renderer)
+                _, xh, x_before, x_after, x_off = _tick_text(ax.xaxis, renderer)
+                left[c] = max(left[c], (yw + tick_room("y") if yw else 0.0) + yl, x_before)
+                right[c] = max(right[c], x_after)
+                top[r] = max(top[r], title, y_after, y_off + (rcParams["axes.titlepad"] * px if y_off else 0.0))
+                bottom[r] = max(bottom[r], (xh + tick_room("x") if xh else marks) + max(xl, x_off), y_before)
+                leg = ax.get_legend()
+                if leg is not None and leg.get_visible():  # a legend outside its axes (above it): its overhang
+                    box, inner = leg.get_window_extent(renderer), ax.bbox
+                    left[c] = max(left[c], inner.x0 - box.x0)
+                    right[c] = max(right[c], box.x1 - inner.x1)
+                    top[r] = max(top[r], box.y1 - inner.y1 + (title if box.y1 > inner.y1 else 0.0))
+                    bottom[r] = max(bottom[r], inner.y0 - box.y0)
+        margins = (left[0] + w_pad, right[-1] + w_pad, top[0] + top_fig, bottom[-1] + h_pad)
+        gap_w = max([right[c] + left[c + 1] + 2 * w_pad for c in range(gs.ncols - 1)], default=0.0)
+        gap_h = max([bottom[r] + top[r + 1] + 2 * h_pad for r in range(gs.nrows - 1)], default=0.0)
+        ax_w = (w_fig - margins[0] - margins[1] - (gs.ncols - 1) * gap_w) / gs.ncols
+        ax_h = (h_fig - margins[2] - margins[3] - (gs.nrows - 1) * gap_h) / gs.nrows
+        if ax_w <= 0 or ax_h <= 0:
+            return False  # (no room: constrained layout says so its own way)
+        now = tuple(round(v, 1) for v in (*margins, gap_w, gap_h))
+        if now == settled:
+            break
+        settled = now
+        fig.set_layout_engine("none")
+        gs.update(left=margins[0] / w_fig, right=1.0 - margins[1] / w_fig, top=1.0 - margins[2] / h_fig,
+                  bottom=margins[3] / h_fig, wspace=gap_w / ax_w, hspace=gap_h / ax_h)  # fmt: skip
+        for row in rows:  # (GridSpec.update moves the axes of pyplot's figures only)
+            for ax in row:
+                spec = ax.get_subplotspec()
+                assert spec is not None, "a cell of the grid (_axes_grid)"
+                ax.set_position(spec.get_position(fig))
+                ax.set_in_layout(True)  # (set_position takes it out of a layout: tight bounding boxes included)
+    if sup_text is not None:  # at the top, below constrained layout's padding
+        sup_text.set_y(1.0 - h_pad / h_fig)
+        sup_text.set_verticalalignment("top")
+    return True
+
+
 def png_bytes(fig: Figure, *, dpi: int = DPI) -> bytes:
     """``fig`` rendered once as PNG bytes (no timestamp or software in its metadata, so the bytes repeat; zlib level
     :data:`PNG_COMPRESS_LEVEL`)."""

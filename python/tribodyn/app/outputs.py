@@ -477,10 +477,20 @@ def write_table_csv(results: Results, path: PathLike, *, extra: Optional[Dict[st
     """
     cols = _columns(results, extra)
     names = list(cols)
+    header = [_safe_text(str(n)) for n in names]
+    cells = [_column_cells(cols[c]) for c in names]
     with open(path, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
-        w.writerow([_safe_text(str(n)) for n in names])
-        w.writerows(zip(*(_column_cells(cols[c]) for c in names)))
+        if len(names) < 2:  # (csv quotes a row of one empty field: its own writer)
+            w = csv.writer(f)
+            w.writerow(header)
+            w.writerows(zip(*cells))
+            return
+        # The text csv.writer (the excel dialect) writes, built a line at a time by str.join: numbers never need
+        # quoting, text cells are quoted as csv quotes them (_csv_text); ~10x faster than writerows (issue 38).
+        quoted = [c if _numeric(cols[n]) else list(map(_csv_text, c)) for n, c in zip(names, cells)]
+        lines = [",".join(map(_csv_text, header)), *map(",".join, zip(*quoted))]
+        f.write("\r\n".join(lines))
+        f.write("\r\n")
 
 
 def _column_cells(v: np.ndarray) -> List[str]:
@@ -494,6 +504,22 @@ def _column_cells(v: np.ndarray) -> List[str]:
     if np.issubdtype(v.dtype, np.integer):
         return [str(x) for x in v.tolist()]
     return [_cell(x) for x in v]
+
+
+def _numeric(v: np.ndarray) -> bool:
+    """Whether :func:`_column_cells` writes ``v`` as numbers or true/false (no cell of it is ever quoted)."""
+    kind = np.asarray(v).dtype.kind
+    return kind in "bfiu"
+
+
+#: Characters that make csv.writer (the excel dialect, QUOTE_MINIMAL) quote a field.
+_CSV_QUOTED = re.compile('[,"\r\n]')
+
+
+def _csv_text(s: str) -> str:
+    """A field as csv.writer's excel dialect writes it in a row of two fields or more: quoted (its quotes doubled)
+    when it holds a comma, a quote, a carriage return or a line feed, else as it is."""
+    return '"' + s.replace('"', '""') + '"' if _CSV_QUOTED.search(s) else s
 
 
 #: First characters that make a spreadsheet read a cell as a formula.
