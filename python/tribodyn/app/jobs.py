@@ -287,11 +287,8 @@ def _save_figures(
 
     if not figs:  # no PNG (--figures none): Matplotlib is not imported
         return [], meanwhile() if meanwhile is not None else None, also() if also is not None else None
-    from .figures import Rendering, fixed_layout
+    from .figures import Rendering
 
-    for stem, _, fig in figs:
-        if stem.startswith(_FIXED_LAYOUT):
-            fixed_layout(fig)  # (before a worker gets it: pickled with its layout)
     render = Rendering([f for _, _, f in figs], also=also, pool=pool)
     extra = render.also_result()
     pngs, done = render.finish_beside(meanwhile)
@@ -301,13 +298,6 @@ def _save_figures(
         atomic_write(out.path(name), _bytes_writer(data), durable=False)  # (the set is flushed as a whole)
         saved.append((name, caption, data))
     return saved, done, extra
-
-
-#: The figures laid out once by figures.fixed_layout instead of constrained layout at each drawing (~20 % of
-#: their drawing; issue 38 point 3): the dynamic recording's window diagnostics and COF against time, the figures
-#: of a long recording's report (checked by eye against constrained layout; a figure fixed_layout cannot lay out
-#: keeps constrained layout).
-_FIXED_LAYOUT = ("fig02_", "fig03-05_", "fig06-08_", "fig09_", "cof_vs_time")
 
 
 def _bytes_writer(data: bytes) -> Callable[[str], None]:
