@@ -125,18 +125,7 @@ pub fn uses_threads(n: usize, max_lag: usize) -> bool {
 
 /// Smallest 2^a 3^b >= `need`.
 fn smooth_len(need: usize) -> usize {
-    let need = need.max(1);
-    let mut best = need.next_power_of_two();
-    let mut p3 = 1usize;
-    while p3 < best {
-        let mut v = p3;
-        while v < need {
-            v *= 2;
-        }
-        best = best.min(v);
-        p3 *= 3;
-    }
-    best
+    crate::numerics::lagprofile::smooth_length(need, false)
 }
 
 /// The FFT length a one-block correlation of n samples at all lags uses.

@@ -21,7 +21,13 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 /// The smallest 2^a 3^b 5^c >= `at_least` (>= 1): the profile's FFT length.
 pub fn fft_length(at_least: usize) -> usize {
-    let need = at_least.max(1);
+    smooth_length(at_least, true)
+}
+
+/// The smallest 2^a 3^b (with `fives`, 2^a 3^b 5^c) >= `need` (>= 1): a length the FFT is fast at (also
+/// the correlation's, without fives).
+pub(crate) fn smooth_length(need: usize, fives: bool) -> usize {
+    let need = need.max(1);
     let mut best = need.next_power_of_two();
     let mut p5 = 1usize;
     while p5 < best {
@@ -33,6 +39,9 @@ pub fn fft_length(at_least: usize) -> usize {
             }
             best = best.min(q);
             p35 *= 3;
+        }
+        if !fives {
+            break;
         }
         p5 *= 5;
     }
@@ -220,6 +229,28 @@ mod tests {
         assert!(lagged_sums(&[1.0; 10], &[1.0; 10], 0, 0, 1.0).is_err());
         assert!(lagged_sums(&[1.0; 10], &[1.0; 10], 5, 2, 0.0).is_err());
         assert!(lagged_sums(&[], &[], 5, 2, 1.0).unwrap().0.is_empty());
+    }
+
+    #[test]
+    fn smooth_lengths_are_the_next_smooth_numbers() {
+        let smooth = |n: usize, fives: bool| {
+            (n..).find(|&m| {
+                let mut r = m;
+                for p in [2, 3, 5] {
+                    if p == 5 && !fives {
+                        break;
+                    }
+                    while r % p == 0 {
+                        r /= p;
+                    }
+                }
+                r == 1
+            })
+        };
+        for n in 1..5000 {
+            assert_eq!(Some(smooth_length(n, true)), smooth(n, true), "{n}");
+            assert_eq!(Some(smooth_length(n, false)), smooth(n, false), "{n}");
+        }
     }
 
     #[test]
