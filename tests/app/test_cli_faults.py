@@ -601,3 +601,17 @@ def test_a_missing_extension_is_one_line_and_exit_2(tmp_path):
     assert "compiled extension (tribodyn._core) cannot be loaded" in p.stderr
     v = subprocess.run([sys.executable, "-m", "tribodyn", "--version"], capture_output=True, text=True, env=env)
     assert v.returncode == 0 and v.stdout.startswith("tribodyn ")
+
+
+@pytest.mark.fast
+def test_an_analysis_error_of_one_file_names_the_file(tmp_path):
+    # a NaN inside a window: the one line names the file, as a folder's failures do
+    n = 30_000
+    fy, fz = np.full(n, 0.1), np.ones(n) + 0.01 * np.sin(np.arange(n))
+    fy[10_500] = np.nan
+    path = tmp_path / "with_nan.npz"
+    save_npz(path, {"fy": fy, "fz": fz}, 1000.0, {"fy": "N", "fz": "N"})
+    p = tribodyn("analyze", path, "--out", tmp_path / "o")
+    assert p.returncode == 2, p.stderr
+    line = error_line(p.stderr)
+    assert line.startswith("tribodyn: error: with_nan.npz: fy contains NaN or inf in the window"), line

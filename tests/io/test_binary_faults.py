@@ -585,3 +585,23 @@ def test_seeded_fuzz(tmp_path, fmt):
 
 if __name__ == "__main__":  # the fuzz child: python test_binary_faults.py FORMAT DIR
     _fuzz_worker(sys.argv[1], sys.argv[2])
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize("shape", [(2, 0), (0,), (0, 3)])
+def test_an_empty_npy_says_it_holds_no_samples(tmp_path, shape):
+    # (2, 0) used to be read as 0 channels of 2 samples: "names must be 0 distinct names"
+    path = tmp_path / "empty.npy"
+    np.save(path, np.zeros(shape))
+    for names in (None, ["fy", "fz"]):
+        with pytest.raises(RecordingError, match=r"empty\.npy: \.npy array of shape .* holds no samples"):
+            open_recording(path, fs=1000.0, names=names)
+
+
+@pytest.mark.fast
+def test_npy_names_of_the_wrong_count_say_what_the_file_holds(tmp_path):
+    path = tmp_path / "three.npy"
+    np.save(path, np.zeros((3, 100)))
+    with pytest.raises(RecordingError, match=r"three\.npy: names must be 3 distinct names \(the file holds 3 "
+                       r"channels of 100 samples, one a row\), got \['fy', 'fz'\]"):  # fmt: skip
+        open_recording(path, fs=1000.0, names=["fy", "fz"])

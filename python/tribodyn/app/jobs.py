@@ -841,13 +841,24 @@ def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Di
 
         rec = stack.enter_context(open_recording(files[0], **open_options))
         # stick-slip in the analysis' own reading (docs/method.md 6g): the recording is not read again for it
-        res = analyze(rec, progress=progress, stick_slip=True, **opts)
+        try:
+            res = analyze(rec, progress=progress, stick_slip=True, **opts)
+        except ValueError as exc:  # the command's one line names the file, as a folder's failures do
+            _name_the_file(exc, Path(files[0]))
+            raise
         return [(Path(files[0]), res)], {}, {Path(files[0]): rec}
     if client is None and split is None and opts.get("align") is None:
         return _analyse_here(stack, files, open_options, opts, progress=progress)
     many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
     failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
     return [(Path(p), r) for p, r in many.results.items()], failures, {}
+
+
+def _name_the_file(exc: BaseException, path: Path) -> None:
+    """Puts ``path``'s name before the message of ``exc`` (in place: its type and traceback stay) unless the message
+    names the file already (a reader's errors say its path)."""
+    if exc.args and isinstance(exc.args[0], str) and path.name not in exc.args[0]:
+        exc.args = (f"{path.name}: {exc.args[0]}", *exc.args[1:])
 
 
 def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_options: Dict[str, Any],

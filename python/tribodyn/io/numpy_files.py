@@ -209,12 +209,17 @@ class NpyRecording(Recording):
                 raise RecordingError(f"layout must be 'channels_first' or 'samples_first', got {layout!r}")
         else:
             raise RecordingError(f"{self.path}: .npy array of shape {arr.shape}: need 1-D or 2-D")
+        if arr.size == 0:
+            raise RecordingError(f"{self.path}: .npy array of shape {tuple(shape)} holds no samples")
         self._arr = arr
         nch, n = arr.shape if self._rows_are_channels else arr.shape[::-1]
         if names is not None:
             names = [str(x) for x in names]
             if len(names) != nch or len(set(names)) != nch:
-                raise RecordingError(f"names must be {nch} distinct names, got {names!r}")
+                raise RecordingError(
+                    f"{self.path}: names must be {nch} distinct names (the file holds {nch} channels of {n} samples, "
+                    f"{'one a row' if self._rows_are_channels else 'one a column'}), got {names!r}"
+                )
             self._names = names
         else:
             self._names = [f"ch{k}" for k in range(nch)]
