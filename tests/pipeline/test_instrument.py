@@ -338,6 +338,10 @@ def test_the_kernels_lagged_sums_refuse_bad_input_with_an_error() -> None:
         tribodyn._core.lagged_sums(y, y, 4, 0.0)
     with pytest.raises(ValueError):
         tribodyn._core.lagged_sums(np.asfortranarray(np.ones((4, 10))), y, 4, 1.0)
+    with pytest.raises(ValueError, match="whole windows of n samples"):
+        tribodyn._core.lagged_sums(np.ones((4, 0)), np.ones((4, 0)), 0, 1.0)  # windows of no sample
+    A, C = tribodyn._core.lagged_sums(np.ones((0, 10)), np.ones((0, 10)), 4, 1.0)  # no window
+    assert A.shape == C.shape == (0, 5)
 
 
 @pytest.mark.fast

@@ -252,7 +252,7 @@ fn lagged_sums<'py>(
     let (k, n) = (y.shape()[0], y.shape()[1]);
     let (ys, zs) = (y.as_slice().map_err(slice_err("y"))?, z.as_slice().map_err(slice_err("z"))?);
     let (a, c) = py
-        .detach(|| parallel::run_with(threads, || lagprofile::lagged_sums(ys, zs, n.max(1), max_lag, scale)))
+        .detach(|| parallel::run_with(threads, || lagprofile::lagged_sums(ys, zs, n, max_lag, scale)))
         .map_err(to_py)?
         .map_err(to_py)?;
     let shape = [k, max_lag + 1];
