@@ -34,6 +34,7 @@ __all__ = [
     "pearson",
     "row_quantiles",
     "lagged_sums",
+    "mapped_windows_alone",
     "resample_stats",
     "select_ranks",
     "histogram_uniform",
@@ -91,6 +92,9 @@ def row_quantiles(x: _F64, qs: list[float], *, threads: int | None = None) -> tu
 def lagged_sums(y: _F64, z: _F64, max_lag: int, scale: float, *, threads: int | None = None) -> tuple[_F64, _F64]:
     """(A, C), (windows, max_lag + 1): per row of y and z (C order), divided by scale and centred,
     A(L) = sum_t z_t z_(t-L) and C(L) = sum_t y_t z_(t-L), by FFT (the instrument's lag profile)."""
+
+def mapped_windows_alone(step: int, length: int) -> bool:
+    """Whether ``windows_stats_file`` reads each window alone (step >= length + MAPPED_ALONE_GAP)."""
 
 def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None, threads: int | None = None) -> _F64 | None:
     """The values of ranks ks (0-based, ascending) of a 1-D array (with centre: of |x - centre|), exactly;

@@ -748,6 +748,24 @@ class Recording:
         parts = [self._read(names, a, b) for a, b in ranges]
         return {n: np.concatenate([p[n] for p in parts]) if parts else np.zeros(0) for n in names}
 
+    def _extents_ranges(self, fd: int, extents: Mapping[str, Any], names: Sequence[str],
+                        ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:  # fmt: skip
+        """:meth:`_read_ranges` of channels the native reader describes (``extents``: name -> ``_core.Extents``),
+        one call of ``_core.extents_read_ranges`` a channel on the open file ``fd`` (the pre-pass's hundreds of
+        pieces; issue 38 point 2); a read that fails after the file changed says so."""
+        from .. import _core
+
+        spans = [(int(a), int(b)) for a, b in ranges]
+        out = {}
+        for nm in names:
+            try:
+                out[nm] = _core.extents_read_ranges(extents[nm], fd, spans)
+            except ValueError as exc:  # "a:b: why"
+                self.check_unchanged()  # a changed file explains the error better
+                raise RecordingError(f"{self.path}: cannot read {nm!r}: samples {exc}") from None
+        self.check_unchanged()  # (HDF5 fills what lies past the end of a truncated file with zeros)
+        return out
+
     def read_ranges(self, ranges: Sequence[Tuple[int, int]], roles: Union[None, str, Sequence[str]] = None
                     ) -> Dict[str, np.ndarray]:  # fmt: skip
         """Samples ``a:b`` of every ``(a, b)`` in ``ranges``, concatenated, scaled to SI (random-access formats).

@@ -504,16 +504,7 @@ class Hdf5Recording(Recording):
         native = self.thread_safe and fd is not None and hasattr(_core, "extents_read_ranges")
         if fd is None or not (native and all(self._ext.get(nm) is not None for nm in names)):
             return super()._read_ranges(names, ranges)
-        spans = [(int(a), int(b)) for a, b in ranges]
-        out = {}
-        for nm in names:
-            try:
-                out[nm] = _core.extents_read_ranges(self._ext[nm], fd, spans)
-            except ValueError as exc:  # "a:b: why"
-                self.check_unchanged()
-                raise RecordingError(f"{self.path}: cannot read {nm!r}: samples {exc}") from None
-        self.check_unchanged()  # HDF5 fills what lies past the end of a truncated file with zeros
-        return out
+        return self._extents_ranges(fd, self._ext, names, ranges)
 
     def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         out = {}

@@ -257,14 +257,7 @@ class NpyRecording(Recording):
     def _read_ranges_native(self, names: Sequence[str], ranges: Sequence[Tuple[int, int]]) -> Dict[str, np.ndarray]:
         """:meth:`_read_ranges` with one call of ``_core.pread_ranges`` a channel (every range read without the
         GIL, on several threads for a large read)."""
-        r = np.asarray(ranges, dtype=np.int64).reshape(-1, 2)
-        r = r[r[:, 1] > r[:, 0]]
-        if r.shape[0] > 1:  # adjacent ranges (the lag profile's tiling windows) read as one
-            new = np.concatenate(([True], r[1:, 0] != r[:-1, 1]))  # a run starts where a range does not continue
-            if not new.all():
-                first = np.flatnonzero(new)
-                last = np.append(first[1:] - 1, r.shape[0] - 1)
-                r = np.stack((r[first, 0], r[last, 1]), axis=1)
+        r = np.asarray(_runs(ranges), dtype=np.int64).reshape(-1, 2)
         item, dtype = self._arr.itemsize, self._arr.dtype
         starts, lengths = r[:, 0] * item, (r[:, 1] - r[:, 0]) * item
         total = int(lengths.sum()) // item
@@ -290,12 +283,7 @@ class NpyRecording(Recording):
         without ``_core.pread_ranges``)."""
         idx = {nm: k for k, nm in enumerate(self._names)}
         total = sum(b - a for a, b in ranges)
-        runs: List[List[int]] = []  # adjacent ranges (the lag profile's tiling windows) read as one
-        for a, b in ranges:
-            if runs and runs[-1][1] == a:
-                runs[-1][1] = b
-            elif b > a:
-                runs.append([a, b])
+        runs = _runs(ranges)
 
         fd, item, direct = self._fd, self._arr.itemsize, hasattr(os, "preadv")
         assert fd is not None, "open recordings hold their descriptor"
@@ -573,3 +561,16 @@ class NpzRecording(Recording):
         z, self._zip = getattr(self, "_zip", None), None
         if z is not None:
             z.close()
+
+
+def _runs(ranges: Sequence[Tuple[int, int]]) -> List[Tuple[int, int]]:
+    """``ranges`` without the empty ones, adjacent ones joined (the lag profile's tiling windows): one read each."""
+    runs: List[Tuple[int, int]] = []
+    for a, b in ranges:
+        if b <= a:
+            continue
+        if runs and runs[-1][1] == a:
+            runs[-1] = (runs[-1][0], int(b))
+        else:
+            runs.append((int(a), int(b)))
+    return runs

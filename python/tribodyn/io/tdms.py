@@ -896,14 +896,7 @@ class TdmsRecording(Recording):
         if not (self._native and self.thread_safe and hasattr(_core, "extents_read_ranges")):
             return super()._read_ranges(names, ranges)
         assert self._fd is not None
-        spans = [(int(a), int(b)) for a, b in ranges]
-        try:
-            got = {nm: _core.extents_read_ranges(self._objs[nm].extents, self._fd, spans) for nm in names}
-        except ValueError as exc:  # "a:b: why", as a range read says it
-            self.check_unchanged()  # a changed file explains the error better
-            raise RecordingError(f"{self.path}: cannot read TDMS samples {exc}") from None
-        self.check_unchanged()
-        return got
+        return self._extents_ranges(self._fd, {nm: self._objs[nm].extents for nm in names}, names, ranges)
 
     def _read_range(self, names: Sequence[str], start: int, stop: int) -> Dict[str, np.ndarray]:
         if self._native:

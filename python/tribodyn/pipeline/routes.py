@@ -460,7 +460,7 @@ def _run_mapped(rec: RecordingProtocol, ks: KernelSpec) -> Tuple[Stats, Optional
     # not depend on the recording's length.
     count = k1 - k0
     # the samples a window takes in a block: its span to the next, or its own when the gaps are not read
-    per = plan.length if plan.step >= plan.length + _core.MAPPED_ALONE_GAP and not plan.raw else plan.step
+    per = plan.length if not plan.raw and _core.mapped_windows_alone(plan.step, plan.length) else plan.step
     cap = max(1, (plan.chunk_samples or MAPPED_BLOCK) // per)
     blocks = -(-count // cap)
     blocks = -(-blocks // plan.threads) * plan.threads

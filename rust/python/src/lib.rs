@@ -227,6 +227,13 @@ fn select_ranks<'py>(
     Ok(got.map(|v| PyArray1::from_vec(py, v)))
 }
 
+/// Whether `windows_stats_file` reads each window alone, its gaps skipped: windows of `length` samples every
+/// `step` at least `MAPPED_ALONE_GAP` apart (tribodyn.pipeline.routes sizes its blocks by it).
+#[pyfunction]
+fn mapped_windows_alone(step: usize, length: usize) -> bool {
+    mapped::windows_alone(step, length)
+}
+
 /// Two 2-D float64 arrays.
 type Pair2<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
@@ -1199,6 +1206,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pearson, m)?)?;
     m.add_function(wrap_pyfunction!(row_quantiles, m)?)?;
     m.add_function(wrap_pyfunction!(lagged_sums, m)?)?;
+    m.add_function(wrap_pyfunction!(mapped_windows_alone, m)?)?;
     m.add_function(wrap_pyfunction!(resample_stats, m)?)?;
     m.add_function(wrap_pyfunction!(select_ranks, m)?)?;
     m.add_function(wrap_pyfunction!(histogram_uniform, m)?)?;

@@ -500,17 +500,9 @@ struct Samples {
 }
 
 impl Samples {
+    /// Samples [a, b) of every channel (one window of b - a samples at a).
     fn read(&mut self, file: &File, layout: &FileLayout, a: usize, b: usize) -> Result<(), KernelError> {
-        self.cache.begin();
-        for (i, src) in layout.sources().into_iter().enumerate() {
-            self.present[i] = src.is_some();
-            match src {
-                Some(Source::F64(off)) => read_f64s(file, off + a as u64 * F64, b - a, &mut self.bufs[i])?,
-                Some(Source::Extents(ext)) => ext.read(file, a as u64, b as u64, &mut self.bufs[i], &mut self.cache)?,
-                None => {}
-            }
-        }
-        Ok(())
+        self.read_windows(file, layout, &[a], b - a)
     }
 
     /// The samples of the windows starting at `starts` (each `len` long), laid end to end: window j is
@@ -549,14 +541,6 @@ impl Samples {
     fn get(&self, i: usize) -> Option<&[f64]> {
         self.present[i].then(|| self.bufs[i].as_slice())
     }
-}
-
-/// Reads `n` little-endian f64 from byte `at` of `file` into `buf`
-/// (resized to `n`; its memory reused). A file that ends before is an
-/// error naming the bytes missing, as is any other failed read.
-fn read_f64s(file: &File, at: u64, n: usize, buf: &mut Vec<f64>) -> Result<(), KernelError> {
-    buf.resize(n, 0.0);
-    read_f64s_into(file, at, buf)
 }
 
 /// Fills `buf` with the little-endian f64 from byte `at` of `file`.
@@ -975,42 +959,55 @@ mod tests {
         }
     }
 
+    /// A file of `lead` bytes, then `segs` segments of a `head`-byte head and `per` samples of channel A, then
+    /// `per` of B (`val(channel, sample)`: f64, or big-endian i32 with `Num::I32`), and each channel's Extents.
+    fn two_channel_segments(
+        lead: u64,
+        (segs, per, head): (u64, u64, u64),
+        num: Num,
+        val: impl Fn(u64, u64) -> f64,
+    ) -> (Vec<u8>, [Extents; 2]) {
+        let mut bytes = vec![0xEEu8; lead as usize];
+        for sgm in 0..segs {
+            bytes.extend(vec![0x55u8; head as usize]);
+            for ch in 0..2 {
+                for j in 0..per {
+                    let v = val(ch, sgm * per + j);
+                    match num {
+                        Num::F64 => bytes.extend(v.to_le_bytes()),
+                        _ => bytes.extend((v as i32).to_be_bytes()),
+                    }
+                }
+            }
+        }
+        let (first, w) = (lead + head, num.width());
+        let len = 2 * per * w;
+        let ext = |ch: u64| Extents {
+            num,
+            big_endian: num != Num::F64,
+            parts: vec![Extent {
+                start: 0,
+                count: per,
+                offset: first + ch * per * w,
+                stride: w,
+                chunk: (first, first + len),
+                reps: segs,
+                period: head + len,
+            }],
+            ops: Vec::new(),
+        };
+        (bytes, [ext(0), ext(1)])
+    }
+
     #[test]
     fn a_short_part_of_a_channels_run_in_a_shared_chunk_is_read_alone() {
         // 6 segments: a 40-byte head, then 5000 samples of channel A and 5000 of B (one chunk, both channels)
         let (segs, per, head) = (6u64, 5000u64, 40u64);
-        for (num, big, w) in [(Num::F64, false, 8u64), (Num::I32, true, 4)] {
-            let mut bytes = Vec::new();
-            for sgm in 0..segs {
-                bytes.extend(vec![0x55u8; head as usize]);
-                for ch in 0..2u64 {
-                    for j in 0..per {
-                        let v = (ch * 100_000 + sgm * per + j) as i32;
-                        match num {
-                            Num::F64 => bytes.extend((v as f64).to_le_bytes()),
-                            _ => bytes.extend(v.to_be_bytes()),
-                        }
-                    }
-                }
-            }
+        for (num, w) in [(Num::F64, 8u64), (Num::I32, 4)] {
+            let (bytes, exts) = two_channel_segments(0, (segs, per, head), num, |ch, i| (ch * 100_000 + i) as f64);
             let (path, file) = temp_file(&bytes);
             let len = 2 * per * w;
-            let ext = |ch: u64| Extents {
-                num,
-                big_endian: big,
-                parts: vec![Extent {
-                    start: 0,
-                    count: per,
-                    offset: head + ch * per * w,
-                    stride: w,
-                    chunk: (head, head + len),
-                    reps: segs,
-                    period: head + len,
-                }],
-                ops: Vec::new(),
-            };
-            for ch in 0..2u64 {
-                let e = ext(ch);
+            for (ch, e) in (0..2u64).zip(exts) {
                 e.check(bytes.len() as u64).unwrap();
                 for (a, b) in [(2100u64, 2300u64), (4999, 5001), (0, 400)] {
                     let (mut out, mut cache) = (Vec::new(), ByteCache::default());
@@ -1105,38 +1102,9 @@ mod tests {
         // 30 of channel B (f64; B also as big-endian i32 in a second file).
         let (segs, per, head) = (40u64, 30u64, 100u64);
         let val = |ch: u64, i: u64| (ch * 10_000 + i) as f64 * 0.5 - 77.0;
-        for (num, big, w) in [(Num::F64, false, 8u64), (Num::I32, true, 4)] {
-            let mut bytes = vec![0xEEu8; 16];
-            for sgm in 0..segs {
-                bytes.extend(vec![0x55u8; head as usize]);
-                for ch in 0..2 {
-                    for j in 0..per {
-                        let v = val(ch, sgm * per + j);
-                        match num {
-                            Num::F64 => bytes.extend(v.to_le_bytes()),
-                            _ => bytes.extend((v as i32).to_be_bytes()),
-                        }
-                    }
-                }
-            }
+        for num in [Num::F64, Num::I32] {
+            let (bytes, [a_ext, b_ext]) = two_channel_segments(16, (segs, per, head), num, val);
             let (path, file) = temp_file(&bytes);
-            let first = 16 + head;
-            let len = 2 * per * w;
-            let ext = |ch: u64| Extents {
-                num,
-                big_endian: big,
-                parts: vec![Extent {
-                    start: 0,
-                    count: per,
-                    offset: first + ch * per * w,
-                    stride: w,
-                    chunk: (first, first + len),
-                    reps: segs,
-                    period: head + len,
-                }],
-                ops: Vec::new(),
-            };
-            let (a_ext, b_ext) = (ext(0), ext(1));
             a_ext.check(bytes.len() as u64).unwrap();
             let exact = |v: f64| if num == Num::F64 { v } else { (v as i32) as f64 };
             for (a, b) in [(0, segs * per), (5, 65), (29, 31), (1100, 1200), (0, 1)] {

@@ -341,8 +341,8 @@ fn direct_part_tiled<const T: usize>(
 // ---------------------------------------------------------------- FFT
 
 /// Shared FFT planner: plans (twiddles, algorithm choice) are made once per
-/// length and reused by every call.
-fn plans(m: usize) -> (Arc<dyn RealToComplex<f64>>, Arc<dyn ComplexToReal<f64>>) {
+/// length and reused by every call (the correlation's and the lag profile's).
+pub(crate) fn plans(m: usize) -> (Arc<dyn RealToComplex<f64>>, Arc<dyn ComplexToReal<f64>>) {
     static PLANNER: OnceLock<Mutex<RealFftPlanner<f64>>> = OnceLock::new();
     let mut p = PLANNER.get_or_init(|| Mutex::new(RealFftPlanner::new())).lock().unwrap_or_else(|e| e.into_inner());
     (p.plan_fft_forward(m), p.plan_fft_inverse(m))

@@ -13,11 +13,11 @@
 //! sqrt(E_y E_z) per lag (the test compares with direct sums).
 
 use crate::error::KernelError;
+use crate::numerics::correlation::plans;
 use crate::numerics::sums::mean;
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
-use std::sync::{Arc, Mutex, OnceLock};
+use realfft::{ComplexToReal, RealToComplex};
 
 /// The smallest 2^a 3^b 5^c >= `at_least` (>= 1): the profile's FFT length.
 pub fn fft_length(at_least: usize) -> usize {
@@ -46,12 +46,6 @@ pub(crate) fn smooth_length(need: usize, fives: bool) -> usize {
         p5 *= 5;
     }
     best
-}
-
-fn plans(m: usize) -> (Arc<dyn RealToComplex<f64>>, Arc<dyn ComplexToReal<f64>>) {
-    static PLANNER: OnceLock<Mutex<RealFftPlanner<f64>>> = OnceLock::new();
-    let mut p = PLANNER.get_or_init(|| Mutex::new(RealFftPlanner::new())).lock().unwrap_or_else(|e| e.into_inner());
-    (p.plan_fft_forward(m), p.plan_fft_inverse(m))
 }
 
 /// Scratch of one thread: the padded signals, their spectra and the FFTs' own scratch.
