@@ -253,7 +253,7 @@ struct Builder {
     objects: Vec<Object>,
     ids: HashMap<String, usize>,
     /// Latest segment object of each id (npTDMS's "previous segment objects").
-    last: HashMap<usize, SegObj>,
+    last: Vec<Option<SegObj>>,
     /// Per object, its runs being built: (key, num, big, parts).
     runs: Vec<Vec<Run>>,
     /// Per set of (object, values, type) of a segment: interleaved or not, where first seen.
@@ -271,6 +271,13 @@ impl Builder {
         self.runs.push(Vec::new());
         self.ids.insert(path.to_string(), i);
         i
+    }
+
+    fn set_last(&mut self, o: &SegObj) {
+        if self.last.len() <= o.id {
+            self.last.resize(o.id + 1, None);
+        }
+        self.last[o.id] = Some(o.clone());
     }
 
     fn fall(&mut self, why: String) {
@@ -367,12 +374,108 @@ fn same_lead_in(a: &[u8], b: &[u8]) -> bool {
 }
 
 fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
+    walk_with(file, index, true)
+}
+
+/// A segment, for messages: formatted only when one is made.
+#[derive(Debug, Clone, Copy)]
+struct Seg {
+    number: usize,
+    pos: u64,
+}
+
+impl std::fmt::Display for Seg {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "segment {} at byte {}", self.number, self.pos)
+    }
+}
+
+/// The metadata last parsed: a segment whose metadata are the same bytes
+/// (same table of contents, raw data offset) right after a segment with
+/// this object list has this object list again (npTDMS's rules, applied
+/// twice, give what they gave once: each object's header sets its fields
+/// to values of its own, properties are set to the same values).
+struct MetaMemo {
+    toc: u32,
+    raw_off: u64,
+    bytes: Vec<u8>,
+    objs: Rc<Vec<SegObj>>,
+}
+
+/// What placing a segment's data did to the index, its extents' offsets
+/// from the segment's data: a segment with the same object list, table of
+/// contents and data length does the same, its offsets further on (every
+/// other effect of [`place_data`] is set once, and was).
+#[derive(Default)]
+struct Plan {
+    /// Values added to objects (object, values).
+    adds: Vec<(usize, u64)>,
+    /// Extents pushed (object, key, type, big-endian, extent with offsets from the data's start).
+    pushes: Vec<(usize, i64, Num, bool, Extent)>,
+    /// More pushes than [`Plan::MAX`]: not replayed.
+    full: bool,
+}
+
+impl Plan {
+    const MAX: usize = 1024;
+
+    fn add(&mut self, id: usize, n: u64) {
+        self.adds.push((id, n));
+    }
+
+    /// Pushes `e` (of the data starting at `data_pos`) to `b` and notes it.
+    fn push(&mut self, b: &mut Builder, data_pos: u64, push: (usize, i64, Num, bool, Extent)) {
+        let (id, key, num, big, e) = push;
+        b.push(id, key, num, big, e);
+        if self.full {
+            return;
+        }
+        if self.pushes.len() == Self::MAX {
+            self.full = true;
+            self.pushes = Vec::new();
+            return;
+        }
+        let rel = Extent { offset: e.offset - data_pos, chunk: (e.chunk.0 - data_pos, e.chunk.1 - data_pos), ..e };
+        self.pushes.push((id, key, num, big, rel));
+    }
+
+    /// Does again what was noted, for data starting at `data_pos`.
+    fn replay(&self, b: &mut Builder, data_pos: u64) {
+        for &(id, n) in &self.adds {
+            let o = &mut b.objects[id].n;
+            *o = o.saturating_add(n);
+        }
+        for &(id, key, num, big, e) in &self.pushes {
+            let e = Extent { offset: e.offset + data_pos, chunk: (e.chunk.0 + data_pos, e.chunk.1 + data_pos), ..e };
+            b.push(id, key, num, big, e);
+        }
+    }
+}
+
+/// The data last placed (see [`Plan`]).
+struct PlaceMemo {
+    objs: Rc<Vec<SegObj>>,
+    toc: u32,
+    total: u64,
+    plan: Plan,
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Segments of this thread's walks whose (metadata, data) were replayed.
+    static REPLAYED: std::cell::Cell<(usize, usize)> = const { std::cell::Cell::new((0, 0)) };
+}
+
+/// The walk; `replay`: whether segments that repeat the one before are
+/// placed by [`MetaMemo`] and [`Plan`] (false: each parsed and placed
+/// afresh; the tests compare both).
+fn walk_with(file: &File, index: Option<&[u8]>, replay: bool) -> Result<Index, KernelError> {
     let mut ipos = 0usize;
     let size = file.metadata().map_err(|e| corrupt(format!("cannot read the file's length: {e}")))?.len();
     let mut b = Builder {
         objects: Vec::new(),
         ids: HashMap::new(),
-        last: HashMap::new(),
+        last: Vec::new(),
         runs: Vec::new(),
         layouts: HashMap::new(),
         fallback: None,
@@ -382,26 +485,30 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
     let mut prev: Option<Rc<Vec<SegObj>>> = None;
     let mut pos = 0u64;
     let mut count = 0usize;
-    let mut meta_buf = Vec::new();
-    let mut window = Window::default();
+    let mut window = Window { want: Window::FIRST, ..Default::default() };
+    let mut meta_memo: Option<MetaMemo> = None;
+    let mut place_memo: Option<PlaceMemo> = None;
     // Small segments (a logger's): lead-ins and metadata read through one
     // sequential window, not two small reads each (a cold file is then read
     // at disk speed, not seek by seek). Segments of a few KiB or more: only
-    // their heads are read, the kernel told to read the file ahead (a warm
-    // file's data are then not copied at all, a cold one still streams).
+    // their heads are read, lead-in and metadata in one read (as long as
+    // the segment before's), for small segments with the kernel told to
+    // read the file ahead (a warm file's data are then not copied at all, a
+    // cold one still streams).
     let mut small = false;
     let mut peek = false;
     while pos < size {
         let number = count + 1;
-        let where_ = format!("segment {number} at byte {pos}");
+        let seg = Seg { number, pos };
         if size - pos < LEAD_IN {
             return Err(corrupt(format!("truncated TDMS file ({} stray bytes after segment {count})", size - pos)));
         }
+        let mode = if small && !peek { Mode::Window } else { Mode::Head { advise: small } };
         let mut lead = [0u8; LEAD_IN as usize];
-        if small {
-            lead.copy_from_slice(window.get(file, pos, LEAD_IN as usize, size, peek)?);
-        } else {
+        if index.is_some() {
             read_bytes(file, pos, &mut lead)?;
+        } else {
+            lead.copy_from_slice(window.get(file, pos, LEAD_IN as usize, size, mode)?);
         }
         if let Some(ix) = index {
             let il = ix.get(ipos..ipos + LEAD_IN as usize).unwrap_or(&[]);
@@ -446,7 +553,7 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
             _ => {}
         }
         if next_off == INCOMPLETE {
-            return Err(corrupt(format!("TDMS {where_} was never completed (writer aborted or file truncated)")));
+            return Err(corrupt(format!("TDMS {seg} was never completed (writer aborted or file truncated)")));
         }
         let end = pos.checked_add(LEAD_IN).and_then(|p| p.checked_add(next_off));
         let end = match end {
@@ -458,16 +565,17 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
                 )));
             }
         };
-        let bad = format!("corrupt TDMS file: {where_}");
         if raw_off > next_off {
             return Err(corrupt(format!(
-                "{bad}: raw data offset {raw_off} lies beyond the segment's end ({next_off} bytes)"
+                "corrupt TDMS file: {seg}: raw data offset {raw_off} lies beyond the segment's end ({next_off} bytes)"
             )));
         }
         let data_pos = pos + LEAD_IN + raw_off;
         let objs: Rc<Vec<SegObj>> = if toc & TOC_META_DATA == 0 {
             if raw_off != 0 {
-                return Err(corrupt(format!("{bad}: raw data offset {raw_off} in a segment without metadata")));
+                return Err(corrupt(format!(
+                    "corrupt TDMS file: {seg}: raw data offset {raw_off} in a segment without metadata"
+                )));
             }
             match &prev {
                 Some(p) => p.clone(),
@@ -479,55 +587,95 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
         } else {
             // Metadata are a few KiB; a (corrupt) offset of gigabytes is not read whole.
             let cap = raw_off.min(META_CAP);
-            meta_buf.resize(cap as usize, 0);
-            match index {
+            let meta: &[u8] = match index {
                 Some(ix) => {
                     let from = ipos + LEAD_IN as usize;
                     let m = from.checked_add(cap as usize).and_then(|to| ix.get(from..to));
-                    let m = m.ok_or_else(|| corrupt(format!("its segment {number} is cut short")))?;
-                    meta_buf.copy_from_slice(m);
+                    m.ok_or_else(|| corrupt(format!("its segment {number} is cut short")))?
                 }
-                None if small => meta_buf.copy_from_slice(window.get(file, pos + LEAD_IN, cap as usize, size, peek)?),
-                None => read_bytes(file, pos + LEAD_IN, &mut meta_buf)?,
-            }
-            let mut m = Meta { b: &meta_buf, p: 0, big };
-            let parsed = parse_metadata(&mut b, &mut m, toc, prev.as_deref());
-            let list = match parsed {
-                Err(ParseError::Overrun) if cap < raw_off => {
-                    b.fall(format!("{where_}: more than {META_CAP} bytes of metadata"));
-                    return finish(b, count + 1, warnings);
-                }
-                Err(ParseError::Overrun) => {
-                    return Err(corrupt(format!(
-                        "{bad}: its metadata runs past the raw data offset {raw_off} (corrupt segment header)"
-                    )))
-                }
-                Err(ParseError::Fallback(why)) => {
-                    b.fall(why);
-                    return finish(b, count + 1, warnings);
-                }
-                Err(ParseError::Bad(msg)) => return Err(corrupt(format!("cannot read TDMS metadata: {msg}"))),
-                Ok(l) => l,
+                None => window.get(file, pos + LEAD_IN, cap as usize, size, mode)?,
             };
-            let used = m.p;
-            if used != raw_off as usize
-                && (meta_buf[used..].iter().any(|&x| x != 0) || !zeros(file, pos + LEAD_IN + cap, raw_off - cap)?)
-            {
-                return Err(corrupt(format!(
-                    "{bad}: raw data offset {raw_off} but the metadata ends after {used} bytes (corrupt segment header)"
-                )));
+            let repeated = meta_memo.as_ref().filter(|mm| {
+                replay
+                    && mm.toc == toc
+                    && mm.raw_off == raw_off
+                    && prev.as_ref().is_some_and(|p| Rc::ptr_eq(p, &mm.objs))
+                    && mm.bytes == meta
+            });
+            match repeated {
+                Some(mm) => {
+                    #[cfg(test)]
+                    REPLAYED.with(|r| r.set((r.get().0 + 1, r.get().1)));
+                    mm.objs.clone()
+                }
+                None => {
+                    let mut m = Meta { b: meta, p: 0, big };
+                    let parsed = parse_metadata(&mut b, &mut m, toc, prev.as_deref());
+                    let list = match parsed {
+                        Err(ParseError::Overrun) if cap < raw_off => {
+                            b.fall(format!("{seg}: more than {META_CAP} bytes of metadata"));
+                            return finish(b, count + 1, warnings);
+                        }
+                        Err(ParseError::Overrun) => {
+                            return Err(corrupt(format!(
+                                "corrupt TDMS file: {seg}: its metadata runs past the raw data offset {raw_off} (corrupt segment header)"
+                            )))
+                        }
+                        Err(ParseError::Fallback(why)) => {
+                            b.fall(why);
+                            return finish(b, count + 1, warnings);
+                        }
+                        Err(ParseError::Bad(msg)) => return Err(corrupt(format!("cannot read TDMS metadata: {msg}"))),
+                        Ok(l) => l,
+                    };
+                    let used = m.p;
+                    if used != raw_off as usize
+                        && (meta[used..].iter().any(|&x| x != 0) || !zeros(file, pos + LEAD_IN + cap, raw_off - cap)?)
+                    {
+                        return Err(corrupt(format!(
+                            "corrupt TDMS file: {seg}: raw data offset {raw_off} but the metadata ends after {used} bytes (corrupt segment header)"
+                        )));
+                    }
+                    let list = Rc::new(list);
+                    if replay && cap == raw_off {
+                        let mut bytes = meta_memo.take().map(|mm| mm.bytes).unwrap_or_default();
+                        bytes.clear();
+                        bytes.extend_from_slice(meta);
+                        meta_memo = Some(MetaMemo { toc, raw_off, bytes, objs: list.clone() });
+                    }
+                    list
+                }
             }
-            Rc::new(list)
         };
-        for o in objs.iter() {
-            b.last.insert(o.id, o.clone());
+        if !prev.as_ref().is_some_and(|p| Rc::ptr_eq(p, &objs)) {
+            for o in objs.iter() {
+                b.set_last(o);
+            }
         }
-        place_data(&mut b, &objs, toc, data_pos, end, &where_)?;
+        let total = end - data_pos;
+        let same = place_memo
+            .as_ref()
+            .filter(|pm| replay && !pm.plan.full && pm.toc == toc && pm.total == total && Rc::ptr_eq(&pm.objs, &objs));
+        match same {
+            Some(pm) => {
+                #[cfg(test)]
+                REPLAYED.with(|r| r.set((r.get().0, r.get().1 + 1)));
+                pm.plan.replay(&mut b, data_pos)
+            }
+            None => {
+                let mut plan = Plan::default();
+                place_data(&mut b, &objs, toc, data_pos, end, seg, &mut plan)?;
+                if replay {
+                    place_memo = Some(PlaceMemo { objs: objs.clone(), toc, total, plan });
+                }
+            }
+        }
         prev = Some(objs);
         count += 1;
         pos = end;
         small = index.is_none() && next_off < SMALL_SEGMENT;
         peek = next_off >= Window::PEEK_FROM;
+        window.want = (LEAD_IN + raw_off).clamp(Window::PEEK, Window::WANT_MAX);
         ipos += (LEAD_IN + raw_off) as usize;
     }
     if index.is_some_and(|ix| ipos != ix.len()) {
@@ -539,33 +687,63 @@ fn walk(file: &File, index: Option<&[u8]>) -> Result<Index, KernelError> {
     finish(b, count, warnings)
 }
 
-/// Segments shorter than this are walked through a [`Window`].
+/// Segments shorter than this are walked through a [`Window`] (with the file advised read ahead, or in windows).
 const SMALL_SEGMENT: u64 = 64 << 10;
 
-/// A window of the file read in large sequential pieces, or (`peek`) in
-/// pieces of [`Window::PEEK`] bytes with the kernel asked to read the file
-/// [`Window::LEN`] ahead.
+/// How [`Window::get`] reads what it does not hold.
+#[derive(Debug, Clone, Copy)]
+enum Mode {
+    /// [`Window::want`] bytes (at least those asked for); `advise`: the kernel is asked to read the file
+    /// [`Window::LEN`] ahead.
+    Head { advise: bool },
+    /// [`Window::LEN`] bytes, the next segments' heads with them.
+    Window,
+}
+
+/// Bytes of the file read at the segments' heads (a segment's lead-in and
+/// metadata in one read), or in large sequential pieces.
 #[derive(Default)]
 struct Window {
     buf: Vec<u8>,
     at: u64,
     /// The file is advised read ahead up to this byte.
     advised: u64,
+    /// Bytes read at a segment's head: its lead-in and as much metadata as the segment before had.
+    want: u64,
+    /// A head was not in the kernel's cache (or the kernel could not say): the file is advised read
+    /// ahead from then on. Until then, the file being cached, it is not (advising a cached file costs a
+    /// lookup per page: a quarter of the walk of a warm file).
+    cold: bool,
 }
 
 impl Window {
     const LEN: u64 = 4 << 20;
-    /// Bytes read at a segment's head when peeking: its lead-in and (usually) its metadata.
-    const PEEK: u64 = 512;
-    /// Segments at least this long (the one before) are peeked at.
+    /// Least bytes read at a segment's head.
+    const PEEK: u64 = 64;
+    /// Bytes read at the first segment's head.
+    const FIRST: u64 = 4 << 10;
+    /// Most bytes read at a segment's head unasked (longer metadata: a second read).
+    const WANT_MAX: u64 = 64 << 10;
+    /// Segments at least this long (the one before) are read by their heads.
     const PEEK_FROM: u64 = 4 << 10;
 
     /// Bytes [pos, pos + n) of the file of `size` bytes (the caller checked they lie inside it).
-    fn get(&mut self, file: &File, pos: u64, n: usize, size: u64, peek: bool) -> Result<&[u8], KernelError> {
+    fn get(&mut self, file: &File, pos: u64, n: usize, size: u64, mode: Mode) -> Result<&[u8], KernelError> {
         let end = pos + n as u64;
         if pos < self.at || end > self.at + self.buf.len() as u64 {
-            let len = if peek {
-                if end + Self::LEN > self.advised {
+            let len = match mode {
+                Mode::Head { .. } => (n as u64).max(self.want),
+                Mode::Window => (n as u64).max(Self::LEN),
+            }
+            .min(size - pos);
+            self.buf.resize(len as usize, 0);
+            let mut cached = false;
+            if let Mode::Head { advise: true } = mode {
+                if !self.cold {
+                    cached = read_cached(file, pos, &mut self.buf);
+                    self.cold = !cached;
+                }
+                if self.cold && end + Self::LEN > self.advised {
                     let from = self.advised.max(pos);
                     let to = (pos + 2 * Self::LEN).min(size);
                     if to > from {
@@ -573,12 +751,13 @@ impl Window {
                     }
                     self.advised = to;
                 }
-                (n as u64).max(Self::PEEK).min(size - pos)
-            } else {
-                (n as u64).max(Self::LEN).min(size - pos)
-            };
-            self.buf.resize(len as usize, 0);
-            read_bytes(file, pos, &mut self.buf)?;
+            }
+            if !cached && read_bytes(file, pos, &mut self.buf).is_err() {
+                // The file shrank while read: the error of the bytes asked for (or them, if they are still there).
+                self.buf.truncate(n);
+                self.at = u64::MAX;
+                read_bytes(file, pos, &mut self.buf)?;
+            }
             self.at = pos;
         }
         let from = (pos - self.at) as usize;
@@ -606,6 +785,46 @@ fn advise_willneed(file: &File, at: u64, len: u64) {
 
 #[cfg(not(all(target_os = "linux", target_pointer_width = "64")))]
 fn advise_willneed(_file: &File, _at: u64, _len: u64) {}
+
+/// Fills `buf` from byte `at` of `file` if the kernel holds those bytes in
+/// its cache (`preadv2` with `RWF_NOWAIT`: no wait for the disk); false
+/// when it does not, or holds part of them, or cannot say (an older
+/// kernel, a file system without it): then the caller reads them.
+#[cfg(all(target_os = "linux", target_pointer_width = "64", any(target_arch = "x86_64", target_arch = "aarch64")))]
+fn read_cached(file: &File, at: u64, buf: &mut [u8]) -> bool {
+    use std::os::unix::io::AsRawFd;
+    #[repr(C)]
+    struct IoVec {
+        base: *mut u8,
+        len: usize,
+    }
+    extern "C" {
+        fn syscall(number: i64, ...) -> i64;
+    }
+    // The system call itself: glibc's preadv2 wrapper is younger than the oldest glibc wheels are built for.
+    #[cfg(target_arch = "x86_64")]
+    const SYS_PREADV2: i64 = 327;
+    #[cfg(target_arch = "aarch64")]
+    const SYS_PREADV2: i64 = 286;
+    const RWF_NOWAIT: i64 = 8;
+    let Ok(offset) = i64::try_from(at) else { return false };
+    let iov = IoVec { base: buf.as_mut_ptr(), len: buf.len() };
+    // SAFETY: the kernel writes at most `iov.len` bytes at `iov.base`, which is `buf`, borrowed mutably for
+    // the call; `iov` outlives it; the offset's high half (0) is ignored on 64-bit targets.
+    let got = unsafe {
+        syscall(SYS_PREADV2, i64::from(file.as_raw_fd()), &iov as *const IoVec as i64, 1i64, offset, 0i64, RWF_NOWAIT)
+    };
+    usize::try_from(got).is_ok_and(|g| g == buf.len())
+}
+
+#[cfg(not(all(
+    target_os = "linux",
+    target_pointer_width = "64",
+    any(target_arch = "x86_64", target_arch = "aarch64")
+)))]
+fn read_cached(_file: &File, _at: u64, _buf: &mut [u8]) -> bool {
+    false
+}
 
 /// Largest metadata read whole (beyond it the file is left to npTDMS).
 const META_CAP: u64 = 16 << 20;
@@ -676,7 +895,7 @@ fn parse_metadata(
                 SAME_AS_PREVIOUS => list[i].has_data = true,
                 _ => list[i] = SegObj { id, has_data: true, index: Some(read_new(m)?) },
             }
-        } else if let Some(last) = b.last.get(&id).cloned() {
+        } else if let Some(last) = b.last.get(id).and_then(|l| l.clone()) {
             let o = match header {
                 NO_DATA => SegObj { has_data: false, ..last },
                 SAME_AS_PREVIOUS => SegObj { has_data: true, ..last },
@@ -786,13 +1005,20 @@ fn place_data(
     toc: u32,
     data_pos: u64,
     end: u64,
-    where_: &str,
+    seg: Seg,
+    plan: &mut Plan,
 ) -> Result<(), KernelError> {
+    if let Some(o) = objs.iter().find(|o| o.has_data && o.index.is_none()) {
+        // Its first index said "no data", a later one "as before" (npTDMS fails reading its values).
+        let path = &b.objects[o.id].path;
+        return Err(corrupt(format!(
+            "corrupt TDMS file: {seg}: the data of {path} are said to lie as before, but no segment before gave them a layout"
+        )));
+    }
     let data: Vec<&SegObj> = objs.iter().filter(|o| o.has_data).collect();
     let idx = |o: &SegObj| -> Rc<RawIndex> { o.index.clone().expect("objects with data have an index") };
     let n_daqmx = data.iter().filter(|o| matches!(*idx(o), RawIndex::Daqmx { .. })).count();
     let total = end - data_pos;
-    let bad = format!("corrupt TDMS file: {where_}");
     if n_daqmx > 0 && n_daqmx != data.len() {
         return Err(corrupt("cannot read TDMS metadata: Cannot read mixed DAQmx and non-DAQmx data".into()));
     }
@@ -805,11 +1031,17 @@ fn place_data(
                 if dims.is_empty() {
                     dims = widths.iter().map(|&w| (0, w as u64)).collect();
                 } else if dims.len() != widths.len() || dims.iter().zip(widths).any(|(d, &w)| d.1 != w as u64) {
-                    return Err(corrupt(format!("{bad}: DAQmx raw data widths differ between channels")));
+                    return Err(corrupt(format!(
+                        "corrupt TDMS file: {seg}: DAQmx raw data widths differ between channels"
+                    )));
                 }
                 for s in scalers {
                     let d = dims.get_mut(s.buffer as usize).ok_or_else(|| {
-                        corrupt(format!("{bad}: DAQmx scaler of raw buffer {} of {}", s.buffer, widths.len()))
+                        corrupt(format!(
+                            "corrupt TDMS file: {seg}: DAQmx scaler of raw buffer {} of {}",
+                            s.buffer,
+                            widths.len()
+                        ))
                     })?;
                     d.0 = d.0.max(*nv);
                 }
@@ -822,7 +1054,7 @@ fn place_data(
             RawIndex::Daqmx { .. } => None,
         })
     }
-    .ok_or_else(|| corrupt(format!("{bad}: chunk size overflows")))?;
+    .ok_or_else(|| corrupt(format!("corrupt TDMS file: {seg}: chunk size overflows")))?;
     if chunk == 0 {
         if total != 0 {
             return Err(corrupt(format!(
@@ -833,14 +1065,15 @@ fn place_data(
     }
     if total % chunk != 0 {
         return Err(corrupt(format!(
-            "{bad}: its {total} bytes of data are not a whole number of chunks of {chunk} bytes (segment header inconsistent with its channels)"
+            "corrupt TDMS file: {seg}: its {total} bytes of data are not a whole number of chunks of {chunk} bytes (segment header inconsistent with its channels)"
         )));
     }
     let n_chunks = total / chunk;
     for o in &data {
-        let nv = idx(o).nv();
+        let add = idx(o).nv().saturating_mul(n_chunks);
         let n = &mut b.objects[o.id].n;
-        *n = n.saturating_add(nv.saturating_mul(n_chunks));
+        *n = n.saturating_add(add);
+        plan.add(o.id, add);
         let code = match &*idx(o) {
             RawIndex::Plain { code, .. } | RawIndex::Daqmx { code, .. } => *code,
         };
@@ -856,7 +1089,7 @@ fn place_data(
         return Ok(());
     }
     if toc & TOC_RAW_DATA == 0 {
-        b.fall(format!("{where_} holds data without the raw-data flag"));
+        b.fall(format!("{seg} holds data without the raw-data flag"));
         return Ok(());
     }
     let big = toc & TOC_BIG_ENDIAN != 0;
@@ -869,13 +1102,13 @@ fn place_data(
                 RawIndex::Daqmx { .. } => (o.id, 0, 0),
             })
             .collect();
-        let (first, first_where) = b.layouts.entry(key).or_insert((interleaved, where_.to_string())).clone();
-        if first != interleaved {
+        let (first, first_where) = b.layouts.entry(key).or_insert_with(|| (interleaved, seg.to_string()));
+        if *first != interleaved {
             let how = |x: bool| if x { "interleaved" } else { "contiguous" };
             return Err(corrupt(format!(
-                "{bad} declares {} data but {first_where} holds the same channels {} (corrupt table of contents)",
+                "corrupt TDMS file: {seg} declares {} data but {first_where} holds the same channels {} (corrupt table of contents)",
                 how(interleaved),
-                how(first)
+                how(*first)
             )));
         }
     }
@@ -907,7 +1140,7 @@ fn place_data(
                 for c in 0..n_chunks {
                     let base = data_pos + c * chunk + buf_off[s.buffer as usize];
                     let e = Extent::single(rows, base + s.byte_offset as u64, width, (base, base + rows * width));
-                    b.push(o.id, key, num, big, e);
+                    plan.push(b, data_pos, (o.id, key, num, big, e));
                 }
             }
         }
@@ -933,7 +1166,7 @@ fn place_data(
     if interleaved {
         let nv0 = idx(data[0]).nv();
         if data.iter().any(|o| idx(o).nv() != nv0) {
-            b.fall(format!("{where_}: interleaved channels of different lengths"));
+            b.fall(format!("{seg}: interleaved channels of different lengths"));
             return Ok(());
         }
         let width: u64 = nums.iter().map(|n| n.map_or(0, |x| x.width())).sum();
@@ -942,7 +1175,7 @@ fn place_data(
         for (o, num) in data.iter().zip(&nums) {
             let Some(num) = *num else { continue };
             let e = Extent::single(rows, data_pos + col, width, (data_pos, end));
-            b.push(o.id, PLAIN, num, big, e);
+            plan.push(b, data_pos, (o.id, PLAIN, num, big, e));
             col += num.width();
         }
         return Ok(());
@@ -956,7 +1189,7 @@ fn place_data(
             if let Some(num) = num {
                 if *nv > 0 {
                     let e = Extent::single(*nv, base + acc, num.width(), (base, base + chunk));
-                    b.push(o.id, PLAIN, *num, big, e);
+                    plan.push(b, data_pos, (o.id, PLAIN, *num, big, e));
                 }
             }
             acc += data_size;
@@ -1037,5 +1270,276 @@ mod tests {
         let e = read_index(&f, None).unwrap_err().to_string();
         assert!(e.contains("segment 2 needs"), "{e}");
         std::fs::remove_file(path).unwrap();
+    }
+
+    /// A raw data index of an object in a test segment.
+    enum Ix {
+        NoData,
+        Same,
+        /// (type code, values)
+        New(u32, u64),
+    }
+
+    /// A test object: path, index, float64 properties, string properties.
+    type Obj<'a> = (&'a str, Ix, &'a [(&'a str, f64)], &'a [(&'a str, &'a str)]);
+
+    /// Metadata of objects.
+    fn meta(objs: &[Obj<'_>]) -> Vec<u8> {
+        let mut m = (objs.len() as u32).to_le_bytes().to_vec();
+        for (path, ix, props, strings) in objs {
+            m.extend(s(path));
+            match ix {
+                Ix::NoData => m.extend(NO_DATA.to_le_bytes()),
+                Ix::Same => m.extend(SAME_AS_PREVIOUS.to_le_bytes()),
+                Ix::New(code, nv) => {
+                    m.extend(20u32.to_le_bytes());
+                    m.extend(code.to_le_bytes());
+                    m.extend(1u32.to_le_bytes());
+                    m.extend(nv.to_le_bytes());
+                }
+            }
+            m.extend(((props.len() + strings.len()) as u32).to_le_bytes());
+            for (k, v) in props.iter() {
+                m.extend(s(k));
+                m.extend(10u32.to_le_bytes());
+                m.extend(v.to_le_bytes());
+            }
+            for (k, v) in strings.iter() {
+                m.extend(s(k));
+                m.extend(STRING.to_le_bytes());
+                m.extend(s(v));
+            }
+        }
+        m
+    }
+
+    fn segment(toc: u32, meta: &[u8], data: &[u8]) -> Vec<u8> {
+        let mut v = lead(toc, (meta.len() + data.len()) as u64, meta.len() as u64);
+        v.extend(meta);
+        v.extend(data);
+        v
+    }
+
+    /// The `.tdms_index` NI would write beside `file`: its lead-ins (tagged `TDSh`) and metadata.
+    fn index_of(file: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        let mut pos = 0;
+        while pos < file.len() {
+            let next = u64::from_le_bytes(file[pos + 12..pos + 20].try_into().unwrap()) as usize;
+            let raw = u64::from_le_bytes(file[pos + 20..pos + 28].try_into().unwrap()) as usize;
+            out.extend(b"TDSh");
+            out.extend(&file[pos + 4..pos + 28 + raw]);
+            pos += 28 + next;
+        }
+        out
+    }
+
+    struct Temp(std::path::PathBuf);
+
+    impl Temp {
+        fn new(name: &str, bytes: &[u8]) -> (Temp, File) {
+            let path = std::env::temp_dir().join(format!("tribodyn-tdms-{}-{name}", std::process::id()));
+            std::fs::write(&path, bytes).unwrap();
+            let f = File::open(&path).unwrap();
+            (Temp(path), f)
+        }
+    }
+
+    impl Drop for Temp {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    /// The walk's result, as text (the index's every field, or the error's message).
+    fn walked(f: &File, index: Option<&[u8]>, replay: bool) -> String {
+        format!("{:?}", walk_with(f, index, replay).map_err(|e| e.to_string()))
+    }
+
+    const DATA: u32 = TOC_META_DATA | TOC_RAW_DATA;
+    const NEW_LIST: u32 = TOC_META_DATA | TOC_NEW_OBJ_LIST | TOC_RAW_DATA;
+
+    /// A logger's file: `n` segments of 4 float64 channels of `nv` values each, the metadata restated in
+    /// every segment (npTDMS's writer), then segments that change the object list, the layout, a property.
+    fn logger_file(n: usize, nv: u64) -> Vec<u8> {
+        let chans = ["/'g'/'fx'", "/'g'/'fy'", "/'g'/'fz'", "/'g'/'i'"];
+        let block: Vec<u8> = (0..4 * nv).flat_map(|x| (x as f64).to_le_bytes()).collect();
+        let mut first = vec![("/", Ix::NoData, &[][..], &[("creator", "test")][..]), ("/'g'", Ix::NoData, &[], &[])];
+        first.extend(chans.iter().map(|c| (*c, Ix::New(10, nv), &[("wf_increment", 0.001)][..], &[][..])));
+        let mut file = segment(NEW_LIST, &meta(&first), &block);
+        let again: Vec<_> = chans.iter().map(|c| (*c, Ix::New(10, nv), &[][..], &[][..])).collect();
+        for _ in 1..n {
+            file.extend(segment(NEW_LIST, &meta(&again), &block));
+        }
+        // No metadata: the list before.
+        for _ in 0..5 {
+            file.extend(segment(TOC_RAW_DATA, &[], &block));
+        }
+        // Two chunks a segment.
+        for _ in 0..5 {
+            file.extend(segment(NEW_LIST, &meta(&again), &[&block[..], &block[..]].concat()));
+        }
+        // The list continued: fx as before, a new int16 channel, fy without data (4 segments, the same bytes).
+        let more = meta(&[
+            ("/'g'/'fx'", Ix::Same, &[], &[]),
+            ("/'g'/'n'", Ix::New(2, 8), &[], &[]),
+            ("/'g'/'fy'", Ix::NoData, &[], &[]),
+        ]);
+        let data: Vec<u8> = [&block[..3 * nv as usize * 8], &[7u8; 16][..]].concat();
+        for _ in 0..4 {
+            file.extend(segment(DATA, &more, &data));
+        }
+        // Interleaved, then a property that changes in every segment.
+        let two = |p: f64| {
+            meta(&[("/'g'/'fx'", Ix::New(10, 3), &[("p", p)][..], &[][..]), ("/'g'/'i'", Ix::New(10, 3), &[], &[])])
+        };
+        for k in 0..6 {
+            file.extend(segment(NEW_LIST | TOC_INTERLEAVED, &two((k / 3) as f64), &block[..48]));
+        }
+        file
+    }
+
+    #[test]
+    fn replayed_segments_index_as_parsed_ones() {
+        let bytes = logger_file(300, 50);
+        let (_t, f) = Temp::new("replay", &bytes);
+        REPLAYED.with(|r| r.set((0, 0)));
+        let fast = walked(&f, None, true);
+        // Metadata as the segment before's: segments 3-300, the 5 of two chunks (after the segments without
+        // metadata, the list the same), 3 of 4 continued lists, 2 + 2 interleaved. Data as the segment
+        // before's: the same less the first of each table of contents or data length, the 4 without metadata.
+        let replays = (298 + 5 + 3 + 2 + 2, 298 + 4 + 4 + 3 + 2 + 2);
+        assert_eq!(REPLAYED.with(|r| r.get()), replays);
+        assert!(fast == walked(&f, None, false), "replayed and parsed segments differ");
+        assert_eq!(REPLAYED.with(|r| r.get()), replays, "none when not asked");
+        let ix = index_of(&bytes);
+        assert!(walked(&f, Some(&ix), true) == fast, "with the .tdms_index");
+        assert!(walked(&f, Some(&ix), false) == fast, "with the .tdms_index, parsed");
+        let idx = walk_with(&f, None, true).unwrap();
+        assert_eq!(idx.segments, 300 + 5 + 5 + 4 + 6);
+        assert!(idx.fallback.is_none() && idx.warnings.is_empty());
+        let fx = &idx.objects[2];
+        assert_eq!(fx.path, "/'g'/'fx'");
+        assert_eq!(fx.n, 300 * 50 + 5 * 50 + 5 * 100 + 4 * 50 + 6 * 3);
+        assert_eq!(fx.properties.iter().find(|p| p.0 == "p").map(|p| p.2.clone()), Some(1f64.to_le_bytes().to_vec()));
+        // The 300 segments of one layout are one extent repeated.
+        let first = 28 + u64::from_le_bytes(bytes[12..20].try_into().unwrap());
+        let step = 28 + u64::from_le_bytes(bytes[first as usize + 12..first as usize + 20].try_into().unwrap());
+        let parts = &fx.runs[0].1.parts;
+        assert_eq!((parts[0].count, parts[0].reps, parts[0].period), (50, 300, step));
+        let fy = &idx.objects[3];
+        assert_eq!(fy.n, 300 * 50 + 5 * 50 + 5 * 100);
+        assert_eq!(idx.objects[6].path, "/'g'/'n'");
+        assert_eq!(idx.objects[6].n, 4 * 8);
+        // The values of fx read back: the first segment's and the interleaved segments'.
+        let mut out = Vec::new();
+        let mut cache = crate::io::mapped::ByteCache::default();
+        fx.runs[0].1.read(&f, 0, 3, &mut out, &mut cache).unwrap();
+        assert_eq!(out, vec![0.0, 1.0, 2.0]);
+        fx.runs[0].1.read(&f, fx.n - 3, fx.n, &mut out, &mut cache).unwrap();
+        assert_eq!(out, vec![0.0, 2.0, 4.0]);
+    }
+
+    #[test]
+    fn a_damaged_segment_among_repeated_ones_is_still_found() {
+        let bytes = logger_file(40, 20);
+        let first = 28 + u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+        let step = 28 + u64::from_le_bytes(bytes[first + 12..first + 20].try_into().unwrap()) as usize;
+        // Segment 31's first object's value count: the data are then no whole number of chunks.
+        let mut bad = bytes.clone();
+        let at = first + 29 * step + 28 + 4 + 4 + "/'g'/'fx'".len() + 4 + 4 + 4;
+        bad[at] = 21;
+        let (_t, f) = Temp::new("damaged", &bad);
+        let e = walked(&f, None, true);
+        assert!(e == walked(&f, None, false));
+        let pos = first + 29 * step;
+        assert!(e.contains(&format!("corrupt TDMS file: segment 31 at byte {pos}: its 640 bytes of data")), "{e}");
+        // A flipped interleaving flag in segment 12.
+        let mut bad = bytes.clone();
+        bad[first + 10 * step + 4] |= TOC_INTERLEAVED as u8;
+        let (_t, f) = Temp::new("flipped", &bad);
+        let e = walked(&f, None, true);
+        assert!(e == walked(&f, None, false));
+        assert!(
+            e.contains("segment 12 at byte") && e.contains("declares interleaved data but segment 1 at byte 0"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn metadata_longer_than_the_read_at_its_head() {
+        // Segments of 8 KiB (heads read with the file advised), of 100 KiB (heads alone) and of 100 bytes
+        // (a window): after a short metadata, a long one (3 KiB, then 80 KiB: more than a head's read).
+        for data_len in [8 << 10, 100 << 10, 96] {
+            let data = vec![0u8; data_len];
+            let nv = (data_len / 8) as u64;
+            let short = meta(&[("/'g'/'a'", Ix::New(10, nv), &[], &[])]);
+            let mut file = segment(NEW_LIST, &short, &data);
+            file.extend(segment(NEW_LIST, &short, &data));
+            let long_a = "x".repeat(3000);
+            let long_b = "y".repeat(80 << 10);
+            for text in [&long_a, &long_b] {
+                let long = meta(&[("/'g'/'a'", Ix::Same, &[], &[("note", text.as_str())])]);
+                file.extend(segment(DATA, &long, &data));
+                file.extend(segment(DATA, &short, &data));
+            }
+            let (_t, f) = Temp::new("long", &file);
+            assert!(walked(&f, None, true) == walked(&f, None, false), "segments of {data_len} bytes");
+            let idx = walk_with(&f, None, true).unwrap();
+            let a = &idx.objects[0];
+            assert_eq!(a.n, 6 * nv);
+            assert_eq!(a.properties.len(), 1);
+            assert!(a.properties[0].2 == long_b.as_bytes());
+        }
+    }
+
+    #[test]
+    fn a_file_ending_inside_a_lead_in_or_a_segment() {
+        let m = meta(&[("/'g'/'a'", Ix::New(10, 1000), &[], &[])]);
+        let one = segment(NEW_LIST, &m, &[0u8; 8000]);
+        let mut file = one.clone();
+        file.extend(&one[..10]);
+        let (_t, f) = Temp::new("lead", &file);
+        assert_eq!(walked(&f, None, true), "Err(\"truncated TDMS file (10 stray bytes after segment 1)\")");
+        file.extend(&one[10..200]);
+        let (_t, f) = Temp::new("cut", &file);
+        let need = 2 * one.len();
+        let e = format!("Err(\"truncated TDMS file: segment 2 needs {need} bytes, the file has {}\")", file.len());
+        assert_eq!(walked(&f, None, true), e);
+    }
+
+    #[test]
+    fn data_as_before_without_a_layout_before_is_an_error() {
+        // The first index says "no data", the next "as before": there was no layout (this panicked).
+        let mut file = segment(NEW_LIST, &meta(&[("/'g'/'a'", Ix::NoData, &[], &[])]), &[]);
+        file.extend(segment(DATA, &meta(&[("/'g'/'a'", Ix::Same, &[], &[])]), &[0u8; 16]));
+        let (_t, f) = Temp::new("nolayout", &file);
+        assert_eq!(
+            walked(&f, None, true),
+            "Err(\"corrupt TDMS file: segment 2 at byte 52: the data of /'g'/'a' are said to lie as before, but no segment before gave them a layout\")"
+        );
+    }
+
+    #[test]
+    fn heads_read_as_pread_reads_them() {
+        let bytes: Vec<u8> = (0..20_000u32).map(|x| (x * 7 % 251) as u8).collect();
+        let (_t, f) = Temp::new("window", &bytes);
+        let mut buf = vec![0u8; 600];
+        if read_cached(&f, 1000, &mut buf) {
+            assert_eq!(buf, &bytes[1000..1600]);
+        }
+        assert!(!read_cached(&f, 19_900, &mut buf), "a short read is no read");
+        for mode in [Mode::Head { advise: true }, Mode::Head { advise: false }, Mode::Window] {
+            let mut w = Window { want: 64, ..Default::default() };
+            assert_eq!(w.get(&f, 100, 28, 20_000, mode).unwrap(), &bytes[100..128]);
+            assert_eq!(w.get(&f, 128, 3000, 20_000, mode).unwrap(), &bytes[128..3128]);
+            assert_eq!(w.get(&f, 5000, 28, 20_000, mode).unwrap(), &bytes[5000..5028]);
+            // The file shorter than when its length was taken: the bytes asked for, while they are there...
+            let mut w = Window { want: 4096, ..Default::default() };
+            assert_eq!(w.get(&f, 19_000, 28, 30_000, mode).unwrap(), &bytes[19_000..19_028]);
+            // ...else the error of those bytes.
+            let e = w.get(&f, 19_990, 28, 30_000, mode).unwrap_err().to_string();
+            assert_eq!(e, "the file ends before byte 20018: it was truncated while it was read");
+        }
     }
 }
