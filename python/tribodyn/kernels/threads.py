@@ -18,11 +18,15 @@ import contextlib
 import contextvars
 import numbers
 import os
-from typing import Any, Iterator, Optional
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, Callable, Iterator, Optional, Tuple, TypeVar
 
 from .. import _core
 
 __all__ = ["set_threads", "get_threads", "max_threads", "resolve_threads", "read_threads"]
+
+_T = TypeVar("_T")
 
 #: The thread count of the analysis running in this context (its readers' native parses use it).
 _READ: contextvars.ContextVar[Optional[int]] = contextvars.ContextVar("tribodyn_read_threads", default=None)
@@ -88,3 +92,27 @@ def read_threads() -> int:
     """Threads a reader's native parse uses: the running analysis's count, else :func:`resolve_threads`."""
     n = _READ.get()
     return n if n is not None else resolve_threads()
+
+
+#: Side jobs running at once at most (concurrent analyses of one process each have one: find_lag).
+SIDE_THREADS = 4
+#: (process id, executor) of the side jobs' threads, kept for the process's later calls.
+_SIDE: Optional[Tuple[int, ThreadPoolExecutor]] = None
+_SIDE_LOCK = threading.Lock()
+
+
+def side_job(fn: Callable[..., _T], *args: Any, **kwargs: Any) -> "Future[_T]":
+    """``fn(*args, **kwargs)`` on a thread beside the caller, in a copy of the caller's context (its thread
+    count), as a Future (issue 38 point 2: :func:`tribodyn.analyze` runs find_lag beside the pre-pass).
+
+    The threads are kept for later calls (starting one costs ~0.3 ms, a tenth of a short analysis's fixed
+    part): at most :data:`SIDE_THREADS`, started when every kept one is busy, each idle until its next job;
+    they end with the interpreter. A child process made by ``fork`` starts its own (the parent's threads do
+    not exist there).
+    """
+    global _SIDE
+    ctx = contextvars.copy_context()
+    with _SIDE_LOCK:
+        if _SIDE is None or _SIDE[0] != os.getpid():
+            _SIDE = (os.getpid(), ThreadPoolExecutor(SIDE_THREADS, thread_name_prefix="tribodyn-side"))
+        return _SIDE[1].submit(ctx.run, fn, *args, **kwargs)
