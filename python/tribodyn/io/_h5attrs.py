@@ -20,7 +20,8 @@ limit is wall-clock, as before.
 One helper serves the whole process: it is started on first use (about
 0.2 s: Python and h5py start), reused by every later open (a request costs
 about a millisecond), replaced after a timeout or a crash, and ends when
-the process does (its stdin closes). A process that cannot start one
+the process does (its stdin closes). A child made by ``fork`` starts its own, under a new lock
+(:func:`_after_fork_in_child`). A process that cannot start one
 (``sys.executable`` cannot run ``-c``, as in some frozen applications) reads
 the attributes in-process and says so in the recording's warnings.
 """
