@@ -566,4 +566,198 @@ mod tests {
         assert_eq!(out[2], 2.5);
         assert!(resample_stats(&v, &[0, 3], 2, 2, None, &mut out[..4]).is_err());
     }
+
+    /// A small linear congruential generator (no dependency; the same numbers on every machine).
+    fn lcg(seed: u64) -> impl FnMut() -> u64 {
+        let mut state = seed;
+        move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state >> 11
+        }
+    }
+
+    /// Values of `n` windows of a kind: 0 spread, 1 quantised (ties, zeros of both signs), 2 all equal,
+    /// 3 spread with NaN, 4 few distinct values.
+    fn values_of(kind: usize, n: usize, rnd: &mut impl FnMut() -> u64) -> Vec<f64> {
+        (0..n)
+            .map(|i| {
+                let u = (rnd() % 1_000_000) as f64 / 1e6;
+                match kind {
+                    0 => 0.12 + 0.003 * (u - 0.5),
+                    1 => match rnd() % 9 {
+                        0 => -0.0,
+                        1 => 0.0,
+                        r => (r as f64 - 4.0) * 0.25,
+                    },
+                    2 => 0.3,
+                    3 if i % 5 == 2 => f64::NAN,
+                    3 => u - 0.5,
+                    _ => [0.1, 0.2, 0.2, 0.5][(rnd() % 4) as usize],
+                }
+            })
+            .collect()
+    }
+
+    fn dnoise_of(kind: usize, n: usize, rnd: &mut impl FnMut() -> u64) -> Vec<f64> {
+        (0..n)
+            .map(|_| {
+                let u = (rnd() % 1_000_000) as f64 / 1e6;
+                match kind {
+                    0 => 0.5 + 0.1 * (u - 0.5),
+                    1 => 0.5,
+                    2 => 0.0,
+                    _ => 6.0 * (u - 0.5),
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn moved_order_statistics_are_the_selections_at_every_rank() {
+        let mut rnd = lcg(11);
+        let (mut tried, mut found) = (0usize, 0usize);
+        let (mut easy, mut easy_found) = (0usize, 0usize);
+        for n in [1usize, 2, 3, 4, 5, 9, 40, 300] {
+            for kind in 0..5 {
+                for dkind in 0..4 {
+                    let v = values_of(kind, n, &mut rnd);
+                    let dn = dnoise_of(dkind, n, &mut rnd);
+                    let Some((mv, pos)) = Moved::new(&v, &dn) else {
+                        assert!(v.iter().all(|x| x.is_nan()));
+                        continue;
+                    };
+                    for delta in [0.0, -0.0, 1e-4, -3e-3, 0.7, 1e-310] {
+                        let e = mv.bound(delta).unwrap();
+                        // a resample: windows drawn with repetition
+                        let idx: Vec<usize> =
+                            (0..n + (rnd() % 5) as usize).map(|_| (rnd() % n as u64) as usize).collect();
+                        let mut counts = vec![0u32; mv.sorted.len() + 1];
+                        idx.iter().for_each(|&i| counts[pos[i] as usize] += 1);
+                        let moved: Vec<f64> =
+                            idx.iter().map(|&i| dn[i] * delta + v[i]).filter(|x| !x.is_nan()).collect();
+                        let k = moved.len();
+                        assert_eq!(k, idx.len() - counts[mv.sorted.len()] as usize);
+                        let (mut got, mut sel, mut fixed) = (Vec::new(), Vec::new(), Vec::new());
+                        // every rank alone, then the ranks the statistics ask for together
+                        let mut sets: Vec<Vec<usize>> = (0..k).map(|j| vec![j]).collect();
+                        if k > 0 {
+                            sets.push(wanted_ranks(k, &[0.05, 0.95]));
+                        }
+                        for want in sets {
+                            // spread values moving together: always found without the selection among all
+                            let plain = kind == 0 && (dkind == 1 || dkind == 2);
+                            tried += 1;
+                            easy += plain as usize;
+                            if !mv.values(&counts, delta, e, &want, &mut got, &mut sel, &mut fixed) {
+                                continue;
+                            }
+                            found += 1;
+                            easy_found += plain as usize;
+                            for (&j, &x) in want.iter().zip(&got) {
+                                // the selection among all of them, as the kernel did it
+                                let mut all = moved.clone();
+                                let y = crate::numerics::order::rank(&mut all, j, &mut Vec::new());
+                                assert_eq!(
+                                    x.to_bits(),
+                                    y.to_bits(),
+                                    "n {n} kind {kind}/{dkind} delta {delta} rank {j}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // most ranks are found without the selection among all (zeros and wide moves are left to it)
+        assert!(found * 2 > tried, "{found} of {tried}");
+        assert_eq!(easy_found, easy);
+    }
+
+    /// The noise path as it was: each resample's moved values selected among in a copy.
+    fn noise_stats_by_selection(v: &[f64], starts: &[i64], per_row: usize, ell: usize, nz: &Noise<'_>) -> Vec<f64> {
+        let width = nz.var.len();
+        let rows = starts.len() / per_row;
+        let mut out = vec![0.0; 4 * rows];
+        for row in 0..rows {
+            let mut var: Vec<f64> =
+                indices(starts, per_row, row, ell, width).map(|k| nz.var[k]).filter(|x| !x.is_nan()).collect();
+            let mut m = 0.0;
+            crate::numerics::order::one_row(&mut var, &[], &mut m, &mut []);
+            let delta = numpy_max0(m) - nz.used;
+            let vals: Vec<f64> = indices(starts, per_row, row, ell, width)
+                .map(|k| {
+                    let p = nz.pos[k];
+                    if p < 0 {
+                        f64::NAN
+                    } else {
+                        nz.dnoise[p as usize] * delta + v[p as usize]
+                    }
+                })
+                .collect();
+            let zeroed: Vec<f64> = vals.iter().map(|&x| if x.is_nan() { 0.0 } else { x }).collect();
+            let mut buf: Vec<f64> = vals.iter().copied().filter(|x| !x.is_nan()).collect();
+            let mean = pairwise_sum(&zeroed) / buf.len() as f64;
+            let (mut med, mut q) = (0.0, [0.0; 2]);
+            crate::numerics::order::one_row(&mut buf, &[0.05, 0.95], &mut med, &mut q);
+            for (j, x) in [med, mean, q[0], q[1]].into_iter().enumerate() {
+                out[j * rows + row] = x;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn noise_resamples_are_the_selections_bit_for_bit() {
+        let mut rnd = lcg(5);
+        for width in [3usize, 4, 5, 7, 60, 700] {
+            for kind in 0..5 {
+                for dkind in 0..4 {
+                    // v holds most of the windows (the others gated out: pos -1)
+                    let pos: Vec<i64> = {
+                        let mut next = 0i64;
+                        (0..width)
+                            .map(|i| {
+                                if i % 7 == 3 {
+                                    -1
+                                } else {
+                                    next += 1;
+                                    next - 1
+                                }
+                            })
+                            .collect()
+                    };
+                    let n = pos.iter().filter(|&&p| p >= 0).count();
+                    let v = values_of(kind, n, &mut rnd);
+                    let dn = dnoise_of(dkind, n, &mut rnd);
+                    let mut var: Vec<f64> = (0..width).map(|_| ((rnd() % 2001) as f64 - 1000.0) * 2e-6).collect();
+                    if kind == 3 {
+                        var[width / 2] = f64::NAN;
+                    }
+                    for used in [0.0, 3e-4, f64::NAN] {
+                        let nz = Noise { var: &var, pos: &pos, dnoise: &dn, used };
+                        let ell = (width as f64).cbrt().ceil() as usize;
+                        let per_row = width.div_ceil(ell);
+                        let rows = 40;
+                        let starts: Vec<i64> =
+                            (0..rows * per_row).map(|_| (rnd() % (width - ell + 1) as u64) as i64).collect();
+                        let want = noise_stats_by_selection(&v, &starts, per_row, ell, &nz);
+                        for threads in [1, 2] {
+                            let mut got = vec![0.0; 4 * rows];
+                            crate::parallel::run_with(threads, || {
+                                resample_stats(&v, &starts, per_row, ell, Some(&nz), &mut got)
+                            })
+                            .unwrap()
+                            .unwrap();
+                            for (g, w) in got.iter().zip(&want) {
+                                assert!(
+                                    g.to_bits() == w.to_bits() || (g.is_nan() && w.is_nan()),
+                                    "width {width} kind {kind}/{dkind} used {used}: {g} {w}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
 }
