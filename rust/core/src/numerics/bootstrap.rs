@@ -346,8 +346,9 @@ struct Resamples<'a> {
     ell: usize,
     width: usize,
     nz: &'a Noise<'a>,
-    /// The noise measurements sorted once, when they fit.
-    ranked: Option<Ranked>,
+    /// The noise measurements sorted once (NaN left out), and each window's position among them (NaN:
+    /// last), when they fit.
+    ranked: Option<(Vec<f64>, Vec<u32>)>,
     /// Each window's value and d value / d noise (`v` and `dnoise` at its row of `v`; NaN and 0 for a
     /// window not among `v`'s, whose moved value `0 * delta + NaN` is NaN, as it always was).
     vw: Vec<f64>,
@@ -369,7 +370,14 @@ impl<'a> Resamples<'a> {
             (mv, pw)
         });
         let width = nz.var.len();
-        Resamples { starts, per_row, ell, width, nz, ranked: Ranked::new(nz.var), vw, dw, moved }
+        let ranked = sort_order(nz.var).map(|order| {
+            let mut pos = vec![order.len() as u32; width];
+            for (at, &i) in order.iter().enumerate() {
+                pos[i as usize] = at as u32;
+            }
+            (order.iter().map(|&i| nz.var[i as usize]).collect(), pos)
+        });
+        Resamples { starts, per_row, ell, width, nz, ranked, vw, dw, moved }
     }
 
     fn indices(&self, row: usize) -> impl Iterator<Item = usize> + '_ {
@@ -384,9 +392,44 @@ impl<'a> Resamples<'a> {
     fn row(&self, row: usize, s: &mut Scratch) -> [f64; 4] {
         let nz = self.nz;
         let Scratch { vals, buf, counts, moved, got, fixed } = s;
+        // the resample's windows counted by position among the noise measurements and among v's values,
+        // in one pass (the last position counts NaN and the windows not among v's)
+        let var_slot = self.ranked.as_ref().map(|r| r.0.len());
+        let v_slot = self.moved.as_ref().map(|m| m.0.sorted.len());
+        counts.clear();
+        counts.resize(var_slot.map_or(0, |n| n + 1), 0);
+        moved.clear();
+        moved.resize(v_slot.map_or(0, |n| n + 1), 0);
+        for r in self.blocks(row) {
+            match (&self.ranked, &self.moved) {
+                (Some((_, pv)), Some((_, pw))) => {
+                    for (&a, &b) in pv[r.clone()].iter().zip(&pw[r]) {
+                        counts[a as usize] += 1;
+                        moved[b as usize] += 1;
+                    }
+                }
+                (Some((_, pv)), None) => pv[r].iter().for_each(|&a| counts[a as usize] += 1),
+                (None, Some((_, pw))) => pw[r].iter().for_each(|&b| moved[b as usize] += 1),
+                (None, None) => {}
+            }
+        }
         let mut m = 0.0;
-        if let Some(rk) = &self.ranked {
-            rk.stats(self.indices(row), counts, &[], &mut m, &mut []);
+        if let (Some((sorted, _)), Some(slot)) = (&self.ranked, var_slot) {
+            let k = self.width - counts[slot] as usize; // a resample holds `width` windows
+            m = if k == 0 {
+                f64::NAN
+            } else {
+                let h = k / 2;
+                let (mut cum, mut at) = (0usize, 0usize);
+                let lo = if k % 2 == 0 {
+                    walk(&counts[..slot], &mut cum, &mut at, h - 1);
+                    sorted[at]
+                } else {
+                    0.0
+                };
+                walk(&counts[..slot], &mut cum, &mut at, h);
+                crate::numerics::order::median_of(k, lo, sorted[at])
+            };
         } else {
             buf.clear();
             buf.extend(self.indices(row).map(|k| nz.var[k]).filter(|x| !x.is_nan()));
@@ -397,18 +440,10 @@ impl<'a> Resamples<'a> {
         for r in self.blocks(row) {
             vals.extend(self.dw[r.clone()].iter().zip(&self.vw[r]).map(|(&d, &x)| d * delta + x));
         }
-        // the windows counted by position in v's order, when the order statistics come from Moved
-        let fast = self.moved.as_ref().and_then(|(mv, pw)| {
+        // the order statistics from Moved where its bound holds
+        let fast = self.moved.as_ref().and_then(|(mv, _)| {
             let e = mv.bound(delta)?;
-            let slot = mv.sorted.len();
-            moved.clear();
-            moved.resize(slot + 1, 0);
-            for r in self.blocks(row) {
-                for &q in &pw[r] {
-                    moved[q as usize] += 1;
-                }
-            }
-            Some((mv, e, vals.len() - moved[slot] as usize))
+            Some((mv, e, vals.len() - moved[mv.sorted.len()] as usize))
         });
         let nan = match fast {
             Some((.., k)) => k < vals.len(),
