@@ -305,9 +305,8 @@ impl Moved {
                 end += 1;
             }
             sel.clear();
-            for q in lo..hi {
-                let m = self.dn[q] * delta + self.sorted[q];
-                sel.extend(std::iter::repeat_n(m, counts[q] as usize));
+            for ((&d, &x), &c) in self.dn[lo..hi].iter().zip(&self.sorted[lo..hi]).zip(&counts[lo..hi]) {
+                sel.extend(std::iter::repeat_n(d * delta + x, c as usize));
             }
             fixed.clear();
             for &j in &want[i..end] {
@@ -508,8 +507,8 @@ pub fn resample_stats(
         }
     }
     // Counting needs the values sorted once: v's without noise when it holds no NaN (with NaN a resample
-    // holding one is NaN), and the noise measurements' (their NaN left out, as the median leaves it out).
-    // (and Resamples sorts the noise measurements and v's values once)
+    // holding one is NaN); with noise, Resamples sorts the noise measurements (their NaN left out, as the
+    // median leaves it out) and v's values.
     let ranked = match noise {
         None if !v.iter().any(|x| x.is_nan()) => Ranked::new(v),
         _ => None,
