@@ -118,3 +118,121 @@ def test_set_threads_zero_means_all_cores(restore_threads):
     assert td.get_threads() == restore_threads >= 1
     td.set_threads(5)
     assert td.get_threads() == 5
+
+
+def _small_results() -> td.Results:
+    from tribodyn import simulate
+
+    parts = list(simulate.continuous(60.0, seed=4, fs=1000.0))
+    data = {k: np.concatenate([p[k] for p in parts]) for k in ("fx", "fy", "fz")}
+    return td.analyze(data, fs=1000.0)
+
+
+@pytest.mark.fast
+def test_two_results_compute_their_values_at_once():
+    """A Results' cached values (mu_r_ci, column_ci, verdict, headline) hold no lock shared by every instance
+    (functools.cached_property before Python 3.12 does: the bootstraps of two threads ran one after the other);
+    two threads asking for the same value of one instance get the one object (issue 38 audit)."""
+    import threading
+
+    from tribodyn.results._cache import cached
+
+    met = threading.Barrier(2, timeout=10)
+
+    class Two:
+        @cached
+        def value(self) -> object:
+            met.wait()  # both instances inside at once, else BrokenBarrierError after 10 s
+            return object()
+
+    a, b = Two(), Two()
+    with ThreadPoolExecutor(2) as ex:
+        got = list(ex.map(lambda o: o.value, (a, b)))
+    assert got == [a.value, b.value] and got[0] is not got[1]
+    assert Two.value.__doc__ is None and isinstance(Two.__dict__["value"], cached)
+
+
+@pytest.mark.fast
+def test_a_child_forked_while_a_thread_computes_a_results_value_does_not_wait_forever(monkeypatch):
+    """multiprocessing's fork while another thread computes a Results' interval: the child's own Results
+    compute theirs (with functools.cached_property the child waited forever for the lock the parent's thread
+    held; issue 38 audit). The child is killed after 30 s (SIGALRM) so that the test fails instead of hanging."""
+    import os
+    import signal
+    import threading
+    import time
+
+    import tribodyn.results as results_module
+
+    if not hasattr(os, "fork"):
+        pytest.skip("no fork on this platform")
+    res = _small_results()
+    parent, inside, release = os.getpid(), threading.Event(), threading.Event()
+    real = results_module.bootstrap_ci
+
+    def slow_in_parent(*a, **k):
+        if os.getpid() == parent:
+            inside.set()
+            release.wait(30)
+        return real(*a, **k)
+
+    monkeypatch.setattr(results_module, "bootstrap_ci", slow_in_parent)
+    busy = threading.Thread(target=lambda: res.replace().mu_r_ci)
+    busy.start()
+    try:
+        assert inside.wait(30)
+        pid = os.fork()
+        if pid == 0:  # the child: only this thread exists
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+            signal.alarm(30)
+            os._exit(0 if res.replace().mu_r_ci == res.mu_r_ci else 3)
+        deadline = time.monotonic() + 40
+        while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if done[0] == 0:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            pytest.fail("the forked child did not finish in 40 s")
+        assert os.waitstatus_to_exitcode(done[1]) == 0
+    finally:
+        release.set()
+        busy.join(30)
+
+
+_LATE = """
+import sys, threading, time
+import numpy as np
+import tribodyn
+from tribodyn import simulate
+parts = list(simulate.continuous(60.0, seed=4, fs=1000.0))
+data = {k: np.concatenate([p[k] for p in parts]) for k in ("fx", "fy", "fz")}
+if sys.argv[1] == "warm":
+    tribodyn.analyze(data, fs=1000.0)
+def late():
+    time.sleep(0.2)  # the main thread has returned: the interpreter is exiting
+    print(tribodyn.analyze(data, fs=1000.0).headline.short, flush=True)
+threading.Thread(target=late).start()
+"""
+
+
+@pytest.mark.parametrize("first", ["warm", "cold"])
+def test_an_analysis_in_a_thread_that_outlives_the_main_thread_succeeds(first, tmp_path):
+    """A thread analysing after the main thread returned (the interpreter exiting): the package's thread pools
+    (find_lag's side job, the reading thread, the bootstrap's) run its jobs in the caller instead of refusing
+    them (RuntimeError "cannot schedule new futures after interpreter shutdown", or, where their module was not
+    yet imported, "can't register atexit after shutdown"; issue 38 audit)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = tmp_path / "late.py"
+    script.write_text(_LATE, encoding="utf-8")
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(Path(td.__file__).parents[1]), os.environ.get("PYTHONPATH", "")]),
+    }
+    got = subprocess.run([sys.executable, str(script), first], capture_output=True, text=True, timeout=120, env=env)
+    assert got.returncode == 0, got.stderr[-2000:]
+    assert "Traceback" not in got.stderr, got.stderr[-2000:]
+    assert got.stdout.startswith("dynamic COF"), got.stdout

@@ -128,3 +128,39 @@ def test_one_helper_serves_every_open(tmp_path):
     for _ in range(5):
         td.open_recording(p).close()
     assert _h5attrs._helper is helper and helper.proc.poll() is None
+
+
+@pytest.mark.fast
+def test_a_child_forked_while_another_thread_asks_the_helper_opens_hdf5(tmp_path):
+    """multiprocessing's fork while a thread of the parent holds the helper's lock (starting the helper, ~0.2 s,
+    or asking it): the child starts its own helper under a new lock and reads the file's text attributes (it
+    waited forever for the copied lock before; issue 38 audit). Its copies of the parent's helper pipes lead
+    nowhere, so the parent's helper goes on answering the parent. The child is killed after 30 s (SIGALRM) so
+    that the test fails instead of hanging."""
+    import os
+    import signal
+
+    if not hasattr(os, "fork"):
+        pytest.skip("no fork on this platform")
+    p = _h5(tmp_path / "a.h5")
+    td.open_recording(p).close()  # the parent's helper started
+    helper = _h5attrs._helper
+    with _h5attrs._lock:  # as a thread of the parent asking the helper at the moment of the fork
+        pid = os.fork()
+        if pid == 0:
+            signal.signal(signal.SIGALRM, signal.SIG_DFL)
+            signal.alarm(30)
+            with td.open_recording(p) as rec:
+                ok = rec.metadata["attributes"]["title"] == "run 7" and _h5attrs._helper is not helper
+            os._exit(0 if ok else 3)
+        deadline = time.monotonic() + 40
+        while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if done[0] == 0:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            pytest.fail("the forked child did not open the file in 40 s")
+    assert os.waitstatus_to_exitcode(done[1]) == 0
+    with td.open_recording(p) as rec:  # the parent's helper, unharmed
+        assert rec.metadata["attributes"]["title"] == "run 7"
+    assert _h5attrs._helper is helper and helper.proc.poll() is None

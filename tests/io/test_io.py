@@ -812,3 +812,18 @@ def test_save_npz_refuses_names_of_savez_arguments(tmp_path, name):
     with pytest.raises(ValueError, match="reserved"):
         save_npz(tmp_path / "x.npz", {name: np.arange(4.0), "fy": np.arange(4.0)}, 10.0)
     assert not (tmp_path / "x.npz").exists()
+
+
+@pytest.mark.fast
+def test_an_open_recording_is_not_pickled_and_says_to_send_its_path(tmp_path: Path) -> None:
+    """Sent to a worker process (multiprocessing, a process pool), an open recording says what to send instead of
+    pickle's "cannot pickle '_thread.lock' object" (issue 38 audit)."""
+    import copy
+    import pickle
+
+    path = tmp_path / "rec.npy"
+    np.save(path, np.zeros((3, 100)))
+    with tribodyn.open_recording(path, fs=1000.0, names=["fx", "fy", "fz"]) as rec:
+        for attempt in (lambda: pickle.dumps(rec), lambda: copy.copy(rec)):
+            with pytest.raises(TypeError, match=r"rec\.npy\) cannot be pickled or copied: send its path"):
+                attempt()

@@ -46,7 +46,7 @@ def test_the_lag_found_beside_the_prepass_is_the_one_found_after_it(monkeypatch:
     with tribodyn.open_recording(path, fs=1000.0, names=["fx", "fy", "fz"]) as rec:
         filed = tribodyn.analyze(rec, threads=2)
     assert seen[0] == threading.current_thread().name  # one thread: after the pre-pass, on the caller's
-    assert seen[1].startswith("tribodyn-lag") and seen[2].startswith("tribodyn-lag")
+    assert seen[1].startswith("tribodyn-side") and seen[2].startswith("tribodyn-side")
     assert one.params["iv_lag_rule"] == "data"
     for res in (two, filed):
         assert res.params["iv_lag_samples"] == one.params["iv_lag_samples"]
@@ -107,3 +107,29 @@ def test_a_reciprocating_test_drops_the_look() -> None:
     found.set_result("lag")
     assert orchestration._lag_of(found, {"motion": "reciprocating"}) is None
     assert orchestration._lag_of(found, {}) == "lag"
+
+
+@pytest.mark.fast
+def test_the_side_thread_is_kept_and_a_forked_child_starts_its_own() -> None:
+    """The look's thread is kept for the next call (starting one is a tenth of a short call's fixed part); a
+    child made by fork after an analysis, where the parent's threads (the look's, the Rust kernels' pools) do
+    not exist, starts its own (its first kernel call waited forever before)."""
+    import multiprocessing
+    import os
+
+    from tribodyn.kernels.threads import side_job
+
+    first = side_job(lambda: threading.current_thread())
+    thread = first.result(timeout=30)
+    assert side_job(lambda: threading.current_thread()).result(timeout=30) is thread
+    if not hasattr(os, "fork"):
+        pytest.skip("no fork on this platform")
+    here = _child_headline()  # the parent's kernel pools and side thread exist before the fork
+    ctx = multiprocessing.get_context("fork")
+    with ctx.Pool(1) as pool:  # the child analyses with the look beside its pre-pass
+        assert pool.apply_async(_child_headline).get(timeout=60) == here
+
+
+def _child_headline() -> str:
+    res = tribodyn.analyze(_dynamic(), fs=1000.0, threads=2)
+    return str(res.headline)

@@ -15,11 +15,11 @@ A new figure: its function in ``app/figures.py`` and one entry here (docs/archit
 from __future__ import annotations
 
 import dataclasses
-import functools
 from typing import TYPE_CHECKING, Any, Callable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..results._cache import cached
 from . import _labels
 
 if TYPE_CHECKING:  # Matplotlib is imported where a figure is drawn
@@ -88,7 +88,7 @@ class FigureInputs:
     #: Where the running-in ends (a :meth:`tribodyn.SteadyState.to_dict`), shaded on the COF against time.
     steady_state: Optional[Mapping[str, Any]] = None
 
-    @functools.cached_property
+    @cached
     def dynamic_first(self) -> bool:
         """Whether the window diagnostics lead: the dynamic method gives the headline (issue 34 point 9)."""
         head = getattr(self.results, "headline", None)
@@ -98,20 +98,20 @@ class FigureInputs:
         """Whether ``column`` of the per-window table has data."""
         return finite_any(self.results, column)
 
-    @functools.cached_property
+    @cached
     def what(self) -> str:
         """What the COF-against-time figures show, for their captions."""
         return _time_what(self.results, getattr(self.results, "headline", None))
 
-    @functools.cached_property
+    @cached
     def opr_t(self) -> Any:
         return range_or_none(self.results, self.opr_temperature, "temperature")
 
-    @functools.cached_property
+    @cached
     def opr_j(self) -> Any:
         return range_or_none(self.results, self.opr_current, "current_density")
 
-    @functools.cached_property
+    @cached
     def opr_v(self) -> Any:
         return range_or_none(self.results, self.opr_speed, "speed")
 

@@ -175,9 +175,9 @@ def _sync_tree(folder: Path) -> None:
     ext4; issue 38 point 3). What a flush raises is raised here, before anything is published."""
     entries = list(_entries(folder))
     if entries:
-        from concurrent.futures import ThreadPoolExecutor
+        from ..kernels.threads import thread_pool
 
-        with ThreadPoolExecutor(min(_SYNC_THREADS, len(entries)), thread_name_prefix="tribodyn-fsync") as pool:
+        with thread_pool(min(_SYNC_THREADS, len(entries)), "tribodyn-fsync") as pool:
             for _ in pool.map(_sync_entry, entries):  # (raises the first failure, once all are done)
                 pass
     _fsync_dir(folder)

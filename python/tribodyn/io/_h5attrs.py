@@ -20,7 +20,8 @@ limit is wall-clock, as before.
 One helper serves the whole process: it is started on first use (about
 0.2 s: Python and h5py start), reused by every later open (a request costs
 about a millisecond), replaced after a timeout or a crash, and ends when
-the process does (its stdin closes). A process that cannot start one
+the process does (its stdin closes). A child made by ``fork`` starts its own, under a new lock
+(:func:`_after_fork_in_child`). A process that cannot start one
 (``sys.executable`` cannot run ``-c``, as in some frozen applications) reads
 the attributes in-process and says so in the recording's warnings.
 """
@@ -186,6 +187,21 @@ class _Helper:
         out: List[Tuple[str, Any]] = msg[1]
         return out
 
+    def forget(self) -> None:
+        """In a child made by ``fork``: its copies of this (the parent's) helper's pipes now lead to the null
+        device, so that nothing the parent's thread left in the copied write buffer reaches the parent's helper
+        (a request it would answer twice), no reused descriptor is written, and the helper sees its stdin close
+        when the parent ends. The helper itself is the parent's: left alone."""
+        null = os.open(os.devnull, os.O_RDWR)
+        try:
+            for stream in (self.proc.stdin, self.proc.stdout):
+                if stream is not None:
+                    os.dup2(null, stream.fileno())
+        except (OSError, ValueError):  # pragma: no cover - a stream already closed
+            pass
+        finally:
+            os.close(null)
+
     def kill(self) -> None:
         try:
             self.proc.kill()
@@ -243,3 +259,18 @@ def _stop() -> None:
 
 
 atexit.register(_stop)
+
+
+def _after_fork_in_child() -> None:
+    """A child made by ``fork`` (``multiprocessing`` on Linux) starts its own helper under a new lock: the copied
+    lock may be held by a thread of the parent that is not in the child (reading attributes or starting the
+    helper), and the child's first HDF5 open would wait for it forever (issue 38 audit)."""
+    global _lock, _helper
+    _lock = threading.Lock()
+    old, _helper = _helper, None
+    if old is not None and old.pid != os.getpid():
+        old.forget()
+
+
+if hasattr(os, "register_at_fork"):  # POSIX
+    os.register_at_fork(after_in_child=_after_fork_in_child)

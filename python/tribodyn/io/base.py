@@ -1040,6 +1040,14 @@ class Recording:
     def __enter__(self) -> "Recording":
         return self
 
+    def __reduce_ex__(self, protocol: Any) -> Any:
+        """An open recording holds a file and its lock: it is not pickled (sent to a worker process) or
+        copied; its path is (issue 38 audit: the error was pickle's "cannot pickle '_thread.lock' object")."""
+        raise TypeError(
+            f"an open recording ({os.path.basename(str(self.path))}) cannot be pickled or copied: send its path "
+            "to the worker and open it there (tribodyn.open_recording), or use tribodyn.analyze_many"
+        )
+
     def __exit__(self, *exc: object) -> None:
         self.close()
 

@@ -37,7 +37,7 @@ from typing import IO, Any, Dict, Iterator, List, Mapping, Optional, Sequence, T
 import numpy as np
 
 from .. import _core
-from ..kernels.threads import read_threads
+from ..kernels.threads import read_threads, thread_pool
 from .base import Recording, RecordingError, equal_length_selection, rate_from_step, resolve_name, roles_by_name
 
 __all__ = ["NpyRecording", "NpzRecording"]
@@ -302,9 +302,7 @@ class NpyRecording(Recording):
 
         workers = min(len(names), read_threads()) if total >= _PARALLEL_READ else 1
         if workers > 1:  # a channel a thread: preadv releases the GIL
-            from concurrent.futures import ThreadPoolExecutor
-
-            with ThreadPoolExecutor(workers, thread_name_prefix="tribodyn-read") as pool:
+            with thread_pool(workers, "tribodyn-read") as pool:
                 return dict(zip(names, pool.map(channel, names)))
         return {nm: channel(nm) for nm in names}
 

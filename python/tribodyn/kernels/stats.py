@@ -132,9 +132,9 @@ def _all_resample_stats(v: np.ndarray, starts: np.ndarray, ell: int, noise: Opti
     if workers < 2:
         parts = [_resample_stats(v, starts[c], ell, noise) for c in chunks]
     else:  # NumPy's selections, gathers and ufuncs release the GIL
-        from concurrent.futures import ThreadPoolExecutor
+        from .threads import thread_pool
 
-        with ThreadPoolExecutor(workers) as ex:
+        with thread_pool(workers, "tribodyn-bootstrap") as ex:
             parts = list(ex.map(lambda c: _resample_stats(v, starts[c], ell, noise), chunks))
     return tuple(np.concatenate([p[j] for p in parts]) for j in range(4))
 

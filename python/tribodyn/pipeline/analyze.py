@@ -17,11 +17,10 @@ the table and settles the headline.
 
 from __future__ import annotations
 
-import contextvars
 import dataclasses
 import os
 from collections.abc import Mapping
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -39,7 +38,7 @@ from ..io.constant import mapping_with_load, with_load
 from ..io.units import check_role_units
 from ..kernels._validate import Orientation, check_1d
 from ..kernels.deadband import DeadbandSpec
-from ..kernels.threads import reading, resolve_threads
+from ..kernels.threads import reading, resolve_threads, side_job
 from ..options import defaults, parameters_doc
 from ..results import ClassicalTotals, Results
 from .covariates import align_to_recording
@@ -438,10 +437,7 @@ def _lag_ahead(source: Any, rec: Optional[RecordingProtocol], plan: Plan, partia
         if not acqs or not all(isinstance(a, Mapping) and all(isinstance(a.get(r), np.ndarray) for r in ("fy", "fz"))
                                for a in acqs):  # fmt: skip
             return None
-    ex = ThreadPoolExecutor(1, thread_name_prefix="tribodyn-lag")
-    job = ex.submit(contextvars.copy_context().run, find_lag, source, rec, plan, {}, partial, earlier=earlier)
-    ex.shutdown(wait=False)  # its thread ends with the job
-    return job
+    return side_job(find_lag, source, rec, plan, {}, partial, earlier=earlier)
 
 
 def _lag_of(job: "Future[Optional[ChosenLag]]", pre: Mapping[str, Any]) -> Optional[ChosenLag]:

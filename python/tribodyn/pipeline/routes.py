@@ -41,7 +41,7 @@ import dataclasses
 import os
 from collections import deque
 from collections.abc import Iterable, Mapping
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future
 from typing import Any, Deque, Dict, List, Optional, Protocol, Sequence, Tuple
 
 import numpy as np
@@ -51,6 +51,7 @@ from ..io.base import RecordingError, RecordingProtocol
 from ..kernels._validate import as_signal
 from ..kernels.filters import HighPass
 from ..kernels.window_stats import compute, make_spec
+from ..kernels.threads import thread_pool
 from ..results import ClassicalTotals
 from .headline import BlockSums
 from .plan import Findings, Plan
@@ -519,7 +520,7 @@ def _run_spans(rec: RecordingProtocol, ks: KernelSpec) -> Tuple[Stats, Optional[
     size = plan.chunk_samples or DEFAULT_CHUNK
     bar = _progress(plan.progress, sum(b - a for a, b in spans))
     try:
-        with ThreadPoolExecutor(len(spans), thread_name_prefix="tribodyn-span") as ex:
+        with thread_pool(len(spans), "tribodyn-span") as ex:
             copy = _copies(rec)
             futures = [
                 ex.submit(
@@ -613,7 +614,7 @@ def _run_chunks(chunks: Iterable[Any], origin: int, ks: KernelSpec, bar: Any, *,
                 bar.update(len(raw_chunk["fz"]))
         return stage.finish()
     pending: "Deque[Future[Any]]" = deque()
-    with ThreadPoolExecutor(1, thread_name_prefix="tribodyn") as ex:
+    with thread_pool(1, "tribodyn") as ex:
         try:
             for i, raw_chunk in enumerate(chunks):
                 ch = _check_chunk(raw_chunk, f"chunk {i}")

@@ -6,7 +6,7 @@ import html as _html
 import dataclasses
 from collections import Counter
 from dataclasses import dataclass, field
-from functools import cached_property
+from ._cache import cached
 from typing import Any, Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
@@ -357,7 +357,7 @@ class Results:
         docs/method.md 3d): the headline's bootstrap pools over them; () when the lag was not chosen from the data."""
         return tuple(float(x) for x in self.params.get("iv_lag_shifts") or ())
 
-    @cached_property
+    @cached
     def mu_r_ci(self) -> Dict[str, Tuple[float, float]]:
         """:func:`bootstrap_ci` of mu_r over the gated windows, the fz-noise estimate drawn anew in each
         resample and, when the instrument's lag was chosen from the data, pooled over the lags the choice could
@@ -389,18 +389,18 @@ class Results:
             out.update({"strokes.forward": mu[d == 1], "strokes.backward": mu[d == -1], "strokes.all": mu})
         return {k: np.asarray(v[np.isfinite(v)]) for k, v in out.items()}
 
-    @cached_property
+    @cached
     def column_ci(self) -> Dict[str, Dict[str, Tuple[float, float]]]:
         """:func:`bootstrap_ci` of each of :meth:`summary_columns`: the intervals of ``summary()`` beside mu_r's
         (docs/method.md 3d), computed once."""
         return {k: bootstrap_ci(v, threads=self._threads) for k, v in self.summary_columns().items()}
 
-    @cached_property
+    @cached
     def verdict(self) -> Dict[str, Any]:
         """Whether the dynamic method applies, why not, and the motion (``tribometer.verdict``; docs/method.md 6d)."""
         return _verdict(self.table, self.params, self.strokes, int(self.gated.sum()))
 
-    @cached_property
+    @cached
     def headline(self) -> Headline:
         """The one COF to read first, chosen by the verdict (:class:`tribodyn.Headline`; docs/method.md 6e).
 

@@ -18,8 +18,12 @@ use std::sync::{Arc, Mutex};
 /// The default of calls that name no count (0 = every core).
 static DEFAULT: AtomicUsize = AtomicUsize::new(0);
 /// One pool per thread count asked for, kept for later calls (at most
-/// [`max_threads`] of them; a pool's threads sleep while it is unused).
-static POOLS: Mutex<Option<HashMap<usize, Arc<rayon::ThreadPool>>>> = Mutex::new(None);
+/// [`max_threads`] of them; a pool's threads sleep while it is unused),
+/// with the id of the process that started them.
+static POOLS: Mutex<Option<(u32, Pools)>> = Mutex::new(None);
+
+/// The pools of one process, by thread count.
+type Pools = HashMap<usize, Arc<rayon::ThreadPool>>;
 
 /// The cores this process may run on (asked once: the answer reads cgroup
 /// files, which would cost more than a short kernel call).
@@ -72,7 +76,16 @@ pub fn resolve(n: Option<usize>) -> Result<usize, KernelError> {
 
 fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>, KernelError> {
     let mut guard = POOLS.lock().unwrap_or_else(|e| e.into_inner());
-    let pools = guard.get_or_insert_with(HashMap::new);
+    let pid = std::process::id();
+    if guard.as_ref().is_some_and(|(owner, _)| *owner != pid) {
+        // A child made by fork (Python's multiprocessing): the parent's pool threads do not exist here, so a
+        // job installed into one of its pools would wait forever. Its pools are left alone (dropping one
+        // would signal threads that are not there) and new ones are started.
+        if let Some((_, old)) = guard.take() {
+            std::mem::forget(old);
+        }
+    }
+    let (_, pools) = guard.get_or_insert_with(|| (pid, HashMap::new()));
     if let Some(p) = pools.get(&n) {
         return Ok(p.clone());
     }
