@@ -54,7 +54,7 @@ pub fn row_quantiles(
 /// The value of rank `k` of `v` (ascending), selecting within the part of
 /// `v` between the ranks already fixed in `fixed` (ascending positions
 /// whose values are in place, everything before them smaller or equal).
-fn rank(v: &mut [f64], k: usize, fixed: &mut Vec<usize>) -> f64 {
+pub(crate) fn rank(v: &mut [f64], k: usize, fixed: &mut Vec<usize>) -> f64 {
     if fixed.binary_search(&k).is_ok() {
         return v[k];
     }
@@ -83,19 +83,33 @@ pub(crate) fn from_ranks(k: usize, qs: &[f64], median: &mut f64, out: &mut [f64]
     }
     let h = k / 2;
     let hi = value(h);
-    *median = if k % 2 == 1 {
-        (0.0 + (0.0 + hi)) / 1.0
-    } else {
-        let lo = value(h - 1);
-        (0.0 + ((0.0 + lo) + hi)) / 2.0
-    };
+    *median = if k % 2 == 1 { median_of(k, hi, hi) } else { median_of(k, value(h - 1), hi) };
     for (o, &q) in out.iter_mut().zip(qs) {
         // numpy.quantile, method "linear": _get_indexes, _get_gamma, _lerp
         let (p, n, g) = quantile_ranks(k, q);
         let a = value(p);
         let b = value(n);
-        let diff = b - a;
-        *o = if g >= 0.5 { b - diff * (1.0 - g) } else { a + diff * g };
+        *o = lerp(a, b, g);
+    }
+}
+
+/// NumPy's median of `k` > 0 values whose value of rank k / 2 is `hi` and, for an even k, of rank
+/// k / 2 - 1 `lo` (its mean of the two middle values; `lo` unused for an odd k).
+pub(crate) fn median_of(k: usize, lo: f64, hi: f64) -> f64 {
+    if k % 2 == 1 {
+        (0.0 + (0.0 + hi)) / 1.0
+    } else {
+        (0.0 + ((0.0 + lo) + hi)) / 2.0
+    }
+}
+
+/// NumPy's `_lerp` of the values `a` and `b` of a "linear" quantile's two ranks, by its weight `g`.
+pub(crate) fn lerp(a: f64, b: f64, g: f64) -> f64 {
+    let diff = b - a;
+    if g >= 0.5 {
+        b - diff * (1.0 - g)
+    } else {
+        a + diff * g
     }
 }
 
