@@ -12,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
+from _forks import exit_code_of
 import tribodyn as td
 
 
@@ -160,7 +161,6 @@ def test_a_child_forked_while_a_thread_computes_a_results_value_does_not_wait_fo
     import os
     import signal
     import threading
-    import time
 
     import tribodyn.results as results_module
 
@@ -186,14 +186,7 @@ def test_a_child_forked_while_a_thread_computes_a_results_value_does_not_wait_fo
             signal.signal(signal.SIGALRM, signal.SIG_DFL)
             signal.alarm(30)
             os._exit(0 if res.replace().mu_r_ci == res.mu_r_ci else 3)
-        deadline = time.monotonic() + 40
-        while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        if done[0] == 0:
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
-            pytest.fail("the forked child did not finish in 40 s")
-        assert os.waitstatus_to_exitcode(done[1]) == 0
+        assert exit_code_of(pid, 40, "the forked child did not finish") == 0
     finally:
         release.set()
         busy.join(30)

@@ -12,6 +12,7 @@ import time
 import h5py
 import numpy as np
 import pytest
+from _forks import exit_code_of
 import tribodyn as td
 from tribodyn.io import RecordingError, _h5attrs
 
@@ -153,14 +154,8 @@ def test_a_child_forked_while_another_thread_asks_the_helper_opens_hdf5(tmp_path
             with td.open_recording(p) as rec:
                 ok = rec.metadata["attributes"]["title"] == "run 7" and _h5attrs._helper is not helper
             os._exit(0 if ok else 3)
-        deadline = time.monotonic() + 40
-        while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < deadline:
-            time.sleep(0.05)
-        if done[0] == 0:
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
-            pytest.fail("the forked child did not open the file in 40 s")
-    assert os.waitstatus_to_exitcode(done[1]) == 0
+        code = exit_code_of(pid, 40, "the forked child did not open the file")
+    assert code == 0  # (checked once the helper's lock is released)
     with td.open_recording(p) as rec:  # the parent's helper, unharmed
         assert rec.metadata["attributes"]["title"] == "run 7"
     assert _h5attrs._helper is helper and helper.proc.poll() is None
