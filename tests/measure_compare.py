@@ -19,7 +19,7 @@ from scipy.stats import beta
 
 import tribodyn as td
 from tribodyn import simulate
-from tribodyn.headline import Headline
+from tribodyn.results.headline import Headline
 
 Z975 = 1.959963984540054
 
