@@ -165,11 +165,10 @@ pub(crate) fn extents_read_ranges<'py>(
     let got = py.detach(move || {
         let total = ranges.iter().map(|&(a, b)| b.saturating_sub(a)).sum::<u64>();
         let mut out = Vec::with_capacity(usize::try_from(total).unwrap_or(0).min(1 << 24));
-        let (mut part, mut cache) = (Vec::new(), mapped::ByteCache::default());
+        let mut cache = mapped::ByteCache::default();
         for &(a, b) in &ranges {
             cache.begin();
-            inner.read(&file, a, b, &mut part, &mut cache).map_err(|e| format!("{a}:{b}: {e}"))?;
-            out.extend_from_slice(&part);
+            inner.read_append(&file, a, b, &mut out, &mut cache).map_err(|e| format!("{a}:{b}: {e}"))?;
         }
         Ok::<_, String>(out)
     });
