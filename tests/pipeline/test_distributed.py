@@ -72,6 +72,21 @@ def test_split_ranges_give_exactly_the_one_pass_windows(files):
     _same(many.results[long], _serial(long))
 
 
+@pytest.mark.fast
+def test_split_keeps_a_recording_of_separate_acquisitions_whole():
+    """Issue 38 point 4: a CETR export of two acquisitions is windowed per acquisition (route "segments"); cut into
+    ranges on one grid its windows ran across the steps (other windows, another classical COF, with --split)."""
+    cetr = str(TESTS / "data" / "real" / "cetr_umt2_HT-2n-6-4_2_001.csv")
+    o = dict(window=2.0, hop=2.0)
+    one = td.analyze(cetr, **o)
+    for split in (2.0, 600.0):
+        many = analyze_many([cetr], split=split, **o)
+        got = many.results[cetr]
+        assert many.tasks == 1 and got.params["route"] == "segments" and got.params["stop"] is None
+        _same(got, one)
+        assert got.summary()["classical"] == one.summary()["classical"]
+
+
 def test_expand_paths_directory_and_glob(files):
     good, bad = files
     d = os.path.dirname(good[0])

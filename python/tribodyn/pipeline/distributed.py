@@ -143,13 +143,18 @@ def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.Pat
 # -- tasks (module-level and pure, so Dask can ship and retry them) -----------
 
 
-def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float], RecordingFailure]:
-    """(n_samples, fs) of a recording, read from its header, or its failure."""
+def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float, int], RecordingFailure]:
+    """(n_samples, fs, acquisitions) of a recording, read from its header, or its failure.
+
+    ``acquisitions``: how many separate acquisitions the recording holds (a multi-step export's steps,
+    ``Recording.acquisitions``); each is windowed from its own first sample, so such a recording is not split.
+    """
     from ..io import open_recording
 
     try:
         with open_recording(path, **open_options) as rec:
-            return int(rec.n_samples), float(rec.fs)
+            acq = getattr(rec, "acquisitions", None)
+            return int(rec.n_samples), float(rec.fs), max(1, len(acq or ()))
     except Exception as exc:  # a task reports, never raises: one bad file must not stop the rest
         return RecordingFailure.of(path, exc)
 
@@ -376,7 +381,9 @@ def analyze_many(
     split : float, optional
         Cut each recording into ranges of about this many seconds (aligned
         to the window grid), one task each, so a very long recording uses
-        several workers. None: one task per recording.
+        several workers. None: one task per recording. A recording of
+        separate acquisitions (a multi-step export's steps, each windowed
+        from its own first sample) is one task.
     chunk : float, optional
         Seconds read per chunk inside a task (``analyze``'s ``chunk``;
         default: its own). Never changes a result.
@@ -426,10 +433,10 @@ def analyze_many(
         if isinstance(head, RecordingFailure):
             failures[f] = head
             continue
-        if head is None:
+        if head is None or head[2] > 1:  # (separate acquisitions: each windowed from its own start, not cut)
             ranges: List[Tuple[int, Optional[int]]] = [(0, None)]
         else:
-            n, fs = head
+            n, fs, _ = head
             fs = options.get("fs") or fs
             ranges = _ranges(n, fs, plan if plan is not None else options, split)
         opts: Union[Dict[str, Any], Plan]
