@@ -87,6 +87,18 @@ def test_split_keeps_a_recording_of_separate_acquisitions_whole():
         assert got.summary()["classical"] == one.summary()["classical"]
 
 
+@pytest.mark.fast
+def test_split_into_one_range_reads_the_recording_as_without_split():
+    """A recording that split cuts into one range is that recording whole: its params' stop is None, as one
+    pass's (before: the last window's end, 1600 of 1801 samples here)."""
+    pod = str(TESTS / "data" / "real" / "pod_PPS_60N_1.tsv")
+    o = dict(window=400.0, hop=400.0)
+    got = analyze_many([pod], split=1e9, **o).results[pod]
+    one = td.analyze(pod, **o)
+    _same(got, one)
+    assert got.params["stop"] is None and got.headline == one.headline
+
+
 def test_expand_paths_directory_and_glob(files):
     good, bad = files
     d = os.path.dirname(good[0])

@@ -261,7 +261,8 @@ def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Op
     for k0 in range(0, n_windows, per):
         k1 = min(k0 + per, n_windows)
         out.append((k0 * step, (k1 - 1) * step + length))
-    return out or [(0, None)]
+    # One range is the whole recording, read as without split (its params' stop None, as one pass's).
+    return out if len(out) > 1 else [(0, None)]
 
 
 def finish_task(path: str, parts: Sequence[Union[Partial, RecordingFailure]]) -> Union[Results, RecordingFailure]:
