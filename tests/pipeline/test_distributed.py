@@ -99,6 +99,13 @@ def test_split_into_one_range_reads_the_recording_as_without_split():
     assert got.params["stop"] is None and got.headline == one.headline
 
 
+@pytest.mark.fast
+@pytest.mark.parametrize("split", [0.0, -5.0, float("nan"), float("inf")])
+def test_split_must_be_a_finite_positive_number(split):
+    with pytest.raises(ValueError, match="split must be a finite number > 0 seconds"):
+        analyze_many(["x.h5"], split=split)  # (refused before any file is opened)
+
+
 def test_expand_paths_directory_and_glob(files):
     good, bad = files
     d = os.path.dirname(good[0])

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import glob
+import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -419,8 +420,8 @@ def analyze_many(
     if options.get("stick_slip") or (plan is not None and plan.stick_slip):
         raise ValueError("analyze_many analyses ranges apart, not stick-slip (stick_slip=True): call "
                          "tribodyn.stick_slip(path, res) for each recording, or analyze per file")  # fmt: skip
-    if split is not None and not split > 0:
-        raise ValueError(f"split must be > 0 seconds, got {split!r}")
+    if split is not None and not (split > 0 and math.isfinite(split)):
+        raise ValueError(f"split must be a finite number > 0 seconds, got {split!r}")
     run = _runner(client, progress)
     slots = _host_slots(client) if client is not None and plan is None and options.get("threads") is None else None
 
