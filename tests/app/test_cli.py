@@ -158,6 +158,21 @@ def test_several_files_and_config(tmp_path):
         assert (out / f.stem / "report.html").is_file()
 
 
+@pytest.mark.fast
+def test_when_every_file_fails_no_report_is_promised(tmp_path, capsys):
+    """Issue 38 point 4: every recording failed: summary.json alone lists them (status 3); the last line said
+    "outputs in DIR/ (open report.html)" of a folder without report.html."""
+    files = [tmp_path / "a.csv", tmp_path / "b.csv"]
+    for f in files:
+        f.write_text("notes of the run\n")
+    out = tmp_path / "out"
+    assert run("analyze", *files, "--out", out) == cli.EXIT_SOME_FAILED
+    said = capsys.readouterr().out
+    assert "report.html" not in said and f"no recording analysed: {out}/summary.json lists each failure" in said
+    assert sorted(json.loads((out / "summary.json").read_text())["failures"]) == ["a.csv", "b.csv"]
+    assert not (out / "report.html").exists()
+
+
 def test_simulate_then_info_and_analyze(cd_cli_run, capsys):
     path, out = cd_cli_run  # simulate, then analyze --area 1 (conftest.py)
     assert run("info", path) == 0

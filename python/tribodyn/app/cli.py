@@ -856,6 +856,9 @@ def _print_analysis(summary: Dict[str, Any], out: str) -> None:
                 if rng.get("verdict"):
                     line += f"; {rng['verdict']}"
                 print(line)
+    if not summary["recordings"]:  # every recording failed: no report, summary.json lists the errors (status 3)
+        print(f"no recording analysed: {out}/summary.json lists each failure")
+        return
     print(f"outputs in {out}/ (open report.html)")
 
 

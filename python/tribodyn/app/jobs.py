@@ -711,7 +711,9 @@ def run_analysis(
     column), summary and report at the top. With a Dask ``client`` the
     recordings (and ranges of ``split`` seconds of long ones) run on the
     cluster (:func:`tribodyn.analyze_many`). A recording that fails is listed
-    in ``summary["failures"]``; if every one fails, the first error is raised.
+    in ``summary["failures"]``; if every one fails, ``out_dir`` holds only
+    ``summary.json`` with their errors (one file analysed here, without
+    ``client`` or ``split``: its error is raised).
 
     ``out_dir`` is checked before the work and replaced as a whole (see
     :class:`~tribodyn.app.outputs.OutputSet`): a folder holding anything but a
