@@ -536,6 +536,16 @@ def test_bad_option_values_are_one_line(rec, tmp_path, capsys, args, message):
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
 
 
+@pytest.mark.fast
+@pytest.mark.parametrize("address", ["bogus", "", " "])
+def test_a_scheduler_that_is_no_address_is_one_line(rec, tmp_path, capsys, address):
+    """Issue 38 point 4: "bogus" said only Dask's "missing port number in address 'bogus'"; "" ran serially."""
+    argv = ["analyze", str(rec), "--out", str(tmp_path / "out"), "--scheduler", address, "--quiet"]
+    assert cli.main(argv) == 2
+    assert "--scheduler" in error_line(capsys.readouterr().err)
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
 def test_a_pipe_as_input_is_refused_not_read(tmp_path, capsys):
     fifo = tmp_path / "rec.csv"

@@ -899,7 +899,7 @@ def _run_analyze(ns: argparse.Namespace) -> int:
     OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
     if open_opts.get("scale"):
         _warn_converted(files, open_opts)
-    client = _dask_client(ns) if ns.scheduler else None
+    client = _dask_client(ns) if ns.scheduler is not None else None
     try:
         summary = run_analysis(
             ns.files,
@@ -947,12 +947,16 @@ def _dask_client(ns: argparse.Namespace) -> Any:
 
     if ns.workers < 1:
         raise UserError("--workers must be at least 1")
+    if not ns.scheduler.strip():  # (an empty address once ran serially, saying nothing)
+        raise UserError("--scheduler needs an ADDRESS (tcp://host:8786) or 'local'")
     try:
         return connect(ns.scheduler, ns.workers)
     except ImportError as exc:
         raise UserError(str(exc)) from None
     except OSError as exc:
         raise UserError(f"cannot reach the Dask scheduler {ns.scheduler}: {exc}") from None
+    except ValueError as exc:  # Dask's address parsing ("missing port number in address 'x'")
+        raise UserError(f"--scheduler {ns.scheduler}: {exc}; give an ADDRESS (tcp://host:8786) or 'local'") from None
 
 
 def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Dict[str, Any]) -> None:
