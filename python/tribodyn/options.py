@@ -225,10 +225,12 @@ OPTIONS: Tuple[Option, ...] = (
          detail=("Commutator lamellas (rig data, with ``rpm``): the lamella lines f_l = n_lamellas f0 and 2 f_l of"
                  " the columns ``h1_fl``, ``coherence_fl``.")),
     _opt(name="threads", default=None, kind="plan", unit="", section="9",
-         doc="kernel threads of this call (default: every core)", flag="--threads", cli_type="int", check="threads",
+         doc="kernel threads of this call (default: every core; a Dask task: its host's share)", flag="--threads",
+         cli_type="int", check="threads",
          detail=("Kernel threads for this call only, 1 to 4 x the CPU count (default: the ``TRIBODYN_THREADS`` "
                  "environment variable, else :func:`tribodyn.get_threads`, every core unless "
-                 ":func:`tribodyn.set_threads` changed it). Results do not depend on it, and concurrent calls do "
+                 ":func:`tribodyn.set_threads` changed it; a task of ``analyze_many`` on a Dask cluster: its share "
+                 "of its host's cores, docs/method.md 9). Results do not depend on it, and concurrent calls do "
                  "not change each other's count.")),
     _opt(name="start", default=0, kind="plan", unit="samples", section="9",
          doc="first sample of the source within the recording", check="integer >= 0",
