@@ -173,6 +173,19 @@ def test_when_every_file_fails_no_report_is_promised(tmp_path, capsys):
     assert not (out / "report.html").exists()
 
 
+@pytest.mark.fast
+def test_two_inputs_of_one_name_are_refused(tmp_path, capsys):
+    """Issue 38 point 4: runA/x.csv and runB/x.csv: the summary, the combined table and the failures name each
+    recording by its file name, so one silently stood for the other (a failed one was not even listed)."""
+    for d in ("runA", "runB"):
+        (tmp_path / d).mkdir()
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / d / "x.tsv")
+    out = tmp_path / "out"
+    assert run("analyze", tmp_path / "runA", tmp_path / "runB", "--out", out, "--scheduler", "local") == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "two inputs are named x.tsv" in err and not out.exists()
+
+
 def test_simulate_then_info_and_analyze(cd_cli_run, capsys):
     path, out = cd_cli_run  # simulate, then analyze --area 1 (conftest.py)
     assert run("info", path) == 0

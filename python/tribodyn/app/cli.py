@@ -889,13 +889,14 @@ def _run_analyze(ns: argparse.Namespace) -> int:
     """``analyze``: the files' analysis into --out, the summary printed, each reader's warning and failure on
     stderr; the status is 3 when a file failed."""
     from ..pipeline.distributed import expand_paths
-    from .jobs import run_analysis
+    from .jobs import check_distinct_names, run_analysis
     from .outputs import OutputSet
 
     open_opts, opts, protect = _analysis_options(ns)
     meta = opts.pop("meta", None)
     files = expand_paths(ns.files)
     _check_regular(files)
+    check_distinct_names(files)  # (before a Dask cluster is started)
     OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
     if open_opts.get("scale"):
         _warn_converted(files, open_opts)

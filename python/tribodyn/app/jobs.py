@@ -741,6 +741,7 @@ def run_analysis(
     if not paths:
         raise ValueError("no input file given")
     files = expand_paths(paths)
+    check_distinct_names(files)
     output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
     # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
     # another (both mostly outside the GIL or while the kernel runs without it).
@@ -756,6 +757,21 @@ def run_analysis(
         digests.cancel()
         if pool is not None:
             pool.close()
+
+
+def check_distinct_names(files: Sequence[str]) -> None:
+    """Refuses two inputs of one file name (``runA/a.h5``, ``runB/a.h5``): the summary, the combined table's
+    ``recording`` column, the failures and the inputs' provenance name each recording by its file name, so one
+    would silently stand for the other (issue 38 point 4)."""
+    seen: Dict[str, str] = {}
+    for f in files:
+        name = Path(f).name
+        if name in seen:
+            raise ValueError(
+                f"two inputs are named {name} ({seen[name]}, {f}): the outputs name each recording by its file "
+                "name; analyse each folder into its own output folder, or rename one"
+            )
+        seen[name] = f
 
 
 def _run_analysis(
