@@ -186,6 +186,21 @@ def test_two_inputs_of_one_name_are_refused(tmp_path, capsys):
     assert "\n" not in err and "two inputs are named x.tsv" in err and not out.exists()
 
 
+@pytest.mark.fast
+def test_one_file_that_fails_is_the_same_error_with_split(tmp_path, capsys):
+    """Issue 38 point 4: one input that fails gave one line and status 2 here, but through analyze_many (--split,
+    --scheduler) a warning, status 3 and an output folder of summary.json alone."""
+    bad = tmp_path / "x.csv"
+    bad.write_text("notes of the run\n")
+    lines = []
+    for extra in ([], ["--split", "600"]):
+        out = tmp_path / f"out{len(extra)}"
+        assert run("analyze", bad, "--out", out, *extra) == 2
+        lines.append(capsys.readouterr().err)
+        assert not out.exists()
+    assert lines[0] == lines[1] and lines[0].count("\n") == 1 and "x.csv" in lines[0]
+
+
 def test_simulate_then_info_and_analyze(cd_cli_run, capsys):
     path, out = cd_cli_run  # simulate, then analyze --area 1 (conftest.py)
     assert run("info", path) == 0

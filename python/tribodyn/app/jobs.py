@@ -712,8 +712,8 @@ def run_analysis(
     recordings (and ranges of ``split`` seconds of long ones) run on the
     cluster (:func:`tribodyn.analyze_many`). A recording that fails is listed
     in ``summary["failures"]``; if every one fails, ``out_dir`` holds only
-    ``summary.json`` with their errors (one file analysed here, without
-    ``client`` or ``split``: its error is raised).
+    ``summary.json`` with their errors, except that the error of a lone
+    input is raised (a ValueError or RecordingError, as without ``client``).
 
     ``out_dir`` is checked before the work and replaced as a whole (see
     :class:`~tribodyn.app.outputs.OutputSet`): a folder holding anything but a
@@ -805,6 +805,8 @@ def _run_analysis(
         runs, failures, kept = _analyse(stack, files, open_options, opts, progress=progress, client=client,
                                         split=split)  # fmt: skip
         if not runs:
+            if len(files) == 1:  # one file: its error, as when it is analysed here (the CLI: one line, status 2)
+                raise _failure_error(Path(files[0]), next(iter(failures.values())))
             # Every recording failed: summary.json still lists every error (the CLI exits with status 3).
             summary_failed: Dict[str, Any] = {
                 "tribodyn_version": __version__,
@@ -870,6 +872,18 @@ def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Di
     many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
     failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
     return [(Path(p), r) for p, r in many.results.items()], failures, {}
+
+
+def _failure_error(path: Path, failure: Mapping[str, str]) -> ValueError:
+    """The error of a recording that failed in :func:`tribodyn.analyze_many` (``{"error": "Kind: message",
+    "kind": "Kind"}``) as one analysed here raises it: a RecordingError, else a ValueError, naming the file."""
+    from ..io import RecordingError
+
+    kind, text = failure["kind"], failure["error"]
+    text = text[len(kind) + 2 :] if text.startswith(f"{kind}: ") else text
+    exc = RecordingError(text) if kind == "RecordingError" else ValueError(text)
+    _name_the_file(exc, path)
+    return exc
 
 
 def _name_the_file(exc: BaseException, path: Path) -> None:
