@@ -546,6 +546,19 @@ def test_a_scheduler_that_is_no_address_is_one_line(rec, tmp_path, capsys, addre
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.fast
+@pytest.mark.parametrize("extra", [[], ["--split", "600"]])
+def test_align_with_several_files_says_what_to_do_on_the_command_line(rec, tmp_path, capsys, extra):
+    """Issue 38 point 4: the refusal named the Python API ("analyze_many does not align ...: use analyze per
+    file"), which the command's user never called."""
+    other = recording(tmp_path / "other.npz", seed=1)
+    argv = ["analyze", str(rec), str(other), "--out", str(tmp_path / "out"), "--align", "auto", "--rpm", "250"]
+    assert cli.main([*argv, *extra]) == 2
+    line = error_line(capsys.readouterr().err)
+    assert "--align auto reads a recording twice: give it one file at a time" in line and "analyze_many" not in line
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes")
 def test_a_pipe_as_input_is_refused_not_read(tmp_path, capsys):
     fifo = tmp_path / "rec.csv"

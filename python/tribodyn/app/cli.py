@@ -1223,6 +1223,10 @@ def _cli_words(msg: str) -> str:
     """A library message in the CLI's terms (its options instead of Python keywords)."""
     msg = msg.replace("pass fs=... (Hz)", "give --fs HZ").replace("; pass fs=", "; give --fs HZ")
     msg = msg.replace("pass allow_mixed=True", "pass --allow-mixed")
+    msg = msg.replace(  # (several files, --split or --scheduler: the command never named analyze_many)
+        "analyze_many does not align (align='auto' reads a recording twice): use analyze per file",
+        "--align auto reads a recording twice: give it one file at a time, without --split or --scheduler",
+    )
     return msg.replace("pass overwrite=True", "pass --overwrite")
 
 
