@@ -106,6 +106,16 @@ def test_split_must_be_a_finite_positive_number(split):
         analyze_many(["x.h5"], split=split)  # (refused before any file is opened)
 
 
+@pytest.mark.fast
+@pytest.mark.parametrize("kw", [{"start": 1000}, {"stop": 30000}, {"start": 5, "stop": 9}])
+def test_a_range_of_each_recording_is_refused(kw):
+    """Issue 38 point 4: start= was dropped without a word (each recording analysed from 0) and stop= failed every
+    recording with "analyze_partial() got multiple values for keyword argument 'stop'"."""
+    with pytest.raises(ValueError, match="analyze_many analyses each recording whole"):
+        analyze_many(["x.h5"], **kw)
+    assert not analyze_many(["x.h5"], start=0, stop=None).results  # the defaults: accepted (x.h5 fails to open)
+
+
 def test_expand_paths_directory_and_glob(files):
     good, bad = files
     d = os.path.dirname(good[0])

@@ -394,7 +394,8 @@ def analyze_many(
     **analyze_options
         Options of :func:`tribodyn.analyze` (window, hop, highpass,
         orientation, temperature, area_mm2, ...). A temperature log applies
-        to every recording.
+        to every recording. Each recording is analysed whole: ``start`` and
+        ``stop`` (one recording's range) are refused.
 
     Returns
     -------
@@ -405,7 +406,12 @@ def analyze_many(
     files = expand_paths(paths)
     open_options = dict(open_options or {})
     options = dict(analyze_options)
-    options.pop("start", None)
+    start, stop = options.pop("start", None), options.pop("stop", None)
+    if start not in (None, 0) or stop is not None:  # (start was dropped unsaid; stop failed every recording)
+        raise ValueError(
+            f"analyze_many analyses each recording whole, not start={start!r}, stop={stop!r} (analyze's range of "
+            "one recording): give split= to cut long recordings into ranges, or call analyze per file"
+        )
     if plan is not None:
         if not isinstance(plan, Plan):
             raise TypeError(f"plan must be a tribodyn.Plan (tribodyn.make_plan(...)), got {type(plan).__name__}")
