@@ -246,7 +246,10 @@ def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Op
     The grid is the analysis's: the plan's, or window and hop as ``analyze``
     chooses them from the options and the rate (docs/method.md 6b).
     """
-    if split_s is None:
+    raw = options.raw if isinstance(options, Plan) else options.get("highpass") is not None
+    if split_s is None or raw:
+        # Raw forces are high-passed by an IIR filter whose state carries over every sample from the first: a
+        # range would start its filter afresh (its first windows other than one pass's), so it is not cut.
         return [(0, None)]
     if isinstance(options, Plan):
         grid = options
@@ -385,7 +388,8 @@ def analyze_many(
         to the window grid), one task each, so a very long recording uses
         several workers. None: one task per recording. A recording of
         separate acquisitions (a multi-step export's steps, each windowed
-        from its own first sample) is one task.
+        from its own first sample) is one task, and so is every recording
+        of raw forces (``highpass``: the filter runs from the first sample).
     chunk : float, optional
         Seconds read per chunk inside a task (``analyze``'s ``chunk``;
         default: its own). Never changes a result.
