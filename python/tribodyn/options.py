@@ -237,7 +237,8 @@ OPTIONS: Tuple[Option, ...] = (
          detail=("Sample index, within the whole recording, of the source's first sample (default 0). Windows stay"
                  " on the recording's grid (starting at multiples of ``hop``), so consecutive ranges of a long "
                  "recording analysed separately give exactly the windows of one pass (see "
-                 ":func:`tribodyn.analyze_many`). A recording source is read from ``start`` on.")),
+                 ":func:`tribodyn.analyze_many`), except with ``highpass``: the filter starts afresh at ``start``, "
+                 "so the range's first windows differ. A recording source is read from ``start`` on.")),
     _opt(name="stop", default=None, kind="plan", unit="samples", section="9",
          doc="a recording's sample where reading ends (exclusive)", check="integer >= 0 or None",
          doc_type="int, optional",
