@@ -129,6 +129,20 @@ def test_split_keeps_raw_forces_whole(files):
     assert analyze_many([long], plan, split=37.0).tasks == 1
 
 
+@pytest.mark.fast
+def test_channels_map_each_file_as_analyze_of_a_path():
+    """Issue 38 point 4: analyze(path, channels=...) maps the file's channels; analyze_many(paths, channels=...)
+    failed every recording ("channels= maps the columns of a pandas DataFrame")."""
+    cetr = str(TESTS / "data" / "real" / "cetr_umt2_HT-2n-6-4_2_001.csv")
+    o = dict(window=2.0, hop=2.0, channels={"fy": "Fx", "fz": "Fz"})
+    many = analyze_many([cetr], **o)
+    assert not many.failures
+    _same(many.results[cetr], td.analyze(cetr, **o))
+    assert many.results[cetr].params["roles"]["fy"] == "Fx"
+    with pytest.raises(TypeError, match="give the map once"):
+        analyze_many([cetr], open_options={"channels": {"fy": "Ff", "fz": "Fz"}}, **o)
+
+
 def test_expand_paths_directory_and_glob(files):
     good, bad = files
     d = os.path.dirname(good[0])

@@ -410,6 +410,11 @@ def analyze_many(
     files = expand_paths(paths)
     open_options = dict(open_options or {})
     options = dict(analyze_options)
+    channels = options.pop("channels", None)
+    if channels is not None:  # as analyze(path, channels=...): how each file is read (it failed every recording)
+        if open_options.get("channels", channels) != channels:
+            raise TypeError("channels= and open_options['channels'] differ: give the map once")
+        open_options["channels"] = channels
     start, stop = options.pop("start", None), options.pop("stop", None)
     if start not in (None, 0) or stop is not None:  # (start was dropped unsaid; stop failed every recording)
         raise ValueError(
