@@ -143,6 +143,21 @@ def test_channels_map_each_file_as_analyze_of_a_path():
         analyze_many([cetr], open_options={"channels": {"fy": "Ff", "fz": "Fz"}}, **o)
 
 
+@pytest.mark.fast
+def test_fs_reads_a_file_without_a_rate_as_analyze_of_a_path():
+    """Issue 38 point 4: analyze_many(paths, fs=...) failed a .npy (no rate in the file) with "sampling rate
+    unknown ...; pass fs=... (Hz)", fs given; analyze(path, fs=...) reads it at fs."""
+    npy = str(TESTS / "data" / "real" / "pyfrf_measurements_1.npy")
+    o = dict(fs=25600.0, channels={"fz": "ch1", "fy": "ch2"}, window=0.1, hop=0.1)
+    one = td.analyze(npy, **o)
+    for split in (None, 0.3):
+        many = analyze_many([npy], split=split, **o)
+        assert not many.failures
+        _same(many.results[npy], one)
+    with pytest.raises(TypeError, match="give the rate once"):
+        analyze_many([npy], open_options={"fs": 1000.0}, **o)
+
+
 def test_expand_paths_directory_and_glob(files):
     good, bad = files
     d = os.path.dirname(good[0])

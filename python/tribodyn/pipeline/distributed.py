@@ -415,6 +415,10 @@ def analyze_many(
         if open_options.get("channels", channels) != channels:
             raise TypeError("channels= and open_options['channels'] differ: give the map once")
         open_options["channels"] = channels
+    if options.get("fs") is not None:  # as analyze(path, fs=...): a file that carries no rate is read at it too
+        if open_options.get("fs", options["fs"]) != options["fs"]:
+            raise TypeError("fs= and open_options['fs'] differ: give the rate once")
+        open_options["fs"] = options["fs"]
     start, stop = options.pop("start", None), options.pop("stop", None)
     if start not in (None, 0) or stop is not None:  # (start was dropped unsaid; stop failed every recording)
         raise ValueError(
