@@ -213,6 +213,22 @@ def test_tasks_on_workers_share_their_hosts_cores(files, client):
     assert _host_slots(object()) is None
 
 
+def test_relative_paths_reach_workers_with_another_working_folder(files, client, monkeypatch):
+    """Issue 38 point 4: the tasks opened the paths as given, from each worker's own working folder: a relative
+    path failed there as "no such file" (a worker started elsewhere; here: this process moves after the cluster
+    started). The results and failures keep the names as given."""
+    good, bad = files
+    monkeypatch.chdir(os.path.dirname(good[0]))
+    names = [os.path.basename(p) for p in (good[0], bad)]
+    assert os.getcwd() != client.run(os.getcwd).popitem()[1]
+    many = analyze_many(names + ["nope.h5"], client=client, split=20.0, **OPTS)
+    assert list(many.results) == names[:1] and list(many.failures) == names[1:] + ["nope.h5"]
+    _same(many.results[names[0]], _serial(good[0]))
+    serial = analyze_many(names + ["nope.h5"], split=20.0, **OPTS)
+    assert {k: v.error for k, v in many.failures.items()} == {k: v.error for k, v in serial.failures.items()}
+    assert many.failures["nope.h5"].error == "RecordingError: nope.h5: no such file"
+
+
 def test_a_worker_with_tribodyn_threads_keeps_it(monkeypatch):
     from tribodyn.pipeline import distributed as dist
 

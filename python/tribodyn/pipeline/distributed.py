@@ -376,7 +376,8 @@ def analyze_many(
         for recordings sampled at ``plan.fs``; no other analysis option with it.
     client : dask.distributed.Client, optional
         Run the tasks on this cluster (workers must reach the files at the
-        same paths). None: run them here, one after the other. Without a
+        same paths; a relative path is taken from this process's working
+        folder). None: run them here, one after the other. Without a
         ``threads`` option (and without ``TRIBODYN_THREADS`` on the
         workers), a task's kernels run on its share of its host's cores:
         the cores over the cluster's task slots on that host, at least 1
@@ -444,15 +445,22 @@ def analyze_many(
     run = _runner(client, progress)
     slots = _host_slots(client) if client is not None and plan is None and options.get("threads") is None else None
 
+    # What the tasks open: on a cluster the path from this process's working folder (a worker has its own; a
+    # relative path failed there as "no such file"); its failures then name the path as given.
+    where = {f: os.path.abspath(f) if client is not None else f for f in files}
+
+    def as_given(f: str, failed: RecordingFailure) -> RecordingFailure:
+        return dataclasses.replace(failed, path=f, error=failed.error.replace(where[f], f))
+
     if split is None:
         plans: List[Any] = [None] * len(files)  # the files' (n_samples, fs), read only to split them
     else:
-        plans = run(plan_task, [(f, [(f, open_options)]) for f in files], None)
+        plans = run(plan_task, [(f, [(where[f], open_options)]) for f in files], None)
     groups: List[Group] = []
     failures: Dict[str, RecordingFailure] = {}
     for f, head in zip(files, plans):
         if isinstance(head, RecordingFailure):
-            failures[f] = head
+            failures[f] = as_given(f, head)
             continue
         if head is None or head[2] > 1:  # (separate acquisitions: each windowed from its own start, not cut)
             ranges: List[Tuple[int, Optional[int]]] = [(0, None)]
@@ -465,13 +473,13 @@ def analyze_many(
             opts = plan
         else:
             opts = dict(options, chunk=chunk) if chunk is not None else dict(options)
-        groups.append((f, [(f, open_options, opts, a, b, slots) for a, b in ranges]))
+        groups.append((f, [(where[f], open_options, opts, a, b, slots) for a, b in ranges]))
     outputs = run(range_task, groups, finish_task)
 
     results: Dict[str, Results] = {}
     for (f, _), out in zip(groups, outputs):
         if isinstance(out, RecordingFailure):
-            failures[f] = out
+            failures[f] = as_given(f, out)
         else:
             results[f] = out
     ordered_failures = {f: failures[f] for f in files if f in failures}
