@@ -164,11 +164,11 @@ def range_task(
     path: str,
     open_options: Dict[str, Any],
     options: Union[Dict[str, Any], Plan],
-    start: int,
-    stop: Optional[int],
+    span: Tuple[int, Optional[int]],
     host_slots: Optional[Mapping[str, int]] = None,
 ) -> Union[Partial, RecordingFailure]:
-    """The kernel's statistics of the windows of samples ``start:stop`` of one recording, not yet finished.
+    """The kernel's statistics of the windows of samples ``start:stop`` (``span``) of one recording, not yet
+    finished.
 
     The ranges of a recording are finished together by :func:`finish_task`
     (recording-wide orientation and noise on fz, docs/method.md 3c).
@@ -181,6 +181,7 @@ def range_task(
     """
     from ..io import open_recording
 
+    start, stop = span
     try:
         with open_recording(path, **open_options) as rec:
             if isinstance(options, Plan):
@@ -473,7 +474,7 @@ def analyze_many(
             opts = plan
         else:
             opts = dict(options, chunk=chunk) if chunk is not None else dict(options)
-        groups.append((f, [(where[f], open_options, opts, a, b, slots) for a, b in ranges]))
+        groups.append((f, [(where[f], open_options, opts, span, slots) for span in ranges]))
     outputs = run(range_task, groups, finish_task)
 
     results: Dict[str, Results] = {}
