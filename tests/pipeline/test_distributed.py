@@ -316,6 +316,50 @@ def test_cli_on_a_local_cluster_with_a_bad_file(files, tmp_path):
     assert (out / "report.html").is_file() and (out / "windows.csv").is_file()
 
 
+def _spawned_children(pid):
+    """Process ids of ``pid``'s children started by multiprocessing's spawn (a LocalCluster's workers)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            status = open(f"/proc/{entry}/status").read()
+            cmd = open(f"/proc/{entry}/cmdline", "rb").read()
+        except OSError:
+            continue
+        if f"\nPPid:\t{pid}\n" in status and b"spawn_main" in cmd:
+            out.append(int(entry))
+    return out
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc") or os.name != "posix", reason="needs /proc and process groups")
+@pytest.mark.parametrize("after", [0.3, 1.5])
+def test_ctrl_c_on_a_local_cluster_prints_one_line(files, tmp_path, after):
+    """A Ctrl-C (SIGINT to the command's process group, as a terminal sends it) during ``--scheduler local``:
+    status 130 and the command's one line; the workers never see it (each printed a KeyboardInterrupt
+    traceback before, and the client's pending waits an AllExit traceback each)."""
+    import signal
+    import subprocess
+    import sys
+
+    pytest.importorskip("dask.distributed")
+    good, _ = files
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "tribodyn", "analyze", *good, "--out", str(out), "--window", "2", "--hop", "2",
+           "--split", "2", "--figures", "none", "--scheduler", "local", "--workers", "2"]  # fmt: skip
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True)
+    deadline = time.time() + 60
+    while len(_spawned_children(proc.pid)) < 2 and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    time.sleep(after)  # the workers take their first tasks; later, the client waits for the recordings
+    assert proc.poll() is None, "the command ended before the interrupt"
+    os.killpg(proc.pid, signal.SIGINT)
+    err = proc.communicate(timeout=120)[1].decode()
+    lines = [x for x in err.splitlines() if x.strip() and not x.startswith("tribodyn: warning")]
+    assert proc.returncode == 130, err
+    assert lines == [x for x in lines if x.startswith("tribodyn: interrupted")] and len(lines) == 1, err
+
+
 def test_without_dask_the_error_says_how_to_install(monkeypatch):
     import builtins
 

@@ -922,6 +922,8 @@ def _run_analyze(ns: argparse.Namespace) -> int:
         raise
     finally:
         if client is not None:
+            if isinstance(sys.exc_info()[1], KeyboardInterrupt):
+                _quiet_dask()
             cluster = getattr(client, "cluster", None)
             client.close()
             if ns.scheduler == "local" and cluster is not None:
@@ -930,6 +932,16 @@ def _run_analyze(ns: argparse.Namespace) -> int:
         _print_analysis(summary, ns.out)
     _print_problems(summary, files, open_opts)
     return EXIT_SOME_FAILED if summary.get("failures") else 0
+
+
+def _quiet_dask() -> None:
+    """Dask's and asyncio's logs silenced for the rest of an interrupted run: closing a client while it gathers
+    logs each of its pending waits' AllExit ("Task exception was never retrieved", with a traceback), where the
+    command prints one line (it exits with status 130)."""
+    import logging
+
+    for name in ("asyncio", "distributed", "tornado"):
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def _run_watch(ns: argparse.Namespace) -> int:

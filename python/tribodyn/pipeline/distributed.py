@@ -25,13 +25,14 @@ same tasks run serially in this process.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import glob
 import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, cast
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 
@@ -488,15 +489,49 @@ def analyze_many(
 
 
 def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
-    """A ``dask.distributed.Client`` on a LocalCluster of worker processes."""
+    """A ``dask.distributed.Client`` on a LocalCluster of worker processes.
+
+    A Ctrl-C reaches this process alone (:func:`_interrupts_held`): its workers are stopped when the client and
+    the cluster are closed, without each printing its own traceback. The cluster's processes print their logs
+    from level ERROR (a task cancelled by a Ctrl-C logs a WARNING in its worker).
+    """
+    import logging
+
     try:
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
-    cluster = cast(Any, LocalCluster)(
-        n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0"
-    )
+    with _interrupts_held():  # the cluster's loop thread, and the worker processes it starts, never see Ctrl-C
+        cluster = cast(Any, LocalCluster)(
+            n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0",
+            silence_logs=logging.ERROR,
+        )  # fmt: skip
     return cast(Any, Client)(cluster)
+
+
+@contextlib.contextmanager
+def _interrupts_held() -> Iterator[None]:
+    """Within the block SIGINT is blocked in this thread (POSIX, main thread only), so that the threads it starts
+    (a LocalCluster's event loop) and the processes they spawn (its workers) inherit the blocked signal: a Ctrl-C
+    reaches this process alone, which stops the cluster (each worker printed its own KeyboardInterrupt
+    traceback before). A Ctrl-C during the block is delivered here when it ends, not lost."""
+    import signal
+    import threading
+
+    hold = getattr(signal, "pthread_sigmask", None)
+    if hold is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    from multiprocessing import resource_tracker
+
+    # Started now, outside the block: starting it later would unblock SIGINT in this thread (multiprocessing
+    # blocks and then unblocks SIGINT and SIGTERM around the tracker's start, whatever the mask was before).
+    resource_tracker.ensure_running()
+    before = hold(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        hold(signal.SIG_SETMASK, before)
 
 
 def connect(address: str, workers: int = 2) -> Any:
