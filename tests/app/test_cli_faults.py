@@ -527,6 +527,8 @@ def test_cell_rules():
         (["--fs", "1e308", "--window", "1", "--hop", "1"], ""),
         (["--threads", "0"], "threads"),
         (["--workers", "0", "--scheduler", "local"], "--workers"),
+        (["--workers", "4"], "give --scheduler local too"),  # (ignored without a word before)
+        (["--workers", "3", "--scheduler", "tcp://127.0.0.1:1"], "--workers applies to --scheduler local only"),
     ],
 )
 def test_bad_option_values_are_one_line(rec, tmp_path, capsys, args, message):

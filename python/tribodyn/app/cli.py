@@ -335,7 +335,7 @@ def _add_analyze_command(a: argparse.ArgumentParser) -> None:
     )
     _add_budget_options(a)
     a.add_argument("--scheduler", help="run on Dask: a scheduler ADDRESS (tcp://host:8786) or 'local'")
-    a.add_argument("--workers", type=int, default=2, help="worker processes for --scheduler local (default 2)")
+    a.add_argument("--workers", type=int, default=None, help="worker processes for --scheduler local (default 2)")
     a.add_argument("--split", type=float, help="cut each recording into ranges of S seconds, one task each")
     a.add_argument(
         "--steady-state",
@@ -900,6 +900,10 @@ def _run_analyze(ns: argparse.Namespace) -> int:
     OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
     if open_opts.get("scale"):
         _warn_converted(files, open_opts)
+    if ns.workers is not None and ns.scheduler != "local":  # (it was ignored without a word)
+        raise UserError("--workers sets the worker processes of --scheduler local; give --scheduler local too"
+                        if ns.scheduler is None else "--workers applies to --scheduler local only: a cluster at an "
+                        "address has its own workers")  # fmt: skip
     client = _dask_client(ns) if ns.scheduler is not None else None
     try:
         summary = run_analysis(
@@ -958,6 +962,7 @@ def _dask_client(ns: argparse.Namespace) -> Any:
     """The Dask client of ``--scheduler`` (with ``--workers`` for 'local'), or UserError."""
     from ..pipeline.distributed import connect
 
+    ns.workers = 2 if ns.workers is None else ns.workers
     if ns.workers < 1:
         raise UserError("--workers must be at least 1")
     if not ns.scheduler.strip():  # (an empty address once ran serially, saying nothing)
