@@ -165,6 +165,10 @@ def test_expand_paths_directory_and_glob(files):
     assert expand_paths(os.path.join(d, "*.h5")) == sorted(p for p in good if p.endswith(".h5"))
     with pytest.raises(FileNotFoundError):
         expand_paths(os.path.join(d, "*.nothing"))
+    nested = os.path.join(d, "nested")
+    os.makedirs(os.path.join(nested, "deeper"), exist_ok=True)
+    with pytest.raises(FileNotFoundError, match=r"^no input files in .*nested \(a folder's own files are read"):
+        expand_paths(nested)  # one line naming the folder (it showed a Python list)
 
 
 @pytest.fixture(scope="module")

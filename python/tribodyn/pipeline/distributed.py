@@ -138,7 +138,8 @@ def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.Pat
             found = [s]
         out.extend(q for q in found if q not in out)
     if not out:
-        raise FileNotFoundError(f"no input files in {inputs!r}")
+        where = ", ".join(str(i) for i in items) or "(nothing given)"
+        raise FileNotFoundError(f"no input files in {where} (a folder's own files are read, not its sub-folders')")
     return out
 
 
