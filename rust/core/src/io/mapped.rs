@@ -1601,7 +1601,6 @@ mod direct_tests {
         }));
         let mut iov = [IoBuf { base: a.as_mut_ptr(), len: 50 }];
         assert!(!fill_vectored(0, &mut iov, |_, _| Err(std::io::ErrorKind::Other.into())));
-        drop(gap);
     }
 
     #[test]
