@@ -12,6 +12,7 @@ call (1 .. ``max_threads()``); None means ``get_threads()``. Check for drift
 with ``python -m mypy.stubtest tribodyn._core``.
 """
 
+import os
 from typing import Any, final
 
 import numpy as np
@@ -22,6 +23,7 @@ __all__ = [
     "FORCE_LIMIT",
     "MAPPED_ALONE_GAP",
     "Extents",
+    "FileDigest",
     "Moments",
     "NonFiniteError",
     "TextDialect",
@@ -371,6 +373,22 @@ class TextDialect:
         `decimal`: "." or ","; `comment`: ASCII text that starts a skipped
         line, or None; `skip_blank`: blank lines are skipped (else they end
         a run). A bad argument is a `ValueError`."""
+
+@final
+class FileDigest:
+    """The SHA-256 of a file, hashed in steps (`advance`) that run without the GIL."""
+
+    def __new__(cls, path: str | os.PathLike[str]) -> FileDigest: ...
+    def advance(self, max_bytes: int) -> bool:
+        """Hashes up to ``max_bytes`` more bytes of the file without the GIL; True once the file's end was
+        reached (an OSError when a read fails)."""
+
+    @property
+    def bytes(self) -> int:
+        """Bytes hashed so far."""
+
+    def hexdigest(self) -> str:
+        """The lowercase hex SHA-256 of the bytes hashed so far (the file's once ``advance`` returned True)."""
 
 @final
 class TextScan:

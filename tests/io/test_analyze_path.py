@@ -42,6 +42,17 @@ def test_analyze_a_path_equals_analyze_the_opened_recording(tmp_path, kind):
 
 
 @pytest.mark.fast
+def test_a_recording_without_fy_or_fz_names_its_channels_and_the_map(tmp_path):
+    p = _csv(tmp_path, names=("Time", "A", "B"))
+    for source in (p, td.open_recording(p)):  # the path and an open recording: one message, before any reading
+        with pytest.raises(ValueError) as err:
+            td.analyze(source)
+        msg = str(err.value)
+        assert msg.startswith(f"{p.name}: lacks the required channel(s) fy, fz (mapped: ")
+        assert "'A', 'B'" in msg and "channels={'fy': CHANNEL, 'fz': CHANNEL}" in msg and "chunk" not in msg
+
+
+@pytest.mark.fast
 def test_channels_are_passed_to_open_recording(tmp_path):
     p = _csv(tmp_path, names=("Time", "A", "B"))
     with pytest.raises(ValueError, match="lacks the required channel"):

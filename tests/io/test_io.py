@@ -787,6 +787,44 @@ def test_atomic_write_leaves_nothing_on_error(tmp_path):
 
 
 @pytest.mark.fast
+def test_sha256_file_is_hashlibs_at_every_step_size(tmp_path):
+    """The native digest (``_core.FileDigest``, issue 38 point 3) equals hashlib's, whatever the step size."""
+    rng = np.random.default_rng(7)
+    for size in (0, 1, 63, 64, 65, 4096, (1 << 20) + 3):
+        path = tmp_path / f"f{size}.bin"
+        data = rng.integers(0, 256, size, dtype=np.uint8).tobytes()
+        path.write_bytes(data)
+        want = hashlib.sha256(data).hexdigest()
+        for step in (1, 64, 1 << 20, 1 << 26):
+            if size // step > 5000:
+                continue
+            assert sha256_file(path, step) == want, (size, step)
+    with pytest.raises(FileNotFoundError):
+        sha256_file(tmp_path / "missing.bin")
+    with pytest.raises(IsADirectoryError):
+        sha256_file(tmp_path)
+
+
+@pytest.mark.fast
+def test_digests_thread_gives_each_files_sha256_and_stops_when_cancelled(tmp_path):
+    from tribodyn.app.outputs import Digests
+
+    paths = []
+    for k in range(3):
+        p = tmp_path / f"in{k}.bin"
+        p.write_bytes(bytes([k]) * (1000 + k))
+        paths.append(p)
+    d = Digests(paths)
+    assert [d.get(p) for p in paths] == [hashlib.sha256(p.read_bytes()).hexdigest() for p in paths]
+    stopped = Digests(paths)
+    stopped.cancel()
+    assert stopped.get(paths[2]) == hashlib.sha256(paths[2].read_bytes()).hexdigest()  # computed here if not there
+    missing = Digests([tmp_path / "gone.bin"])
+    with pytest.raises(FileNotFoundError):
+        missing.get(tmp_path / "gone.bin")
+
+
+@pytest.mark.fast
 @pytest.mark.parametrize("name", sorted(p.name for p in (TESTS / "data" / "real").iterdir()))
 def test_chunks_of_a_sample_range_equal_the_slice(name):
     """chunks(start=, stop=) reads only part of a recording (used to split long recordings)."""

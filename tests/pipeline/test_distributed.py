@@ -108,6 +108,32 @@ def test_cluster_equals_serial_and_reports_failures(files, client):
     assert all(t["worker"] in client.scheduler_info()["workers"] for t in finished)
 
 
+def test_tasks_on_workers_share_their_hosts_cores(files, client):
+    """Issue 38 point 4: W workers of one host, each running its kernels on every core, oversubscribe the host
+    W times; a task that names no threads gets the host's cores over its task slots (here 2 slots)."""
+    from tribodyn.pipeline.distributed import _host_slots, _worker_threads
+
+    good, _ = files
+    slots = _host_slots(client)
+    assert slots is not None and sum(slots.values()) == 2
+    share = max(1, td.get_threads() // 2)
+    many = analyze_many(good[:2], client=client, **OPTS)
+    assert {many.results[p].params["threads"] for p in good[:2]} == {share}
+    for p in good[:2]:
+        _same(many.results[p], _serial(p))
+    asked = analyze_many(good[:1], client=client, threads=2, **OPTS)  # a count asked for is kept
+    assert asked.results[good[0]].params["threads"] == 2
+    assert _worker_threads({"127.0.0.1": 2}) is None  # not on a worker: the call's default
+    assert _host_slots(object()) is None
+
+
+def test_a_worker_with_tribodyn_threads_keeps_it(monkeypatch):
+    from tribodyn.pipeline import distributed as dist
+
+    monkeypatch.setenv("TRIBODYN_THREADS", "1")
+    assert dist._worker_threads({"127.0.0.1": 1}) is None  # resolve_threads reads the variable
+
+
 def test_finish_task_reports_the_first_failed_range():
     from tribodyn.pipeline.distributed import finish_task
 

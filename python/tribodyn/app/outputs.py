@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import hashlib
 import json
 import math
 import os
@@ -45,7 +44,8 @@ from typing import Any, Dict, Iterable, Iterator, List, Optional, Set, Tuple, Ty
 
 import numpy as np
 
-from ..io.writers import _fsync_dir, sha256_file
+from .. import _core
+from ..io.writers import DIGEST_STEP, _fsync_dir, sha256_file
 from ..results import Results
 from ..errors import OutputError
 
@@ -622,13 +622,13 @@ def fill_digests(inputs: Iterable[Dict[str, Any]], digests: Optional["Digests"])
 class Digests:
     """SHA-256 of files computed in a background thread started at once (issue 25).
 
-    File reads and ``hashlib`` release the GIL, so the digests of the
-    inputs overlap the analysis that reads the same files. :meth:`get`
-    waits for a file's digest (computing it here if the thread did not);
-    :meth:`cancel` stops the thread at its next block.
+    Each step of ``_core.FileDigest`` (:data:`~tribodyn.io.writers.DIGEST_STEP` bytes, read and hashed
+    natively) runs without the GIL, so the digests of the inputs overlap the analysis and the figures'
+    drawing, which holds the GIL (``hashlib`` took the GIL back after each 1 MiB block and waited for it
+    behind the drawing: a 1.15 GB input took 4-10 s beside a busy Python thread instead of 1.2 s; issue 38
+    point 3). :meth:`get` waits for a file's digest (computing it here if the thread did not); :meth:`cancel`
+    stops the thread at its next step.
     """
-
-    _BLOCK = 1 << 20
 
     def __init__(self, paths: Iterable[PathLike]) -> None:
         self._paths = [Path(p) for p in paths]
@@ -642,20 +642,15 @@ class Digests:
         return os.path.realpath(os.fspath(p))
 
     def _run(self) -> None:
-        buf = bytearray(self._BLOCK)
-        view = memoryview(buf)
         for p in self._paths:
             try:
-                h = hashlib.sha256()
-                with open(p, "rb", buffering=0) as fh:
-                    while not self._stop.is_set():
-                        k = fh.readinto(buf)
-                        if not k:
-                            break
-                        h.update(view[:k])
+                digest = _core.FileDigest(os.fspath(p))
+                while not digest.advance(DIGEST_STEP):
+                    if self._stop.is_set():
+                        return
                 if self._stop.is_set():
                     return
-                self._done[self._key(p)] = h.hexdigest()
+                self._done[self._key(p)] = str(digest.hexdigest())
             except BaseException as exc:  # noqa: BLE001 - get() computes it again and raises there
                 self._done[self._key(p)] = exc
 

@@ -13,7 +13,6 @@ units and sampling rate (``.npy`` keeps neither names nor fs: see
 from __future__ import annotations
 
 import errno
-import hashlib
 import json
 import math
 import os
@@ -21,6 +20,8 @@ import tempfile
 from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
+
+from .. import _core
 
 __all__ = [
     "atomic_write",
@@ -128,16 +129,18 @@ def _fsync_dir(directory: PathLike) -> None:
         os.close(fd)
 
 
-def sha256_file(path: PathLike, chunk_size: int = 1 << 20) -> str:
-    """Hex SHA-256 digest of a file, read in chunks of ``chunk_size`` bytes."""
-    h = hashlib.sha256()
-    with open(os.fspath(path), "rb") as fh:
-        while True:
-            b = fh.read(chunk_size)
-            if not b:
-                break
-            h.update(b)
-    return h.hexdigest()
+#: Bytes of a file hashed per step of ``_core.FileDigest`` (a step runs without the GIL: ~50 ms at 1.3 GB/s).
+DIGEST_STEP = 64 << 20
+
+
+def sha256_file(path: PathLike, chunk_size: int = DIGEST_STEP) -> str:
+    """Hex SHA-256 digest of a file, hashed natively (``_core.FileDigest``, without the GIL) in steps of
+    ``chunk_size`` bytes: a thread hashing a large input is not held back by a thread that holds the GIL, as
+    ``hashlib`` is after each block (issue 38 point 3). OSError when the file cannot be read."""
+    digest = _core.FileDigest(os.fspath(path))
+    while not digest.advance(chunk_size):
+        pass
+    return str(digest.hexdigest())
 
 
 def _checked(channels: Mapping[str, np.ndarray], fs: Optional[float]) -> Dict[str, np.ndarray]:

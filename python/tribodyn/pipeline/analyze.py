@@ -270,6 +270,8 @@ def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[Reco
     # then the instrument's COF: params["friction_from"])
     source = with_load(source, load) if _is_recording(source) else mapping_with_load(source, load)
     rec: Optional[RecordingProtocol] = source if _is_recording(source) else None
+    if rec is not None:
+        _check_roles(rec)
     if rec is not None and hasattr(rec, "channels"):  # units that make the COF wrong (docs/method.md 6f)
         errors = check_role_units(rec.channels)[0]
         if errors:
@@ -279,6 +281,27 @@ def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[Reco
     if rec is None:
         _check_shapes(source)
     return source, rec, fs
+
+
+def _check_roles(rec: Any) -> None:
+    """A recording without ``fy`` or ``fz`` is refused before any reading, with its channels and how to map
+    them (the pipeline's own message would name its first chunk)."""
+    roles = getattr(rec, "roles", None)
+    if not isinstance(roles, Mapping):
+        return
+    missing = [r for r in ("fy", "fz") if r not in roles]
+    if not missing:
+        return
+    names = [str(n) for n in (getattr(rec, "channel_names", None) or [])]
+    shown = ", ".join(repr(n) for n in names[:30]) + (f" and {len(names) - 30} more" if len(names) > 30 else "")
+    mapped = ", ".join(f"{r}={c!r}" for r, c in roles.items()) or "none"
+    example = ", ".join(f"{r!r}: CHANNEL" for r in missing)
+    raise ValueError(
+        f"{os.path.basename(str(getattr(rec, 'path', '') or 'the recording'))}: lacks the required channel(s) "
+        f"{', '.join(missing)} (mapped: {mapped}); its channels: {shown or 'none'}; map them with "
+        f"channels={{{example}}} (open_recording, or analyze of the file's path)"
+        + ("; a test whose load is a constant: pass load= (--load N)" if missing == ["fz"] else "")
+    )
 
 
 def _check_shapes(source: Any) -> None:

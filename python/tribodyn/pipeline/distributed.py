@@ -30,7 +30,7 @@ import glob
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, cast
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 
@@ -155,29 +155,83 @@ def plan_task(path: str, open_options: Dict[str, Any]) -> Union[Tuple[int, float
 
 
 def range_task(
-    path: str, open_options: Dict[str, Any], options: Union[Dict[str, Any], Plan], start: int, stop: Optional[int]
+    path: str,
+    open_options: Dict[str, Any],
+    options: Union[Dict[str, Any], Plan],
+    span: Tuple[int, Optional[int]],
+    host_slots: Optional[Mapping[str, int]] = None,
 ) -> Union[Partial, RecordingFailure]:
-    """The kernel's statistics of the windows of samples ``start:stop`` of one recording, not yet finished.
+    """The kernel's statistics of the windows of samples ``start:stop`` (``span``) of one recording, not yet
+    finished.
 
     The ranges of a recording are finished together by :func:`finish_task`
     (recording-wide orientation and noise on fz, docs/method.md 3c).
     ``options`` are analyze's options, or a :class:`~tribodyn.Plan` (this
     range's copy of it: its ``start`` and ``stop`` are the range's).
+    ``host_slots``: the cluster's task slots per host (:func:`_host_slots`);
+    on a Dask worker, options that name no ``threads`` (and no
+    ``TRIBODYN_THREADS`` there) get this worker's share of its host's cores
+    (:func:`_worker_threads`, docs/method.md 9).
     """
     from ..io import open_recording
 
+    start, stop = span
     try:
         with open_recording(path, **open_options) as rec:
             if isinstance(options, Plan):
                 return analyze_partial(rec, dataclasses.replace(options, start=start, stop=stop))
             fs = options.get("fs") or rec.fs
             opts = {k: v for k, v in options.items() if k != "fs"}
+            if opts.get("threads") is None and host_slots:
+                opts["threads"] = _worker_threads(host_slots)
             # The recording itself, so that analyze reads the range the
             # fastest way its format allows (a float64 .npy: straight from
             # the file's pages).
             return analyze_partial(rec, fs=fs, start=start, stop=stop, **opts)
     except Exception as exc:  # reported per recording, see plan_task
         return RecordingFailure.of(path, exc)
+
+
+def _host_slots(client: Any) -> Optional[Dict[str, int]]:
+    """The task slots (worker threads) of ``client``'s cluster per host, from the scheduler (one request);
+    None for a client that cannot say (not a ``dask.distributed.Client``)."""
+    try:
+        from distributed.comm.addressing import get_address_host
+    except ImportError:
+        return None
+    ask = getattr(client, "nthreads", None)
+    if not callable(ask):
+        return None
+    slots: Dict[str, int] = {}
+    for address, n in ask().items():
+        host = get_address_host(address)
+        slots[host] = slots.get(host, 0) + int(n)
+    return slots
+
+
+def _worker_threads(host_slots: Mapping[str, int]) -> Optional[int]:
+    """Kernel threads of one task on this Dask worker: the cores :func:`~tribodyn.get_threads` counts, shared
+    among the tasks its host runs at once (``host_slots``), at least 1; None (the call's default) off a worker,
+    on a host not in ``host_slots`` (a worker that joined later), or with ``TRIBODYN_THREADS`` set here.
+
+    Each of W workers on a host of C cores would otherwise run its kernels on C threads: W x C threads on C
+    cores (issue 38 point 4). The count never changes a result (docs/method.md 9).
+    """
+    if os.environ.get("TRIBODYN_THREADS", "").strip():
+        return None
+    try:
+        from distributed import get_worker
+        from distributed.comm.addressing import get_address_host
+
+        worker = get_worker()
+    except (ImportError, ValueError):  # (get_worker raises ValueError outside a task)
+        return None
+    slots = host_slots.get(get_address_host(worker.address))
+    if not slots:
+        return None
+    from ..kernels.threads import get_threads
+
+    return max(1, get_threads() // int(slots))
 
 
 def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Optional[float]
@@ -313,7 +367,11 @@ def analyze_many(
         for recordings sampled at ``plan.fs``; no other analysis option with it.
     client : dask.distributed.Client, optional
         Run the tasks on this cluster (workers must reach the files at the
-        same paths). None: run them here, one after the other.
+        same paths). None: run them here, one after the other. Without a
+        ``threads`` option (and without ``TRIBODYN_THREADS`` on the
+        workers), a task's kernels run on its share of its host's cores:
+        the cores over the cluster's task slots on that host, at least 1
+        (docs/method.md 9); a ``plan`` keeps its own ``threads``.
     open_options : dict, optional
         Passed to ``open_recording`` (channels, scale, fs, format, ...).
     split : float, optional
@@ -357,6 +415,7 @@ def analyze_many(
     if split is not None and not split > 0:
         raise ValueError(f"split must be > 0 seconds, got {split!r}")
     run = _runner(client, progress)
+    slots = _host_slots(client) if client is not None and plan is None and options.get("threads") is None else None
 
     if split is None:
         plans: List[Any] = [None] * len(files)  # the files' (n_samples, fs), read only to split them
@@ -379,7 +438,7 @@ def analyze_many(
             opts = plan
         else:
             opts = dict(options, chunk=chunk) if chunk is not None else dict(options)
-        groups.append((f, [(f, open_options, opts, a, b) for a, b in ranges]))
+        groups.append((f, [(f, open_options, opts, span, slots) for span in ranges]))
     outputs = run(range_task, groups, finish_task)
 
     results: Dict[str, Results] = {}

@@ -291,3 +291,37 @@ pub(crate) fn text_parse<'py>(
     }
     Ok(outs.into_iter().map(|v| PyArray1::from_vec(py, v)).collect())
 }
+
+/// The SHA-256 of a file, hashed in steps (`advance`) that run without the GIL, so that a thread hashing
+/// an input is never held back by a thread that holds the GIL (`tribodyn.app.outputs.Digests`).
+#[pyclass(name = "FileDigest", module = "tribodyn._core")]
+pub(crate) struct PyFileDigest {
+    inner: tribodyn_core::io::digest::FileDigest,
+}
+
+#[pymethods]
+impl PyFileDigest {
+    /// Opens ``path`` (an OSError when it cannot be opened).
+    #[new]
+    fn new(path: std::path::PathBuf) -> PyResult<Self> {
+        Ok(PyFileDigest { inner: tribodyn_core::io::digest::FileDigest::open(&path)? })
+    }
+
+    /// Hashes up to ``max_bytes`` more bytes of the file without the GIL; True once the file's end was
+    /// reached (an OSError when a read fails).
+    fn advance(&mut self, py: Python<'_>, max_bytes: u64) -> PyResult<bool> {
+        let inner = &mut self.inner;
+        Ok(py.detach(|| inner.advance(max_bytes))?)
+    }
+
+    /// Bytes hashed so far.
+    #[getter]
+    fn bytes(&self) -> u64 {
+        self.inner.bytes()
+    }
+
+    /// The lowercase hex SHA-256 of the bytes hashed so far (the file's once ``advance`` returned True).
+    fn hexdigest(&self) -> String {
+        self.inner.hex()
+    }
+}

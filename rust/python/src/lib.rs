@@ -1224,6 +1224,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyWindowSpec>()?;
     m.add_class::<PyTextDialect>()?;
     m.add_class::<PyTextScan>()?;
+    m.add_class::<files::PyFileDigest>()?;
     m.add_function(wrap_pyfunction!(files::text_scan, m)?)?;
     m.add_function(wrap_pyfunction!(files::text_parse, m)?)?;
     m.add_function(wrap_pyfunction!(set_threads, m)?)?;

@@ -480,8 +480,8 @@ impl<'a> Resamples<'a> {
 /// Without `noise` the values are `v`'s windows (a resample holding NaN gives NaN, as NumPy's
 /// statistics do); with it they are the resample's windows of `v` moved by `dnoise * (sigma*^2 -
 /// used)`, sigma*^2 the median of the resample's `var` (at least 0; NaN ignored), and the
-/// statistics ignore NaN (a window not among `v`'s is NaN). `nan_mean`: the mean ignores NaN
-/// (NumPy's `nanmean`) rather than propagating it.
+/// statistics ignore NaN (a window not among `v`'s is NaN): the mean too, as NumPy's `nanmean`
+/// (the pairwise sum of the values with NaN as 0, over the count of the others).
 pub fn resample_stats(
     v: &[f64],
     starts: &[i64],
