@@ -458,6 +458,36 @@ def test_analyze_tables_equal_across_routes(tmp_path, monkeypatch):
         assert route == "mapped" and equal(got, ref), kw
 
 
+@pytest.mark.fast
+def test_many_small_segments_and_a_channel_no_role_asks_for(tmp_path, monkeypatch):
+    """Segments of 20 samples (1500 of them: more runs in a block than one vectored read takes) with a
+    channel no role asks for between the forces: the mapped route reads the spans of the forces' runs
+    straight into their buffers (the other channel and the heads into scratch), and its table equals the
+    ``.npy``'s bit for bit, at 1 and 2 threads and in small blocks."""
+    import tribodyn
+
+    sig = _simulated(30.0)
+    q = tmp_path / "rec.npy"
+    np.save(q, np.stack([sig[k] for k in ("fx", "fy", "fz", "i")]))
+    p = tmp_path / "rec.tdms"
+    chans = {"fx": sig["fx"], "fy": sig["fy"], "temperature": 20.0 + 0.01 * sig["fz"], "fz": sig["fz"], "i": sig["i"]}
+    save_tdms(p, chans, 1000.0, {"fy": "N", "fz": "N"}, segment_samples=20)
+    monkeypatch.setattr(T, "_NATIVE", True)
+
+    def table(path: Path, **kw: Any) -> Tuple[str, Dict[str, np.ndarray]]:
+        extra = {"names": ["fx", "fy", "fz", "i"], "fs": 1000.0} if path.suffix == ".npy" else {}
+        with open_recording(path, **extra) as rec:
+            res = tribodyn.analyze(rec, window=2, hop=2, method="paper", **kw)
+        return res.params["route"], {k: np.asarray(v) for k, v in res.table.items()}
+
+    route, want = table(q)
+    assert route == "mapped"
+    for kw in ({"threads": 1}, {"threads": 2, "chunk": 5000}):
+        route, got = table(p, **kw)
+        assert route == "mapped", kw
+        assert set(got) == set(want) and all(_same(got[k], want[k]) for k in want if want[k].dtype.kind in "fiu"), kw
+
+
 # ------------------------------------------------------------------ fuzz
 
 N_FUZZ = 120

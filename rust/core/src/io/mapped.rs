@@ -236,6 +236,35 @@ impl Extents {
         self.num == Num::F64 && !self.big_endian && self.ops.is_empty() && cfg!(target_endian = "little")
     }
 
+    /// Whether its samples are stored as they are in memory (native f64, unscaled) in runs of consecutive
+    /// samples (not interleaved with other channels'), so that the file's bytes can be read straight into a
+    /// channel's buffer ([`Samples::read_direct`]).
+    fn direct(&self) -> bool {
+        self.plain_f64() && self.parts.iter().all(|e| e.stride == F64 || e.count <= 1)
+    }
+
+    /// The runs of samples [a, b) in the file, in order: `run(at, k)` for `k` samples at byte `at`.
+    /// False (and no run) when the channel has fewer than `b` samples. Only for [`Extents::direct`] extents.
+    fn runs(&self, a: u64, b: u64, mut run: impl FnMut(u64, u64)) -> bool {
+        if b > self.len() {
+            return false;
+        }
+        let mut i = self.parts.partition_point(|e| e.start + e.total() <= a);
+        let mut pos = a;
+        while pos < b {
+            let e = &self.parts[i];
+            if e.count == 0 || pos >= e.start + e.total() {
+                i += 1;
+                continue;
+            }
+            let (r, s) = ((pos - e.start) / e.count, (pos - e.start) % e.count);
+            let k = (e.count - s).min(b - pos);
+            run(e.rep(r).0 + s * e.stride, k);
+            pos += k;
+        }
+        true
+    }
+
     /// Samples [a, b) as f64, scaled, into `out` (cleared first). The
     /// extents must have passed [`Extents::check`] (for any size: a file
     /// shorter than they say is a read error here).
@@ -497,7 +526,27 @@ struct Samples {
     bufs: [Vec<f64>; 4],
     present: [bool; 4],
     cache: ByteCache,
+    /// The runs a direct read places, and a buffer for the bytes between them.
+    pieces: Vec<Piece>,
+    scratch: Vec<u8>,
+    /// Read calls of the direct reads so far (for the tests).
+    direct_reads: usize,
 }
+
+/// `n` samples at byte `at` of the file, for channel `ch`'s buffer from sample `dst` on.
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    at: u64,
+    ch: usize,
+    dst: usize,
+    n: usize,
+}
+
+/// Bytes between two runs of a direct read up to this many are read into a scratch buffer (the head of
+/// a TDMS segment, a channel not asked for): a second read call costs more; longer ones split the read.
+const DIRECT_GAP: u64 = 16 << 10;
+/// Most buffers one `preadv` fills (Linux's `IOV_MAX`).
+const IOV_MAX: usize = 1024;
 
 impl Samples {
     /// Samples [a, b) of every channel (one window of b - a samples at a).
@@ -514,9 +563,25 @@ impl Samples {
         starts: &[usize],
         len: usize,
     ) -> Result<(), KernelError> {
+        let direct = self.read_direct(file, layout, starts, len);
+        self.read_rest(file, layout, starts, len, direct)
+    }
+
+    /// [`Samples::read_windows`] of the channels not in the mask `done` (bit i: channel i was read).
+    fn read_rest(
+        &mut self,
+        file: &File,
+        layout: &FileLayout,
+        starts: &[usize],
+        len: usize,
+        done: u8,
+    ) -> Result<(), KernelError> {
         self.cache.begin();
         for (i, src) in layout.sources().into_iter().enumerate() {
             self.present[i] = src.is_some();
+            if done & (1 << i) != 0 {
+                continue;
+            }
             let buf = &mut self.bufs[i];
             match src {
                 Some(Source::F64(off)) => {
@@ -535,6 +600,75 @@ impl Samples {
             }
         }
         Ok(())
+    }
+
+    /// Reads the windows' samples of the channels whose extents are [`Extents::direct`] straight into
+    /// their buffers, with no copy: the runs of all those channels sorted by their place in the file, each
+    /// span of runs (the bytes between them, up to [`DIRECT_GAP`], into a scratch buffer) read with one
+    /// `preadv` whose buffers are the runs' places in the channels' buffers. Returns the channels read
+    /// (bit i: channel i); none when a read fails, so that the reads of [`Samples::read_rest`] give the
+    /// error they always gave (a file truncated while it is read, say).
+    fn read_direct(&mut self, file: &File, layout: &FileLayout, starts: &[usize], len: usize) -> u8 {
+        let mut done = 0u8;
+        self.pieces.clear();
+        for (ch, src) in layout.sources().into_iter().enumerate() {
+            let Some(Source::Extents(ext)) = src else { continue };
+            if !ext.direct() {
+                continue;
+            }
+            let pieces = &mut self.pieces;
+            for (j, &s) in starts.iter().enumerate() {
+                let mut dst = j * len;
+                let whole = ext.runs(s as u64, (s + len) as u64, |at, k| {
+                    let n = k as usize;
+                    match pieces.last_mut() {
+                        // the run goes on where the last one ended, in the file and in the buffer
+                        Some(p) if p.ch == ch && p.dst + p.n == dst && p.at + p.n as u64 * F64 == at => p.n += n,
+                        _ => pieces.push(Piece { at, ch, dst, n }),
+                    }
+                    dst += n;
+                });
+                if !whole {
+                    return 0;
+                }
+            }
+            self.bufs[ch].resize(starts.len() * len, 0.0);
+            done |= 1 << ch;
+        }
+        if done == 0 {
+            return 0;
+        }
+        self.pieces.sort_unstable_by_key(|p| p.at);
+        self.scratch.resize(DIRECT_GAP as usize, 0);
+        let scratch = IoBuf { base: self.scratch.as_mut_ptr(), len: 0 };
+        let bases: [*mut f64; 4] = std::array::from_fn(|i| self.bufs[i].as_mut_ptr());
+        let mut iov: Vec<IoBuf> = Vec::with_capacity(IOV_MAX.min(2 * self.pieces.len()));
+        let (mut from, mut end) = (0u64, 0u64);
+        for p in &self.pieces {
+            let joins = !iov.is_empty() && p.at >= end && p.at - end <= DIRECT_GAP && iov.len() + 2 <= IOV_MAX;
+            if !joins && !iov.is_empty() {
+                self.direct_reads += 1;
+                if !read_vectored_at(file, from, &mut iov) {
+                    return 0;
+                }
+                iov.clear();
+            }
+            if iov.is_empty() {
+                from = p.at;
+            } else if p.at > end {
+                iov.push(IoBuf { len: (p.at - end) as usize, ..scratch });
+            }
+            // SAFETY: `p.dst + p.n` is at most `starts.len() * len`, the length of channel `p.ch`'s buffer
+            // (resized above and not touched until the reads are done): the run's place lies in it, and no
+            // other piece's place overlaps it (each is a different sample of the windows).
+            iov.push(IoBuf { base: unsafe { bases[p.ch].add(p.dst) }.cast::<u8>(), len: p.n * F64 as usize });
+            end = p.at + (p.n as u64) * F64;
+        }
+        self.direct_reads += 1;
+        if !read_vectored_at(file, from, &mut iov) {
+            return 0;
+        }
+        done
     }
 
     /// Channel `i` (0 fx, 1 fy, 2 fz, 3 aux), None where the layout has none.
@@ -564,6 +698,85 @@ pub(crate) fn read_bytes(file: &File, at: u64, bytes: &mut [u8]) -> Result<(), K
             invalid(format!("cannot read bytes {at}..{end} of the file: {e}"))
         }
     })
+}
+
+/// A buffer of a vectored read: the C `struct iovec`.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+struct IoBuf {
+    base: *mut u8,
+    len: usize,
+}
+
+/// Fills the buffers `iov` in order with the bytes of `file` from byte `at` on (vectored reads; the
+/// buffers are advanced past what each read placed). False when a read fails or the file ends first.
+fn read_vectored_at(file: &File, at: u64, iov: &mut [IoBuf]) -> bool {
+    fill_vectored(at, iov, |at, iov| preadv(file, at, iov))
+}
+
+/// Fills the buffers `iov` with `read(at, iov)` (a vectored read placing bytes from byte `at` on into the
+/// buffers in order, returning how many it placed), again from where it stopped until every buffer is
+/// full: a read may place fewer bytes than asked. False when a read fails or places none (the file's end).
+fn fill_vectored(
+    mut at: u64,
+    mut iov: &mut [IoBuf],
+    mut read: impl FnMut(u64, &[IoBuf]) -> std::io::Result<usize>,
+) -> bool {
+    while let Some(first) = iov.iter().position(|b| b.len > 0) {
+        iov = &mut iov[first..];
+        let mut got = match read(at, iov) {
+            Ok(0) => return false,
+            Ok(got) => got,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(_) => return false,
+        };
+        at += got as u64;
+        for b in iov.iter_mut() {
+            let k = got.min(b.len);
+            // SAFETY: `k` is at most the buffer's length: the advanced pointer stays in (or one past) it.
+            b.base = unsafe { b.base.add(k) };
+            b.len -= k;
+            got -= k;
+            if got == 0 {
+                break;
+            }
+        }
+        if got > 0 {
+            return false; // more bytes than asked for: no read does that
+        }
+    }
+    true
+}
+
+/// One `preadv` of `iov` from byte `at` of `file` (the buffers must be valid for writes).
+#[cfg(all(target_os = "linux", target_pointer_width = "64"))]
+fn preadv(file: &File, at: u64, iov: &[IoBuf]) -> std::io::Result<usize> {
+    use std::os::unix::io::AsRawFd;
+    extern "C" {
+        fn preadv(fd: i32, iov: *const IoBuf, iovcnt: i32, offset: i64) -> isize;
+    }
+    let (Ok(offset), Ok(count)) = (i64::try_from(at), i32::try_from(iov.len().min(IOV_MAX))) else {
+        return Err(std::io::ErrorKind::InvalidInput.into());
+    };
+    // SAFETY: the kernel writes at most `len` bytes at each `base`, buffers the caller made valid for writes
+    // and does not touch during the call; `iov` outlives the call.
+    let got = unsafe { preadv(file.as_raw_fd(), iov.as_ptr(), count, offset) };
+    usize::try_from(got).map_err(|_| std::io::Error::last_os_error())
+}
+
+/// A `pread` of the first buffer (no `preadv` here): the caller reads again for the rest.
+#[cfg(all(unix, not(all(target_os = "linux", target_pointer_width = "64"))))]
+fn preadv(file: &File, at: u64, iov: &[IoBuf]) -> std::io::Result<usize> {
+    use std::os::unix::fs::FileExt;
+    let Some(b) = iov.first() else { return Ok(0) };
+    // SAFETY: the caller made the buffer valid for writes of `len` bytes and does not touch it meanwhile.
+    let buf = unsafe { std::slice::from_raw_parts_mut(b.base, b.len) };
+    file.read_at(buf, at)
+}
+
+#[cfg(not(unix))]
+fn preadv(_file: &File, _at: u64, _iov: &[IoBuf]) -> std::io::Result<usize> {
+    Err(std::io::ErrorKind::Unsupported.into())
 }
 
 #[cfg(not(unix))]
@@ -1222,5 +1435,189 @@ mod tests {
         let overlap = Grid { k0, k1, step: 100, block: 4 };
         assert!(windows_stats_mapped_highpass(&file, &layout, &overlap, &opt, &hp).is_err());
         std::fs::remove_file(path).unwrap();
+    }
+}
+
+#[cfg(test)]
+mod direct_tests {
+    use super::*;
+    use std::sync::Arc;
+
+    /// `segs` segments of a `head`-byte head, then `per[c]` samples of each channel c in turn (f64), and
+    /// each channel's extents, in a file named `name`; sample i of channel c is `val(c, i)`.
+    fn segments(name: &str, segs: u64, per: &[u64], head: u64) -> (Temp, File, Vec<Arc<Extents>>) {
+        let mut bytes = vec![0xEEu8; 24];
+        let mut parts: Vec<Vec<Extent>> = vec![Vec::new(); per.len()];
+        let mut next = vec![0u64; per.len()];
+        for _ in 0..segs {
+            bytes.extend(vec![0x55u8; head as usize]);
+            let chunk = (bytes.len() as u64, bytes.len() as u64 + per.iter().sum::<u64>() * 8);
+            for (c, &k) in per.iter().enumerate() {
+                let at = bytes.len() as u64;
+                bytes.extend((next[c]..next[c] + k).flat_map(|i| val(c, i).to_le_bytes()));
+                parts[c].push(Extent { start: next[c], ..Extent::single(k, at, 8, chunk) });
+                next[c] += k;
+            }
+        }
+        let path = std::env::temp_dir().join(format!("tribodyn-direct-{}-{name}", std::process::id()));
+        std::fs::write(&path, &bytes).unwrap();
+        let file = File::open(&path).unwrap();
+        let exts = parts
+            .into_iter()
+            .map(|parts| Arc::new(Extents { num: Num::F64, big_endian: false, parts, ops: Vec::new() }))
+            .collect();
+        (Temp(path), file, exts)
+    }
+
+    fn val(c: usize, i: u64) -> f64 {
+        c as f64 * 1e6 + i as f64 + 0.25
+    }
+
+    struct Temp(std::path::PathBuf);
+
+    impl Drop for Temp {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_file(&self.0);
+        }
+    }
+
+    fn layout(
+        fx: Option<&Arc<Extents>>,
+        fy: &Arc<Extents>,
+        fz: &Arc<Extents>,
+        aux: Option<&Arc<Extents>>,
+    ) -> FileLayout {
+        let src = |e: &Arc<Extents>| Source::Extents(Arc::clone(e));
+        FileLayout { fx: fx.map(src), fy: src(fy), fz: src(fz), aux: aux.map(src), n: fy.len() as usize }
+    }
+
+    /// The windows of `layout` at `starts` read directly and as before: (direct buffers, read calls, before's).
+    fn both(file: &File, layout: &FileLayout, starts: &[usize], len: usize) -> (Vec<Vec<f64>>, usize, Vec<Vec<f64>>) {
+        let mut s = Samples::default();
+        s.read_windows(file, layout, starts, len).unwrap();
+        let mut old = Samples::default();
+        old.read_rest(file, layout, starts, len, 0).unwrap();
+        let get = |s: &Samples| (0..4).map(|i| s.get(i).map_or(Vec::new(), |x| x.to_vec())).collect();
+        (get(&s), s.direct_reads, get(&old))
+    }
+
+    fn want(c: usize, starts: &[usize], len: usize) -> Vec<f64> {
+        starts.iter().flat_map(|&s| (s..s + len).map(|i| val(c, i as u64))).collect()
+    }
+
+    #[test]
+    fn spans_across_segments_and_a_channel_not_asked_for() {
+        // 50 segments of 3 channels of 30 samples; B is not asked for (its runs and the heads go to scratch)
+        let (_t, f, e) = segments("across", 50, &[30, 30, 30], 100);
+        let lay = layout(None, &e[0], &e[2], None);
+        for (starts, len) in [(vec![5usize, 100, 370], 25usize), (vec![0], 1500), (vec![29, 59, 89], 2)] {
+            let (got, reads, old) = both(&f, &lay, &starts, len);
+            assert_eq!(got, old, "{starts:?}");
+            assert_eq!((&got[1], &got[2]), (&want(0, &starts, len), &want(2, &starts, len)), "{starts:?}");
+            assert!(got[0].is_empty() && got[3].is_empty());
+            assert_eq!(reads, 1, "{starts:?}: one read for every run of both channels");
+        }
+        // every channel, fx and aux too, and the same channel in two roles (its runs overlap: read apart)
+        let lay = layout(Some(&e[1]), &e[0], &e[0], Some(&e[2]));
+        let (got, reads, old) = both(&f, &lay, &[7, 700], 40);
+        assert_eq!(got, old);
+        assert_eq!(got, [1, 0, 0, 2].map(|c| want(c, &[7, 700], 40)));
+        assert!(reads >= 2, "{reads}");
+    }
+
+    #[test]
+    fn long_gaps_and_more_runs_than_iov_max_split_the_read() {
+        // a channel not asked for of 3000 samples (24 KB) between the ones asked for
+        let (_t, f, e) = segments("gap", 6, &[10, 3000, 10], 40);
+        let lay = layout(None, &e[0], &e[2], None);
+        let (got, reads, old) = both(&f, &lay, &[0], 60);
+        assert_eq!(got, old);
+        assert_eq!((&got[1], &got[2]), (&want(0, &[0], 60), &want(2, &[0], 60)));
+        // split where B lies (longer than DIRECT_GAP), not at the heads: A0 | C0 A1 | ... | C4 A5 | C5
+        assert_eq!(reads, 7, "split at the runs of B");
+        // 700 segments of 2 channels of 4 samples: 2100 buffers (runs and heads) in all, at most 1024 a read
+        let (_t, f, e) = segments("iov", 700, &[4, 4], 20);
+        let lay = layout(None, &e[0], &e[1], None);
+        let (got, reads, old) = both(&f, &lay, &[0], 2800);
+        assert_eq!(got, old);
+        assert_eq!((&got[1], &got[2]), (&want(0, &[0], 2800), &want(1, &[0], 2800)));
+        assert_eq!(reads, 3, "2100 buffers: 3 reads of at most {IOV_MAX}");
+    }
+
+    #[test]
+    fn other_layouts_are_read_as_before() {
+        let (_t, f, e) = segments("other", 8, &[50, 50], 64);
+        let scaled = Arc::new(Extents { ops: vec![Op::Linear { slope: 2.0, intercept: 1.0 }], ..(*e[1]).clone() });
+        let big = Arc::new(Extents { big_endian: true, ..(*e[1]).clone() });
+        for other in [&scaled, &big] {
+            let lay = layout(None, &e[0], other, None);
+            let (got, reads, old) = both(&f, &lay, &[3, 200], 100);
+            assert_eq!(got, old);
+            assert_eq!(got[1], want(0, &[3, 200], 100));
+            assert_eq!(reads, 1, "fy read directly, fz as before");
+        }
+        let lay = layout(None, &scaled, &big, None);
+        assert_eq!(both(&f, &lay, &[3], 100).1, 0, "nothing read directly");
+    }
+
+    #[test]
+    fn reads_that_stop_short_go_on_and_the_files_end_fails() {
+        let src: Vec<u8> = (0..200u8).collect();
+        let (mut a, mut b, mut gap) = (vec![0u8; 50], vec![0u8; 70], [0u8; 16]);
+        let mut calls = 0;
+        let mut iov = [
+            IoBuf { base: a.as_mut_ptr(), len: 50 },
+            IoBuf { base: gap.as_mut_ptr(), len: 16 },
+            IoBuf { base: b.as_mut_ptr(), len: 70 },
+        ];
+        // at most 7 bytes a read, and an interrupted read now and then
+        let ok = fill_vectored(10, &mut iov, |at, iov| {
+            calls += 1;
+            if calls % 5 == 0 {
+                return Err(std::io::ErrorKind::Interrupted.into());
+            }
+            let mut at = at as usize;
+            let mut placed = 0;
+            for buf in iov {
+                let k = buf.len.min(7 - placed).min(src.len() - at);
+                // SAFETY: the test's buffers, `k` at most their length
+                unsafe { std::ptr::copy_nonoverlapping(src[at..].as_ptr(), buf.base, k) };
+                (placed, at) = (placed + k, at + k);
+                if placed == 7 || at == src.len() {
+                    break;
+                }
+            }
+            Ok(placed)
+        });
+        assert!(ok && calls > 136 / 7);
+        assert_eq!((&a[..], &b[..]), (&src[10..60], &src[76..146]));
+        // the source ends first: a read places nothing, which fails
+        let mut iov = [IoBuf { base: a.as_mut_ptr(), len: 50 }];
+        let mut left = 30;
+        assert!(!fill_vectored(0, &mut iov, |_, iov| {
+            let k = left.min(iov[0].len).min(20);
+            left -= k;
+            Ok(k)
+        }));
+        let mut iov = [IoBuf { base: a.as_mut_ptr(), len: 50 }];
+        assert!(!fill_vectored(0, &mut iov, |_, _| Err(std::io::ErrorKind::Other.into())));
+    }
+
+    #[test]
+    fn a_file_truncated_while_read_gives_the_error_it_gave() {
+        let (t, f, e) = segments("cut", 20, &[100, 100, 100], 50);
+        let lay = layout(Some(&e[1]), &e[0], &e[2], None);
+        let size = f.metadata().unwrap().len();
+        let g = Grid { k0: 0, k1: 1, step: 10, block: 1 };
+        let deadband = crate::numerics::windows::Deadband::Force(0.1);
+        let opt = WindowOptions { len: 10, orientation: 1.0, deadband, n_bins: 8, ext: Default::default() };
+        check(&f, &lay, &g, &opt).unwrap();
+        std::fs::OpenOptions::new().write(true).open(&t.0).unwrap().set_len(size - 3000).unwrap();
+        let mut s = Samples::default();
+        let err = s.read_windows(&f, &lay, &[0, 1000], 990).unwrap_err();
+        assert_eq!(s.direct_reads, 1);
+        let mut old = Samples::default();
+        assert_eq!(err, old.read_rest(&f, &lay, &[0, 1000], 990, 0).unwrap_err());
+        assert!(err.to_string().contains("truncated while it was read"), "{err}");
     }
 }
