@@ -640,3 +640,19 @@ def test_an_analysis_error_of_one_file_names_the_file(tmp_path):
     assert p.returncode == 2, p.stderr
     line = error_line(p.stderr)
     assert line.startswith("tribodyn: error: with_nan.npz: fy contains NaN or inf in the window"), line
+
+
+@pytest.mark.skipif(os.name != "posix", reason="a pipe closed by its reader")
+def test_stdout_closed_by_its_reader_is_status_141_without_a_message(rec, tmp_path):
+    """``tribodyn analyze ... | head -1`` (the reader gone before the summary is printed): the outputs are
+    published, the command stops at its next print with status 141 and says nothing (it printed
+    "tribodyn: error: Broken pipe", status 2)."""
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "tribodyn", "analyze", str(rec), "--out", str(out), *WINDOWS]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None
+    proc.stdout.close()  # the reader leaves before the first line
+    err = proc.communicate(timeout=300)[1].decode()
+    assert proc.returncode == 141, err
+    assert "error" not in err and "Traceback" not in err, err
+    assert (out / "summary.json").is_file() and (out / "report.html").is_file()

@@ -33,6 +33,9 @@ __all__ = ["main"]
 EXIT_USER_ERROR = 2
 #: Some recordings of a multi-file analysis failed (the others were written).
 EXIT_SOME_FAILED = 3
+#: stdout's reader went away (``tribodyn analyze ... | head -1``): the status of a process a closed pipe stops
+#: (128 + SIGPIPE), with no message; the outputs were published before the summary was printed.
+EXIT_PIPE_CLOSED = 141
 
 
 #: Roles --map may name (tribodyn.io.base.KNOWN_ROLES and the stroke roles x position, v velocity of
@@ -1195,6 +1198,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         return EXIT_USER_ERROR
     try:
         return _run(ns)
+    except BrokenPipeError:  # stdout's reader left (``| head``): nothing more to say, nothing half-written
+        _stdout_gone()
+        return EXIT_PIPE_CLOSED
     except KeyboardInterrupt:
         print(
             "tribodyn: interrupted (the output folder holds what it held before, or the whole new set)", file=sys.stderr
@@ -1205,6 +1211,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             raise
         print(f"tribodyn: error: {_one_line(_cli_words(_error_text(exc)))}", file=sys.stderr)
         return EXIT_USER_ERROR
+
+
+def _stdout_gone() -> None:
+    """Points stdout at the null device, so that the interpreter's last flush of it raises nothing."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):  # (no file descriptor: a replaced sys.stdout)
+        pass
 
 
 def _extension_missing() -> str:
