@@ -27,13 +27,16 @@ wall and CPU time; beside them h5py's plain read of the same HDF5 datasets,
 ``np.load`` alone and the memory yardstick ``fy @ fz``. The ratio to
 ``.npy`` is per thread count; every table is checked bitwise against the
 ``.npy``'s at the first count. It prints a markdown section (``--markdown
-FILE`` writes it) and leaves RESULTS.md alone.
+FILE`` writes it) and leaves RESULTS.md alone. ``--keep --dir DIR`` leaves
+the files in a folder under DIR; ``--reuse`` that folder times them again
+without writing them (each 10 h format is ~1.1 GB).
 
 Usage::
 
     python benches/bench_formats.py                 # 1 h and 10 h, writes a section of benches/RESULTS.md
     python benches/bench_formats.py --hours 0.1     # smoke run, prints only
     python benches/bench_formats.py --threads 1 2 4 8 16 --hours 10 --markdown /tmp/formats.md
+    python benches/bench_formats.py --threads 1 2 --formats npy tdms_1s --reuse /tmp/f/tribodyn-formats-threads-XXXX
 """
 
 from __future__ import annotations
@@ -74,6 +77,21 @@ TARGET = {"tdms_1s": 3.0, "tdms_10s": 2.0, "tdms_one": 2.0, "tdms_daqmx": 3.0, "
 DAQ_LSB = {"fx": 1e-3, "fy": 1e-3, "fz": 2e-3, "i": 2e-4}
 
 
+def file_name(hours: float, fmt: str) -> str:
+    """The name :func:`write_all` gives the recording of ``hours`` in format ``fmt``."""
+    return f"{hours:g}h_{fmt}.{'npy' if fmt == 'npy' else 'tdms' if 'tdms' in fmt else 'h5'}"
+
+
+def reused(directory: Path, hours: float, formats: Sequence[str]) -> Dict[str, Path]:
+    """The files an earlier ``--keep`` run left in ``directory`` (``--reuse``), instead of writing them again
+    (each 10 h format is ~1.1 GB); SystemExit naming the first one missing."""
+    paths = {f: directory / file_name(hours, f) for f in formats}
+    missing = [str(q) for q in paths.values() if not q.is_file()]
+    if missing:
+        raise SystemExit(f"--reuse: no {missing[0]} (write it with --keep --dir DIR, then --reuse DIR/<its folder>)")
+    return paths
+
+
 def write_all(directory: Path, hours: float, formats: Sequence[str] = FORMATS) -> Dict[str, Path]:
     """Writes the recording of ``hours`` in ``formats`` (always the ``.npy``); returns the paths."""
     import h5py
@@ -81,12 +99,7 @@ def write_all(directory: Path, hours: float, formats: Sequence[str] = FORMATS) -
     from tribodyn.io.writers import save_tdms
 
     n = int(round(hours * 3600 * FS))
-    tag = f"{hours:g}h"
-    p: Dict[str, Path] = {
-        f: directory / f"{tag}_{f}.{'npy' if f == 'npy' else 'tdms' if 'tdms' in f else 'h5'}"
-        for f in FORMATS
-        if f == "npy" or f in formats
-    }
+    p: Dict[str, Path] = {f: directory / file_name(hours, f) for f in FORMATS if f == "npy" or f in formats}
     arr = np.lib.format.open_memmap(p["npy"], mode="w+", dtype=np.float64, shape=(len(ROLES), n))
     pos = 0
     for chunk in simulate.continuous(hours * 3600, chunk_s=600.0, current=4.0, seed=11, fs=FS, raw=False):
@@ -261,9 +274,13 @@ def run_threads(args: argparse.Namespace) -> str:
     same: Dict[tuple, bool] = {}
     try:
         t0 = time.perf_counter()
-        paths = write_all(work, hours, formats)
+        if args.reuse is not None:
+            paths = reused(args.reuse, hours, formats)
+            print(f"{hours:g} h files of {args.reuse} ({', '.join(formats)})", flush=True)
+        else:
+            paths = write_all(work, hours, formats)
+            print(f"{hours:g} h written in {time.perf_counter() - t0:.0f} s ({', '.join(formats)})", flush=True)
         sizes = {f: paths[f].stat().st_size / 2**20 for f in formats}
-        print(f"{hours:g} h written in {time.perf_counter() - t0:.0f} s ({', '.join(formats)})", flush=True)
         for rnd in range(args.rounds):
             for t in threads:
                 for key, f, kind in cases:
@@ -426,6 +443,9 @@ def main(argv: List[str]) -> int:
     ap.add_argument("--formats", nargs="+", choices=FORMATS, default=list(THREAD_FORMATS), help="with --threads")
     ap.add_argument("--rounds", type=int, default=3, help="with --threads: interleaved rounds")
     ap.add_argument("--markdown", type=Path, default=None, help="with --threads: write the section to this file")
+    ap.add_argument(
+        "--reuse", type=Path, default=None, help="with --threads: the files an earlier --keep run left (no writing)"
+    )
     args = ap.parse_args(argv)
     if args.threads:
         if any(t < 1 for t in args.threads):
