@@ -724,15 +724,14 @@ def _channels_hint(message: str, files: Sequence[str], open_opts: Dict[str, Any]
     if path is None:
         return f"{message}; map channels with --map ROLE=CHANNEL"
     from ..io import open_recording
+    from ..io.roles import missing_roles
 
     try:
         with open_recording(path, **open_opts) as rec:
-            names, roles = rec.channel_names, dict(rec.roles)
+            missing, mapped, shown = missing_roles(dict(rec.roles), list(rec.channel_names))
     except Exception:
         return f"{message}; map channels with --map ROLE=CHANNEL"
-    missing = [r for r in ("fy", "fz") if r not in roles] or ["fy", "fz"]
-    shown = ", ".join(repr(n) for n in names[:30]) + (f" and {len(names) - 30} more" if len(names) > 30 else "")
-    mapped = ", ".join(f"{r}={n!r}" for r, n in roles.items()) or "none"
+    missing = missing or ["fy", "fz"]
     example = ",".join(f"{r}=CHANNEL" for r in missing)
     return (
         f"{Path(path).name} {_MISSING_CHANNELS} {', '.join(missing)} (mapped: {mapped}); "

@@ -38,6 +38,7 @@ __all__ = [
     "RoleChoice",
     "choose_roles",
     "decide",
+    "missing_roles",
 ]
 
 #: A channel follows the sliding direction when its sign agrees with it (either way round: the sign
@@ -376,6 +377,16 @@ def decide(
         ambiguous = True
     rival = nxt.channel if ambiguous and nxt is not None else None
     return RoleChoice({}, best.channel, RULE_RATIO, tuple(cands), ambiguous, mname, samples, rival, note)
+
+
+def missing_roles(roles: Mapping[str, Any], names: Sequence[Any]) -> Tuple[List[str], str, str]:
+    """The parts of a "lacks the required channel(s)" message (the API's, ``pipeline.analyze``, and the command
+    line's): the required roles fy and fz that ``roles`` lacks, the map in words ("fy='A', fz='B'" or "none"),
+    and the channels ``names`` in words (the first 30 and how many more, or "none")."""
+    missing = [r for r in ("fy", "fz") if r not in roles]
+    mapped = ", ".join(f"{r}={c!r}" for r, c in roles.items()) or "none"
+    shown = ", ".join(repr(str(n)) for n in names[:30]) + (f" and {len(names) - 30} more" if len(names) > 30 else "")
+    return missing, mapped, shown or "none"
 
 
 def choose_roles(rec: Any, channels: Optional[Mapping[str, Optional[str]]]) -> Optional[RoleChoice]:

@@ -286,19 +286,18 @@ def _as_source(source: Any, options: Dict[str, Any]) -> Tuple[Any, Optional[Reco
 def _check_roles(rec: Any) -> None:
     """A recording without ``fy`` or ``fz`` is refused before any reading, with its channels and how to map
     them (the pipeline's own message would name its first chunk)."""
+    from ..io.roles import missing_roles
+
     roles = getattr(rec, "roles", None)
     if not isinstance(roles, Mapping):
         return
-    missing = [r for r in ("fy", "fz") if r not in roles]
+    missing, mapped, shown = missing_roles(roles, list(getattr(rec, "channel_names", None) or []))
     if not missing:
         return
-    names = [str(n) for n in (getattr(rec, "channel_names", None) or [])]
-    shown = ", ".join(repr(n) for n in names[:30]) + (f" and {len(names) - 30} more" if len(names) > 30 else "")
-    mapped = ", ".join(f"{r}={c!r}" for r, c in roles.items()) or "none"
     example = ", ".join(f"{r!r}: CHANNEL" for r in missing)
     raise ValueError(
         f"{os.path.basename(str(getattr(rec, 'path', '') or 'the recording'))}: lacks the required channel(s) "
-        f"{', '.join(missing)} (mapped: {mapped}); its channels: {shown or 'none'}; map them with "
+        f"{', '.join(missing)} (mapped: {mapped}); its channels: {shown}; map them with "
         f"channels={{{example}}} (open_recording, or analyze of the file's path)"
         + ("; a test whose load is a constant: pass load= (--load N)" if missing == ["fz"] else "")
     )

@@ -239,20 +239,23 @@ def _worker_threads(host_slots: Mapping[str, int]) -> Optional[int]:
         return None
     from ..kernels.threads import get_threads
 
-    return max(1, get_threads() // int(slots))
+    return max(1, get_threads() // slots)
 
 
-def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Optional[float]
-            ) -> List[Tuple[int, Optional[int]]]:  # fmt: skip
+def _ranges(n: int, fs: float, options: Union[Dict[str, Any], Plan], split_s: Optional[float],
+            acquisitions: int = 1) -> List[Tuple[int, Optional[int]]]:  # fmt: skip
     """Sample ranges on the window grid, each holding whole windows: none lost, none twice.
 
     The grid is the analysis's: the plan's, or window and hop as ``analyze``
-    chooses them from the options and the rate (docs/method.md 6b).
+    chooses them from the options and the rate (docs/method.md 6b). Not cut
+    (one range): a recording of several ``acquisitions`` (each windowed from
+    its own first sample) or of raw forces (``highpass``).
     """
     raw = options.raw if isinstance(options, Plan) else options.get("highpass") is not None
-    if split_s is None or raw:
+    if split_s is None or raw or acquisitions > 1:
         # Raw forces are high-passed by an IIR filter whose state carries over every sample from the first: a
-        # range would start its filter afresh (its first windows other than one pass's), so it is not cut.
+        # range would start its filter afresh (its first windows other than one pass's); separate acquisitions
+        # are windowed each from its own start, not on one grid.
         return [(0, None)]
     if isinstance(options, Plan):
         grid = options
@@ -465,12 +468,12 @@ def analyze_many(
         if isinstance(head, RecordingFailure):
             failures[f] = as_given(f, head)
             continue
-        if head is None or head[2] > 1:  # (separate acquisitions: each windowed from its own start, not cut)
+        if head is None:
             ranges: List[Tuple[int, Optional[int]]] = [(0, None)]
         else:
-            n, fs, _ = head
+            n, fs, acquisitions = head
             fs = options.get("fs") or fs
-            ranges = _ranges(n, fs, plan if plan is not None else options, split)
+            ranges = _ranges(n, fs, plan if plan is not None else options, split, acquisitions)
         opts: Union[Dict[str, Any], Plan]
         if plan is not None:
             opts = plan
