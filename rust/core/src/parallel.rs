@@ -12,15 +12,15 @@
 
 use crate::error::KernelError;
 use std::collections::HashMap;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicPtr, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// The default of calls that name no count (0 = every core).
 static DEFAULT: AtomicUsize = AtomicUsize::new(0);
 /// One pool per thread count asked for, kept for later calls (at most
-/// [`max_threads`] of them; a pool's threads sleep while it is unused),
-/// with the id of the process that started them.
-static POOLS: Mutex<Option<(u32, Pools)>> = Mutex::new(None);
+/// [`max_threads`] of them; a pool's threads sleep while it is unused), in
+/// this process (see [`PerProcess`]).
+static POOLS: PerProcess<Pools> = PerProcess::new();
 
 /// The pools of one process, by thread count.
 type Pools = HashMap<usize, Arc<rayon::ThreadPool>>;
@@ -75,17 +75,7 @@ pub fn resolve(n: Option<usize>) -> Result<usize, KernelError> {
 }
 
 fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>, KernelError> {
-    let mut guard = POOLS.lock().unwrap_or_else(|e| e.into_inner());
-    let pid = std::process::id();
-    if guard.as_ref().is_some_and(|(owner, _)| *owner != pid) {
-        // A child made by fork (Python's multiprocessing): the parent's pool threads do not exist here, so a
-        // job installed into one of its pools would wait forever. Its pools are left alone (dropping one
-        // would signal threads that are not there) and new ones are started.
-        if let Some((_, old)) = guard.take() {
-            std::mem::forget(old);
-        }
-    }
-    let (_, pools) = guard.get_or_insert_with(|| (pid, HashMap::new()));
+    let mut pools = POOLS.lock(HashMap::new);
     if let Some(p) = pools.get(&n) {
         return Ok(p.clone());
     }
@@ -97,6 +87,56 @@ fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>, KernelError> {
     let p = Arc::new(p);
     pools.insert(n, p.clone());
     Ok(p)
+}
+
+/// A value behind a lock that belongs to one process: a child made by `fork` (Python's multiprocessing)
+/// gets a fresh one on its first use instead of the parent's copy.
+///
+/// The copy is unusable in the child: its lock may have been held by another of the parent's threads at
+/// the moment of the fork (that thread does not exist in the child, so the lock would never be released
+/// and the child would wait forever), and what it holds may refer to the parent's threads (a pool's
+/// workers). The copy is left alone, never dropped (dropping a pool would signal threads that are not
+/// there): one value leaked per fork that uses it.
+pub struct PerProcess<T> {
+    slot: AtomicPtr<(u32, Mutex<T>)>,
+}
+
+impl<T> PerProcess<T> {
+    /// Empty until the first [`PerProcess::lock`].
+    pub const fn new() -> PerProcess<T> {
+        PerProcess { slot: AtomicPtr::new(std::ptr::null_mut()) }
+    }
+
+    /// This process's value, locked (made by `init` on its first use in this process).
+    pub fn lock(&'static self, init: impl Fn() -> T) -> std::sync::MutexGuard<'static, T> {
+        let pid = std::process::id();
+        let mut seen = self.slot.load(Ordering::Acquire);
+        loop {
+            // SAFETY: a non-null pointer in the slot came from Box::into_raw below and is never freed
+            // once stored (values are leaked, not dropped), so it stays valid for 'static.
+            if let Some((owner, value)) = unsafe { seen.as_ref() } {
+                if *owner == pid {
+                    return value.lock().unwrap_or_else(|e| e.into_inner());
+                }
+            }
+            let fresh = Box::into_raw(Box::new((pid, Mutex::new(init()))));
+            match self.slot.compare_exchange(seen, fresh, Ordering::AcqRel, Ordering::Acquire) {
+                Ok(_) => seen = fresh,
+                Err(now) => {
+                    // Another thread of this process stored its value first: ours was never shared.
+                    // SAFETY: `fresh` came from Box::into_raw above and was not stored.
+                    drop(unsafe { Box::from_raw(fresh) });
+                    seen = now;
+                }
+            }
+        }
+    }
+}
+
+impl<T> Default for PerProcess<T> {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 /// Runs `f` on a pool of exactly `threads` threads (checked); `par_iter`
@@ -130,6 +170,49 @@ mod tests {
         assert_eq!(run_with(2, current).unwrap(), 2);
         assert_eq!(run_with(1, current).unwrap(), 1);
         assert_eq!(current(), 1);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_child_forked_while_another_thread_holds_the_lock_gets_its_own_value() {
+        use std::time::{Duration, Instant};
+        static VALUE: PerProcess<u32> = PerProcess::new();
+        *VALUE.lock(|| 7) = 8;
+        let (held_tx, held_rx) = std::sync::mpsc::channel();
+        let (release_tx, release_rx) = std::sync::mpsc::channel::<()>();
+        let holder = std::thread::spawn(move || {
+            let guard = VALUE.lock(|| 7);
+            held_tx.send(()).unwrap();
+            release_rx.recv().unwrap();
+            drop(guard);
+        });
+        held_rx.recv().unwrap();
+        // SAFETY: the child only takes the lock (one allocation: glibc's malloc is fork-safe) and exits.
+        let pid = unsafe { libc::fork() };
+        if pid == 0 {
+            let fresh = *VALUE.lock(|| 7);
+            unsafe { libc::_exit(if fresh == 7 { 0 } else { 3 }) };
+        }
+        let (mut status, deadline) = (0, Instant::now() + Duration::from_secs(20));
+        let waited = loop {
+            // SAFETY: waiting for our own child.
+            if unsafe { libc::waitpid(pid, &mut status, libc::WNOHANG) } == pid {
+                break true;
+            }
+            if Instant::now() > deadline {
+                unsafe {
+                    libc::kill(pid, libc::SIGKILL);
+                    libc::waitpid(pid, &mut status, 0);
+                }
+                break false;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        };
+        release_tx.send(()).unwrap();
+        holder.join().unwrap();
+        assert!(waited, "the forked child waited for the lock its parent's thread held");
+        assert!(libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0, "child status {status}");
+        assert_eq!(*VALUE.lock(|| 7), 8, "the parent's value is kept");
     }
 
     #[test]

@@ -35,7 +35,7 @@ use crate::numerics::sums::{dot_dev, mean, par_mean, par_sum_sq_dev, sum_sq_dev}
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::Arc;
 
 /// Which algorithm computes the numerator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -343,8 +343,9 @@ fn direct_part_tiled<const T: usize>(
 /// Shared FFT planner: plans (twiddles, algorithm choice) are made once per
 /// length and reused by every call (the correlation's and the lag profile's).
 pub(crate) fn plans(m: usize) -> (Arc<dyn RealToComplex<f64>>, Arc<dyn ComplexToReal<f64>>) {
-    static PLANNER: OnceLock<Mutex<RealFftPlanner<f64>>> = OnceLock::new();
-    let mut p = PLANNER.get_or_init(|| Mutex::new(RealFftPlanner::new())).lock().unwrap_or_else(|e| e.into_inner());
+    // per process: a child made by fork while another thread planned would otherwise wait forever
+    static PLANNER: crate::parallel::PerProcess<RealFftPlanner<f64>> = crate::parallel::PerProcess::new();
+    let mut p = PLANNER.lock(RealFftPlanner::new);
     (p.plan_fft_forward(m), p.plan_fft_inverse(m))
 }
 
