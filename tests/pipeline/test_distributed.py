@@ -379,3 +379,44 @@ def test_without_dask_the_error_says_how_to_install(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_dask)
     with pytest.raises(ImportError, match=r"pip install \"tribodyn\[dask\]\""):
         distributed.local_client()
+
+
+def test_every_cli_route_gives_the_same_table_and_params(tmp_path):
+    """Stop 49: params["stick_slip"] was True for one file analysed here (the stick-slip searched in the analysis'
+    reading) and False on every other route (several files, --split, --scheduler), which search it too, after the
+    analysis. Every route now gives the same windows.csv and params, but for how it ran: ``ranges`` (a recording
+    split into ranges) and ``threads`` (a worker's share of its host's cores; neither changes a number)."""
+    import json
+    import shutil
+
+    from tribodyn.app import cli
+
+    pytest.importorskip("dask.distributed")
+    pod = tmp_path / "pod.tsv"
+    shutil.copy(TESTS / "data" / "real" / "pod_PPS_60N_1.tsv", pod)
+    other = tmp_path / "other.tsv"
+    shutil.copy(pod, other)
+    routes = {
+        "here": [pod],
+        "several here": [pod, other],
+        "split": [pod, "--split", "150"],
+        "local": [pod, other, "--scheduler", "local", "--workers", "1", "--split", "150"],
+    }
+    got = {}
+    for name, args in routes.items():
+        out = tmp_path / name.replace(" ", "_")
+        assert cli.main(["analyze", *map(str, args), "--out", str(out), "--quiet", "--figures", "none"]) == 0, name
+        where = out if len(args) == 1 or args[1] == "--split" else out / "pod"
+        params = json.loads((out / "summary.json").read_text())["recordings"]["pod.tsv"]["params"]
+        got[name] = (
+            (where / "windows.csv").read_bytes(),
+            {k: v for k, v in params.items() if k not in ("ranges", "threads")},
+        )
+    assert (
+        json.loads((tmp_path / "split" / "summary.json").read_text())["recordings"]["pod.tsv"]["params"]["ranges"] > 1
+    )
+    table, params = got["here"]
+    assert params["stick_slip"] is True
+    for name, (t, p) in got.items():
+        assert t == table, name
+        assert p == params, name

@@ -868,10 +868,23 @@ def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Di
             raise
         return [(Path(files[0]), res)], {}, {Path(files[0]): rec}
     if client is None and split is None and opts.get("align") is None:
-        return _analyse_here(stack, files, open_options, opts, progress=progress)
+        runs, failures, kept = _analyse_here(stack, files, open_options, opts, progress=progress)
+        return [(p, _stick_slip_searched(r)) for p, r in runs], failures, kept
     many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
     failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
-    return [(Path(p), r) for p, r in many.results.items()], failures, {}
+    return [(Path(p), _stick_slip_searched(r)) for p, r in many.results.items()], failures, {}
+
+
+def _stick_slip_searched(res: Results) -> Results:
+    """``res`` whose params say that its stick-slip is searched (``stick_slip`` True), as the command searches
+    every recording's (docs/method.md 6g): one file here in the analysis' own reading (``analyze(stick_slip=True)``),
+    the others read again after the analysis (bit for bit the same events). So every route (one file, several,
+    ``--split``, ``--scheduler``) gives the same params (it said False but for one file here)."""
+    if res.params.get("stick_slip"):
+        return res
+    from ..results import CACHED
+
+    return res.replace(keep=CACHED, params={**res.params, "stick_slip": True})
 
 
 def _failure_error(path: Path, failure: Mapping[str, str]) -> ValueError:
