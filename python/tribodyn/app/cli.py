@@ -985,10 +985,13 @@ def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Di
     for name, s in summary.get("recordings", {}).items():
         for w in dict.fromkeys(s.get("warnings") or ()):
             print(f"tribodyn: warning: {name}: {w}", file=sys.stderr)
+    from .jobs import recording_labels
+
+    names = recording_labels(files)  # (the failures' keys)
     for name, f in summary.get("failures", {}).items():
         err = f["error"]
         if _MISSING_CHANNELS in err:
-            err = _channels_hint(err, [p for p in files if Path(p).name == name][:1], open_opts)
+            err = _channels_hint(err, [p for p in files if names.get(Path(p)) == name][:1], open_opts)
             err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
         print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
 
