@@ -201,6 +201,27 @@ def test_two_inputs_of_one_name_are_named_by_their_folders(tmp_path, capsys, ext
 
 
 @pytest.mark.fast
+def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsys):
+    """Stop 49: a README or a photo in an input folder was a failed recording (status 3); it is skipped, named in
+    one line on stderr and in summary.json. Named on the command line, it stays a failure."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name in ("a.tsv", "b.tsv"):
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", runs / name)
+    (runs / "README.md").write_text("# runs of May\nthe rig's notes\n")
+    (runs / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    out = tmp_path / "out"
+    assert run("analyze", runs, "--out", out, "--quiet", "--figures", "none") == 0
+    said = [x for x in capsys.readouterr().err.splitlines() if "skipped" in x or "failed" in x]
+    assert said == ["tribodyn: warning: skipped 2 files no reader takes: README.md, photo.png"]
+    s = json.loads((out / "summary.json").read_text())
+    assert list(s["recordings"]) == ["a.tsv", "b.tsv"] and not s["failures"]
+    assert [Path(p).name for p in s["skipped"]] == ["README.md", "photo.png"]
+    named = run("analyze", runs / "a.tsv", runs / "README.md", "--out", tmp_path / "o2", "--quiet", "--figures", "none")
+    assert named == cli.EXIT_SOME_FAILED and "README.md failed" in capsys.readouterr().err
+
+
+@pytest.mark.fast
 def test_recording_labels_are_the_shortest_distinct_ends_of_the_paths(tmp_path):
     from tribodyn.app.jobs import check_distinct_names, recording_labels
 

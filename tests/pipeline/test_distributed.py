@@ -171,6 +171,31 @@ def test_expand_paths_directory_and_glob(files):
         expand_paths(nested)  # one line naming the folder (it showed a Python list)
 
 
+@pytest.mark.fast
+def test_a_folders_files_no_reader_takes_are_skipped(tmp_path):
+    """Stop 49: a folder's README.md was a recording that failed; it is skipped and listed, while a file of
+    another extension whose content a reader recognises (an HDF5 file named .bin) is kept."""
+    import shutil
+
+    n = 5000
+    t = np.arange(n) / 1000.0
+    save_recording(tmp_path / "a.h5", {"fy": 0.1 * np.sin(t), "fz": 1.0 + np.sin(t)}, 1000.0)
+    shutil.copy(tmp_path / "a.h5", tmp_path / "b.bin")
+    (tmp_path / "README.md").write_text("notes\n")
+    skipped = []
+    assert expand_paths(tmp_path, skipped) == [str(tmp_path / "a.h5"), str(tmp_path / "b.bin")]
+    assert skipped == [str(tmp_path / "README.md")]
+    assert expand_paths(tmp_path / "README.md") == [str(tmp_path / "README.md")]  # named: kept (its reader says why)
+    many = analyze_many(tmp_path, window=1.0, hop=1.0)
+    assert list(many.results) == [str(tmp_path / "a.h5"), str(tmp_path / "b.bin")] and not many.failures
+    assert many.skipped == skipped and many.summary()["skipped"] == skipped
+    only = tmp_path / "only"
+    only.mkdir()
+    (only / "README.md").write_text("notes\n")
+    with pytest.raises(FileNotFoundError, match="skipped 1 file no reader takes: README.md$"):
+        expand_paths(only)
+
+
 @pytest.fixture(scope="module")
 def client():
     distributed = pytest.importorskip("dask.distributed")

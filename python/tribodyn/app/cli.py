@@ -896,7 +896,7 @@ def _run_analyze(ns: argparse.Namespace) -> int:
 
     open_opts, opts, protect = _analysis_options(ns)
     meta = opts.pop("meta", None)
-    files = expand_paths(ns.files)
+    files = expand_paths(ns.files)  # (a folder's files no reader takes skipped: summary["skipped"] names them)
     _check_regular(files)
     check_distinct_names(files)  # (before a Dask cluster is started)
     OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
@@ -980,8 +980,12 @@ def _dask_client(ns: argparse.Namespace) -> Any:
 
 
 def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Dict[str, Any]) -> None:
-    """The readers' warnings, once each (they are also in summary.json and the report), and each failed file, on
-    stderr."""
+    """The readers' warnings, once each (they are also in summary.json and the report), each failed file, and the
+    folders' files no reader takes, skipped (one line), on stderr."""
+    if summary.get("skipped"):
+        from ..pipeline.distributed import skipped_text
+
+        print(f"tribodyn: warning: {skipped_text(summary['skipped'])}", file=sys.stderr)
     for name, s in summary.get("recordings", {}).items():
         for w in dict.fromkeys(s.get("warnings") or ()):
             print(f"tribodyn: warning: {name}: {w}", file=sys.stderr)
@@ -1034,7 +1038,12 @@ def _run_info(ns: argparse.Namespace) -> int:
     from ..pipeline.distributed import expand_paths
 
     kw = _open_options(ns, {})
-    files = expand_paths(ns.files)
+    skipped: List[str] = []
+    files = expand_paths(ns.files, skipped)
+    if skipped:
+        from ..pipeline.distributed import skipped_text
+
+        print(f"tribodyn: warning: {skipped_text(skipped)}", file=sys.stderr)
     _check_regular(files)
     infos: List[Dict[str, Any]] = []
     failed = 0

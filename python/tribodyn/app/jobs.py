@@ -740,7 +740,8 @@ def run_analysis(
         raise ValueError(f"figures must be one of {', '.join(FIGURES)}, got {figures!r}")
     if not paths:
         raise ValueError("no input file given")
-    files = expand_paths(paths)
+    skipped: List[str] = []  # a folder's files that no reader takes (README.md): summary["skipped"]
+    files = expand_paths(paths, skipped)
     check_distinct_names(files)
     output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
     # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
@@ -752,7 +753,8 @@ def run_analysis(
     try:
         return _run_analysis(files, output, digests, imports, open_options=open_options,
                              analyze_options=analyze_options, progress=progress, client=client, split=split,
-                             meta=meta, steady_state=steady_state, figures=figures, pool=pool)  # fmt: skip
+                             meta=meta, steady_state=steady_state, figures=figures, pool=pool,
+                             skipped=skipped)  # fmt: skip
     finally:
         digests.cancel()
         if pool is not None:
@@ -809,8 +811,10 @@ def _run_analysis(
     steady_state: bool,
     figures: str,
     pool: Optional[_DrawingPool] = None,
+    skipped: Sequence[str] = (),
 ) -> Dict[str, Any]:
-    """:func:`run_analysis` once the output folder is checked and the digests started (and the drawing pool)."""
+    """:func:`run_analysis` once the output folder is checked and the digests started (and the drawing pool);
+    ``skipped``: the folders' files no reader takes, listed in the summary (``skipped``) when there are any."""
     from .._version import version
 
     __version__ = version()
@@ -835,6 +839,7 @@ def _run_analysis(
                 "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
                 "recordings": {},
                 "failures": failures,
+                **({"skipped": list(skipped)} if skipped else {}),
             }
             with output as out:
                 write_json(summary_failed, out.path("summary.json"))
@@ -847,6 +852,7 @@ def _run_analysis(
             "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
             "recordings": {},
             "failures": failures,
+            **({"skipped": list(skipped)} if skipped else {}),
         }
         for entry, (p, _) in zip(summary["inputs"], runs):
             entry["file"] = names[p]  # (its file name, or where names collide the end of its path)

@@ -71,11 +71,14 @@ class ManyResults:
         Recordings that failed, with their error.
     tasks : int
         Tasks run (recordings x ranges).
+    skipped : list of str
+        Files of the folders given that no reader takes (``README.md``; :func:`expand_paths`), not analysed.
     """
 
     results: Dict[str, Results]
     failures: Dict[str, RecordingFailure] = field(default_factory=dict)
     tasks: int = 0
+    skipped: List[str] = field(default_factory=list)
 
     @property
     def table(self) -> Dict[str, np.ndarray]:
@@ -118,18 +121,31 @@ class ManyResults:
             "recordings": {name: r.summary() for name, r in self.results.items()},
             "failures": {name: {"error": f.error, "kind": f.kind} for name, f in self.failures.items()},
             "tasks": self.tasks,
+            "skipped": list(self.skipped),
         }
 
 
-def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]]) -> List[str]:
-    """Files from paths, directories (their files, sorted) and glob patterns, in order, without repeats."""
+def expand_paths(
+    inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]], skipped: Optional[List[str]] = None
+) -> List[str]:
+    """Files from paths, directories (their files, sorted) and glob patterns, in order, without repeats.
+
+    A directory's files that no reader takes (:func:`tribodyn.io.reader_takes`: ``README.md``, a photo) are
+    skipped and appended to ``skipped`` when given; a file named as such, or matched by a pattern, is kept (its
+    reader says what is wrong with it).
+    """
+    from ..io import reader_takes
+
     items = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     out: List[str] = []
+    dropped: List[str] = []
     for item in items:
         s = str(item)
         p = Path(s)
         if p.is_dir():
-            found = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
+            inside = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
+            found = [q for q in inside if reader_takes(q)]
+            dropped.extend(q for q in inside if q not in found and q not in dropped)
         elif any(c in s for c in "*?["):
             found = sorted(q for q in glob.glob(s) if Path(q).is_file())
             if not found:
@@ -137,10 +153,24 @@ def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.Pat
         else:
             found = [s]
         out.extend(q for q in found if q not in out)
+    if skipped is not None:
+        skipped.extend(dropped)
     if not out:
         where = ", ".join(str(i) for i in items) or "(nothing given)"
-        raise FileNotFoundError(f"no input files in {where} (a folder's own files are read, not its sub-folders')")
+        none = f"; {skipped_text(dropped)}" if dropped else ""
+        raise FileNotFoundError(
+            f"no input files in {where} (a folder's own files are read, not its sub-folders'){none}"
+        )
     return out
+
+
+def skipped_text(skipped: Sequence[str]) -> str:
+    """'skipped 1 file no reader takes: README.md' (:func:`expand_paths`'s ``skipped``, by their names)."""
+    n = len(skipped)
+    names = {str(q): Path(q).name for q in skipped}
+    if len(set(names.values())) < n:  # (README.md of two folders: their paths)
+        names = {q: q for q in names}
+    return f"skipped {n} file{'s' if n != 1 else ''} no reader takes: {', '.join(names[str(q)] for q in skipped)}"
 
 
 # -- tasks (module-level and pure, so Dask can ship and retry them) -----------
@@ -376,7 +406,8 @@ def analyze_many(
     Parameters
     ----------
     paths : path, directory, glob pattern, or a sequence of them
-        Recording files (see :func:`tribodyn.open_recording`).
+        Recording files (see :func:`tribodyn.open_recording`); a directory's files that no reader takes
+        (``README.md``) are skipped (``ManyResults.skipped``).
     plan : Plan, optional
         The analysis's settings checked once (:func:`tribodyn.make_plan`),
         for recordings sampled at ``plan.fs``; no other analysis option with it.
@@ -414,7 +445,8 @@ def analyze_many(
         Per-recording results identical to ``analyze`` run on each file
         serially, and the failures with their errors.
     """
-    files = expand_paths(paths)
+    skipped: List[str] = []
+    files = expand_paths(paths, skipped)
     open_options = dict(open_options or {})
     options = dict(analyze_options)
     channels = options.pop("channels", None)
@@ -489,7 +521,8 @@ def analyze_many(
         else:
             results[f] = out
     ordered_failures = {f: failures[f] for f in files if f in failures}
-    return ManyResults(results=results, failures=ordered_failures, tasks=sum(len(a) for _, a in groups))
+    return ManyResults(results=results, failures=ordered_failures, tasks=sum(len(a) for _, a in groups),
+                       skipped=skipped)  # fmt: skip
 
 
 def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
