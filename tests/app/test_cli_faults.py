@@ -454,6 +454,32 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
 
 
 @pytest.mark.fast
+@pytest.mark.parametrize(("option", "message"), [
+    (["--window", "-1"], "window must be a finite number > 0, got -1.0"),
+    (["--hop", "0"], "hop must be a finite number > 0, got 0.0"),
+    (["--bins", "0"], "n_bins must be >= 1, got 0"),
+    (["--highpass", "-2"], "highpass must be a finite number > 0, got -2.0"),
+])  # fmt: skip
+def test_an_option_bad_for_every_file_is_one_line_before_any_is_read(tmp_path, monkeypatch, capsys, option, message):
+    """Stop 49: --window -1 with several inputs was one warning per file and status 3 (each failed alike); it is
+    the one line of a single file, status 2, before any recording is read (with --split and --scheduler too)."""
+    import tribodyn.io
+
+    files = [recording(tmp_path / "a.npz"), recording(tmp_path / "b.npz")]
+
+    def read(*args, **kwargs):
+        raise AssertionError("a recording was read before the options were checked")
+
+    monkeypatch.setattr(tribodyn.io, "open_recording", read)
+    routes = [files[:1], files, [*files, "--split", "60"], [*files, "--scheduler", "local", "--split", "60"]]
+    for k, args in enumerate(routes):
+        out = tmp_path / f"out{k}"
+        assert cli.main(["analyze", *map(str, args), "--out", str(out), *option]) == 2, args
+        assert error_line(capsys.readouterr().err) == f"tribodyn: error: {message}", args
+        assert not out.exists()
+
+
+@pytest.mark.fast
 def test_toml_config_values_keep_their_types(tmp_path):
     """The TOML reader of --config: numbers, strings, booleans and tables reach the analysis with their types, as
     summary.json records them (its params and open_options)."""

@@ -107,6 +107,17 @@ def test_split_must_be_a_finite_positive_number(split):
 
 
 @pytest.mark.fast
+@pytest.mark.parametrize(("kw", "message"), [({"window": -1.0}, "window must be a finite number > 0, got -1.0"),
+                                             ({"n_bins": 0}, "n_bins must be >= 1, got 0"),
+                                             ({"orientation": 2}, "orientation")])  # fmt: skip
+def test_an_option_bad_for_every_recording_raises_before_any_is_read(kw, message):
+    """Stop 49: a bad option failed every recording alike (one failure each); it is one error, before any file is
+    read (x.h5 does not exist: it would be a failure), with analyze's message."""
+    with pytest.raises(ValueError, match=message):
+        analyze_many(["x.h5", "y.h5"], **kw)
+
+
+@pytest.mark.fast
 @pytest.mark.parametrize("kw", [{"start": 1000}, {"stop": 30000}, {"start": 5, "stop": 9}])
 def test_a_range_of_each_recording_is_refused(kw):
     """Issue 38 point 4: start= was dropped without a word (each recording analysed from 0) and stop= failed every

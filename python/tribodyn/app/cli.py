@@ -894,8 +894,11 @@ def _run_analyze(ns: argparse.Namespace) -> int:
     from .jobs import check_distinct_names, run_analysis
     from .outputs import OutputSet
 
+    from ..pipeline.plan import check_options
+
     open_opts, opts, protect = _analysis_options(ns)
     meta = opts.pop("meta", None)
+    check_options(**opts)  # an option bad for every file: one line before any is read (one failure per file)
     files = expand_paths(ns.files)  # (a folder's files no reader takes skipped: summary["skipped"] names them)
     _check_regular(files)
     check_distinct_names(files)  # (before a Dask cluster is started)

@@ -38,7 +38,7 @@ import numpy as np
 
 from ..results import Results
 from .analyze import Partial, analyze_partial, combine
-from .plan import Plan, make_plan
+from .plan import Plan, check_options, make_plan
 
 __all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
 
@@ -437,7 +437,9 @@ def analyze_many(
         Options of :func:`tribodyn.analyze` (window, hop, highpass,
         orientation, temperature, area_mm2, ...). A temperature log applies
         to every recording. Each recording is analysed whole: ``start`` and
-        ``stop`` (one recording's range) are refused.
+        ``stop`` (one recording's range) are refused. An option that is bad
+        whatever the recording (``window=-1``) raises before any file is read
+        (:func:`tribodyn.pipeline.plan.check_options`).
 
     Returns
     -------
@@ -480,6 +482,7 @@ def analyze_many(
                          "tribodyn.stick_slip(path, res) for each recording, or analyze per file")  # fmt: skip
     if split is not None and not (split > 0 and math.isfinite(split)):
         raise ValueError(f"split must be a finite number > 0 seconds, got {split!r}")
+    check_options(**options)  # once, before any file is read (a bad window failed every recording alike)
     run = _runner(client, progress)
     slots = _host_slots(client) if client is not None and plan is None and options.get("threads") is None else None
 
