@@ -574,6 +574,29 @@ def test_a_scheduler_that_is_no_address_is_one_line(rec, tmp_path, capsys, addre
     assert not (tmp_path / "out").exists()
 
 
+def test_an_unreachable_scheduler_is_one_line_within_the_connect_timeout(rec, tmp_path, capsys, monkeypatch):
+    """Stop 49: an address nobody listens at waited Dask's 30 s connect timeout before the one line; the client
+    waits distributed.CONNECT_TIMEOUT (10 s; here 1 s, to keep the test short)."""
+    import socket
+    import time
+
+    from tribodyn.pipeline import distributed
+
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(distributed, "CONNECT_TIMEOUT", 1.0, raising=False)
+    with socket.socket() as s:  # a port free now: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.monotonic()
+    argv = ["analyze", str(rec), "--out", str(tmp_path / "out"), "--scheduler", f"tcp://127.0.0.1:{port}"]
+    assert cli.main(argv) == 2
+    took = time.monotonic() - t0
+    line = error_line(capsys.readouterr().err)
+    assert line.startswith(f"tribodyn: error: cannot reach the Dask scheduler tcp://127.0.0.1:{port}:"), line
+    assert took < 8.0, took
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.fast
 @pytest.mark.parametrize("extra", [[], ["--split", "600"]])
 def test_align_with_several_files_says_what_to_do_on_the_command_line(rec, tmp_path, capsys, extra):

@@ -321,7 +321,8 @@ def _add_analyze_command(a: argparse.ArgumentParser) -> None:
         "files",
         nargs="+",
         metavar="FILE",
-        help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV, MAT, XLSX/XLS/ODS), directories or glob patterns",
+        help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV, MAT, XLSX/XLS/ODS), directories (their files no "
+        "reader takes, such as README.md, skipped) or glob patterns",
     )
     a.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
     a.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
@@ -931,12 +932,14 @@ def _run_analyze(ns: argparse.Namespace) -> int:
         raise
     finally:
         if client is not None:
-            if isinstance(sys.exc_info()[1], KeyboardInterrupt):
+            from ..pipeline.distributed import close_quietly
+
+            interrupted = isinstance(sys.exc_info()[1], KeyboardInterrupt)
+            if interrupted:
                 _quiet_dask()
-            cluster = getattr(client, "cluster", None)
-            client.close()
-            if ns.scheduler == "local" and cluster is not None:
-                cluster.close()
+            cluster = getattr(client, "cluster", None) if ns.scheduler == "local" else None
+            # (Dask's shutdown logged a worker's heartbeat CommClosedError at ERROR at times)
+            close_quietly(client, cluster, workers=not interrupted)
     if not ns.quiet:
         _print_analysis(summary, ns.out)
     _print_problems(summary, files, open_opts)

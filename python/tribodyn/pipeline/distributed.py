@@ -40,7 +40,7 @@ from ..results import Results
 from .analyze import Partial, analyze_partial, combine
 from .plan import Plan, check_options, make_plan
 
-__all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
+__all__ = ["analyze_many", "ManyResults", "RecordingFailure", "close_quietly", "expand_paths", "local_client"]
 
 DASK_HINT = 'this needs Dask: pip install "tribodyn[dask]"'
 
@@ -549,6 +549,48 @@ def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
     return cast(Any, Client)(cluster)
 
 
+#: The loggers of Dask's shutdown: raised above CRITICAL while a client and its cluster close (:func:`close_quietly`).
+_SHUTDOWN_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def close_quietly(client: Any, cluster: Any = None, *, workers: bool = True) -> None:
+    """Closes ``client``, then ``cluster`` (None: not closed; a cluster at an address is not this process'), without
+    Dask's shutdown logs.
+
+    The work is done, but a worker whose heartbeat is in flight when its connections close logs "Failed to
+    communicate with scheduler during heartbeat." and a ``CommClosedError`` traceback at ERROR (about 3 runs in
+    30 of ``--scheduler local`` on a busy machine); the scheduler and nannies of a LocalCluster run here and may
+    log a closed comm likewise. So the workers of ``cluster`` raise their loggers (:data:`_SHUTDOWN_LOGGERS`)
+    above CRITICAL first (one ``client.run``, at most 5 s; a worker that does not answer is closed as it is; not
+    with ``workers`` False: an interrupted run closes at once), and this process' loggers are raised while both
+    close, then put back.
+    """
+    import logging
+
+    if cluster is not None and workers:
+        with contextlib.suppress(Exception):
+            client.run(_silence_shutdown_logs, on_error="ignore", callback_timeout=5.0)
+    loggers = [logging.getLogger(name) for name in _SHUTDOWN_LOGGERS]
+    levels = [log.level for log in loggers]
+    for log in loggers:
+        log.setLevel(logging.CRITICAL + 1)
+    try:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    finally:
+        for log, level in zip(loggers, levels):
+            log.setLevel(level)
+
+
+def _silence_shutdown_logs() -> None:
+    """On a worker (``client.run``): its Dask loggers above CRITICAL, for its shutdown (:func:`close_quietly`)."""
+    import logging
+
+    for name in _SHUTDOWN_LOGGERS:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+
+
 @contextlib.contextmanager
 def _interrupts_held() -> Iterator[None]:
     """Within the block SIGINT is blocked in this thread (POSIX, main thread only), so that the threads it starts
@@ -574,12 +616,20 @@ def _interrupts_held() -> Iterator[None]:
         hold(signal.SIG_SETMASK, before)
 
 
+#: Seconds a client waits for the scheduler at an address (:func:`connect`, ``tribodyn analyze --scheduler
+#: tcp://host:port``) before the OSError "Timed out trying to connect"; Dask's own default
+#: (``distributed.comm.timeouts.connect``) is 30 s, long to wait for a mistyped or stopped scheduler, where a
+#: reachable one answers in milliseconds (a busy one in a few seconds).
+CONNECT_TIMEOUT = 10.0
+
+
 def connect(address: str, workers: int = 2) -> Any:
-    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes)."""
+    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes); an address that does not
+    answer within :data:`CONNECT_TIMEOUT` seconds raises OSError."""
     if address == "local":
         return local_client(workers)
     try:
         from dask.distributed import Client
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
-    return cast(Any, Client)(address)
+    return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT)
