@@ -708,7 +708,10 @@ def run_analysis(
     ``paths`` may hold files, directories and glob patterns. One recording:
     its tables, figures and report at the top of ``out_dir``. Several: one
     sub-folder per recording plus a combined table (with a ``recording``
-    column), summary and report at the top. With a Dask ``client`` the
+    column), summary and report at the top; each recording named by its file
+    name, or, where inputs share one, by the end of its path that tells them
+    apart (:func:`recording_labels`). A folder's files that no reader takes
+    are skipped (``summary["skipped"]``). With a Dask ``client`` the
     recordings (and ranges of ``split`` seconds of long ones) run on the
     cluster (:func:`tribodyn.analyze_many`). A recording that fails is listed
     in ``summary["failures"]``; if every one fails, ``out_dir`` holds only

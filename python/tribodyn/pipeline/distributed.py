@@ -144,8 +144,9 @@ def expand_paths(
         p = Path(s)
         if p.is_dir():
             inside = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
-            found = [q for q in inside if reader_takes(q)]
-            dropped.extend(q for q in inside if q not in found and q not in dropped)
+            taken = {q: reader_takes(q) for q in inside}
+            found = [q for q in inside if taken[q]]
+            dropped.extend(q for q in inside if not taken[q] and q not in dropped)
         elif any(c in s for c in "*?["):
             found = sorted(q for q in glob.glob(s) if Path(q).is_file())
             if not found:
