@@ -174,16 +174,69 @@ def test_when_every_file_fails_no_report_is_promised(tmp_path, capsys):
 
 
 @pytest.mark.fast
-def test_two_inputs_of_one_name_are_refused(tmp_path, capsys):
-    """Issue 38 point 4: runA/x.csv and runB/x.csv: the summary, the combined table and the failures name each
-    recording by its file name, so one silently stood for the other (a failed one was not even listed)."""
+@pytest.mark.parametrize("extra", [[], ["--split", "600"]])
+def test_two_inputs_of_one_name_are_named_by_their_folders(tmp_path, capsys, extra):
+    """Stop 49: runA/x.tsv and runB/x.tsv (a lab's runs/*/data.tdms) were refused in one line; each is analysed and
+    named by the shortest end of its path that tells them apart, in the summary, the combined table, the failures,
+    the inputs and the report, with a sub-folder of its own; a file of a distinct name keeps its name."""
+    for d in ("runA", "runB", "runC"):
+        (tmp_path / "runs" / d).mkdir(parents=True)
     for d in ("runA", "runB"):
-        (tmp_path / d).mkdir()
-        shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / d / "x.tsv")
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "runs" / d / "x.tsv")
+    (tmp_path / "runs" / "runC" / "x.tsv").write_text("notes of the run\n")  # fails: named as the others
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "y.tsv")
     out = tmp_path / "out"
-    assert run("analyze", tmp_path / "runA", tmp_path / "runB", "--out", out, "--scheduler", "local") == 2
-    err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "two inputs are named x.tsv" in err and not out.exists()
+    files = [tmp_path / "runs" / d / "x.tsv" for d in ("runA", "runB", "runC")] + [tmp_path / "y.tsv"]
+    assert run("analyze", *files, "--out", out, "--figures", "none", "--quiet", *extra) == cli.EXIT_SOME_FAILED
+    assert "tribodyn: warning: runC/x.tsv failed:" in capsys.readouterr().err
+    s = json.loads((out / "summary.json").read_text())
+    assert list(s["recordings"]) == ["runA/x.tsv", "runB/x.tsv", "y.tsv"] and list(s["failures"]) == ["runC/x.tsv"]
+    assert [i["file"] for i in s["inputs"]] == ["runA/x.tsv", "runB/x.tsv", "y.tsv"]
+    assert read_csv(out / "windows.csv")["recording"][0] == "runA/x.tsv"
+    assert set(read_csv(out / "windows.csv")["recording"]) == {"runA/x.tsv", "runB/x.tsv", "y.tsv"}
+    for folder in ("runA_x", "runB_x", "y"):
+        assert (out / folder / "report.html").is_file()
+    report = (out / "report.html").read_text()
+    assert "runA/x.tsv" in report and "runB/x.tsv" in report and "runC/x.tsv: not analysed" in report
+
+
+@pytest.mark.fast
+def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsys):
+    """Stop 49: a README or a photo in an input folder was a failed recording (status 3); it is skipped, named in
+    one line on stderr and in summary.json. Named on the command line, it stays a failure."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name in ("a.tsv", "b.tsv"):
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", runs / name)
+    (runs / "README.md").write_text("# runs of May\nthe rig's notes\n")
+    (runs / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    out = tmp_path / "out"
+    assert run("analyze", runs, "--out", out, "--quiet", "--figures", "none") == 0
+    said = [x for x in capsys.readouterr().err.splitlines() if "skipped" in x or "failed" in x]
+    assert said == ["tribodyn: warning: skipped 2 files no reader takes: README.md, photo.png"]
+    s = json.loads((out / "summary.json").read_text())
+    assert list(s["recordings"]) == ["a.tsv", "b.tsv"] and not s["failures"]
+    assert [Path(p).name for p in s["skipped"]] == ["README.md", "photo.png"]
+    named = run("analyze", runs / "a.tsv", runs / "README.md", "--out", tmp_path / "o2", "--quiet", "--figures", "none")
+    assert named == cli.EXIT_SOME_FAILED and "README.md failed" in capsys.readouterr().err
+
+
+@pytest.mark.fast
+def test_recording_labels_are_the_shortest_distinct_ends_of_the_paths(tmp_path):
+    from tribodyn.app.jobs import check_distinct_names, recording_labels
+
+    files = ["a/x/data.tdms", "b/x/data.tdms", "c/data.tdms", "c/other.csv", "data.tdms"]
+    got = recording_labels([tmp_path / f for f in files])
+    assert list(got.values()) == [
+        "a/x/data.tdms",
+        "b/x/data.tdms",
+        "c/data.tdms",
+        "other.csv",
+        f"{tmp_path.name}/data.tdms",
+    ]
+    assert recording_labels(["run/a.csv", "b.csv"]) == {Path("run/a.csv"): "a.csv", Path("b.csv"): "b.csv"}
+    with pytest.raises(ValueError, match="are one file: give it once"):
+        check_distinct_names([str(tmp_path / "a" / "x.csv"), str(tmp_path / "a" / ".." / "a" / "x.csv")])
 
 
 @pytest.mark.fast

@@ -454,6 +454,32 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
 
 
 @pytest.mark.fast
+@pytest.mark.parametrize(("option", "message"), [
+    (["--window", "-1"], "window must be a finite number > 0, got -1.0"),
+    (["--hop", "0"], "hop must be a finite number > 0, got 0.0"),
+    (["--bins", "0"], "n_bins must be >= 1, got 0"),
+    (["--highpass", "-2"], "highpass must be a finite number > 0, got -2.0"),
+])  # fmt: skip
+def test_an_option_bad_for_every_file_is_one_line_before_any_is_read(tmp_path, monkeypatch, capsys, option, message):
+    """Stop 49: --window -1 with several inputs was one warning per file and status 3 (each failed alike); it is
+    the one line of a single file, status 2, before any recording is read (with --split and --scheduler too)."""
+    import tribodyn.io
+
+    files = [recording(tmp_path / "a.npz"), recording(tmp_path / "b.npz")]
+
+    def read(*args, **kwargs):
+        raise AssertionError("a recording was read before the options were checked")
+
+    monkeypatch.setattr(tribodyn.io, "open_recording", read)
+    routes = [files[:1], files, [*files, "--split", "60"], [*files, "--scheduler", "local", "--split", "60"]]
+    for k, args in enumerate(routes):
+        out = tmp_path / f"out{k}"
+        assert cli.main(["analyze", *map(str, args), "--out", str(out), *option]) == 2, args
+        assert error_line(capsys.readouterr().err) == f"tribodyn: error: {message}", args
+        assert not out.exists()
+
+
+@pytest.mark.fast
 def test_toml_config_values_keep_their_types(tmp_path):
     """The TOML reader of --config: numbers, strings, booleans and tables reach the analysis with their types, as
     summary.json records them (its params and open_options)."""
@@ -545,6 +571,29 @@ def test_a_scheduler_that_is_no_address_is_one_line(rec, tmp_path, capsys, addre
     argv = ["analyze", str(rec), "--out", str(tmp_path / "out"), "--scheduler", address, "--quiet"]
     assert cli.main(argv) == 2
     assert "--scheduler" in error_line(capsys.readouterr().err)
+    assert not (tmp_path / "out").exists()
+
+
+def test_an_unreachable_scheduler_is_one_line_within_the_connect_timeout(rec, tmp_path, capsys, monkeypatch):
+    """Stop 49: an address nobody listens at waited Dask's 30 s connect timeout before the one line; the client
+    waits distributed.CONNECT_TIMEOUT (10 s; here 1 s, to keep the test short)."""
+    import socket
+    import time
+
+    from tribodyn.pipeline import distributed
+
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(distributed, "CONNECT_TIMEOUT", 1.0, raising=False)
+    with socket.socket() as s:  # a port free now: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.monotonic()
+    argv = ["analyze", str(rec), "--out", str(tmp_path / "out"), "--scheduler", f"tcp://127.0.0.1:{port}"]
+    assert cli.main(argv) == 2
+    took = time.monotonic() - t0
+    line = error_line(capsys.readouterr().err)
+    assert line.startswith(f"tribodyn: error: cannot reach the Dask scheduler tcp://127.0.0.1:{port}:"), line
+    assert took < 8.0, took
     assert not (tmp_path / "out").exists()
 
 

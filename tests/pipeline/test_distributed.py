@@ -107,6 +107,17 @@ def test_split_must_be_a_finite_positive_number(split):
 
 
 @pytest.mark.fast
+@pytest.mark.parametrize(("kw", "message"), [({"window": -1.0}, "window must be a finite number > 0, got -1.0"),
+                                             ({"n_bins": 0}, "n_bins must be >= 1, got 0"),
+                                             ({"orientation": 2}, "orientation")])  # fmt: skip
+def test_an_option_bad_for_every_recording_raises_before_any_is_read(kw, message):
+    """Stop 49: a bad option failed every recording alike (one failure each); it is one error, before any file is
+    read (x.h5 does not exist: it would be a failure), with analyze's message."""
+    with pytest.raises(ValueError, match=message):
+        analyze_many(["x.h5", "y.h5"], **kw)
+
+
+@pytest.mark.fast
 @pytest.mark.parametrize("kw", [{"start": 1000}, {"stop": 30000}, {"start": 5, "stop": 9}])
 def test_a_range_of_each_recording_is_refused(kw):
     """Issue 38 point 4: start= was dropped without a word (each recording analysed from 0) and stop= failed every
@@ -169,6 +180,31 @@ def test_expand_paths_directory_and_glob(files):
     os.makedirs(os.path.join(nested, "deeper"), exist_ok=True)
     with pytest.raises(FileNotFoundError, match=r"^no input files in .*nested \(a folder's own files are read"):
         expand_paths(nested)  # one line naming the folder (it showed a Python list)
+
+
+@pytest.mark.fast
+def test_a_folders_files_no_reader_takes_are_skipped(tmp_path):
+    """Stop 49: a folder's README.md was a recording that failed; it is skipped and listed, while a file of
+    another extension whose content a reader recognises (an HDF5 file named .bin) is kept."""
+    import shutil
+
+    n = 5000
+    t = np.arange(n) / 1000.0
+    save_recording(tmp_path / "a.h5", {"fy": 0.1 * np.sin(t), "fz": 1.0 + np.sin(t)}, 1000.0)
+    shutil.copy(tmp_path / "a.h5", tmp_path / "b.bin")
+    (tmp_path / "README.md").write_text("notes\n")
+    skipped = []
+    assert expand_paths(tmp_path, skipped) == [str(tmp_path / "a.h5"), str(tmp_path / "b.bin")]
+    assert skipped == [str(tmp_path / "README.md")]
+    assert expand_paths(tmp_path / "README.md") == [str(tmp_path / "README.md")]  # named: kept (its reader says why)
+    many = analyze_many(tmp_path, window=1.0, hop=1.0)
+    assert list(many.results) == [str(tmp_path / "a.h5"), str(tmp_path / "b.bin")] and not many.failures
+    assert many.skipped == skipped and many.summary()["skipped"] == skipped
+    only = tmp_path / "only"
+    only.mkdir()
+    (only / "README.md").write_text("notes\n")
+    with pytest.raises(FileNotFoundError, match="skipped 1 file no reader takes: README.md$"):
+        expand_paths(only)
 
 
 @pytest.fixture(scope="module")
@@ -379,3 +415,75 @@ def test_without_dask_the_error_says_how_to_install(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_dask)
     with pytest.raises(ImportError, match=r"pip install \"tribodyn\[dask\]\""):
         distributed.local_client()
+
+
+def test_every_cli_route_gives_the_same_table_and_params(tmp_path):
+    """Stop 49: params["stick_slip"] was True for one file analysed here (the stick-slip searched in the analysis'
+    reading) and False on every other route (several files, --split, --scheduler), which search it too, after the
+    analysis. Every route now gives the same windows.csv and params, but for how it ran: ``ranges`` (a recording
+    split into ranges) and ``threads`` (a worker's share of its host's cores; neither changes a number)."""
+    import json
+    import shutil
+
+    from tribodyn.app import cli
+
+    pytest.importorskip("dask.distributed")
+    pod = tmp_path / "pod.tsv"
+    shutil.copy(TESTS / "data" / "real" / "pod_PPS_60N_1.tsv", pod)
+    other = tmp_path / "other.tsv"
+    shutil.copy(pod, other)
+    routes = {
+        "here": [pod],
+        "several here": [pod, other],
+        "split": [pod, "--split", "150"],
+        "local": [pod, other, "--scheduler", "local", "--workers", "1", "--split", "150"],
+    }
+    got = {}
+    for name, args in routes.items():
+        out = tmp_path / name.replace(" ", "_")
+        assert cli.main(["analyze", *map(str, args), "--out", str(out), "--quiet", "--figures", "none"]) == 0, name
+        where = out if len(args) == 1 or args[1] == "--split" else out / "pod"
+        params = json.loads((out / "summary.json").read_text())["recordings"]["pod.tsv"]["params"]
+        got[name] = (
+            (where / "windows.csv").read_bytes(),
+            {k: v for k, v in params.items() if k not in ("ranges", "threads")},
+        )
+    assert (
+        json.loads((tmp_path / "split" / "summary.json").read_text())["recordings"]["pod.tsv"]["params"]["ranges"] > 1
+    )
+    table, params = got["here"]
+    assert params["stick_slip"] is True
+    for name, (t, p) in got.items():
+        assert t == table, name
+        assert p == params, name
+
+
+def test_a_local_clusters_shutdown_logs_nothing(files, tmp_path, monkeypatch, capfd):
+    """Stop 49: after a --scheduler local run, a worker whose heartbeat was in flight as its connections closed
+    logged "Failed to communicate with scheduler during heartbeat." and a CommClosedError traceback at ERROR
+    (about 3 runs in 30 on a busy machine). That race is not reproducible at will; a worker plugin logs the same
+    line at ERROR as each worker closes (its teardown), which the command's close must silence too."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+    from tribodyn.app import cli
+    from tribodyn.pipeline import distributed as dist
+
+    class LogsAtClose(WorkerPlugin):  # (defined here: pickled by value for the worker processes)
+        def teardown(self, worker):
+            import logging
+
+            logging.getLogger("distributed.worker").error("Failed to communicate with scheduler during heartbeat.")
+
+    started = dist.local_client
+
+    def with_plugin(workers=2, threads_per_worker=1):
+        client = started(workers, threads_per_worker)
+        client.register_plugin(LogsAtClose(), name="logs-at-close")
+        return client
+
+    monkeypatch.setattr(dist, "local_client", with_plugin)
+    good, _ = files
+    out = tmp_path / "out"
+    argv = ["analyze", good[1], "--out", str(out), *("--window", "2", "--hop", "5", "--figures", "none", "--quiet")]
+    assert cli.main([*argv, "--scheduler", "local", "--workers", "2"]) == 0
+    err = capfd.readouterr().err
+    assert "heartbeat" not in err and "ERROR" not in err, err

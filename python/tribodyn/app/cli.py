@@ -321,7 +321,8 @@ def _add_analyze_command(a: argparse.ArgumentParser) -> None:
         "files",
         nargs="+",
         metavar="FILE",
-        help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV, MAT, XLSX/XLS/ODS), directories or glob patterns",
+        help="recordings (TDMS, LVM, HDF5, NPY/NPZ, CSV/TSV, MAT, XLSX/XLS/ODS), directories (their files no "
+        "reader takes, such as README.md, skipped) or glob patterns",
     )
     a.add_argument("--out", required=True, help="output directory (replaced as a whole by the new outputs)")
     a.add_argument("--overwrite", action="store_true", help=_OVERWRITE_HELP)
@@ -894,9 +895,12 @@ def _run_analyze(ns: argparse.Namespace) -> int:
     from .jobs import check_distinct_names, run_analysis
     from .outputs import OutputSet
 
+    from ..pipeline.plan import check_options
+
     open_opts, opts, protect = _analysis_options(ns)
     meta = opts.pop("meta", None)
-    files = expand_paths(ns.files)
+    check_options(**opts)  # an option bad for every file: one line before any is read (one failure per file)
+    files = expand_paths(ns.files)  # (a folder's files no reader takes skipped: summary["skipped"] names them)
     _check_regular(files)
     check_distinct_names(files)  # (before a Dask cluster is started)
     OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
@@ -928,12 +932,14 @@ def _run_analyze(ns: argparse.Namespace) -> int:
         raise
     finally:
         if client is not None:
-            if isinstance(sys.exc_info()[1], KeyboardInterrupt):
+            from ..pipeline.distributed import close_quietly
+
+            interrupted = isinstance(sys.exc_info()[1], KeyboardInterrupt)
+            if interrupted:
                 _quiet_dask()
-            cluster = getattr(client, "cluster", None)
-            client.close()
-            if ns.scheduler == "local" and cluster is not None:
-                cluster.close()
+            cluster = getattr(client, "cluster", None) if ns.scheduler == "local" else None
+            # (Dask's shutdown logged a worker's heartbeat CommClosedError at ERROR at times)
+            close_quietly(client, cluster, workers=not interrupted)
     if not ns.quiet:
         _print_analysis(summary, ns.out)
     _print_problems(summary, files, open_opts)
@@ -980,15 +986,22 @@ def _dask_client(ns: argparse.Namespace) -> Any:
 
 
 def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Dict[str, Any]) -> None:
-    """The readers' warnings, once each (they are also in summary.json and the report), and each failed file, on
-    stderr."""
+    """The readers' warnings, once each (they are also in summary.json and the report), each failed file, and the
+    folders' files no reader takes, skipped (one line), on stderr."""
+    if summary.get("skipped"):
+        from ..pipeline.distributed import skipped_text
+
+        print(f"tribodyn: warning: {skipped_text(summary['skipped'])}", file=sys.stderr)
     for name, s in summary.get("recordings", {}).items():
         for w in dict.fromkeys(s.get("warnings") or ()):
             print(f"tribodyn: warning: {name}: {w}", file=sys.stderr)
+    from .jobs import recording_labels
+
+    names = recording_labels(files)  # (the failures' keys)
     for name, f in summary.get("failures", {}).items():
         err = f["error"]
         if _MISSING_CHANNELS in err:
-            err = _channels_hint(err, [p for p in files if Path(p).name == name][:1], open_opts)
+            err = _channels_hint(err, [p for p in files if names.get(Path(p)) == name][:1], open_opts)
             err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
         print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
 
@@ -1031,7 +1044,12 @@ def _run_info(ns: argparse.Namespace) -> int:
     from ..pipeline.distributed import expand_paths
 
     kw = _open_options(ns, {})
-    files = expand_paths(ns.files)
+    skipped: List[str] = []
+    files = expand_paths(ns.files, skipped)
+    if skipped:
+        from ..pipeline.distributed import skipped_text
+
+        print(f"tribodyn: warning: {skipped_text(skipped)}", file=sys.stderr)
     _check_regular(files)
     infos: List[Dict[str, Any]] = []
     failed = 0

@@ -708,7 +708,10 @@ def run_analysis(
     ``paths`` may hold files, directories and glob patterns. One recording:
     its tables, figures and report at the top of ``out_dir``. Several: one
     sub-folder per recording plus a combined table (with a ``recording``
-    column), summary and report at the top. With a Dask ``client`` the
+    column), summary and report at the top; each recording named by its file
+    name, or, where inputs share one, by the end of its path that tells them
+    apart (:func:`recording_labels`). A folder's files that no reader takes
+    are skipped (``summary["skipped"]``). With a Dask ``client`` the
     recordings (and ranges of ``split`` seconds of long ones) run on the
     cluster (:func:`tribodyn.analyze_many`). A recording that fails is listed
     in ``summary["failures"]``; if every one fails, ``out_dir`` holds only
@@ -740,7 +743,8 @@ def run_analysis(
         raise ValueError(f"figures must be one of {', '.join(FIGURES)}, got {figures!r}")
     if not paths:
         raise ValueError("no input file given")
-    files = expand_paths(paths)
+    skipped: List[str] = []  # a folder's files that no reader takes (README.md): summary["skipped"]
+    files = expand_paths(paths, skipped)
     check_distinct_names(files)
     output = OutputSet(out_dir, overwrite=overwrite, protect=[*files, *protect])
     # The inputs' SHA-256 in a thread while the analysis reads them; the output step's modules imported in
@@ -752,7 +756,8 @@ def run_analysis(
     try:
         return _run_analysis(files, output, digests, imports, open_options=open_options,
                              analyze_options=analyze_options, progress=progress, client=client, split=split,
-                             meta=meta, steady_state=steady_state, figures=figures, pool=pool)  # fmt: skip
+                             meta=meta, steady_state=steady_state, figures=figures, pool=pool,
+                             skipped=skipped)  # fmt: skip
     finally:
         digests.cancel()
         if pool is not None:
@@ -760,18 +765,38 @@ def run_analysis(
 
 
 def check_distinct_names(files: Sequence[str]) -> None:
-    """Refuses two inputs of one file name (``runA/a.h5``, ``runB/a.h5``): the summary, the combined table's
-    ``recording`` column, the failures and the inputs' provenance name each recording by its file name, so one
-    would silently stand for the other (issue 38 point 4)."""
+    """Refuses one file given twice under two spellings (``runA/a.h5`` and ``runA/../runA/a.h5``): it would be
+    analysed twice under two names. Inputs of one file name in different folders (``runA/a.h5``, ``runB/a.h5``)
+    are analysed, each named by :func:`recording_labels` (they were refused, issue 38 point 4)."""
     seen: Dict[str, str] = {}
     for f in files:
-        name = Path(f).name
-        if name in seen:
-            raise ValueError(
-                f"two inputs are named {name} ({seen[name]}, {f}): the outputs name each recording by its file "
-                "name; analyse each folder into its own output folder, or rename one"
-            )
-        seen[name] = f
+        key = os.path.normcase(os.path.abspath(f))
+        if key in seen:
+            raise ValueError(f"{seen[key]} and {f} are one file: give it once")
+        seen[key] = f
+
+
+def recording_labels(files: Sequence[Any]) -> Dict[Path, str]:
+    """Each input's name in the outputs, by ``Path(file)``: the summary's keys, the combined table's ``recording``
+    column, the failures, the report and the inputs' provenance (``file``); one rule, declared here only.
+
+    Its file name (``data.tdms``); among inputs of one file name, the shortest end of its absolute path that
+    no other of them ends with (``runA/data.tdms``, ``runB/data.tdms``; ``/`` between the parts), so inputs
+    of distinct names are named as before and no recording stands for another. Give each file once
+    (:func:`check_distinct_names`).
+    """
+    parts = {Path(f): Path(os.path.abspath(f)).parts[1:] or (Path(f).name,) for f in files}
+    by_name: Dict[str, List[Tuple[str, ...]]] = {}
+    for ends in parts.values():
+        by_name.setdefault(ends[-1], []).append(ends)
+    labels: Dict[Path, str] = {}
+    for p, ends in parts.items():
+        others = [o for o in by_name[ends[-1]] if o is not ends]
+        k = 1
+        while k < len(ends) and any(o[-k:] == ends[-k:] for o in others):
+            k += 1
+        labels[p] = "/".join(ends[-k:])
+    return labels
 
 
 def _run_analysis(
@@ -789,8 +814,10 @@ def _run_analysis(
     steady_state: bool,
     figures: str,
     pool: Optional[_DrawingPool] = None,
+    skipped: Sequence[str] = (),
 ) -> Dict[str, Any]:
-    """:func:`run_analysis` once the output folder is checked and the digests started (and the drawing pool)."""
+    """:func:`run_analysis` once the output folder is checked and the digests started (and the drawing pool);
+    ``skipped``: the folders' files no reader takes, listed in the summary (``skipped``) when there are any."""
     from .._version import version
 
     __version__ = version()
@@ -799,11 +826,12 @@ def _run_analysis(
     opts = dict(analyze_options or {})
     log_file = opts.pop("temperature_file", None)  # the log's file name, for the report's inputs
     cov_files = opts.pop("covariate_files", None) or {}  # the same for the covariate logs (docs/method.md 7a)
+    names = recording_labels(files)
     with contextlib.ExitStack() as stack:
         # A recording is opened once: the analysis' own stays open for the figures' windows, the channel
         # map and stick-slip (a text file's opening reads it whole; issue 22 point 5).
         runs, failures, kept = _analyse(stack, files, open_options, opts, progress=progress, client=client,
-                                        split=split)  # fmt: skip
+                                        split=split, names=names)  # fmt: skip
         if not runs:
             if len(files) == 1:  # one file: its error, as when it is analysed here (the CLI: one line, status 2)
                 raise _failure_error(Path(files[0]), next(iter(failures.values())))
@@ -814,6 +842,7 @@ def _run_analysis(
                 "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
                 "recordings": {},
                 "failures": failures,
+                **({"skipped": list(skipped)} if skipped else {}),
             }
             with output as out:
                 write_json(summary_failed, out.path("summary.json"))
@@ -826,33 +855,37 @@ def _run_analysis(
             "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
             "recordings": {},
             "failures": failures,
+            **({"skipped": list(skipped)} if skipped else {}),
         }
+        for entry, (p, _) in zip(summary["inputs"], runs):
+            entry["file"] = names[p]  # (its file name, or where names collide the end of its path)
         inputs = {i["file"]: i for i in summary["inputs"]}
         for p, _ in runs:
-            inputs[p.name]["channels"] = {}  # (filled with the recording's outputs)
-            inputs[p.name]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
+            inputs[names[p]]["channels"] = {}  # (filled with the recording's outputs)
+            inputs[names[p]]["logs"] = ([f"temperature: {Path(log_file).name}"] if log_file else []) + [
                 f"{name}: {Path(f).name}" for name, f in cov_files.items()
             ]
         job = _Job(meta or Meta(), steady_state, len(runs) == 1 and not failures, inputs, summary, digests, figures,
-                   pool=pool)  # fmt: skip
+                   pool=pool, names=names)  # fmt: skip
         with output as out:
             verdict: List[str] = []
             sections: List[Tuple[str, str]] = []
             all_figs: List[Tuple[str, bytes]] = []
-            for (p, res), label in zip(runs, _labels([p for p, _ in runs])):
+            for (p, res), label in zip(runs, _folders([names[p] for p, _ in runs])):
                 rec = kept[p] if p in kept else _open_once(stack, p, open_options)
                 lines, extras, captioned = _recording_outputs(out, job, (p, res), label, rec)
                 verdict += lines
                 sections += extras
-                all_figs += [(f"{p.name}: {c}", f) for c, f in captioned]
+                all_figs += [(f"{names[p]}: {c}", f) for c, f in captioned]
             _write_top(out, job, runs, verdict, sections=sections, figures=all_figs)
     return summary
 
 
 def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Dict[str, Any], opts: Dict[str, Any],
-             *, progress: bool, client: Any, split: Optional[float],
+             *, progress: bool, client: Any, split: Optional[float], names: Mapping[Path, str],
              ) -> Tuple[List[Tuple[Path, Results]], Dict[str, Any], Dict[Path, Any]]:  # fmt: skip
-    """(path and Results of each recording analysed, failures by file name, the recordings still open by path)."""
+    """(path and Results of each recording analysed, failures by name (``names``: :func:`recording_labels`), the
+    recordings still open by path)."""
     from ..pipeline.distributed import analyze_many
 
     if len(files) == 1 and client is None and split is None:
@@ -868,10 +901,23 @@ def _analyse(stack: contextlib.ExitStack, files: Sequence[str], open_options: Di
             raise
         return [(Path(files[0]), res)], {}, {Path(files[0]): rec}
     if client is None and split is None and opts.get("align") is None:
-        return _analyse_here(stack, files, open_options, opts, progress=progress)
+        runs, failures, kept = _analyse_here(stack, files, open_options, opts, progress=progress, names=names)
+        return [(p, _stick_slip_searched(r)) for p, r in runs], failures, kept
     many = analyze_many(files, client=client, open_options=open_options, split=split, progress=progress, **opts)
-    failures = {Path(p).name: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
-    return [(Path(p), r) for p, r in many.results.items()], failures, {}
+    failures = {names[Path(p)]: {"error": f.error, "kind": f.kind} for p, f in many.failures.items()}
+    return [(Path(p), _stick_slip_searched(r)) for p, r in many.results.items()], failures, {}
+
+
+def _stick_slip_searched(res: Results) -> Results:
+    """``res`` whose params say that its stick-slip is searched (``stick_slip`` True), as the command searches
+    every recording's (docs/method.md 6g): one file here in the analysis' own reading (``analyze(stick_slip=True)``),
+    the others read again after the analysis (bit for bit the same events). So every route (one file, several,
+    ``--split``, ``--scheduler``) gives the same params (it said False but for one file here)."""
+    if res.params.get("stick_slip"):
+        return res
+    from ..results import CACHED
+
+    return res.replace(keep=CACHED, params={**res.params, "stick_slip": True})
 
 
 def _failure_error(path: Path, failure: Mapping[str, str]) -> ValueError:
@@ -894,7 +940,7 @@ def _name_the_file(exc: BaseException, path: Path) -> None:
 
 
 def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_options: Dict[str, Any],
-                  opts: Dict[str, Any], *, progress: bool,
+                  opts: Dict[str, Any], *, progress: bool, names: Mapping[Path, str],
                   ) -> Tuple[List[Tuple[Path, Results]], Dict[str, Any], Dict[Path, Any]]:  # fmt: skip
     """:func:`_analyse` of several files in this process, one after the other, as :func:`tribodyn.analyze_many`
     runs them without a client (the same tables and summary: ``analyze`` of each file), but each recording opened
@@ -918,7 +964,7 @@ def _analyse_here(stack: contextlib.ExitStack, files: Sequence[str], open_option
                 res = analyze(rec, **opts)
             except Exception as exc:  # noqa: BLE001 - one bad file must not stop the rest (reported per recording)
                 failed = RecordingFailure.of(f, exc)
-                failures[path.name] = {"error": failed.error, "kind": failed.kind}
+                failures[names[path]] = {"error": failed.error, "kind": failed.kind}
             else:
                 runs.append((path, res))
                 kept[path] = rec
@@ -988,12 +1034,13 @@ class _Job:
     meta: Meta
     steady_state: bool
     single: bool  # one recording without failures: its outputs at the top of the folder
-    inputs: Dict[str, Dict[str, Any]]  # file name -> provenance (digest, channels, logs)
+    inputs: Dict[str, Dict[str, Any]]  # recording's name (recording_labels) -> provenance (digest, channels, logs)
     summary: Dict[str, Any]  # summary.json, filled recording by recording
     digests: Digests  # the inputs' SHA-256, filled into ``inputs`` when written (fill_digests)
     figures: str = "auto"  # which PNG figures: FIGURES
     notes: List[str] = dataclasses.field(default_factory=list)  # what the report says of figures left out
     pool: Optional[_DrawingPool] = None  # the drawing workers (_drawing_pool), or None: drawn in this process
+    names: Mapping[Path, str] = dataclasses.field(default_factory=dict)  # each input's name: recording_labels
 
 
 def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], label: str, rec: Any
@@ -1005,8 +1052,9 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
     from .report import verdict_lines, write_report
 
     p, res = run
+    name = job.names[p]  # (recording_labels)
     prefix = "" if job.single else f"{label}/"
-    job.inputs[p.name]["channels"] = _channel_map(rec)
+    job.inputs[name]["channels"] = _channel_map(rec)
     opr_t = _try_range(res, "temperature")
     opr_j = _try_range(res, "current_density")
     has_speed = bool(np.isfinite(np.asarray(res["speed"], dtype=float)).any())
@@ -1030,11 +1078,11 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
         return _write_set(out, prefix, res_now), res_now.summary()
 
     pngs, (written, res_summary), (view, head) = _save_figures(
-        out, figs, prefix, meanwhile, also=lambda: _interactive_view(res_now, p.name), pool=job.pool
+        out, figs, prefix, meanwhile, also=lambda: _interactive_view(res_now, name), pool=job.pool
     )
     _BOKEH_HEAD.setdefault("js", head)
-    extras = _report_extras(res_now, p.name, f"{prefix}windows.csv", view)
-    written += [name for name, _, _ in pngs]
+    extras = _report_extras(res_now, name, f"{prefix}windows.csv", view)
+    written += [png for png, _, _ in pngs]
     rec_sum = {
         **res_summary,
         **({"steady_state": steady} if steady else {}),
@@ -1046,34 +1094,34 @@ def _recording_outputs(out: OutputSet, job: _Job, run: Tuple[Path, Results], lab
         "stick_slip": slip,
     }
     rec_sum["meta"] = summary_meta(job.meta, rec_sum["headline"])
-    job.summary["recordings"][p.name] = rec_sum
+    job.summary["recordings"][name] = rec_sum
     ranges = {"temperature": rec_sum["operating_range_temperature"],
               "current_density": rec_sum["operating_range_current_density"],
               "speed": rec_sum["operating_range_speed"]}  # fmt: skip
-    lines = verdict_lines(p.name, rec_sum, res.params, ranges)
+    lines = verdict_lines(name, rec_sum, res.params, ranges)
     if steady:  # right after the headline
-        lines.insert(1, f"{p.name}: {steady['text']}.")
+        lines.insert(1, f"{name}: {steady['text']}.")
     if slip and slip["present"]:
-        lines.append(f"{p.name}: {slip['verdict']}")
-    captioned, note = _captioned(pngs), figures_note(job.figures, res, p.name)
+        lines.append(f"{name}: {slip['verdict']}")
+    captioned, note = _captioned(pngs), figures_note(job.figures, res, name)
     job.notes.extend([note] if note else [])
     if not job.single:
-        fill_digests([job.inputs[p.name]], job.digests)
+        fill_digests([job.inputs[name]], job.digests)
         write_json(rec_sum, out.path(f"{prefix}summary.json"))
         write_report(
             out.path(f"{prefix}report.html"),
-            title=f"tribodyn: {p.name}",
-            summary=_flat_summary({p.name: rec_sum}),
+            title=f"tribodyn: {name}",
+            summary=_flat_summary({name: rec_sum}),
             params=res.params,
             figures=captioned,
             figures_note=note,
             quality=rec_sum["gate_failures"],
             verdict=lines,
-            inputs=[job.inputs[p.name]],
-            sections=_report_extras(res, p.name, "windows.csv", view),
+            inputs=[job.inputs[name]],
+            sections=_report_extras(res, name, "windows.csv", view),
             head_html=_bokeh_head(),
             durable=False,  # (OutputSet flushes the whole set before publishing it)
-            record_html=record_html(job.meta, {p.name: rec_sum["headline"]}),
+            record_html=record_html(job.meta, {name: rec_sum["headline"]}),
         )
     return lines, extras, captioned
 
@@ -1088,8 +1136,9 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
     from .report import write_report
 
     summary, failures = job.summary, job.summary["failures"]
+    names = [job.names[p] for p, _ in runs]  # (recording_labels)
     if not job.single:
-        combined = _combine([r for _, r in runs], [p.name for p, _ in runs])
+        combined = _combine([r for _, r in runs], names)
         write_table_csv(combined[0], out.path("windows.csv"), extra={"recording": combined[1]})
         write_table_parquet(combined[0], out.path("windows.parquet"), extra={"recording": combined[1]})
     summary["columns"] = column_units()
@@ -1102,12 +1151,12 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
     failed = [{"file": n, "sha256": "", "channels": {}, "logs": [f"failed: {f['error']}"]} for n, f in failures.items()]
     write_report(
         out.path("report.html"),
-        title="tribodyn: " + ", ".join([p.name for p, _ in runs] + list(failures)),
+        title="tribodyn: " + ", ".join(names + list(failures)),
         summary=_flat_summary(summary["recordings"]),
-        params={p.name: r.params for p, r in runs},
+        params={n: r.params for n, (_, r) in zip(names, runs)},
         figures=figures,
         figures_note=" ".join(job.notes),
-        quality={p.name: summary["recordings"][p.name]["gate_failures"] for p, _ in runs},
+        quality={n: summary["recordings"][n]["gate_failures"] for n in names},
         verdict=verdict,
         inputs=list(job.inputs.values()) + failed,
         sections=sections,
@@ -1438,13 +1487,20 @@ def _with_unit(name: str, unit: Optional[str]) -> str:
     return name if m.group(1).strip() == unit else f"{name} -> {unit}"
 
 
-def _labels(paths: Sequence[Path]) -> List[str]:
-    """Sub-folder names: file stems, made unique with a counter where they repeat.
+def _folders(names: Sequence[str]) -> List[str]:
+    """Sub-folder names of the recordings' names (:func:`recording_labels`): file stems (``data``), after the
+    folders that tell inputs of one file name apart, joined by ``_`` (``runA/data.tdms``: ``runA_data``), made
+    unique with a counter where they repeat.
 
     A stem that is no folder name of its own (``..npz`` has the stem ``.``; ``.x.csv`` would make a hidden
     folder) loses its leading and trailing dots, then falls back to the file name's, then to "recording"
-    (issue 34: an input named ``..npz`` lost its per-recording files)."""
-    stems = [p.stem.strip(".") or p.name.strip(".") or "recording" for p in paths]
+    (issue 34: an input named ``..npz`` lost its per-recording files); so do the folders' names."""
+    stems = []
+    for name in names:
+        *folders, last = name.split("/")
+        p = Path(last)
+        stem = p.stem.strip(".") or p.name.strip(".") or "recording"
+        stems.append("_".join([d.strip(".") for d in folders if d.strip(".")] + [stem]))
     return [s if stems.count(s) == 1 else f"{s}-{k + 1}" for k, s in enumerate(stems)]
 
 

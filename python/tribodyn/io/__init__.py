@@ -69,6 +69,7 @@ __all__ = [
     "atomic_write",
     "detect_format",
     "open_recording",
+    "reader_takes",
     "save_hdf5",
     "save_npy",
     "save_npz",
@@ -114,6 +115,30 @@ def detect_format(path: Union[str, "os.PathLike[str]"]) -> str:
     if by_ext == "lvm" and by_content != "lvm":
         raise RecordingError(f"{p}: not a LabVIEW Measurement file (no 'LabVIEW Measurement' line)")
     return by_content
+
+
+def reader_takes(path: Union[str, "os.PathLike[str]"]) -> bool:
+    """Whether a reader takes ``path`` as a recording: by its extension (tribodyn's own or a reader plugin's),
+    else by a binary signature a reader recognises (an HDF5 file named ``.bin``) or a plugin's ``sniff``.
+
+    A folder's expansion (:func:`tribodyn.pipeline.distributed.expand_paths`) skips the files it refuses: text or
+    binary content of another extension (``README.md``, ``photo.png``, ``notes.docx``). A file it cannot read
+    (empty, unreadable) is taken: its reader says what is wrong.
+    """
+    p = os.fspath(path)
+    if os.path.splitext(p)[1].lower() in _EXT:
+        return True
+    from .plugins import find_plugin, plugins
+
+    low = p.lower()
+    if any(low.endswith(e.lower()) for cls in plugins().values() for e in getattr(cls, "extensions", ())):
+        return True
+    try:
+        head = _read_head(p)
+    except RecordingError:
+        return True
+    kind = _zip_kind(p, _sniff(head))[0]
+    return kind not in (None, "delimited", "steps") or find_plugin(p, head) is not None
 
 
 def _read_head(p: str) -> bytes:

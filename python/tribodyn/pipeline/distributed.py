@@ -38,9 +38,9 @@ import numpy as np
 
 from ..results import Results
 from .analyze import Partial, analyze_partial, combine
-from .plan import Plan, make_plan
+from .plan import Plan, check_options, make_plan
 
-__all__ = ["analyze_many", "ManyResults", "RecordingFailure", "expand_paths", "local_client"]
+__all__ = ["analyze_many", "ManyResults", "RecordingFailure", "close_quietly", "expand_paths", "local_client"]
 
 DASK_HINT = 'this needs Dask: pip install "tribodyn[dask]"'
 
@@ -71,11 +71,14 @@ class ManyResults:
         Recordings that failed, with their error.
     tasks : int
         Tasks run (recordings x ranges).
+    skipped : list of str
+        Files of the folders given that no reader takes (``README.md``; :func:`expand_paths`), not analysed.
     """
 
     results: Dict[str, Results]
     failures: Dict[str, RecordingFailure] = field(default_factory=dict)
     tasks: int = 0
+    skipped: List[str] = field(default_factory=list)
 
     @property
     def table(self) -> Dict[str, np.ndarray]:
@@ -118,18 +121,32 @@ class ManyResults:
             "recordings": {name: r.summary() for name, r in self.results.items()},
             "failures": {name: {"error": f.error, "kind": f.kind} for name, f in self.failures.items()},
             "tasks": self.tasks,
+            "skipped": list(self.skipped),
         }
 
 
-def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]]) -> List[str]:
-    """Files from paths, directories (their files, sorted) and glob patterns, in order, without repeats."""
+def expand_paths(
+    inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]], skipped: Optional[List[str]] = None
+) -> List[str]:
+    """Files from paths, directories (their files, sorted) and glob patterns, in order, without repeats.
+
+    A directory's files that no reader takes (:func:`tribodyn.io.reader_takes`: ``README.md``, a photo) are
+    skipped and appended to ``skipped`` when given; a file named as such, or matched by a pattern, is kept (its
+    reader says what is wrong with it).
+    """
+    from ..io import reader_takes
+
     items = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     out: List[str] = []
+    dropped: List[str] = []
     for item in items:
         s = str(item)
         p = Path(s)
         if p.is_dir():
-            found = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
+            inside = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
+            taken = {q: reader_takes(q) for q in inside}
+            found = [q for q in inside if taken[q]]
+            dropped.extend(q for q in inside if not taken[q] and q not in dropped)
         elif any(c in s for c in "*?["):
             found = sorted(q for q in glob.glob(s) if Path(q).is_file())
             if not found:
@@ -137,10 +154,24 @@ def expand_paths(inputs: Union[str, os.PathLike[str], Sequence[Union[str, os.Pat
         else:
             found = [s]
         out.extend(q for q in found if q not in out)
+    if skipped is not None:
+        skipped.extend(dropped)
     if not out:
         where = ", ".join(str(i) for i in items) or "(nothing given)"
-        raise FileNotFoundError(f"no input files in {where} (a folder's own files are read, not its sub-folders')")
+        none = f"; {skipped_text(dropped)}" if dropped else ""
+        raise FileNotFoundError(
+            f"no input files in {where} (a folder's own files are read, not its sub-folders'){none}"
+        )
     return out
+
+
+def skipped_text(skipped: Sequence[str]) -> str:
+    """'skipped 1 file no reader takes: README.md' (:func:`expand_paths`'s ``skipped``, by their names)."""
+    n = len(skipped)
+    names = {str(q): Path(q).name for q in skipped}
+    if len(set(names.values())) < n:  # (README.md of two folders: their paths)
+        names = {q: q for q in names}
+    return f"skipped {n} file{'s' if n != 1 else ''} no reader takes: {', '.join(names[str(q)] for q in skipped)}"
 
 
 # -- tasks (module-level and pure, so Dask can ship and retry them) -----------
@@ -376,7 +407,8 @@ def analyze_many(
     Parameters
     ----------
     paths : path, directory, glob pattern, or a sequence of them
-        Recording files (see :func:`tribodyn.open_recording`).
+        Recording files (see :func:`tribodyn.open_recording`); a directory's files that no reader takes
+        (``README.md``) are skipped (``ManyResults.skipped``).
     plan : Plan, optional
         The analysis's settings checked once (:func:`tribodyn.make_plan`),
         for recordings sampled at ``plan.fs``; no other analysis option with it.
@@ -406,7 +438,9 @@ def analyze_many(
         Options of :func:`tribodyn.analyze` (window, hop, highpass,
         orientation, temperature, area_mm2, ...). A temperature log applies
         to every recording. Each recording is analysed whole: ``start`` and
-        ``stop`` (one recording's range) are refused.
+        ``stop`` (one recording's range) are refused. An option that is bad
+        whatever the recording (``window=-1``) raises before any file is read
+        (:func:`tribodyn.pipeline.plan.check_options`).
 
     Returns
     -------
@@ -414,7 +448,8 @@ def analyze_many(
         Per-recording results identical to ``analyze`` run on each file
         serially, and the failures with their errors.
     """
-    files = expand_paths(paths)
+    skipped: List[str] = []
+    files = expand_paths(paths, skipped)
     open_options = dict(open_options or {})
     options = dict(analyze_options)
     channels = options.pop("channels", None)
@@ -448,6 +483,7 @@ def analyze_many(
                          "tribodyn.stick_slip(path, res) for each recording, or analyze per file")  # fmt: skip
     if split is not None and not (split > 0 and math.isfinite(split)):
         raise ValueError(f"split must be a finite number > 0 seconds, got {split!r}")
+    check_options(**options)  # once, before any file is read (a bad window failed every recording alike)
     run = _runner(client, progress)
     slots = _host_slots(client) if client is not None and plan is None and options.get("threads") is None else None
 
@@ -489,7 +525,8 @@ def analyze_many(
         else:
             results[f] = out
     ordered_failures = {f: failures[f] for f in files if f in failures}
-    return ManyResults(results=results, failures=ordered_failures, tasks=sum(len(a) for _, a in groups))
+    return ManyResults(results=results, failures=ordered_failures, tasks=sum(len(a) for _, a in groups),
+                       skipped=skipped)  # fmt: skip
 
 
 def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
@@ -511,6 +548,48 @@ def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
             silence_logs=logging.ERROR,
         )  # fmt: skip
     return cast(Any, Client)(cluster)
+
+
+#: The loggers of Dask's shutdown: raised above CRITICAL while a client and its cluster close (:func:`close_quietly`).
+_SHUTDOWN_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+def close_quietly(client: Any, cluster: Any = None, *, workers: bool = True) -> None:
+    """Closes ``client``, then ``cluster`` (None: not closed; a cluster at an address is not this process'), without
+    Dask's shutdown logs.
+
+    The work is done, but a worker whose heartbeat is in flight when its connections close logs "Failed to
+    communicate with scheduler during heartbeat." and a ``CommClosedError`` traceback at ERROR (about 3 runs in
+    30 of ``--scheduler local`` on a busy machine); the scheduler and nannies of a LocalCluster run here and may
+    log a closed comm likewise. So the workers of ``cluster`` raise their loggers (:data:`_SHUTDOWN_LOGGERS`)
+    above CRITICAL first (one ``client.run``, at most 5 s; a worker that does not answer is closed as it is; not
+    with ``workers`` False: an interrupted run closes at once), and this process' loggers are raised while both
+    close, then put back.
+    """
+    import logging
+
+    if cluster is not None and workers:
+        with contextlib.suppress(Exception):
+            client.run(_silence_shutdown_logs, on_error="ignore", callback_timeout=5.0)
+    loggers = [logging.getLogger(name) for name in _SHUTDOWN_LOGGERS]
+    levels = [log.level for log in loggers]
+    for log in loggers:
+        log.setLevel(logging.CRITICAL + 1)
+    try:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    finally:
+        for log, level in zip(loggers, levels):
+            log.setLevel(level)
+
+
+def _silence_shutdown_logs() -> None:
+    """On a worker (``client.run``): its Dask loggers above CRITICAL, for its shutdown (:func:`close_quietly`)."""
+    import logging
+
+    for name in _SHUTDOWN_LOGGERS:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 @contextlib.contextmanager
@@ -538,12 +617,20 @@ def _interrupts_held() -> Iterator[None]:
         hold(signal.SIG_SETMASK, before)
 
 
+#: Seconds a client waits for the scheduler at an address (:func:`connect`, ``tribodyn analyze --scheduler
+#: tcp://host:port``) before the OSError "Timed out trying to connect"; Dask's own default
+#: (``distributed.comm.timeouts.connect``) is 30 s, long to wait for a mistyped or stopped scheduler, where a
+#: reachable one answers in milliseconds (a busy one in a few seconds).
+CONNECT_TIMEOUT = 10.0
+
+
 def connect(address: str, workers: int = 2) -> Any:
-    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes)."""
+    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes); an address that does not
+    answer within :data:`CONNECT_TIMEOUT` seconds raises OSError."""
     if address == "local":
         return local_client(workers)
     try:
         from dask.distributed import Client
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
-    return cast(Any, Client)(address)
+    return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT)

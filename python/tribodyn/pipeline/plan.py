@@ -41,6 +41,7 @@ __all__ = [
     "Findings",
     "Plan",
     "make_plan",
+    "check_options",
     "check_orientation",
     "check_covariate_logs",
     "checked",
@@ -348,6 +349,28 @@ def make_plan(*, fs: Any, **options: Any) -> Plan:
         raise TypeError(f"unknown option(s) {', '.join(map(repr, unknown))}; the options are {', '.join(known)}")
     o = {name: options.get(name, opt.default) for name, opt in known.items()}
     return _make_plan(fs, o)
+
+
+def check_options(**options: Any) -> None:
+    """The options of :func:`tribodyn.analyze` checked as far as :func:`make_plan` checks them without a
+    recording's rate, with its messages: each option by its own rule (``Option.check``), ``window`` and ``hop``
+    finite and > 0, ``n_bins`` at least 1. None (a default) and names that are no option pass.
+
+    For many recordings (:func:`tribodyn.analyze_many`, ``tribodyn analyze``), once before any is read: an
+    option bad for every recording is one error, not one failure per recording.
+    """
+    from ..options import OPTIONS
+
+    rules = {o.name: o for o in OPTIONS if o.check}
+    for name, value in options.items():
+        if value is None:
+            continue
+        if name in rules:
+            checked(rules[name], value)
+        elif name in ("window", "hop"):
+            positive(value, name)
+        elif name == "n_bins":
+            check_int(value, name, minimum=1)
 
 
 def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
