@@ -249,6 +249,13 @@ def test_tasks_on_workers_share_their_hosts_cores(files, client):
         _same(many.results[p], _serial(p))
     asked = analyze_many(good[:1], client=client, threads=2, **OPTS)  # a count asked for is kept
     assert asked.results[good[0]].params["threads"] == 2
+    # a plan made without threads gets the share too (it kept the client's default count); one with them keeps it
+    planned = analyze_many(good[:1], client=client, plan=td.make_plan(fs=1000.0, **OPTS))
+    assert planned.results[good[0]].params["threads"] == share
+    _same(planned.results[good[0]], _serial(good[0]))
+    kept = analyze_many(good[:1], client=client, plan=td.make_plan(fs=1000.0, threads=2, **OPTS))
+    assert kept.results[good[0]].params["threads"] == 2
+    assert "threads_asked" not in kept.results[good[0]].params
     assert _worker_threads({"127.0.0.1": 2}) is None  # not on a worker: the call's default
     assert _host_slots(object()) is None
 

@@ -208,9 +208,10 @@ def range_task(
     ``options`` are analyze's options, or a :class:`~tribodyn.Plan` (this
     range's copy of it: its ``start`` and ``stop`` are the range's).
     ``host_slots``: the cluster's task slots per host (:func:`_host_slots`);
-    on a Dask worker, options that name no ``threads`` (and no
-    ``TRIBODYN_THREADS`` there) get this worker's share of its host's cores
-    (:func:`_worker_threads`, docs/method.md 9).
+    on a Dask worker, options that name no ``threads``, or a plan made
+    without them (``Plan.threads_asked``), and no ``TRIBODYN_THREADS`` there,
+    get this worker's share of its host's cores (:func:`_worker_threads`,
+    docs/method.md 9).
     """
     from ..io import open_recording
 
@@ -218,7 +219,9 @@ def range_task(
     try:
         with open_recording(path, **open_options) as rec:
             if isinstance(options, Plan):
-                return analyze_partial(rec, dataclasses.replace(options, start=start, stop=stop))
+                share = _worker_threads(host_slots) if host_slots and not options.threads_asked else None
+                threads = {"threads": share} if share is not None else {}
+                return analyze_partial(rec, dataclasses.replace(options, start=start, stop=stop, **threads))
             fs = options.get("fs") or rec.fs
             opts = {k: v for k, v in options.items() if k != "fs"}
             if opts.get("threads") is None and host_slots:
@@ -485,7 +488,8 @@ def analyze_many(
         raise ValueError(f"split must be a finite number > 0 seconds, got {split!r}")
     check_options(**options)  # once, before any file is read (a bad window failed every recording alike)
     run = _runner(client, progress)
-    slots = _host_slots(client) if client is not None and plan is None and options.get("threads") is None else None
+    asked = plan.threads_asked if plan is not None else options.get("threads") is not None
+    slots = _host_slots(client) if client is not None and not asked else None
 
     # What the tasks open: on a cluster the path from this process's working folder (a worker has its own; a
     # relative path failed there as "no such file"); its failures then name the path as given.

@@ -227,6 +227,9 @@ class Plan:
     chunk_samples: Optional[int] = None
     #: What is known of the instrument, for the headline's uncertainty budget (docs/method.md 6i), or None.
     uncertainty: Optional["Inputs"] = None
+    #: Whether ``threads`` was asked for (False: the default count of the process that made the plan), so that a
+    #: task on a Dask worker takes its share of its host instead (docs/method.md 9); not recorded in ``params``.
+    threads_asked: bool = True
 
     @property
     def paper(self) -> bool:
@@ -319,7 +322,7 @@ RECORDED: Mapping[str, Optional[Callable[[Plan], Dict[str, Any]]]] = MappingProx
     "tare": lambda p: {"tare": dict(p.tare) if isinstance(p.tare, Mapping) else p.tare},
     "uncertainty": lambda p: {"uncertainty": None if p.uncertainty is None else p.uncertainty.to_dict()},
     **dict.fromkeys(("iv_lag_from_data", "lines", "line_index", "motion", "min_fn", "window_note", "chunk_samples",
-                     "iv_lag_samples")),
+                     "iv_lag_samples", "threads_asked")),
 })  # fmt: skip
 
 #: The fields of a :class:`Plan`.
@@ -413,6 +416,7 @@ def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
         covariates=cov,
         chunk_samples=None if chunk is None else max(1, int(round(chunk * fs_v))),
         window_note=window_note,
+        threads_asked=o["threads"] is not None,
         **stats,
         **as_checked,
     )
