@@ -32,7 +32,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union, cast
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Set, Tuple, Union, cast
 
 import numpy as np
 
@@ -139,6 +139,8 @@ def expand_paths(
     items = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
     out: List[str] = []
     dropped: List[str] = []
+    in_out: Set[str] = set()  # (out's and dropped's members: a folder of many files is not searched once per file)
+    in_dropped: Set[str] = set()
     for item in items:
         s = str(item)
         p = Path(s)
@@ -146,14 +148,20 @@ def expand_paths(
             inside = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
             taken = {q: reader_takes(q) for q in inside}
             found = [q for q in inside if taken[q]]
-            dropped.extend(q for q in inside if not taken[q] and q not in dropped)
+            for q in inside:
+                if not taken[q] and q not in in_dropped:
+                    dropped.append(q)
+                    in_dropped.add(q)
         elif any(c in s for c in "*?["):
             found = sorted(q for q in glob.glob(s) if Path(q).is_file())
             if not found:
                 raise FileNotFoundError(f"no file matches {s!r}")
         else:
             found = [s]
-        out.extend(q for q in found if q not in out)
+        for q in found:
+            if q not in in_out:
+                out.append(q)
+                in_out.add(q)
     if skipped is not None:
         skipped.extend(dropped)
     if not out:
@@ -219,9 +227,9 @@ def range_task(
     try:
         with open_recording(path, **open_options) as rec:
             if isinstance(options, Plan):
+                plan = dataclasses.replace(options, start=start, stop=stop)
                 share = _worker_threads(host_slots) if host_slots and not options.threads_asked else None
-                threads = {"threads": share} if share is not None else {}
-                return analyze_partial(rec, dataclasses.replace(options, start=start, stop=stop, **threads))
+                return analyze_partial(rec, plan if share is None else dataclasses.replace(plan, threads=share))
             fs = options.get("fs") or rec.fs
             opts = {k: v for k, v in options.items() if k != "fs"}
             if opts.get("threads") is None and host_slots:
