@@ -151,10 +151,9 @@ NATIVE_NOISE_MAX = 1 << 20
 
 def _noise_sd(v: np.ndarray, scratch: Optional[List[np.ndarray]] = None) -> float:
     """The noise's standard deviation from sample-to-sample differences: ``_robust_sd(np.diff(v)) / sqrt 2``
-    (0 under two samples; ``_core.noise_sd`` up to :data:`NATIVE_NOISE_MAX` values, the same value).
-    ``scratch`` (the NumPy path's): a list holding a buffer the differences may be written into (and where a new
-    one is left), so that the pre-pass's two looks (fz, then fy) share one array of the sample's size instead of
-    each allocating its own (fresh pages cost more than the subtraction)."""
+    (0 under two samples; ``_core.noise_sd`` up to :data:`NATIVE_NOISE_MAX` values, the same value). ``scratch``: a list holding a buffer the differences may be written into (and
+    where a new one is left), so that the pre-pass's two looks (fz, then fy) share one array of the sample's
+    size instead of each allocating its own (fresh pages cost more than the subtraction)."""
     if v.size < 2:
         return 0.0
     if v.ndim == 1 and v.dtype == np.float64 and v.size <= NATIVE_NOISE_MAX:
