@@ -39,7 +39,6 @@ __all__ = [
     "mapped_windows_alone",
     "resample_stats",
     "select_ranks",
-    "noise_sd",
     "histogram_uniform",
     "find_peaks",
     "set_threads",
@@ -102,10 +101,6 @@ def mapped_windows_alone(step: int, length: int) -> bool:
 def select_ranks(x: _F64, ks: list[int], *, centre: float | None = None, threads: int | None = None) -> _F64 | None:
     """The values of ranks ks (0-based, ascending) of a 1-D array (with centre: of |x - centre|), exactly;
     None when it holds NaN."""
-
-def noise_sd(v: _F64) -> float | None:
-    """1.4826 x the median absolute deviation of v's sample-to-sample differences over sqrt(2) (0 under two
-    values), as tribodyn.pipeline.prepass._noise_sd computes it; None when a difference is not finite."""
 
 def histogram_uniform(x: _F64, edges: _F64) -> NDArray[np.int64]:
     """NumPy's histogram of x over uniform edges (np.linspace), bit for bit."""

@@ -81,26 +81,3 @@ def test_prepass_and_analysis_equal_the_python_read(
     native = _findings(path, names, kw)
     monkeypatch.delattr(_core, "pread_ranges")  # NpyRecording._read_ranges_python: one os.preadv a range
     assert _findings(path, names, kw) == native
-
-
-@pytest.mark.fast
-def test_the_native_noise_sd_is_the_numpy_paths_bit_for_bit() -> None:
-    """``_core.noise_sd`` (the pre-pass's noise SD in one native call) gives what the NumPy path gives: the robust
-    SD of np.diff over sqrt 2, bit for bit, on smooth, quantised, constant and signed-zero samples of odd and even
-    lengths; a non-finite difference is left to the NumPy path (docs/method.md 6a)."""
-    from tribodyn.pipeline import prepass as pp
-
-    def numpy_path(v: np.ndarray) -> float:
-        return float(pp._robust_sd(np.diff(v)) / np.sqrt(2.0))
-
-    rng = np.random.default_rng(3)
-    for n in (2, 3, 4, 5, 100, 101, 65535, 65536):
-        for v in (rng.normal(size=n), np.round(rng.normal(size=n) * 20) / 20, np.cumsum(rng.normal(size=n)),
-                  np.where(np.arange(n) % 3 == 0, -0.0, 0.0), np.full(n, 2.5)):  # fmt: skip
-            got = _core.noise_sd(v)
-            assert got is not None and np.float64(got).tobytes() == np.float64(numpy_path(v)).tobytes(), n
-            assert pp._noise_sd(v) == got
-    assert _core.noise_sd(np.array([1.0])) == 0.0
-    assert _core.noise_sd(np.array([1.0, np.nan, 2.0])) is None
-    v = np.array([0.0, 1.0, np.inf, 2.0])
-    assert _core.noise_sd(v) is None and np.isnan(pp._noise_sd(v)) == np.isnan(numpy_path(v))

@@ -143,23 +143,13 @@ def _robust_sd(v: np.ndarray, centre: Optional[float] = None) -> float:
     return 1.4826 * _order.median_abs_dev(v, m)
 
 
-#: Longest array whose noise SD :func:`_noise_sd` takes from ``_core.noise_sd`` (one thread, selections in place:
-#: the pre-pass's sample of 2^16 values in about a third of the NumPy path's time); longer ones take the NumPy
-#: path, whose selections run on the call's threads. Both give the same value bit for bit.
-NATIVE_NOISE_MAX = 1 << 20
-
-
 def _noise_sd(v: np.ndarray, scratch: Optional[List[np.ndarray]] = None) -> float:
     """The noise's standard deviation from sample-to-sample differences: ``_robust_sd(np.diff(v)) / sqrt 2``
-    (0 under two samples; ``_core.noise_sd`` up to :data:`NATIVE_NOISE_MAX` values, the same value). ``scratch``: a list holding a buffer the differences may be written into (and
+    (0 under two samples). ``scratch``: a list holding a buffer the differences may be written into (and
     where a new one is left), so that the pre-pass's two looks (fz, then fy) share one array of the sample's
     size instead of each allocating its own (fresh pages cost more than the subtraction)."""
     if v.size < 2:
         return 0.0
-    if v.ndim == 1 and v.dtype == np.float64 and v.size <= NATIVE_NOISE_MAX:
-        got = _core.noise_sd(np.require(v, requirements=["C", "A"]))  # the same value, one native call
-        if got is not None:
-            return got
     m = v.size - 1
     if scratch is None:
         d = np.diff(v)

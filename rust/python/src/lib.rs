@@ -227,15 +227,6 @@ fn select_ranks<'py>(
     Ok(got.map(|v| PyArray1::from_vec(py, v)))
 }
 
-/// The noise's standard deviation from the sample-to-sample differences of a 1-D C-contiguous float64
-/// array (tribodyn.pipeline.prepass._noise_sd, docs/method.md 6a): 1.4826 x their median absolute deviation
-/// over sqrt(2), 0 under two values; None when a difference is not finite.
-#[pyfunction]
-fn noise_sd(py: Python<'_>, v: PyReadonlyArray1<'_, f64>) -> PyResult<Option<f64>> {
-    let vs = v.as_slice().map_err(slice_err("v"))?;
-    Ok(py.detach(|| order::noise_sd(vs)))
-}
-
 /// Whether `windows_stats_file` reads each window alone, its gaps skipped: windows of `length` samples every
 /// `step` at least `MAPPED_ALONE_GAP` apart (tribodyn.pipeline.routes sizes its blocks by it).
 #[pyfunction]
@@ -1218,7 +1209,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mapped_windows_alone, m)?)?;
     m.add_function(wrap_pyfunction!(resample_stats, m)?)?;
     m.add_function(wrap_pyfunction!(select_ranks, m)?)?;
-    m.add_function(wrap_pyfunction!(noise_sd, m)?)?;
     m.add_function(wrap_pyfunction!(histogram_uniform, m)?)?;
     m.add_function(wrap_pyfunction!(find_peaks, m)?)?;
     m.add_function(wrap_pyfunction!(sosfilt_inplace, m)?)?;

@@ -210,42 +210,6 @@ pub fn select_ranks(x: &[f64], ks: &[usize], centre: Option<f64>) -> Result<Opti
     Ok(Some(ks.iter().map(|&k| rank(&mut inside, k - below, &mut fixed)).collect()))
 }
 
-/// The noise's standard deviation from the sample-to-sample differences of `v`, as
-/// `tribodyn.pipeline.prepass._noise_sd` computes it with NumPy: 1.4826 x the median absolute deviation
-/// of the differences from their median, over sqrt(2); 0 for fewer than two values; None when a
-/// difference is not finite (the caller's NumPy path then decides).
-///
-/// The differences are a copy this function owns, so both medians are selected in it in place (no
-/// bracket, no second array): the median, then the differences replaced by their distances to it and
-/// their median. Exact order statistics, with NumPy's arithmetic for the mean of the two middle
-/// values ([`median_of`]); a zero's sign, which the selection may pick either way, does not reach the
-/// result (the distances are absolute values, and a zero centre's sign leaves them as they are).
-pub fn noise_sd(v: &[f64]) -> Option<f64> {
-    if v.len() < 2 {
-        return Some(0.0);
-    }
-    let mut d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
-    if !d.iter().fold(true, |ok, x| ok & x.is_finite()) {
-        return None;
-    }
-    let centre = median_in_place(&mut d);
-    d.iter_mut().for_each(|x| *x = (*x - centre).abs());
-    let mad = median_in_place(&mut d);
-    Some(1.4826 * mad / 2f64.sqrt())
-}
-
-/// NumPy's median of the finite values `d` (reordered: a selection in place).
-fn median_in_place(d: &mut [f64]) -> f64 {
-    let k = d.len();
-    let (left, hi, _) = d.select_nth_unstable_by(k / 2, f64::total_cmp);
-    let hi = *hi;
-    if k % 2 == 1 {
-        return median_of(k, hi, hi);
-    }
-    let lo = left.iter().copied().fold(f64::NEG_INFINITY, f64::max); // rank k / 2 - 1: the largest left of it
-    median_of(k, lo, hi)
-}
-
 /// (values of `x` below `lo`, the values within `[lo, hi]` in their order), of `value(v)` for each `v`.
 fn bracket(x: &[f64], lo: f64, hi: f64, value: &(impl Fn(f64) -> f64 + Sync)) -> (usize, Vec<f64>) {
     // Branch-free: every value is written at the end of the kept ones, which grows only when it is
@@ -317,40 +281,6 @@ mod tests {
         assert_eq!(only[..2], med[..2]);
         assert!(row_quantiles(&x, 5, &[0.5], &mut med, &mut out[..3]).is_err());
         assert!(row_quantiles(&x, 4, &[1.5], &mut med, &mut out[..3]).is_err());
-    }
-
-    #[test]
-    fn noise_sd_is_the_robust_sd_of_the_differences() {
-        // direct: sort the differences, their median, the sorted distances, their median
-        fn direct(v: &[f64]) -> f64 {
-            let mut d: Vec<f64> = v.windows(2).map(|w| w[1] - w[0]).collect();
-            d.sort_by(f64::total_cmp);
-            let k = d.len();
-            let m = median_of(k, d[(k / 2).saturating_sub(1)], d[k / 2]);
-            let mut a: Vec<f64> = d.iter().map(|x| (x - m).abs()).collect();
-            a.sort_by(f64::total_cmp);
-            1.4826 * median_of(k, a[(k / 2).saturating_sub(1)], a[k / 2]) / 2f64.sqrt()
-        }
-        let mut s: u64 = 99;
-        let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for n in [2usize, 3, 4, 5, 64, 65, 1000, 1001, 70_000] {
-            let smooth: Vec<f64> = (0..n).map(|i| (i as f64 * 0.01).sin() + 0.1 * next()).collect();
-            let quantised: Vec<f64> = smooth.iter().map(|x| (x * 20.0).round() / 20.0).collect();
-            let signed_zeros: Vec<f64> = (0..n).map(|i| if i % 3 == 0 { -0.0 } else { 0.0 }).collect();
-            for v in [&smooth, &quantised, &signed_zeros] {
-                let got = noise_sd(v).unwrap();
-                assert_eq!(got.to_bits(), direct(v).to_bits(), "n = {n}");
-            }
-        }
-        assert_eq!(noise_sd(&[1.0]), Some(0.0));
-        assert_eq!(noise_sd(&[]), Some(0.0));
-        assert_eq!(noise_sd(&[1.0, f64::NAN, 2.0]), None);
-        assert_eq!(noise_sd(&[1.0, f64::INFINITY]), None);
     }
 
     #[test]
