@@ -572,7 +572,8 @@ def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
     A Ctrl-C reaches this process alone (:func:`_interrupts_held`): its workers are stopped when the client and
     the cluster are closed, without each printing its own traceback. The cluster's processes print their logs
     from level ERROR (a task cancelled by a Ctrl-C logs a WARNING in its worker). Its workers start with the
-    allocator's settings :data:`WORKER_ENVIRON` (where this process' environment does not set them).
+    allocator's settings :data:`WORKER_ENVIRON` (where this process' environment does not set them; Dask's
+    nannies set them in this process' environment too, which is put back).
     """
     import logging
 
@@ -582,12 +583,19 @@ def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
     environ = {f"distributed.nanny.pre-spawn-environ.{name}": value for name, value in WORKER_ENVIRON.items()}
-    # (the cluster's loop thread, and the worker processes it starts, never see Ctrl-C)
-    with _interrupts_held(), dask.config.set(environ):
-        cluster = cast(Any, LocalCluster)(
-            n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0",
-            silence_logs=logging.ERROR,
-        )  # fmt: skip
+    here = {name: os.environ.get(name) for name in WORKER_ENVIRON}
+    try:  # (the cluster's loop thread, and the worker processes it starts, never see Ctrl-C)
+        with _interrupts_held(), dask.config.set(environ):
+            cluster = cast(Any, LocalCluster)(
+                n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0",
+                silence_logs=logging.ERROR,
+            )  # fmt: skip
+    finally:  # Dask's nannies set their workers' variables in this process' environment too: put back
+        for name, value in here.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
     return cast(Any, Client)(cluster)
 
 
