@@ -15,7 +15,13 @@ of benches/RESULTS.md.
 ``--workers`` (default 2) takes a list: one LocalCluster per count, started
 outside the timing, warmed up (imports and one read per worker), then
 ``--repeat`` timed runs; each run's tables are checked equal to the serial
-run's. The speed-up is against the serial run at one kernel thread.
+run's. The speed-up is against the serial run at one kernel thread. The
+clusters are those of ``tribodyn analyze --scheduler local``
+(``distributed.local_client``: the workers' allocator set by
+``distributed.WORKER_ENVIRON``); ``--dask-defaults`` starts plain
+``LocalCluster``s, with Dask's worker environment (its
+MALLOC_TRIM_THRESHOLD_=65536: about 8 ms more per 20 min recording on 2
+vCPUs, issue 38 point 4).
 
 Per-task costs measured here (open + read + analyse one recording) let one
 estimate a real cluster: with W workers and R recordings of equal length,
@@ -97,6 +103,8 @@ def main() -> None:
     ap.add_argument("--no-write", action="store_true", help="do not update RESULTS.md")
     ap.add_argument("--markdown", type=Path, default=None, help="also write the section to this file")
     ap.add_argument("--dir", type=Path, default=None, help="where the temporary recordings go")
+    ap.add_argument("--dask-defaults", action="store_true",
+                    help="plain LocalClusters (Dask's worker environment), not tribodyn's local_client")  # fmt: skip
     args = ap.parse_args()
     if args.quick:
         args.recordings, args.hours, args.repeat = 2, 5 / 60, 1
@@ -108,6 +116,7 @@ def main() -> None:
     os.environ["TRIBODYN_THREADS"] = "1"
     import tribodyn as td
     from dask.distributed import Client, LocalCluster
+    from tribodyn.pipeline.distributed import local_client
 
     opts = dict(window=2.0, hop=2.0)
     load0 = os.getloadavg()
@@ -133,8 +142,12 @@ def main() -> None:
         check = serial()
         for w in args.workers:
             t0 = time.perf_counter()
-            cluster = LocalCluster(n_workers=w, threads_per_worker=1, processes=True, dashboard_address=":0")
-            client = Client(cluster)
+            if args.dask_defaults:
+                cluster = LocalCluster(n_workers=w, threads_per_worker=1, processes=True, dashboard_address=":0")
+                client = Client(cluster)
+            else:
+                client = local_client(w, 1)
+                cluster = client.cluster
             try:
                 client.wait_for_workers(w)
                 start_s[w] = time.perf_counter() - t0
@@ -161,6 +174,7 @@ def main() -> None:
         )
         + (" --current" if args.current else "")
         + ("" if args.workers == [2] else " --workers " + " ".join(map(str, args.workers)))
+        + (" --dask-defaults" if args.dask_defaults else "")
     )
     med = statistics.median
     mb = size / 1e6  # whole data set, MB
@@ -185,7 +199,8 @@ def main() -> None:
 {load0[0]:.1f} before, {l1[0]:.1f} after.
 {args.recordings} simulated recordings of {args.hours:g} h each (1 kHz, {chans}; HDF5, {mb:.0f} MB in all,
 generated in {gen:.0f} s), 2 s windows tiling each recording, {args.repeat} repeats, medians.
-Workers: LocalCluster of worker processes x 1 thread, one kernel thread each (TRIBODYN_THREADS=1), started
+Workers: {"LocalCluster (Dask's defaults)" if args.dask_defaults else "`local_client` (the CLI's LocalCluster)"} of \
+worker processes x 1 thread, one kernel thread each (TRIBODYN_THREADS=1), started
 and warmed up (import, one read each) outside the timing (start of the largest: {start_s[max(args.workers)]:.1f} s).
 Tables checked identical to the serial run for every cluster.{
         f" Worker counts above the {ncpu} cores ({', '.join(map(str, over))}) oversubscribe them." if over else ""

@@ -381,21 +381,35 @@ def _runner(client: Any, progress: bool) -> Runner:
         # The tasks are pure functions of their arguments, so a task lost with
         # its worker is simply recomputed (retries). Keys are unique per call
         # (pure=False) so each call computes afresh rather than reusing a
-        # result the cluster still holds from an earlier call.
-        tasks: List[List[Any]] = []
-        ends: List[Any] = []
-        for name, args in groups:
-            if then is None or len(args) == 1:  # one task: its end fused in (each task costs the client ~5-10 ms)
-                one = (fn, *args[0]) if then is None else (_then, fn, then, name, args[0])
-                tasks.append([client.submit(*one, pure=False, retries=3)])
-                ends.append(tasks[-1][0])
-            else:  # the group's futures as an argument: Dask hands the task their values, on the worker
-                tasks.append([client.submit(fn, *a, pure=False, retries=3) for a in args])
-                ends.append(client.submit(then, name, tasks[-1], pure=False, retries=3))
+        # result the cluster still holds from an earlier call. The tasks of a
+        # stage go to the scheduler in one ``client.map`` each (one message and
+        # one graph update, not one per task: issue 38 point 4).
+        ones = [k for k, (_, args) in enumerate(groups) if then is None or len(args) == 1]
+        many = sorted(set(range(len(groups))) - set(ones))
+        ends: List[Any] = [None] * len(groups)
+        shown: List[Any] = []
+        if ones:  # one task each: its end fused in (each task costs the client ~5-10 ms)
+            names, first = [groups[k][0] for k in ones], [groups[k][1][0] for k in ones]
+            if then is None:
+                got = client.map(fn, *zip(*first), key=fn.__name__, pure=False, retries=3)
+            else:
+                n = len(ones)
+                got = client.map(_then, [fn] * n, [then] * n, names, first, key="_then", pure=False, retries=3)
+            for k, f in zip(ones, got):
+                ends[k] = f
+            shown += got
+        if many and then is not None:  # the group's futures as an argument: Dask hands the task their values there
+            parts = iter(client.map(fn, *zip(*[a for k in many for a in groups[k][1]]), key=fn.__name__, pure=False,
+                                    retries=3))  # fmt: skip
+            lists = [[next(parts) for _ in groups[k][1]] for k in many]
+            got = client.map(then, [groups[k][0] for k in many], lists, key=then.__name__, pure=False, retries=3)
+            for k, f in zip(many, got):
+                ends[k] = f
+            shown += [f for futures in lists for f in futures] + got
         if progress:
             from dask.distributed import progress as show
 
-            cast(Any, show)(list(dict.fromkeys([f for t in tasks for f in t] + ends)))
+            cast(Any, show)(shown)
         out: List[Any] = client.gather(ends)
         return out
 
@@ -541,24 +555,47 @@ def analyze_many(
                        skipped=skipped)  # fmt: skip
 
 
+#: The allocator's settings of :func:`local_client`'s worker processes, in place of Dask's
+#: ``MALLOC_TRIM_THRESHOLD_=65536`` (``distributed.nanny.pre-spawn-environ``: freed memory handed back to the system at
+#: once). With Dask's, glibc maps every block over 128 KiB afresh and unmaps it when freed: a task's read and kernel
+#: arrays fault their pages in each time (~3000 faults for a 20 min recording of 4 channels), and each unmap
+#: interrupts the cores of the process' other threads; ~8 ms of a ~55 ms task on 2 vCPUs (issue 38 point 4,
+#: benches/RESULTS.md). These are the values glibc's own adaptive rule ends at in a process that frees such blocks
+#: (what a serial run gets): blocks up to 32 MiB are kept in the heap for the next task, up to 64 MiB of free heap is
+#: kept before it is handed back. A worker then holds about its tasks' peak memory between them.
+WORKER_ENVIRON = {"MALLOC_MMAP_THRESHOLD_": 33554432, "MALLOC_TRIM_THRESHOLD_": 67108864}
+
+
 def local_client(workers: int = 2, threads_per_worker: int = 1) -> Any:
     """A ``dask.distributed.Client`` on a LocalCluster of worker processes.
 
     A Ctrl-C reaches this process alone (:func:`_interrupts_held`): its workers are stopped when the client and
     the cluster are closed, without each printing its own traceback. The cluster's processes print their logs
-    from level ERROR (a task cancelled by a Ctrl-C logs a WARNING in its worker).
+    from level ERROR (a task cancelled by a Ctrl-C logs a WARNING in its worker). Its workers start with the
+    allocator's settings :data:`WORKER_ENVIRON` (where this process' environment does not set them; Dask's
+    nannies set them in this process' environment too, which is put back).
     """
     import logging
 
     try:
+        import dask
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
-    with _interrupts_held():  # the cluster's loop thread, and the worker processes it starts, never see Ctrl-C
-        cluster = cast(Any, LocalCluster)(
-            n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0",
-            silence_logs=logging.ERROR,
-        )  # fmt: skip
+    environ = {f"distributed.nanny.pre-spawn-environ.{name}": value for name, value in WORKER_ENVIRON.items()}
+    here = {name: os.environ.get(name) for name in WORKER_ENVIRON}
+    try:  # (the cluster's loop thread, and the worker processes it starts, never see Ctrl-C)
+        with _interrupts_held(), dask.config.set(environ):
+            cluster = cast(Any, LocalCluster)(
+                n_workers=workers, threads_per_worker=threads_per_worker, processes=True, dashboard_address=":0",
+                silence_logs=logging.ERROR,
+            )  # fmt: skip
+    finally:  # Dask's nannies set their workers' variables in this process' environment too: put back
+        for name, value in here.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
     return cast(Any, Client)(cluster)
 
 
