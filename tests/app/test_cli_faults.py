@@ -459,6 +459,10 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
     (["--hop", "0"], "hop must be a finite number > 0, got 0.0"),
     (["--bins", "0"], "n_bins must be >= 1, got 0"),
     (["--highpass", "-2"], "highpass must be a finite number > 0, got -2.0"),
+    # (these three failed each recording alike after stop 49: the statistical options and --fs, a reader's)
+    (["--gate", "2"], "gate must be in [0, 1], got 2.0"),
+    (["--iv-lag", "-1"], "iv_lag must be a finite number > 0, got -1.0"),
+    (["--fs", "-5"], "fs must be a finite number > 0, got -5.0"),
 ])  # fmt: skip
 def test_an_option_bad_for_every_file_is_one_line_before_any_is_read(tmp_path, monkeypatch, capsys, option, message):
     """Stop 49: --window -1 with several inputs was one warning per file and status 3 (each failed alike); it is

@@ -899,7 +899,8 @@ def _run_analyze(ns: argparse.Namespace) -> int:
 
     open_opts, opts, protect = _analysis_options(ns)
     meta = opts.pop("meta", None)
-    check_options(**opts)  # an option bad for every file: one line before any is read (one failure per file)
+    # an option bad for every file: one line before any is read (one failure per file); --fs too (a reader's option)
+    check_options(**opts, **({} if "fs" in opts else {"fs": open_opts.get("fs")}))
     files = expand_paths(ns.files)  # (a folder's files no reader takes skipped: summary["skipped"] names them)
     _check_regular(files)
     check_distinct_names(files)  # (before a Dask cluster is started)
