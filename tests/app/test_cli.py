@@ -240,6 +240,24 @@ def test_recording_labels_are_the_shortest_distinct_ends_of_the_paths(tmp_path):
 
 
 @pytest.mark.fast
+def test_info_names_inputs_of_one_name_as_analyze_does(tmp_path, capsys):
+    """Stop 49 (audit): `tribodyn info runs/*/x.tsv` headed each file by its name alone (three "x.tsv" one after
+    the other, which is which unsaid), where analyze names them runA/x.tsv, runB/x.tsv; its failure lines too."""
+    for d in ("runA", "runB", "runC"):
+        (tmp_path / "runs" / d).mkdir(parents=True)
+    for d in ("runA", "runB"):
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "runs" / d / "x.tsv")
+    (tmp_path / "runs" / "runC" / "x.tsv").write_text("notes of the run\n")
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "y.tsv")
+    files = [tmp_path / "runs" / d / "x.tsv" for d in ("runA", "runB", "runC")] + [tmp_path / "y.tsv"]
+    assert run("info", *files) == cli.EXIT_SOME_FAILED
+    said = capsys.readouterr()
+    heads = [line for line in said.out.splitlines() if line and not line.startswith((" ", "="))]
+    assert heads == ["runA/x.tsv", "runB/x.tsv", "y.tsv"]
+    assert said.err.startswith("tribodyn: error: runC/x.tsv: ")
+
+
+@pytest.mark.fast
 def test_one_file_that_fails_is_the_same_error_with_split(tmp_path, capsys):
     """Issue 38 point 4: one input that fails gave one line and status 2 here, but through analyze_many (--split,
     --scheduler) a warning, status 3 and an output folder of summary.json alone."""
