@@ -658,8 +658,9 @@ def _hello(address: str) -> None:
     exabytes). So the handshake is made once here, bounded as a whole, before the client's own.
     """
     import asyncio
+    import importlib
 
-    from distributed.comm import connect as comm_connect
+    comm_connect: Any = importlib.import_module("distributed.comm.core").connect  # (untyped)
 
     async def hello() -> None:
         comm = await comm_connect(address, timeout=CONNECT_TIMEOUT)
