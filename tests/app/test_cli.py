@@ -271,6 +271,9 @@ def test_recording_labels_are_the_shortest_distinct_ends_of_the_paths(tmp_path):
         f"{tmp_path.name}/data.tdms",
     ]
     assert recording_labels(["run/a.csv", "b.csv"]) == {Path("run/a.csv"): "a.csv", Path("b.csv"): "b.csv"}
+    # one file spelled twice (`tribodyn info` takes it; analyze refuses it): one label, not its whole path twice
+    twice = recording_labels(["r1/a.csv", "r1/../r1/a.csv", "r2/a.csv"])
+    assert list(twice.values()) == ["r1/a.csv", "r1/a.csv", "r2/a.csv"]
     with pytest.raises(ValueError, match="are one file: give it once"):
         check_distinct_names([str(tmp_path / "a" / "x.csv"), str(tmp_path / "a" / ".." / "a" / "x.csv")])
 

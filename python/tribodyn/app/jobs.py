@@ -796,7 +796,7 @@ def recording_labels(files: Sequence[Any]) -> Dict[Path, str]:
         by_name.setdefault(ends[-1], []).append(ends)
     labels: Dict[Path, str] = {}
     for p, ends in parts.items():
-        others = [o for o in by_name[ends[-1]] if o is not ends]
+        others = [o for o in by_name[ends[-1]] if o != ends]  # (one file spelled twice: one label, `info`)
         k = 1
         while k < len(ends) and any(o[-k:] == ends[-k:] for o in others):
             k += 1
