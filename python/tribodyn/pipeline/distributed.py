@@ -661,9 +661,11 @@ def _hello(address: str) -> None:
     import importlib
 
     comm_connect: Any = importlib.import_module("distributed.comm.core").connect  # (untyped)
+    # the client's connection arguments (TLS from Dask's configuration, as a Client without ``security`` reads it)
+    args = importlib.import_module("distributed.security").Security().get_connection_args("client")
 
     async def hello() -> None:
-        comm = await comm_connect(address, timeout=CONNECT_TIMEOUT)
+        comm = await comm_connect(address, timeout=CONNECT_TIMEOUT, **args)
         await comm.close()
 
     try:
