@@ -224,7 +224,8 @@ def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsy
 @pytest.mark.fast
 def test_an_empty_file_no_reader_takes_is_skipped_too(tmp_path, capsys):
     """Stop 49 (audit): an empty README.md (or notes.md, a placeholder) in an input folder was taken, then failed
-    ("empty file", status 3), where one with text in it is skipped; an empty .csv still fails (a reader's)."""
+    ("empty file", status 3), where one with text in it is skipped, and so was Excel's ~$a.xlsx beside an open
+    workbook; an empty .csv still fails (a reader's)."""
     from tribodyn.io import reader_takes
 
     runs = tmp_path / "runs"
@@ -232,10 +233,13 @@ def test_an_empty_file_no_reader_takes_is_skipped_too(tmp_path, capsys):
     shutil.copy(DATA / "pod_PPS_60N_1.tsv", runs / "a.tsv")
     (runs / "README.md").write_bytes(b"")
     (runs / "zero.csv").write_bytes(b"")
+    # Excel's owner file beside a workbook open in it (the user's name, 162 bytes): failed as a corrupt .xlsx
+    (runs / "~$a.xlsx").write_bytes(b"\x05Maria" + b" " * 48 + b"\x00" * 108)
     assert not reader_takes(runs / "README.md") and reader_takes(runs / "zero.csv")
+    assert not reader_takes(runs / "~$a.xlsx")
     assert run("analyze", runs, "--out", tmp_path / "out", "--quiet", "--figures", "none") == cli.EXIT_SOME_FAILED
     said = [x for x in capsys.readouterr().err.splitlines() if "skipped" in x or "failed" in x]
-    assert said[0] == "tribodyn: warning: skipped 1 file no reader takes: README.md"
+    assert said[0] == "tribodyn: warning: skipped 2 files no reader takes: README.md, ~$a.xlsx"
     assert len(said) == 2 and "zero.csv failed" in said[1]
 
 

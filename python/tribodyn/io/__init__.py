@@ -124,10 +124,13 @@ def reader_takes(path: Union[str, "os.PathLike[str]"]) -> bool:
 
     A folder's expansion (:func:`tribodyn.pipeline.distributed.expand_paths`) skips the files it refuses: text or
     binary content of another extension (``README.md``, ``photo.png``, ``notes.docx``), empty or not (an empty
-    ``notes.md`` has no content a reader could take). A file it cannot read (unreadable; empty, of a reader's
+    ``notes.md`` has no content a reader could take), and the owner file Excel or Word writes beside a workbook
+    open in it (``~$run1.xlsx``, whatever its extension). A file it cannot read (unreadable; empty, of a reader's
     extension) is taken: its reader says what is wrong.
     """
     p = os.fspath(path)
+    if os.path.basename(p).startswith("~$"):  # Office's owner file of an open workbook (~$run1.xlsx): a user's name
+        return False
     if os.path.splitext(p)[1].lower() in _EXT:
         return True
     from .plugins import find_plugin, plugins
