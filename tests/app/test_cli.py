@@ -222,6 +222,46 @@ def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsy
 
 
 @pytest.mark.fast
+def test_an_empty_file_no_reader_takes_is_skipped_too(tmp_path, capsys):
+    """Stop 49 (audit): an empty README.md (or notes.md, a placeholder) in an input folder was taken, then failed
+    ("empty file", status 3), where one with text in it is skipped, and so was Excel's ~$a.xlsx beside an open
+    workbook; an empty .csv still fails (a reader's)."""
+    from tribodyn.io import reader_takes
+
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", runs / "a.tsv")
+    (runs / "README.md").write_bytes(b"")
+    (runs / "zero.csv").write_bytes(b"")
+    # Excel's owner file beside a workbook open in it (the user's name, 162 bytes): failed as a corrupt .xlsx
+    (runs / "~$a.xlsx").write_bytes(b"\x05Maria" + b" " * 48 + b"\x00" * 108)
+    assert not reader_takes(runs / "README.md") and reader_takes(runs / "zero.csv")
+    assert not reader_takes(runs / "~$a.xlsx")
+    assert run("analyze", runs, "--out", tmp_path / "out", "--quiet", "--figures", "none") == cli.EXIT_SOME_FAILED
+    said = [x for x in capsys.readouterr().err.splitlines() if "skipped" in x or "failed" in x]
+    assert said[0] == "tribodyn: warning: skipped 2 files no reader takes: README.md, ~$a.xlsx"
+    assert len(said) == 2 and "zero.csv failed" in said[1]
+
+
+@pytest.mark.fast
+def test_one_file_through_a_link_is_one_file(tmp_path):
+    """Stop 49 (audit): runs/latest -> runs/r3 made runs/*/data.csv hold r3's file twice, analysed twice under two
+    names (two tests of one recording in the summary and the combined table); it is refused as one file given
+    twice."""
+    from tribodyn.app.jobs import check_distinct_names
+
+    (tmp_path / "r3").mkdir()
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "r3" / "data.tsv")
+    try:
+        (tmp_path / "latest").symlink_to("r3", target_is_directory=True)
+    except OSError:  # pragma: no cover - a file system without links
+        pytest.skip("no symbolic links here")
+    with pytest.raises(ValueError, match="are one file: give it once"):
+        check_distinct_names([str(tmp_path / "latest" / "data.tsv"), str(tmp_path / "r3" / "data.tsv")])
+    check_distinct_names([str(tmp_path / "r3" / "data.tsv"), str(tmp_path / "r3" / "other.tsv")])  # (no file)
+
+
+@pytest.mark.fast
 def test_recording_labels_are_the_shortest_distinct_ends_of_the_paths(tmp_path):
     from tribodyn.app.jobs import check_distinct_names, recording_labels
 
@@ -235,8 +275,29 @@ def test_recording_labels_are_the_shortest_distinct_ends_of_the_paths(tmp_path):
         f"{tmp_path.name}/data.tdms",
     ]
     assert recording_labels(["run/a.csv", "b.csv"]) == {Path("run/a.csv"): "a.csv", Path("b.csv"): "b.csv"}
+    # one file spelled twice (`tribodyn info` takes it; analyze refuses it): one label, not its whole path twice
+    twice = recording_labels(["r1/a.csv", "r1/../r1/a.csv", "r2/a.csv"])
+    assert list(twice.values()) == ["r1/a.csv", "r1/a.csv", "r2/a.csv"]
     with pytest.raises(ValueError, match="are one file: give it once"):
         check_distinct_names([str(tmp_path / "a" / "x.csv"), str(tmp_path / "a" / ".." / "a" / "x.csv")])
+
+
+@pytest.mark.fast
+def test_info_names_inputs_of_one_name_as_analyze_does(tmp_path, capsys):
+    """Stop 49 (audit): `tribodyn info runs/*/x.tsv` headed each file by its name alone (three "x.tsv" one after
+    the other, which is which unsaid), where analyze names them runA/x.tsv, runB/x.tsv; its failure lines too."""
+    for d in ("runA", "runB", "runC"):
+        (tmp_path / "runs" / d).mkdir(parents=True)
+    for d in ("runA", "runB"):
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "runs" / d / "x.tsv")
+    (tmp_path / "runs" / "runC" / "x.tsv").write_text("notes of the run\n")
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "y.tsv")
+    files = [tmp_path / "runs" / d / "x.tsv" for d in ("runA", "runB", "runC")] + [tmp_path / "y.tsv"]
+    assert run("info", *files) == cli.EXIT_SOME_FAILED
+    said = capsys.readouterr()
+    heads = [line for line in said.out.splitlines() if line and not line.startswith((" ", "="))]
+    assert heads == ["runA/x.tsv", "runB/x.tsv", "y.tsv"]
+    assert said.err.startswith("tribodyn: error: runC/x.tsv: ")
 
 
 @pytest.mark.fast

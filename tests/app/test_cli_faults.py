@@ -459,6 +459,10 @@ def test_too_many_bins_is_one_line_before_the_file_is_read(tmp_path, monkeypatch
     (["--hop", "0"], "hop must be a finite number > 0, got 0.0"),
     (["--bins", "0"], "n_bins must be >= 1, got 0"),
     (["--highpass", "-2"], "highpass must be a finite number > 0, got -2.0"),
+    # (these three failed each recording alike after stop 49: the statistical options and --fs, a reader's)
+    (["--gate", "2"], "gate must be in [0, 1], got 2.0"),
+    (["--iv-lag", "-1"], "iv_lag must be a finite number > 0, got -1.0"),
+    (["--fs", "-5"], "fs must be a finite number > 0, got -5.0"),
 ])  # fmt: skip
 def test_an_option_bad_for_every_file_is_one_line_before_any_is_read(tmp_path, monkeypatch, capsys, option, message):
     """Stop 49: --window -1 with several inputs was one warning per file and status 3 (each failed alike); it is
@@ -591,6 +595,58 @@ def test_an_unreachable_scheduler_is_one_line_within_the_connect_timeout(rec, tm
     argv = ["analyze", str(rec), "--out", str(tmp_path / "out"), "--scheduler", f"tcp://127.0.0.1:{port}"]
     assert cli.main(argv) == 2
     took = time.monotonic() - t0
+    line = error_line(capsys.readouterr().err)
+    assert line.startswith(f"tribodyn: error: cannot reach the Dask scheduler tcp://127.0.0.1:{port}:"), line
+    assert took < 8.0, took
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("reply", [None, b"HTTP/1.0 400 Bad request\r\n\r\n"], ids=["silent", "http"])
+def test_a_server_that_is_no_scheduler_is_one_line_within_the_connect_timeout(rec, tmp_path, capsys, monkeypatch,
+                                                                              reply):  # fmt: skip
+    """Stop 49 (audit): the connect timeout bounds the connection, not Dask's handshake after it: a server that
+    takes the connection and says nothing (a web server: the dashboard's port 8787 given for 8786) held
+    `--scheduler tcp://...` forever; one that answers in its own protocol made Dask read a length of exabytes
+    (a MemoryError traceback). Both are one line, within CONNECT_TIMEOUT + 1 s (here 1 + 1 s)."""
+    import socket
+    import threading
+    import time
+
+    from tribodyn.pipeline import distributed
+
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr(distributed, "CONNECT_TIMEOUT", 1.0, raising=False)
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)
+    port = server.getsockname()[1]
+    held = []
+    done = threading.Event()
+
+    def serve():
+        while not done.is_set():
+            try:
+                conn, _ = server.accept()
+            except OSError:
+                return
+            held.append(conn)
+            if reply is not None:
+                conn.recv(4096)
+                conn.sendall(reply)
+            else:  # (closed after 10 s: without the bound the test fails on its time instead of hanging)
+                threading.Timer(10.0, conn.close).start()
+
+    threading.Thread(target=serve, daemon=True).start()
+    try:
+        t0 = time.monotonic()
+        argv = ["analyze", str(rec), "--out", str(tmp_path / "out"), "--scheduler", f"tcp://127.0.0.1:{port}"]
+        assert cli.main(argv) == 2
+        took = time.monotonic() - t0
+    finally:
+        done.set()
+        server.close()
+        for conn in held:
+            conn.close()
     line = error_line(capsys.readouterr().err)
     assert line.startswith(f"tribodyn: error: cannot reach the Dask scheduler tcp://127.0.0.1:{port}:"), line
     assert took < 8.0, took

@@ -109,7 +109,10 @@ def test_split_must_be_a_finite_positive_number(split):
 @pytest.mark.fast
 @pytest.mark.parametrize(("kw", "message"), [({"window": -1.0}, "window must be a finite number > 0, got -1.0"),
                                              ({"n_bins": 0}, "n_bins must be >= 1, got 0"),
-                                             ({"orientation": 2}, "orientation")])  # fmt: skip
+                                             ({"orientation": 2}, "orientation"),
+                                             ({"gate": 2.0}, r"gate must be in \[0, 1\], got 2.0"),
+                                             ({"max_rel_ci": -1.0}, "max_rel_ci must be a finite number > 0"),
+                                             ({"estimator": "deming"}, "estimator='deming' needs noise")])  # fmt: skip
 def test_an_option_bad_for_every_recording_raises_before_any_is_read(kw, message):
     """Stop 49: a bad option failed every recording alike (one failure each); it is one error, before any file is
     read (x.h5 does not exist: it would be a failure), with analyze's message."""

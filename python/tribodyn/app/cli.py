@@ -899,7 +899,8 @@ def _run_analyze(ns: argparse.Namespace) -> int:
 
     open_opts, opts, protect = _analysis_options(ns)
     meta = opts.pop("meta", None)
-    check_options(**opts)  # an option bad for every file: one line before any is read (one failure per file)
+    # an option bad for every file: one line before any is read (one failure per file); --fs too (a reader's option)
+    check_options(**opts, **({} if "fs" in opts else {"fs": open_opts.get("fs")}))
     files = expand_paths(ns.files)  # (a folder's files no reader takes skipped: summary["skipped"] names them)
     _check_regular(files)
     check_distinct_names(files)  # (before a Dask cluster is started)
@@ -1051,6 +1052,9 @@ def _run_info(ns: argparse.Namespace) -> int:
 
         print(f"tribodyn: warning: {skipped_text(skipped)}", file=sys.stderr)
     _check_regular(files)
+    from .jobs import recording_labels
+
+    names = recording_labels(files)  # (runA/data.tdms, runB/data.tdms: each header named as analyze names it)
     infos: List[Dict[str, Any]] = []
     failed = 0
     for f in files:
@@ -1062,14 +1066,14 @@ def _run_info(ns: argparse.Namespace) -> int:
             failed += 1
             infos.append({"path": str(f), "error": _one_line(_cli_words(_error_text(exc)))})
             if not ns.json:
-                print(f"tribodyn: error: {Path(f).name}: {infos[-1]['error']}", file=sys.stderr)
+                print(f"tribodyn: error: {names[Path(f)]}: {infos[-1]['error']}", file=sys.stderr)
     if ns.json:
         print(json.dumps(infos, indent=2, ensure_ascii=False, allow_nan=False))
     else:
         for k, info in enumerate(i for i in infos if "error" not in i):
             if k:
                 print()
-            _print_info(info)
+            _print_info(info, names.get(Path(str(info.get("path")))))
     if failed:
         return EXIT_USER_ERROR if failed == len(files) else EXIT_SOME_FAILED
     return 0
@@ -1127,9 +1131,10 @@ def _duration_text(d: Any) -> str:
     return f"{d:g} s"
 
 
-def _print_info(info: Dict[str, Any]) -> None:
-    """One file's info as aligned text: the essentials, the channels as a table, metadata and warnings."""
-    name = Path(str(info.get("path", "?"))).name
+def _print_info(info: Dict[str, Any], name: Optional[str] = None) -> None:
+    """One file's info as aligned text under ``name`` (default its file name): the essentials, the channels as a
+    table, metadata and warnings."""
+    name = name or Path(str(info.get("path", "?"))).name
     print(name)
     print("=" * len(name))
     fs = info.get("fs")

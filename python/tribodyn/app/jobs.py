@@ -766,11 +766,16 @@ def run_analysis(
 
 def check_distinct_names(files: Sequence[str]) -> None:
     """Refuses one file given twice under two spellings (``runA/a.h5`` and ``runA/../runA/a.h5``): it would be
-    analysed twice under two names. Inputs of one file name in different folders (``runA/a.h5``, ``runB/a.h5``)
-    are analysed, each named by :func:`recording_labels` (they were refused, issue 38 point 4)."""
-    seen: Dict[str, str] = {}
+    analysed twice under two names; so is one reached through a link (``runs/latest`` -> ``runs/r3``), known by its
+    device and inode. Inputs of one file name in different folders (``runA/a.h5``, ``runB/a.h5``) are analysed,
+    each named by :func:`recording_labels` (they were refused, issue 38 point 4)."""
+    seen: Dict[Any, str] = {}
     for f in files:
-        key = os.path.normcase(os.path.abspath(f))
+        try:
+            st = os.stat(f)
+            key: Any = (st.st_dev, st.st_ino)
+        except OSError:  # (no such file: its reader says so)
+            key = os.path.normcase(os.path.abspath(f))
         if key in seen:
             raise ValueError(f"{seen[key]} and {f} are one file: give it once")
         seen[key] = f
@@ -791,7 +796,7 @@ def recording_labels(files: Sequence[Any]) -> Dict[Path, str]:
         by_name.setdefault(ends[-1], []).append(ends)
     labels: Dict[Path, str] = {}
     for p, ends in parts.items():
-        others = [o for o in by_name[ends[-1]] if o is not ends]
+        others = [o for o in by_name[ends[-1]] if o != ends]  # (one file spelled twice: one label, `info`)
         k = 1
         while k < len(ends) and any(o[-k:] == ends[-k:] for o in others):
             k += 1

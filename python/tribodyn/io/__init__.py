@@ -49,6 +49,7 @@ offered to them (``.csv``, ``.txt``... stay delimited text unless
 
 from __future__ import annotations
 
+import contextlib
 import numbers
 import os
 import stat
@@ -122,10 +123,14 @@ def reader_takes(path: Union[str, "os.PathLike[str]"]) -> bool:
     else by a binary signature a reader recognises (an HDF5 file named ``.bin``) or a plugin's ``sniff``.
 
     A folder's expansion (:func:`tribodyn.pipeline.distributed.expand_paths`) skips the files it refuses: text or
-    binary content of another extension (``README.md``, ``photo.png``, ``notes.docx``). A file it cannot read
-    (empty, unreadable) is taken: its reader says what is wrong.
+    binary content of another extension (``README.md``, ``photo.png``, ``notes.docx``), empty or not (an empty
+    ``notes.md`` has no content a reader could take), and the owner file Excel or Word writes beside a workbook
+    open in it (``~$run1.xlsx``, whatever its extension). A file it cannot read (unreadable; empty, of a reader's
+    extension) is taken: its reader says what is wrong.
     """
     p = os.fspath(path)
+    if os.path.basename(p).startswith("~$"):  # Office's owner file of an open workbook (~$run1.xlsx): a user's name
+        return False
     if os.path.splitext(p)[1].lower() in _EXT:
         return True
     from .plugins import find_plugin, plugins
@@ -136,6 +141,10 @@ def reader_takes(path: Union[str, "os.PathLike[str]"]) -> bool:
     try:
         head = _read_head(p)
     except RecordingError:
+        with contextlib.suppress(OSError):  # (an empty regular file of another extension: nothing to take)
+            st = os.stat(p)
+            if stat.S_ISREG(st.st_mode) and st.st_size == 0:
+                return False
         return True
     kind = _zip_kind(p, _sniff(head))[0]
     return kind not in (None, "delimited", "steps") or find_plugin(p, head) is not None

@@ -674,12 +674,45 @@ CONNECT_TIMEOUT = 10.0
 
 
 def connect(address: str, workers: int = 2) -> Any:
-    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes); an address that does not
-    answer within :data:`CONNECT_TIMEOUT` seconds raises OSError."""
+    """A client for ``address`` ("local" starts a LocalCluster of ``workers`` processes); an address where no Dask
+    scheduler answers within :data:`CONNECT_TIMEOUT` seconds raises OSError (:func:`_hello`)."""
     if address == "local":
         return local_client(workers)
     try:
         from dask.distributed import Client
     except ImportError as exc:
         raise ImportError(DASK_HINT) from exc
+    _hello(address)
     return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT)
+
+
+def _hello(address: str) -> None:
+    """Dask's handshake with ``address`` and back, within :data:`CONNECT_TIMEOUT` seconds, or OSError.
+
+    A client's timeout bounds its connection, not the handshake after it: a server of another protocol at the
+    address (the scheduler's web dashboard, port 8787, for its port 8786) held ``tribodyn analyze --scheduler``
+    forever, or, when it answered, made Dask read its reply as the length of a message (a MemoryError of
+    exabytes). So the handshake is made once here, bounded as a whole, before the client's own.
+    """
+    import asyncio
+    import importlib
+
+    comm_connect: Any = importlib.import_module("distributed.comm.core").connect  # (untyped)
+    # the client's connection arguments (TLS from Dask's configuration, as a Client without ``security`` reads it)
+    args = importlib.import_module("distributed.security").Security().get_connection_args("client")
+
+    async def hello() -> None:
+        comm = await comm_connect(address, timeout=CONNECT_TIMEOUT, **args)
+        await comm.close()
+
+    try:
+        asyncio.run(asyncio.wait_for(hello(), CONNECT_TIMEOUT + 1.0))  # (the connection's own timeout first)
+    except asyncio.TimeoutError:
+        raise OSError(
+            f"no Dask scheduler answered within {CONNECT_TIMEOUT + 1.0:g} s (something at the address took the "
+            "connection and said nothing: a web server, such as the scheduler's dashboard?)"
+        ) from None
+    except (OSError, ValueError, TypeError):  # (unreachable; a bad address: as the client says them)
+        raise
+    except Exception as exc:  # (another protocol's reply read as Dask's: a MemoryError, an unpacking error)
+        raise OSError(f"the server there does not answer as a Dask scheduler ({type(exc).__name__})") from None

@@ -357,7 +357,9 @@ def make_plan(*, fs: Any, **options: Any) -> Plan:
 def check_options(**options: Any) -> None:
     """The options of :func:`tribodyn.analyze` checked as far as :func:`make_plan` checks them without a
     recording's rate, with its messages: each option by its own rule (``Option.check``), ``window`` and ``hop``
-    finite and > 0, ``n_bins`` at least 1. None (a default) and names that are no option pass.
+    finite and > 0, ``n_bins`` at least 1, and the statistical options (``gate``, ``max_rel_ci``, ``iv_lag``,
+    ``estimator``, ``method``, ``noise``, ...) as :func:`check_statistics` checks them at any rate. None (a
+    default) and names that are no option pass.
 
     For many recordings (:func:`tribodyn.analyze_many`, ``tribodyn analyze``), once before any is read: an
     option bad for every recording is one error, not one failure per recording.
@@ -374,6 +376,16 @@ def check_options(**options: Any) -> None:
             positive(value, name)
         elif name == "n_bins":
             check_int(value, name, minimum=1)
+    stats = {name: options[name] for name in _STATISTICS if options.get(name) is not None}
+    if stats:  # (at a stand-in rate: what they refuse there they refuse at a recording's; gate=2 failed each one)
+        check_statistics(_ANY_FS, _ANY_LENGTH, **stats)
+
+
+#: The stand-in rate (Hz) and window (samples) at which :func:`check_options` checks the statistical options: only
+#: the instrument lag and the rig's lines depend on them, and neither refuses a value at this rate that a
+#: recording's rate (up to a MHz) takes.
+_ANY_FS = 1.0e6
+_ANY_LENGTH = 1000
 
 
 def _make_plan(fs: Any, o: Dict[str, Any]) -> Plan:
