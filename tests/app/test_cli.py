@@ -222,6 +222,50 @@ def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsy
 
 
 @pytest.mark.fast
+def test_the_report_lists_the_skipped_files_below_its_inputs(tmp_path):
+    """Stop 49 (audit): the skipped files were on stderr and in summary.json, not in report.html (the lab
+    notebook's record of the run); they are listed right below its inputs."""
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    for name in ("a.tsv", "b.tsv"):
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", runs / name)
+    (runs / "README.md").write_text("# runs of May\n")
+    (runs / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    out = tmp_path / "out"
+    assert run("analyze", runs, "--out", out, "--quiet", "--figures", "none") == 0
+    report = (out / "report.html").read_text()
+    note = '<p class="note">skipped (no reader takes them): README.md, photo.png</p>'
+    assert note in report
+    start = report.index('<h2 id="inputs">Inputs</h2>')
+    assert report.index("</table>", start) < report.index(note) < report.index("<h2", start + 1)
+    (runs / "README.md").unlink()
+    (runs / "photo.png").unlink()
+    assert run("analyze", runs, "--out", out, "--quiet", "--figures", "none", "--overwrite") == 0
+    assert "skipped (no reader takes them)" not in (out / "report.html").read_text()
+
+
+@pytest.mark.fast
+@pytest.mark.parametrize("content", ["good", "bad"])
+def test_summary_json_always_has_skipped_as_many_results_does(tmp_path, content):
+    """Stop 49 (audit): ManyResults.summary() always has "skipped", summary.json had it only when a file was
+    skipped; both have it, an empty list when nothing was (also when every recording failed)."""
+    from tribodyn import analyze_many
+
+    files = [tmp_path / "a.tsv", tmp_path / "b.tsv"]
+    for f in files:
+        if content == "good":
+            shutil.copy(DATA / "pod_PPS_60N_1.tsv", f)
+        else:
+            f.write_text("notes of the run\n")
+    out = tmp_path / "out"
+    expected = 0 if content == "good" else cli.EXIT_SOME_FAILED
+    assert run("analyze", *files, "--out", out, "--quiet", "--figures", "none") == expected
+    s = json.loads((out / "summary.json").read_text())
+    assert s["skipped"] == [] and analyze_many([str(f) for f in files]).summary()["skipped"] == []
+    assert set(analyze_many([str(f) for f in files]).summary()) <= set(s) | {"tasks"}
+
+
+@pytest.mark.fast
 def test_an_empty_file_no_reader_takes_is_skipped_too(tmp_path, capsys):
     """Stop 49 (audit): an empty README.md (or notes.md, a placeholder) in an input folder was taken, then failed
     ("empty file", status 3), where one with text in it is skipped, and so was Excel's ~$a.xlsx beside an open

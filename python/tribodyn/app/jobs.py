@@ -822,7 +822,8 @@ def _run_analysis(
     skipped: Sequence[str] = (),
 ) -> Dict[str, Any]:
     """:func:`run_analysis` once the output folder is checked and the digests started (and the drawing pool);
-    ``skipped``: the folders' files no reader takes, listed in the summary (``skipped``) when there are any."""
+    ``skipped``: the folders' files no reader takes, listed in the summary (``skipped``: always, empty when none)
+    and below the report's inputs."""
     from .._version import version
 
     __version__ = version()
@@ -847,7 +848,7 @@ def _run_analysis(
                 "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
                 "recordings": {},
                 "failures": failures,
-                **({"skipped": list(skipped)} if skipped else {}),
+                "skipped": list(skipped),  # (always: an empty list when nothing was skipped)
             }
             with output as out:
                 write_json(summary_failed, out.path("summary.json"))
@@ -860,7 +861,7 @@ def _run_analysis(
             "open_options": {k: v for k, v in open_options.items() if k != "appending"},  # (a mode: watch)
             "recordings": {},
             "failures": failures,
-            **({"skipped": list(skipped)} if skipped else {}),
+            "skipped": list(skipped),  # (always, as ManyResults.summary(): [] when nothing was skipped)
         }
         for entry, (p, _) in zip(summary["inputs"], runs):
             entry["file"] = names[p]  # (its file name, or where names collide the end of its path)
@@ -1168,7 +1169,16 @@ def _write_top(out: OutputSet, job: _Job, runs: Sequence[Tuple[Path, Results]], 
         head_html=_bokeh_head(),
         durable=False,  # (OutputSet flushes the whole set before publishing it)
         record_html=record_html(job.meta, heads),
+        inputs_note=_skipped_note(summary["skipped"]),
     )
+
+
+def _skipped_note(skipped: Sequence[str]) -> str:
+    """The report's line below its inputs for a folder's files that no reader takes (as the stderr line names
+    them), or "" when none was skipped."""
+    from ..pipeline.distributed import skipped_names
+
+    return f"skipped (no reader takes them): {', '.join(skipped_names(skipped))}" if skipped else ""
 
 
 #: Modules the output step imports (tables; figures), imported during the analysis. Bokeh is never imported: the

@@ -505,6 +505,7 @@ def write_report(
     record_html: str = "",
     figures_note: str = "",
     durable: bool = True,
+    inputs_note: str = "",
 ) -> str:
     """Writes one self-contained HTML report, atomically (docs/method.md 4-7).
 
@@ -550,6 +551,9 @@ def write_report(
     durable : bool
         Flush the page to disk before it replaces the target (default). False where something else flushes it
         (a job's outputs: :class:`~tribodyn.app.outputs.OutputSet` flushes its whole set before publishing it).
+    inputs_note : str
+        A note right below the inputs (with ``inputs``): the files of the folders given that no reader takes,
+        skipped ("skipped (no reader takes them): README.md, photo.png").
 
     Returns
     -------
@@ -579,6 +583,8 @@ def write_report(
     if inputs is not None:
         out.append('<h2 id="inputs">Inputs</h2>')
         out.append(inputs_table_html(inputs))
+        if inputs_note:
+            out.append(f'<p class="note">{html.escape(inputs_note)}</p>')
     if record_html:
         out.append('<h2 id="record">Test record</h2>')
         out.append(record_html)

@@ -176,10 +176,14 @@ def expand_paths(
 def skipped_text(skipped: Sequence[str]) -> str:
     """'skipped 1 file no reader takes: README.md' (:func:`expand_paths`'s ``skipped``, by their names)."""
     n = len(skipped)
-    names = {str(q): Path(q).name for q in skipped}
-    if len(set(names.values())) < n:  # (README.md of two folders: their paths)
-        names = {q: q for q in names}
-    return f"skipped {n} file{'s' if n != 1 else ''} no reader takes: {', '.join(names[str(q)] for q in skipped)}"
+    return f"skipped {n} file{'s' if n != 1 else ''} no reader takes: {', '.join(skipped_names(skipped))}"
+
+
+def skipped_names(skipped: Sequence[str]) -> List[str]:
+    """The names the stderr line and the report give :func:`expand_paths`'s ``skipped``: their file names, or their
+    paths where two share one (README.md of two folders)."""
+    names = [Path(q).name for q in skipped]
+    return names if len(set(names)) == len(names) else [str(q) for q in skipped]
 
 
 # -- tasks (module-level and pure, so Dask can ship and retry them) -----------
