@@ -201,6 +201,28 @@ def test_two_inputs_of_one_name_are_named_by_their_folders(tmp_path, capsys, ext
 
 
 @pytest.mark.fast
+def test_a_failure_line_names_the_file_once(tmp_path, capsys, monkeypatch):
+    """Stop 49 (audit): "p/q/run.npz failed: run.npz lacks ..." and "q/x.tsv failed: RecordingError: p/q/x.tsv:
+    no table ..." named the file twice (the error's own naming was stripped only when it was the label)."""
+    monkeypatch.chdir(tmp_path)
+    for d in ("p/q", "r"):
+        (tmp_path / d).mkdir(parents=True)
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "r" / "x.tsv")
+    (tmp_path / "p" / "q" / "x.tsv").write_text("notes of the run\n")
+    for d in ("p/q", "r"):
+        np.savez(tmp_path / d / "run.npz", a=np.arange(100.0), b=np.arange(100.0), fs=10.0)
+    args = ["r/x.tsv", "p/q/x.tsv", "p/q/run.npz", "r/run.npz"]
+    assert run("analyze", *args, "--out", "out", "--quiet", "--figures", "none") == cli.EXIT_SOME_FAILED
+    said = [x for x in capsys.readouterr().err.splitlines() if " failed: " in x]
+    assert (
+        said[0]
+        == "tribodyn: warning: q/x.tsv failed: RecordingError: no table of numbers found (not a delimited text recording?)"
+    )
+    assert said[1].startswith("tribodyn: warning: q/run.npz failed: lacks the required channel(s) fy, fz")
+    assert [x.count("run.npz") + x.count("x.tsv") for x in said] == [1, 1, 1]
+
+
+@pytest.mark.fast
 def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsys):
     """Stop 49: a README or a photo in an input folder was a failed recording (status 3); it is skipped, named in
     one line on stderr and in summary.json. Named on the command line, it stays a failure."""

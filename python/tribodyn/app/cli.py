@@ -1000,11 +1000,24 @@ def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Di
 
     names = recording_labels(files)  # (the failures' keys)
     for name, f in summary.get("failures", {}).items():
-        err = f["error"]
+        err, paths = f["error"], [p for p in files if names.get(Path(p)) == name][:1]
         if _MISSING_CHANNELS in err:
-            err = _channels_hint(err, [p for p in files if names.get(Path(p)) == name][:1], open_opts)
-            err = err[len(name) + 1 :] if err.startswith(f"{name} ") else err
-        print(f"tribodyn: warning: {name} failed: {err}", file=sys.stderr)
+            err = _channels_hint(err, paths, open_opts)
+        print(f"tribodyn: warning: {name} failed: {_unnamed(err, name, paths)}", file=sys.stderr)
+
+
+def _unnamed(err: str, name: str, paths: Sequence[str]) -> str:
+    """A failure's error without the file's name at its start (after its kind, "RecordingError: "), which the line
+    says once before it ("runA/x.csv failed: ..."): its label ``name``, its path as given or absolute, or its file
+    name (a reader's "p/q/run.npz: ...", "run.npz lacks ..." said the name twice)."""
+    kind, sep, rest = err.partition(": ")
+    head, text = (f"{kind}: ", rest) if sep and kind.isidentifier() and kind[:1].isupper() else ("", err)
+    spelled = {name, *paths, *(os.path.abspath(p) for p in paths), *(Path(p).name for p in paths)}
+    for said in sorted(spelled, key=len, reverse=True):
+        for after in (": ", " "):
+            if text.startswith(said + after) and len(text) > len(said + after):
+                return head + text[len(said + after) :]
+    return err
 
 
 def _run_simulate(ns: argparse.Namespace) -> int:
