@@ -214,10 +214,8 @@ def test_a_failure_line_names_the_file_once(tmp_path, capsys, monkeypatch):
     args = ["r/x.tsv", "p/q/x.tsv", "p/q/run.npz", "r/run.npz"]
     assert run("analyze", *args, "--out", "out", "--quiet", "--figures", "none") == cli.EXIT_SOME_FAILED
     said = [x for x in capsys.readouterr().err.splitlines() if " failed: " in x]
-    assert (
-        said[0]
-        == "tribodyn: warning: q/x.tsv failed: RecordingError: no table of numbers found (not a delimited text recording?)"
-    )
+    no_table = "no table of numbers found (not a delimited text recording?)"
+    assert said[0] == f"tribodyn: warning: q/x.tsv failed: RecordingError: {no_table}"
     assert said[1].startswith("tribodyn: warning: q/run.npz failed: lacks the required channel(s) fy, fz")
     assert [x.count("run.npz") + x.count("x.tsv") for x in said] == [1, 1, 1]
 
