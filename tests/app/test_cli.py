@@ -221,6 +221,24 @@ def test_a_failure_line_names_the_file_once(tmp_path, capsys, monkeypatch):
 
 
 @pytest.mark.fast
+def test_sub_folders_are_unique_case_aside(tmp_path):
+    """Stop 49 (audit): A/data.tsv and a/data.tsv had the sub-folders A_data and a_data, one folder on macOS's and
+    Windows' file systems (the second recording's outputs over the first's); a counter tells them apart, as for
+    names that repeat exactly."""
+    from tribodyn.app.jobs import _folders
+
+    for d in ("A", "a"):
+        (tmp_path / d).mkdir()
+        shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / d / "data.tsv")
+    out = tmp_path / "out"
+    assert run("analyze", tmp_path / "A" / "data.tsv", tmp_path / "a" / "data.tsv", "--out", out, "--quiet",
+               "--figures", "none") == 0  # fmt: skip
+    assert {p.name for p in out.iterdir() if p.is_dir()} == {"A_data-1", "a_data-2"}
+    assert _folders(["d.csv", "D.tsv", "e.csv"]) == ["d-1", "D-2", "e"]
+    assert _folders(["x-2.csv", "X.csv", "x.csv"]) == ["x-2", "X-2-2", "x-3"]  # (no counter makes another's name)
+
+
+@pytest.mark.fast
 def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsys):
     """Stop 49: a README or a photo in an input folder was a failed recording (status 3); it is skipped, named in
     one line on stderr and in summary.json. Named on the command line, it stays a failure."""

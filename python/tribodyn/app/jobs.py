@@ -1505,7 +1505,8 @@ def _with_unit(name: str, unit: Optional[str]) -> str:
 def _folders(names: Sequence[str]) -> List[str]:
     """Sub-folder names of the recordings' names (:func:`recording_labels`): file stems (``data``), after the
     folders that tell inputs of one file name apart, joined by ``_`` (``runA/data.tdms``: ``runA_data``), made
-    unique with a counter where they repeat.
+    unique with a counter where they repeat, case aside (``A/data.csv``, ``a/data.csv``: ``A_data-1``,
+    ``a_data-2``, not two folders that are one on macOS's and Windows' file systems).
 
     A stem that is no folder name of its own (``..npz`` has the stem ``.``; ``.x.csv`` would make a hidden
     folder) loses its leading and trailing dots, then falls back to the file name's, then to "recording"
@@ -1516,7 +1517,15 @@ def _folders(names: Sequence[str]) -> List[str]:
         p = Path(last)
         stem = p.stem.strip(".") or p.name.strip(".") or "recording"
         stems.append("_".join([d.strip(".") for d in folders if d.strip(".")] + [stem]))
-    return [s if stems.count(s) == 1 else f"{s}-{k + 1}" for k, s in enumerate(stems)]
+    keys = [s.casefold() for s in stems]
+    out = [s if keys.count(key) == 1 else f"{s}-{k + 1}" for k, (s, key) in enumerate(zip(stems, keys))]
+    taken = [s.casefold() for s in out]
+    for k, s in enumerate(out):  # (an input's stem that is another's with its counter: x-2.csv beside x and X)
+        n = 1
+        while taken[k] in taken[:k]:
+            n += 1
+            out[k], taken[k] = f"{s}-{n}", f"{s}-{n}".casefold()
+    return out
 
 
 def _combine(results: Sequence[Results], names: Sequence[str]) -> Tuple[Results, np.ndarray]:
