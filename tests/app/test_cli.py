@@ -239,6 +239,27 @@ def test_sub_folders_are_unique_case_aside(tmp_path):
 
 
 @pytest.mark.fast
+def test_a_missing_input_among_several_is_refused_before_any_is_read(tmp_path, capsys, monkeypatch):
+    """Stop 49 (audit): `analyze a.tsv nope.tsv` analysed a.tsv, then listed nope.tsv as a failed recording
+    (status 3): a typo is one error line, status 2, naming every missing path, before any recording is read."""
+    import tribodyn.io
+
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "a.tsv")
+    opened = []
+    real = tribodyn.io.open_recording
+    monkeypatch.setattr(tribodyn.io, "open_recording", lambda *a, **k: opened.append(a) or real(*a, **k))
+    out = tmp_path / "out"
+    a, nope, zz = tmp_path / "a.tsv", tmp_path / "nope.tsv", tmp_path / "zz.tsv"
+    assert run("analyze", a, nope, "--out", out) == cli.EXIT_USER_ERROR
+    assert capsys.readouterr().err == f"tribodyn: error: {nope}: no such file (nothing analysed)\n"
+    assert run("analyze", nope, a, zz, "--out", out) == cli.EXIT_USER_ERROR
+    assert capsys.readouterr().err == f"tribodyn: error: no such files: {nope}, {zz} (nothing analysed)\n"
+    assert not out.exists() and opened == []
+    assert run("analyze", nope, "--out", out) == cli.EXIT_USER_ERROR  # (a lone input: as before)
+    assert capsys.readouterr().err == f"tribodyn: error: {nope}: no such file\n"
+
+
+@pytest.mark.fast
 def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsys):
     """Stop 49: a README or a photo in an input folder was a failed recording (status 3); it is skipped, named in
     one line on stderr and in summary.json. Named on the command line, it stays a failure."""

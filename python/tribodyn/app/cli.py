@@ -676,6 +676,17 @@ def _analysis_options(ns: argparse.Namespace) -> Tuple[Dict[str, Any], Dict[str,
     return open_opts, opts, protect
 
 
+def _check_present(paths: Sequence[str]) -> None:
+    """Refuses inputs that do not exist (a typo among several: one line, before any recording is read; it was a
+    failed recording, status 3, after the others' analysis), naming each."""
+    missing = [p for p in paths if not os.path.exists(p)]
+    others = " (nothing analysed)" if len(missing) < len(paths) else ""
+    if len(missing) == 1:
+        raise UserError(f"{missing[0]}: no such file{others}")
+    if missing:
+        raise UserError(f"no such files: {', '.join(missing)}{others}")
+
+
 def _check_regular(paths: Sequence[str]) -> None:
     """Refuses inputs that are not regular files (a pipe would block the reader forever)."""
     for p in paths:
@@ -902,6 +913,7 @@ def _run_analyze(ns: argparse.Namespace) -> int:
     # an option bad for every file: one line before any is read (one failure per file); --fs too (a reader's option)
     check_options(**opts, **({} if "fs" in opts else {"fs": open_opts.get("fs")}))
     files = expand_paths(ns.files)  # (a folder's files no reader takes skipped: summary["skipped"] names them)
+    _check_present(files)
     _check_regular(files)
     check_distinct_names(files)  # (before a Dask cluster is started)
     OutputSet(ns.out, overwrite=ns.overwrite, protect=[*files, *protect])  # refuse a bad --out before the work
