@@ -174,6 +174,23 @@ def test_compare_errors_are_one_line_and_write_nothing(tmp_path, capsys, setup, 
     assert {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()} == before
 
 
+def test_a_recordings_sub_folder_is_refused_with_what_to_give(tmp_path, capsys):
+    """Stop 49 (audit): `compare out/r1_data` (one recording's sub-folder of an output of several) was refused as
+    "the demo's output"; the line says what it is and names the output folder to give instead."""
+    b = fake_out(tmp_path / "b", {"b.csv": head(0.13), "c.csv": head(0.125)})
+    (b / "b").mkdir()
+    (b / "b" / "summary.json").write_text(json.dumps({"headline": head(0.13), "windows": 3}))
+    a = fake_out(tmp_path / "a", {"a.csv": head(0.12)})
+    assert run("compare", a, b / "b", "--out", tmp_path / "cmp") == 2
+    line = error_line(capsys.readouterr().err)
+    assert line == (
+        f"tribodyn: error: {b / 'b'} is one recording's sub-folder of the output of tribodyn analyze with several "
+        f"recordings: give the output folder {b} instead (each of its recordings is one test)"
+    )
+    assert "demo" not in line and not (tmp_path / "cmp").exists()
+    assert run("compare", a, b, "--out", tmp_path / "cmp", "-q") == 0  # (what it says to give)
+
+
 # -- the test record -------------------------------------------------------------------------
 
 

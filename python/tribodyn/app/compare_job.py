@@ -54,6 +54,29 @@ def _summary_path(folder: str) -> Path:
     return s
 
 
+def _not_analyze_summary(path: Path, data: Any) -> str:
+    """Why ``path`` (a summary.json without "recordings") is no output folder of tribodyn analyze, and what to give
+    instead: one recording's sub-folder of an output of several (its ``headline`` alone; the folder above it holds
+    the analysis' summary), or something else (the demo's output)."""
+    if isinstance(data, dict) and isinstance(data.get("headline"), dict):
+        above = path.parent.parent
+        top = above / "summary.json"
+        try:
+            ours = isinstance(json.loads(top.read_text(encoding="utf-8")).get("recordings"), dict)
+        except (OSError, ValueError, AttributeError, RecursionError):
+            ours = False
+        shown = above if str(above) not in ("", ".") else Path(os.path.abspath(above))  # (not "give .")
+        instead = f"the output folder {shown}" if ours else "the output folder above it"
+        return (
+            f"{path.parent} is one recording's sub-folder of the output of tribodyn analyze with several recordings: "
+            f"give {instead} instead (each of its recordings is one test)"
+        )
+    return (
+        f'{path} is not the summary of tribodyn analyze (no "recordings"; the demo\'s output cannot be compared): '
+        "analyse the recordings with tribodyn analyze FILES --out DIR"
+    )
+
+
 def read_tests(folders: Sequence[str]) -> Tuple[List[SourceTest], List[str], List[Path]]:
     """(tests, warnings, summary files) of the output folders, in order; each recording is one test.
 
@@ -85,10 +108,7 @@ def read_tests(folders: Sequence[str]) -> Tuple[List[SourceTest], List[str], Lis
             raise ValueError(f"{path} is not a tribodyn summary (JSON nested too deeply to read)") from None
         recs = data.get("recordings") if isinstance(data, dict) else None
         if not isinstance(recs, dict):
-            raise ValueError(
-                f'{path} is not the summary of tribodyn analyze (no "recordings"; the demo\'s output cannot be '
-                "compared): analyse the recordings with tribodyn analyze FILES --out DIR"
-            )
+            raise ValueError(_not_analyze_summary(path, data))
         failures = data.get("failures")
         for name, f in (failures if isinstance(failures, dict) else {}).items():
             err = f.get("error") if isinstance(f, dict) else f
