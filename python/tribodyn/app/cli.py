@@ -1020,11 +1020,12 @@ def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Di
 
 def _unnamed(err: str, name: str, paths: Sequence[str]) -> str:
     """A failure's error without the file's name at its start (after its kind, "RecordingError: "), which the line
-    says once before it ("runA/x.csv failed: ..."): its label ``name``, its path as given or absolute, or its file
-    name (a reader's "p/q/run.npz: ...", "run.npz lacks ..." said the name twice)."""
+    says once before it ("runA/x.csv failed: ..."): its label ``name`` or its file name ("run.npz lacks ..." said
+    the name twice). A path that says more than the label (its folders: "m/b/t.tdms: truncated ..." of the label
+    "t.tdms") is kept: it tells where the file is."""
     kind, sep, rest = err.partition(": ")
     head, text = (f"{kind}: ", rest) if sep and kind.isidentifier() and kind[:1].isupper() else ("", err)
-    spelled = {name, *paths, *(os.path.abspath(p) for p in paths), *(Path(p).name for p in paths)}
+    spelled = {name, *(Path(p).name for p in paths)}
     for said in sorted(spelled, key=len, reverse=True):
         for after in (": ", " "):
             if text.startswith(said + after) and len(text) > len(said + after):
