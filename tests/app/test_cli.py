@@ -223,6 +223,18 @@ def test_a_failure_line_names_the_file_once(tmp_path, capsys, monkeypatch):
 
 
 @pytest.mark.fast
+def test_a_failure_line_speaks_in_the_commands_options(tmp_path, capsys, monkeypatch):
+    """Stop 49: a .npy without its rate among several inputs failed with the library's "pass fs=... (Hz)"; the
+    command's own words are "give --fs HZ", as for one file."""
+    monkeypatch.chdir(tmp_path)
+    np.save(tmp_path / "raw.npy", np.zeros((2, 100)))
+    shutil.copy(DATA / "pod_PPS_60N_1.tsv", tmp_path / "x.tsv")
+    assert run("analyze", "x.tsv", "raw.npy", "--out", "out", "--quiet", "--figures", "none") == cli.EXIT_SOME_FAILED
+    said = [x for x in capsys.readouterr().err.splitlines() if " failed: " in x]
+    assert len(said) == 1 and "give --fs HZ" in said[0] and "fs=" not in said[0], said
+
+
+@pytest.mark.fast
 def test_sub_folders_are_unique_case_aside(tmp_path):
     """Stop 49 (audit): A/data.tsv and a/data.tsv had the sub-folders A_data and a_data, one folder on macOS's and
     Windows' file systems (the second recording's outputs over the first's); a counter tells them apart, as for

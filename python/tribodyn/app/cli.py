@@ -1015,7 +1015,7 @@ def _print_problems(summary: Dict[str, Any], files: Sequence[str], open_opts: Di
         err, paths = f["error"], [p for p in files if names.get(Path(p)) == name][:1]
         if _MISSING_CHANNELS in err:
             err = _channels_hint(err, paths, open_opts)
-        print(f"tribodyn: warning: {name} failed: {_unnamed(err, name, paths)}", file=sys.stderr)
+        print(f"tribodyn: warning: {name} failed: {_cli_words(_unnamed(err, name, paths))}", file=sys.stderr)
 
 
 def _unnamed(err: str, name: str, paths: Sequence[str]) -> str:
