@@ -273,16 +273,22 @@ def test_a_missing_input_among_several_is_refused_before_any_is_read(tmp_path, c
     assert capsys.readouterr().err == f"tribodyn: error: {nope}: no such file\n"
 
 
-@pytest.mark.fast
-def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsys):
-    """Stop 49: a README or a photo in an input folder was a failed recording (status 3); it is skipped, named in
-    one line on stderr and in summary.json. Named on the command line, it stays a failure."""
+def _runs_with_notes(tmp_path: Path) -> Path:
+    """A folder of two recordings (a.tsv, b.tsv), a README.md and a photo.png: files no reader takes."""
     runs = tmp_path / "runs"
     runs.mkdir()
     for name in ("a.tsv", "b.tsv"):
         shutil.copy(DATA / "pod_PPS_60N_1.tsv", runs / name)
     (runs / "README.md").write_text("# runs of May\nthe rig's notes\n")
     (runs / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    return runs
+
+
+@pytest.mark.fast
+def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsys):
+    """Stop 49: a README or a photo in an input folder was a failed recording (status 3); it is skipped, named in
+    one line on stderr and in summary.json. Named on the command line, it stays a failure."""
+    runs = _runs_with_notes(tmp_path)
     out = tmp_path / "out"
     assert run("analyze", runs, "--out", out, "--quiet", "--figures", "none") == 0
     said = [x for x in capsys.readouterr().err.splitlines() if "skipped" in x or "failed" in x]
@@ -298,12 +304,7 @@ def test_a_folders_files_no_reader_takes_are_skipped_in_one_line(tmp_path, capsy
 def test_the_report_lists_the_skipped_files_below_its_inputs(tmp_path):
     """Stop 49 (audit): the skipped files were on stderr and in summary.json, not in report.html (the lab
     notebook's record of the run); they are listed right below its inputs."""
-    runs = tmp_path / "runs"
-    runs.mkdir()
-    for name in ("a.tsv", "b.tsv"):
-        shutil.copy(DATA / "pod_PPS_60N_1.tsv", runs / name)
-    (runs / "README.md").write_text("# runs of May\n")
-    (runs / "photo.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(64))
+    runs = _runs_with_notes(tmp_path)
     out = tmp_path / "out"
     assert run("analyze", runs, "--out", out, "--quiet", "--figures", "none") == 0
     report = (out / "report.html").read_text()
