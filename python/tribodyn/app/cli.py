@@ -945,11 +945,11 @@ def _run_analyze(ns: argparse.Namespace) -> int:
         raise
     finally:
         if client is not None:
-            from ..pipeline.distributed import close_quietly
+            from ..pipeline.distributed import close_quietly, silence_dask_logs
 
             interrupted = isinstance(sys.exc_info()[1], KeyboardInterrupt)
-            if interrupted:
-                _quiet_dask()
+            if interrupted:  # (closing a client while it gathers logs each pending wait's AllExit with a traceback)
+                silence_dask_logs()
             cluster = getattr(client, "cluster", None) if ns.scheduler == "local" else None
             # (Dask's shutdown logged a worker's heartbeat CommClosedError at ERROR at times)
             close_quietly(client, cluster, workers=not interrupted)
@@ -957,16 +957,6 @@ def _run_analyze(ns: argparse.Namespace) -> int:
         _print_analysis(summary, ns.out)
     _print_problems(summary, files, open_opts)
     return EXIT_SOME_FAILED if summary.get("failures") else 0
-
-
-def _quiet_dask() -> None:
-    """Dask's and asyncio's logs silenced for the rest of an interrupted run: closing a client while it gathers
-    logs each of its pending waits' AllExit ("Task exception was never retrieved", with a traceback), where the
-    command prints one line (it exits with status 130)."""
-    import logging
-
-    for name in ("asyncio", "distributed", "tornado"):
-        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
 
 
 def _run_watch(ns: argparse.Namespace) -> int:

@@ -11,6 +11,7 @@ files of an earlier run into it are gone).
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import dataclasses
 import importlib
@@ -18,7 +19,7 @@ import os
 import re
 import threading
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Set, Tuple
 
 import numpy as np
 
@@ -1517,14 +1518,17 @@ def _folders(names: Sequence[str]) -> List[str]:
         p = Path(last)
         stem = p.stem.strip(".") or p.name.strip(".") or "recording"
         stems.append("_".join([d.strip(".") for d in folders if d.strip(".")] + [stem]))
-    keys = [s.casefold() for s in stems]
-    out = [s if keys.count(key) == 1 else f"{s}-{k + 1}" for k, (s, key) in enumerate(zip(stems, keys))]
-    taken = [s.casefold() for s in out]
-    for k, s in enumerate(out):  # (an input's stem that is another's with its counter: x-2.csv beside x and X)
-        n = 1
-        while taken[k] in taken[:k]:
+    counts = collections.Counter(s.casefold() for s in stems)
+    out: List[str] = []
+    taken: Set[str] = set()  # (the names given so far, case aside)
+    for k, s in enumerate(stems):
+        base = s if counts[s.casefold()] == 1 else f"{s}-{k + 1}"
+        name, n = base, 1
+        while name.casefold() in taken:  # (an input's stem that is another's with its counter: x-2.csv beside x, X)
             n += 1
-            out[k], taken[k] = f"{s}-{n}", f"{s}-{n}".casefold()
+            name = f"{base}-{n}"
+        out.append(name)
+        taken.add(name.casefold())
     return out
 
 

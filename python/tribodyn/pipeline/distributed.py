@@ -32,7 +32,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Set, Tuple, Union, cast
+from typing import Any, Callable, Dict, Iterator, List, Mapping, Optional, Sequence, Tuple, Union, cast
 
 import numpy as np
 
@@ -137,10 +137,8 @@ def expand_paths(
     from ..io import reader_takes
 
     items = [inputs] if isinstance(inputs, (str, os.PathLike)) else list(inputs)
-    out: List[str] = []
-    dropped: List[str] = []
-    in_out: Set[str] = set()  # (out's and dropped's members: a folder of many files is not searched once per file)
-    in_dropped: Set[str] = set()
+    out: Dict[str, None] = {}  # (dicts: in order, without repeats, each looked up at once)
+    dropped: Dict[str, None] = {}
     for item in items:
         s = str(item)
         p = Path(s)
@@ -148,29 +146,23 @@ def expand_paths(
             inside = sorted(str(q) for q in p.iterdir() if q.is_file() and not q.name.startswith("."))
             taken = {q: reader_takes(q) for q in inside}
             found = [q for q in inside if taken[q]]
-            for q in inside:
-                if not taken[q] and q not in in_dropped:
-                    dropped.append(q)
-                    in_dropped.add(q)
+            dropped.update((q, None) for q in inside if not taken[q])
         elif any(c in s for c in "*?["):
             found = sorted(q for q in glob.glob(s) if Path(q).is_file())
             if not found:
                 raise FileNotFoundError(f"no file matches {s!r}")
         else:
             found = [s]
-        for q in found:
-            if q not in in_out:
-                out.append(q)
-                in_out.add(q)
+        out.update((q, None) for q in found)
     if skipped is not None:
         skipped.extend(dropped)
     if not out:
         where = ", ".join(str(i) for i in items) or "(nothing given)"
-        none = f"; {skipped_text(dropped)}" if dropped else ""
+        none = f"; {skipped_text(list(dropped))}" if dropped else ""
         raise FileNotFoundError(
             f"no input files in {where} (a folder's own files are read, not its sub-folders'){none}"
         )
-    return out
+    return list(out)
 
 
 def skipped_text(skipped: Sequence[str]) -> str:
@@ -389,7 +381,7 @@ def _runner(client: Any, progress: bool) -> Runner:
         # stage go to the scheduler in one ``client.map`` each (one message and
         # one graph update, not one per task: issue 38 point 4).
         ones = [k for k, (_, args) in enumerate(groups) if then is None or len(args) == 1]
-        many = sorted(set(range(len(groups))) - set(ones))
+        many = [k for k, (_, args) in enumerate(groups) if then is not None and len(args) > 1]
         ends: List[Any] = [None] * len(groups)
         shown: List[Any] = []
         if ones:  # one task each: its end fused in (each task costs the client ~5-10 ms)
@@ -623,7 +615,7 @@ def close_quietly(client: Any, cluster: Any = None, *, workers: bool = True) -> 
 
     if cluster is not None and workers:
         with contextlib.suppress(Exception):
-            client.run(_silence_shutdown_logs, on_error="ignore", callback_timeout=5.0)
+            client.run(silence_dask_logs, on_error="ignore", callback_timeout=5.0)
     loggers = [logging.getLogger(name) for name in _SHUTDOWN_LOGGERS]
     levels = [log.level for log in loggers]
     for log in loggers:
@@ -637,8 +629,9 @@ def close_quietly(client: Any, cluster: Any = None, *, workers: bool = True) -> 
             log.setLevel(level)
 
 
-def _silence_shutdown_logs() -> None:
-    """On a worker (``client.run``): its Dask loggers above CRITICAL, for its shutdown (:func:`close_quietly`)."""
+def silence_dask_logs() -> None:
+    """Dask's, Tornado's and asyncio's loggers above CRITICAL in this process: on a worker (``client.run``) for its
+    shutdown (:func:`close_quietly`), and in the command line for the rest of an interrupted run."""
     import logging
 
     for name in _SHUTDOWN_LOGGERS:
